@@ -1,0 +1,5 @@
+"""hydroline: electrohydraulic servo systems with the dynamics of their supply and return hoses."""
+from .fluid import MINERAL_OIL, Fluid, effective_bulk_modulus
+
+__version__ = "0.1.0"
+__all__ = ["Fluid", "MINERAL_OIL", "effective_bulk_modulus", "__version__"]

@@ -1,0 +1,224 @@
+"""Line parameters and the exact four-pole models of a hydraulic line (MODEL.md section 2).
+
+Conventions: flow positive from end u (upstream) to end d (downstream); the four causal forms
+map inputs to outputs in the order of MODEL.md table 2.1:
+
+====  ==========  ==========
+form  inputs      outputs
+====  ==========  ==========
+PQ    P_u, Q_d    P_d, Q_u
+QP    Q_u, P_d    P_u, Q_d
+PP    P_u, P_d    Q_u, Q_d
+QQ    Q_u, Q_d    P_u, P_d
+====  ==========  ==========
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+
+from ..fluid import Fluid, _positive
+
+__all__ = ["Line", "FORMS", "FORM_PORTS", "check_form", "bessel_ratio"]
+
+FORMS = ("PQ", "QP", "PP", "QQ")
+
+#: Named inputs and outputs of every causal form, in matrix order.
+FORM_PORTS = {
+    "PQ": (("upstream_pressure", "downstream_flow"), ("downstream_pressure", "upstream_flow")),
+    "QP": (("upstream_flow", "downstream_pressure"), ("upstream_pressure", "downstream_flow")),
+    "PP": (("upstream_pressure", "downstream_pressure"), ("upstream_flow", "downstream_flow")),
+    "QQ": (("upstream_flow", "downstream_flow"), ("upstream_pressure", "downstream_pressure")),
+}
+
+
+def check_form(form: str) -> str:
+    """Return the canonical name of a causal form, or raise ValueError naming ``form``."""
+    f = str(form).upper()
+    if f not in FORMS:
+        raise ValueError(f"form must be one of {', '.join(FORMS)}; got {form!r}")
+    return f
+
+
+def bessel_ratio(kappa):
+    """I0(kappa)/I2(kappa) for complex kappa with Re(kappa) >= 0, overflow-free.
+
+    Uses exponentially scaled Bessel functions (the scaling cancels in the ratio); for
+    |kappa| < 1e-3 the series ``8/kappa^2 + 4/3 + kappa^2/24`` avoids cancellation in I2.
+    """
+    kappa = np.asarray(kappa, dtype=complex)
+    small = np.abs(kappa) < 1e-3
+    k_safe = np.where(small, 1.0, kappa)
+    ratio = special.ive(0, k_safe) / special.ive(2, k_safe)
+    k2 = np.where(small, kappa, 1.0) ** 2
+    series = 8.0 / k2 + 4.0 / 3.0 + k2 / 24.0
+    return np.where(small, series, ratio)
+
+
+@dataclass(frozen=True)
+class Line:
+    """A uniform hydraulic line (hose or pipe) of circular bore.
+
+    Parameters
+    ----------
+    length : float        Line length L, [m]
+    diameter : float      Inner diameter d, [m]
+    fluid : Fluid         The fluid (density, kinematic viscosity, bulk modulus)
+    bulk_modulus : float  Effective bulk modulus beta_e of oil in this line (oil, wall and air
+                          in series, see :func:`hydroline.effective_bulk_modulus`), [Pa];
+                          the fluid's when None
+    """
+
+    length: float
+    diameter: float
+    fluid: Fluid
+    bulk_modulus: float | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "length", _positive("length", self.length, "m"))
+        object.__setattr__(self, "diameter", _positive("diameter", self.diameter, "m"))
+        if not isinstance(self.fluid, Fluid):
+            raise ValueError(f"fluid must be a hydroline.Fluid, got {type(self.fluid).__name__}")
+        beta = self.fluid.bulk_modulus if self.bulk_modulus is None else self.bulk_modulus
+        object.__setattr__(self, "bulk_modulus", _positive("bulk_modulus", beta, "Pa"))
+
+    # ---- derived parameters (M2)-(M4) -------------------------------------------------
+    @property
+    def radius(self) -> float:
+        """Inner radius r = d/2, [m]."""
+        return 0.5 * self.diameter
+
+    @property
+    def area(self) -> float:
+        """Bore area A = pi d^2/4, [m^2]."""
+        return np.pi * self.diameter**2 / 4.0
+
+    @property
+    def wave_speed(self) -> float:
+        """Wave speed c = sqrt(beta_e/rho) (M2), [m/s]."""
+        return float(np.sqrt(self.bulk_modulus / self.fluid.density))
+
+    @property
+    def impedance(self) -> float:
+        """Line impedance constant Z0 = rho c / A (M3), [Pa s/m^3]."""
+        return self.fluid.density * self.wave_speed / self.area
+
+    @property
+    def dissipation_number(self) -> float:
+        """Dissipation number Dn = 4 nu L/(c d^2) (M4), [-]."""
+        return 4.0 * self.fluid.kinematic_viscosity * self.length / (self.wave_speed * self.diameter**2)
+
+    @property
+    def resistance(self) -> float:
+        """Laminar (Hagen-Poiseuille) resistance R = 128 rho nu L/(pi d^4) = 8 Z0 Dn, [Pa s/m^3]."""
+        return 128.0 * self.fluid.dynamic_viscosity * self.length / (np.pi * self.diameter**4)
+
+    @property
+    def inertance(self) -> float:
+        """Fluid inertance I = rho L / A, [kg/m^4]."""
+        return self.fluid.density * self.length / self.area
+
+    @property
+    def capacitance(self) -> float:
+        """Line capacitance C = A L / beta_e, [m^3/Pa]."""
+        return self.area * self.length / self.bulk_modulus
+
+    @property
+    def wave_time(self) -> float:
+        """One-way wave travel time L/c, [s]."""
+        return self.length / self.wave_speed
+
+    @property
+    def volume(self) -> float:
+        """Fluid volume A L, [m^3]."""
+        return self.area * self.length
+
+    # ---- propagation operator and characteristic impedance -----------------------------
+    def propagation(self, s, friction: str = "dissipative", alpha: float = 1.0, beta: float = 1.0):
+        """Gamma(s) and Zc(s) of (M6) or (M7).
+
+        Parameters
+        ----------
+        s : array_like complex   Laplace variable, Re(s) >= 0 for the dissipative model, [1/s]
+        friction : str           "dissipative" (M6) or "linear" (M7)
+        alpha, beta : float      Correction factors of the linear model (M7), [-]
+
+        Returns
+        -------
+        (Gamma, Zc) : complex arrays; Gamma [-], Zc [Pa s/m^3]
+        """
+        s = np.asarray(s, dtype=complex)
+        nu = self.fluid.kinematic_viscosity
+        if friction == "dissipative":
+            kappa = self.radius * np.sqrt(s / nu)
+            factor = np.sqrt(bessel_ratio(kappa))
+        elif friction == "linear":
+            factor = np.sqrt(alpha**2 + 32.0 * alpha * beta * nu / (s * self.diameter**2))
+        else:
+            raise ValueError(f"friction must be 'dissipative' or 'linear'; got {friction!r}")
+        return s * self.wave_time * factor, self.impedance * factor
+
+    def transfer(self, s, form: str = "PQ", friction: str = "dissipative",
+                 alpha: float = 1.0, beta: float = 1.0):
+        """Exact transfer matrix of a causal form (MODEL.md table 2.1).
+
+        Parameters
+        ----------
+        s : array_like complex   Laplace variable (e.g. ``2j*pi*f``), [1/s]
+        form : str               "PQ", "QP", "PP" or "QQ"
+        friction : str           "dissipative" (M6) or "linear" (M7)
+        alpha, beta : float      Correction factors for the linear model, [-]
+
+        Returns
+        -------
+        complex ndarray of shape ``s.shape + (2, 2)``; entry [..., i, j] maps input j to
+        output i of the form. Units: pressures [Pa], flows [m^3/s].
+        """
+        form = check_form(form)
+        s = np.asarray(s, dtype=complex)
+        gamma, zc = self.propagation(s, friction, alpha, beta)
+        # Overflow-free hyperbolics via e = exp(-2 Gamma), |e| <= 1 for Re(Gamma) >= 0.
+        flip = np.real(gamma) < 0
+        g = np.where(flip, -gamma, gamma)
+        e = np.exp(-2.0 * g)
+        sgn = np.where(flip, -1.0, 1.0)
+        sech = 2.0 * np.exp(-g) / (1.0 + e)            # even in Gamma
+        tanh = sgn * (1.0 - e) / (1.0 + e)             # odd
+        csch = sgn * 2.0 * np.exp(-g) / (1.0 - e)      # odd
+        coth = sgn * (1.0 + e) / (1.0 - e)             # odd
+        out = np.empty(s.shape + (2, 2), dtype=complex)
+        if form == "PQ":
+            out[..., 0, 0], out[..., 0, 1] = sech, -zc * tanh
+            out[..., 1, 0], out[..., 1, 1] = tanh / zc, sech
+        elif form == "QP":
+            out[..., 0, 0], out[..., 0, 1] = zc * tanh, sech
+            out[..., 1, 0], out[..., 1, 1] = sech, -tanh / zc
+        elif form == "PP":
+            out[..., 0, 0], out[..., 0, 1] = coth / zc, -csch / zc
+            out[..., 1, 0], out[..., 1, 1] = csch / zc, -coth / zc
+        else:  # QQ
+            out[..., 0, 0], out[..., 0, 1] = zc * coth, -zc * csch
+            out[..., 1, 0], out[..., 1, 1] = zc * csch, -zc * coth
+        return out
+
+    def steady_state(self, form: str, u):
+        """Laminar steady state of the line (M12) for constant inputs ``u`` of a form.
+
+        PQ: P_d = P_u - R Q_d, Q_u = Q_d.  QP: P_u = P_d + R Q_u, Q_d = Q_u.
+        PP: Q_u = Q_d = (P_u - P_d)/R.  QQ has no steady state unless Q_u = Q_d (then the
+        mean pressure is undetermined); it raises ValueError.
+
+        Returns the outputs in form order, [Pa] and [m^3/s].
+        """
+        form = check_form(form)
+        a, b = (float(v) for v in u)
+        R = self.resistance
+        if form == "PQ":
+            return np.array([a - R * b, b])
+        if form == "QP":
+            return np.array([b + R * a, a])
+        if form == "PP":
+            return np.array([(a - b) / R, (a - b) / R])
+        raise ValueError("form QQ has no unique steady state (its pressure level integrates the net flow)")
