@@ -1,4 +1,7 @@
 """Transmission-line models: parameters, exact four-pole models, modal state-space lines."""
-from .line import FORMS, FORM_PORTS, Line, bessel_ratio
+from .corrections import correction_factors, dissipative_root, modal_angles
+from .line import FORM_PORTS, FORMS, Line, bessel_ratio
+from .modal import ModalLine, RigidColumnLine, StateSpaceLine
 
-__all__ = ["FORMS", "FORM_PORTS", "Line", "bessel_ratio"]
+__all__ = ["FORMS", "FORM_PORTS", "Line", "bessel_ratio", "correction_factors",
+           "dissipative_root", "modal_angles", "ModalLine", "RigidColumnLine", "StateSpaceLine"]

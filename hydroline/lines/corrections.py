@@ -1,0 +1,106 @@
+"""Modal correction factors alpha_i, beta_i of the linear friction model (MODEL.md 2.3, M15).
+
+Each mode of the linear-friction line (M7) solves ``s^2 + (32 nu beta/(d^2 alpha)) s +
+omega_i^2/alpha^2 = 0``. Matching that root to the root ``s_i`` of the dissipative model
+(M6) on the same modal line ``Gamma(s_i) = j theta_i`` gives
+
+    alpha_i = omega_i/|s_i|,   beta_i = -2 Re(s_i) d^2 alpha_i/(32 nu)          (M15)
+
+with ``theta_i = (i - 1/2) pi`` for the PQ/QP forms (cosh Gamma = 0) and ``theta_k = k pi``
+for the PP/QQ forms (sinh Gamma = 0), ``omega_i = theta_i c/L``. The roots are found by
+Newton's method on ``Gamma(s)^2 + theta^2 = 0`` (analytic in s), starting from the linear
+friction root with alpha = beta = 1 and continued from the previous mode.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .line import Line, bessel_ratio, check_form
+
+__all__ = ["correction_factors", "modal_angles", "dissipative_root"]
+
+
+def modal_angles(n_modes: int, form: str = "PQ") -> np.ndarray:
+    """theta_i of modes 1..n: (i - 1/2) pi for PQ/QP, i pi for PP/QQ, [rad]."""
+    n_modes = _check_modes(n_modes)
+    form = check_form(form)
+    i = np.arange(1, n_modes + 1, dtype=float)
+    return (i - 0.5) * np.pi if form in ("PQ", "QP") else i * np.pi
+
+
+def _check_modes(n_modes) -> int:
+    if int(n_modes) != n_modes or n_modes < 1:
+        raise ValueError(f"n_modes must be an integer >= 1, got {n_modes!r}")
+    return int(n_modes)
+
+
+def _gamma_squared(line: Line, s):
+    """Gamma(s)^2 of the dissipative model (M6), analytic in s off the negative real axis."""
+    kappa = line.radius * np.sqrt(s / line.fluid.kinematic_viscosity)
+    return (s * line.wave_time) ** 2 * bessel_ratio(kappa)
+
+
+def dissipative_root(line: Line, theta: float, guess: complex | None = None,
+                     tol: float = 1e-13, max_iter: int = 100) -> complex:
+    """Root s (upper half plane) of ``Gamma_dissipative(s) = j theta`` (M6), [1/s].
+
+    Raises ValueError if the mode is overdamped (the root leaves the upper half plane), which
+    happens only for very viscous, long, narrow lines (Dn of order 1).
+    """
+    nu, d = line.fluid.kinematic_viscosity, line.diameter
+    omega = theta / line.wave_time
+    if guess is None:
+        a = 16.0 * nu / d**2
+        guess = complex(-a, np.sqrt(max(omega**2 - a**2, (0.1 * omega) ** 2)))
+    s = complex(guess)
+    target = -theta**2
+    for _ in range(max_iter):
+        f = _gamma_squared(line, s) - target
+        h = 1e-7 * abs(s)
+        df = (_gamma_squared(line, s + h) - _gamma_squared(line, s - h)) / (2 * h)
+        step = f / df
+        # damped Newton: never jump more than half the distance to the origin
+        if abs(step) > 0.5 * abs(s):
+            step *= 0.5 * abs(s) / abs(step)
+        s = s - step
+        if abs(step) < tol * abs(s):
+            break
+    else:
+        raise RuntimeError(f"root of mode theta={theta:.4g} did not converge (line {line})")
+    if s.imag <= 1e-9 * abs(s) or s.real >= 0:
+        raise ValueError(
+            f"mode with theta={theta:.4g} of this line is overdamped or unresolved "
+            f"(Dn = {line.dissipation_number:.3g}); modal corrections need Dn well below 1")
+    return s
+
+
+def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
+    """Correction factors alpha_i, beta_i (M15) of modes 1..n_modes.
+
+    Parameters
+    ----------
+    line : Line      The line
+    n_modes : int    Number of modes, >= 1
+    form : str       Causal form; PQ/QP use cosh-Gamma modes, PP/QQ sinh-Gamma modes
+
+    Returns
+    -------
+    (alpha, beta) : arrays of shape (n_modes,), [-]
+    """
+    thetas = modal_angles(n_modes, form)
+    nu, d = line.fluid.kinematic_viscosity, line.diameter
+    alphas, betas, roots = [], [], []
+    guess = None
+    for k, theta in enumerate(thetas):
+        if roots and len(roots) >= 1:
+            # continue from the previous root, scaled to the next modal frequency
+            prev = roots[-1]
+            ratio = theta / thetas[k - 1]
+            guess = complex(prev.real * np.sqrt(ratio), prev.imag * ratio)
+        s = dissipative_root(line, theta, guess)
+        roots.append(s)
+        omega = theta / line.wave_time
+        alpha = omega / abs(s)
+        alphas.append(alpha)
+        betas.append(-2.0 * s.real * d**2 * alpha / (32.0 * nu))
+    return np.array(alphas), np.array(betas)

@@ -1,0 +1,313 @@
+"""Modal state-space approximations of a hydraulic line, all four causal forms.
+
+PQ form (MODEL.md 2.2, M8-M13, the 2005 paper's eq. 8-14). Mode i has states
+``[mode{i}.pressure, mode{i}.flow] = [p_di, q_ui]`` (its contributions to the downstream
+pressure [Pa] and upstream flow [m^3/s]); inputs ``u = [upstream_pressure, downstream_flow]``;
+outputs ``[downstream_pressure, upstream_flow] = sum_i [p_di, q_ui]`` (M11). The input matrix
+carries the steady-state modifier G (M13) so the DC gain is the laminar steady state (M12).
+
+QP form: the PQ line seen from its other end (the line is symmetric): with the PQ inputs
+``[P_d, -Q_u]`` the PQ outputs are ``[P_u, -Q_d]``; same states.
+
+PP and QQ forms (MODEL.md 2.4): the partial fractions of ``coth Gamma`` and ``csch Gamma``,
+
+    coth G = 1/G + sum_k 2G/(G^2 + k^2 pi^2),   csch G = 1/G + sum_k (-1)^k 2G/(G^2 + k^2 pi^2),
+
+with the linear friction Gamma (M7) and the per-mode corrections alpha_k, beta_k (M15) give,
+with ``a_k = 32 nu beta_k/(d^2 alpha_k)``, ``b_k = (k pi c/L)^2/alpha_k^2``, ``tau = L/c``,
+a rank-one 2x2 residue ``[1, (-1)^k]^T [1, -(-1)^k]`` per mode times
+
+    PP:  g_k(s) = (2 C/(tau^2 alpha_k^2)) s/(s^2 + a_k s + b_k)       (admittance)
+    QQ:  h_k(s) = (2 Z0/tau) (s + a_k)/(s^2 + a_k s + b_k)             (impedance)
+
+realised with two states each: PP ``[mode{k}.volume, mode{k}.flow]`` (v' = q,
+q' = -b v - a q + K w), QQ ``[mode{k}.pressure_integral, mode{k}.pressure]`` (m' = p - a m,
+p' = -b m + K w), where ``w = (first input) - (-1)^k (second input)``.
+
+The k = 0 terms: PP, ``1/(Zc Gamma)``, the fluid column ``Q = (P_u - P_d)/(R + (4/3) I s)``
+(state ``column.flow``; 4/3 I is the low-frequency inertance of the laminar profile, from
+I0/I2 -> 8/kappa^2 + 4/3); its DC gain 1/R is exact and the modes k >= 1 have none, so the PP
+steady state (M12) holds without a modifier. QQ, ``Zc/Gamma = 1/(s C)`` exactly, a capacitance
+(state ``column.volume``, the net volume stored, pressure = volume/C on both ends); the DC
+offsets ``Zc coth Gamma - 1/(sC) -> R/3`` and ``Zc csch Gamma - 1/(sC) -> -R/6`` (from the
+Laurent series, any friction model) are restored by a feed-through D minus what the
+truncated modes give, so ``P_u - P_d = R Q`` at steady flow (M12).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .corrections import _check_modes, correction_factors, modal_angles
+from .line import FORM_PORTS, Line, check_form
+
+__all__ = ["ModalLine", "RigidColumnLine", "StateSpaceLine"]
+
+
+class StateSpaceLine:
+    """Common behaviour of linear line models ``x' = A x + B u, y = C x + D u``.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray     State-space matrices (SI units)
+    state_names : list[str]  Names of the states, in order
+    input_names, output_names : tuple[str, str]  Port signals in the order of the form
+    """
+
+    form: str
+    line: Line
+
+    def _set_ports(self):
+        self.input_names, self.output_names = FORM_PORTS[self.form]
+
+    @property
+    def n_states(self) -> int:
+        """Number of states."""
+        return self.A.shape[0]
+
+    def transfer(self, s):
+        """Frequency response ``C (sI - A)^-1 B + D``, shape ``s.shape + (2, 2)``."""
+        s = np.asarray(s, dtype=complex)
+        n = self.n_states
+        M = s[..., None, None] * np.eye(n) - self.A
+        X = np.linalg.solve(M, np.broadcast_to(self.B, s.shape + self.B.shape))
+        return self.C @ X + self.D
+
+    def eigenvalues(self):
+        """Eigenvalues of A, [1/s]."""
+        return np.linalg.eigvals(self.A)
+
+    def initial_state(self, u0, mean_pressure: float | None = None):
+        """Steady state for constant inputs u0 (M14): ``x = -A^-1 B u0``.
+
+        For the QQ form (which integrates net flow) the two input flows must be equal and
+        ``mean_pressure`` [Pa] sets the pressure level stored in ``column.volume``.
+        """
+        u0 = np.asarray(u0, dtype=float).reshape(2)
+        if self.form != "QQ":
+            return np.linalg.solve(self.A, -self.B @ u0)
+        if not np.isclose(u0[0], u0[1], rtol=1e-9, atol=1e-15):
+            raise ValueError("QQ line has a steady state only for equal inflow and outflow "
+                             f"(upstream_flow={u0[0]!r}, downstream_flow={u0[1]!r} m^3/s)")
+        x = np.zeros(self.n_states)
+        modes = slice(1, None)
+        Am, Bm = self.A[modes, modes], self.B[modes]
+        x[modes] = np.linalg.solve(Am, -Bm @ u0)
+        x[0] = self.line.capacitance * (0.0 if mean_pressure is None else float(mean_pressure))
+        return x
+
+    def outputs(self, x, u):
+        """Outputs ``C x + D u`` in form order, [Pa] / [m^3/s]."""
+        return self.C @ np.asarray(x) + self.D @ np.asarray(u)
+
+    def to_control(self):
+        """The line as a python-control ``StateSpace`` with named states, inputs, outputs."""
+        import control
+
+        return control.ss(self.A, self.B, self.C, self.D, states=list(self.state_names),
+                          inputs=list(self.input_names), outputs=list(self.output_names))
+
+    def step_response(self, t, input_index: int = 0, amplitude: float = 1.0, x0=None):
+        """Exact response of the outputs to a step of one input at t = 0 from x0 (rest).
+
+        Parameters
+        ----------
+        t : array_like          Times >= 0, [s]
+        input_index : int       Which input steps (form order)
+        amplitude : float       Step size in the input's unit
+        x0 : array_like         Initial state (zero when None)
+
+        Returns
+        -------
+        ndarray (len(t), 2)  outputs in form order
+        """
+        t = np.asarray(t, dtype=float)
+        u = np.zeros(2)
+        u[input_index] = amplitude
+        lam, V = np.linalg.eig(self.A)
+        x0 = np.zeros(self.n_states) if x0 is None else np.asarray(x0, dtype=float)
+        b = self.B @ u
+        z0 = np.linalg.solve(V, x0.astype(complex))
+        zb = np.linalg.solve(V, b.astype(complex))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            em1 = np.where(np.abs(lam) > 0, np.expm1(np.outer(t, lam)) / lam, t[:, None])
+        z = np.exp(np.outer(t, lam)) * z0 + em1 * zb
+        x = np.real(z @ V.T)
+        return x @ self.C.T + self.D @ u
+
+
+def _resolve_corrections(line, n_modes, form, corrections):
+    if isinstance(corrections, str):
+        if corrections == "exact":
+            return correction_factors(line, n_modes, form)
+        if corrections == "none":
+            return np.ones(n_modes), np.ones(n_modes)
+        raise ValueError(f"corrections must be 'exact', 'none' or (alpha, beta) arrays; got {corrections!r}")
+    alpha, beta = (np.broadcast_to(np.asarray(v, dtype=float), (n_modes,)).copy() for v in corrections)
+    if np.any(alpha <= 0) or np.any(beta <= 0):
+        raise ValueError("correction factors alpha and beta must be positive [-]")
+    return alpha, beta
+
+
+class ModalLine(StateSpaceLine):
+    """Modal state-space line with Yang-Tobler frequency/damping corrections.
+
+    Parameters
+    ----------
+    line : Line            The line
+    n_modes : int          Number of modes (two states each), >= 1
+    form : str             Causal form "PQ", "QP", "PP" or "QQ" (MODEL.md table 2.1)
+    corrections : str or (alpha, beta)
+                           "exact": alpha_i, beta_i from the dissipative model's roots (M15);
+                           "none": plain linear friction (alpha = beta = 1); or arrays, [-]
+                           (used by method "yang-tobler" only)
+    method : str           "yang-tobler" (the 2005 paper's model, default) or "residue"
+                           (exact poles and exact residues of the dissipative model, see
+                           :mod:`hydroline.lines.residue`)
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray         State-space matrices; states, inputs and outputs as documented
+                                 in the module docstring, inputs/outputs in form order
+    alpha, beta : ndarray        Correction factors used, [-]
+    state_names : list[str]      e.g. ``["mode1.pressure", "mode1.flow", ...]``
+    input_names, output_names    e.g. ``("upstream_pressure", "downstream_flow")``
+    """
+
+    def __init__(self, line: Line, n_modes: int = 6, form: str = "PQ", corrections="exact",
+                 method: str = "yang-tobler"):
+        if not isinstance(line, Line):
+            raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
+        self.line = line
+        self.n_modes = _check_modes(n_modes)
+        self.form = check_form(form)
+        self.method = method
+        if method == "residue":
+            from .residue import residue_realisation
+
+            self.alpha = self.beta = None
+            self.A, self.B, self.C, self.D, self.state_names = residue_realisation(
+                line, self.n_modes, self.form)
+            self._set_ports()
+            return
+        if method != "yang-tobler":
+            raise ValueError(f"method must be 'yang-tobler' or 'residue'; got {method!r}")
+        self.alpha, self.beta = _resolve_corrections(line, self.n_modes, self.form, corrections)
+        build = {"PQ": self._build_pq, "QP": self._build_qp,
+                 "PP": self._build_pp, "QQ": self._build_qq}[self.form]
+        self.A, self.B, self.C, self.D, self.state_names = build()
+        self._set_ports()
+
+    def __repr__(self):
+        return f"ModalLine(L={self.line.length:g} m, d={self.line.diameter:g} m, n_modes={self.n_modes}, form={self.form!r})"
+
+    # ---- PQ (M9-M13) -----------------------------------------------------------------
+    def _build_pq(self):
+        ln = self.line
+        n = self.n_modes
+        nu, d, Z0, Dn = ln.fluid.kinematic_viscosity, ln.diameter, ln.impedance, ln.dissipation_number
+        omega = modal_angles(n, "PQ") / ln.wave_time                  # (M9)
+        A = np.zeros((2 * n, 2 * n))
+        Bm = np.zeros((2 * n, 2))
+        names = []
+        sum_AinvB = np.zeros((2, 2))
+        for i in range(n):
+            sg = (-1.0) ** i                                         # (-1)^(i+1), i from 1
+            al, be = self.alpha[i], self.beta[i]
+            Ai = np.array([[0.0, sg * Z0 * omega[i]],
+                           [-sg * omega[i] / (Z0 * al**2), -32.0 * nu * be / (d**2 * al)]])   # (M10)
+            Bi = np.array([[0.0, -8.0 * nu * Z0 / (d**2 * Dn)],
+                           [8.0 * nu / (d**2 * Z0 * Dn * al**2), 0.0]])
+            A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = Ai
+            Bm[2 * i:2 * i + 2] = Bi
+            sum_AinvB += np.linalg.solve(Ai, Bi)
+            names += [f"mode{i + 1}.pressure", f"mode{i + 1}.flow"]
+        G = -np.linalg.solve(sum_AinvB, np.array([[1.0, -8.0 * Z0 * Dn], [0.0, 1.0]]))  # (M13)
+        C = np.tile(np.eye(2), (1, n))                                # (M11)
+        return A, Bm @ G, C, np.zeros((2, 2)), names
+
+    def _build_qp(self):
+        A, B, C, D, names = self._build_pq()
+        swap_in = np.array([[0.0, 1.0], [-1.0, 0.0]])     # [P_d, -Q_u] = swap_in @ [Q_u, P_d]
+        flip_out = np.diag([1.0, -1.0])                   # [P_u, Q_d] = flip_out @ [P_d', Q_u']
+        return A, B @ swap_in, flip_out @ C, D, names
+
+    # ---- PP and QQ (MODEL.md 2.4) ------------------------------------------------------
+    def _mode_coefficients(self):
+        ln = self.line
+        nu, d = ln.fluid.kinematic_viscosity, ln.diameter
+        omega = modal_angles(self.n_modes, "PP") / ln.wave_time
+        a = 32.0 * nu * self.beta / (d**2 * self.alpha)
+        b = omega**2 / self.alpha**2
+        sign = (-1.0) ** np.arange(1, self.n_modes + 1)
+        return a, b, sign
+
+    def _build_pp(self):
+        ln = self.line
+        n = self.n_modes
+        a, b, sign = self._mode_coefficients()
+        N = 2 * n + 1
+        A, B, C = np.zeros((N, N)), np.zeros((N, 2)), np.zeros((2, N))
+        I_col = 4.0 / 3.0 * ln.inertance
+        A[0, 0] = -ln.resistance / I_col
+        B[0] = [1.0 / I_col, -1.0 / I_col]
+        C[:, 0] = 1.0
+        names = ["column.flow"]
+        tau = ln.wave_time
+        for k in range(n):
+            v, q = 1 + 2 * k, 2 + 2 * k
+            K = 2.0 * ln.capacitance / (tau**2 * self.alpha[k] ** 2)
+            A[v, q] = 1.0
+            A[q, v], A[q, q] = -b[k], -a[k]
+            B[q] = [K, -sign[k] * K]
+            C[:, q] = [1.0, sign[k]]
+            names += [f"mode{k + 1}.volume", f"mode{k + 1}.flow"]
+        return A, B, C, np.zeros((2, 2)), names
+
+    def _build_qq(self):
+        ln = self.line
+        n = self.n_modes
+        a, b, sign = self._mode_coefficients()
+        N = 2 * n + 1
+        A, B, C = np.zeros((N, N)), np.zeros((N, 2)), np.zeros((2, N))
+        B[0] = [1.0, -1.0]
+        C[:, 0] = 1.0 / ln.capacitance
+        names = ["column.volume"]
+        R = ln.resistance
+        D = np.array([[R / 3.0, R / 6.0], [-R / 6.0, -R / 3.0]])   # exact DC offsets
+        K = 2.0 * ln.impedance / ln.wave_time
+        for k in range(n):
+            m, p = 1 + 2 * k, 2 + 2 * k
+            A[m, m], A[m, p] = -a[k], 1.0
+            A[p, m] = -b[k]
+            B[p] = [K, -sign[k] * K]
+            C[:, p] = [1.0, sign[k]]
+            dc = K * a[k] / b[k]
+            D -= dc * np.outer([1.0, sign[k]], [1.0, -sign[k]])
+            names += [f"mode{k + 1}.pressure_integral", f"mode{k + 1}.pressure"]
+        return A, B, C, D, names
+
+
+class RigidColumnLine(StateSpaceLine):
+    """Reduced first-order PP line: a resistance in series with an inertance (M18).
+
+    ``I dq/dt = P_u - P_d - R q``, ``Q_u = Q_d = q`` (state ``column.flow`` [m^3/s]), the 2005
+    paper's accumulator connection line ("version II").
+
+    Parameters
+    ----------
+    line : Line                The line
+    inertance_factor : float   Multiplier of the plug-flow inertance rho L/A, [-]; 1 as in the
+                               2005 paper (4/3 is the laminar-profile low-frequency value)
+    """
+
+    def __init__(self, line: Line, inertance_factor: float = 1.0):
+        self.line = line
+        self.form = "PP"
+        I = inertance_factor * line.inertance
+        R = line.resistance
+        self.A = np.array([[-R / I]])
+        self.B = np.array([[1.0 / I, -1.0 / I]])
+        self.C = np.array([[1.0], [1.0]])
+        self.D = np.zeros((2, 2))
+        self.state_names = ["column.flow"]
+        self._set_ports()
