@@ -24,10 +24,18 @@ realised with two states each: PP ``[mode{k}.volume, mode{k}.flow]`` (v' = q,
 q' = -b v - a q + K w), QQ ``[mode{k}.pressure_integral, mode{k}.pressure]`` (m' = p - a m,
 p' = -b m + K w), where ``w = (first input) - (-1)^k (second input)``.
 
-The k = 0 terms: PP, ``1/(Zc Gamma)``, the fluid column ``Q = (P_u - P_d)/(R + (4/3) I s)``
-(state ``column.flow``; 4/3 I is the low-frequency inertance of the laminar profile, from
-I0/I2 -> 8/kappa^2 + 4/3); its DC gain 1/R is exact and the modes k >= 1 have none, so the PP
-steady state (M12) holds without a modifier. QQ, ``Zc/Gamma = 1/(s C)`` exactly, a capacitance
+The k = 0 terms: PP, ``1/(Zc Gamma)``, the fluid column with frequency-dependent wall friction.
+``Zc Gamma = I s I0(kappa)/I2(kappa)`` is not first order: its inertance falls from 4/3 I to I
+and its resistance rises from R as kappa grows, so a plain ``R + I s`` misses it by up to
+27 % between the viscous and the inertial regime. It is realised as Zielke's friction with
+the weighting function approximated by Schohl's five exponentials (G. A. Schohl, J. Fluids
+Eng. 115 (1993) 420-424: m = 1.051, 2.358, 9.021, 29.47, 79.55; n = 26.65, 100.0, 669.6,
+6497, 57990), which reproduces ``s I0/I2`` within 0.5 % at all frequencies:
+
+    I q' = (P_u - P_d) - R q - (R/2) sum_i m_i (q - w_i),   w_i' = (n_i nu/r^2)(q - w_i)
+
+(states ``column.flow`` q and ``column.friction{i}`` w_i, [m^3/s]). Its DC gain 1/R is exact
+and the modes k >= 1 have none, so the PP steady state (M12) holds without a modifier. QQ, ``Zc/Gamma = 1/(s C)`` exactly, a capacitance
 (state ``column.volume``, the net volume stored, pressure = volume/C on both ends); the DC
 offsets ``Zc coth Gamma - 1/(sC) -> R/3`` and ``Zc csch Gamma - 1/(sC) -> -R/6`` (from the
 Laurent series, any friction model) are restored by a feed-through D minus what the
@@ -41,6 +49,11 @@ from .corrections import _check_modes, correction_factors, modal_angles
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["ModalLine", "RigidColumnLine", "StateSpaceLine"]
+
+#: Schohl (1993) five-term approximation of Zielke's weighting function,
+#: W(tau) ~ sum_i m_i exp(-n_i nu tau / r^2).
+SCHOHL_M = np.array([1.051, 2.358, 9.021, 29.47, 79.55])
+SCHOHL_N = np.array([26.65, 100.0, 669.6, 6497.0, 57990.0])
 
 
 class StateSpaceLine:
@@ -245,16 +258,21 @@ class ModalLine(StateSpaceLine):
         ln = self.line
         n = self.n_modes
         a, b, sign = self._mode_coefficients()
-        N = 2 * n + 1
+        nf = len(SCHOHL_M)
+        N = 2 * n + 1 + nf
         A, B, C = np.zeros((N, N)), np.zeros((N, 2)), np.zeros((2, N))
-        I_col = 4.0 / 3.0 * ln.inertance
-        A[0, 0] = -ln.resistance / I_col
-        B[0] = [1.0 / I_col, -1.0 / I_col]
+        I, R = ln.inertance, ln.resistance
+        rates = SCHOHL_N * ln.fluid.kinematic_viscosity / ln.radius**2
+        A[0, 0] = -(R + 0.5 * R * SCHOHL_M.sum()) / I
+        A[0, 1:1 + nf] = 0.5 * R * SCHOHL_M / I
+        A[1:1 + nf, 0] = rates
+        A[1:1 + nf, 1:1 + nf] = -np.diag(rates)
+        B[0] = [1.0 / I, -1.0 / I]
         C[:, 0] = 1.0
-        names = ["column.flow"]
+        names = ["column.flow"] + [f"column.friction{i + 1}" for i in range(nf)]
         tau = ln.wave_time
         for k in range(n):
-            v, q = 1 + 2 * k, 2 + 2 * k
+            v, q = 1 + nf + 2 * k, 2 + nf + 2 * k
             K = 2.0 * ln.capacitance / (tau**2 * self.alpha[k] ** 2)
             A[v, q] = 1.0
             A[q, v], A[q, q] = -b[k], -a[k]

@@ -1,0 +1,223 @@
+"""Quantities with units at the edges of hydroline.
+
+Inside hydroline every number is a float in SI units (see ``fluid.py``). Units appear only
+where numbers come in from people -- rig files, the command line, notebooks -- and where they
+go back out to people. This module converts at those edges with one shared pint
+:data:`ureg` and refuses anything ambiguous:
+
+* a bare number for a dimensional parameter (``3.048`` for a length) is an error, because
+  "3.048" in a rig file could be metres or feet or inches; write ``"3.048 m"``;
+* a value of the wrong dimension (``"3000 psi"`` for a length) is an error;
+* NaN and infinite values are errors.
+
+Every error is a :class:`UnitError` (a :class:`ValueError`) whose message is one line naming
+the parameter, so that a rig file with thirty entries points at the wrong one.
+
+Units beyond pint's defaults
+----------------------------
+``gpm``
+    US gallon per minute, 3.785411784e-3 m^3 / 60 s = 6.30901964e-5 m^3/s (pint's
+    ``gallon`` is the US liquid gallon of 231 in^3).
+``cSt``
+    centistokes, 1e-6 m^2/s (pint's ``stokes`` with the SI prefix ``c``).
+
+Pressures
+---------
+Pressures are taken as given: hydroline has no notion of gauge pressure, and every pressure
+in a rig file is absolute unless that rig file says otherwise. Convert gauge readings yourself
+(add the atmospheric 101325 Pa) before they go in; pint's ``psi`` and ``bar`` carry no gauge
+offset.
+
+Angular and cyclic frequency
+----------------------------
+pint treats the radian as dimensionless, so it would convert ``"100 rad/s"`` to ``100 Hz``
+and ``"1 rpm"`` to ``0.105 Hz``. Both are wrong by 2 pi. :func:`parse_quantity` therefore
+refuses to convert between units with and without angles (``rad/s`` or ``rpm`` given where
+``Hz`` is expected) instead of silently returning the wrong number.
+"""
+from __future__ import annotations
+
+import math
+import numbers
+
+import pint
+
+__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity"]
+
+#: The one unit registry of hydroline. Quantities from other registries are re-read into it.
+ureg = pint.UnitRegistry()
+if "gpm" not in ureg:
+    # US liquid gallon per minute; pint's ``gallon`` is the US liquid gallon (231 in^3).
+    ureg.define("gallon_per_minute = gallon / minute = gpm")
+
+#: Unit strings that mean "no unit".
+_DIMENSIONLESS = {"", "-", "1", "dimensionless"}
+
+
+class UnitError(ValueError):
+    """A value that cannot be read as a quantity of the expected unit."""
+
+
+def _target_units(unit: str) -> pint.Unit:
+    """Parse the SI unit a caller asks for (a programming error if it fails)."""
+    if unit is None or str(unit).strip() in _DIMENSIONLESS:
+        return ureg.dimensionless
+    try:
+        return ureg.parse_units(str(unit).strip())
+    except (pint.errors.PintError, AttributeError, TypeError, ValueError, SyntaxError) as exc:
+        raise UnitError(f"unknown target unit {unit!r}: {exc}") from None
+
+
+def _angle_exponent(units: pint.Unit) -> float:
+    """Exponent of the radian in the root units (0 for Hz, 1 for rad/s and rpm)."""
+    root = ureg.Quantity(1.0, units).to_root_units()
+    return float(dict(root.unit_items()).get("radian", 0.0))
+
+
+def _finite(name: str, magnitude, shown) -> float:
+    try:
+        value = float(magnitude)
+    except (TypeError, ValueError):
+        raise UnitError(f"{name}: {shown!r} is not a single number") from None
+    if not math.isfinite(value):
+        raise UnitError(f"{name}: {shown!r} is not finite")
+    return value
+
+
+def parse_quantity(value, unit: str, name: str = "value") -> float:
+    """Read a number with a unit and return it as a float in the SI unit ``unit``.
+
+    Parameters
+    ----------
+    value : str, pint.Quantity, int or float
+        The quantity, e.g. ``"3.048 m"``, ``"12.7mm"``, ``"3000 psi"``, ``"19 L/min"``,
+        ``"5 gpm"``, ``"32 cSt"`` or a pint Quantity; [any unit of the dimension of ``unit``].
+        A bare number (``3.048`` or ``"3.048"``) is accepted only when ``unit`` is
+        dimensionless; ``"50 %"`` is then 0.5.
+    unit : str
+        The SI unit wanted, e.g. ``"Pa"``, ``"m^3/s"``, ``"N*s/m"``, ``"m^3/s/Pa"``, ``"Hz"``;
+        ``"dimensionless"`` (or ``"-"``, ``"1"``, ``""``) for a pure number, [-].
+    name : str
+        Dotted name of the parameter, used in error messages, e.g.
+        ``"supply.section1.length"``, [-].
+
+    Returns
+    -------
+    float  The value expressed in ``unit``, [unit]
+
+    Raises
+    ------
+    UnitError
+        On a bare number for a dimensional parameter, a wrong dimension, an angular unit
+        where a cyclic one is expected (or the reverse), an unparseable string, a non-scalar
+        value, NaN or infinity. The message is one line that starts with ``name``.
+
+    Examples
+    --------
+    >>> parse_quantity("3000 psi", "Pa", "supply.pressure")  # 3000 * 6894.757 Pa
+    20684271.879...
+    >>> parse_quantity("19 L/min", "m^3/s", "pump.flow")  # 19e-3 m^3 / 60 s
+    0.000316666...
+    >>> parse_quantity(3.048, "m", "supply.section1.length")
+    Traceback (most recent call last):
+    ...
+    hydroline.units.UnitError: supply.section1.length: bare number 3.048 is ambiguous, give a unit like '3.048 m'
+    """
+    target = _target_units(unit)
+    target_text = "dimensionless" if target == ureg.dimensionless else str(unit).strip()
+    dimensionless_target = target.dimensionless
+
+    if isinstance(value, bool):
+        raise UnitError(f"{name}: {value!r} is not a quantity")
+
+    if isinstance(value, pint.Quantity):
+        quantity = value
+        if quantity._REGISTRY is not ureg:  # a Quantity from someone else's registry
+            try:
+                quantity = ureg.Quantity(quantity.magnitude, str(quantity.units))
+            except pint.errors.PintError as exc:
+                raise UnitError(f"{name}: cannot read {value!r} ({exc})") from None
+        shown = str(quantity)
+    elif isinstance(value, numbers.Real):
+        quantity = ureg.Quantity(_finite(name, value, value), ureg.dimensionless)
+        shown = value
+    elif isinstance(value, str):
+        text = value.strip()
+        if not text:
+            raise UnitError(f"{name}: empty string, expected a quantity in {target_text}")
+        try:
+            quantity = ureg.parse_expression(text)
+        except Exception as exc:  # pint raises a zoo of exception types on bad input
+            detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise UnitError(f"{name}: cannot read {value!r} as a quantity in {target_text} "
+                            f"({detail})") from None
+        if not isinstance(quantity, pint.Quantity):  # a plain number such as "3.048"
+            quantity = ureg.Quantity(quantity, ureg.dimensionless)
+        shown = text
+    else:
+        raise UnitError(f"{name}: {value!r} ({type(value).__name__}) is not a quantity, "
+                        f"expected a string like '1 {target_text}'")
+
+    magnitude = _finite(name, quantity.magnitude, shown)
+
+    if quantity.units == ureg.dimensionless and not dimensionless_target:
+        number = f"{magnitude:g}"
+        raise UnitError(f"{name}: bare number {number} is ambiguous, give a unit like "
+                        f"'{number} {target_text}'")
+
+    if quantity.dimensionality != target.dimensionality:
+        given = "dimensionless" if quantity.dimensionless else str(quantity.dimensionality)
+        expected = ("dimensionless (a plain number)" if dimensionless_target
+                    else f"{target.dimensionality} (a unit like {target_text})")
+        raise UnitError(f"{name}: {shown!r} has dimension {given}, expected {expected}")
+
+    if _angle_exponent(quantity.units) != _angle_exponent(target):
+        raise UnitError(f"{name}: {shown!r} mixes angular and cyclic units; give it in a unit "
+                        f"like {target_text} (1 Hz = 2*pi rad/s = 60 rpm)")
+
+    try:
+        result = float(quantity.to(target).magnitude)
+    except pint.errors.PintError as exc:  # e.g. offset units such as degC in products
+        raise UnitError(f"{name}: cannot convert {shown!r} to {target_text} ({exc})") from None
+    if not math.isfinite(result):
+        raise UnitError(f"{name}: {shown!r} is not finite in {target_text}")
+    return result
+
+
+def format_quantity(value_si: float, unit: str, display_unit: str | None = None,
+                    digits: int = 3) -> str:
+    """Format an SI value for people, e.g. ``20.7e6`` Pa as ``"20.7 MPa"``.
+
+    Parameters
+    ----------
+    value_si : float    The value in ``unit``, [unit]
+    unit : str          The unit ``value_si`` is in, e.g. ``"Pa"``, [-]
+    display_unit : str  The unit to show, e.g. ``"MPa"``, ``"bar"``, ``"L/min"``; None shows
+                        ``unit``, [-]
+    digits : int        Significant digits, >= 1, [-]
+
+    Returns
+    -------
+    str  ``"<number> <display_unit>"``, the number with ``digits`` significant digits
+
+    Examples
+    --------
+    >>> format_quantity(20.684e6, "Pa", "MPa")
+    '20.7 MPa'
+    >>> format_quantity(3.1667e-4, "m^3/s", "L/min", 4)
+    '19 L/min'
+    """
+    if isinstance(digits, bool) or not isinstance(digits, numbers.Integral) or digits < 1:
+        raise ValueError(f"digits must be an integer >= 1, got {digits!r}")
+    value = _finite("value_si", value_si, value_si)
+    source = _target_units(unit)
+    shown_unit = str(unit).strip() if display_unit is None else str(display_unit).strip()
+    target = _target_units(shown_unit)
+    if source.dimensionality != target.dimensionality:
+        raise UnitError(f"display_unit: {shown_unit!r} is not of the dimension of {unit!r}")
+    if _angle_exponent(source) != _angle_exponent(target):
+        raise UnitError(f"display_unit: {shown_unit!r} mixes angular and cyclic units "
+                        f"with {unit!r}")
+    shown = ureg.Quantity(value, source).to(target).magnitude
+    text = f"{shown:.{int(digits)}g}"
+    return f"{text} {shown_unit}" if shown_unit not in _DIMENSIONLESS else text
