@@ -349,6 +349,68 @@ def _fit_fundamental(ts, ps, p_final, frequency):
     return frequency, centres, 2.0 * np.abs(z) / gain
 
 
+def _crossing_frequency(ts, ps, p_final, frequency):
+    """Frequency [Hz] from the zero crossings of the high-passed deviation, or None.
+
+    The deviation minus its centred moving average over one period ``1/frequency`` keeps a
+    damped fundamental ``exp(s t)`` exactly (times a constant), removes the final value and
+    nearly all of a slow drift, and leaves the harmonics of ``frequency`` untouched.
+    Crossings count where the lobes on both sides reach 0.1 % of the largest value; the
+    period is the mean interval between crossings in the same direction, which cancels the
+    skew that harmonics give to alternate half periods. None when fewer than two crossings
+    in one direction exist, or when any same-direction interval differs from
+    ``1/frequency`` by more than 15 % (extra crossings from a strong harmonic).
+    """
+    period = 1.0 / frequency
+    duration = ts[-1] - ts[0]
+    per_period = _SAMPLES_PER_PERIOD
+    dt = period / per_period
+    n = int(duration / dt) + 1
+    if n > _MAX_GRID or n < 3 * per_period:
+        return None
+    grid = ts[0] + dt * np.arange(n)
+    deviation = np.interp(grid, ts, ps) - p_final
+    # centred moving average over exactly one period (odd length: per_period + 1 samples,
+    # end samples weighted 1/2, i.e. the trapezoidal rule over one period)
+    kernel = np.full(per_period + 1, 1.0 / per_period)
+    kernel[0] = kernel[-1] = 0.5 / per_period
+    trend = np.convolve(deviation, kernel, mode="valid")
+    half = per_period // 2
+    y = deviation[half:n - half] - trend
+    ty = grid[half:n - half]
+    largest = float(np.max(np.abs(y)))
+    if largest == 0.0:
+        return None
+    sign = np.signbit(y)
+    idx = np.flatnonzero(sign[1:] != sign[:-1])
+    if idx.size < 3:
+        return None
+    # peak of each lobe: before the first crossing, between crossings, after the last
+    bounds = np.concatenate(([0], idx + 1, [y.size]))
+    lobe = np.array([np.max(np.abs(y[a:b])) for a, b in zip(bounds[:-1], bounds[1:])])
+    significant = (lobe[:-1] >= 1e-3 * largest) & (lobe[1:] >= 1e-3 * largest)
+    # the crossings kept must be consecutive from the first one on
+    stop = np.flatnonzero(~significant)
+    idx = idx[:stop[0]] if stop.size else idx
+    if idx.size < 3:
+        return None
+    crossing = ty[idx] - y[idx] * dt / (y[idx + 1] - y[idx])
+    rising = y[idx + 1] > y[idx]
+    estimates, weights = [], []
+    for direction in (rising, ~rising):
+        times = crossing[direction]
+        if times.size < 2:
+            continue
+        gaps = np.diff(times)
+        if np.any(np.abs(gaps / period - 1.0) > 0.15):
+            return None
+        estimates.append((times.size - 1) / (times[-1] - times[0]))
+        weights.append(times.size - 1)
+    if not estimates:
+        return None
+    return float(np.average(estimates, weights=weights))
+
+
 def oscillation_frequency(t, p, t_step, min_cycles=1.5):
     """Dominant frequency of the oscillation of a step response after ``t_step``.
 
@@ -410,4 +472,7 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
     cycles = frequency * (centres[above[-1]] - t_step)
     if cycles < min_cycles:
         return None
+    crossing = _crossing_frequency(ts, ps, p_final, frequency)
+    if crossing is not None and abs(crossing / frequency - 1.0) < 0.05:
+        frequency = crossing
     return float(frequency)

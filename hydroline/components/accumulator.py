@@ -1,0 +1,126 @@
+"""Gas-charged piston accumulator with its connection line (MODEL.md 3, M16-M18)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..lines.modal import StateSpaceLine
+from ..network import ops
+from ..network.component import Component, Port, State
+
+__all__ = ["PistonAccumulator"]
+
+
+@dataclass(kw_only=True)
+class PistonAccumulator(Component):
+    """Massless, frictionless piston accumulator, polytropic gas (M16-M17).
+
+    Gas: ``p_g V_g^m = K`` with ``K = p_ref (V_0 p_0/p_ref)^m``: a slow isothermal charge from
+    the pre-charge ``p_0`` at capacity ``V_0`` to the steady node pressure ``p_ref``, then
+    polytropic (M16). State ``gas_volume`` V_g with ``dV_g/dt = -q_a`` (so (M17) holds).
+    Piston travel limits: V_g <= V_0 (oil side empty: the piston rests on its stop, the gas
+    stays at p(V_0) and the oil side stiffens like a small oil volume, ``stop_stiffness``
+    [Pa/m^3]); V_g is kept above 0.1 % of V_0.
+
+    Connection line from the node to the oil side: "version II" (default, M18)
+    ``I_a dq_a/dt = p_node - p_oil - R_a q_a`` (state ``flow``), or a full line model
+    (``connection_model``, PP form: inputs node and oil pressures; states ``line.*``).
+
+    Parameters
+    ----------
+    capacity : float              V_0, gas volume at pre-charge, [m^3]
+    precharge_pressure : float    p_0, absolute, [Pa]
+    polytropic_exponent : float   m, 1 (isothermal) ... 1.4 (adiabatic N2), [-]
+    resistance : float            R_a of the connection (version II), [Pa s/m^3]
+    inertance : float             I_a of the connection (version II), [kg/m^4]
+    connection_model : StateSpaceLine  PP line model replacing (R_a, I_a); None for version II
+    nominal_pressure : float      Guess of the node pressure for the steady-state solver, [Pa]
+
+    Ports: input ``pressure`` (node) [Pa]; output ``flow`` into the accumulator branch [m^3/s];
+    signal ``gas_pressure`` is not a port (see :meth:`gas_pressure`).
+    """
+
+    capacity: float = 1e-3
+    precharge_pressure: float = 1e7
+    polytropic_exponent: float = 1.4
+    resistance: float = 0.0
+    inertance: float = 1.0
+    connection_model: StateSpaceLine | None = None
+    nominal_pressure: float = 2e7
+    stop_stiffness: float | None = None
+
+    inputs = {"pressure": Port("pressure", "pressure at the node the accumulator hangs on")}
+    outputs = {"flow": Port("flow", "flow from the node into the accumulator branch")}
+    feedthrough = False
+
+    def __post_init__(self):
+        for k, unit in (("capacity", "m^3"), ("precharge_pressure", "Pa"),
+                        ("polytropic_exponent", "-"), ("inertance", "kg/m^4")):
+            if not getattr(self, k) > 0:
+                raise ValueError(f"{self.name}: {k} must be > 0 [{unit}], got {getattr(self, k)!r}")
+        if self.stop_stiffness is None:
+            # oil side emptied: stiffness of an oil film of 1 % of V0 (beta = 1.5 GPa)
+            self.stop_stiffness = 1.5e9 / (0.01 * self.capacity)
+        if self.connection_model is not None and self.connection_model.form != "PP":
+            raise ValueError(f"{self.name}: connection_model must be a PP-form line")
+
+    @property
+    def states(self):
+        st = [State("gas_volume", "m^3", self.capacity, "gas volume V_g")]
+        if self.connection_model is None:
+            st.append(State("flow", "m^3/s", 1e-4, "flow in the connection line, into the accumulator"))
+        else:
+            st += [State(f"line.{n}", "-", 1e-4) for n in self.connection_model.state_names]
+        return st
+
+    def runtime_parameters(self):
+        return {"reference_pressure": self.nominal_pressure}
+
+    def gas_pressure(self, gas_volume, reference_pressure):
+        """Gas pressure from (M16), with the piston's stops, [Pa] (oil-side pressure)."""
+        m, V0, p0 = self.polytropic_exponent, self.capacity, self.precharge_pressure
+        K = reference_pressure * (V0 * p0 / reference_pressure) ** m
+        V = ops.fmax(ops.fmin(gas_volume, V0), 1e-3 * V0)
+        p_gas = K / V**m
+        return p_gas - self.stop_stiffness * ops.fmax(gas_volume - V0, 0.0)
+
+    def _line_vectors(self, x):
+        return ops.vertcat([x[f"line.{n}"] for n in self.connection_model.state_names])
+
+    def outputs_of(self, t, x, u, p):
+        if self.connection_model is None:
+            return {"flow": x["flow"]}
+        y = ops.matvec(self.connection_model.C, self._line_vectors(x))
+        return {"flow": y[0]}
+
+    def derivatives(self, t, x, u, p):
+        p_oil = self.gas_pressure(x["gas_volume"], p["reference_pressure"])
+        if self.connection_model is None:
+            q = x["flow"]
+            return {"flow": (u["pressure"] - p_oil - self.resistance * q) / self.inertance,   # (M18)
+                    "gas_volume": -q}                                                      # (M16)
+        cm = self.connection_model
+        xv = self._line_vectors(x)
+        uv = ops.vertcat([u["pressure"], p_oil])
+        dx = ops.matvec(cm.A, xv) + ops.matvec(cm.B, uv)
+        q_in = ops.matvec(cm.C, xv)[1]
+        out = {f"line.{n}": dx[i] for i, n in enumerate(cm.state_names)}
+        out["gas_volume"] = -q_in
+        return out
+
+    def initial_guess(self):
+        g = {"gas_volume": min(self.capacity,
+                               self.capacity * self.precharge_pressure / self.nominal_pressure)}
+        if self.connection_model is None:
+            g["flow"] = 0.0
+        else:
+            x0 = self.connection_model.initial_state([self.nominal_pressure] * 2)
+            g.update({f"line.{n}": float(v) for n, v in zip(self.connection_model.state_names, x0)})
+        return g
+
+    def settle(self, x, u, p):
+        """Adopt the steady node pressure as the end of the isothermal charge (section 3)."""
+        p_g = float(self.gas_pressure(x["gas_volume"], p["reference_pressure"]))
+        if p_g <= self.precharge_pressure:       # empty: piston on its stop, nothing to adopt
+            return None
+        return ({"gas_volume": self.capacity * self.precharge_pressure / p_g},
+                {"reference_pressure": p_g})

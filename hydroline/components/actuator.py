@@ -1,0 +1,124 @@
+"""Double-ended actuator with chamber compressibility and end stops (MODEL.md 4, M22-M23)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..network import ops
+from ..network.component import Component, Port, State
+
+__all__ = ["Actuator"]
+
+
+@dataclass(kw_only=True)
+class Actuator(Component):
+    """Chamber pressures (M22) and piston motion (M23), vertical, upward positive.
+
+    ``x_p`` is measured from mid-stroke; the stops are at +-stroke/2, modelled as a stiff
+    spring-damper acting on the penetration. Chamber volumes ``V_b + A_b x_p`` and
+    ``V_t - A_t x_p`` are kept above ``min_volume_fraction`` of their centre values (MODEL.md 8).
+
+    Parameters
+    ----------
+    bottom_area, top_area : float      A_b, A_t, [m^2]
+    bottom_volume, top_volume : float  V_b, V_t at centre incl. valve/manifold passages, [m^3]
+    bulk_modulus : float               beta_c of the oil in the chambers, [Pa]
+    moving_mass : float                Piston, rod and rigidly attached load, [kg]
+    stroke : float                     Full stroke, [m]
+    internal_leakage : float           C_i, [m^3/s/Pa]
+    external_leakage : float           C_e (each chamber), [m^3/s/Pa]
+    gravity : float                    g along the axis (0 for a horizontal actuator), [m/s^2]
+    stop_stiffness : float             [N/m]
+    stop_damping : float               [N s/m]
+    initial_position : float           Guess of x_p for the steady-state solver, [m]
+    nominal_pressure : float           Guess of the chamber pressures, [Pa]
+
+    Ports: inputs ``bottom_flow`` (q_b, into the bottom chamber), ``top_flow`` (q_t, out of
+    the top chamber) [m^3/s], ``friction_force``, ``load_force`` [N] (both opposing upward
+    motion when positive); outputs ``bottom_pressure``, ``top_pressure`` [Pa],
+    ``position`` [m], ``velocity`` [m/s].
+    """
+
+    bottom_area: float = 1e-3
+    top_area: float = 1e-3
+    bottom_volume: float = 1e-4
+    top_volume: float = 1e-4
+    bulk_modulus: float = 1.4e9
+    moving_mass: float = 10.0
+    stroke: float = 0.1
+    internal_leakage: float = 0.0
+    external_leakage: float = 0.0
+    gravity: float = 9.81
+    stop_stiffness: float = 1e9
+    stop_damping: float | None = None
+    min_volume_fraction: float = 0.02
+    initial_position: float = 0.0
+    nominal_pressure: float = 1e7
+
+    inputs = {"bottom_flow": Port("flow", "q_b into the bottom chamber"),
+              "top_flow": Port("flow", "q_t out of the top chamber"),
+              "friction_force": Port("force", "friction on the piston, opposing +x when > 0"),
+              "load_force": Port("force", "load/specimen force, opposing +x when > 0")}
+    outputs = {"bottom_pressure": Port("pressure", "bottom chamber pressure p_b"),
+               "top_pressure": Port("pressure", "top chamber pressure p_t"),
+               "position": Port("position", "piston position from mid-stroke, up +"),
+               "velocity": Port("velocity", "piston velocity, up +")}
+    feedthrough = False
+
+    def __post_init__(self):
+        for k, unit in (("bottom_area", "m^2"), ("top_area", "m^2"), ("bottom_volume", "m^3"),
+                        ("top_volume", "m^3"), ("bulk_modulus", "Pa"), ("moving_mass", "kg"),
+                        ("stroke", "m")):
+            if not getattr(self, k) > 0:
+                raise ValueError(f"{self.name}: {k} must be > 0 [{unit}], got {getattr(self, k)!r}")
+        if self.stop_damping is None:   # critically damped contact
+            self.stop_damping = 2.0 * np.sqrt(self.stop_stiffness * self.moving_mass)
+
+    @property
+    def states(self):
+        return [State("bottom_pressure", "Pa", self.nominal_pressure),
+                State("top_pressure", "Pa", self.nominal_pressure),
+                State("position", "m", self.stroke / 2),
+                State("velocity", "m/s", 1.0)]
+
+    def hydraulic_natural_frequency(self, position: float = 0.0) -> float:
+        """``w_h = sqrt(beta_c (A_b^2/V_b + A_t^2/V_t)/m)`` at a position, [Hz]."""
+        Vb = self.bottom_volume + self.bottom_area * position
+        Vt = self.top_volume - self.top_area * position
+        w2 = self.bulk_modulus * (self.bottom_area**2 / Vb + self.top_area**2 / Vt) / self.moving_mass
+        return float(np.sqrt(w2) / (2 * np.pi))
+
+    def outputs_of(self, t, x, u, p):
+        return {k: x[k] for k in ("bottom_pressure", "top_pressure", "position", "velocity")}
+
+    def stop_force(self, x, v):
+        """Force of the end stops on the piston, positive up, [N]."""
+        half = self.stroke / 2
+        over_top = ops.fmax(x - half, 0.0)
+        over_bottom = ops.fmax(-half - x, 0.0)
+        ramp = 1e-5  # [m] penetration over which the contact damping engages
+        return (-self.stop_stiffness * over_top + self.stop_stiffness * over_bottom
+                - self.stop_damping * v * ops.fmin((over_top + over_bottom) / ramp, 1.0))
+
+    def derivatives(self, t, x, u, p):
+        pb, pt, xp, vp = x["bottom_pressure"], x["top_pressure"], x["position"], x["velocity"]
+        Ab, At = self.bottom_area, self.top_area
+        Vb = ops.fmax(self.bottom_volume + Ab * xp, self.min_volume_fraction * self.bottom_volume)
+        Vt = ops.fmax(self.top_volume - At * xp, self.min_volume_fraction * self.top_volume)
+        qi = self.internal_leakage * (pt - pb)
+        beta = self.bulk_modulus
+        return {
+            "bottom_pressure": beta / Vb * (u["bottom_flow"] - Ab * vp + qi
+                                            - self.external_leakage * pb),           # (M22)
+            "top_pressure": beta / Vt * (-u["top_flow"] + At * vp - qi
+                                         - self.external_leakage * pt),
+            "position": vp,                                                          # (M23)
+            "velocity": (Ab * pb - At * pt - u["load_force"] - u["friction_force"]
+                         - self.moving_mass * self.gravity + self.stop_force(xp, vp))
+            / self.moving_mass,
+        }
+
+    def initial_guess(self):
+        return {"bottom_pressure": self.nominal_pressure, "top_pressure": self.nominal_pressure,
+                "position": self.initial_position, "velocity": 0.0}

@@ -1,0 +1,80 @@
+"""Position controller of the servo loop: P or PID, current limited to +-rated (MODEL.md 1)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..network import ops
+from ..network.component import Component, Port, State
+
+__all__ = ["PositionController"]
+
+
+@dataclass(kw_only=True)
+class PositionController(Component):
+    """``i = Kp e + Ki int(e) + Kd de/dt``, ``e = x_ref - x_p``, clipped to +-current_limit.
+
+    The derivative acts on the measured velocity (``-Kd v_p``, no derivative kick).
+    With ``sample_time`` set, the controller is sampled: the current is computed at multiples
+    of the sample time and held in between (zero-order hold); the simulation steps the
+    integrator from sample to sample.
+
+    Parameters
+    ----------
+    proportional_gain : float   Kp, [A/m]
+    integral_gain : float       Ki, [A/(m s)]
+    derivative_gain : float     Kd, [A s/m]
+    current_limit : float       [A] (the valve's rated current)
+    sample_time : float         [s]; None for a continuous controller
+
+    Ports: inputs ``reference`` and ``position`` [m], ``velocity`` [m/s]; output ``current`` [A].
+    States: ``error_integral`` [m s] when Ki != 0.
+    """
+
+    proportional_gain: float = 0.0
+    integral_gain: float = 0.0
+    derivative_gain: float = 0.0
+    current_limit: float = 0.05
+    sample_time: float | None = None
+
+    inputs = {"reference": Port("position", "position command"),
+              "position": Port("position", "measured piston position"),
+              "velocity": Port("velocity", "measured piston velocity")}
+    outputs = {"current": Port("current", "valve coil current")}
+
+    def __post_init__(self):
+        if not self.current_limit > 0:
+            raise ValueError(f"{self.name}: current_limit must be > 0 [A]")
+        if self.sample_time is not None and not self.sample_time > 0:
+            raise ValueError(f"{self.name}: sample_time must be > 0 [s]")
+
+    @property
+    def states(self):
+        return [State("error_integral", "m s", 1e-3)] if self.integral_gain else []
+
+    def runtime_parameters(self):
+        return {"held_current": 0.0} if self.sample_time else {}
+
+    def law(self, x, u):
+        """Unclipped control law, [A]."""
+        e = u["reference"] - u["position"]
+        i = self.proportional_gain * e - self.derivative_gain * u["velocity"]
+        if self.integral_gain:
+            i = i + self.integral_gain * x["error_integral"]
+        return i
+
+    def clip(self, i):
+        return ops.fmin(ops.fmax(i, -self.current_limit), self.current_limit)
+
+    def outputs_of(self, t, x, u, p):
+        if self.sample_time:
+            return {"current": p["held_current"]}
+        return {"current": self.clip(self.law(x, u))}
+
+    def derivatives(self, t, x, u, p):
+        if not self.integral_gain:
+            return {}
+        return {"error_integral": u["reference"] - u["position"]}
+
+    def sample(self, x, u):
+        """New held current at a sampling instant (numbers), [A]."""
+        return {"held_current": float(self.clip(self.law(x, u)))}

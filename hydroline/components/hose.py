@@ -1,0 +1,78 @@
+"""A hose section: a linear line model (modal or lumped) as a network component (MODEL.md 2)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..lines.modal import StateSpaceLine
+from ..network import ops
+from ..network.component import Component, Port, State
+
+__all__ = ["HoseSection"]
+
+_QUANTITY = {"pressure": "pressure", "flow": "flow"}
+
+
+@dataclass(kw_only=True)
+class HoseSection(Component):
+    """A line in one causal form, ``x' = A x + B u``, ``y = C x + D u`` (M8-M14).
+
+    Parameters
+    ----------
+    model : StateSpaceLine   The line model (e.g. ``ModalLine(line, 6, "PQ")``)
+    nominal_pressure : float Pressure level used for the steady-state solver's guess, [Pa]
+
+    Ports: the form's inputs and outputs, named as in
+    :data:`hydroline.lines.FORM_PORTS` (e.g. PQ: inputs ``upstream_pressure``,
+    ``downstream_flow``; outputs ``downstream_pressure``, ``upstream_flow``).
+    States: the model's, e.g. ``mode3.flow``.
+    """
+
+    model: StateSpaceLine = None
+    nominal_pressure: float = 0.0
+
+    def __post_init__(self):
+        m = self.model
+        self.inputs = {n: Port(n.split("_")[1], f"{n.replace('_', ' ')} of the line")
+                       for n in m.input_names}
+        self.outputs = {n: Port(n.split("_")[1], f"{n.replace('_', ' ')} of the line")
+                        for n in m.output_names}
+        self.feedthrough = bool(np.any(m.D != 0))
+        scale_p, scale_q = max(self.nominal_pressure, 1e5), 1e-4
+        self._states = []
+        for name in m.state_names:
+            unit, scale = {"pressure": ("Pa", scale_p), "flow": ("m^3/s", scale_q),
+                           "volume": ("m^3", 1e-6), "pressure_integral": ("Pa s", scale_p * 1e-3)
+                           }.get(name.split(".")[1].rstrip("0123456789"), ("m^3/s", scale_q))
+            self._states.append(State(name, unit, scale))
+
+    @property
+    def states(self):
+        return self._states
+
+    def _vectors(self, x, u):
+        xv = ops.vertcat([x[s.name] for s in self._states])
+        uv = ops.vertcat([u[n] for n in self.model.input_names]) if u else None
+        return xv, uv
+
+    def outputs_of(self, t, x, u, p):
+        xv, uv = self._vectors(x, u)
+        y = ops.matvec(self.model.C, xv)
+        if self.feedthrough:
+            y = y + ops.matvec(self.model.D, uv)
+        return {n: y[i] for i, n in enumerate(self.model.output_names)}
+
+    def derivatives(self, t, x, u, p):
+        xv, uv = self._vectors(x, u)
+        dx = ops.matvec(self.model.A, xv) + ops.matvec(self.model.B, uv)
+        return {s.name: dx[i] for i, s in enumerate(self._states)}
+
+    def initial_guess(self):
+        ins = self.model.input_names
+        u0 = [self.nominal_pressure if n.endswith("pressure") else 0.0 for n in ins]
+        if self.model.form == "QQ":
+            x0 = self.model.initial_state(u0, mean_pressure=self.nominal_pressure)
+        else:
+            x0 = self.model.initial_state(u0)
+        return {s.name: float(v) for s, v in zip(self._states, x0)}

@@ -1,0 +1,32 @@
+"""Flow junction: the continuity equation at a node without volume."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..network.component import Component, Port
+
+__all__ = ["FlowJunction"]
+
+
+@dataclass(kw_only=True)
+class FlowJunction(Component):
+    """``flow = sum_i sign_i * inflow_i`` (volume-free node; its compliance lives in the lines).
+
+    Parameters
+    ----------
+    terms : dict   Input port name -> sign (+1 or -1)
+
+    Ports: inputs the terms [m^3/s]; output ``flow`` [m^3/s].
+    """
+
+    terms: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.inputs = {k: Port("flow", f"flow term, sign {s:+d}") for k, s in self.terms.items()}
+        self.outputs = {"flow": Port("flow", "sum of the signed flows")}
+
+    def outputs_of(self, t, x, u, p):
+        total = 0.0
+        for k, s in self.terms.items():
+            total = total + s * u[k]
+        return {"flow": total}

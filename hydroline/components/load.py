@@ -1,0 +1,55 @@
+"""The load on the rod: specimen spring and damper, applied force (MODEL.md 4)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..network import ops
+from ..network.component import Component, Port
+
+__all__ = ["Load"]
+
+
+@dataclass(kw_only=True)
+class Load(Component):
+    """Force of the load on the piston, positive down (opposing +x).
+
+    ``F = k (x - x_free) + b v + F_applied`` (and ``F_step`` after ``step_time``). The load
+    mass is rigidly attached and is part of the actuator's ``moving_mass`` (the rig builder
+    adds it), so its weight is in (M23)'s ``m g``.
+
+    Parameters
+    ----------
+    mass : float            Load mass, [kg] (added to the actuator's moving mass)
+    stiffness : float       Specimen stiffness k, [N/m]
+    damping : float         Specimen damping b, [N s/m]
+    free_position : float   x at which the specimen is unloaded, [m]
+    applied_force : float   Constant external force, positive down, [N]
+    step_time, step_force   Optional step of the external force, [s], [N]
+
+    Ports: inputs ``position`` [m], ``velocity`` [m/s]; output ``load_force`` [N].
+    """
+
+    mass: float = 0.0
+    stiffness: float = 0.0
+    damping: float = 0.0
+    free_position: float = 0.0
+    applied_force: float = 0.0
+    step_time: float | None = None
+    step_force: float = 0.0
+
+    inputs = {"position": Port("position", "piston position"),
+              "velocity": Port("velocity", "piston velocity")}
+    outputs = {"load_force": Port("force", "force of the load, positive down")}
+
+    def runtime_parameters(self):
+        return {"applied_force": self.applied_force}
+
+    def outputs_of(self, t, x, u, p):
+        f = self.stiffness * (u["position"] - self.free_position) + self.damping * u["velocity"] \
+            + p["applied_force"]
+        if self.step_time is not None:
+            f = f + ops.if_else(t >= self.step_time, self.step_force, 0.0)
+        return {"load_force": f}
+
+    def breakpoints(self, t_end):
+        return [] if self.step_time is None else [self.step_time]

@@ -1,0 +1,61 @@
+"""Static flow resistances: the manifold (HSM) loss (M1) and the check valve."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..network import ops
+from ..network.component import Component, Port
+
+__all__ = ["LinearResistance", "OrientedResistance"]
+
+
+@dataclass(kw_only=True)
+class OrientedResistance(Component):
+    """Base of causal resistances: flow ``flow`` positive from inlet to outlet, drop ``dp(q)``.
+
+    Parameters
+    ----------
+    compute : str   Which pressure the component outputs: "outlet" (inputs
+                    ``inlet_pressure``, ``flow``; output ``outlet_pressure = p_in - dp(q)``)
+                    or "inlet" (inputs ``outlet_pressure``, ``flow``; output
+                    ``inlet_pressure = p_out + dp(q)``)
+    """
+
+    compute: str = "outlet"
+
+    def __post_init__(self):
+        if self.compute not in ("outlet", "inlet"):
+            raise ValueError(f"{self.name}: compute must be 'outlet' or 'inlet', got {self.compute!r}")
+        known = "inlet" if self.compute == "outlet" else "outlet"
+        self.inputs = {f"{known}_pressure": Port("pressure", f"pressure at the {known}"),
+                       "flow": Port("flow", "flow from inlet to outlet")}
+        self.outputs = {f"{self.compute}_pressure": Port("pressure", f"pressure at the {self.compute}")}
+
+    def pressure_drop(self, q):
+        raise NotImplementedError
+
+    def outputs_of(self, t, x, u, p):
+        dp = self.pressure_drop(u["flow"])
+        if self.compute == "outlet":
+            return {"outlet_pressure": u["inlet_pressure"] - dp}
+        return {"inlet_pressure": u["outlet_pressure"] + dp}
+
+
+@dataclass(kw_only=True)
+class LinearResistance(OrientedResistance):
+    """Linear resistance ``dp = R q`` (M1), the lumped HSM loss near rated flow.
+
+    Parameters
+    ----------
+    resistance : float   R, [Pa s/m^3]
+    """
+
+    resistance: float = 0.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not self.resistance >= 0:
+            raise ValueError(f"{self.name}: resistance must be >= 0 [Pa s/m^3], got {self.resistance!r}")
+
+    def pressure_drop(self, q):
+        return self.resistance * q

@@ -1,0 +1,122 @@
+"""Four-way two-stage servovalve: spool dynamics and orifice flows (MODEL.md 4, M19-M21)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..network import ops
+from ..network.component import Component, Port, State
+
+__all__ = ["Servovalve", "valve_coefficient"]
+
+
+def valve_coefficient(rated_flow, rated_pressure_drop, max_opening):
+    """K_v from rated data (M21): ``Q_N / (x_max sqrt(dp_N/2))``, [m^2/s/sqrt(Pa)].
+
+    Parameters
+    ----------
+    rated_flow : float            Q_N, [m^3/s]
+    rated_pressure_drop : float   Valve drop at rated flow, over two orifices, [Pa]
+    max_opening : float           Spool opening at rated current, [m]
+    """
+    return rated_flow / (max_opening * np.sqrt(rated_pressure_drop / 2.0))
+
+
+@dataclass(kw_only=True)
+class Servovalve(Component):
+    """Spool position from coil current (M19) and sharp-edged orifice flows (M20).
+
+    Spool: ``x_v'' = w_v^2 (G_v i_sat - x_v) - 2 zeta_v w_v x_v'`` with ``i_sat`` the current
+    saturated at +-rated_current and ``G_v = max_opening/rated_current``; the opening used in
+    (M20) is clipped to +-max_opening. Each orifice: ``K_v sg(+-x_v + u_k) phi(dp)`` with
+    ``phi(dp) = dp/(dp^2 + p_lam^2)^(1/4)``, the square-root law with a laminar region
+    below ``laminar_pressure`` (:func:`hydroline.network.ops.smooth_sqrt`).
+
+    Parameters
+    ----------
+    rated_current : float        [A]
+    rated_flow : float           Q_N at rated drop, [m^3/s]
+    rated_pressure_drop : float  dp_N over the valve (two orifices), [Pa]
+    max_opening : float          Spool opening at rated current, [m]
+    natural_frequency : float    w_v/2pi, [Hz]
+    damping_ratio : float        zeta_v, [-]
+    laps : tuple                 (u1, u2, u3, u4), negative overlap, positive underlap, [m]
+    laminar_pressure : float     p_lam, [Pa]
+
+    Ports: inputs ``current`` [A], ``supply_pressure``, ``return_pressure``,
+    ``bottom_pressure``, ``top_pressure`` [Pa]; outputs ``supply_flow`` (into the valve from
+    the supply port), ``return_flow`` (out of the valve into the return port), ``bottom_flow``
+    (into the bottom chamber, q_b), ``top_flow`` (out of the top chamber, q_t) [m^3/s].
+    States ``spool_position`` [m], ``spool_velocity`` [m/s].
+    """
+
+    rated_current: float = 0.05
+    rated_flow: float = 3.15e-4
+    rated_pressure_drop: float = 6.895e6
+    max_opening: float = 4e-4
+    natural_frequency: float = 140.0
+    damping_ratio: float = 1.0
+    laps: tuple = (0.0, 0.0, 0.0, 0.0)
+    laminar_pressure: float = 1e5
+
+    inputs = {
+        "current": Port("current", "coil current"),
+        "supply_pressure": Port("pressure", "pressure at the supply port P"),
+        "return_pressure": Port("pressure", "pressure at the return port T"),
+        "bottom_pressure": Port("pressure", "pressure at control port to the bottom chamber"),
+        "top_pressure": Port("pressure", "pressure at control port to the top chamber"),
+    }
+    outputs = {
+        "supply_flow": Port("flow", "flow into the valve at the supply port"),
+        "return_flow": Port("flow", "flow out of the valve at the return port"),
+        "bottom_flow": Port("flow", "flow into the bottom chamber (q_b)"),
+        "top_flow": Port("flow", "flow out of the top chamber (q_t)"),
+    }
+
+    def __post_init__(self):
+        for k, unit in (("rated_current", "A"), ("rated_flow", "m^3/s"),
+                        ("rated_pressure_drop", "Pa"), ("max_opening", "m"),
+                        ("natural_frequency", "Hz"), ("damping_ratio", "-"),
+                        ("laminar_pressure", "Pa")):
+            if not getattr(self, k) > 0:
+                raise ValueError(f"{self.name}: {k} must be > 0 [{unit}], got {getattr(self, k)!r}")
+        if len(self.laps) != 4:
+            raise ValueError(f"{self.name}: laps must be four lengths (u1..u4) [m]")
+
+    @property
+    def coefficient(self) -> float:
+        """K_v (M21), [m^2/s/sqrt(Pa)]."""
+        return valve_coefficient(self.rated_flow, self.rated_pressure_drop, self.max_opening)
+
+    @property
+    def states(self):
+        return [State("spool_position", "m", self.max_opening),
+                State("spool_velocity", "m/s", self.max_opening * self.natural_frequency * 6.3)]
+
+    def orifice(self, opening, dp):
+        """Flow through one metering edge (M20), [m^3/s]; opening >= 0 [m], dp [Pa]."""
+        return self.coefficient * opening * ops.smooth_sqrt(dp, self.laminar_pressure)
+
+    def outputs_of(self, t, x, u, p):
+        xm = self.max_opening
+        xv = ops.fmin(ops.fmax(x["spool_position"], -xm), xm)
+        u1, u2, u3, u4 = self.laps
+        pS, pR, pb, pt = (u["supply_pressure"], u["return_pressure"],
+                          u["bottom_pressure"], u["top_pressure"])
+        s_b = self.orifice(ops.fmax(xv + u1, 0.0), pS - pb)     # P -> B
+        b_r = self.orifice(ops.fmax(-xv + u2, 0.0), pb - pR)    # B -> T
+        t_r = self.orifice(ops.fmax(xv + u3, 0.0), pt - pR)     # A(top) -> T
+        s_t = self.orifice(ops.fmax(-xv + u4, 0.0), pS - pt)    # P -> A(top)
+        return {"bottom_flow": s_b - b_r,                       # (M20)
+                "top_flow": t_r - s_t,
+                "supply_flow": s_b + s_t,
+                "return_flow": b_r + t_r}
+
+    def derivatives(self, t, x, u, p):
+        w = 2.0 * np.pi * self.natural_frequency
+        i_sat = ops.fmin(ops.fmax(u["current"], -self.rated_current), self.rated_current)
+        gain = self.max_opening / self.rated_current
+        return {"spool_position": x["spool_velocity"],                                   # (M19)
+                "spool_velocity": w * w * (gain * i_sat - x["spool_position"])
+                - 2.0 * self.damping_ratio * w * x["spool_velocity"]}

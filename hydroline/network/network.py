@@ -1,0 +1,224 @@
+"""Wire components by named signals and assemble one explicit ODE ``dx/dt = f(t, x, p)``.
+
+States are named ``<component>.<state>`` (e.g. ``supply.section2.mode3.flow``); signals keep
+their network names (e.g. ``supply_port_pressure``). Runtime parameters (``<component>.<name>``)
+can change between runs without recompiling.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from . import ops
+from .component import Component
+
+__all__ = ["Network", "NetworkError", "CompiledModel"]
+
+
+class NetworkError(ValueError):
+    """A network that cannot be assembled: the message names components and signals."""
+
+
+class Network:
+    """A set of components connected by signal names.
+
+    Parameters
+    ----------
+    components : list[Component]   The components; names must be unique
+    external : dict                Optional signals supplied from outside as constants,
+                                   signal name -> (quantity, value [SI])
+    """
+
+    def __init__(self, components: list[Component]):
+        self.components = list(components)
+        self._check()
+        self._order = self._evaluation_order()
+        self.state_names, self.state_scales, self._state_slices = [], [], {}
+        for c in self.components:
+            start = len(self.state_names)
+            for s in c.states:
+                self.state_names.append(f"{c.name}.{s.name}")
+                self.state_scales.append(s.scale)
+            self._state_slices[c.name] = slice(start, len(self.state_names))
+        self.state_scales = np.array(self.state_scales, dtype=float)
+        self.parameter_names, self.parameter_values = [], []
+        for c in self.components:
+            for k, v in c.runtime_parameters().items():
+                self.parameter_names.append(f"{c.name}.{k}")
+                self.parameter_values.append(float(v))
+        self.parameter_values = np.array(self.parameter_values, dtype=float)
+        self.signal_names = [c.signal(o) for c in self._order for o in c.outputs]
+        self._compiled = None
+
+    # ---- checks ----------------------------------------------------------------------
+    def _check(self):
+        names = [c.name for c in self.components]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise NetworkError(f"duplicate component name(s): {', '.join(sorted(dup))}")
+        self.producer = {}
+        for c in self.components:
+            for port in c.connections:
+                if port not in c.inputs and port not in c.outputs:
+                    raise NetworkError(f"component '{c.name}' has no port '{port}' "
+                                       f"(ports: {', '.join(list(c.inputs) + list(c.outputs))})")
+            for port, spec in c.outputs.items():
+                sig = c.signal(port)
+                if sig in self.producer:
+                    other, oport = self.producer[sig]
+                    raise NetworkError(
+                        f"signal '{sig}' has two outputs: '{other.name}.{oport}' and '{c.name}.{port}'")
+                self.producer[sig] = (c, port)
+        for c in self.components:
+            for port, spec in c.inputs.items():
+                sig = c.signal(port)
+                if sig not in self.producer:
+                    raise NetworkError(f"input '{c.name}.{port}' ({spec.quantity}) is unconnected: "
+                                       f"no component outputs signal '{sig}'")
+                src, sport = self.producer[sig]
+                sspec = src.outputs[sport]
+                if sspec.quantity != spec.quantity:
+                    raise NetworkError(
+                        f"causality mismatch on signal '{sig}': '{src.name}.{sport}' outputs a "
+                        f"{sspec.quantity} [{sspec.unit}] but '{c.name}.{port}' expects a "
+                        f"{spec.quantity} [{spec.unit}] (a port that takes a {spec.quantity} must "
+                        f"face one that gives it)")
+
+    def _evaluation_order(self):
+        deps = {}
+        for c in self.components:
+            if c.feedthrough:
+                deps[c.name] = {self.producer[c.signal(p)][0].name for p in c.inputs} - {c.name}
+            else:
+                deps[c.name] = set()
+        by_name = {c.name: c for c in self.components}
+        order, done, visiting = [], set(), []
+
+        def visit(n):
+            if n in done:
+                return
+            if n in visiting:
+                loop = visiting[visiting.index(n):] + [n]
+                raise NetworkError("algebraic loop through feed-through components: "
+                                   + " -> ".join(loop))
+            visiting.append(n)
+            for d in sorted(deps[n]):
+                visit(d)
+            visiting.pop()
+            done.add(n)
+            order.append(by_name[n])
+
+        for c in self.components:
+            visit(c.name)
+        return order
+
+    # ---- evaluation ------------------------------------------------------------------
+    def component(self, name: str) -> Component:
+        for c in self.components:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    def state_slice(self, name: str) -> slice:
+        return self._state_slices[name]
+
+    def _split(self, c, x, p):
+        sl = self._state_slices[c.name]
+        xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
+        ps = {}
+        for k in c.runtime_parameters():
+            ps[k] = p[self.parameter_names.index(f"{c.name}.{k}")]
+        return xs, ps
+
+    def evaluate(self, t, x, p=None):
+        """Derivatives and all signals at (t, x), with numbers or CasADi symbols.
+
+        Returns
+        -------
+        (dx, signals) : list of derivatives in state order, dict signal -> value
+        """
+        p = self.parameter_values if p is None else p
+        signals = {}
+        split = {}
+        for c in self._order:
+            xs, ps = self._split(c, x, p)
+            split[c.name] = (xs, ps)
+            u = {port: signals[c.signal(port)] for port in c.inputs} if c.feedthrough else {}
+            y = c.outputs_of(t, xs, u, ps)
+            for port in c.outputs:
+                signals[c.signal(port)] = y[port]
+        dx = [None] * len(self.state_names)
+        for c in self.components:
+            xs, ps = split[c.name]
+            u = {port: signals[c.signal(port)] for port in c.inputs}
+            d = c.derivatives(t, xs, u, ps)
+            sl = self._state_slices[c.name]
+            for i, s in enumerate(c.states):
+                if s.name not in d:
+                    raise NetworkError(f"component '{c.name}' gives no derivative for state '{s.name}'")
+                dx[sl.start + i] = d[s.name]
+        return dx, signals
+
+    def rhs(self, t, x, p=None):
+        """Reference (NumPy, per-component Python) right-hand side, [state units/s]."""
+        dx, _ = self.evaluate(t, np.asarray(x, dtype=float), p)
+        return np.array([float(v) for v in dx])
+
+    def signals_at(self, t, x, p=None) -> dict:
+        """All signals at one (t, x), floats."""
+        _, sig = self.evaluate(t, np.asarray(x, dtype=float), p)
+        return {k: float(v) for k, v in sig.items()}
+
+    def compile(self):
+        """The assembled model as CasADi functions (built once per network)."""
+        if self._compiled is None:
+            self._compiled = CompiledModel(self)
+        return self._compiled
+
+    def guess(self) -> np.ndarray:
+        """Initial guess of all states from the components, [SI]."""
+        x = np.zeros(len(self.state_names))
+        for c in self.components:
+            g = c.initial_guess()
+            sl = self._state_slices[c.name]
+            for i, s in enumerate(c.states):
+                x[sl.start + i] = g.get(s.name, 0.0)
+        return x
+
+    def breakpoints(self, t_end: float) -> list[float]:
+        pts = set()
+        for c in self.components:
+            pts.update(b for b in c.breakpoints(t_end) if 0 < b < t_end)
+        return sorted(pts)
+
+
+@dataclass
+class CompiledModel:
+    """One CasADi graph of the whole network: f(t, x, p), its Jacobian, all signals."""
+
+    network: Network
+
+    def __post_init__(self):
+        net = self.network
+        n, m = len(net.state_names), len(net.parameter_names)
+        t = ca.SX.sym("t")
+        x = ca.SX.sym("x", n)
+        p = ca.SX.sym("p", m)
+        xs = [x[i] for i in range(n)]
+        ps = [p[i] for i in range(m)]
+        dx, sig = net.evaluate(t, xs, ps)
+        self.t, self.x, self.p = t, x, p
+        self.dx = ca.vertcat(*[ca.SX(v) if not isinstance(v, ca.SX) else v for v in dx])
+        self.y = ca.vertcat(*[ca.SX(sig[k]) if not isinstance(sig[k], ca.SX) else sig[k]
+                              for k in net.signal_names])
+        self.f = ca.Function("f", [t, x, p], [self.dx], ["t", "x", "p"], ["dx"])
+        self.jac = ca.Function("jacobian_f", [t, x, p], [ca.jacobian(self.dx, x)], ["t", "x", "p"], ["J"])
+        self.signals = ca.Function("signals", [t, x, p], [self.y], ["t", "x", "p"], ["y"])
+
+    def rhs(self, t, x, p):
+        return np.asarray(self.f(t, x, p)).ravel()
+
+    def jacobian(self, t, x, p):
+        return np.asarray(ca.densify(self.jac(t, x, p)))

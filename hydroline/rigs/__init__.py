@@ -1,0 +1,189 @@
+"""Rig descriptions: TOML files whose quantities carry units, parsed into SI (a parameter set).
+
+``load_rig()`` gives the embedded default, the 2005 paper's rig (``ayalew2005.toml``);
+``load_rig(path)`` reads a user's file, which may give only what differs (``base`` key, see
+below) or a complete description. Parameters are addressed by their dotted path in the file,
+e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with units.
+"""
+from __future__ import annotations
+
+import copy
+import tomllib
+from importlib import resources
+from pathlib import Path
+
+from ..units import UnitError, parse_quantity
+
+__all__ = ["Rig", "RigError", "load_rig", "SCHEMA", "DEFAULT_RIG"]
+
+DEFAULT_RIG = "ayalew2005.toml"
+
+
+class RigError(ValueError):
+    """A rig file or parameter that cannot be used; the message is one line naming it."""
+
+
+_LINE = {"length": "m", "diameter": "m", "bulk_modulus": "Pa", "modes": "-"}
+_ACC = {"capacity": "m^3", "precharge_pressure": "Pa", "polytropic_exponent": "-",
+        "connection_length": "m", "connection_diameter": "m", "model": "str", "modes": "-"}
+
+#: Every parameter a rig file may hold: section -> key -> SI unit ("-" dimensionless,
+#: "str" text, "list:<unit>" list of quantities).
+SCHEMA = {
+    "rig": {"name": "str", "modes_per_section": "-", "base": "str", "line_method": "str"},
+    "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa"},
+    "supply": {"pressure": "Pa"},
+    "supply.section1": _LINE, "supply.section2": _LINE,
+    "supply.manifold": {"resistance": "Pa*s/m^3"},
+    "supply.accumulator": _ACC,
+    "return": {"pressure": "Pa"},
+    "return.section1": _LINE, "return.section2": _LINE,
+    "return.manifold": {"resistance": "Pa*s/m^3"},
+    "return.check_valve": {"reverse_resistance": "Pa*s/m^3", "forward_resistance": "Pa*s/m^3"},
+    "return.accumulator": _ACC,
+    "servovalve": {"rated_current": "A", "rated_flow": "m^3/s", "rated_pressure_drop": "Pa",
+                   "max_opening": "m", "natural_frequency": "Hz", "damping_ratio": "-",
+                   "laps": "list:m", "laminar_pressure": "Pa"},
+    "actuator": {"area": "m^2", "bottom_area": "m^2", "top_area": "m^2", "stroke": "m",
+                 "dead_volume": "m^3", "bulk_modulus": "Pa", "moving_mass": "kg",
+                 "initial_position": "m", "gravity": "m/s^2", "internal_leakage": "m^3/s/Pa",
+                 "external_leakage": "m^3/s/Pa"},
+    "friction": {"viscous_up": "N*s/m", "viscous_down": "N*s/m", "coulomb_up": "N",
+                 "coulomb_down": "N", "static_up": "N", "static_down": "N",
+                 "stribeck_velocity": "m/s", "stribeck_exponent": "-",
+                 "regularization_velocity": "m/s", "model": "str",
+                 "bristle_stiffness": "N/m", "bristle_damping": "N*s/m"},
+    "load": {"mass": "kg", "stiffness": "N/m", "damping": "N*s/m", "applied_force": "N",
+             "free_position": "m"},
+    "controller": {"proportional_gain": "A/m", "integral_gain": "A/m/s",
+                   "derivative_gain": "A*s/m", "current_limit": "A", "sample_time": "s"},
+    "scenario.open-loop-step": {"current": "A", "time": "s", "t_end": "s", "initial_current": "A"},
+    "scenario.closed-loop-sine": {"amplitude": "m", "frequency": "Hz", "offset": "m",
+                                  "t_end": "s", "initial_position": "m"},
+}
+
+
+def _flatten(tree, prefix=""):
+    out = {}
+    for k, v in tree.items():
+        path = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(_flatten(v, path + "."))
+        else:
+            out[path] = v
+    return out
+
+
+def _parse(path: str, raw):
+    section, _, key = path.rpartition(".")
+    if section not in SCHEMA:
+        known = ", ".join(sorted(SCHEMA))
+        raise RigError(f"{path}: unknown component/section '{section or key}' (known: {known})")
+    unit = SCHEMA[section].get(key)
+    if unit is None:
+        raise RigError(f"{path}: unknown parameter '{key}' of '{section}' "
+                       f"(known: {', '.join(sorted(SCHEMA[section]))})")
+    if unit == "str":
+        if not isinstance(raw, str):
+            raise RigError(f"{path}: expected text, got {raw!r}")
+        return raw
+    try:
+        if unit.startswith("list:"):
+            if not isinstance(raw, list):
+                raise RigError(f"{path}: expected a list of quantities in [{unit[5:]}]")
+            return [parse_quantity(v, unit[5:], f"{path}[{i}]") for i, v in enumerate(raw)]
+        return parse_quantity(raw, "dimensionless" if unit == "-" else unit, path)
+    except UnitError as e:
+        raise RigError(str(e)) from None
+
+
+class Rig:
+    """A parsed rig: parameters in SI, addressed by dotted paths.
+
+    Attributes
+    ----------
+    values : dict   path -> SI value (float), text or list
+    raw : dict      path -> the value as written (with its unit)
+    source : str    Where it came from
+    """
+
+    def __init__(self, values: dict, raw: dict, source: str):
+        self.values, self.raw, self.source = values, raw, source
+
+    def __getitem__(self, path: str):
+        try:
+            return self.values[path]
+        except KeyError:
+            raise RigError(f"{path}: not set in rig {self.source}") from None
+
+    def get(self, path: str, default=None):
+        return self.values.get(path, default)
+
+    def __contains__(self, path):
+        return path in self.values
+
+    def set(self, path: str, value) -> "Rig":
+        """Set one parameter from a quantity with units (``"1.5 m"``) or, for text and
+        dimensionless ones, a plain value. Returns self."""
+        self.values[path] = _parse(path, value)
+        self.raw[path] = value
+        return self
+
+    def copy(self) -> "Rig":
+        return Rig(copy.deepcopy(self.values), copy.deepcopy(self.raw), self.source)
+
+    def to_toml(self) -> str:
+        """The rig as TOML text with its units (the raw values)."""
+        sections = {}
+        for path, v in self.raw.items():
+            sec, _, key = path.rpartition(".")
+            sections.setdefault(sec, {})[key] = v
+        lines = []
+        for sec in sections:
+            lines.append(f"[{sec}]")
+            for k, v in sections[sec].items():
+                lines.append(f"{k} = {_toml_value(v)}")
+            lines.append("")
+        return "\n".join(lines)
+
+
+def _toml_value(v):
+    if isinstance(v, str):
+        return '"' + v.replace('"', '\\"') + '"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    return repr(v)
+
+
+def _read_toml(path) -> tuple[dict, str]:
+    if path is None:
+        text = resources.files(__name__).joinpath(DEFAULT_RIG).read_text()
+        return tomllib.loads(text), f"embedded:{DEFAULT_RIG}"
+    p = Path(path)
+    if not p.is_file():
+        raise RigError(f"rig file not found: {path}")
+    try:
+        return tomllib.loads(p.read_text()), str(p)
+    except tomllib.TOMLDecodeError as e:
+        raise RigError(f"{path}: not valid TOML: {e}") from None
+
+
+def load_rig(path=None) -> Rig:
+    """Load a rig file (the embedded default when ``path`` is None).
+
+    A file with ``[rig] base = "default"`` starts from the embedded rig and overrides only
+    what it lists.
+    """
+    tree, source = _read_toml(path)
+    raw = _flatten(tree)
+    if raw.get("rig.base") in ("default", DEFAULT_RIG):
+        base = load_rig(None)
+        for k, v in raw.items():
+            if k != "rig.base":
+                base.set(k, v)
+        base.source = source
+        return base
+    values = {k: _parse(k, v) for k, v in raw.items()}
+    return Rig(values, raw, source)

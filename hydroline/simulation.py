@@ -1,0 +1,287 @@
+"""Steady-state start and time integration of an assembled network (MODEL.md section 6).
+
+The model (a :class:`~hydroline.network.Network`), its parameters (components built from a
+rig) and the solver are kept apart: :func:`solve_steady_state` finds the network's rest state
+for the inputs before the disturbance; :func:`integrate` runs the compiled model with SUNDIALS
+CVODES (through CasADi, exact sparse Jacobian) or, as the plain reference path, SciPy's BDF on
+the per-component Python right-hand side.
+"""
+from __future__ import annotations
+
+import time as _time
+import warnings
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import pandas as pd
+
+from .network import Network
+
+__all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
+           "SteadyStateError"]
+
+
+class SteadyStateError(RuntimeError):
+    """The steady-state solver did not converge; the message says how far it got."""
+
+
+@dataclass
+class SteadyState:
+    """A solved rest state.
+
+    Attributes
+    ----------
+    x : ndarray          States, [SI]
+    p : ndarray          Runtime parameters after settling, [SI]
+    residual : float     max_i |dx_i/dt| / scale_i at x, [1/s] (0 for an exact rest state)
+    worst_state : str    Name of the state with the largest scaled residual
+    """
+
+    x: np.ndarray
+    p: np.ndarray
+    residual: float
+    worst_state: str
+
+
+def _scaled_residual(model, t, x, p, scales):
+    r = model.rhs(t, x, p) / scales
+    k = int(np.argmax(np.abs(r)))
+    return float(abs(r[k])), k
+
+
+def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
+    """Pseudo-transient continuation (Kelley & Keyes, SIAM J. Numer. Anal. 35 (1998) 508):
+    implicit-Euler steps ``(I/dt - J) dz = f`` in scaled states with dt growing as the residual
+    falls (switched evolution relaxation), ending in plain Newton steps. Robust where Newton
+    alone stalls on the kinks of check valves, stops and orifices."""
+    z = x / scales
+    n = len(z)
+
+    def resid(z):
+        return model.rhs(t0, z * scales, p) / scales
+
+    r = resid(z)
+    norm = np.linalg.norm(r)
+    dt = dt0
+    for _ in range(max_iter):
+        if np.max(np.abs(r)) < tol:
+            break
+        J = model.jacobian(t0, z * scales, p) * scales[None, :] / scales[:, None]
+        M = np.eye(n) / dt - J
+        try:
+            dz = np.linalg.solve(M, r)
+        except np.linalg.LinAlgError:
+            dz = np.linalg.lstsq(M, r, rcond=1e-14)[0]
+        z_new = z + dz
+        r_new = resid(z_new)
+        norm_new = np.linalg.norm(r_new)
+        if not np.isfinite(norm_new) or norm_new > 10 * norm:
+            dt *= 0.1
+            continue
+        z, r = z_new, r_new
+        dt = min(dt * max(norm / max(norm_new, 1e-300), 0.5), 1e12)
+        norm = norm_new
+    return z * scales
+
+
+def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,
+                       max_rounds: int = 3) -> SteadyState:
+    """Solve ``f(t0, x) = 0`` for the whole network (MODEL.md 6), then let components settle.
+
+    Pseudo-transient continuation with the compiled model's exact Jacobian, on the states
+    scaled by their typical magnitudes, starting from the components' guesses; components
+    then settle (e.g. accumulators adopt the steady pressure as their charge state) and the
+    solve repeats until nothing changes.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+    t0 : float          Time at which the inputs are taken (before the disturbance), [s]
+    x_guess : array     Start for the solver; the components' guesses when None
+    tol : float         Required scaled residual, [1/s]
+
+    Returns
+    -------
+    SteadyState
+    """
+    model = network.compile()
+    scales = network.state_scales
+    p = network.parameter_values.copy()
+    x = network.guess() if x_guess is None else np.asarray(x_guess, dtype=float).copy()
+    for _ in range(max_rounds):
+        x = _pseudo_transient(model, t0, x, p, scales, tol)
+        changed = False
+        for c in network.components:
+            sl = network.state_slice(c.name)
+            xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
+            u = network.signals_at(t0, x, p)
+            ps = {k: p[network.parameter_names.index(f"{c.name}.{k}")]
+                  for k in c.runtime_parameters()}
+            cu = {port: u[c.signal(port)] for port in c.inputs}
+            res = c.settle(xs, cu, ps)
+            if res is None:
+                continue
+            new_x, new_p = res
+            for i, s in enumerate(c.states):
+                if s.name in new_x:
+                    changed |= abs(new_x[s.name] - x[sl.start + i]) > 1e-12 * scales[sl.start + i]
+                    x[sl.start + i] = new_x[s.name]
+            for k, v in new_p.items():
+                j = network.parameter_names.index(f"{c.name}.{k}")
+                p[j] = v
+        res, k = _scaled_residual(model, t0, x, p, scales)
+        if res < tol and not changed:
+            break
+    res, k = _scaled_residual(model, t0, x, p, scales)
+    if not np.all(np.isfinite(x)) or res > 1e-4:
+        raise SteadyStateError(
+            f"steady state not found: scaled residual {res:.3g} 1/s at state "
+            f"'{network.state_names[k]}' (check pressures, laps and initial position)")
+    return SteadyState(x, p, res, network.state_names[k])
+
+
+@dataclass
+class SimulationResult:
+    """Time series of every named signal and state.
+
+    Attributes
+    ----------
+    data : pandas.DataFrame   Index ``time`` [s]; one column per signal and per state
+                              (``<component>.<state>``), SI units
+    steady_state : SteadyState
+    wall_time : float         Integration wall time, [s]
+    stats : dict              Solver statistics (function/Jacobian evaluations, steps)
+    warnings : list[str]      Validity warnings (e.g. pressure below zero absolute)
+    """
+
+    data: pd.DataFrame
+    steady_state: SteadyState | None = None
+    wall_time: float = 0.0
+    stats: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)
+    metadata: dict = field(default_factory=dict)
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.data.index.to_numpy()
+
+    def __getitem__(self, key) -> np.ndarray:
+        return self.data[key].to_numpy()
+
+    def to_csv(self, path):
+        """Write all series to CSV (time in the first column, SI units)."""
+        self.data.to_csv(path, index_label="time")
+
+    def plot(self, signals=None, path=None, title=None):
+        """Plot signals (default: the paper's Figs. 10-12 set when present). Returns the figure."""
+        from .plotting import plot_result
+
+        return plot_result(self, signals=signals, path=path, title=title)
+
+
+def _segments(t_end, breakpoints, sample_time=None):
+    edges = {0.0, float(t_end)}
+    edges.update(b for b in breakpoints if 0 < b < t_end)
+    if sample_time:
+        n = int(np.floor(t_end / sample_time + 1e-9))
+        edges.update(k * sample_time for k in range(1, n + 1) if k * sample_time < t_end)
+    return sorted(edges)
+
+
+def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
+              solver: str = "cvodes", rtol: float = 1e-7, atol_scale: float = 1e-8,
+              progress=None) -> SimulationResult:
+    """Integrate the network from x0 over [0, t_end], sampled every dt_out.
+
+    Parameters
+    ----------
+    network : Network   The model
+    x0 : array          Initial state (e.g. ``solve_steady_state(...).x``), [SI]
+    t_end : float       End time, [s]
+    dt_out : float      Output interval, [s]
+    p : array           Runtime parameters (network defaults when None)
+    solver : str        "cvodes" (compiled, CasADi + SUNDIALS) or "scipy" (reference: per-component
+                        Python right-hand side, SciPy BDF)
+    rtol : float        Relative tolerance
+    atol_scale : float  Absolute tolerance as a fraction of each state's typical magnitude
+    progress : callable Called with the fraction done (0..1) after each segment
+
+    Returns
+    -------
+    SimulationResult
+    """
+    if not t_end > 0:
+        raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")
+    p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
+    model = network.compile()
+    n_out = int(round(t_end / dt_out))
+    t_out = np.linspace(0.0, n_out * dt_out, n_out + 1)
+    sampled = [c for c in network.components if getattr(c, "sample_time", None)]
+    sample_time = sampled[0].sample_time if sampled else None
+    edges = _segments(t_out[-1], network.breakpoints(t_out[-1]), sample_time)
+    atol = atol_scale * network.state_scales
+    X = np.empty((len(t_out), len(x0)))
+    X[0] = x0
+    x = np.asarray(x0, dtype=float).copy()
+    stats = {"nfevals": 0, "njevals": 0, "nsteps": 0}
+    dae = {"t": model.t, "x": model.x, "p": model.p, "ode": model.dx}
+    # per-state absolute tolerance through scaling: CVODES integrates z = x / scale
+    scaled_dae = _scaled_dae(dae, network.state_scales) if solver == "cvodes" else None
+    tic = _time.perf_counter()
+    for a, b in zip(edges[:-1], edges[1:]):
+        if sampled:
+            _apply_samples(network, sampled, a, x, p)
+        inside = np.flatnonzero((t_out > a + 1e-12) & (t_out <= b + 1e-12))
+        grid = list(t_out[inside])
+        if not grid or abs(grid[-1] - b) > 1e-12:
+            grid.append(b)
+        if solver == "cvodes":
+            F = ca.integrator("F", "cvodes", scaled_dae, a, grid,
+                              {"reltol": rtol, "abstol": atol_scale, "max_num_steps": 200000})
+            out = F(x0=x / network.state_scales, p=p)
+            Z = np.asarray(out["xf"]).T * network.state_scales
+            st = F.stats()
+            stats["nfevals"] += int(st.get("nfevals", 0))
+            stats["njevals"] += int(st.get("njevals", 0) or st.get("nlinsetups", 0))
+            stats["nsteps"] += int(st.get("nsteps", 0))
+        elif solver == "scipy":
+            from scipy.integrate import solve_ivp
+
+            sol = solve_ivp(lambda t, y: network.rhs(t, y, p), (a, b), x, method="BDF",
+                            t_eval=grid, rtol=rtol, atol=atol)
+            if not sol.success:
+                raise RuntimeError(f"integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
+            Z = sol.y.T
+            stats["nfevals"] += sol.nfev
+            stats["njevals"] += sol.njev
+        else:
+            raise ValueError(f"solver must be 'cvodes' or 'scipy', got {solver!r}")
+        if not np.all(np.isfinite(Z)):
+            raise RuntimeError(f"integration produced non-finite states in [{a:.6g}, {b:.6g}] s")
+        X[inside] = Z[:len(inside)]
+        x = Z[-1].copy()
+        if progress:
+            progress(b / t_out[-1])
+    wall = _time.perf_counter() - tic
+    Y = np.asarray(model.signals.map(len(t_out))(t_out, X.T, np.tile(p[:, None], len(t_out)))).T
+    data = pd.DataFrame(np.hstack([Y, X]), index=pd.Index(t_out, name="time"),
+                        columns=list(network.signal_names) + list(network.state_names))
+    return SimulationResult(data=data, wall_time=wall, stats=stats)
+
+
+def _scaled_dae(dae, scales):
+    """The ODE in scaled states z = x/scale, so one absolute tolerance fits every state."""
+    z = ca.SX.sym("z", dae["x"].shape[0])
+    ode = ca.substitute(dae["ode"], dae["x"], z * ca.DM(scales)) / ca.DM(scales)
+    return {"t": dae["t"], "x": z, "p": dae["p"], "ode": ode}
+
+
+def _apply_samples(network, sampled, t, x, p):
+    sig = network.signals_at(t, x, p)
+    for c in sampled:
+        sl = network.state_slice(c.name)
+        xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
+        u = {port: sig[c.signal(port)] for port in c.inputs}
+        for k, v in c.sample(xs, u).items():
+            p[network.parameter_names.index(f"{c.name}.{k}")] = v

@@ -1,0 +1,229 @@
+"""Build the electrohydraulic test system's network from a rig (MODEL.md sections 1, 6).
+
+Signal names (the network's vocabulary; see ``docs`` of each component for its ports):
+
+supply side   pump_pressure -> supply.section1 -> supply.manifold_inlet_pressure ->
+              supply.manifold -> supply.manifold_pressure (HSM node, accumulator) ->
+              supply.section2 -> supply_port_pressure (valve P port); flows back:
+              supply_port_flow, supply.section2_inflow, supply.accumulator_flow,
+              supply.manifold_flow, pump_flow.
+return side   return_port_flow (valve T port, toward tank) -> return.section2 ->
+              return.manifold_pressure (HSM return node, accumulator) -> manifold resistance,
+              check valve -> return.section1 -> tank_pressure; pressures back:
+              return_port_pressure, return.check_valve_pressure,
+              return.section1_inlet_pressure; flows return.section2_outflow,
+              return.accumulator_flow, return.manifold_flow, tank_flow.
+valve/piston  valve_current, bottom_chamber_flow, top_chamber_flow, bottom_chamber_pressure,
+              top_chamber_pressure, piston_position, piston_velocity, friction_force,
+              load_force.
+
+The supply hoses use the PQ form (M8). The return hoses are oriented from the valve toward
+the tank and use the QP form (inputs: the flow entering at the valve end and the pressure at
+the tank end), which is the paper's PQ return line seen from its other end: the same
+dynamics with every flow positive toward the tank, so no sign flips at the valve or the HSM.
+A section of zero length is removed: its HSM node is joined to the valve port.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import components as comp
+from .fluid import Fluid
+from .lines import Line, ModalLine, RigidColumnLine
+from .network import Network
+from .rigs import Rig, RigError
+
+__all__ = ["build_network", "make_fluid", "make_line", "hose_lines"]
+
+
+def make_fluid(rig: Rig) -> Fluid:
+    try:
+        return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"])
+    except ValueError as e:
+        raise RigError(f"fluid: {e}") from None
+
+
+def make_line(rig: Rig, section: str, fluid: Fluid) -> Line:
+    """The Line of a hose section, e.g. ``section="supply.section2"``."""
+    try:
+        return Line(rig[f"{section}.length"], rig[f"{section}.diameter"], fluid,
+                    rig.get(f"{section}.bulk_modulus"))
+    except ValueError as e:
+        raise RigError(f"{section}.{e}") from None
+
+
+def hose_lines(rig: Rig) -> dict:
+    """All hose sections of the rig with a positive length, name -> Line."""
+    fluid = make_fluid(rig)
+    out = {}
+    for side in ("supply", "return"):
+        for sec in ("section1", "section2"):
+            name = f"{side}.{sec}"
+            if rig.get(f"{name}.length", 0.0) == 0.0 and sec == "section2":
+                continue
+            out[name] = make_line(rig, name, fluid)
+    return out
+
+
+def _modes(rig, section):
+    n = rig.get(f"{section}.modes", rig.get("rig.modes_per_section", 6))
+    if int(n) != n or n < 1:
+        raise RigError(f"{section}.modes: must be an integer >= 1, got {n!r}")
+    return int(n)
+
+
+def _hose(rig, name, line, form, nominal):
+    model = ModalLine(line, _modes(rig, name), form, method=rig.get("rig.line_method", "yang-tobler"))
+    return model
+
+
+def _accumulator(rig, side, fluid, nominal):
+    key = f"{side}.accumulator"
+    conn = Line(rig[f"{key}.connection_length"], rig[f"{key}.connection_diameter"], fluid)
+    kind = rig.get(f"{key}.model", "version-II")
+    kw = dict(capacity=rig[f"{key}.capacity"], precharge_pressure=rig[f"{key}.precharge_pressure"],
+              polytropic_exponent=rig[f"{key}.polytropic_exponent"], nominal_pressure=nominal,
+              connections={"pressure": f"{side}.manifold_pressure", "flow": f"{side}.accumulator_flow"})
+    if kind == "version-II":
+        rc = RigidColumnLine(conn)
+        return comp.PistonAccumulator(name=key, resistance=conn.resistance,
+                                      inertance=conn.inertance, **kw)
+    if kind == "modal":
+        return comp.PistonAccumulator(name=key, connection_model=ModalLine(
+            conn, _modes(rig, key), "PP"), **kw)
+    raise RigError(f"{key}.model: must be 'version-II' or 'modal', got {kind!r}")
+
+
+def build_network(rig: Rig, commands: list, position_guess: float | None = None) -> Network:
+    """The full test-system network of a rig, driven by the given command components.
+
+    Parameters
+    ----------
+    rig : Rig             Parameters (SI)
+    commands : list       Components that output ``valve_current`` (open loop) or
+                          ``position_reference`` plus a controller (closed loop)
+    position_guess : float  Initial piston position for the steady-state solver, [m]
+
+    Returns
+    -------
+    Network
+    """
+    try:
+        return _build(rig, commands, position_guess)
+    except (KeyError,) as e:
+        raise RigError(f"rig is missing {e}") from None
+
+
+def _build(rig, commands, position_guess):
+    fluid = make_fluid(rig)
+    p_s, p_t = rig["supply.pressure"], rig["return.pressure"]
+    parts = []
+    # ---- supply side (PQ lines) ----
+    parts.append(comp.PressureSource(name="supply.pump", pressure=p_s,
+                                     connections={"pressure": "pump_pressure"}))
+    s1 = make_line(rig, "supply.section1", fluid)
+    parts.append(comp.HoseSection(name="supply.section1", model=_hose(rig, "supply.section1", s1, "PQ", p_s),
+                                  nominal_pressure=p_s, connections={
+        "upstream_pressure": "pump_pressure", "downstream_flow": "supply.manifold_flow",
+        "downstream_pressure": "supply.manifold_inlet_pressure", "upstream_flow": "pump_flow"}))
+    parts.append(comp.LinearResistance(name="supply.manifold", compute="outlet",
+                                       resistance=rig["supply.manifold.resistance"], connections={
+        "inlet_pressure": "supply.manifold_inlet_pressure", "flow": "supply.manifold_flow",
+        "outlet_pressure": "supply.manifold_pressure"}))
+    parts.append(_accumulator(rig, "supply", fluid, p_s))
+    if rig.get("supply.section2.length", 0.0) > 0:
+        s2 = make_line(rig, "supply.section2", fluid)
+        parts.append(comp.HoseSection(name="supply.section2", model=_hose(rig, "supply.section2", s2, "PQ", p_s),
+                                      nominal_pressure=p_s, connections={
+            "upstream_pressure": "supply.manifold_pressure", "downstream_flow": "supply_port_flow",
+            "downstream_pressure": "supply_port_pressure", "upstream_flow": "supply.section2_inflow"}))
+        s2_in = "supply.section2_inflow"
+        supply_port = "supply_port_pressure"
+    else:
+        s2_in, supply_port = "supply_port_flow", "supply.manifold_pressure"
+    parts.append(comp.FlowJunction(name="supply.junction", terms={"section2": 1, "accumulator": 1},
+                                   connections={"section2": s2_in, "accumulator": "supply.accumulator_flow",
+                                                "flow": "supply.manifold_flow"}))
+    # ---- return side (QP lines, flow toward the tank) ----
+    parts.append(comp.PressureSource(name="return.tank", pressure=p_t,
+                                     connections={"pressure": "tank_pressure"}))
+    r1 = make_line(rig, "return.section1", fluid)
+    parts.append(comp.HoseSection(name="return.section1", model=_hose(rig, "return.section1", r1, "QP", p_t),
+                                  nominal_pressure=p_t, connections={
+        "upstream_flow": "return.manifold_flow", "downstream_pressure": "tank_pressure",
+        "upstream_pressure": "return.section1_inlet_pressure", "downstream_flow": "tank_flow"}))
+    parts.append(comp.CheckValve(name="return.check_valve", compute="inlet",
+                                 forward_resistance=rig.get("return.check_valve.forward_resistance", 0.0),
+                                 reverse_resistance=rig.get("return.check_valve.reverse_resistance", 1e13),
+                                 connections={"outlet_pressure": "return.section1_inlet_pressure",
+                                              "flow": "return.manifold_flow",
+                                              "inlet_pressure": "return.check_valve_pressure"}))
+    parts.append(comp.LinearResistance(name="return.manifold", compute="inlet",
+                                       resistance=rig["return.manifold.resistance"], connections={
+        "outlet_pressure": "return.check_valve_pressure", "flow": "return.manifold_flow",
+        "inlet_pressure": "return.manifold_pressure"}))
+    parts.append(_accumulator(rig, "return", fluid, p_t))
+    if rig.get("return.section2.length", 0.0) > 0:
+        r2 = make_line(rig, "return.section2", fluid)
+        parts.append(comp.HoseSection(name="return.section2", model=_hose(rig, "return.section2", r2, "QP", p_t),
+                                      nominal_pressure=p_t, connections={
+            "upstream_flow": "return_port_flow", "downstream_pressure": "return.manifold_pressure",
+            "upstream_pressure": "return_port_pressure", "downstream_flow": "return.section2_outflow"}))
+        r2_out, return_port = "return.section2_outflow", "return_port_pressure"
+    else:
+        r2_out, return_port = "return_port_flow", "return.manifold_pressure"
+    parts.append(comp.FlowJunction(name="return.junction", terms={"section2": 1, "accumulator": -1},
+                                   connections={"section2": r2_out, "accumulator": "return.accumulator_flow",
+                                                "flow": "return.manifold_flow"}))
+    # ---- valve, actuator, friction, load ----
+    sv = "servovalve"
+    parts.append(comp.Servovalve(
+        name="servovalve", rated_current=rig[f"{sv}.rated_current"], rated_flow=rig[f"{sv}.rated_flow"],
+        rated_pressure_drop=rig[f"{sv}.rated_pressure_drop"], max_opening=rig[f"{sv}.max_opening"],
+        natural_frequency=rig[f"{sv}.natural_frequency"], damping_ratio=rig[f"{sv}.damping_ratio"],
+        laps=tuple(rig.get(f"{sv}.laps", [0.0] * 4)),
+        laminar_pressure=rig.get(f"{sv}.laminar_pressure", 1e5),
+        connections={"current": "valve_current", "supply_pressure": supply_port,
+                     "return_pressure": return_port, "bottom_pressure": "bottom_chamber_pressure",
+                     "top_pressure": "top_chamber_pressure", "supply_flow": "supply_port_flow",
+                     "return_flow": "return_port_flow", "bottom_flow": "bottom_chamber_flow",
+                     "top_flow": "top_chamber_flow"}))
+    parts.append(make_actuator(rig, position_guess))
+    fr = {k: rig[f"friction.{k}"] for k in (
+        "viscous_up", "viscous_down", "coulomb_up", "coulomb_down", "static_up", "static_down",
+        "stribeck_velocity", "stribeck_exponent", "regularization_velocity",
+        "bristle_stiffness", "bristle_damping", "model") if f"friction.{k}" in rig}
+    parts.append(comp.StribeckFriction(name="friction", **fr,
+                                       connections={"velocity": "piston_velocity"}))
+    parts.append(comp.Load(name="load", stiffness=rig.get("load.stiffness", 0.0),
+                           damping=rig.get("load.damping", 0.0),
+                           applied_force=rig.get("load.applied_force", 0.0),
+                           free_position=rig.get("load.free_position", 0.0),
+                           connections={"position": "piston_position", "velocity": "piston_velocity"}))
+    return Network(parts + list(commands))
+
+
+def make_actuator(rig: Rig, position_guess=None) -> comp.Actuator:
+    """The actuator component of a rig (load mass added to the moving mass)."""
+    area = rig.get("actuator.area")
+    Ab = rig.get("actuator.bottom_area", area)
+    At = rig.get("actuator.top_area", area)
+    if Ab is None or At is None:
+        raise RigError("actuator.area: give area or bottom_area and top_area [m^2]")
+    stroke = rig["actuator.stroke"]
+    dead = rig["actuator.dead_volume"]
+    x0 = rig.get("actuator.initial_position", 0.0) if position_guess is None else position_guess
+    return comp.Actuator(
+        name="actuator", bottom_area=Ab, top_area=At,
+        bottom_volume=dead + Ab * stroke / 2, top_volume=dead + At * stroke / 2,
+        bulk_modulus=rig["actuator.bulk_modulus"],
+        moving_mass=rig["actuator.moving_mass"] + rig.get("load.mass", 0.0),
+        stroke=stroke, gravity=rig.get("actuator.gravity", 9.81),
+        internal_leakage=rig.get("actuator.internal_leakage", 0.0),
+        external_leakage=rig.get("actuator.external_leakage", 0.0),
+        initial_position=x0,
+        nominal_pressure=0.5 * (rig["supply.pressure"] + rig["return.pressure"]),
+        connections={"bottom_flow": "bottom_chamber_flow", "top_flow": "top_chamber_flow",
+                     "bottom_pressure": "bottom_chamber_pressure",
+                     "top_pressure": "top_chamber_pressure", "position": "piston_position",
+                     "velocity": "piston_velocity"})
