@@ -1,0 +1,191 @@
+"""Experiments on a rig: the open-loop step and the closed-loop sine (the paper's tests).
+
+``simulate(rig, scenario, t_end)`` builds the network of the rig with the scenario's command
+components, solves its steady state before the disturbance, integrates, checks validity
+(pressures below zero absolute) and returns a :class:`~hydroline.simulation.SimulationResult`
+whose ``metadata`` holds what the summary needs.
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import components as comp
+from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
+from .rigs import Rig, RigError, load_rig
+from .simulation import SimulationResult, integrate, solve_steady_state
+from .system import build_network, make_actuator
+
+__all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario"]
+
+SCENARIOS = ("open-loop-step", "closed-loop-sine")
+
+#: Pressures watched for cavitation (MODEL.md 8): below this absolute pressure the oil
+#: releases gas and the linear line model no longer holds, [Pa].
+CAVITATION_PRESSURE = 0.0
+WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
+                     "top_chamber_pressure", "supply.manifold_pressure", "return.manifold_pressure")
+
+
+@dataclass
+class Scenario:
+    """An experiment: command components, its duration and the disturbance time.
+
+    Attributes
+    ----------
+    name : str
+    commands : list          Components that drive the network (``valve_current`` source or
+                             reference + controller)
+    t_end : float            Simulated time, [s]
+    t_disturbance : float    Time of the step (metrics start there), [s]
+    position_guess : float   Initial piston position, [m]
+    """
+
+    name: str
+    commands: list
+    t_end: float
+    t_disturbance: float
+    position_guess: float | None = None
+
+
+def _scenario_value(rig, scenario, key, default=None):
+    v = rig.get(f"scenario.{scenario}.{key}", default)
+    if v is None:
+        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}")
+    return v
+
+
+def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None) -> Scenario:
+    """The command components and times of a named scenario, from the rig's [scenario.*]."""
+    if scenario == "open-loop-step":
+        t_step = _scenario_value(rig, scenario, "time", 0.01)
+        cmd = comp.StepCommand(name="command", quantity="current",
+                               initial=rig.get(f"scenario.{scenario}.initial_current", 0.0),
+                               final=_scenario_value(rig, scenario, "current", rig["servovalve.rated_current"]),
+                               time=t_step, connections={"command": "valve_current"})
+        return Scenario(scenario, [cmd], t_end or _scenario_value(rig, scenario, "t_end", 0.25), t_step)
+    if scenario == "closed-loop-sine":
+        ref = comp.SineCommand(name="command", quantity="position",
+                               offset=_scenario_value(rig, scenario, "offset", 0.0),
+                               amplitude=_scenario_value(rig, scenario, "amplitude"),
+                               frequency=_scenario_value(rig, scenario, "frequency"),
+                               start=0.0, connections={"command": "position_reference"})
+        ctl = comp.PositionController(
+            name="controller", proportional_gain=rig["controller.proportional_gain"],
+            integral_gain=rig.get("controller.integral_gain", 0.0),
+            derivative_gain=rig.get("controller.derivative_gain", 0.0),
+            current_limit=rig.get("controller.current_limit", rig["servovalve.rated_current"]),
+            sample_time=rig.get("controller.sample_time"),
+            connections={"reference": "position_reference", "position": "piston_position",
+                         "velocity": "piston_velocity", "current": "valve_current"})
+        return Scenario(scenario, [ref, ctl], t_end or _scenario_value(rig, scenario, "t_end", 1.0), 0.0,
+                        position_guess=_scenario_value(rig, scenario, "initial_position", 0.0))
+    raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+
+
+def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
+             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "cvodes",
+             progress=None, rtol: float = 1e-7) -> SimulationResult:
+    """Run a scenario on a rig, from its solved steady state.
+
+    Parameters
+    ----------
+    rig : Rig, str or None   A parsed rig, a path to a rig TOML file, or None for the
+                             embedded default (the 2005 paper's rig)
+    scenario : str           "open-loop-step" or "closed-loop-sine"
+    t_end : float            Simulated time, [s] (the scenario's default when None)
+    dt_out : float           Output sampling interval, [s]
+    solver : str             "cvodes" (compiled) or "scipy" (reference Python path)
+    progress : callable      Called with the fraction done
+    rtol : float             Relative tolerance of the integrator
+
+    Returns
+    -------
+    SimulationResult  (``.data`` has every signal and state; ``.metadata`` the scenario,
+    the disturbance time, the actuator's hydraulic natural frequency)
+    """
+    tic = _time.perf_counter()
+    if not isinstance(rig, Rig):
+        rig = load_rig(rig)
+    sc = build_scenario(rig, scenario, t_end)
+    net = build_network(rig, sc.commands, sc.position_guess)
+    ss = solve_steady_state(net, t0=0.0)
+    res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
+                    rtol=rtol)
+    res.steady_state = ss
+    act = net.component("actuator")
+    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
+                        stroke=act.stroke,
+                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
+                        total_wall_time=_time.perf_counter() - tic,
+                        steady_state_residual=ss.residual, n_states=len(net.state_names))
+    res.warnings.extend(check_cavitation(res))
+    res.metadata["total_wall_time"] = _time.perf_counter() - tic
+    return res
+
+
+def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
+    """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8)."""
+    out = []
+    for k in WATCHED_PRESSURES:
+        if k not in res.data:
+            continue
+        p = res[k]
+        i = int(np.argmin(p))
+        if p[i] < threshold:
+            below = res.t[p < threshold]
+            out.append(f"{k} falls below {threshold / 1e6:g} MPa absolute from t = {below[0] * 1e3:.1f} ms "
+                       f"(lowest {p[i] / 1e6:.2f} MPa at {res.t[i] * 1e3:.1f} ms): the oil would release "
+                       f"gas/cavitate there and the line model is not valid; raise the return/back "
+                       f"pressure or shorten the hose")
+    return out
+
+
+def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, float]:
+    """[t_disturbance, t_contact): the part of the run with the piston clear of its stops.
+
+    The open-loop piston runs into its far stop after roughly stroke / speed; what follows is a
+    second transient (the flow stops), not the response to the step. [s]
+    """
+    t0 = res.metadata.get("t_disturbance", 0.0)
+    t, x = res.t, res["piston_position"]
+    half = res.metadata.get("stroke", np.inf) / 2
+    after = (t > t0 + 5e-3) & (np.abs(x) > half - margin)
+    moving = np.flatnonzero(after)
+    return t0, float(t[moving[0]]) if len(moving) else float(t[-1])
+
+
+def port_metrics(t, p, t0):
+    """Frequency [Hz], amplitude [MPa] and settling time [s] of one pressure trace."""
+    f = oscillation_frequency(t, p, t0)
+    return {"frequency_hz": None if f is None else float(f),
+            "amplitude_mpa": float(oscillation_amplitude(t, p, t0)) / 1e6,
+            "settling_time_s": _none_or_float(settling_time(t, p, t0))}
+
+
+def _none_or_float(v):
+    return None if v is None else float(v)
+
+
+def summarize(res: SimulationResult) -> dict:
+    """The summary of the CLI's ``--json``: supply/return port metrics, w_h, wall time.
+
+    Metrics are taken over :func:`metrics_window`.
+    """
+    t0, t1 = metrics_window(res)
+    m = res.t <= t1
+    t = res.t[m]
+    out = {}
+    for side, key in (("supply", "supply_port_pressure"), ("return", "return_port_pressure")):
+        out[side] = port_metrics(t, res[key][m], t0)
+    out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
+    out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
+    if res.metadata.get("scenario") == "closed-loop-sine":
+        err = res["position_reference"] - res["piston_position"]
+        out["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
+        out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
+    out["metrics_window_s"] = [t0, t1]
+    out["warnings"] = list(res.warnings)
+    return out
