@@ -175,6 +175,7 @@ def summarize(res: SimulationResult) -> dict:
     Metrics are taken over :func:`metrics_window`.
     """
     t0, t1 = metrics_window(res)
+    res.metadata["metrics_window_end"] = t1
     m = res.t <= t1
     t = res.t[m]
     out = {}
