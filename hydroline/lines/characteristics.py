@@ -54,9 +54,10 @@ lossless line is reproduced exactly), compatibility equations along dx/dt = +-c:
 
     C+:  dp + Z0 dq + Z0 F dt = 0,     C-:  dp - Z0 dq - Z0 F dt = 0,     Z0 = rho c / A
 
-with the friction integrated along each characteristic by the trapezoidal rule (its value at the
-foot, from the known state, and at the head, linear in the unknown flow through the recursion
-above, so the scheme stays explicit).  Boundaries: pressure imposed at x = 0 (with C-), flow
+with the friction integrated along each characteristic by the trapezoidal rule by default (its
+value at the foot, from the known state, and at the head, linear in the unknown flow through the
+recursion above, so the scheme stays explicit).  At t = 0 the inputs jump to their t = 0
+values from the initial steady state.  Boundaries: pressure imposed at x = 0 (with C-), flow
 imposed at x = L (with C+).
 """
 from __future__ import annotations
@@ -234,6 +235,18 @@ class CharacteristicsLine:
     ----------
     dt : float         Time step [s]
     dx : float         Reach length [m]
+
+    Notes
+    -----
+    Accuracy (measured against :func:`hydroline.lines.inverse_laplace.exact_step_response`
+    with the dissipative model (M6); unit pressure step, blocked end, ten wave periods, times
+    more than 0.1 L/c away from the wave fronts): for a 3.048 m x 12.7 mm hose (oil
+    nu = 3.2e-5 m^2/s, c = 1072 m/s) max error 0.084 / 0.043 / 0.023 / 0.012 and rms
+    0.018 / 0.0094 / 0.0048 / 0.0025 of the step for 16 / 32 / 64 / 128 reaches; for a
+    10 m x 6 mm line max 0.071 / 0.037 / 0.020 / 0.011.  The convergence is first order; the
+    error sits just behind the wave fronts, where the friction of a step has its
+    1/sqrt(time) singularity, and shows there as a decaying odd-even (2 dt) ripple.  Steady
+    friction alone is wrong by more than 50 % of the step for such hoses.
     """
 
     def __init__(self, line: Line, n_reaches: int = 64, friction: str = "unsteady",
@@ -295,8 +308,9 @@ class CharacteristicsLine:
             Flow of the initial steady state [m^3/s]; the initial pressure then falls linearly
             along the line by the laminar resistance (M12), with no unsteady-friction memory.
         theta : float
-            Implicitness of the friction integral along a characteristic, 0.5 (trapezoidal,
-            default) ... 1 [-].
+            Weight of the head (new time level) in the friction integral along a
+            characteristic, 0 (explicit, friction at the foot only) ... 1; 0.5 = trapezoidal
+            (default) [-].
 
         Returns
         -------
