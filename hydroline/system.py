@@ -21,7 +21,10 @@ The supply hoses use the PQ form (M8). The return hoses are oriented from the va
 the tank and use the QP form (inputs: the flow entering at the valve end and the pressure at
 the tank end), which is the paper's PQ return line seen from its other end: the same
 dynamics with every flow positive toward the tank, so no sign flips at the valve or the HSM.
-A section of zero length is removed: its HSM node is joined to the valve port.
+A section II of zero length is removed: the HSM node is joined to the valve port, and the
+manifold block's oil volume (``<side>.manifold.volume``, default 50 cm^3) becomes the node
+(without it the manifold resistance and the valve orifices would form an algebraic loop);
+its pressure is then the port pressure signal (``supply_port_pressure``/``return_port_pressure``).
 """
 from __future__ import annotations
 
@@ -34,6 +37,19 @@ from .network import Network
 from .rigs import Rig, RigError
 
 __all__ = ["build_network", "make_fluid", "make_line", "hose_lines"]
+
+
+#: Oil volume of the HSM block's passages, used as the node when a section II is removed, [m^3]
+#: ([assumed] 50 cm^3; a rig sets it as ``supply.manifold.volume``).
+DEFAULT_NODE_VOLUME = 50e-6
+
+
+def _section_present(rig: Rig, section: str) -> bool:
+    """True for a positive length; False for 0 (section removed); RigError below 0."""
+    length = rig.get(f"{section}.length", 0.0)
+    if length < 0:
+        raise RigError(f"{section}.length: must be >= 0 m (0 removes the section), got {length!r} m")
+    return length > 0
 
 
 def make_fluid(rig: Rig) -> Fluid:
@@ -59,7 +75,7 @@ def hose_lines(rig: Rig) -> dict:
     for side in ("supply", "return"):
         for sec in ("section1", "section2"):
             name = f"{side}.{sec}"
-            if rig.get(f"{name}.length", 0.0) == 0.0 and sec == "section2":
+            if sec == "section2" and not _section_present(rig, name):
                 continue
             out[name] = make_line(rig, name, fluid)
     return out
@@ -77,13 +93,13 @@ def _hose(rig, name, line, form, nominal):
     return model
 
 
-def _accumulator(rig, side, fluid, nominal):
+def _accumulator(rig, side, fluid, nominal, node_signal):
     key = f"{side}.accumulator"
     conn = Line(rig[f"{key}.connection_length"], rig[f"{key}.connection_diameter"], fluid)
     kind = rig.get(f"{key}.model", "version-II")
     kw = dict(capacity=rig[f"{key}.capacity"], precharge_pressure=rig[f"{key}.precharge_pressure"],
               polytropic_exponent=rig[f"{key}.polytropic_exponent"], nominal_pressure=nominal,
-              connections={"pressure": f"{side}.manifold_pressure", "flow": f"{side}.accumulator_flow"})
+              connections={"pressure": node_signal, "flow": f"{side}.accumulator_flow"})
     if kind == "version-II":
         rc = RigidColumnLine(conn)
         return comp.PistonAccumulator(name=key, resistance=conn.resistance,
@@ -126,24 +142,37 @@ def _build(rig, commands, position_guess):
                                   nominal_pressure=p_s, connections={
         "upstream_pressure": "pump_pressure", "downstream_flow": "supply.manifold_flow",
         "downstream_pressure": "supply.manifold_inlet_pressure", "upstream_flow": "pump_flow"}))
-    parts.append(comp.LinearResistance(name="supply.manifold", compute="outlet",
-                                       resistance=rig["supply.manifold.resistance"], connections={
-        "inlet_pressure": "supply.manifold_inlet_pressure", "flow": "supply.manifold_flow",
-        "outlet_pressure": "supply.manifold_pressure"}))
-    parts.append(_accumulator(rig, "supply", fluid, p_s))
-    if rig.get("supply.section2.length", 0.0) > 0:
+    supply_close_coupled = not _section_present(rig, "supply.section2")
+    node = "supply_port_pressure" if supply_close_coupled else "supply.manifold_pressure"
+    parts.append(_accumulator(rig, "supply", fluid, p_s, node))
+    if not supply_close_coupled:
+        parts.append(comp.LinearResistance(name="supply.manifold", compute="outlet",
+                                           resistance=rig["supply.manifold.resistance"], connections={
+            "inlet_pressure": "supply.manifold_inlet_pressure", "flow": "supply.manifold_flow",
+            "outlet_pressure": "supply.manifold_pressure"}))
         s2 = make_line(rig, "supply.section2", fluid)
         parts.append(comp.HoseSection(name="supply.section2", model=_hose(rig, "supply.section2", s2, "PQ", p_s),
                                       nominal_pressure=p_s, connections={
             "upstream_pressure": "supply.manifold_pressure", "downstream_flow": "supply_port_flow",
             "downstream_pressure": "supply_port_pressure", "upstream_flow": "supply.section2_inflow"}))
-        s2_in = "supply.section2_inflow"
+        parts.append(comp.FlowJunction(name="supply.junction", terms={"section2": 1, "accumulator": 1},
+                                       connections={"section2": "supply.section2_inflow",
+                                                    "accumulator": "supply.accumulator_flow",
+                                                    "flow": "supply.manifold_flow"}))
         supply_port = "supply_port_pressure"
     else:
-        s2_in, supply_port = "supply_port_flow", "supply.manifold_pressure"
-    parts.append(comp.FlowJunction(name="supply.junction", terms={"section2": 1, "accumulator": 1},
-                                   connections={"section2": s2_in, "accumulator": "supply.accumulator_flow",
-                                                "flow": "supply.manifold_flow"}))
+        # HSM close-coupled to the valve: the manifold block's oil volume is the node
+        parts.append(comp.LinearResistance(name="supply.manifold", compute="flow",
+                                           resistance=rig["supply.manifold.resistance"], connections={
+            "inlet_pressure": "supply.manifold_inlet_pressure",
+            "outlet_pressure": node, "flow": "supply.manifold_flow"}))
+        parts.append(comp.HydraulicVolume(
+            name="supply.node", volume=rig.get("supply.manifold.volume", DEFAULT_NODE_VOLUME),
+            bulk_modulus=fluid.bulk_modulus, nominal_pressure=p_s,
+            terms={"inflow": 1, "valve": -1, "accumulator": -1},
+            connections={"inflow": "supply.manifold_flow", "valve": "supply_port_flow",
+                         "accumulator": "supply.accumulator_flow", "pressure": node}))
+        supply_port = node
     # ---- return side (QP lines, flow toward the tank) ----
     parts.append(comp.PressureSource(name="return.tank", pressure=p_t,
                                      connections={"pressure": "tank_pressure"}))
@@ -152,29 +181,46 @@ def _build(rig, commands, position_guess):
                                   nominal_pressure=p_t, connections={
         "upstream_flow": "return.manifold_flow", "downstream_pressure": "tank_pressure",
         "upstream_pressure": "return.section1_inlet_pressure", "downstream_flow": "tank_flow"}))
-    parts.append(comp.CheckValve(name="return.check_valve", compute="inlet",
-                                 forward_resistance=rig.get("return.check_valve.forward_resistance", 0.0),
-                                 reverse_resistance=rig.get("return.check_valve.reverse_resistance", 1e13),
-                                 connections={"outlet_pressure": "return.section1_inlet_pressure",
-                                              "flow": "return.manifold_flow",
-                                              "inlet_pressure": "return.check_valve_pressure"}))
-    parts.append(comp.LinearResistance(name="return.manifold", compute="inlet",
-                                       resistance=rig["return.manifold.resistance"], connections={
-        "outlet_pressure": "return.check_valve_pressure", "flow": "return.manifold_flow",
-        "inlet_pressure": "return.manifold_pressure"}))
-    parts.append(_accumulator(rig, "return", fluid, p_t))
-    if rig.get("return.section2.length", 0.0) > 0:
+    return_close_coupled = not _section_present(rig, "return.section2")
+    node = "return_port_pressure" if return_close_coupled else "return.manifold_pressure"
+    parts.append(_accumulator(rig, "return", fluid, p_t, node))
+    cv_forward = rig.get("return.check_valve.forward_resistance", 0.0)
+    cv_reverse = rig.get("return.check_valve.reverse_resistance", 1e13)
+    if not return_close_coupled:
+        parts.append(comp.CheckValve(name="return.check_valve", compute="inlet",
+                                     forward_resistance=cv_forward, reverse_resistance=cv_reverse,
+                                     connections={"outlet_pressure": "return.section1_inlet_pressure",
+                                                  "flow": "return.manifold_flow",
+                                                  "inlet_pressure": "return.check_valve_pressure"}))
+        parts.append(comp.LinearResistance(name="return.manifold", compute="inlet",
+                                           resistance=rig["return.manifold.resistance"], connections={
+            "outlet_pressure": "return.check_valve_pressure", "flow": "return.manifold_flow",
+            "inlet_pressure": "return.manifold_pressure"}))
         r2 = make_line(rig, "return.section2", fluid)
         parts.append(comp.HoseSection(name="return.section2", model=_hose(rig, "return.section2", r2, "QP", p_t),
                                       nominal_pressure=p_t, connections={
             "upstream_flow": "return_port_flow", "downstream_pressure": "return.manifold_pressure",
             "upstream_pressure": "return_port_pressure", "downstream_flow": "return.section2_outflow"}))
-        r2_out, return_port = "return.section2_outflow", "return_port_pressure"
+        parts.append(comp.FlowJunction(name="return.junction", terms={"section2": 1, "accumulator": -1},
+                                       connections={"section2": "return.section2_outflow",
+                                                    "accumulator": "return.accumulator_flow",
+                                                    "flow": "return.manifold_flow"}))
+        return_port = "return_port_pressure"
     else:
-        r2_out, return_port = "return_port_flow", "return.manifold_pressure"
-    parts.append(comp.FlowJunction(name="return.junction", terms={"section2": 1, "accumulator": -1},
-                                   connections={"section2": r2_out, "accumulator": "return.accumulator_flow",
-                                                "flow": "return.manifold_flow"}))
+        # HSM close-coupled to the valve: node volume; manifold loss and check valve in series
+        # become one check valve in flow causality with forward resistance R_hsm + R_cv
+        parts.append(comp.CheckValve(name="return.manifold", compute="flow",
+                                     forward_resistance=rig["return.manifold.resistance"] + cv_forward,
+                                     reverse_resistance=cv_reverse, connections={
+            "inlet_pressure": node,
+            "outlet_pressure": "return.section1_inlet_pressure", "flow": "return.manifold_flow"}))
+        parts.append(comp.HydraulicVolume(
+            name="return.node", volume=rig.get("return.manifold.volume", DEFAULT_NODE_VOLUME),
+            bulk_modulus=fluid.bulk_modulus, nominal_pressure=p_t,
+            terms={"valve": 1, "accumulator": -1, "outflow": -1},
+            connections={"valve": "return_port_flow", "accumulator": "return.accumulator_flow",
+                         "outflow": "return.manifold_flow", "pressure": node}))
+        return_port = node
     # ---- valve, actuator, friction, load ----
     sv = "servovalve"
     parts.append(comp.Servovalve(
@@ -200,7 +246,26 @@ def _build(rig, commands, position_guess):
                            applied_force=rig.get("load.applied_force", 0.0),
                            free_position=rig.get("load.free_position", 0.0),
                            connections={"position": "piston_position", "velocity": "piston_velocity"}))
-    return Network(parts + list(commands))
+    parts += list(commands)
+    _rewire(rig, parts)
+    return Network(parts)
+
+
+def _rewire(rig, parts):
+    """Apply the rig's ``[connections]`` overrides ("component.port" = "signal")."""
+    by_name = {c.name: c for c in parts}
+    for path, signal in rig.values.items():
+        if not path.startswith("connections."):
+            continue
+        target = path[len("connections."):]
+        cname, _, port = target.rpartition(".")
+        c = by_name.get(cname)
+        if c is None:
+            raise RigError(f"{path}: unknown component '{cname}' (components: {', '.join(sorted(by_name))})")
+        if port not in c.inputs and port not in c.outputs:
+            raise RigError(f"{path}: component '{cname}' has no port '{port}' "
+                           f"(ports: {', '.join(list(c.inputs) + list(c.outputs))})")
+        c.connections = dict(c.connections, **{port: signal})
 
 
 def make_actuator(rig: Rig, position_guess=None) -> comp.Actuator:

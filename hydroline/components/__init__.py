@@ -11,8 +11,9 @@ from .load import Load
 from .resistance import LinearResistance
 from .servovalve import Servovalve, valve_coefficient
 from .sources import PressureSource
+from .volume import HydraulicVolume
 
 __all__ = ["PistonAccumulator", "Actuator", "CheckValve", "RampCommand", "SineCommand",
            "StepCommand", "TableCommand", "PositionController", "StribeckFriction",
            "HoseSection", "FlowJunction", "Load", "LinearResistance", "Servovalve",
-           "valve_coefficient", "PressureSource"]
+           "valve_coefficient", "PressureSource", "HydraulicVolume"]

@@ -13,9 +13,10 @@ __all__ = ["CheckValve"]
 class CheckValve(OrientedResistance):
     """Ideal check valve, flow positive in its free direction (inlet -> outlet).
 
-    ``dp = R_f q+ + R_r (q - q+)`` with the smooth positive part
-    ``q+ = (q + sqrt(q^2 + q_t^2))/2``; ``dp`` rises monotonically with q, so negligible
-    back-flow and no chatter.
+    ``dp = R_f q+ + R_r (q - q+)`` with the smooth positive part (softplus)
+    ``q+ = q_t ln(1 + exp(q/q_t))``, which equals max(q, 0) up to ``q_t exp(-|q|/q_t)``:
+    ``dp`` rises monotonically with q (dq+/dq lies in (0, 1)), is exact a few q_t away from
+    zero flow, gives negligible back-flow and no chatter.
 
     Parameters
     ----------
@@ -28,6 +29,19 @@ class CheckValve(OrientedResistance):
     reverse_resistance: float = 1e13
     transition_flow: float = 1e-7
 
+    def __post_init__(self):
+        super().__post_init__()
+        if self.compute == "flow" and not self.forward_resistance > 0:
+            raise ValueError(f"{self.name}: forward_resistance must be > 0 [Pa s/m^3] for compute='flow'")
+
+    def flow(self, dp):
+        """Inverse law, ``q = dp+/R_f + (dp - dp+)/R_r`` with dp+ the softplus of dp over
+        ``p_t = R_f q_t``; monotone, exact a few p_t away from zero drop, [m^3/s]."""
+        pt = self.forward_resistance * self.transition_flow
+        dp_pos = ops.fmax(dp, 0.0) + pt * ops.log(1.0 + ops.exp(-ops.fabs(dp) / pt))
+        return dp_pos / self.forward_resistance + (dp - dp_pos) / self.reverse_resistance
+
     def pressure_drop(self, q):
-        q_pos = 0.5 * (q + ops.sqrt(q * q + self.transition_flow**2))
+        qt = self.transition_flow
+        q_pos = ops.fmax(q, 0.0) + qt * ops.log(1.0 + ops.exp(-ops.fabs(q) / qt))
         return self.forward_resistance * q_pos + self.reverse_resistance * (q - q_pos)

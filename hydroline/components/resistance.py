@@ -15,26 +15,39 @@ class OrientedResistance(Component):
 
     Parameters
     ----------
-    compute : str   Which pressure the component outputs: "outlet" (inputs
-                    ``inlet_pressure``, ``flow``; output ``outlet_pressure = p_in - dp(q)``)
-                    or "inlet" (inputs ``outlet_pressure``, ``flow``; output
-                    ``inlet_pressure = p_out + dp(q)``)
+    compute : str   What the component outputs (its causality): "outlet" (inputs
+                    ``inlet_pressure``, ``flow``; output ``outlet_pressure = p_in - dp(q)``),
+                    "inlet" (inputs ``outlet_pressure``, ``flow``; output
+                    ``inlet_pressure = p_out + dp(q)``) or "flow" (inputs both pressures;
+                    output ``flow = q(p_in - p_out)``, the inverse law)
     """
 
     compute: str = "outlet"
 
     def __post_init__(self):
-        if self.compute not in ("outlet", "inlet"):
-            raise ValueError(f"{self.name}: compute must be 'outlet' or 'inlet', got {self.compute!r}")
+        if self.compute not in ("outlet", "inlet", "flow"):
+            raise ValueError(f"{self.name}: compute must be 'outlet', 'inlet' or 'flow', got {self.compute!r}")
+        if self.compute == "flow":
+            self.inputs = {"inlet_pressure": Port("pressure", "pressure at the inlet"),
+                           "outlet_pressure": Port("pressure", "pressure at the outlet")}
+            self.outputs = {"flow": Port("flow", "flow from inlet to outlet")}
+            return
         known = "inlet" if self.compute == "outlet" else "outlet"
         self.inputs = {f"{known}_pressure": Port("pressure", f"pressure at the {known}"),
                        "flow": Port("flow", "flow from inlet to outlet")}
         self.outputs = {f"{self.compute}_pressure": Port("pressure", f"pressure at the {self.compute}")}
 
     def pressure_drop(self, q):
+        """Pressure drop [Pa] at flow q [m^3/s]."""
+        raise NotImplementedError
+
+    def flow(self, dp):
+        """Flow [m^3/s] at pressure drop dp [Pa] (inverse of :meth:`pressure_drop`)."""
         raise NotImplementedError
 
     def outputs_of(self, t, x, u, p):
+        if self.compute == "flow":
+            return {"flow": self.flow(u["inlet_pressure"] - u["outlet_pressure"])}
         dp = self.pressure_drop(u["flow"])
         if self.compute == "outlet":
             return {"outlet_pressure": u["inlet_pressure"] - dp}
@@ -54,8 +67,11 @@ class LinearResistance(OrientedResistance):
 
     def __post_init__(self):
         super().__post_init__()
-        if not self.resistance >= 0:
-            raise ValueError(f"{self.name}: resistance must be >= 0 [Pa s/m^3], got {self.resistance!r}")
+        if not self.resistance >= 0 or (self.compute == "flow" and not self.resistance > 0):
+            raise ValueError(f"{self.name}: resistance must be > 0 [Pa s/m^3], got {self.resistance!r}")
 
     def pressure_drop(self, q):
-        return self.resistance * q
+        return self.resistance * q                      # (M1)
+
+    def flow(self, dp):
+        return dp / self.resistance

@@ -4,6 +4,11 @@
 ``load_rig(path)`` reads a user's file, which may give only what differs (``base`` key, see
 below) or a complete description. Parameters are addressed by their dotted path in the file,
 e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with units.
+
+An optional ``[connections]`` table rewires component ports to other signals, e.g.
+``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
+(an ideal supply). The network checks the result: a port wired to a signal nobody outputs is
+reported as unconnected.
 """
 from __future__ import annotations
 
@@ -34,11 +39,11 @@ SCHEMA = {
     "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa"},
     "supply": {"pressure": "Pa"},
     "supply.section1": _LINE, "supply.section2": _LINE,
-    "supply.manifold": {"resistance": "Pa*s/m^3"},
+    "supply.manifold": {"resistance": "Pa*s/m^3", "volume": "m^3"},
     "supply.accumulator": _ACC,
     "return": {"pressure": "Pa"},
     "return.section1": _LINE, "return.section2": _LINE,
-    "return.manifold": {"resistance": "Pa*s/m^3"},
+    "return.manifold": {"resistance": "Pa*s/m^3", "volume": "m^3"},
     "return.check_valve": {"reverse_resistance": "Pa*s/m^3", "forward_resistance": "Pa*s/m^3"},
     "return.accumulator": _ACC,
     "servovalve": {"rated_current": "A", "rated_flow": "m^3/s", "rated_pressure_drop": "Pa",
@@ -75,6 +80,11 @@ def _flatten(tree, prefix=""):
 
 
 def _parse(path: str, raw):
+    if path.startswith("connections."):
+        # [connections] "component.port" = "signal": rewire one port (see build_network)
+        if not isinstance(raw, str) or not raw:
+            raise RigError(f"{path}: a connection names a signal, e.g. \"pump_pressure\"; got {raw!r}")
+        return raw
     section, _, key = path.rpartition(".")
     if section not in SCHEMA:
         known = ", ".join(sorted(SCHEMA))

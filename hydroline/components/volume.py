@@ -1,0 +1,56 @@
+"""A lumped hydraulic volume (a manifold node with compliance)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ..network.component import Component, Port, State
+
+__all__ = ["HydraulicVolume"]
+
+
+@dataclass(kw_only=True)
+class HydraulicVolume(Component):
+    """``dp/dt = beta/V * sum_i sign_i q_i``: the pressure of a volume of oil.
+
+    Used for the HSM block when a hose section II is removed (the manifold joined to the
+    valve): without a line there, the manifold resistance, the node and the valve orifices
+    would form an algebraic loop; the block's own oil volume breaks it physically.
+
+    Parameters
+    ----------
+    volume : float          V, [m^3]
+    bulk_modulus : float    beta of the oil in it, [Pa]
+    terms : dict            Input port name -> sign (+1 into the volume, -1 out of it)
+    nominal_pressure : float  Guess for the steady-state solver, [Pa]
+
+    Ports: the flow terms [m^3/s]; output ``pressure`` [Pa]. State ``pressure``.
+    """
+
+    volume: float = 1e-5
+    bulk_modulus: float = 1.5e9
+    terms: dict = field(default_factory=dict)
+    nominal_pressure: float = 1e7
+
+    feedthrough = False
+
+    def __post_init__(self):
+        if not self.volume > 0:
+            raise ValueError(f"{self.name}: volume must be > 0 [m^3], got {self.volume!r}")
+        self.inputs = {k: Port("flow", f"flow term, sign {s:+d}") for k, s in self.terms.items()}
+        self.outputs = {"pressure": Port("pressure", "pressure in the volume")}
+
+    @property
+    def states(self):
+        return [State("pressure", "Pa", max(self.nominal_pressure, 1e5))]
+
+    def outputs_of(self, t, x, u, p):
+        return {"pressure": x["pressure"]}
+
+    def derivatives(self, t, x, u, p):
+        net = 0.0
+        for k, s in self.terms.items():
+            net = net + s * u[k]
+        return {"pressure": self.bulk_modulus / self.volume * net}
+
+    def initial_guess(self):
+        return {"pressure": self.nominal_pressure}
