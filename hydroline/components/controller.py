@@ -52,7 +52,9 @@ class PositionController(Component):
         return [State("error_integral", "m s", 1e-3)] if self.integral_gain else []
 
     def runtime_parameters(self):
-        return {"held_current": 0.0} if self.sample_time else {}
+        # "sampled" is 0 while the steady state is solved (the continuous law holds the piston)
+        # and 1 once settle() has stored the held current
+        return {"held_current": 0.0, "sampled": 0.0} if self.sample_time else {}
 
     def law(self, x, u):
         """Unclipped control law, [A]."""
@@ -66,14 +68,21 @@ class PositionController(Component):
         return ops.fmin(ops.fmax(i, -self.current_limit), self.current_limit)
 
     def outputs_of(self, t, x, u, p):
+        continuous = self.clip(self.law(x, u))
         if self.sample_time:
-            return {"current": p["held_current"]}
-        return {"current": self.clip(self.law(x, u))}
+            return {"current": p["sampled"] * p["held_current"] + (1.0 - p["sampled"]) * continuous}
+        return {"current": continuous}
 
     def derivatives(self, t, x, u, p):
         if not self.integral_gain:
             return {}
         return {"error_integral": u["reference"] - u["position"]}
+
+    def settle(self, x, u, p):
+        """At the steady state the held current is the law's output there."""
+        if not self.sample_time:
+            return None
+        return {}, {"held_current": float(self.clip(self.law(x, u))), "sampled": 1.0}
 
     def sample(self, x, u):
         """New held current at a sampling instant (numbers), [A]."""
