@@ -20,29 +20,49 @@ than the residual wiggle of the tail is not defined).
 
 Oscillation frequency (MODEL.md section 8)
 ------------------------------------------
-Picking the highest peak of a trace finds a harmonic when the trace has one. Instead:
+Picking the highest peak of a trace finds a harmonic when the trace has one, and counting
+zero crossings about a constant finds extra crossings where a strong harmonic wiggles
+through zero and skewed ones where the trace drifts. :func:`oscillation_frequency` therefore
+proceeds as follows, all on ``[t_step, t[-1]]`` resampled onto uniform grids by linear
+interpolation (so nonuniform solver output is fine):
 
-1. Resample ``[t_step, t[-1]]`` onto a uniform grid (linear interpolation), subtract the
-   final value and differentiate. The derivative suppresses slow drift and a wrongly
-   estimated final value, both of which otherwise dominate the low end of the spectrum.
-2. Take the highest genuine local maximum (relative prominence >= 2 %) of its zero-padded
-   amplitude spectrum between ``min_cycles / duration`` and a quarter of the sampling rate.
-3. Harmonic check: if the spectrum also has a genuine peak at ``1/k`` of that frequency
-   (k = 2..5, within 8 %) at least 10 % as high, the lower one is the fundamental; the
-   largest such k wins.
-4. Refine by complex demodulation: multiply the deviation by ``exp(-2 pi i f t)`` and
-   smooth it twice with a moving average exactly one period long. That filter has zeros at
-   every multiple of ``f``, so it removes the final value (the DC), every harmonic and,
-   nearly, slow drift, and it passes the damped fundamental ``exp((-sigma + i Delta) t)``
-   with its phase slope ``Delta`` unchanged. The amplitude-weighted slope of the unwrapped
-   phase corrects ``f``; three passes converge to well below 0.1 % on damped sinusoids.
-   This is the zero-crossing rate of the fundamental, measured from the phase of all its
-   samples rather than from a few crossing instants.
-5. The response oscillates if the fundamental stays above 1 % of the largest deviation
-   ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``. (Its envelope is
-   the demodulated amplitude divided by the filter gain for the fitted decay rate.) For the
-   step response of a second-order system this reports damping ratios up to about 0.45 with
-   the default ``min_cycles = 1.5``.
+1. *Coarse estimate.* Amplitude spectrum of the deviation ``p - p_final`` (zero-padded 8x,
+   half-cosine taper over the last 20 % so that a trace ending off its final value does not
+   ring across the spectrum). Its highest genuine local maximum (prominence >= 2 % of the
+   highest value in range) between ``min_cycles / duration`` and a quarter of the sampling
+   rate is the dominant peak. A monotone response has no such maximum: None.
+2. *Harmonic check.* If the spectrum also has a genuine peak within 8 % of ``1/k`` of the
+   dominant frequency (k = 2..5) at least 10 % as high, that lower peak is the first
+   candidate for the fundamental (the largest such k first); the dominant peak is the last
+   candidate. Steps 3 and 4 take the candidates in turn; the first that passes both wins.
+3. *Complex demodulation.* Multiply the deviation by ``exp(-2 pi i f t)`` and average it
+   twice over exactly one period. That filter has zeros at every multiple of ``f``: it
+   removes the final value, every harmonic and nearly all of a slow drift, and it passes the
+   damped fundamental ``exp((-sigma + i Delta) t)`` with its phase slope ``Delta`` unchanged
+   (a linear filter multiplies an exponential by a constant). The amplitude-weighted slope
+   of the unwrapped phase corrects ``f``; three passes. The trace must span two periods, and
+   the weighted RMS of the phase about that line must stay below 0.3 rad (a coherent
+   oscillation, not noise).
+4. *Oscillating or not.* The envelope of the fundamental (the demodulated amplitude divided
+   by the filter's gain for the fitted decay rate) must stay above 1 % of the largest
+   deviation ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``.
+   For the step response of a second-order system this reports damping ratios up to
+   about 0.46 with the default ``min_cycles = 1.5`` (ratio 0.45: 1.5 cycles of overshoot and
+   undershoot above 1 %). No candidate passing: None.
+5. *Zero crossings.* The mean interval between crossings in the same direction, over all
+   crossings whose lobes reach 0.1 % of the largest, is the period; for a damped sinusoid
+   about a constant it is exactly ``1 / f_d = 2 pi / omega_d``. Crossings of, in turn,
+   (a) the deviation minus its centred one-period moving average (which keeps a damped
+   fundamental exactly and removes the final value and drift), further averaged over 1/2,
+   1/3, 1/4 and 1/5 of a period (nulling harmonics 2..6, 8, 9, 10; costs about one period
+   at each end); (b) the same without the harmonic averaging (costs half a period at each
+   end); (c) the raw deviation ``p - p_final``, for records too short for (a) and (b). The
+   first whose crossings are regular (every same-direction interval within 15 % of the
+   period of step 3) and agree with step 3 within 5 % gives the result; if none does, the
+   demodulated frequency of step 3 stands.
+
+On synthetic damped sinusoids with strong 2nd or 3rd harmonics, slow exponential drift or
+1 % noise the result is within 0.1 % of the fundamental (``tests/test_metrics.py``).
 """
 from __future__ import annotations
 
@@ -65,10 +85,13 @@ OSCILLATION_THRESHOLD = 0.01
 _SAMPLES_PER_PERIOD = 64    # uniform grid used for the demodulation, per period of f
 _MAX_GRID = 2 ** 21         # largest uniform grid, [samples]
 _MIN_GRID = 4096            # smallest uniform grid for the spectrum, [samples]
+_MAX_SPECTRUM_GRID = 2 ** 18  # largest uniform grid for the spectrum, [samples]
 _PEAK_PROMINENCE = 0.02     # genuine spectral peak: prominence / highest peak in range
 _SUBHARMONIC_HEIGHT = 0.10  # a peak at f/k this high (relative) makes f/k the fundamental
 _SUBHARMONIC_TOL = 0.08     # relative distance of that peak from f/k
 _MAX_SUBHARMONIC = 5
+_MAX_INCOHERENCE = 0.3      # weighted RMS phase wander of a coherent fundamental, [rad]
+_CROSSING_GRID = 120        # samples per period for the crossings (divisible by 2..5)
 
 
 # --------------------------------------------------------------------------- validation
@@ -265,34 +288,43 @@ def settling_time(t, p, t_step, band=0.02):
 
 # --------------------------------------------------------------------------- frequency
 
-def _spectral_fundamental(ts, ps, p_final, min_cycles):
-    """Coarse fundamental frequency [Hz] from the spectrum of the derivative, or None."""
+def _spectral_candidates(ts, ps, p_final, min_cycles):
+    """Coarse fundamental frequencies [Hz] from the spectrum of the deviation, best first.
+
+    The subharmonics of the dominant peak that pass the harmonic check (largest k first),
+    then the dominant peak itself; empty when the spectrum has no genuine peak in range.
+    """
     duration = ts[-1] - ts[0]
-    n = int(min(_MAX_GRID, max(_MIN_GRID, 2 * len(ts))))
+    n = int(min(_MAX_SPECTRUM_GRID, max(_MIN_GRID, 2 * len(ts))))
     grid = np.linspace(ts[0], ts[-1], n)
     dt = grid[1] - grid[0]
-    rate = np.gradient(np.interp(grid, ts, ps) - p_final, dt)
+    deviation = np.interp(grid, ts, ps) - p_final
+    # half-cosine taper over the tail (where the response has settled), so that a trace
+    # ending off its final value does not ring across the spectrum; the start is kept
+    # whole, since the step is where the oscillation is largest
+    m = max(2, int(TAIL_FRACTION * n))
+    deviation[n - m:] *= 0.5 * (1.0 + np.cos(np.pi * np.arange(m) / (m - 1)))
     nfft = 1 << int(math.ceil(math.log2(8 * n)))
-    spectrum = np.abs(np.fft.rfft(rate, nfft))
+    spectrum = np.abs(np.fft.rfft(deviation, nfft))
     freq = np.fft.rfftfreq(nfft, dt)
     in_range = (freq >= min_cycles / duration) & (freq <= 0.25 / dt)
     if not np.any(in_range):
-        return None
+        return []
     highest = float(np.max(spectrum[in_range]))
     if highest <= 0.0:
-        return None
-    peaks, props = find_peaks(spectrum, prominence=_PEAK_PROMINENCE * highest)
+        return []
+    peaks, _ = find_peaks(spectrum, prominence=_PEAK_PROMINENCE * highest)
     peaks = peaks[in_range[peaks]]
     if peaks.size == 0:
-        return None
+        return []
     main = int(peaks[np.argmax(spectrum[peaks])])
-    f_main, h_main = freq[main], spectrum[main]
-    fundamental = f_main
+    f_main, h_main = float(freq[main]), spectrum[main]
+    candidates = [f_main]
     for k in range(2, _MAX_SUBHARMONIC + 1):
         near = peaks[np.abs(freq[peaks] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
         if near.size and np.max(spectrum[near]) >= _SUBHARMONIC_HEIGHT * h_main:
-            fundamental = float(freq[near[np.argmax(spectrum[near])]])
-    return float(fundamental)
+            candidates.insert(0, float(freq[near[np.argmax(spectrum[near])]]))
+    return candidates
 
 
 def _demodulate(ts, ps, p_final, frequency):
@@ -303,8 +335,7 @@ def _demodulate(ts, ps, p_final, frequency):
     """
     period = 1.0 / frequency
     duration = ts[-1] - ts[0]
-    per_period = max(_SAMPLES_PER_PERIOD, int(math.ceil(period / (duration / len(ts)))))
-    per_period = min(per_period, max(8, int(_MAX_GRID * period / duration)))
+    per_period = min(_SAMPLES_PER_PERIOD, max(8, int(_MAX_GRID * period / duration)))
     dt = period / per_period
     n = int(duration / dt) + 1
     grid = ts[0] + dt * np.arange(n)
@@ -317,10 +348,11 @@ def _demodulate(ts, ps, p_final, frequency):
 
 
 def _fit_fundamental(ts, ps, p_final, frequency):
-    """Refine ``frequency`` from the phase slope of the demodulated fundamental.
+    """Refine ``frequency`` [Hz] from the phase slope of the demodulated fundamental.
 
-    Returns the new frequency [Hz], and the centre times [s], amplitude envelope and decay
-    rate sigma [1/s] of the last pass (None where the demodulation failed).
+    Returns ``(frequency [Hz], centre times [s], envelope of the fundamental [unit of p],
+    weighted RMS phase residual [rad])`` of the last pass, or None where the trace is too
+    short for the demodulation (under two periods) or holds nothing at ``frequency``.
     """
     for _ in range(3):
         if frequency <= 0 or 2.0 / frequency >= ts[-1] - ts[0]:
@@ -339,45 +371,68 @@ def _fit_fundamental(ts, ps, p_final, frequency):
             return None
         phase = np.unwrap(np.angle(zc))
         weights = mc / peak
-        slope = np.polyfit(tc - tc[0], phase, 1, w=weights)[0]
+        slope, offset = np.polyfit(tc - tc[0], phase, 1, w=weights)
+        residual = phase - (offset + slope * (tc - tc[0]))
+        incoherence = math.sqrt(float(np.sum(weights * residual ** 2) / np.sum(weights)))
         frequency = frequency + slope / (2 * np.pi)
     # decay rate from the log envelope, to undo the smoothing's gain on a decaying signal
     growth = float(np.polyfit(tc - tc[0], np.log(mc), 1, w=weights)[0])
     sigma = max(0.0, -growth)
     x = sigma * width / 2
     gain = (math.sinh(x) / x) ** 2 if x > 1e-8 else 1.0
-    return frequency, centres, 2.0 * np.abs(z) / gain
+    return frequency, centres, 2.0 * np.abs(z) / gain, incoherence
 
 
-def _crossing_frequency(ts, ps, p_final, frequency):
-    """Frequency [Hz] from the zero crossings of the high-passed deviation, or None.
+def _centred_average(y, length):
+    """Centred moving average over ``length`` samples (trapezoidal rule, ``length + 1``
+    taps); returns the average and the number of samples lost at each end."""
+    kernel = np.full(length + 1, 1.0 / length)
+    kernel[0] = kernel[-1] = 0.5 / length
+    return np.convolve(y, kernel, mode="valid"), length // 2
 
-    The deviation minus its centred moving average over one period ``1/frequency`` keeps a
-    damped fundamental ``exp(s t)`` exactly (times a constant), removes the final value and
-    nearly all of a slow drift, and leaves the harmonics of ``frequency`` untouched.
+
+def _crossing_frequency(ts, ps, p_final, frequency, filtering):
+    """Frequency [Hz] from the zero crossings of the (filtered) deviation, or None.
+
+    ``filtering`` is one of
+
+    ``"raw"``
+        the deviation ``p - p_final`` itself (MODEL.md section 8);
+    ``"highpass"``
+        the deviation minus its centred moving average over one period ``1/frequency``:
+        this keeps a damped fundamental ``exp(s t)`` exactly (a linear filter multiplies an
+        exponential by a constant), removes the final value and nearly all of a slow drift,
+        leaves the harmonics untouched, and costs half a period at each end;
+    ``"harmonics"``
+        that, further averaged over 1/2, 1/3, 1/4 and 1/5 of a period, which nulls
+        harmonics 2 to 6, 8, 9, 10, still keeps the fundamental exact, and costs about one
+        period at each end.
+
     Crossings count where the lobes on both sides reach 0.1 % of the largest value; the
     period is the mean interval between crossings in the same direction, which cancels the
-    skew that harmonics give to alternate half periods. None when fewer than two crossings
-    in one direction exist, or when any same-direction interval differs from
+    skew that harmonics and an offset give to alternate half periods. None when fewer than
+    two crossings in one direction exist, or when any same-direction interval differs from
     ``1/frequency`` by more than 15 % (extra crossings from a strong harmonic).
     """
     period = 1.0 / frequency
     duration = ts[-1] - ts[0]
-    per_period = _SAMPLES_PER_PERIOD
+    per_period = _CROSSING_GRID
     dt = period / per_period
     n = int(duration / dt) + 1
-    if n > _MAX_GRID or n < 3 * per_period:
+    if n > _MAX_GRID or n < 2 * per_period:
         return None
     grid = ts[0] + dt * np.arange(n)
-    deviation = np.interp(grid, ts, ps) - p_final
-    # centred moving average over exactly one period (odd length: per_period + 1 samples,
-    # end samples weighted 1/2, i.e. the trapezoidal rule over one period)
-    kernel = np.full(per_period + 1, 1.0 / per_period)
-    kernel[0] = kernel[-1] = 0.5 / per_period
-    trend = np.convolve(deviation, kernel, mode="valid")
-    half = per_period // 2
-    y = deviation[half:n - half] - trend
-    ty = grid[half:n - half]
+    y = np.interp(grid, ts, ps) - p_final
+    ty = grid
+    if filtering in ("highpass", "harmonics"):
+        trend, lost = _centred_average(y, per_period)
+        y, ty = y[lost:n - lost] - trend, ty[lost:n - lost]
+    if filtering == "harmonics":
+        for k in (2, 3, 4, 5):
+            y, lost = _centred_average(y, per_period // k)
+            ty = ty[lost:ty.size - lost]
+    if y.size < per_period:
+        return None
     largest = float(np.max(np.abs(y)))
     if largest == 0.0:
         return None
@@ -387,7 +442,7 @@ def _crossing_frequency(ts, ps, p_final, frequency):
         return None
     # peak of each lobe: before the first crossing, between crossings, after the last
     bounds = np.concatenate(([0], idx + 1, [y.size]))
-    lobe = np.array([np.max(np.abs(y[a:b])) for a, b in zip(bounds[:-1], bounds[1:])])
+    lobe = np.maximum.reduceat(np.abs(y), bounds[:-1])
     significant = (lobe[:-1] >= 1e-3 * largest) & (lobe[1:] >= 1e-3 * largest)
     # the crossings kept must be consecutive from the first one on
     stop = np.flatnonzero(~significant)
@@ -411,14 +466,38 @@ def _crossing_frequency(ts, ps, p_final, frequency):
     return float(np.average(estimates, weights=weights))
 
 
+def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles):
+    """Demodulated frequency [Hz] near ``coarse`` if a coherent oscillation lasting at least
+    ``min_cycles`` periods above 1 % of ``largest`` is there, else None."""
+    fitted = _fit_fundamental(ts, ps, p_final, coarse)
+    if fitted is None:
+        return None
+    frequency, centres, envelope, incoherence = fitted
+    if not (incoherence <= _MAX_INCOHERENCE):
+        return None
+    if not (math.isfinite(frequency) and frequency > 0):
+        return None
+    if abs(frequency / coarse - 1.0) > 0.5:
+        return None  # wandered off to another component
+    above = np.flatnonzero(envelope >= OSCILLATION_THRESHOLD * largest)
+    if above.size == 0:
+        return None
+    cycles = frequency * (centres[above[-1]] - t_step)
+    if cycles < min_cycles:
+        return None
+    return float(frequency)
+
+
 def oscillation_frequency(t, p, t_step, min_cycles=1.5):
     """Dominant frequency of the oscillation of a step response after ``t_step``.
 
-    Estimated from the spectrum of the derivative of the deviation from the final value,
-    checked for subharmonics so that a strong harmonic is not mistaken for the fundamental,
-    and refined from the phase of the complex-demodulated fundamental (its zero-crossing rate);
-    the module docstring gives the method. Nonuniform samples are resampled linearly onto a
-    uniform grid.
+    The dominant peak of the spectrum of the deviation from the final value, checked for
+    subharmonics so that a strong harmonic is not taken for the fundamental, refined from the
+    phase of the complex-demodulated fundamental and finally from the zero crossings of the
+    deviation, high-passed (against drift) and averaged over fractions of a period (against
+    harmonics). The module docstring gives the method and its thresholds. Nonuniform samples
+    are resampled linearly onto uniform grids. The trace after ``t_step`` must span at least
+    two periods.
 
     Parameters
     ----------
@@ -457,22 +536,15 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
     largest = float(np.max(np.abs(ps - p_final)))
     if largest == 0.0 or largest <= 1e-12 * float(np.max(np.abs(ps))):
         return None
-    coarse = _spectral_fundamental(ts, ps, p_final, min_cycles)
-    if coarse is None:
-        return None
-    fitted = _fit_fundamental(ts, ps, p_final, coarse)
-    if fitted is None:
-        return None
-    frequency, centres, envelope = fitted
-    if not (math.isfinite(frequency) and frequency > 0):
-        return None
-    above = np.flatnonzero(envelope >= OSCILLATION_THRESHOLD * largest)
-    if above.size == 0:
-        return None
-    cycles = frequency * (centres[above[-1]] - t_step)
-    if cycles < min_cycles:
-        return None
-    crossing = _crossing_frequency(ts, ps, p_final, frequency)
-    if crossing is not None and abs(crossing / frequency - 1.0) < 0.05:
-        frequency = crossing
-    return float(frequency)
+    for coarse in _spectral_candidates(ts, ps, p_final, min_cycles):
+        frequency = _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest,
+                                             min_cycles)
+        if frequency is None:
+            continue
+        for filtering in ("harmonics", "highpass", "raw"):
+            crossing = _crossing_frequency(ts, ps, p_final, frequency, filtering)
+            if crossing is not None and abs(crossing / frequency - 1.0) < 0.05:
+                return crossing
+        return frequency
+    return None
+
