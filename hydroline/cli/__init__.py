@@ -16,6 +16,9 @@ __all__ = ["main", "UsageError"]
 SUBCOMMANDS = [
     "simulate",
     "line_response",
+    "bode",
+    "fit",
+    "friction_id",
 ]
 
 

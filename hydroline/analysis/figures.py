@@ -1,0 +1,172 @@
+"""Figures of the analysis tools: Bode plots, measured vs fitted traces, friction maps.
+
+Matplotlib with the Agg backend; every function returns the figure and writes a PNG when
+given a path.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_bode", "plot_fit", "plot_friction", "SIGNAL_DISPLAY"]
+
+#: How signals are shown: name -> (label, unit shown, factor from SI).
+SIGNAL_DISPLAY = {
+    "supply_port_pressure": ("supply port pressure", "MPa", 1e-6),
+    "return_port_pressure": ("return port pressure", "MPa", 1e-6),
+    "bottom_chamber_pressure": ("bottom chamber pressure", "MPa", 1e-6),
+    "top_chamber_pressure": ("top chamber pressure", "MPa", 1e-6),
+    "piston_position": ("piston position", "mm", 1e3),
+    "piston_velocity": ("piston velocity", "m/s", 1.0),
+    "valve_current": ("valve current", "mA", 1e3),
+    "external_force": ("external force", "kN", 1e-3),
+    "pump_pressure": ("pump pressure", "MPa", 1e-6),
+    "tank_pressure": ("tank pressure", "MPa", 1e-6),
+}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _display(name):
+    return SIGNAL_DISPLAY.get(name, (name.replace("_", " "), "SI", 1.0))
+
+
+def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None = None,
+              path=None, title=None):
+    """Magnitude and phase of ``output/input`` for several model variants.
+
+    Parameters
+    ----------
+    f : array             Frequencies, [Hz]
+    curves : dict         Label -> complex array ``(len(f), len(outputs))`` in SI units
+    input_name : str      Input channel (for the axis labels)
+    outputs : list[str]   Output channels, one column of panels each
+    bandwidths : dict     Label -> {output: -3 dB bandwidth [Hz] or None}, drawn as dotted
+                          lines and listed in each panel's lower left, in the curves' colours
+    path : str            PNG to write
+    title : str           Figure title
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    plt = _plt()
+    outputs = list(outputs)
+    n = len(outputs)
+    fig, axes = plt.subplots(2, n, figsize=(max(4.6 * n + 0.8, 8.0), 7.0), sharex=True, squeeze=False)
+    styles = ["-", "--", ":", "-."]
+    colors = ["C0", "k", "C3", "C2"]
+    in_label, in_unit, in_factor = _display(input_name)
+    for j, out in enumerate(outputs):
+        o_label, o_unit, o_factor = _display(out)
+        am, ap = axes[0, j], axes[1, j]
+        notes = []
+        for k, (label, H) in enumerate(curves.items()):
+            h = np.asarray(H)[:, j] * o_factor / in_factor
+            mag = np.abs(h)
+            if not np.any(mag > 0):
+                am.plot([], [], styles[k % 4], color=colors[k % 4], label=f"{label} (held constant)")
+                continue
+            with np.errstate(divide="ignore"):
+                am.semilogx(f, 20 * np.log10(mag), styles[k % 4], color=colors[k % 4], lw=1.3,
+                            label=label)
+            phase = np.degrees(np.unwrap(np.angle(h)))
+            phase -= 360.0 * np.floor((phase[0] + 270.0) / 360.0)   # start in [-270, 90) deg
+            ap.semilogx(f, phase, styles[k % 4], color=colors[k % 4], lw=1.3)
+            bw = (bandwidths or {}).get(label, {}).get(out)
+            if bw:
+                am.axvline(bw, color=colors[k % 4], lw=0.8, ls=(0, (2, 3)))
+                notes.append((f"{bw:.1f} Hz", colors[k % 4]))
+        for k, (text, color) in enumerate(notes):
+            am.text(0.02, 0.03 + 0.08 * (len(notes) - 1 - k), ("-3 dB: " if k == 0 else "") + text,
+                    transform=am.transAxes, fontsize=8, color=color, ha="left", va="bottom")
+        am.set_title(f"{o_label} / {in_label}", fontsize=10)
+        am.set_ylabel(f"|H| [dB re 1 {o_unit}/{in_unit}]")
+        ap.set_ylabel("phase [deg]")
+        ap.set_xlabel("frequency [Hz]")
+        for ax in (am, ap):
+            ax.grid(True, which="both", alpha=0.3)
+    axes[0, 0].legend(fontsize=8, loc="best")
+    fig.suptitle(title or "hydroline bode", fontsize=10)
+    fig.tight_layout()
+    if path:
+        fig.savefig(path, dpi=100)
+    return fig
+
+
+def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=None):
+    """Measured, initial-model and fitted-model traces, one panel per signal.
+
+    Parameters
+    ----------
+    t : array         Times, [s]
+    measured, initial, fitted : dict   Signal name -> array in SI (initial may be empty)
+    path : str        PNG to write
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    plt = _plt()
+    names = list(measured)
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.3 * len(names) + 0.8), sharex=True,
+                             squeeze=False)
+    for ax, k in zip(axes[:, 0], names):
+        label, unit, factor = _display(k)
+        ax.plot(t * 1e3, measured[k] * factor, ".", ms=2, color="0.45", label="measured")
+        if k in initial:
+            ax.plot(t * 1e3, initial[k] * factor, ":", color="C1", lw=1.0, label="initial model")
+        if k in fitted:
+            ax.plot(t * 1e3, fitted[k] * factor, "-", color="C0", lw=1.2, label="fitted model")
+        ax.set_ylabel(f"{label} [{unit}]", fontsize=8)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=8, loc="best")
+    axes[-1, 0].set_xlabel("time [ms]")
+    fig.suptitle(title or "hydroline fit: measured vs fitted")
+    fig.tight_layout()
+    if path:
+        fig.savefig(path, dpi=100)
+    return fig
+
+
+def plot_friction(points: dict, fit, path=None, title=None):
+    """Friction force against piston velocity: identified points and the fitted (M24).
+
+    Parameters
+    ----------
+    points : dict    Label -> (velocity [m/s], friction force [N]) arrays
+    fit : StribeckFit  The fitted model (None to show the points only)
+    path : str       PNG to write
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    marks = ["o", ".", "s", "^"]
+    for k, (label, (v, F)) in enumerate(points.items()):
+        ax.plot(np.asarray(v) * 1e3, F, marks[k % 4], ms=3 if marks[k % 4] == "." else 5,
+                alpha=0.6, label=label)
+    if fit is not None:
+        vmax = max(np.max(np.abs(v)) for v, _ in points.values()) if points else 0.1
+        v = np.linspace(-vmax, vmax, 801)
+        ax.plot(v * 1e3, fit.force(v), "k", lw=1.5, label="(M24) fitted, up/down separately")
+    ax.axhline(0, color="0.6", lw=0.6)
+    ax.axvline(0, color="0.6", lw=0.6)
+    ax.set_xlabel("piston velocity [mm/s]")
+    ax.set_ylabel("friction force [N]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(title or "friction identification")
+    fig.tight_layout()
+    if path:
+        fig.savefig(path, dpi=100)
+    return fig

@@ -1,0 +1,510 @@
+"""Frequency responses of the linearised test system: modal lines, exact lines, ideal supply.
+
+Three linear views of one operating point (:mod:`hydroline.analysis.linearize`):
+
+* **modal** -- the Jacobian of the whole compiled network, hoses as modal lines (M8-M13);
+* **exact lines** -- the same valve, actuator, HSM resistances, check valve and accumulators,
+  with every hose replaced by its exact dissipative four-pole (M5, M6) in its causal form;
+* **constant supply** -- valve and actuator with ideal constant supply and return pressures.
+
+Exact lines: a frequency-domain linear fractional transformation
+-----------------------------------------------------------------
+Lines are linear, so only the rest of the network needs linearising. Cut every
+:class:`~hydroline.components.HoseSection` out of the network: its two output signals ``w``
+(e.g. PQ: downstream pressure, upstream flow) become inputs of the rest, held at their
+operating values by sources, and its two input signals ``r`` become outputs of the rest. The
+rest is linearised to ``[y; r] = G(s) [u; w]``; the hoses close the loop with ``w = L(s) r``,
+``L`` block-diagonal of their 2x2 transfer matrices (MODEL.md table 2.1). Then
+
+    r = (I - G_rw L)^-1 G_ru u,      y = G_yu u + G_yw L r.
+
+With ``L`` the modal matrices this reproduces the full Jacobian's response exactly (a check
+of the cut); with ``L`` the exact matrices (M6) it is the linearised system with exact lines,
+the truth the modal model approximates, at any frequency. Accumulator connection lines stay
+in the rest (version II, M18, is lumped anyway).
+
+Resonances of the exact-line system are the zeros of ``det(I - G_rw(s) L(s))`` in the left
+half plane; :func:`exact_resonances` finds them by Muller's method, starting from the modal
+model's poles.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import components as comp
+from ..components import HoseSection
+from ..network import Network
+from ..rigs import Rig, load_rig
+from .linearize import (INPUTS, OperatingPoint, SolvedOperatingPoint, _check_names,
+                        _friction_slope, _transfer_state, _VELOCITY, jacobians, linear_network,
+                        solve_operating_point)
+
+__all__ = ["state_space_response", "bandwidth", "Resonance", "resonances", "LineCoupledModel",
+           "line_coupled_model", "exact_resonances", "highest_retained_mode"]
+
+
+def state_space_response(A, B, C, D, f, scales=None):
+    """Frequency response ``C (j w I - A)^-1 B + D`` of a state-space model.
+
+    Parameters
+    ----------
+    A, B, C, D : ndarray    State-space matrices, [SI]
+    f : array_like          Frequencies, [Hz]
+    scales : array_like     Typical state magnitudes to balance A before solving, [SI]
+
+    Returns
+    -------
+    complex ndarray, shape ``(len(f), n_outputs, n_inputs)``, [output unit / input unit]
+    """
+    f = np.atleast_1d(np.asarray(f, dtype=float))
+    return _response(A, B, C, D, 2j * np.pi * f, scales)
+
+
+def _response(A, B, C, D, s, scales=None):
+    s = np.atleast_1d(np.asarray(s, dtype=complex))
+    A, B, C = np.asarray(A, float), np.asarray(B, float), np.asarray(C, float)
+    if scales is not None:
+        sc = np.asarray(scales, dtype=float)
+        A, B, C = A * sc[None, :] / sc[:, None], B / sc[:, None], C * sc[None, :]
+    n = A.shape[0]
+    if n == 0:
+        return np.broadcast_to(np.asarray(D, complex), s.shape + np.shape(D)).copy()
+    M = s[:, None, None] * np.eye(n) - A
+    X = np.linalg.solve(M, np.broadcast_to(B.astype(complex), s.shape + B.shape))
+    return C @ X + D
+
+
+def bandwidth(f, H, reference=None):
+    """-3 dB bandwidth: the first frequency at which ``|H|`` falls below ``|H_ref|/sqrt(2)``.
+
+    Parameters
+    ----------
+    f : array_like      Increasing frequencies, [Hz]
+    H : array_like      Complex (or magnitude) response at f, [any unit]
+    reference : float   Reference gain |H_ref| [unit of H]; the gain at the lowest frequency
+                        when None (the response must be flat there: type 0, not an integrator)
+
+    Returns
+    -------
+    float or None  Bandwidth [Hz] (log-log interpolated), None if |H| stays above the
+    level up to f[-1]
+    """
+    f = np.asarray(f, dtype=float)
+    g = np.abs(np.asarray(H))
+    ref = g[0] if reference is None else float(reference)
+    level = ref / np.sqrt(2.0)
+    below = np.flatnonzero(g < level)
+    if below.size == 0:
+        return None
+    k = int(below[0])
+    if k == 0:
+        return float(f[0])
+    x0, x1 = np.log(f[k - 1]), np.log(f[k])
+    y0, y1 = np.log(g[k - 1]), np.log(g[k])
+    return float(np.exp(x0 + (np.log(level) - y0) * (x1 - x0) / (y1 - y0)))
+
+
+@dataclass
+class Resonance:
+    """One lightly damped pole pair.
+
+    Attributes
+    ----------
+    frequency_hz : float     Undamped natural frequency |lambda|/2pi, [Hz]
+    damping_ratio : float    -Re(lambda)/|lambda|, [-]
+    strength : dict          Output name -> its resonance peak |residue|/|Re lambda| relative
+                             to the strongest pole in that channel, [-]
+    eigenvalue : complex     lambda, [1/s]
+    """
+
+    frequency_hz: float
+    damping_ratio: float
+    strength: dict
+    eigenvalue: complex
+
+    @property
+    def strongest_in(self) -> str:
+        return max(self.strength, key=self.strength.get) if self.strength else ""
+
+
+def resonances(sys, input_name: str, outputs=None, f_max: float = 1000.0,
+               max_damping: float = 0.7, min_strength: float = 0.01) -> list:
+    """Lightly damped poles of a linear model that show in the chosen channels.
+
+    The peak a pole pair puts into ``output/input`` is about ``|r_k|/|Re lambda_k|`` with
+    ``r_k`` its residue (from the eigendecomposition of A); a pole is listed when that peak
+    is at least ``min_strength`` times the strongest pole's in some listed output.
+
+    Parameters
+    ----------
+    sys : control.StateSpace   From :func:`~hydroline.analysis.linearize`
+    input_name : str           Input channel
+    outputs : list[str]        Output channels (all when None)
+    f_max : float              Highest natural frequency listed, [Hz]
+    max_damping : float        Highest damping ratio listed, [-]
+    min_strength : float       Threshold relative to the strongest pole, [-]
+
+    Returns
+    -------
+    list[Resonance], by frequency
+    """
+    outputs = list(sys.output_labels) if outputs is None else list(outputs)
+    scales = getattr(sys, "state_scales", np.ones(sys.nstates))
+    A = sys.A * scales[None, :] / scales[:, None]
+    B = sys.B / scales[:, None]
+    C = sys.C * scales[None, :]
+    lam, V = np.linalg.eig(A)
+    W = np.linalg.inv(V)
+    j = list(sys.input_labels).index(input_name)
+    rows = [list(sys.output_labels).index(o) for o in outputs]
+    wb = W @ B[:, j]
+    peak = {}
+    for o, i in zip(outputs, rows):
+        r = (C[i] @ V) * wb
+        peak[o] = np.abs(r) / np.maximum(np.abs(lam.real), 1e-12 * np.abs(lam) + 1e-300)
+    # candidates only: a critically damped pair (the valve's, zeta_v = 1) is nearly defective
+    # and its residues are numerically meaningless
+    fn = np.abs(lam) / (2 * np.pi)
+    zeta = -lam.real / np.maximum(np.abs(lam), 1e-300)
+    cand = np.flatnonzero((lam.imag > 0) & (fn <= f_max) & (zeta <= max_damping))
+    out = []
+    for k in cand:
+        strength = {o: float(peak[o][k] / max(np.max(peak[o][cand]), 1e-300)) for o in outputs}
+        if max(strength.values()) >= min_strength:
+            out.append(Resonance(float(fn[k]), float(zeta[k]), strength, complex(lam[k])))
+    return sorted(out, key=lambda r: r.frequency_hz)
+
+
+class LineCoupledModel:
+    """The linearised rest of the network with its hoses cut out (module docstring).
+
+    Attributes
+    ----------
+    hoses : list[HoseSection]     The cut hoses
+    inputs, outputs : list[str]   External channels u and y
+    A, B, C, D : ndarray          The rest: inputs ``[u, w]``, outputs ``[y, r]``, [SI]
+    scales : ndarray              Typical state magnitudes of the rest, [SI]
+    operating_point : SolvedOperatingPoint
+    """
+
+    def __init__(self, hoses, inputs, outputs, A, B, C, D, scales, operating_point):
+        self.hoses, self.inputs, self.outputs = hoses, list(inputs), list(outputs)
+        self.A, self.B, self.C, self.D, self.scales = A, B, C, D, scales
+        self.operating_point = operating_point
+        self._nu, self._ny = len(self.inputs), len(self.outputs)
+
+    def line_matrix(self, s, lines: str = "exact"):
+        """Block-diagonal ``L(s)`` mapping the hoses' inputs r to their outputs w.
+
+        Parameters
+        ----------
+        s : array_like complex   Laplace variable, [1/s]
+        lines : str              "exact" (dissipative, M6) or "modal" (the network's models)
+
+        Returns
+        -------
+        complex ndarray ``(len(s), 2 n_hoses, 2 n_hoses)``, [SI]
+        """
+        s = np.atleast_1d(np.asarray(s, dtype=complex))
+        n = 2 * len(self.hoses)
+        L = np.zeros(s.shape + (n, n), dtype=complex)
+        for k, h in enumerate(self.hoses):
+            m = h.model
+            if lines == "exact":
+                T = m.line.transfer(s, m.form)
+            elif lines == "modal":
+                T = m.transfer(s)
+            else:
+                raise ValueError(f"lines must be 'exact' or 'modal'; got {lines!r}")
+            L[:, 2 * k:2 * k + 2, 2 * k:2 * k + 2] = T
+        return L
+
+    def rest_response(self, s):
+        """``G(s)`` of the rest, ``(len(s), ny + nr, nu + nw)``."""
+        return _response(self.A, self.B, self.C, self.D, s, self.scales)
+
+    def response_s(self, s, lines: str = "exact"):
+        """Closed-loop response ``y/u`` at complex s, ``(len(s), ny, nu)``."""
+        G = self.rest_response(s)
+        L = self.line_matrix(s, lines)
+        nu, ny = self._nu, self._ny
+        Gyu, Gyw = G[:, :ny, :nu], G[:, :ny, nu:]
+        Gru, Grw = G[:, ny:, :nu], G[:, ny:, nu:]
+        eye = np.eye(Grw.shape[1])
+        r = np.linalg.solve(eye - Grw @ L, Gru)
+        return Gyu + Gyw @ (L @ r)
+
+    def response(self, f, lines: str = "exact"):
+        """Frequency response ``y/u`` with exact or modal lines.
+
+        Parameters
+        ----------
+        f : array_like   Frequencies, [Hz]
+        lines : str      "exact" or "modal"
+
+        Returns
+        -------
+        complex ndarray ``(len(f), n_outputs, n_inputs)``, [output unit / input unit]
+        """
+        f = np.atleast_1d(np.asarray(f, dtype=float))
+        return self.response_s(2j * np.pi * f, lines)
+
+    def characteristic(self, s, lines: str = "exact"):
+        """``det(I - G_rw(s) L(s))``, whose zeros are the coupled system's poles [-]."""
+        G = self.rest_response(s)
+        L = self.line_matrix(s, lines)
+        Grw = G[:, self._ny:, self._nu:]
+        return np.linalg.det(np.eye(Grw.shape[1]) - Grw @ L)
+
+
+def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
+                       inputs=("valve_current",), outputs=("piston_velocity",),
+                       friction: str = "viscous", solved: SolvedOperatingPoint | None = None
+                       ) -> LineCoupledModel:
+    """Cut the hoses out of the linearised network (see the module docstring).
+
+    Parameters
+    ----------
+    rig : Rig, str or None            The rig
+    operating_point : OperatingPoint  As for :func:`~hydroline.analysis.linearize`
+    inputs, outputs : sequence of str Channels (names as for ``linearize``)
+    friction : str                    "viscous" or "model" (as for ``linearize``)
+    solved : SolvedOperatingPoint     A solved operating point to reuse (then
+                                      ``operating_point`` is ignored)
+
+    Returns
+    -------
+    LineCoupledModel
+    """
+    rig = rig if isinstance(rig, Rig) else load_rig(rig)
+    inputs, outputs = list(inputs), list(outputs)
+    _check_names(inputs, outputs)
+    if friction not in ("viscous", "model"):
+        raise ValueError(f"friction must be 'viscous' or 'model'; got {friction!r}")
+    if solved is None:
+        solved = solve_operating_point(rig, operating_point, "lines")
+    sig = solved.signals
+    f0 = sig[solved.network.component("friction").signal("friction_force")] \
+        if friction == "viscous" else None
+    full = linear_network(rig, "lines", solved.valve_current, friction_force=f0)
+    hoses = [c for c in full.components if isinstance(c, HoseSection)]
+    parts = [c for c in full.components if not isinstance(c, HoseSection)]
+    w_params, r_signals = [], []
+    for h in hoses:
+        for port in h.model.output_names:
+            name = f"{h.name}:{port}"
+            value = sig[h.signal(port)]
+            parts.append(comp.StepCommand(name=name, quantity=h.outputs[port].quantity,
+                                          initial=value, final=value, time=0.0,
+                                          connections={"command": h.signal(port)}))
+            w_params.append(f"{name}.final")
+        r_signals += [h.signal(port) for port in h.model.input_names]
+    rest = Network(parts)
+    x, p = _transfer_state(solved, rest)
+    for h in hoses:
+        for port in h.model.output_names:
+            p[rest.parameter_names.index(f"{h.name}:{port}.final")] = sig[h.signal(port)]
+    params = [INPUTS[u][0] for u in inputs] + w_params
+    if friction == "viscous":
+        params.append("friction.final")
+    A, B, C, D = jacobians(rest, x, p, params, outputs + r_signals)
+    if friction == "viscous":
+        slope = _friction_slope(rig, sig["piston_velocity"])
+        iv = rest.state_names.index(_VELOCITY)
+        A[:, iv] += slope * B[:, -1]
+        C[:, iv] += slope * D[:, -1]
+        B, D = B[:, :-1], D[:, :-1]
+    return LineCoupledModel(hoses, inputs, outputs, A, B, C, D, rest.state_scales.copy(), solved)
+
+
+def highest_retained_mode(model: LineCoupledModel) -> float:
+    """Lowest, over the hoses, of the undamped frequency of the highest modal-model mode, [Hz].
+
+    PQ/QP modes sit at ``(i - 1/2) c/(2L)`` (M9), PP/QQ at ``i c/(2L)``.
+    """
+    out = np.inf
+    for h in model.hoses:
+        m, ln = h.model, h.model.line
+        n = getattr(m, "n_modes", None)
+        if n is None:
+            continue
+        k = n - 0.5 if m.form in ("PQ", "QP") else n
+        out = min(out, k / (2 * ln.wave_time))
+    return float(out)
+
+
+def _muller(fun, z0, h, tol=1e-10, max_iter=60):
+    """A zero of an analytic function near z0 by Muller's method; None if it wanders."""
+    x = [z0 - h, z0 + h, z0]
+    y = [complex(fun(v)) for v in x]
+    for _ in range(max_iter):
+        q = (x[2] - x[1]) / (x[1] - x[0])
+        a = q * y[2] - q * (1 + q) * y[1] + q * q * y[0]
+        b = (2 * q + 1) * y[2] - (1 + q) ** 2 * y[1] + q * q * y[0]
+        c = (1 + q) * y[2]
+        disc = np.sqrt(b * b - 4 * a * c)
+        den = b + disc if abs(b + disc) >= abs(b - disc) else b - disc
+        if den == 0:
+            return None
+        x_new = x[2] - (x[2] - x[1]) * 2 * c / den
+        if not np.isfinite(x_new):
+            return None
+        x = [x[1], x[2], x_new]
+        y = [y[1], y[2], complex(fun(x_new))]
+        if abs(x[2] - x[1]) < tol * abs(x[2]):
+            return x[2]
+    return None
+
+
+def exact_resonances(model: LineCoupledModel, modal: list, f_max: float | None = None) -> dict:
+    """Poles of the exact-line system next to each modal resonance (Muller from the modal pole).
+
+    Parameters
+    ----------
+    model : LineCoupledModel
+    modal : list[Resonance]   Modal resonances (from :func:`resonances` on the full model)
+    f_max : float             Skip modal poles above this, [Hz]
+
+    Returns
+    -------
+    dict  modal eigenvalue -> (frequency [Hz], damping ratio [-]) of the exact-line pole, or
+    None where the search did not converge to a nearby pole
+    """
+    out = {}
+
+    def char(s):
+        return model.characteristic(np.array([s]))[0]
+
+    for r in modal:
+        lam = r.eigenvalue
+        if f_max is not None and r.frequency_hz > f_max:
+            out[lam] = None
+            continue
+        root = _muller(char, lam, 0.01 * abs(lam))
+        if root is None or abs(root - lam) > 0.2 * abs(lam) or root.real >= 0:
+            out[lam] = None
+        else:
+            out[lam] = (abs(root) / (2 * np.pi), -root.real / abs(root))
+    return out
+
+
+#: Labels of the model variants in :class:`BodeResult` and the figure.
+MODAL, EXACT, CONSTANT = "hoses, modal lines", "hoses, exact lines (M6)", "constant supply and return"
+
+
+def rated_velocity(rig: Rig) -> float:
+    """Piston velocity at the valve's rated flow, ``Q_N / A_b``, [m/s] (upward)."""
+    area = rig.get("actuator.bottom_area", rig.get("actuator.area"))
+    return float(rig["servovalve.rated_flow"] / area)
+
+
+def _low_frequency_gain(f_low, H_low):
+    """(DC gain, integrating?) from the response at two frequencies a decade apart, far below
+    the band: an integrator falls like 1/f there, a type-0 response is flat."""
+    g = np.abs(H_low)
+    if g[0] == 0:
+        return 0.0, False
+    slope = np.log(g[1] / g[0]) / np.log(f_low[1] / f_low[0])
+    return float(g[0]), bool(slope < -0.5)
+
+
+@dataclass
+class BodeResult:
+    """Frequency responses of one input to several outputs for the model variants.
+
+    Attributes
+    ----------
+    f : ndarray               Frequencies, [Hz]
+    input : str
+    outputs : list[str]
+    curves : dict             Variant label -> complex ``(len(f), len(outputs))``, [SI]
+    bandwidths : dict         Label -> {output: -3 dB bandwidth [Hz] or None}
+    notes : dict              Label -> {output: why there is no bandwidth} where None
+    resonances : dict         Label -> list[Resonance] (modal and constant-supply models)
+    exact_poles : dict        Modal eigenvalue -> (frequency [Hz], damping [-]) of the
+                              exact-line pole next to it, or None
+    operating_points : dict   Label -> SolvedOperatingPoint
+    highest_mode_hz : float   Lowest, over the hoses, of the highest retained mode, [Hz]
+    """
+
+    f: np.ndarray
+    input: str
+    outputs: list
+    curves: dict
+    bandwidths: dict
+    notes: dict
+    resonances: dict
+    exact_poles: dict
+    operating_points: dict
+    highest_mode_hz: float
+
+
+def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
+                  input_name: str = "valve_current", outputs=("piston_velocity",), f=None,
+                  compare: bool = True, exact: bool = True, friction: str = "viscous") -> BodeResult:
+    """Bode data with modal lines, exact lines and (optionally) ideal constant supply.
+
+    Parameters
+    ----------
+    rig : Rig, str or None             The rig
+    operating_point : OperatingPoint   See :func:`~hydroline.analysis.linearize`
+    input_name : str                   Input channel (:data:`~hydroline.analysis.linearize.INPUTS`)
+    outputs : sequence of str          Output signals
+    f : array_like                     Frequencies [Hz]; 1-500 Hz, 1200 log-spaced when None
+    compare : bool                     Add the constant-supply variant
+    exact : bool                       Add the exact-line variant
+    friction : str                     "viscous" or "model"
+
+    Returns
+    -------
+    BodeResult
+    """
+    from .linearize import linearize
+
+    rig = rig if isinstance(rig, Rig) else load_rig(rig)
+    outputs = list(outputs)
+    f = np.logspace(0, np.log10(500.0), 1200) if f is None else np.asarray(f, dtype=float)
+    if f.ndim != 1 or len(f) < 2 or np.any(np.diff(f) <= 0) or f[0] <= 0:
+        raise ValueError("frequencies must increase and be > 0 Hz")
+    f_low = f[0] * np.array([1e-3, 1e-2])          # quasi-DC, for the reference gain
+    fa = np.concatenate([f_low, f])
+    sys = linearize(rig, operating_point, [input_name], outputs, "lines", friction)
+    curves = {MODAL: state_space_response(sys.A, sys.B, sys.C, sys.D, fa, sys.state_scales)[:, :, 0]}
+    ops = {MODAL: sys.operating_point}
+    res = {MODAL: resonances(sys, input_name, outputs, f_max=f[-1])}
+    exact_poles, f_top = {}, float("nan")
+    if exact:
+        model = line_coupled_model(rig, inputs=[input_name], outputs=outputs, friction=friction,
+                                   solved=sys.operating_point)
+        curves[EXACT] = model.response(fa, "exact")[:, :, 0]
+        ops[EXACT] = sys.operating_point
+        exact_poles = exact_resonances(model, res[MODAL])
+        f_top = highest_retained_mode(model)
+    if compare:
+        ideal = linearize(rig, operating_point, [input_name], outputs, "constant", friction)
+        curves[CONSTANT] = state_space_response(ideal.A, ideal.B, ideal.C, ideal.D, fa,
+                                                ideal.state_scales)[:, :, 0]
+        ops[CONSTANT] = ideal.operating_point
+        res[CONSTANT] = resonances(ideal, input_name, outputs, f_max=f[-1])
+    bws, notes = {}, {}
+    for label in list(curves):
+        H_low, H = curves[label][:2], curves[label][2:]
+        curves[label] = H
+        bws[label], notes[label] = {}, {}
+        for j, out in enumerate(outputs):
+            dc, integrating = _low_frequency_gain(f_low, H_low[:, j])
+            bw = None
+            if not np.any(np.abs(H[:, j]) > 0):
+                notes[label][out] = "held constant in this model"
+            elif integrating:
+                notes[label][out] = "integrating output (no DC gain)"
+            else:
+                bw = bandwidth(f, H[:, j], reference=dc)
+                if bw is None:
+                    notes[label][out] = f"above {f[-1]:g} Hz"
+                elif bw <= f[0]:
+                    bw, notes[label][out] = None, f"below {f[0]:g} Hz"
+            bws[label][out] = bw
+    return BodeResult(f, input_name, outputs, curves, bws, notes, res, exact_poles, ops, f_top)

@@ -1,0 +1,151 @@
+"""``hydroline bode``: frequency response of the linearised test system, hoses vs ideal supply."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..analysis.figures import plot_bode
+from ..analysis.frequency import MODAL, bode_analysis, rated_velocity
+from ..analysis.linearize import INPUTS, OperatingPoint
+from ..rigs import load_rig
+from .common import dump_json, out_dir, print_table, quantity
+
+DEFAULT_OUTPUTS = "piston_velocity,supply_port_pressure,return_port_pressure"
+
+
+def register(sub):
+    p = sub.add_parser(
+        "bode", help="frequency response of the linearised system: with the hoses and with an "
+        "ideal constant supply",
+        description="Linearise the test system about an operating point (piston at --position, "
+        "moving at --velocity, under --force; the valve current that holds it there is solved "
+        "for) and plot magnitude and phase of OUTPUT/INPUT with the hoses as modal lines, with "
+        "the hoses as exact dissipative lines (M6), and with ideal constant supply and return "
+        "pressures. Prints the -3 dB bandwidths and the resonances (frequency, damping); writes "
+        "bode.png, bode.json and bode.csv to --out.")
+    p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
+    p.add_argument("--input", default="valve_current", choices=tuple(INPUTS),
+                   help="input channel (default valve_current)")
+    p.add_argument("--output", default=DEFAULT_OUTPUTS,
+                   help=f"comma-separated output signals (default {DEFAULT_OUTPUTS})")
+    p.add_argument("--compare", default="constant-supply", choices=("constant-supply", "none"),
+                   help="also show the ideal constant-supply model (default)")
+    p.add_argument("--position", default="0 mm", help="piston position from mid-stroke (default '0 mm')")
+    p.add_argument("--velocity", default="rated",
+                   help="steady piston velocity, e.g. '0 m/s' (at rest: an underlapped valve at "
+                   "null hardly couples to the hoses) or 'rated' (default: the valve's rated flow "
+                   "over the bottom area, up)")
+    p.add_argument("--force", help="external force on the rod, positive down, e.g. '2 kN' "
+                   "(default: the rig's load.applied_force)")
+    p.add_argument("--f-min", default="1 Hz", help="lowest frequency (default 1 Hz)")
+    p.add_argument("--f-max", default="500 Hz", help="highest frequency (default 500 Hz)")
+    p.add_argument("--points", type=int, default=1200, help="log-spaced frequencies (default 1200)")
+    p.add_argument("--friction", default="viscous", choices=("viscous", "model"),
+                   help="friction slope in the linear model: viscous coefficient (default) or the "
+                   "literal Jacobian of the regularised (M24)")
+    p.add_argument("--no-exact", action="store_true", help="skip the exact-line response")
+    p.add_argument("--out", default="hydroline-out", help="output folder (default hydroline-out)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout only")
+    p.set_defaults(func=run)
+
+
+def _operating_point(args, rig):
+    x = quantity(args.position, "m", "--position")
+    if str(args.velocity).strip().lower() == "rated":
+        v = rated_velocity(rig)
+    else:
+        v = quantity(args.velocity, "m/s", "--velocity")
+    force = quantity(args.force, "N", "--force") if args.force else None
+    return OperatingPoint(piston_position=x, piston_velocity=v, external_force=force)
+
+
+def _frequencies(args):
+    f0 = quantity(args.f_min, "Hz", "--f-min")
+    f1 = quantity(args.f_max, "Hz", "--f-max")
+    if not 0 < f0 < f1:
+        raise ValueError(f"--f-min and --f-max must satisfy 0 < f-min < f-max [Hz], got "
+                         f"{args.f_min!r}, {args.f_max!r}")
+    if args.points < 10:
+        raise ValueError(f"--points must be >= 10, got {args.points}")
+    return np.logspace(np.log10(f0), np.log10(f1), args.points)
+
+
+def summary_dict(res, op) -> dict:
+    """The JSON summary of a :class:`~hydroline.analysis.frequency.BodeResult`."""
+    solved = res.operating_points[MODAL]
+    out = {
+        "input": res.input, "outputs": res.outputs,
+        "operating_point": {
+            "piston_position_m": op.piston_position, "piston_velocity_m_s": op.piston_velocity,
+            "external_force_n": solved.signals.get("load_force"),
+            "valve_current_a": {k: v.valve_current for k, v in res.operating_points.items()},
+            "supply_port_pressure_pa": solved.signals["supply_port_pressure"],
+            "return_port_pressure_pa": solved.signals["return_port_pressure"]},
+        "frequency_range_hz": [float(res.f[0]), float(res.f[-1])],
+        "bandwidth_hz": res.bandwidths, "bandwidth_notes": res.notes,
+        "highest_retained_mode_hz": res.highest_mode_hz,
+        "resonances": {},
+    }
+    for label, rows in res.resonances.items():
+        out["resonances"][label] = []
+        for r in rows:
+            entry = {"frequency_hz": r.frequency_hz, "damping_ratio": r.damping_ratio,
+                     "strongest_in": r.strongest_in}
+            if label == MODAL and r.eigenvalue in res.exact_poles:
+                ex = res.exact_poles[r.eigenvalue]
+                entry["exact_lines"] = None if ex is None else {"frequency_hz": ex[0], "damping_ratio": ex[1]}
+            out["resonances"][label].append(entry)
+    return out
+
+
+def run(args) -> int:
+    rig = load_rig(args.rig)
+    outputs = [o.strip() for o in args.output.split(",") if o.strip()]
+    if not outputs:
+        raise ValueError("--output: give at least one signal, e.g. piston_velocity")
+    op = _operating_point(args, rig)
+    f = _frequencies(args)
+    res = bode_analysis(rig, op, args.input, outputs, f, compare=args.compare != "none",
+                        exact=not args.no_exact, friction=args.friction)
+    out = out_dir(args.out)
+    summary = summary_dict(res, op)
+    (out / "bode.json").write_text(json.dumps(summary, indent=2) + "\n")
+    cols = {"frequency [Hz]": res.f}
+    for label, H in res.curves.items():
+        for j, o in enumerate(outputs):
+            cols[f"{o}/{args.input} |H| [SI] ({label})"] = np.abs(H[:, j])
+            cols[f"{o}/{args.input} phase [deg] ({label})"] = np.degrees(np.angle(H[:, j]))
+    import pandas as pd
+
+    pd.DataFrame(cols).to_csv(out / "bode.csv", index=False)
+    name = rig.get("rig.name", rig.source)
+    title = (f"{name}: x_p = {op.piston_position * 1e3:g} mm, v_p = {op.piston_velocity:.3g} m/s, "
+             f"i = {res.operating_points[MODAL].valve_current * 1e3:.3g} mA")
+    plot_bode(res.f, res.curves, args.input, outputs, res.bandwidths, path=out / "bode.png", title=title)
+    if args.json:
+        dump_json(summary)
+        return 0
+    print(f"hydroline bode: {args.input} -> {', '.join(outputs)} on {name}")
+    print(f"  operating point: piston at {op.piston_position * 1e3:g} mm moving at "
+          f"{op.piston_velocity:.3g} m/s, holding current "
+          f"{res.operating_points[MODAL].valve_current * 1e3:.4g} mA")
+    rows = []
+    for label in res.curves:
+        for o in outputs:
+            bw = res.bandwidths[label][o]
+            rows.append([label, o, bw if bw is not None else res.notes[label].get(o, "-")])
+    print_table(["model", "output", "-3 dB bandwidth [Hz]"], rows)
+    print("  resonances (lightly damped poles that show in these outputs):")
+    rows = []
+    for label, rs in res.resonances.items():
+        for r in rs:
+            ex = res.exact_poles.get(r.eigenvalue) if label == MODAL else None
+            rows.append([label, r.frequency_hz, r.damping_ratio,
+                         None if ex is None else ex[0], None if ex is None else ex[1], r.strongest_in])
+    print_table(["model", "f_n [Hz]", "damping [-]", "exact lines f_n [Hz]", "exact damping [-]",
+                 "strongest in"], rows)
+    if np.isfinite(res.highest_mode_hz):
+        print(f"  modal lines are trusted up to their highest retained mode, {res.highest_mode_hz:.0f} Hz")
+    print(f"  wrote {out / 'bode.png'}, {out / 'bode.json'}, {out / 'bode.csv'}")
+    return 0

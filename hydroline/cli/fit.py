@@ -1,0 +1,101 @@
+"""``hydroline fit``: calibrate rig parameters to a measured record (nonlinear least squares)."""
+from __future__ import annotations
+
+import json
+
+from ..analysis.figures import plot_fit
+from ..analysis.fit import COLUMNS, STARTS, fit_parameters, read_measurements
+from ..rigs import load_rig
+from .common import dump_json, out_dir, print_table
+
+_COLUMN_HELP = ", ".join(f"'{k} [{u}]'" for k, u in COLUMNS.items())
+
+
+def register(sub):
+    p = sub.add_parser(
+        "fit", help="estimate rig parameters from measured time series",
+        description="Fit chosen rig parameters (e.g. hose bulk moduli, manifold resistance, "
+        "accumulator pre-charge, friction coefficients up/down) to a measured record by "
+        "nonlinear least squares on log-parameters; the measured valve current drives the "
+        "model. Prints estimates with confidence intervals and writes fit.png (measured vs "
+        "fitted), fit.json and the calibrated rig file to --out. CSV columns, one header row "
+        f"with units in brackets (any unit of the right dimension): {_COLUMN_HELP}; time and "
+        "valve_current are required, plus at least one measured signal. The record must "
+        "start at rest.")
+    p.add_argument("files", nargs="+", metavar="[RIG.toml] DATA.csv",
+                   help="optional rig file (default: the embedded 2005 rig), then the data CSV")
+    p.add_argument("--params", required=True,
+                   help="comma-separated rig parameters to fit, e.g. "
+                   "supply.section2.bulk_modulus,return.section2.bulk_modulus")
+    p.add_argument("--signals", help="comma-separated measured signals to fit (default: all in the file)")
+    p.add_argument("--confidence", type=float, default=0.95, help="confidence level (default 0.95)")
+    p.add_argument("--max-evals", type=int, default=60, help="model runs at most (default 60)")
+    p.add_argument("--start", default="auto", choices=STARTS,
+                   help="initial state: 'hold' the measured initial position, 'rest' at the first "
+                   "current (piston on a stop), or 'auto' (hold when the piston is clear of the stops)")
+    p.add_argument("--offsets", help="comma-separated signals with a free constant sensor offset, "
+                   "or 'none' (default: piston_position when the model holds the measured initial "
+                   "position, none otherwise)")
+    p.add_argument("--out", default="hydroline-out", help="output folder (default hydroline-out)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON on stdout only")
+    p.set_defaults(func=run)
+
+
+def _files(files):
+    if len(files) == 1:
+        return None, files[0]
+    if len(files) == 2:
+        return files[0], files[1]
+    raise ValueError(f"give [RIG.toml] DATA.csv (one or two files), got {len(files)}")
+
+
+def run(args) -> int:
+    rig_path, data_path = _files(args.files)
+    if not 0 < args.confidence < 1:
+        raise ValueError(f"--confidence must lie in (0, 1), got {args.confidence!r}")
+    if args.max_evals < 2:
+        raise ValueError(f"--max-evals must be >= 2, got {args.max_evals}")
+    rig = load_rig(rig_path)
+    params = [s.strip() for s in args.params.split(",") if s.strip()]
+    meas = read_measurements(data_path)
+    signals = [s.strip() for s in args.signals.split(",") if s.strip()] if args.signals else None
+    offsets = None
+    if args.offsets:
+        offsets = [] if args.offsets.strip().lower() == "none" else \
+            [s.strip() for s in args.offsets.split(",") if s.strip()]
+        for s in offsets:
+            if s not in meas.data:
+                raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
+    res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
+                         max_evaluations=args.max_evals, start=args.start, offsets=offsets)
+    out = out_dir(args.out)
+    rig_file = out / "calibrated_rig.toml"
+    rig_file.write_text(res.calibrated_toml(data_path))
+    summary = res.to_dict()
+    summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),
+                   ignored_columns=meas.ignored)
+    (out / "fit.json").write_text(json.dumps(summary, indent=2) + "\n")
+    t = meas.t
+    plot_fit(t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial, res.fitted,
+             path=out / "fit.png", title=f"hydroline fit: {data_path}")
+    if args.json:
+        dump_json(summary)
+        return 0
+    pct = f"{100 * args.confidence:g} %"
+    print(f"hydroline fit: {len(params)} parameter(s) of {rig.get('rig.name', rig.source)} to {data_path}")
+    print(f"  {res.n_data} residuals from {', '.join(res.sigma)}; {res.n_evaluations} model runs; "
+          f"{res.message}")
+    if meas.ignored:
+        print(f"  ignored columns: {', '.join(meas.ignored)}")
+    print_table(["parameter", "unit", "start", "estimate", f"{pct} CI low", f"{pct} CI high",
+                 "rel. std error"], res.table())
+    rows = [[s, res.sigma[s], res.rms.get(s)] for s in res.sigma]
+    print_table(["signal", "noise sigma [SI]", "rms residual [SI]"], rows)
+    for s, v in res.offsets.items():
+        print(f"  fitted sensor offset of {s}: {v:.4g} [SI] (measured minus model)")
+    print(f"  residual variance s^2 = {res.residual_variance:.3g} (about 1 when the model explains "
+          f"the data down to its noise)")
+    if not res.success:
+        print("  WARNING: the optimiser stopped before converging; raise --max-evals")
+    print(f"  wrote {out / 'fit.png'}, {out / 'fit.json'}, {rig_file}")
+    return 0

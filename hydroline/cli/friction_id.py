@@ -1,0 +1,97 @@
+"""``hydroline friction-id``: friction by Newton's law, (M24) fitted up and down separately."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..analysis.figures import plot_friction
+from ..analysis.fit import read_measurements
+from ..analysis.friction_id import FRICTION_COLUMNS, identify_friction, virtual_friction_tests
+from ..rigs import load_rig
+from .common import dump_json, out_dir, print_table, quantity
+
+
+def register(sub):
+    p = sub.add_parser(
+        "friction-id", help="identify piston friction (M24) from open-loop runs and a closed-loop sine",
+        description="Friction force by Newton's law (M23) from measured chamber pressures and "
+        "piston position: one point per steady-velocity open-loop run (--steady) and every "
+        "moving sample of a closed-loop sine (--sine); then (M24) fitted up and down "
+        "separately, as in the 2005 paper. CSV columns as for 'hydroline fit' (needs "
+        + ", ".join(FRICTION_COLUMNS) + "). Writes friction.png, friction.json and "
+        "friction_rig.toml (the rig with the fitted coefficients) to --out.")
+    p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded 2005 rig)")
+    p.add_argument("--steady", nargs="*", default=[], metavar="RUN.csv",
+                   help="open-loop runs at constant valve current")
+    p.add_argument("--sine", nargs="*", default=[], metavar="SINE.csv", help="closed-loop sine records")
+    p.add_argument("--virtual", action="store_true",
+                   help="run the paper's friction experiments on the model itself instead of data "
+                   "(checks the identification against the rig's own coefficients)")
+    p.add_argument("--window", default="2 ms", help="derivative window (default '2 ms'; longer for noisy data)")
+    p.add_argument("--min-speed", default="0.2 mm/s", help="slowest point used in the fit")
+    p.add_argument("--sine-min-speed", default="20 mm/s",
+                   help="slowest sine sample used (near reversals the piston sticks)")
+    p.add_argument("--out", default="hydroline-out", help="output folder (default hydroline-out)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON on stdout only")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    rig = load_rig(args.rig)
+    window = quantity(args.window, "s", "--window")
+    if not window > 0:
+        raise ValueError(f"--window must be > 0 s, got {args.window!r}")
+    min_speed = quantity(args.min_speed, "m/s", "--min-speed")
+    sine_min = quantity(args.sine_min_speed, "m/s", "--sine-min-speed")
+    if args.virtual:
+        if args.steady or args.sine:
+            raise ValueError("--virtual runs the model's own experiments: give no --steady/--sine files")
+        steady, sine = virtual_friction_tests(rig)
+        source = "virtual experiments on the model"
+    else:
+        if not args.steady and not args.sine:
+            raise ValueError("give --steady RUN.csv ... and/or --sine SINE.csv (or --virtual)")
+        need = ("time",) + FRICTION_COLUMNS[1:]
+        steady = [read_measurements(f, required=need, need_signal=False) for f in args.steady]
+        sine = [read_measurements(f, required=need, need_signal=False) for f in args.sine]
+        source = ", ".join(args.steady + args.sine)
+    ident = identify_friction(rig, steady, sine, window=window, min_speed=min_speed,
+                              sine_min_speed=sine_min)
+    fit = ident.fit
+    out = out_dir(args.out)
+    plot_friction(ident.points, fit, path=out / "friction.png",
+                  title=f"friction identification: {source}")
+    calibrated = fit.apply(rig)
+    rig_file = out / "friction_rig.toml"
+    rig_file.write_text(f"# friction (M24) identified by 'hydroline friction-id' from {source}\n\n"
+                        + calibrated.to_toml())
+    rows = []
+    for k in ("viscous", "coulomb", "static"):
+        unit = "N*s/m" if k == "viscous" else "N"
+        for d in ("up", "down"):
+            name = f"{k}_{d}"
+            rows.append([f"friction.{name}", unit, rig.get(f"friction.{name}"), getattr(fit, name),
+                         fit.std.get(name)])
+    rows.append(["friction.stribeck_velocity", "m/s", rig.get("friction.stribeck_velocity"),
+                 fit.stribeck_velocity, None])
+    summary = {"source": source, "points": {k: len(v[0]) for k, v in ident.points.items()},
+               "coefficients": {r[0]: {"unit": r[1], "rig": r[2], "identified": float(r[3]),
+                                       "std_error": r[4]} for r in rows},
+               "static_identified": fit.static_identified,
+               "rms_residual_n": {"up": fit.rms_up, "down": fit.rms_down},
+               "rig_file": str(rig_file)}
+    (out / "friction.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+    if args.json:
+        dump_json(summary)
+        return 0
+    print(f"hydroline friction-id: {source}")
+    for k, (v, _) in ident.points.items():
+        print(f"  {k}: {len(v)} points, |v| {np.min(np.abs(v)) * 1e3:.3g}-{np.max(np.abs(v)) * 1e3:.3g} mm/s")
+    print_table(["parameter", "unit", "rig", "identified", "std error"], rows)
+    if not fit.static_identified:
+        print("  static friction and Stribeck velocity are not identifiable from these points "
+              "(no slow runs near C_s): the rig file keeps the rig's values")
+    print(f"  rms residual: up {fit.rms_up:.3g} N, down {fit.rms_down:.3g} N")
+    print(f"  wrote {out / 'friction.png'}, {out / 'friction.json'}, {rig_file}")
+    return 0

@@ -1,0 +1,202 @@
+"""Calibration to measured data and friction identification (issue 6).
+
+The fit is checked the way it will be trusted: records made by the model with known
+parameters plus known noise must give those parameters back inside the reported confidence
+intervals, with intervals that are narrow enough to mean something. Friction identification
+is checked against (M24) points of known coefficients and against the model's own friction
+force signal (Newton's law recomputed from pressures and position only).
+"""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hydroline.analysis import DataError, fit_parameters, fit_stribeck, identify_friction, read_measurements
+from hydroline.analysis.fit import Measurements, noise_level, simulate_record
+from hydroline.analysis.friction_id import newton_friction, virtual_friction_tests
+from hydroline.cli import main
+from hydroline.rigs import load_rig
+from hydroline.scenarios import simulate
+
+
+def synthetic(truth_values, t_end, current, noise, start, x0=None, seed=0, dt=1e-4):
+    """A record made by the model with the rig changed to ``truth_values``, plus white noise.
+
+    current: function of t [A]; noise: channel -> sigma [SI]."""
+    truth = load_rig()
+    for k, v in truth_values.items():
+        truth.set(k, v)
+    t = np.arange(0.0, t_end + 1e-12, dt)
+    cols = {"time": t, "valve_current": current(t)}
+    cols.update({k: np.full_like(t, 0.0 if x0 is None else x0) for k in noise})
+    meas = Measurements(pd.DataFrame(cols), "synthetic")
+    y = simulate_record(truth, meas, list(noise), start=start)
+    rng = np.random.default_rng(seed)
+    for k, s in noise.items():
+        meas.data[k] = y[k] + rng.normal(0.0, s, len(t))
+    return meas
+
+
+def test_read_measurements_converts_units(tmp_path):
+    path = tmp_path / "d.csv"
+    pd.DataFrame({"time [ms]": [0.0, 1.0, 2.0], "valve_current [mA]": [0.0, 5.0, 5.0],
+                  "supply_port_pressure [bar]": [207.0, 206.0, 205.5],
+                  "piston_position [mm]": [-51.0, -50.0, -49.0], "oil temperature [degC]": [40] * 3}
+                 ).to_csv(path, index=False)
+    m = read_measurements(path)
+    assert m.t.tolist() == pytest.approx([0.0, 1e-3, 2e-3])
+    assert m.data["valve_current"].tolist() == pytest.approx([0.0, 5e-3, 5e-3])
+    assert m.data["supply_port_pressure"].iloc[0] == pytest.approx(20.7e6)     # 1 bar = 1e5 Pa
+    assert m.data["piston_position"].iloc[2] == pytest.approx(-0.049)
+    assert m.signals == ["supply_port_pressure", "piston_position"]
+    assert m.ignored == ["oil temperature [degC]"]
+
+
+def test_noise_level_of_white_noise_on_a_smooth_signal():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 0.1, 2001)
+    y = 1e6 * np.sin(2 * np.pi * 40 * t) + rng.normal(0, 2e4, t.size)
+    assert noise_level(y) == pytest.approx(2e4, rel=0.1)
+
+
+def test_fit_recovers_hose_bulk_moduli_within_confidence_intervals():
+    """Open-loop rated step from the bottom stop (the paper's test), 60 ms of supply and
+    return port pressure with 20 kPa noise; both section-II bulk moduli start 11-12 % off."""
+    truth = {"supply.section2.bulk_modulus": 200e6, "return.section2.bulk_modulus": 160e6}
+    meas = synthetic({k: f"{v} Pa" for k, v in truth.items()}, 0.06,
+                     lambda t: np.where(t >= 0.01, 0.05, 0.0),
+                     {"supply_port_pressure": 2e4, "return_port_pressure": 2e4}, "rest")
+    res = fit_parameters(load_rig(), meas, list(truth))
+    assert res.success
+    for name, lo, hi, est in zip(res.names, res.ci_low, res.ci_high, res.estimate):
+        assert lo < truth[name] < hi, (name, lo, truth[name], hi)
+        assert (hi - lo) / est < 0.02, name                  # informative: +-1 % or better
+    assert 0.8 < res.residual_variance < 1.25               # the noise, no model error left
+    assert res.sigma["supply_port_pressure"] == pytest.approx(2e4, rel=0.15)
+
+
+def _write_csv(meas, path):
+    """The record in the units a lab would use."""
+    d = meas.data
+    pd.DataFrame({"time [ms]": d["time"] * 1e3, "valve_current [mA]": d["valve_current"] * 1e3,
+                  "supply_port_pressure [MPa]": d["supply_port_pressure"] / 1e6,
+                  "piston_position [mm]": d["piston_position"] * 1e3}).to_csv(path, index=False)
+
+
+@pytest.fixture(scope="module")
+def held_record(tmp_path_factory):
+    """Piston held at -20 mm, then a 5 mA step: manifold loss and upward viscous friction."""
+    truth = {"supply.manifold.resistance": 1.5e9, "friction.viscous_up": 1000.0}
+    meas = synthetic({"supply.manifold.resistance": "1.5e9 Pa*s/m^3", "friction.viscous_up": "1000 N*s/m"},
+                     0.06, lambda t: np.where(t >= 0.01, 5e-3, 0.0),
+                     {"supply_port_pressure": 2e4, "piston_position": 1e-5}, "hold", x0=-0.02, seed=0)
+    path = tmp_path_factory.mktemp("fit") / "held.csv"
+    _write_csv(meas, path)
+    return truth, path
+
+
+def test_fit_cli_held_piston_writes_calibrated_rig(held_record, tmp_path, capsys):
+    truth, path = held_record
+    rc = main(["fit", str(path), "--params", ",".join(truth), "--out", str(tmp_path), "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    for name, v in truth.items():
+        p = out["parameters"][name]
+        assert p["ci_low"] < v < p["ci_high"], (name, p)
+        assert (p["ci_high"] - p["ci_low"]) / p["estimate"] < 0.2
+    rig = load_rig(tmp_path / "calibrated_rig.toml")
+    for name in truth:
+        assert rig[name] == pytest.approx(out["parameters"][name]["estimate"], rel=1e-9)
+    assert rig["supply.section1.length"] == pytest.approx(3.048)      # the rest carried over
+    assert (tmp_path / "fit.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("defect, fragment", [
+    ("missing", "missing column 'valve_current"),
+    ("time", "must increase strictly"),
+    ("nan", "NaN"),
+])
+def test_bad_data_one_line_exit_2(held_record, tmp_path, capsys, defect, fragment):
+    _, good = held_record
+    df = pd.read_csv(good)
+    if defect == "missing":
+        df = df.drop(columns=["valve_current [mA]"])
+    elif defect == "time":
+        df.loc[40, "time [ms]"] = df.loc[38, "time [ms]"]
+    else:
+        df.loc[25, "piston_position [mm]"] = np.nan
+    bad = tmp_path / "bad.csv"
+    df.to_csv(bad, index=False)
+    rc = main(["fit", str(bad), "--params", "supply.manifold.resistance", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 1 and fragment in err[0] and "bad.csv" in err[0], err
+    if defect != "missing":
+        assert "row" in err[0]
+
+
+def test_bad_parameters_exit_2(held_record, tmp_path, capsys):
+    _, good = held_record
+    for params in ("supply.section2.no_such", "rig.name", "supply.manifold.volume"):
+        rc = main(["fit", str(good), "--params", params, "--out", str(tmp_path)])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and params in err[0]
+    with pytest.raises(DataError, match="not found"):
+        read_measurements(tmp_path / "nope.csv")
+
+
+def test_stribeck_fit_recovers_up_and_down_coefficients():
+    """(M24) points of known, asymmetric coefficients with 2 N noise, speeds 1-400 mm/s."""
+    up = dict(viscous=900.0, coulomb=70.0, static=120.0)
+    down = dict(viscous=600.0, coulomb=40.0, static=95.0)
+    cs, delta = 0.008, 2.0
+    rng = np.random.default_rng(5)
+    v = np.concatenate([np.geomspace(1e-3, 0.4, 60), -np.geomspace(1e-3, 0.4, 60)])
+    c = [up if x > 0 else down for x in v]
+    e = np.exp(-(np.abs(v) / cs) ** delta)
+    F = np.array([ci["viscous"] * x + np.sign(x) * (ci["coulomb"] + (ci["static"] - ci["coulomb"]) * ei)
+                  for ci, x, ei in zip(c, v, e)]) + rng.normal(0, 2.0, v.size)
+    fit = fit_stribeck(v, F, delta)
+    assert fit.static_identified
+    assert fit.stribeck_velocity == pytest.approx(cs, rel=0.05)
+    for d, ref in (("up", up), ("down", down)):
+        assert getattr(fit, f"viscous_{d}") == pytest.approx(ref["viscous"], rel=0.01)
+        # 3 N: a few standard errors once the C_s uncertainty (not in fit.std) is counted
+        assert getattr(fit, f"coulomb_{d}") == pytest.approx(ref["coulomb"], abs=3.0)
+        assert getattr(fit, f"static_{d}") == pytest.approx(ref["static"], abs=3.0)
+    f, e1 = fit, np.exp(-(0.1 / fit.stribeck_velocity) ** 2)
+    assert f.force(np.array([0.1, -0.1])) == pytest.approx(
+        [f.viscous_up * 0.1 + f.coulomb_up + (f.static_up - f.coulomb_up) * e1,
+         -f.viscous_down * 0.1 - f.coulomb_down - (f.static_down - f.coulomb_down) * e1])
+
+
+def test_newton_friction_reproduces_model_friction_on_closed_loop_sine():
+    """The paper's 2 Hz, 35 mm sine under P control: friction recomputed from the chamber
+    pressures and the position alone (M23) equals the model's friction force, away from
+    the reversals (where the 1 ms derivative lags the actuator's ring)."""
+    rig = load_rig()
+    res = simulate(rig, "closed-loop-sine", dt_out=1e-4)
+    meas = Measurements(pd.DataFrame({k: res[k] if k != "time" else res.t for k in (
+        "time", "piston_position", "bottom_chamber_pressure", "top_chamber_pressure")}), "sine")
+    nf = newton_friction(meas, rig, window=1e-3)
+    truth = np.interp(nf["time"], res.t, res["friction_force"])
+    fast = np.abs(nf["velocity"].to_numpy()) > 0.1
+    assert fast.sum() > 5000
+    assert np.max(np.abs(nf["friction_force"].to_numpy()[fast] - truth[fast])) < 5.0   # N
+
+
+def test_friction_identification_on_virtual_experiments(tmp_path, capsys):
+    """Steady-velocity runs up and down plus the closed-loop sine, run on the default rig:
+    the viscous and Coulomb coefficients come back up and down separately within 1 %."""
+    rig = load_rig()
+    i_r = rig["servovalve.rated_current"]
+    steady, sine = virtual_friction_tests(rig, currents=[s * f * i_r for f in (0.01, 0.1, 0.25)
+                                                         for s in (1, -1)], t_run=0.08)
+    ident = identify_friction(rig, steady, sine, window=1e-3)
+    assert len(ident.points["steady-velocity open-loop runs"][0]) == 6
+    for k in ("viscous_up", "viscous_down", "coulomb_up", "coulomb_down"):
+        assert getattr(ident.fit, k) == pytest.approx(rig[f"friction.{k}"], rel=0.01), k
+    rc = main(["friction-id", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--steady" in err[0]
