@@ -1,0 +1,408 @@
+"""Modal line with the exact poles and exact residues of the dissipative model (M5)-(M6).
+
+``ModalLine(line, n, form, method="residue")`` builds its matrices with
+:func:`residue_realisation`. The derivation, from (M5)-(M6) to the matrices below, is in
+``docs/residue_line.md``; in short, every entry ``H(s)`` of a form's transfer matrix
+(MODEL.md table 2.1) is meromorphic in s and is written as
+
+    H(s) = sum_{k<=n} [ R_k/(s - p_k) + conj ]          retained modes, exact
+         + column term (PP: 1/(Zc Gamma); QQ: 1/(s C))   k = 0 term
+         + V(s)                                          real-axis "viscous" poles
+         + T(s)                                          dropped modes k > n
+
+* **Poles** ``p_k``: the first n roots in the upper half plane of ``cosh Gamma(s) = 0`` (PQ,
+  QP; ``Gamma = j (k - 1/2) pi``) or ``sinh Gamma(s) = 0`` (PP, QQ; ``Gamma = j k pi``), found
+  by :func:`hydroline.lines.corrections.dissipative_root` -- the roots (M15) uses.
+* **Residues** ``R_k``: numerator over the derivative of the denominator, e.g. for PQ
+  ``R_k = [[1, -Zc sinh G], [sinh G/Zc, 1]] / (sinh G * G')`` at ``s = p_k``, with
+  ``G' = dGamma/ds`` from the analytic derivative of ``I0/I2`` (:func:`propagation_derivative`).
+  ``R_k`` has rank one (its determinant is proportional to ``cosh^2 Gamma = 0`` for PQ/QP,
+  ``sinh^2 Gamma = 0`` for PP/QQ), so each complex pair is realised with two real states.
+* **k = 0 term**: PP, the laminar fluid column ``1/(Zc Gamma) = I2(kappa)/(s I I0(kappa))``,
+  whose exact partial fractions are parallel R-L branches with poles ``-nu j_{0,m}^2/r^2``
+  and residues ``4/(I j_{0,m}^2)``; the first branch is kept exactly and one more branch
+  carries the others with their DC conductance and first moment exact (2 states). QQ,
+  ``Zc/Gamma = 1/(s C)`` exactly, one integrator (the stored volume).
+* **Remainder** ``V + T`` (strictly proper, no feed-through, so no algebraic loops):
+
+  - ``V``, the real-axis poles of the Bessel model: ``Gamma^2`` has poles at the zeros of
+    I2 (``s = -nu j_{2,m}^2/r^2``, the first 26.37 nu/r^2) and every mode's characteristic
+    equation has one real root beside each of them. They are computed exactly
+    (:func:`viscous_poles`), those slower than the first dropped mode are kept, and for every
+    entry they are lumped into one real pole whose DC gain and first moment equal theirs
+    (one state per entry);
+  - ``T``, the dropped modes (and the faster real poles): one lightly damped pseudo-mode
+    per output, ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` with ``Omega`` from the
+    moments of the lossless tail and ``zeta = TAIL_DAMPING``, whose numerators make the DC
+    gain and the first moment of every entry of the whole model exact. For the ``tanh`` and
+    ``coth`` entries T is the inertance of the dropped modes, which decides the top
+    resonance peaks; a real-pole block cannot represent it and a feed-through D would make
+    algebraic loops in the network. Price: above the band (~1.6 omega_{n+1}) those entries
+    have one resonance 2-3 times higher than the exact line's there (Dn ~ 0.003; up to 8
+    times at Dn = 0.033).
+
+  The DC gain of every entry is therefore exact: PQ/QP the laminar steady state (M12),
+  PP ``1/R``, QQ ``1/(s C)`` plus the offsets ``R/3`` (coth) and ``-R/6`` (csch).
+
+States, in order (names as :class:`hydroline.components.HoseSection` expects, the part
+after the dot gives the unit):
+
+* QQ only: ``column.volume`` -- net volume stored, [m^3] (both pressures are volume/C);
+* PP only: ``column.flow1``, ``column.flow2`` -- flows of the two column branches, [m^3/s];
+* per mode k = 1..n: PQ/QP ``mode{k}.pressure``, ``mode{k}.flow`` -- the mode's
+  contributions to the pressure and to the flow output, [Pa], [m^3/s]; PP
+  ``mode{k}.volume``, ``mode{k}.flow`` -- the modal volume and flow (contribution to the
+  first output; the second gets ``(-1)^k`` times it), [m^3], [m^3/s]; QQ
+  ``mode{k}.pressure_integral``, ``mode{k}.pressure``, [Pa s], [Pa];
+* ``viscous_{end}{j}.{q}`` -- the lumped real-axis poles' contribution of input j (1, 2)
+  to the output at ``end`` ("upstream"/"downstream") of quantity q ("pressure"/"flow"),
+  e.g. PQ ``viscous_downstream2.pressure``: part of P_d driven by Q_d;
+* ``tail_{end}.{q}1``, ``tail_{end}.{q}2`` -- the dropped modes' contribution to that
+  output and its quadrature component (same unit).
+
+Inputs and outputs are in the order of the form's table (:data:`FORM_PORTS`).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import special
+
+from .corrections import _check_modes, dissipative_root, modal_angles
+from .line import FORM_PORTS, Line, check_form
+
+__all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
+           "viscous_poles", "exact_moments", "TAIL_DAMPING"]
+
+#: Damping ratio of the pseudo-mode that stands for the dropped modes, [-]. Light, like the
+#: modes it replaces: its in-band part must stay reactive (a resistive part biases the top
+#: resonance peaks: 0.1 doubles the worst peak error, 0.2 gives ~10 %), while less damping
+#: sharpens its resonance above the band (0.03: ~14 times the exact peaks there, 0.05: ~8).
+TAIL_DAMPING = 0.05
+
+#: Real roots computed per viscous cluster (one per mode), [-]; their residues fall off as
+#: theta^-2 ... theta^-4, so 30 leave < 1e-3 of a cluster's weight out.
+VISCOUS_ROOTS_PER_CLUSTER = 30
+
+#: Largest number of viscous clusters (zeros of I2) resolved; faster ones go to the tail, [-].
+MAX_VISCOUS_CLUSTERS = 40
+
+_J01 = 2.404825557695773     # first zero of J0
+
+
+def propagation_derivative(line: Line, s):
+    """Gamma(s), Zc(s) of the dissipative model (M6) and the derivative dGamma/ds.
+
+    With ``B = I0(kappa)/I2(kappa)``, ``kappa = r sqrt(s/nu)``, ``Gamma = s tau sqrt(B)``:
+    ``dGamma/ds = tau sqrt(B) (1 + kappa B'(kappa)/(4 B))``,
+    ``B' = (I1/I2)(1 - B) + 2 B/kappa`` (from I0' = I1, I2' = I1 - 2 I2/kappa).
+
+    Parameters
+    ----------
+    line : Line             The line
+    s : array_like complex  Laplace variable off the origin, [1/s]
+
+    Returns
+    -------
+    (Gamma [-], Zc [Pa s/m^3], dGamma/ds [s]) : complex arrays, principal square roots as in
+    :meth:`Line.propagation`
+    """
+    s = np.asarray(s, dtype=complex)
+    nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
+    kappa = r * np.sqrt(s / nu)
+    i0, i1, i2 = (special.ive(k, kappa) for k in (0, 1, 2))   # scaling cancels in ratios
+    B = i0 / i2
+    sq = np.sqrt(B)
+    dB = (i1 / i2) * (1.0 - B) + 2.0 * B / kappa
+    return s * tau * sq, line.impedance * sq, tau * sq * (1.0 + kappa * dB / (4.0 * B))
+
+
+def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
+    """Poles of modes 1..n in the upper half plane, [1/s].
+
+    Roots of ``Gamma(s) = j theta_k`` (M6), ``theta_k = (k - 1/2) pi`` (PQ, QP: cosh Gamma = 0)
+    or ``k pi`` (PP, QQ: sinh Gamma = 0), continued from mode to mode as in (M15).
+    """
+    thetas = modal_angles(n_modes, form)
+    roots = []
+    guess = None
+    for k, theta in enumerate(thetas):
+        if roots:
+            prev, ratio = roots[-1], theta / thetas[k - 1]
+            guess = complex(prev.real * np.sqrt(ratio), prev.imag * ratio)
+        roots.append(dissipative_root(line, theta, guess))
+    return np.array(roots)
+
+
+def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
+    """Exact residues of every entry of a form's transfer matrix at roots of its denominator.
+
+    PQ/QP entries are ``N(s)/cosh Gamma`` and PP/QQ entries ``N(s)/sinh Gamma``; at a simple
+    root the residue is ``N/(sinh Gamma Gamma')`` or ``N/(cosh Gamma Gamma')``. Valid for the
+    modal poles and for the real (viscous) roots alike.
+
+    Parameters
+    ----------
+    line : Line             The line
+    poles : array_like      Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
+    form : str              "PQ", "QP", "PP" or "QQ"
+
+    Returns
+    -------
+    complex ndarray, shape ``poles.shape + (2, 2)``; [output unit * input unit^-1 / s]
+    """
+    form = check_form(form)
+    p = np.asarray(poles, dtype=complex)
+    G, Zc, dG = propagation_derivative(line, p)
+    ch, sh = np.cosh(G), np.sinh(G)
+    one = np.ones_like(G)
+    if form == "PQ":
+        den, num = sh * dG, [[one, -Zc * sh], [sh / Zc, one]]
+    elif form == "QP":
+        den, num = sh * dG, [[Zc * sh, one], [one, -sh / Zc]]
+    elif form == "PP":
+        den, num = ch * dG, [[ch / Zc, -one / Zc], [one / Zc, -ch / Zc]]
+    else:
+        den, num = ch * dG, [[Zc * ch, -Zc], [Zc, -Zc * ch]]
+    R = np.empty(p.shape + (2, 2), dtype=complex)
+    for i in range(2):
+        for j in range(2):
+            R[..., i, j] = num[i][j] / den
+    return R
+
+
+def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
+                  n_roots: int = VISCOUS_ROOTS_PER_CLUSTER,
+                  max_clusters: int = MAX_VISCOUS_CLUSTERS) -> np.ndarray:
+    """Real poles of the dissipative model beside the zeros of I2, [1/s].
+
+    On the negative real axis ``kappa = j x``, ``x = r sqrt(-s/nu)``, and
+    ``Gamma^2 = -theta^2`` becomes ``x^4 J0(x) Dn^2 = theta^2 J2(x)``: one root in every
+    interval from a zero ``j_{2,m}`` of J2 to the next zero of J0, for every mode theta.
+    Solved by bisection for the modes 1..n_roots of the form and the clusters m whose
+    rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the first cluster).
+
+    Returns
+    -------
+    ndarray (clusters, n_roots) of real poles s < 0, [1/s]
+    """
+    form = check_form(form)
+    Dn = line.dissipation_number
+    nu, r = line.fluid.kinematic_viscosity, line.radius
+    j2 = special.jn_zeros(2, max_clusters)
+    if rate_limit is not None:
+        keep = nu * j2**2 / r**2 <= rate_limit
+        keep[0] = True
+        j2 = j2[keep]
+    j0 = special.jn_zeros(0, len(j2) + 2)
+    lo = np.repeat(j2[:, None], n_roots, axis=1)
+    hi = np.repeat(j0[np.searchsorted(j0, j2)][:, None], n_roots, axis=1)
+    q = (modal_angles(n_roots, form)[None, :] / Dn) ** 2
+
+    def g(x):
+        return x**4 * special.jv(0, x) - q * special.jv(2, x)
+
+    g_lo = g(lo)
+    for _ in range(50):                      # bracket width / 2^50: ~1e-15 relative
+        mid = 0.5 * (lo + hi)
+        g_mid = g(mid)
+        left = np.sign(g_mid) == np.sign(g_lo)
+        lo, g_lo = np.where(left, mid, lo), np.where(left, g_mid, g_lo)
+        hi = np.where(left, hi, mid)
+    x = 0.5 * (lo + hi)
+    return -nu * x**2 / r**2
+
+
+def exact_moments(line: Line, form: str = "PQ"):
+    """DC gain H(0) and first moment H'(0) of the exact dissipative transfer matrix.
+
+    From ``Gamma^2 = g1 s + g2 s^2 + ...`` with ``g1 = 8 Dn tau``, ``g2 = 4 tau^2/3``
+    (``I0/I2 = 8/kappa^2 + 4/3 + ...``) and ``Zc = Z0 Gamma/(s tau)``:
+    ``sech = 1 - g/2``, ``G tanh G = g - g^2/3``, ``tanh G/G = 1 - g/3``,
+    ``G coth G = 1 + g/3 - g^2/45``, ``G csch G = 1 - g/6 + 7 g^2/360``. For QQ the pole
+    ``1/(s C)`` of every entry (sign as in the table) is removed first.
+
+    Returns
+    -------
+    (H0, H1) : real (2, 2) arrays in form order; H1 in [H0 unit * s]
+    """
+    form = check_form(form)
+    tau, Z0, Dn = line.wave_time, line.impedance, line.dissipation_number
+    g1, g2 = 8.0 * Dn * tau, 4.0 / 3.0 * tau**2
+    if form in ("PQ", "QP"):
+        sech = np.array([1.0, -g1 / 2.0])
+        ztanh = np.array([Z0 * g1 / tau, Z0 * (g2 - g1**2 / 3.0) / tau])
+        tanhz = np.array([0.0, tau / Z0])
+        M = ([[sech, -ztanh], [tanhz, sech]] if form == "PQ" else
+             [[ztanh, sech], [sech, -tanhz]])
+    elif form == "PP":
+        base = np.array([tau / (Z0 * g1), -tau * g2 / (Z0 * g1**2)])
+        coth = base + np.array([0.0, tau / (3.0 * Z0)])
+        csch = base - np.array([0.0, tau / (6.0 * Z0)])
+        M = [[coth, -csch], [csch, -coth]]
+    else:
+        coth = Z0 / tau * np.array([g1 / 3.0, g2 / 3.0 - g1**2 / 45.0])
+        csch = Z0 / tau * np.array([-g1 / 6.0, -g2 / 6.0 + 7.0 * g1**2 / 360.0])
+        M = [[coth, -csch], [csch, -coth]]
+    M = np.array(M)
+    return M[..., 0], M[..., 1]
+
+
+# ---- realisation --------------------------------------------------------------------------
+def _mode_pq(p, R):
+    """Two real states whose values are the mode's contributions to both outputs (C = I).
+
+    ``R = u v^T``; ``z' = p z + v^T u_in``, contribution ``2 Re(u z) = T [Re z, Im z]`` with
+    ``T = 2 [Re u, -Im u]`` (invertible since Re Zc != 0); in ``x = T [Re z, Im z]``:
+    ``A = T [[a, -b], [b, a]] T^-1``, ``B = T [Re v; Im v]``, ``C = I``.
+    """
+    j = int(np.argmax(np.abs(R).sum(axis=0)))
+    i = int(np.argmax(np.abs(R[:, j])))
+    u, v = R[:, j], R[i, :] / R[i, j]
+    T = 2.0 * np.column_stack([u.real, -u.imag])
+    Lam = np.array([[p.real, -p.imag], [p.imag, p.real]])
+    return T @ Lam @ np.linalg.inv(T), T @ np.vstack([v.real, v.imag]), np.eye(2)
+
+
+def _mode_pp(p, R):
+    """Two real states [xi, y] for ``R = c [1, sg]^T [1, -sg]`` (PP and QQ).
+
+    ``y = g(s) (u1 - sg u2)`` with ``g = c/(s - p) + conj = (b1 s + b0)/(s^2 + a1 s + a0)``,
+    realised as ``xi' = y - mu xi``, ``y' = -k xi - a y + b1 w`` with ``mu = b0/b1``,
+    ``a = a1 - mu``, ``k = a0 - a mu``; the outputs are ``y`` and ``sg y``.
+    """
+    c = R[0, 0]
+    sg = 1.0 if (R[1, 0] * np.conj(c)).real >= 0 else -1.0
+    b1, b0 = 2.0 * c.real, -2.0 * (c * np.conj(p)).real
+    a1, a0 = -2.0 * p.real, abs(p) ** 2
+    if not b1 > 1e-9 * abs(c):   # Re(c) > 0 for every line with Dn well below 1
+        raise ValueError(f"mode at s = {p:.4g} 1/s has a residue with Re <= 0; the line is too "
+                         "dissipative for the residue modal line")
+    mu = b0 / b1
+    a = a1 - mu
+    A = np.array([[-mu, 1.0], [-(a0 - a * mu), -a]])
+    B = np.array([[0.0, 0.0], [b1, -sg * b1]])
+    return A, B, np.array([[0.0, 1.0], [0.0, sg]])
+
+
+def _tail_omega(n_modes: int, form: str) -> float:
+    """Omega tau of one mode with the first and third moments of the lossless tail.
+
+    ``sum_{i>n} 2 s tau/((s tau)^2 + theta_i^2) = 2 S2 s tau - 2 S4 (s tau)^3 + ...`` with
+    ``S_k = sum_{i>n} theta_i^-k`` (polygamma sums); ``K s/(s^2 + Omega^2)`` matches both
+    for ``(Omega tau)^2 = S2/S4``.
+    """
+    a = n_modes + (0.5 if form in ("PQ", "QP") else 1.0)
+    S2 = special.polygamma(1, a) / np.pi**2
+    S4 = special.polygamma(3, a) / (6.0 * np.pi**4)
+    return float(np.sqrt(S2 / S4))
+
+
+def _lumped_rate(V0, V1, rates, weights):
+    """Rate of one real pole with DC gain V0 and first moment V1, inside the cluster range."""
+    lo, hi = rates.min(), rates.max()
+    lam = -V0 / V1 if V1 != 0 else np.nan
+    if np.isfinite(lam) and lo * (1 - 1e-9) <= lam <= hi * (1 + 1e-9):
+        return lam
+    w = np.abs(weights)                       # mixed signs: |weight|-averaged rate
+    return float(np.sum(w / rates) / np.sum(w / rates**2)) if w.sum() > 0 else lo
+
+
+def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
+    """State-space matrices of the modal line with exact poles and residues (M6).
+
+    Parameters
+    ----------
+    line : Line       The line (needs Dn well below 1, as for (M15))
+    n_modes : int     Number of retained modes n >= 1 (two states each)
+    form : str        Causal form "PQ", "QP", "PP" or "QQ" (MODEL.md table 2.1)
+
+    Returns
+    -------
+    (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
+    form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
+    2 n modal + 4 viscous + 4 tail, plus 2 column states (PP) or 1 (QQ).
+    """
+    if not isinstance(line, Line):
+        raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
+    n = _check_modes(n_modes)
+    form = check_form(form)
+    ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
+    nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
+    blocks = []                                                     # (A, B, C, names)
+
+    # k = 0 terms
+    if form == "QQ":
+        blocks.append((np.zeros((1, 1)), np.array([[1.0, -1.0]]),
+                       np.full((2, 1), 1.0 / line.capacitance), ["column.volume"]))
+    elif form == "PP":
+        I, R = line.inertance, line.resistance
+        L1 = I * _J01**2 / 4.0                     # exact first branch of I2/(s I I0)
+        R1 = L1 * nu * _J01**2 / r**2
+        R2 = 1.0 / (1.0 / R - 1.0 / R1)            # the other branches: DC conductance ...
+        L2 = (4.0 / 3.0 * I / R**2 - L1 / R1**2) * R2**2   # ... and first moment exact
+        for m, (Lb, Rb) in enumerate(((L1, R1), (L2, R2))):
+            blocks.append((np.array([[-Rb / Lb]]), np.array([[1.0 / Lb, -1.0 / Lb]]),
+                           np.ones((2, 1)), [f"column.flow{m + 1}"]))
+
+    # retained modes
+    poles = modal_poles(line, n, form)
+    for k, (p, Rk) in enumerate(zip(poles, modal_residues(line, poles, form)), start=1):
+        if form in ("PQ", "QP"):
+            A, B, C = _mode_pq(p, Rk)
+            names = [f"mode{k}.pressure", f"mode{k}.flow"]
+        else:
+            A, B, C = _mode_pp(p, Rk)
+            kinds = ("volume", "flow") if form == "PP" else ("pressure_integral", "pressure")
+            names = [f"mode{k}.{kinds[0]}", f"mode{k}.{kinds[1]}"]
+        blocks.append((A, B, C, names))
+
+    # what the exact model still needs: DC gain and first moment of every entry
+    H0m, H1m = np.zeros((2, 2)), np.zeros((2, 2))
+    for A, B, C, names in blocks:
+        if names != ["column.volume"]:             # QQ: the 1/(sC) pole is exact
+            X = np.linalg.solve(A, B)
+            H0m -= C @ X
+            H1m -= C @ np.linalg.solve(A, X)
+    H0, H1 = exact_moments(line, form)
+    rem0, rem1 = H0 - H0m, H1 - H1m
+
+    # V: real-axis poles slower than the first dropped mode, one lumped pole per entry
+    theta_next = modal_angles(n + 1, form)[-1]
+    sv = viscous_poles(line, form, rate_limit=theta_next / tau)
+    Rv = modal_residues(line, sv, form).real
+    rates = -sv.ravel()
+    for o in range(2):
+        for j in range(2):
+            res = Rv[..., o, j].ravel()
+            V0, V1 = np.sum(res / rates), -np.sum(res / rates**2)
+            lam = _lumped_rate(V0, V1, rates, res / rates)
+            Bv = np.zeros((1, 2))
+            Bv[0, j] = lam * V0
+            Cv = np.zeros((2, 1))
+            Cv[o, 0] = 1.0
+            end, kind = ends[o]
+            blocks.append((np.array([[-lam]]), Bv, Cv, [f"viscous_{end}{j + 1}.{kind}"]))
+            rem0[o, j] -= V0
+            rem1[o, j] -= -V0 / lam
+
+    # T: dropped modes, one pseudo-mode per output; exact DC gain and first moment
+    Om = _tail_omega(n, form) / tau
+    a1, a0 = 2.0 * TAIL_DAMPING * Om, Om**2
+    for o in range(2):
+        b0 = rem0[o] * a0
+        b1 = rem1[o] * a0 + rem0[o] * a1
+        Ct = np.zeros((2, 2))
+        Ct[o, 0] = 1.0
+        end, kind = ends[o]
+        blocks.append((np.array([[-a1, Om], [-Om, 0.0]]), np.vstack([b1, b0 / Om]), Ct,
+                       [f"tail_{end}.{kind}1", f"tail_{end}.{kind}2"]))
+
+    N = sum(b[0].shape[0] for b in blocks)
+    A, B, C = np.zeros((N, N)), np.zeros((N, 2)), np.zeros((2, N))
+    names, i = [], 0
+    for Ab, Bb, Cb, nb in blocks:
+        m = Ab.shape[0]
+        A[i:i + m, i:i + m], B[i:i + m], C[:, i:i + m] = Ab, Bb, Cb
+        names += nb
+        i += m
+    return A, B, C, np.zeros((2, 2)), names
