@@ -86,8 +86,9 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
 
 
 def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
-             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "cvodes",
-             progress=None, rtol: float = 1e-7) -> SimulationResult:
+             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
+             progress=None, rtol: float = 1e-7, stream_to=None,
+             stream_columns=None) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state.
 
     Parameters
@@ -97,9 +98,15 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     scenario : str           "open-loop-step" or "closed-loop-sine"
     t_end : float            Simulated time, [s] (the scenario's default when None)
     dt_out : float           Output sampling interval, [s]
-    solver : str             "cvodes" (compiled) or "scipy" (reference Python path)
+    solver : str             "auto" (the compiled C core where a C compiler exists, else
+                             "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
+                             (reference Python path); see :func:`hydroline.simulation.integrate`
     progress : callable      Called with the fraction done
     rtol : float             Relative tolerance of the integrator
+    stream_to : path         Stream the time series to this CSV file in constant memory (long
+                             runs); ``data`` then holds the last row only and
+                             ``metadata["stream_stats"]`` per-column min/max/mean/rms
+    stream_columns : list    Columns to stream (all when None)
 
     Returns
     -------
@@ -113,7 +120,7 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     net = build_network(rig, sc.commands, sc.position_guess)
     ss = solve_steady_state(net, t0=0.0)
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
-                    rtol=rtol)
+                    rtol=rtol, stream_to=stream_to, stream_columns=stream_columns)
     res.steady_state = ss
     act = net.component("actuator")
     res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
@@ -121,7 +128,8 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                         actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
                         total_wall_time=_time.perf_counter() - tic,
                         steady_state_residual=ss.residual, n_states=len(net.state_names))
-    res.warnings.extend(check_cavitation(res))
+    if stream_to is None:
+        res.warnings.extend(check_cavitation(res))
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
     return res
 

@@ -2,9 +2,10 @@
 
 The model (a :class:`~hydroline.network.Network`), its parameters (components built from a
 rig) and the solver are kept apart: :func:`solve_steady_state` finds the network's rest state
-for the inputs before the disturbance; :func:`integrate` runs the compiled model with SUNDIALS
-CVODES (through CasADi, exact sparse Jacobian) or, as the plain reference path, SciPy's BDF on
-the per-component Python right-hand side.
+for the inputs before the disturbance; :func:`integrate` runs the model compiled to C with a
+sparse-Jacobian BDF integrator (:mod:`hydroline.compiled`, the default where a C compiler
+exists), with SUNDIALS CVODES (through CasADi, exact sparse Jacobian) or, as the plain reference
+path, SciPy's BDF on the per-component Python right-hand side.
 """
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ import pandas as pd
 from .network import Network
 
 __all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
-           "SteadyStateError"]
+           "SteadyStateError", "SOLVERS"]
 
 
 class SteadyStateError(RuntimeError):
@@ -189,9 +190,13 @@ def _segments(t_end, breakpoints, sample_time=None):
     return sorted(edges)
 
 
+SOLVERS = ("auto", "compiled", "cvodes", "scipy")
+
+
 def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
-              solver: str = "cvodes", rtol: float = 1e-7, atol_scale: float = 1e-8,
-              progress=None) -> SimulationResult:
+              solver: str = "auto", rtol: float = 1e-7, atol_scale: float = 1e-8,
+              progress=None, stream_to=None, chunk_rows: int = 20000,
+              stream_columns=None) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -201,11 +206,20 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     t_end : float       End time, [s]
     dt_out : float      Output interval, [s]
     p : array           Runtime parameters (network defaults when None)
-    solver : str        "cvodes" (compiled, CasADi + SUNDIALS) or "scipy" (reference: per-component
-                        Python right-hand side, SciPy BDF)
+    solver : str        "auto" (default: "compiled" where a C compiler is available, else
+                        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
+                        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
+                        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
+                        (reference: per-component Python right-hand side, SciPy BDF)
     rtol : float        Relative tolerance
     atol_scale : float  Absolute tolerance as a fraction of each state's typical magnitude
-    progress : callable Called with the fraction done (0..1) after each segment
+    progress : callable Called with the fraction done (0..1) after each segment or chunk
+    stream_to : path    Write the time series to this CSV file chunk by chunk as the run
+                        goes, keeping only per-column summary statistics in memory (constant
+                        memory for long runs); ``data`` then holds the last row only and
+                        ``metadata["stream_stats"]`` the min/max/mean/rms of every column
+    chunk_rows : int    Output rows per chunk (streaming and the compiled path)
+    stream_columns : list  Columns to write when streaming (all signals and states if None)
 
     Returns
     -------
@@ -213,6 +227,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     """
     if not t_end > 0:
         raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
     model = network.compile()
     n_out = int(round(t_end / dt_out))
@@ -221,13 +237,33 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     sample_time = sampled[0].sample_time if sampled else None
     edges = _segments(t_out[-1], network.breakpoints(t_out[-1]), sample_time)
     atol = atol_scale * network.state_scales
-    X = np.empty((len(t_out), len(x0)))
-    X[0] = x0
     x = np.asarray(x0, dtype=float).copy()
+    notes = []
+    native = None
+    build_time = 0.0
+    if solver in ("auto", "compiled"):
+        from . import compiled
+
+        tic = _time.perf_counter()
+        try:
+            native = compiled.native_model(network)
+        except (compiled.CompilerUnavailable, compiled.UnsupportedOperation) as e:
+            if solver == "compiled":
+                raise
+            notes.append(f"compiled core unavailable ({e}); used CVODES")
+        build_time = _time.perf_counter() - tic
+    backend = "compiled" if native is not None else ("cvodes" if solver == "auto" else solver)
+    columns = list(network.signal_names) + list(network.state_names)
+    sink = _Sink(columns, stream_to, stream_columns)
     stats = {"nfevals": 0, "njevals": 0, "nsteps": 0}
-    dae = {"t": model.t, "x": model.x, "p": model.p, "ode": model.dx}
-    # per-state absolute tolerance through scaling: CVODES integrates z = x / scale
-    scaled_dae = _scaled_dae(dae, network.state_scales) if solver == "cvodes" else None
+    scaled_dae = None
+    if backend == "cvodes":
+        dae = {"t": model.t, "x": model.x, "p": model.p, "ode": model.dx}
+        # per-state absolute tolerance through scaling: CVODES integrates z = x / scale
+        scaled_dae = _scaled_dae(dae, network.state_scales)
+    ns = native.solver(p, rtol=rtol, atol=atol_scale) if native is not None else None
+    sink.write(t_out[:1], x[None, :], None, model, p)
+    chunk_rows = max(int(chunk_rows), 1)
     tic = _time.perf_counter()
     for a, b in zip(edges[:-1], edges[1:]):
         if sampled:
@@ -236,38 +272,126 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         grid = list(t_out[inside])
         if not grid or abs(grid[-1] - b) > 1e-12:
             grid.append(b)
-        if solver == "cvodes":
-            F = ca.integrator("F", "cvodes", scaled_dae, a, grid,
-                              {"reltol": rtol, "abstol": atol_scale, "max_num_steps": 200000})
-            out = F(x0=x / network.state_scales, p=p)
-            Z = np.asarray(out["xf"]).T * network.state_scales
-            st = F.stats()
-            stats["nfevals"] += int(st.get("nfevals", 0))
-            stats["njevals"] += int(st.get("njevals", 0) or st.get("nlinsetups", 0))
-            stats["nsteps"] += int(st.get("nsteps", 0))
-        elif solver == "scipy":
-            from scipy.integrate import solve_ivp
-
-            sol = solve_ivp(lambda t, y: network.rhs(t, y, p), (a, b), x, method="BDF",
-                            t_eval=grid, rtol=rtol, atol=atol)
-            if not sol.success:
-                raise RuntimeError(f"integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
-            Z = sol.y.T
-            stats["nfevals"] += sol.nfev
-            stats["njevals"] += sol.njev
+        grid = np.asarray(grid)
+        if backend == "compiled":
+            if sampled:
+                ns.set_parameters(p)
+            ns.start(a, x, b)
+            for k in range(0, len(grid), chunk_rows):
+                g = grid[k:k + chunk_rows]
+                X, Y = ns.advance(g)
+                m = min(len(inside) - k, len(g))
+                if m > 0:
+                    sink.write(g[:m], X[:m], Y[:m], model, p)
+                x = X[-1].copy()
+                if progress and len(grid) > chunk_rows:
+                    progress(g[-1] / t_out[-1])
         else:
-            raise ValueError(f"solver must be 'cvodes' or 'scipy', got {solver!r}")
-        if not np.all(np.isfinite(Z)):
-            raise RuntimeError(f"integration produced non-finite states in [{a:.6g}, {b:.6g}] s")
-        X[inside] = Z[:len(inside)]
-        x = Z[-1].copy()
+            # CVODES/SciPy restart at each sub-interval when streaming (bounded memory)
+            step = chunk_rows if stream_to is not None else len(grid)
+            t_a = a
+            for k in range(0, len(grid), step):
+                g = grid[k:k + step]
+                Z = _integrate_cvodes_scipy(backend, network, scaled_dae, t_a, g, x, p, rtol,
+                                            atol_scale, atol, stats)
+                m = min(len(inside) - k, len(g))
+                if m > 0:
+                    sink.write(g[:m], Z[:m], None, model, p)
+                x = Z[-1].copy()
+                t_a = g[-1]
         if progress:
             progress(b / t_out[-1])
     wall = _time.perf_counter() - tic
-    Y = np.asarray(model.signals.map(len(t_out))(t_out, X.T, np.tile(p[:, None], len(t_out)))).T
-    data = pd.DataFrame(np.hstack([Y, X]), index=pd.Index(t_out, name="time"),
-                        columns=list(network.signal_names) + list(network.state_names))
-    return SimulationResult(data=data, wall_time=wall, stats=stats)
+    if ns is not None:
+        stats.update(ns.stats())
+    stats["build_time"] = build_time
+    res = SimulationResult(data=sink.result(), wall_time=wall, stats=stats, warnings=notes)
+    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
+    if stream_to is not None:
+        res.metadata.update(stream_to=str(stream_to), stream_stats=sink.stats_frame(),
+                            stream_rows=sink.rows)
+    return res
+
+
+def _integrate_cvodes_scipy(backend, network, scaled_dae, a, grid, x, p, rtol, atol_scale, atol,
+                            stats):
+    """States at the grid times (the last one is the segment end) by CVODES or SciPy BDF."""
+    if backend == "cvodes":
+        F = ca.integrator("F", "cvodes", scaled_dae, a, list(grid),
+                          {"reltol": rtol, "abstol": atol_scale, "max_num_steps": 200000})
+        out = F(x0=x / network.state_scales, p=p)
+        Z = np.asarray(out["xf"]).T * network.state_scales
+        st = F.stats()
+        stats["nfevals"] += int(st.get("nfevals", 0))
+        stats["njevals"] += int(st.get("njevals", 0) or st.get("nlinsetups", 0))
+        stats["nsteps"] += int(st.get("nsteps", 0))
+    else:
+        from scipy.integrate import solve_ivp
+
+        sol = solve_ivp(lambda t, y: network.rhs(t, y, p), (a, grid[-1]), x, method="BDF",
+                        t_eval=grid, rtol=rtol, atol=atol)
+        if not sol.success:
+            raise RuntimeError(f"integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
+        Z = sol.y.T
+        stats["nfevals"] += sol.nfev
+        stats["njevals"] += sol.njev
+    if not np.all(np.isfinite(Z)):
+        raise RuntimeError(f"integration produced non-finite states in [{a:.6g}, {grid[-1]:.6g}] s")
+    return Z
+
+
+class _Sink:
+    """Collects output rows in memory, or streams them to CSV keeping column statistics."""
+
+    def __init__(self, columns, path, keep=None):
+        self.columns = columns
+        self.path = path
+        self.rows = 0
+        self.parts = []
+        self.last = None
+        if path is not None:
+            keep = list(columns) if keep is None else list(keep)
+            unknown = [k for k in keep if k not in columns]
+            if unknown:
+                raise ValueError(f"stream_columns: unknown signal(s)/state(s) {', '.join(unknown)}")
+            self.keep = keep
+            self.index = np.array([columns.index(k) for k in keep], dtype=int)
+            self.file = open(path, "w", buffering=1 << 20)
+            self.file.write(",".join(["time"] + keep) + "\n")
+            n = len(keep)
+            self.mn, self.mx = np.full(n, np.inf), np.full(n, -np.inf)
+            self.sum, self.sumsq = np.zeros(n), np.zeros(n)
+
+    def write(self, t, X, Y, model, p):
+        if Y is None:
+            Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
+        block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
+        self.rows += len(t)
+        if self.path is None:
+            self.parts.append((np.array(t, dtype=float), block))
+            return
+        sel = block[:, self.index]
+        self.mn = np.minimum(self.mn, sel.min(axis=0))
+        self.mx = np.maximum(self.mx, sel.max(axis=0))
+        self.sum += sel.sum(axis=0)
+        self.sumsq += (sel * sel).sum(axis=0)
+        np.savetxt(self.file, np.column_stack([t, sel]), fmt="%.9g", delimiter=",")
+        self.last = (np.array(t[-1:], dtype=float), block[-1:])
+
+    def result(self) -> pd.DataFrame:
+        if self.path is not None:
+            self.file.close()
+            t, block = self.last
+        else:
+            t = np.concatenate([q[0] for q in self.parts])
+            block = np.vstack([q[1] for q in self.parts])
+        return pd.DataFrame(block, index=pd.Index(t, name="time"), columns=self.columns)
+
+    def stats_frame(self) -> pd.DataFrame:
+        n = max(self.rows, 1)
+        mean = self.sum / n
+        return pd.DataFrame({"min": self.mn, "max": self.mx, "mean": mean,
+                             "rms": np.sqrt(self.sumsq / n)}, index=self.keep)
 
 
 def _scaled_dae(dae, scales):

@@ -18,8 +18,9 @@ def register(sub):
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--out", default="hydroline-out", help="output folder (default: hydroline-out)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout only")
-    p.add_argument("--solver", default="cvodes", choices=("cvodes", "scipy"),
-                   help="compiled CVODES (default) or the reference SciPy path")
+    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
+                   help="auto (default: the compiled C core where a C compiler exists, else "
+                   "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
     p.set_defaults(func=run)
 
 

@@ -1,0 +1,277 @@
+"""The compiled simulation core: a network as C code, built once per machine, run in C.
+
+:func:`native_model` turns an assembled :class:`~hydroline.network.Network` into a
+:class:`NativeModel`: C source for its right-hand side, sparse Jacobian, signals and sparse LU
+(:mod:`.codegen`) compiled together with a BDF integrator (``bdf.c``) by the system C
+compiler into a shared library. The source holds only the network's structure (its numbers
+are passed at run time), so the library is keyed by a hash of the source and kept in a cache
+directory: the compile cost (about a second) is paid once per machine and structure, not per
+process or per parameter variant.
+
+Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
+``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.
+Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
+:func:`hydroline.simulation.integrate` falls back to CasADi's CVODES.
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .codegen import GeneratedModel, UnsupportedOperation, generate
+
+__all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
+           "available", "CFLAGS"]
+
+#: Flags for the system compiler (no -ffast-math: the integrator relies on IEEE semantics;
+#: -fno-math-errno only lets sqrt compile to one instruction). The library is built for this
+#: machine's CPU (``-march=native``, dropped where the compiler refuses it), so the cache key
+#: includes the CPU model.
+CFLAGS = ["-O3", "-fno-math-errno", "-shared", "-fPIC", "-std=c99"]
+NATIVE_FLAGS = ["-march=native"]
+_BDF_SOURCE = Path(__file__).with_name("bdf.c")
+_LIBS: dict = {}
+
+
+class CompilerUnavailable(RuntimeError):
+    """No working C compiler: the compiled core cannot be built on this machine."""
+
+
+def cache_dir() -> Path:
+    """Directory of the compiled libraries (created on demand)."""
+    env = os.environ.get("HYDROLINE_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "hydroline"
+
+
+def _compiler() -> str | None:
+    cc = os.environ.get("CC")
+    if cc and shutil.which(cc):
+        return shutil.which(cc)
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def available() -> bool:
+    """True when a C compiler is on the PATH (the compiled core can be built)."""
+    return _compiler() is not None
+
+
+def _cpu_id() -> str:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.machine() + platform.processor()
+
+
+def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
+    full = gen.source + "\n" + _BDF_SOURCE.read_text()
+    ident = full + " ".join(CFLAGS + NATIVE_FLAGS) + sys.platform + _cpu_id()
+    tag = hashlib.sha256(ident.encode()).hexdigest()[:32]
+    return cache_dir() / f"hl_{tag}.so", full
+
+
+def _build(gen: GeneratedModel) -> ctypes.CDLL:
+    path, full = _library_path(gen)
+    if str(path) in _LIBS:
+        return _LIBS[str(path)]
+    if not path.exists():
+        cc = _compiler()
+        if cc is None:
+            raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+            src = Path(tmp) / "model.c"
+            src.write_text(full)
+            out = Path(tmp) / "model.so"
+            proc = subprocess.run([cc, *CFLAGS, *NATIVE_FLAGS, "-o", str(out), str(src), "-lm"],
+                                  capture_output=True, text=True)
+            if proc.returncode != 0:   # e.g. a compiler without -march=native
+                proc = subprocess.run([cc, *CFLAGS, "-o", str(out), str(src), "-lm"],
+                                      capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
+            os.replace(out, path)   # atomic: concurrent builders of one key are harmless
+    lib = ctypes.CDLL(str(path))
+    _declare(lib)
+    _LIBS[str(path)] = lib
+    return lib
+
+
+def _declare(lib):
+    dp = ctypes.POINTER(ctypes.c_double)
+    llp = ctypes.POINTER(ctypes.c_longlong)
+    vp = ctypes.c_void_p
+    lib.hl_sizes.argtypes = [llp]
+    lib.hl_new.restype = vp
+    lib.hl_free.argtypes = [vp]
+    lib.hl_setup.argtypes = [vp, dp, dp, dp, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                             ctypes.c_double, ctypes.c_int, ctypes.c_double]
+    lib.hl_set_parameters.argtypes = [vp, dp]
+    lib.hl_init.argtypes = [vp, ctypes.c_double, dp, ctypes.c_double]
+    lib.hl_advance.argtypes = [vp, ctypes.c_int, dp, dp, dp, ctypes.POINTER(ctypes.c_int)]
+    lib.hl_get_state.argtypes = [vp, dp, dp]
+    lib.hl_stats.argtypes = [vp, llp]
+    lib.hl_reset_stats.argtypes = [vp]
+    lib.hl_rhs.argtypes = [vp, ctypes.c_double, dp, dp]
+    lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, dp, dp]
+
+
+def _ptr(a):
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+class NativeModel:
+    """A network's compiled library and its constants.
+
+    Attributes
+    ----------
+    generated : GeneratedModel   Source, hash key, constants, sizes
+    lib : ctypes.CDLL            The loaded library
+    library_path : Path          Where the library is cached
+    build_time : float           Seconds spent generating (and, on a cache miss, compiling)
+    """
+
+    def __init__(self, network):
+        import time
+
+        tic = time.perf_counter()
+        self.network = network
+        self.generated = generate(network.compile())
+        self.library_path, _ = _library_path(self.generated)
+        self.cache_hit = self.library_path.exists()
+        self.lib = _build(self.generated)
+        sizes = (ctypes.c_longlong * 7)()
+        self.lib.hl_sizes(sizes)
+        self.n, self.n_signals = int(sizes[0]), int(sizes[3])
+        self.build_time = time.perf_counter() - tic
+
+    def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
+               fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1):
+        """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None)."""
+        return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef)
+
+
+class NativeSolver:
+    """One integrator instance in C (state kept between calls, for chunked/streamed runs).
+
+    Parameters
+    ----------
+    rtol : float        Relative tolerance
+    atol : float        Absolute tolerance on the scaled states (fraction of each state's
+                        typical magnitude)
+    max_step : float    Largest step, [s] (0: none)
+    fixed_step : float  > 0: fixed-step BDF of order max_order without error control, [s]
+    max_order : int     Highest BDF order (1-5)
+    newton_coef : float Newton convergence tolerance relative to the error-test tolerance
+    """
+
+    def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
+                 newton_coef):
+        self.model = model
+        lib = model.lib
+        self._lib = lib
+        self._h = lib.hl_new()
+        net = model.network
+        p = net.parameter_values if p is None else p
+        self.p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=float)))
+        if self.p.size == 0:
+            self.p = np.zeros(1)
+        c = model.generated.constants
+        self._c = np.ascontiguousarray(c if c.size else np.zeros(1))
+        self._scale = np.ascontiguousarray(np.asarray(net.state_scales, dtype=float))
+        lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
+                     max_step, fixed_step, int(max_order), newton_coef)
+
+    def __del__(self):
+        h, self._h = getattr(self, "_h", None), None
+        if h:
+            self._lib.hl_free(h)
+
+    def set_parameters(self, p):
+        self.p = np.ascontiguousarray(np.asarray(p, dtype=float))
+        self._lib.hl_set_parameters(self._h, _ptr(self.p))
+
+    def start(self, t0: float, x0, t_bound: float):
+        """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0)."""
+        x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
+        self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
+
+    def advance(self, t_out, signals: bool = True):
+        """Integrate through the output times (ascending, within the segment).
+
+        Returns
+        -------
+        (X, Y) : states [n_out, n_states] and signals [n_out, n_signals] (None if not asked), SI
+        """
+        t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
+        X = np.empty((len(t_out), self.model.n))
+        Y = np.empty((len(t_out), self.model.n_signals)) if signals else None
+        done = ctypes.c_int(0)
+        rc = self._lib.hl_advance(self._h, len(t_out), _ptr(t_out), _ptr(X),
+                                  _ptr(Y) if signals else None, ctypes.byref(done))
+        if rc != 0:
+            x, t = self.state()
+            why = {-1: "step size fell below the resolution of t",
+                   -2: "singular iteration matrix", -3: "Newton iteration failed in fixed-step mode"}
+            raise RuntimeError(f"compiled integrator failed at t = {t:.6g} s: {why.get(rc, rc)}")
+        if not np.all(np.isfinite(X)):
+            raise RuntimeError("compiled integrator produced non-finite states")
+        return X, Y
+
+    def state(self):
+        """Current (x [SI], t [s])."""
+        x = np.empty(self.model.n)
+        t = ctypes.c_double()
+        self._lib.hl_get_state(self._h, _ptr(x), ctypes.byref(t))
+        return x, t.value
+
+    def stats(self) -> dict:
+        """Steps, f and Jacobian evaluations, LU factorizations, rejected steps, ..."""
+        s = (ctypes.c_longlong * 7)()
+        self._lib.hl_stats(self._h, s)
+        keys = ("nsteps", "nfevals", "njevals", "nlu", "nrejected", "nnewton_fail", "ndense_lu")
+        return {k: int(v) for k, v in zip(keys, s)}
+
+    def reset_stats(self):
+        self._lib.hl_reset_stats(self._h)
+
+    def rhs(self, t: float, x) -> np.ndarray:
+        """dx/dt at (t, x) from the compiled code, [SI/s]."""
+        x = np.ascontiguousarray(np.asarray(x, dtype=float))
+        dx = np.empty(self.model.n)
+        self._lib.hl_rhs(self._h, float(t), _ptr(x), _ptr(dx))
+        return dx * 1.0
+
+
+def native_model(network) -> NativeModel:
+    """The network's :class:`NativeModel`, built once per network object.
+
+    Raises
+    ------
+    CompilerUnavailable   No C compiler, or it failed
+    UnsupportedOperation  The graph holds an operation the C writer does not know
+    """
+    nm = network.__dict__.get("_native_model")
+    if nm is None:
+        nm = NativeModel(network)
+        network.__dict__["_native_model"] = nm
+    return nm

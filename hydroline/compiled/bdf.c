@@ -1,0 +1,463 @@
+/* Variable-order, variable-step BDF/NDF integrator for one generated network model.
+ *
+ * Compiled together with the generated model code (hl_f, hl_jac, hl_signals, hl_lu_factor,
+ * hl_lu_solve, HL_* sizes) into one shared library; the whole run of a segment happens in C.
+ *
+ * Method: the quasi-constant step size BDF of Shampine & Reichelt, "The MATLAB ODE suite",
+ * SIAM J. Sci. Comput. 18 (1997) 1-22, with the NDF coefficients kappa (orders 1-5), in the
+ * backward-difference form of SciPy's `solve_ivp(method="BDF")`. Departures, all as in
+ * SUNDIALS CVODE (Hindmarsh et al., ACM TOMS 31 (2005) 363-396): the simplified Newton
+ * iteration may stop after one iteration using the convergence rate remembered from earlier
+ * steps; the iteration matrix W = I - c J is kept while c changes by less than 30 % and the
+ * Newton update is then scaled by 2/(1 + c/c_W); W is refactored at least every 20 steps and
+ * always with a fresh (exact, sparse) Jacobian. Step size changes below 20 % upward are
+ * skipped. Linear algebra: the generated sparse LU (no pivoting, fill-reducing order), with a
+ * dense partial-pivoting LU as fallback when a pivot is tiny.
+ *
+ * Fixed-step mode (fixed_step > 0): constant h, order raised by one per step up to max_order,
+ * no error control (for real-time style comparisons).
+ */
+#include <stdlib.h>
+
+#define HL_MAX_ORDER 5
+#define HL_NEWTON_MAXITER 4
+#define HL_MIN_FACTOR 0.2
+#define HL_MAX_FACTOR 10.0
+#ifndef HL_STEP_THRESHOLD
+#define HL_STEP_THRESHOLD 1.2   /* step increases below this factor are skipped */
+#endif
+#ifndef HL_DGMAX
+#define HL_DGMAX 0.3            /* refactor W when c changed by more than this fraction */
+#endif
+#ifndef HL_MSBP
+#define HL_MSBP 50              /* refactor W at least every this many steps */
+#endif
+
+typedef struct {
+    double p[HL_NP], c[HL_NC], scale[HL_N];
+    double rtol, atol, max_step, fixed_step, newton_coef;
+    int max_order;
+    /* state */
+    double t, h_abs, t_bound;
+    double D[HL_MAX_ORDER + 3][HL_N];
+    int order, n_equal_steps;
+    int have_lu, lu_dense, steps_since_lu;
+    double c_lu, crate;
+    double jnz[HL_NNZ];
+    double lu[HL_NLU];
+    double dense[HL_N * HL_N];
+    int piv[HL_N];
+    /* step history for dense output */
+    double t_old, h_step;
+    int order_step;
+    /* statistics */
+    long long nsteps, nfev, njev, nlu, nrej, nnewton_fail, ndense;
+    int status;
+} hl_solver;
+
+static const double hl_kappa[] = {0., -0.1850, -1. / 9., -0.0823, -0.0415, 0.};
+static double hl_gamma_[HL_MAX_ORDER + 2], hl_alpha_[HL_MAX_ORDER + 2], hl_errc_[HL_MAX_ORDER + 2];
+static int hl_coef_ready = 0;
+
+static void hl_coefficients(void) {
+    if (hl_coef_ready) return;
+    hl_gamma_[0] = 0.;
+    for (int k = 1; k <= HL_MAX_ORDER; k++) hl_gamma_[k] = hl_gamma_[k - 1] + 1. / k;
+    for (int k = 0; k <= HL_MAX_ORDER; k++) {
+        hl_alpha_[k] = (1. - hl_kappa[k]) * hl_gamma_[k];
+        hl_errc_[k] = hl_kappa[k] * hl_gamma_[k] + 1. / (k + 1);
+    }
+    hl_coef_ready = 1;
+}
+
+static double hl_rms(const double* v, const double* w) {
+    double s = 0.;
+    for (int i = 0; i < HL_N; i++) { double q = v[i] / w[i]; s += q * q; }
+    return sqrt(s / HL_N);
+}
+
+static void hl_eval_f(hl_solver* S, double t, const double* z, double* dz) {
+    hl_f(t, z, S->p, S->c, dz);
+    S->nfev++;
+}
+
+/* D[0..order] <- R(factor) U D : same interpolating polynomial, new step (SciPy change_D) */
+static void hl_change_D(hl_solver* S, int order, double factor) {
+    double R[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1], U[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1];
+    double RU[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1];
+    for (int pass = 0; pass < 2; pass++) {
+        double f = pass == 0 ? factor : 1.;
+        double (*M)[HL_MAX_ORDER + 1] = pass == 0 ? R : U;
+        for (int j = 0; j <= order; j++) M[0][j] = 1.;
+        for (int i = 1; i <= order; i++) {
+            M[i][0] = 0.;
+            for (int j = 1; j <= order; j++) M[i][j] = M[i - 1][j] * (i - 1 - f * j) / i;
+        }
+    }
+    for (int i = 0; i <= order; i++)
+        for (int j = 0; j <= order; j++) {
+            double s = 0.;
+            for (int k = 0; k <= order; k++) s += R[i][k] * U[k][j];
+            RU[i][j] = s;
+        }
+    double tmp[HL_MAX_ORDER + 1][HL_N];
+    for (int j = 0; j <= order; j++) {
+        for (int n = 0; n < HL_N; n++) tmp[j][n] = 0.;
+        for (int k = 0; k <= order; k++) {
+            double r = RU[k][j];
+            const double* Dk = S->D[k];
+            for (int n = 0; n < HL_N; n++) tmp[j][n] += r * Dk[n];
+        }
+    }
+    for (int j = 0; j <= order; j++) memcpy(S->D[j], tmp[j], sizeof(double) * HL_N);
+}
+
+/* ---- linear algebra ------------------------------------------------------------------- */
+static int hl_dense_factor(hl_solver* S, double g) {
+    double* A = S->dense;
+    memset(A, 0, sizeof(double) * HL_N * HL_N);
+    for (int j = 0; j < HL_N; j++)
+        for (long long k = hl_jac_colind[j]; k < hl_jac_colind[j + 1]; k++)
+            A[hl_jac_row[k] * HL_N + j] = -g * S->jnz[k];
+    for (int i = 0; i < HL_N; i++) A[i * HL_N + i] += 1.;
+    for (int k = 0; k < HL_N; k++) {
+        int p = k;
+        double best = fabs(A[k * HL_N + k]);
+        for (int i = k + 1; i < HL_N; i++)
+            if (fabs(A[i * HL_N + k]) > best) { best = fabs(A[i * HL_N + k]); p = i; }
+        S->piv[k] = p;
+        if (!(best > 0.)) return -1;
+        if (p != k)
+            for (int j = 0; j < HL_N; j++) {
+                double tmp = A[k * HL_N + j]; A[k * HL_N + j] = A[p * HL_N + j]; A[p * HL_N + j] = tmp;
+            }
+        double inv = 1. / A[k * HL_N + k];
+        for (int i = k + 1; i < HL_N; i++) {
+            double l = A[i * HL_N + k] * inv;
+            A[i * HL_N + k] = l;
+            if (l != 0.)
+                for (int j = k + 1; j < HL_N; j++) A[i * HL_N + j] -= l * A[k * HL_N + j];
+        }
+    }
+    return 0;
+}
+
+static void hl_dense_solve(const hl_solver* S, double* b) {
+    const double* A = S->dense;
+    for (int k = 0; k < HL_N; k++) {
+        int p = S->piv[k];
+        if (p != k) { double tmp = b[k]; b[k] = b[p]; b[p] = tmp; }
+        for (int i = k + 1; i < HL_N; i++) b[i] -= A[i * HL_N + k] * b[k];
+    }
+    for (int k = HL_N - 1; k >= 0; k--) {
+        double s = b[k];
+        for (int j = k + 1; j < HL_N; j++) s -= A[k * HL_N + j] * b[j];
+        b[k] = s / A[k * HL_N + k];
+    }
+}
+
+/* Fresh Jacobian at (t, z) and factors of I - c J */
+static int hl_new_lu(hl_solver* S, double t, const double* z, double c) {
+    hl_jac(t, z, S->p, S->c, S->jnz);
+    S->njev++;
+    S->nlu++;
+    S->lu_dense = 0;
+    if (hl_lu_factor(S->jnz, c, S->lu) != 0) {
+        S->ndense++;
+        if (hl_dense_factor(S, c) != 0) return -1;
+        S->lu_dense = 1;
+    }
+    S->have_lu = 1;
+    S->c_lu = c;
+    S->steps_since_lu = 0;
+    S->crate = 1.;
+    return 0;
+}
+
+static void hl_solve(const hl_solver* S, double* b) {
+    if (S->lu_dense) hl_dense_solve(S, b); else hl_lu_solve(S->lu, b);
+}
+
+/* Simplified Newton iteration for the BDF system; returns 1 when converged */
+static int hl_newton(hl_solver* S, double t_new, const double* y_predict, double c,
+                     const double* psi, const double* scale, double tol, double* y, double* d,
+                     int* n_iter) {
+    double f[HL_N], dy[HL_N];
+    double dy_norm_old = -1.;
+    double gfac = 2. / (1. + c / S->c_lu);   /* CVODE's correction for a stale c in W */
+    memcpy(y, y_predict, sizeof(double) * HL_N);
+    memset(d, 0, sizeof(double) * HL_N);
+    for (int k = 0; k < HL_NEWTON_MAXITER; k++) {
+        *n_iter = k + 1;
+        hl_eval_f(S, t_new, y, f);
+        int finite = 1;
+        for (int i = 0; i < HL_N; i++) {
+            dy[i] = c * f[i] - psi[i] - d[i];
+            if (!isfinite(dy[i])) finite = 0;
+        }
+        if (!finite) return 0;
+        hl_solve(S, dy);
+        if (gfac != 1.) for (int i = 0; i < HL_N; i++) dy[i] *= gfac;
+        double dy_norm = hl_rms(dy, scale);
+        double rate = -1.;
+        if (dy_norm_old > 0.) {
+            rate = dy_norm / dy_norm_old;
+            if (rate >= 1. || pow(rate, HL_NEWTON_MAXITER - k) / (1. - rate) * dy_norm > tol)
+                return 0;
+            S->crate = fmax(0.3 * S->crate, rate);
+        }
+        for (int i = 0; i < HL_N; i++) { y[i] += dy[i]; d[i] += dy[i]; }
+        if (dy_norm == 0.) return 1;
+        if (rate < 0.) {
+            if (dy_norm * fmin(1., S->crate) <= tol) return 1;
+        } else if (rate / (1. - rate) * dy_norm < tol) {
+            return 1;
+        }
+        dy_norm_old = dy_norm;
+    }
+    return 0;
+}
+
+/* ---- public API ------------------------------------------------------------------------ */
+int hl_sizes(long long* out) {
+    out[0] = HL_N; out[1] = HL_NP; out[2] = HL_NC; out[3] = HL_NY; out[4] = HL_NNZ;
+    out[5] = HL_NLU; out[6] = (long long)sizeof(hl_solver);
+    return 0;
+}
+
+void* hl_new(void) { hl_coefficients(); return calloc(1, sizeof(hl_solver)); }
+void hl_free(void* S) { free(S); }
+
+int hl_setup(hl_solver* S, const double* p, const double* c, const double* scale, double rtol,
+             double atol, double max_step, double fixed_step, int max_order, double newton_coef) {
+    memcpy(S->p, p, sizeof(double) * HL_NP);
+    memcpy(S->c, c, sizeof(double) * HL_NC);
+    memcpy(S->scale, scale, sizeof(double) * HL_N);
+    S->rtol = rtol; S->atol = atol;
+    S->max_step = max_step > 0 ? max_step : INFINITY;
+    S->fixed_step = fixed_step;
+    S->max_order = max_order < 1 ? 1 : (max_order > HL_MAX_ORDER ? HL_MAX_ORDER : max_order);
+    S->newton_coef = newton_coef;
+    return 0;
+}
+
+int hl_set_parameters(hl_solver* S, const double* p) {
+    memcpy(S->p, p, sizeof(double) * HL_NP);
+    return 0;
+}
+
+/* Start a segment at t0 from unscaled state x0 (order 1, SciPy's initial step choice). */
+int hl_init(hl_solver* S, double t0, const double* x0, double t_bound) {
+    double z[HL_N], f0[HL_N], f1[HL_N], y1[HL_N], w[HL_N], df[HL_N];
+    for (int i = 0; i < HL_N; i++) z[i] = x0[i] / S->scale[i];
+    S->t = t0; S->t_bound = t_bound; S->order = 1; S->n_equal_steps = 0;
+    S->have_lu = 0; S->crate = 1.; S->status = 0; S->h_step = 0.;
+    hl_eval_f(S, t0, z, f0);
+    double interval = fabs(t_bound - t0), h;
+    if (S->fixed_step > 0) {
+        h = fmin(S->fixed_step, interval);
+    } else {
+        for (int i = 0; i < HL_N; i++) w[i] = S->atol + fabs(z[i]) * S->rtol;
+        double d0 = hl_rms(z, w), d1 = hl_rms(f0, w), h0;
+        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+        h0 = fmin(h0, interval);
+        for (int i = 0; i < HL_N; i++) y1[i] = z[i] + h0 * f0[i];
+        hl_eval_f(S, t0 + h0, y1, f1);
+        for (int i = 0; i < HL_N; i++) df[i] = f1[i] - f0[i];
+        double d2 = hl_rms(df, w) / h0, h1;
+        if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
+        else h1 = pow(0.01 / fmax(d1, d2), 0.5);
+        h = fmin(fmin(100 * h0, h1), fmin(interval, S->max_step));
+    }
+    S->h_abs = h;
+    memcpy(S->D[0], z, sizeof(double) * HL_N);
+    for (int i = 0; i < HL_N; i++) S->D[1][i] = f0[i] * h;
+    for (int k = 2; k < HL_MAX_ORDER + 3; k++) memset(S->D[k], 0, sizeof(double) * HL_N);
+    return 0;
+}
+
+/* One accepted step; returns 0, or <0 on failure (-1 step too small, -2 singular W). */
+static int hl_step(hl_solver* S) {
+    double y_predict[HL_N], psi[HL_N], scale[HL_N], y_new[HL_N], d[HL_N];
+    double t = S->t;
+    int order = S->order;
+    double min_step = 10. * fabs(nextafter(t, INFINITY) - t);
+    double h_abs = S->h_abs;
+    int fixed = S->fixed_step > 0;
+    if (h_abs > S->max_step) {
+        hl_change_D(S, order, S->max_step / h_abs); h_abs = S->max_step; S->n_equal_steps = 0;
+    } else if (h_abs < min_step) {
+        hl_change_D(S, order, min_step / h_abs); h_abs = min_step; S->n_equal_steps = 0;
+    }
+    double error_norm = 0., safety = 0.9, t_new = t;
+    int n_iter = 1;
+    for (;;) {
+        if (h_abs < min_step) return -1;
+        t_new = t + h_abs;
+        if (t_new - S->t_bound > 0 || S->t_bound - t_new < min_step) {
+            t_new = S->t_bound;
+            hl_change_D(S, order, (t_new - t) / h_abs);
+            S->n_equal_steps = 0;
+        }
+        double h = t_new - t;
+        h_abs = h;
+        memcpy(y_predict, S->D[0], sizeof y_predict);
+        memset(psi, 0, sizeof psi);
+        for (int k = 1; k <= order; k++) {
+            const double* Dk = S->D[k];
+            double gk = hl_gamma_[k] / hl_alpha_[order];
+            for (int i = 0; i < HL_N; i++) { y_predict[i] += Dk[i]; psi[i] += Dk[i] * gk; }
+        }
+        for (int i = 0; i < HL_N; i++) scale[i] = S->atol + S->rtol * fabs(y_predict[i]);
+        double c = h / hl_alpha_[order];
+        double tol = S->newton_coef / hl_errc_[order];
+        int converged = 0, fresh = 0;
+        if (!S->have_lu || fabs(c / S->c_lu - 1.) > HL_DGMAX || S->steps_since_lu >= HL_MSBP) {
+            if (hl_new_lu(S, t_new, y_predict, c) != 0) return -2;
+            fresh = 1;
+        }
+        for (;;) {
+            converged = hl_newton(S, t_new, y_predict, c, psi, scale, tol, y_new, d, &n_iter);
+            if (converged || fresh) break;
+            if (hl_new_lu(S, t_new, y_predict, c) != 0) return -2;
+            fresh = 1;
+        }
+        if (!converged) {
+            S->nnewton_fail++;
+            if (fixed) return -3;
+            h_abs *= 0.5;
+            hl_change_D(S, order, 0.5);
+            S->n_equal_steps = 0;
+            S->have_lu = 0;
+            continue;
+        }
+        safety = 0.9 * (2 * HL_NEWTON_MAXITER + 1) / (2 * HL_NEWTON_MAXITER + n_iter);
+        for (int i = 0; i < HL_N; i++) scale[i] = S->atol + S->rtol * fabs(y_new[i]);
+        double e[HL_N];
+        for (int i = 0; i < HL_N; i++) e[i] = hl_errc_[order] * d[i];
+        error_norm = hl_rms(e, scale);
+        if (!fixed && error_norm > 1.) {
+            S->nrej++;
+            double factor = fmax(HL_MIN_FACTOR, safety * pow(error_norm, -1. / (order + 1)));
+            h_abs *= factor;
+            hl_change_D(S, order, factor);
+            S->n_equal_steps = 0;
+            continue;
+        }
+        break;
+    }
+    S->nsteps++;
+    S->steps_since_lu++;
+    S->n_equal_steps++;
+    S->t_old = t;
+    S->t = t_new;
+    S->h_step = h_abs;
+    S->order_step = order;
+    S->h_abs = h_abs;
+    for (int i = 0; i < HL_N; i++) {
+        S->D[order + 2][i] = d[i] - S->D[order + 1][i];
+        S->D[order + 1][i] = d[i];
+    }
+    for (int k = order; k >= 0; k--)
+        for (int i = 0; i < HL_N; i++) S->D[k][i] += S->D[k + 1][i];
+    if (fixed) {
+        if (order < S->max_order) S->order = order + 1;
+        return 0;
+    }
+    if (S->n_equal_steps < order + 1) return 0;
+    double e_m = INFINITY, e_p = INFINITY, tmp[HL_N];
+    if (order > 1) {
+        for (int i = 0; i < HL_N; i++) tmp[i] = hl_errc_[order - 1] * S->D[order][i];
+        e_m = hl_rms(tmp, scale);
+    }
+    if (order < S->max_order) {
+        for (int i = 0; i < HL_N; i++) tmp[i] = hl_errc_[order + 1] * S->D[order + 2][i];
+        e_p = hl_rms(tmp, scale);
+    }
+    double fm = e_m > 0 ? pow(e_m, -1. / order) : INFINITY;
+    double f0 = error_norm > 0 ? pow(error_norm, -1. / (order + 1)) : INFINITY;
+    double fp = e_p > 0 ? pow(e_p, -1. / (order + 2)) : INFINITY;
+    if (order == 1) fm = 0.;
+    if (order >= S->max_order) fp = 0.;
+    int delta = 0;
+    double best = f0;
+    if (fm > best) { best = fm; delta = -1; }
+    if (fp > best) { best = fp; delta = 1; }
+    order += delta;
+    S->order = order;
+    double factor = fmin(HL_MAX_FACTOR, safety * best);
+    S->n_equal_steps = 0;
+    if (factor >= 1. && factor < HL_STEP_THRESHOLD) return 0;   /* not worth a change (CVODE's threshold) */
+    S->h_abs *= factor;
+    hl_change_D(S, order, factor);
+    return 0;
+}
+
+/* Interpolate the last step's polynomial at t (scaled state); D holds it as backward
+ * differences for the current step size and order (change_D keeps the polynomial). */
+static void hl_dense_output(const hl_solver* S, double t, double* z) {
+    int q = S->order;
+    double h = S->h_abs, prod = 1.;
+    memcpy(z, S->D[0], sizeof(double) * HL_N);
+    for (int j = 1; j <= q; j++) {
+        prod *= (t - (S->t - (j - 1) * h)) / (j * h);
+        for (int i = 0; i < HL_N; i++) z[i] += S->D[j][i] * prod;
+    }
+}
+
+/* Integrate toward t_bound, writing states X (unscaled, row-major) and signals Y at the
+ * n_out output times; returns after the last output time or at t_bound. */
+int hl_advance(hl_solver* S, int n_out, const double* t_out, double* X, double* Y,
+               int* n_done) {
+    double z[HL_N];
+    int j = 0;
+    /* outputs at or before the current time (e.g. t_out == t0) */
+    while (j < n_out && t_out[j] <= S->t) {
+        if (t_out[j] >= S->t || S->h_step <= 0.) memcpy(z, S->D[0], sizeof z);
+        else hl_dense_output(S, t_out[j], z);
+        for (int i = 0; i < HL_N; i++) X[(long long)j * HL_N + i] = z[i] * S->scale[i];
+        if (Y) hl_signals(t_out[j], z, S->p, S->c, Y + (long long)j * HL_NY);
+        j++;
+    }
+    while (j < n_out && S->t < S->t_bound) {
+        int rc = hl_step(S);
+        if (rc != 0) { S->status = rc; *n_done = j; return rc; }
+        while (j < n_out && (t_out[j] <= S->t || S->t >= S->t_bound)) {
+            if (t_out[j] >= S->t) memcpy(z, S->D[0], sizeof z);
+            else hl_dense_output(S, t_out[j], z);
+            for (int i = 0; i < HL_N; i++) X[(long long)j * HL_N + i] = z[i] * S->scale[i];
+            if (Y) hl_signals(t_out[j], z, S->p, S->c, Y + (long long)j * HL_NY);
+            j++;
+        }
+    }
+    *n_done = j;
+    return 0;
+}
+
+void hl_get_state(const hl_solver* S, double* x, double* t) {
+    for (int i = 0; i < HL_N; i++) x[i] = S->D[0][i] * S->scale[i];
+    *t = S->t;
+}
+
+void hl_stats(const hl_solver* S, long long* out) {
+    out[0] = S->nsteps; out[1] = S->nfev; out[2] = S->njev; out[3] = S->nlu;
+    out[4] = S->nrej; out[5] = S->nnewton_fail; out[6] = S->ndense;
+}
+
+void hl_reset_stats(hl_solver* S) {
+    S->nsteps = S->nfev = S->njev = S->nlu = S->nrej = S->nnewton_fail = S->ndense = 0;
+}
+
+/* Plain evaluations (unscaled x), for checks and the steady-state solver */
+void hl_rhs(const hl_solver* S, double t, const double* x, double* dx) {
+    double z[HL_N];
+    for (int i = 0; i < HL_N; i++) z[i] = x[i] / S->scale[i];
+    hl_f(t, z, S->p, S->c, dx);
+    for (int i = 0; i < HL_N; i++) dx[i] *= S->scale[i];
+}
+
+void hl_scaled_jacobian(const hl_solver* S, double t, const double* x, double* jnz) {
+    double z[HL_N];
+    for (int i = 0; i < HL_N; i++) z[i] = x[i] / S->scale[i];
+    hl_jac(t, z, S->p, S->c, jnz);
+}

@@ -1,0 +1,286 @@
+"""C code for an assembled network: right-hand side, sparse Jacobian, signals, sparse LU.
+
+The network's CasADi SX graph (:class:`~hydroline.network.CompiledModel`) is walked
+instruction by instruction and written out as straight-line C. Every numeric constant of the
+graph (areas, lengths, modal matrices, state scales, ...) is read from a runtime array ``c``
+instead of being written into the code, so the C source depends only on the network's
+*structure*: the variants of a design study (other hose lengths, bulk moduli, accumulator
+sizes) share one compiled library, and the library's cache key is a hash of the source.
+
+Generated functions (``z`` are the states scaled by their typical magnitudes, ``x = z s``):
+
+``hl_f(t, z, p, c, dz)``          dz/dt of the scaled states (MODEL.md M1-M24 as assembled)
+``hl_jac(t, z, p, c, jnz)``       d(dz/dt)/dz, nonzeros in compressed-column order
+``hl_signals(t, z, p, c, y)``     every network signal, [SI]
+``hl_lu_factor(jnz, g, a)``       sparse LU of ``W = I - g J`` without pivoting, in a
+                                  fill-reducing (minimum degree) order fixed at generation time;
+                                  returns the 1-based failing pivot or 0
+``hl_lu_solve(a, b)``             solves ``W v = b`` in place with the factors
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+__all__ = ["GeneratedModel", "generate", "UnsupportedOperation"]
+
+
+class UnsupportedOperation(NotImplementedError):
+    """The graph holds an operation the C writer does not know (the caller falls back)."""
+
+
+_BINARY = {
+    ca.OP_ADD: "({a}+{b})", ca.OP_SUB: "({a}-{b})", ca.OP_MUL: "({a}*{b})",
+    ca.OP_DIV: "({a}/{b})", ca.OP_POW: "pow({a},{b})", ca.OP_CONSTPOW: "pow({a},{b})",
+    ca.OP_FMIN: "fmin({a},{b})", ca.OP_FMAX: "fmax({a},{b})",
+    ca.OP_LT: "({a}<{b})", ca.OP_LE: "({a}<={b})", ca.OP_EQ: "({a}=={b})",
+    ca.OP_NE: "({a}!={b})", ca.OP_AND: "({a}&&{b})", ca.OP_OR: "({a}||{b})",
+    ca.OP_IF_ELSE_ZERO: "({a}?{b}:0.)", ca.OP_ATAN2: "atan2({a},{b})",
+    ca.OP_COPYSIGN: "copysign({a},{b})", ca.OP_FMOD: "fmod({a},{b})",
+    ca.OP_HYPOT: "hypot({a},{b})",
+}
+_UNARY = {
+    ca.OP_ASSIGN: "{a}", ca.OP_NEG: "(-{a})", ca.OP_EXP: "exp({a})", ca.OP_LOG: "log({a})",
+    ca.OP_SQRT: "sqrt({a})", ca.OP_SQ: "({a}*{a})", ca.OP_TWICE: "(2.*{a})",
+    ca.OP_INV: "(1./{a})", ca.OP_SIN: "sin({a})", ca.OP_COS: "cos({a})", ca.OP_TAN: "tan({a})",
+    ca.OP_ASIN: "asin({a})", ca.OP_ACOS: "acos({a})", ca.OP_ATAN: "atan({a})",
+    ca.OP_SINH: "sinh({a})", ca.OP_COSH: "cosh({a})", ca.OP_TANH: "tanh({a})",
+    ca.OP_ASINH: "asinh({a})", ca.OP_ACOSH: "acosh({a})", ca.OP_ATANH: "atanh({a})",
+    ca.OP_FABS: "fabs({a})", ca.OP_SIGN: "hl_sign({a})", ca.OP_FLOOR: "floor({a})",
+    ca.OP_CEIL: "ceil({a})", ca.OP_NOT: "(!{a})", ca.OP_ERF: "erf({a})",
+    ca.OP_LOG1P: "log1p({a})", ca.OP_EXPM1: "expm1({a})",
+}
+
+
+def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
+                constants: list[float]) -> str:
+    """One SX function as C; its constants are appended to ``constants`` (read as c[k])."""
+    lines = [f"static void {name}(double t, const double* z, const double* p, const double* c, "
+             f"double* {output}) {{"]
+    nw = fun.sz_w()
+    if nw:
+        lines.append("  double " + ", ".join(f"w{i}" for i in range(nw)) + ";")
+    body = []
+    for k in range(fun.n_instructions()):
+        op = fun.instruction_id(k)
+        if op == ca.OP_CONST:
+            (o,) = fun.instruction_output(k)
+            body.append(f"  w{o}=c[{len(constants)}];")
+            constants.append(float(fun.instruction_constant(k)))
+        elif op == ca.OP_INPUT:
+            (o,) = fun.instruction_output(k)
+            i, nz = fun.instruction_input(k)
+            body.append(f"  w{o}={inputs[i].format(nz=nz)};")
+        elif op == ca.OP_OUTPUT:
+            (a,) = fun.instruction_input(k)
+            _, nz = fun.instruction_output(k)
+            body.append(f"  {output}[{nz}]=w{a};")
+        elif op in _BINARY:
+            a, b = fun.instruction_input(k)
+            (o,) = fun.instruction_output(k)
+            body.append(f"  w{o}=" + _BINARY[op].format(a=f"w{a}", b=f"w{b}") + ";")
+        elif op in _UNARY:
+            (a,) = fun.instruction_input(k)
+            (o,) = fun.instruction_output(k)
+            body.append(f"  w{o}=" + _UNARY[op].format(a=f"w{a}") + ";")
+        else:
+            raise UnsupportedOperation(f"CasADi operation code {op} in {fun.name()}")
+    if not body:
+        body.append("  (void)t; (void)z; (void)p; (void)c;")
+    lines.extend(body)
+    lines.append("  (void)t; (void)z; (void)p; (void)c;")
+    lines.append("}")
+    return "\n".join(lines)
+
+
+# ---- sparse LU with a fixed order ----------------------------------------------------------
+def minimum_degree_order(n: int, pattern) -> list[int]:
+    """Greedy minimum-degree elimination order of the symmetrised pattern (ties: lowest index)."""
+    adj = [set() for _ in range(n)]
+    for i, j in pattern:
+        if i != j:
+            adj[i].add(j)
+            adj[j].add(i)
+    alive = set(range(n))
+    order = []
+    while alive:
+        k = min(alive, key=lambda v: (len(adj[v]), v))
+        nb = adj[k]
+        for u in nb:
+            adj[u] |= nb - {u}
+            adj[u].discard(k)
+        alive.remove(k)
+        order.append(k)
+        adj[k] = set()
+    return order
+
+
+@dataclass
+class LUPlan:
+    """Symbolic LU of ``W = I - g J`` in a fixed pivot order (diagonal pivots)."""
+
+    order: list          # pivot k is state order[k]
+    slots: dict          # (i, j) in pivot coordinates -> index in the factor array
+    lower: list          # lower[k]: rows i > k with L[i, k] != 0
+    upper: list          # upper[k]: columns j > k with U[k, j] != 0
+    flops: int
+
+
+def lu_plan(n: int, rows, cols) -> LUPlan:
+    pattern = set(zip(rows, cols)) | {(i, i) for i in range(n)}
+    order = minimum_degree_order(n, pattern)
+    pos = {s: k for k, s in enumerate(order)}
+    pat = {(pos[i], pos[j]) for i, j in pattern}
+    rows_of = [set() for _ in range(n)]   # column k -> rows
+    cols_of = [set() for _ in range(n)]   # row k -> columns
+    for i, j in pat:
+        rows_of[j].add(i)
+        cols_of[i].add(j)
+    lower, upper, flops = [], [], 0
+    for k in range(n):
+        lk = sorted(i for i in rows_of[k] if i > k)
+        uk = sorted(j for j in cols_of[k] if j > k)
+        lower.append(lk)
+        upper.append(uk)
+        for i in lk:
+            for j in uk:
+                if (i, j) not in pat:
+                    pat.add((i, j))
+                    rows_of[j].add(i)
+                    cols_of[i].add(j)
+        flops += len(lk) * (1 + 2 * len(uk))
+    slots = {ij: s for s, ij in enumerate(sorted(pat, key=lambda ij: (ij[1], ij[0])))}
+    return LUPlan(order, slots, lower, upper, flops)
+
+
+def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
+    """Factorization as loops over index tables (compiles fast), solve as straight-line code."""
+    pos = {s: k for k, s in enumerate(plan.order)}
+    S = plan.slots
+    jslot = [S[(pos[r], pos[c])] for r, c in zip(jrows, jcols)]
+    diag = [S[(k, k)] for k in range(n)]
+    lstart, lslot, ustart, tgt, src = [0], [], [0], [], []
+    for k in range(n):
+        for i in plan.lower[k]:
+            lslot.append(S[(i, k)])
+            for j in plan.upper[k]:
+                tgt.append(S[(i, j)])
+                src.append(S[(k, j)])
+            ustart.append(len(tgt))
+        lstart.append(len(lslot))
+
+    def table(name, values):
+        return f"static const int {name}[] = {{" + (",".join(map(str, values)) or "0") + "};"
+
+    out = [table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
+           table("hl_lu_lslot", lslot), table("hl_lu_ustart", ustart), table("hl_lu_tgt", tgt),
+           table("hl_lu_src", src)]
+    out.append(f"""static int hl_lu_factor(const double* jnz, double g, double* a) {{
+  memset(a, 0, sizeof(double) * HL_NLU);
+  for (int k = 0; k < {len(jslot)}; k++) a[hl_lu_jslot[k]] = -g * jnz[k];
+  for (int k = 0; k < {n}; k++) a[hl_lu_diag[k]] += 1.;
+  for (int k = 0; k < {n}; k++) {{
+    double piv = a[hl_lu_diag[k]];
+    if (!(fabs(piv) > HL_PIVOT_TOL)) return k + 1;
+    double inv = 1. / piv;
+    a[hl_lu_diag[k]] = inv;
+    for (int m = hl_lu_lstart[k]; m < hl_lu_lstart[k + 1]; m++) {{
+      double l = a[hl_lu_lslot[m]] * inv;
+      a[hl_lu_lslot[m]] = l;
+      for (int q = hl_lu_ustart[m]; q < hl_lu_ustart[m + 1]; q++) a[hl_lu_tgt[q]] -= l * a[hl_lu_src[q]];
+    }}
+  }}
+  return 0;
+}}""")
+    out.append("static void hl_lu_solve(const double* a, double* b) {")
+    out.append(f"  double v[{n}];")
+    for k in range(n):
+        out.append(f"  v[{k}]=b[{plan.order[k]}];")
+    for k in range(n):
+        for i in plan.lower[k]:
+            out.append(f"  v[{i}]-=a[{S[(i, k)]}]*v[{k}];")
+    for k in reversed(range(n)):
+        terms = "".join(f"-a[{S[(k, j)]}]*v[{j}]" for j in plan.upper[k])
+        out.append(f"  v[{k}]=(v[{k}]{terms})*a[{S[(k, k)]}];")
+    for k in range(n):
+        out.append(f"  b[{plan.order[k]}]=v[{k}];")
+    out.append("}")
+    return "\n".join(out)
+
+
+@dataclass
+class GeneratedModel:
+    """C source of one network structure and the constants of this network's values.
+
+    Attributes
+    ----------
+    source : str            C code (structure only)
+    key : str               SHA-256 of the source, the cache key
+    constants : ndarray     Values read by the code as ``c[k]``, [SI]
+    n_states, n_parameters, n_signals, jac_nnz, lu_slots, lu_flops : int
+    jac_colind, jac_row : ndarray  Compressed-column pattern of the Jacobian
+    """
+
+    source: str
+    key: str
+    constants: np.ndarray
+    n_states: int
+    n_parameters: int
+    n_signals: int
+    jac_nnz: int
+    jac_colind: np.ndarray
+    jac_row: np.ndarray
+    lu_slots: int
+    lu_flops: int
+
+
+def generate(model) -> GeneratedModel:
+    """C source and constants of a :class:`~hydroline.network.CompiledModel` (scaled states).
+
+    Parameters
+    ----------
+    model : CompiledModel   The network's CasADi graph (``network.compile()``)
+    """
+    net = model.network
+    scales = np.asarray(net.state_scales, dtype=float)
+    n, m = len(net.state_names), len(net.parameter_names)
+    z = ca.SX.sym("z", n)
+    x_of_z = z * ca.DM(scales)
+    dz = ca.substitute(model.dx, model.x, x_of_z) / ca.DM(scales)
+    y = ca.substitute(model.y, model.x, x_of_z)
+    f = ca.Function("hl_f", [model.t, z, model.p], [dz])
+    J = ca.jacobian(dz, z)
+    jac = ca.Function("hl_jac", [model.t, z, model.p], [J])
+    sig = ca.Function("hl_signals", [model.t, z, model.p], [y])
+    sp = jac.sparsity_out(0)
+    colind = np.asarray(sp.colind(), dtype=np.int64)
+    row = np.asarray(sp.row(), dtype=np.int64)
+    cols = np.repeat(np.arange(n), np.diff(colind))
+    inputs = ["t", "z[{nz}]", "p[{nz}]"]
+    constants: list[float] = []
+    parts = [_function_c(f, "hl_f", inputs, "dz", constants),
+             _function_c(jac, "hl_jac", inputs, "jnz", constants),
+             _function_c(sig, "hl_signals", inputs, "y", constants)]
+    plan = lu_plan(n, row.tolist(), cols.tolist())
+    header = [
+        "/* Generated by hydroline.compiled.codegen: one network structure. */",
+        "#include <math.h>",
+        "#include <string.h>",
+        f"#define HL_N {n}",
+        f"#define HL_NP {max(m, 1)}",
+        f"#define HL_NC {max(len(constants), 1)}",
+        f"#define HL_NY {max(sig.nnz_out(0), 1)}",
+        f"#define HL_NNZ {max(sp.nnz(), 1)}",
+        f"#define HL_NLU {len(plan.slots)}",
+        "#define HL_PIVOT_TOL 1e-10",
+        "static double hl_sign(double x) { return x < 0 ? -1. : (x > 0 ? 1. : x); }",
+        "static const long long hl_jac_colind[] = {" + ",".join(map(str, colind)) + "};",
+        "static const long long hl_jac_row[] = {" + (",".join(map(str, row)) or "0") + "};",
+    ]
+    source = "\n".join(header + parts + [_lu_c(n, row.tolist(), cols.tolist(), plan)]) + "\n"
+    key = hashlib.sha256(source.encode()).hexdigest()
+    return GeneratedModel(source, key, np.array(constants, dtype=float), n, m,
+                          sig.nnz_out(0), sp.nnz(), colind, row, len(plan.slots), plan.flops)
