@@ -130,6 +130,12 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                         steady_state_residual=ss.residual, n_states=len(net.state_names))
     if stream_to is None:
         res.warnings.extend(check_cavitation(res))
+    else:   # streamed: only the column statistics are in memory
+        lows = res.metadata["stream_stats"]["min"]
+        res.warnings.extend(f"{k} falls below {CAVITATION_PRESSURE / 1e6:g} MPa absolute (lowest "
+                            f"{lows[k] / 1e6:.2f} MPa): the line model is not valid there"
+                            for k in WATCHED_PRESSURES
+                            if k in lows.index and lows[k] < CAVITATION_PRESSURE)
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
     return res
 

@@ -232,10 +232,15 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
     model = network.compile()
     n_out = int(round(t_end / dt_out))
-    t_out = np.linspace(0.0, n_out * dt_out, n_out + 1)
+    t_last = n_out * dt_out
+    h_out = t_last / n_out
+
+    def t_out(i0, i1):   # output times i0..i1-1 (made per chunk: constant memory)
+        return np.arange(i0, i1) * h_out
+
     sampled = [c for c in network.components if getattr(c, "sample_time", None)]
     sample_time = sampled[0].sample_time if sampled else None
-    edges = _segments(t_out[-1], network.breakpoints(t_out[-1]), sample_time)
+    edges = _segments(t_last, network.breakpoints(t_last), sample_time)
     atol = atol_scale * network.state_scales
     x = np.asarray(x0, dtype=float).copy()
     notes = []
@@ -262,45 +267,47 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         # per-state absolute tolerance through scaling: CVODES integrates z = x / scale
         scaled_dae = _scaled_dae(dae, network.state_scales)
     ns = native.solver(p, rtol=rtol, atol=atol_scale) if native is not None else None
-    sink.write(t_out[:1], x[None, :], None, model, p)
+    sink.write(t_out(0, 1), x[None, :], None, model, p)
     chunk_rows = max(int(chunk_rows), 1)
     tic = _time.perf_counter()
     for a, b in zip(edges[:-1], edges[1:]):
         if sampled:
             _apply_samples(network, sampled, a, x, p)
-        inside = np.flatnonzero((t_out > a + 1e-12) & (t_out <= b + 1e-12))
-        grid = list(t_out[inside])
-        if not grid or abs(grid[-1] - b) > 1e-12:
-            grid.append(b)
-        grid = np.asarray(grid)
+        # output indices i0..i1-1 lie in (a, b]
+        i0 = int(np.floor((a + 1e-12) / h_out)) + 1
+        i1 = min(int(np.floor((b + 1e-12) / h_out)) + 1, n_out + 1)
+        n_in = max(i1 - i0, 0)
+        ends_on_grid = n_in > 0 and abs(t_out(i1 - 1, i1)[0] - b) <= 1e-12
+        n_grid = n_in if ends_on_grid else n_in + 1   # the segment end b is always reached
+        step = len_chunk = chunk_rows if (backend == "compiled" or stream_to is not None) else n_grid
         if backend == "compiled":
             if sampled:
                 ns.set_parameters(p)
             ns.start(a, x, b)
-            for k in range(0, len(grid), chunk_rows):
-                g = grid[k:k + chunk_rows]
-                X, Y = ns.advance(g)
-                m = min(len(inside) - k, len(g))
-                if m > 0:
-                    sink.write(g[:m], X[:m], Y[:m], model, p)
-                x = X[-1].copy()
-                if progress and len(grid) > chunk_rows:
-                    progress(g[-1] / t_out[-1])
-        else:
-            # CVODES/SciPy restart at each sub-interval when streaming (bounded memory)
-            step = chunk_rows if stream_to is not None else len(grid)
-            t_a = a
-            for k in range(0, len(grid), step):
-                g = grid[k:k + step]
-                Z = _integrate_cvodes_scipy(backend, network, scaled_dae, t_a, g, x, p, rtol,
+        t_a = a
+        for k in range(0, n_grid, step):
+            g = t_out(i0 + k, i0 + min(k + len_chunk, n_in))
+            if k + len_chunk >= n_grid and not ends_on_grid:
+                g = np.append(g, b)
+            if backend == "compiled":
+                Y = ns.advance(g, table=True)   # signals and states in one table
+                X = Y[:, len(network.signal_names):]
+            else:   # CVODES/SciPy restart at each sub-interval when streaming (bounded memory)
+                X = _integrate_cvodes_scipy(backend, network, scaled_dae, t_a, g, x, p, rtol,
                                             atol_scale, atol, stats)
-                m = min(len(inside) - k, len(g))
-                if m > 0:
-                    sink.write(g[:m], Z[:m], None, model, p)
-                x = Z[-1].copy()
+                Y = None
                 t_a = g[-1]
+            m = min(n_in - k, len(g))
+            if m > 0:
+                if backend == "compiled":
+                    sink.write(g[:m], None, Y[:m], model, p)
+                else:
+                    sink.write(g[:m], X[:m], None, model, p)
+            x = X[-1].copy()
+            if progress and n_grid > step:
+                progress(g[-1] / t_last)
         if progress:
-            progress(b / t_out[-1])
+            progress(b / t_last)
     wall = _time.perf_counter() - tic
     if ns is not None:
         stats.update(ns.stats())
@@ -363,9 +370,14 @@ class _Sink:
             self.sum, self.sumsq = np.zeros(n), np.zeros(n)
 
     def write(self, t, X, Y, model, p):
-        if Y is None:
-            Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
-        block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
+        """Rows at times t: states X and signals Y (None: computed here), or with X None the
+        table Y of signals and states side by side."""
+        if X is None:
+            block = Y
+        else:
+            if Y is None:
+                Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
+            block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
         self.rows += len(t)
         if self.path is None:
             self.parts.append((np.array(t, dtype=float), block))

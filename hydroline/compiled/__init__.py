@@ -127,7 +127,8 @@ def _declare(lib):
                              ctypes.c_double, ctypes.c_int, ctypes.c_double]
     lib.hl_set_parameters.argtypes = [vp, dp]
     lib.hl_init.argtypes = [vp, ctypes.c_double, dp, ctypes.c_double]
-    lib.hl_advance.argtypes = [vp, ctypes.c_int, dp, dp, dp, ctypes.POINTER(ctypes.c_int)]
+    lib.hl_advance.argtypes = [vp, ctypes.c_int, dp, dp, dp, ctypes.POINTER(ctypes.c_int),
+                               ctypes.c_longlong]
     lib.hl_get_state.argtypes = [vp, dp, dp]
     lib.hl_stats.argtypes = [vp, llp]
     lib.hl_reset_stats.argtypes = [vp]
@@ -215,19 +216,23 @@ class NativeSolver:
         x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
         self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
 
-    def advance(self, t_out, signals: bool = True):
+    def advance(self, t_out, signals: bool = True, table: bool = False):
         """Integrate through the output times (ascending, within the segment).
 
         Returns
         -------
-        (X, Y) : states [n_out, n_states] and signals [n_out, n_signals] (None if not asked), SI
+        (X, Y) : states [n_out, n_states] and signals [n_out, n_signals] (None if not asked), SI;
+                 with ``table=True`` one array [n_out, n_signals + n_states] (signals first)
         """
         t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
-        X = np.empty((len(t_out), self.model.n))
-        Y = np.empty((len(t_out), self.model.n_signals)) if signals else None
+        n, ny = self.model.n, self.model.n_signals
+        ld = (ny if signals else 0) + n
+        block = np.empty((len(t_out), ld))
+        X = block[:, ld - n:]
+        Y = block[:, :ny] if signals else None
         done = ctypes.c_int(0)
         rc = self._lib.hl_advance(self._h, len(t_out), _ptr(t_out), _ptr(X),
-                                  _ptr(Y) if signals else None, ctypes.byref(done))
+                                  _ptr(Y) if signals else None, ctypes.byref(done), ld)
         if rc != 0:
             x, t = self.state()
             why = {-1: "step size fell below the resolution of t",
@@ -235,7 +240,7 @@ class NativeSolver:
             raise RuntimeError(f"compiled integrator failed at t = {t:.6g} s: {why.get(rc, rc)}")
         if not np.all(np.isfinite(X)):
             raise RuntimeError("compiled integrator produced non-finite states")
-        return X, Y
+        return block if table else (X, Y)
 
     def state(self):
         """Current (x [SI], t [s])."""

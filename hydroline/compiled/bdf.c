@@ -9,7 +9,7 @@
  * SUNDIALS CVODE (Hindmarsh et al., ACM TOMS 31 (2005) 363-396): the simplified Newton
  * iteration may stop after one iteration using the convergence rate remembered from earlier
  * steps; the iteration matrix W = I - c J is kept while c changes by less than 30 % and the
- * Newton update is then scaled by 2/(1 + c/c_W); W is refactored at least every 20 steps and
+ * Newton update is then scaled by 2/(1 + c/c_W); W is refactored at least every 50 steps and
  * always with a fresh (exact, sparse) Jacobian. Step size changes below 20 % upward are
  * skipped. Linear algebra: the generated sparse LU (no pivoting, fill-reducing order), with a
  * dense partial-pivoting LU as fallback when a pivot is tiny.
@@ -408,15 +408,16 @@ static void hl_dense_output(const hl_solver* S, double t, double* z) {
 /* Integrate toward t_bound, writing states X (unscaled, row-major) and signals Y at the
  * n_out output times; returns after the last output time or at t_bound. */
 int hl_advance(hl_solver* S, int n_out, const double* t_out, double* X, double* Y,
-               int* n_done) {
+               int* n_done, long long ld) {
+    /* row j of X (states) at X + j*ld, of Y (signals) at Y + j*ld: one shared output table */
     double z[HL_N];
     int j = 0;
     /* outputs at or before the current time (e.g. t_out == t0) */
     while (j < n_out && t_out[j] <= S->t) {
         if (t_out[j] >= S->t || S->h_step <= 0.) memcpy(z, S->D[0], sizeof z);
         else hl_dense_output(S, t_out[j], z);
-        for (int i = 0; i < HL_N; i++) X[(long long)j * HL_N + i] = z[i] * S->scale[i];
-        if (Y) hl_signals(t_out[j], z, S->p, S->c, Y + (long long)j * HL_NY);
+        for (int i = 0; i < HL_N; i++) X[(long long)j * ld + i] = z[i] * S->scale[i];
+        if (Y) hl_signals(t_out[j], z, S->p, S->c, Y + (long long)j * ld);
         j++;
     }
     while (j < n_out && S->t < S->t_bound) {
@@ -425,8 +426,8 @@ int hl_advance(hl_solver* S, int n_out, const double* t_out, double* X, double* 
         while (j < n_out && (t_out[j] <= S->t || S->t >= S->t_bound)) {
             if (t_out[j] >= S->t) memcpy(z, S->D[0], sizeof z);
             else hl_dense_output(S, t_out[j], z);
-            for (int i = 0; i < HL_N; i++) X[(long long)j * HL_N + i] = z[i] * S->scale[i];
-            if (Y) hl_signals(t_out[j], z, S->p, S->c, Y + (long long)j * HL_NY);
+            for (int i = 0; i < HL_N; i++) X[(long long)j * ld + i] = z[i] * S->scale[i];
+            if (Y) hl_signals(t_out[j], z, S->p, S->c, Y + (long long)j * ld);
             j++;
         }
     }
