@@ -19,6 +19,8 @@ SUBCOMMANDS = [
     "bode",
     "fit",
     "friction_id",
+    "layout",
+    "sweep",
 ]
 
 

@@ -1,0 +1,78 @@
+"""``hydroline layout``: the section II hose-layout study (the 2005 paper's Figs. 13-14)."""
+from __future__ import annotations
+
+from ..rigs import load_rig
+from ..scenarios import SCENARIOS
+from ..studies.layout import DEFAULT_LENGTHS, layout
+from .common import dump_json, out_dir, print_table, progress_printer, quantity
+
+_DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
+
+
+def register(sub):
+    p = sub.add_parser(
+        "layout", help="hose-layout study: port pressure oscillations against the length of "
+        "the sections II (manifold to servovalve), 0 = close-coupled manifold",
+        description="Set the supply and return sections II (HSM manifold to servovalve) to each "
+        "length, run the open-loop step from the solved steady state, and report per length the "
+        "supply and return port oscillation frequency, peak amplitude and 2 % settling time over "
+        "the metrics window (step to piston stop). '-' in the table: no oscillation (frequency) or "
+        "not settled within the window (settling). With --out DIR: layout.csv, layout_traces.csv "
+        "and layout.png (the port-pressure traces of every length stacked, as the paper's "
+        "Figs. 13-14, plus frequency and amplitude against length).")
+    p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
+    p.add_argument("--lengths", default=_DEFAULT,
+                   help="comma-separated section II lengths in metres; bare numbers are metres, "
+                   "other units may be given per value, e.g. '10 ft,5 ft,0 m'; 0 removes the "
+                   f"section (default: {_DEFAULT}, the paper's 10, 7.5, 5, 2.46 ft and 0)")
+    p.add_argument("--side", default="both", choices=("both", "supply", "return"),
+                   help="which sections II take the lengths (default: both)")
+    p.add_argument("--scenario", default="open-loop-step", choices=SCENARIOS)
+    p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
+    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
+    p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")
+    p.add_argument("--json", action="store_true",
+                   help="print only the JSON list [{section2_length_m, supply: {frequency_hz, "
+                   "amplitude_mpa, settling_time_s}, return: {...}}, ...] on stdout")
+    p.set_defaults(func=run)
+
+
+def _progress(enabled):
+    bar = progress_printer("layout", enabled)
+    return None if bar is None else (lambda done, total: bar(done / total))
+
+
+def run(args) -> int:
+    rig = load_rig(args.rig)
+    t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
+    if t_end is not None and not t_end > 0:
+        raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
+    sides = ("supply", "return") if args.side == "both" else (args.side,)
+    study = layout(rig, args.lengths, sides=sides, scenario=args.scenario, t_end=t_end,
+                   solver=args.solver, progress=_progress(not args.json))
+    files = study.save(out_dir(args.out)) if args.out else {}
+    if args.json:
+        dump_json(study.records())
+        return 0
+    print(f"hydroline layout: {args.scenario} on {study.rig_name}, sections II of "
+          f"{' and '.join(sides)} set to each length ({study.wall_time:.1f} s)")
+    rows = []
+    for rec in study.records():
+        row = [rec["section2_length_m"]]
+        for side in ("supply", "return"):
+            m = rec[side]
+            row += [m["frequency_hz"], m["amplitude_mpa"],
+                    None if m["settling_time_s"] is None else m["settling_time_s"] * 1e3]
+        rows.append(row)
+    print_table(["length [m]", "supply [Hz]", "supply [MPa]", "supply settling [ms]",
+                 "return [Hz]", "return [MPa]", "return settling [ms]"], rows)
+    print("  '-': no oscillation (frequency) / not settled within the metrics window, which ends "
+          "when the piston reaches its stop (settling)")
+    for L, s in zip(study.lengths, study.summaries):
+        for w in s["warnings"]:
+            print(f"  WARNING (L = {L:g} m): {w}")
+    if files:
+        print(f"  wrote {files['csv']}, {files['traces']}, {files['figure']}")
+    else:
+        print("  (--out DIR writes layout.csv, layout_traces.csv and the figure layout.png)")
+    return 0

@@ -1,0 +1,199 @@
+"""``hydroline sweep``: a parameter study of a rig, local processes or a Dask cluster."""
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+
+import numpy as np
+
+from ..rigs import load_rig
+from ..scenarios import SCENARIOS
+from ..studies.sweep import METRIC_COLUMNS, sweep
+from .common import dump_json, print_table, quantity
+
+EPILOG = """\
+values (after PATH=; PATH is a parameter's dotted path in the rig file, values carry units):
+  150 MPa,178 MPa,220 MPa          levels of a full factorial (one value: constant override)
+  linspace(150 MPa, 220 MPa, 8)    8 evenly spaced levels
+with --samples N (random design; variant i drawn from numpy default_rng([seed, i])):
+  uniform(LOW, HIGH)               e.g. 'uniform(150 MPa, 220 MPa)'
+  loguniform(LOW, HIGH)            log-uniform, LOW > 0
+  normal(MEAN, STD)                e.g. 'normal(178 MPa, 10 MPa)' (not truncated)
+  lognormal(MEDIAN, SIGMA)         MEDIAN*exp(SIGMA*z), SIGMA a plain number
+  triangular(LOW, MODE, HIGH)
+  choice(V1, V2, ...)              a list of levels is a choice too; one value a constant
+PATH1+PATH2=VALUES sets both paths to the same value, e.g.
+  --set 'supply.section2.diameter+return.section2.diameter=12.7 mm,15.9 mm,19.05 mm'
+
+examples:
+  hydroline sweep --set 'supply.section2.bulk_modulus=150 MPa,178 MPa,220 MPa' \\
+                  --set 'supply.accumulator.precharge_pressure=10 MPa,14 MPa' --out bm
+  hydroline sweep --samples 200 --set 'supply.section2.bulk_modulus=normal(178 MPa, 10 MPa)' \\
+                  --set 'return.section2.bulk_modulus=uniform(140 MPa, 180 MPa)' --out mc
+  hydroline sweep ... --out mc --resume          # continue after an interruption
+  hydroline sweep ... --scheduler tcp://10.0.0.5:8786   # an existing Dask cluster
+  hydroline sweep ... --scheduler local --workers 8     # a local Dask cluster
+
+out/sweep.jsonl gets every row as it finishes (the record --resume continues from);
+out/sweep.csv (and out/sweep.parquet where pyarrow is installed) the table in variant order:
+variant, inputs in SI units (one column per path), supply/return frequency_hz, amplitude_mpa,
+settling_time_s, wall_time_s, warnings, error (the reason a variant failed, else empty).
+"""
+
+
+def register(sub):
+    p = sub.add_parser(
+        "sweep", help="parameter study: full factorial or random samples over rig parameters, "
+        "in parallel, resumable, on local processes or a Dask cluster",
+        description="Run a scenario for every variant of a rig: a full factorial over the values\n"
+        "given with --set, or --samples N random variants from distributions. Each variant:\n"
+        "copy the rig, set the parameters, simulate, summarize. A failed variant is recorded\n"
+        "with its reason and the sweep goes on.",
+        epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("rig", nargs="?", help="base rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
+    p.add_argument("--set", dest="sets", action="append", default=[], metavar="PATH=VALUES",
+                   help="a parameter and its values with units (repeat for more; syntax below)")
+    p.add_argument("--samples", type=int, metavar="N", help="random design of N variants (default: full factorial)")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the random design (default 0)")
+    p.add_argument("--scenario", default="open-loop-step", choices=SCENARIOS)
+    p.add_argument("--t-end", help="simulated time per variant with unit, e.g. '0.25 s' (scenario default)")
+    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
+    p.add_argument("--workers", type=int, metavar="W",
+                   help="local worker processes, or workers of --scheduler local (default: CPU count)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on Dask: tcp://host:port of an existing scheduler (hydroline "
+                   "installed on its workers), or 'local' for a local dask.distributed cluster")
+    p.add_argument("--out", default="hydroline-sweep",
+                   help="results folder: sweep.jsonl, sweep.csv, sweep.parquet (default: hydroline-sweep)")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the sweep in --out: keep its finished rows, run the rest")
+    p.add_argument("--json", action="store_true", help="print the table as a JSON list on stdout only")
+    p.set_defaults(func=run)
+
+
+class _Progress:
+    """A progress bar on stderr (a TTY), or a line per 10 % (a log file)."""
+
+    def __init__(self, enabled):
+        self.enabled = enabled
+        self.tty = sys.stderr.isatty()
+        self.start = time.perf_counter()
+        self.base = None
+        self.first = None
+        self.last_decile = -1
+
+    def __call__(self, done, total, failed):
+        if not self.enabled or total == 0:
+            return
+        now = time.perf_counter()
+        if self.base is None:
+            self.base = done
+        if self.first is None and done > self.base:     # rate from the first finished variant
+            self.first = (done, now)                      # on (start-up excluded)
+        d0, t0 = self.first or (done, now)
+        rate = (done - d0) / (now - t0) if now > t0 and done > d0 else 0.0
+        eta = f", ETA {(total - done) / rate:.0f} s" if rate > 0 and done < total else ""
+        text = f"{done}/{total} variants, {failed} failed, {now - self.start:.0f} s{eta}"
+        if self.tty:
+            n = int(30 * done / total)
+            sys.stderr.write(f"\rsweep [{'#' * n}{'.' * (30 - n)}] {text}   ")
+            if done >= total:
+                sys.stderr.write("\n")
+            sys.stderr.flush()
+        else:
+            decile = int(10 * done / total)
+            if decile > self.last_decile:
+                self.last_decile = decile
+                print(f"sweep: {text}", file=sys.stderr, flush=True)
+
+
+def _terminate(signum, frame):
+    raise KeyboardInterrupt
+
+
+def run(args) -> int:
+    rig = load_rig(args.rig)
+    t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
+    if t_end is not None and not t_end > 0:
+        raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
+    if not args.sets:
+        raise ValueError("give at least one --set PATH=VALUES, e.g. "
+                         "--set 'supply.section2.bulk_modulus=150 MPa,220 MPa'")
+    progress = _Progress(not args.json)
+    done = {"rows": 0}
+
+    def count(row):
+        done["rows"] += 1
+
+    old = signal.signal(signal.SIGTERM, _terminate)    # a kill finishes cleanly, like Ctrl-C
+    try:
+        result = sweep(args.sets, rig, samples=args.samples, seed=args.seed,
+                       scenario=args.scenario, t_end=t_end, solver=args.solver,
+                       workers=args.workers, scheduler=args.scheduler, out=args.out,
+                       resume=args.resume, progress=progress, callback=count)
+    except KeyboardInterrupt:
+        print(f"\nhydroline sweep: interrupted after {done['rows']} variants of this run; "
+              f"every finished row is in {args.out}/sweep.jsonl: rerun the same command with "
+              f"--resume to continue", file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGTERM, old)
+    table = result.table
+    if args.json:
+        dump_json([{k: _plain(v) for k, v in r.items()} for r in table.to_dict("records")])
+        return 0
+    d = result.design
+    if args.scheduler == "local":
+        where = f"a local Dask cluster of {args.workers or 'CPU-count'} workers"
+    elif args.scheduler:
+        where = f"the Dask scheduler at {args.scheduler}"
+    else:
+        where = f"{args.workers or 'CPU-count'} local worker processes"
+    print(f"hydroline sweep: {d.describe()}, {args.scenario} on {rig.get('rig.name', rig.source)}, "
+          f"{where}")
+    print(f"  parameters: " + "; ".join(f"{p.name} = {p.describe()}" for p in d.parameters))
+    print(f"  {result.n_computed} variants run now, {len(table) - result.n_computed} from the "
+          f"results file; {result.n_failed} failed; {result.wall_time:.1f} s")
+    inputs = d.columns
+    if len(table) <= 20:
+        heads = ["variant", *inputs, "supply [Hz]", "supply [MPa]", "return [Hz]", "return [MPa]",
+                 "wall [s]", "error"]
+        rows = [[r["variant"], *[r[c] for c in inputs],
+                 *[_opt(r[c]) for c in ("supply_frequency_hz", "supply_amplitude_mpa",
+                                        "return_frequency_hz", "return_amplitude_mpa", "wall_time_s")],
+                 _short(r["error"])] for r in table.to_dict("records")]
+        print_table(heads, rows)
+    else:
+        rows = []
+        for c in METRIC_COLUMNS:
+            v = table[c].to_numpy(dtype=float)
+            ok = v[np.isfinite(v)]
+            rows.append([c, len(ok), *(np.percentile(ok, [0, 5, 50, 95, 100]) if len(ok) else [None] * 5)])
+        print_table(["metric", "n", "min", "5 %", "median", "95 %", "max"], rows)
+        fails = result.failed
+        for r in fails.head(10).to_dict("records"):
+            print(f"  failed variant {r['variant']}: {r['error']}")
+        if len(fails) > 10:
+            print(f"  ... and {len(fails) - 10} more failed variants (column 'error')")
+    print(f"  wrote {', '.join(str(p) for p in result.files.values())}")
+    return 0
+
+
+def _plain(v):
+    if isinstance(v, float) and not np.isfinite(v):
+        return None
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _opt(v):
+    return None if v is None or (isinstance(v, float) and not np.isfinite(v)) else v
+
+
+def _short(e, n=70):
+    if not e:
+        return ""
+    return e if len(e) <= n else e[: n - 3] + "..."

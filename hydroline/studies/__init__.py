@@ -1,0 +1,18 @@
+"""Design studies: the section II layout study and parameter sweeps (local or on Dask).
+
+* :func:`layout` -- the 2005 paper's hose-layout question (Figs. 13-14): supply and return
+  port oscillations against the length of the sections II, 0 included (close-coupled
+  manifold). CLI: ``hydroline layout``.
+* :func:`sweep` -- any rig parameters by their path in the rig file, a full factorial or
+  random samples from distributions, in parallel over local processes or a Dask cluster,
+  every row appended to a results file as it finishes so that an interrupted sweep resumes.
+  CLI: ``hydroline sweep``. Value and distribution syntax: :mod:`hydroline.studies.design`.
+"""
+from .design import DISTRIBUTIONS, Design, Distribution, Parameter, parse_parameter, parse_parameters
+from .layout import DEFAULT_LENGTHS, LayoutStudy, layout, parse_lengths
+from .sweep import METRIC_COLUMNS, SweepFileError, SweepResult, read_journal, run_variant, sweep
+
+__all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths",
+           "sweep", "SweepResult", "SweepFileError", "run_variant", "read_journal", "METRIC_COLUMNS",
+           "Design", "Parameter", "Distribution", "DISTRIBUTIONS", "parse_parameter",
+           "parse_parameters"]

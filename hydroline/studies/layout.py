@@ -1,0 +1,285 @@
+"""The hose-layout study of Ayalew & Kulakowski (2005), Figs. 13-14.
+
+The paper's design question: what happens to the supply and return pressure oscillations at
+the servovalve when the hoses between the hydraulic service manifold (HSM) and the valve --
+the sections II -- are shortened, down to close-coupling the manifold and its accumulators to
+the valve. :func:`layout` sets ``supply.section2.length`` and ``return.section2.length`` to
+each length in turn (0 removes the section: the manifold node is joined to the valve port,
+see :func:`hydroline.system.build_network`), runs the scenario (the 50 mA open-loop step by
+default) from the solved steady state and takes the port metrics of
+:func:`hydroline.scenarios.summarize`: oscillation frequency [Hz], peak amplitude [MPa] and
+2 % settling time [s] over the metrics window (step to piston stop). A frequency of None
+means the port pressure does not oscillate; a settling time of None that it has not settled
+within the window.
+
+What to expect (MODEL.md 1-2): a section II with a nearly blocked valve end and the
+accumulator-stiffened manifold at the other is close to a quarter-wave resonator, so the
+frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 37 Hz for 3 m),
+and the amplitude falls with the volume of oil that the step must accelerate.
+
+References
+----------
+Ayalew, B. and Kulakowski, B. T. (2005), Modeling supply and return line dynamics for an
+electrohydraulic actuation system, ISA Transactions 44(3), 329-343,
+doi:10.1016/S0019-0578(07)60207-6. Figs. 13-14: port pressures for section II lengths of
+10, 7.5, 5 and 2.46 ft and a close-coupled manifold.
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..rigs import Rig, RigError, load_rig
+from ..scenarios import SCENARIOS, simulate, summarize
+from ..simulation import SteadyStateError
+from ..lines import Line
+from ..system import make_fluid
+from ..units import parse_quantity
+
+__all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES"]
+
+#: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
+DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
+SIDES = ("supply", "return")
+_METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
+
+
+def parse_lengths(lengths) -> list[float]:
+    """Section II lengths -> metres.
+
+    Parameters
+    ----------
+    lengths : str or sequence
+        ``"3.048,2.286,0"`` (bare numbers are metres: the option's documented unit),
+        ``"10 ft,5 ft,0 m"``, or a sequence of numbers [m] and quantity strings; each >= 0
+
+    Returns
+    -------
+    list[float]  [m]
+
+    Raises
+    ------
+    UnitError / RigError (ValueError), one line naming ``--lengths``.
+    """
+    items = [s.strip() for s in lengths.split(",")] if isinstance(lengths, str) else list(lengths)
+    if not items or any(isinstance(s, str) and not s for s in items):
+        raise RigError(f"--lengths: expected comma-separated lengths in m, e.g. "
+                       f"3.048,1.524,0 or '10 ft,5 ft,0 m'; got {lengths!r}")
+    out = []
+    for k, item in enumerate(items):
+        name = f"--lengths[{k}]"
+        if isinstance(item, str):
+            try:
+                value = float(item)            # a bare number: metres
+            except ValueError:
+                value = parse_quantity(item, "m", name)
+        elif isinstance(item, (int, float, np.floating, np.integer)) and not isinstance(item, bool):
+            value = float(item)
+        else:
+            value = parse_quantity(item, "m", name)
+        if not np.isfinite(value) or value < 0:
+            raise RigError(f"{name}: a section II length must be >= 0 m (0 removes the section), "
+                           f"got {item!r}")
+        out.append(value)
+    return out
+
+
+@dataclass
+class LayoutStudy:
+    """Results of :func:`layout`, one entry per section II length.
+
+    Attributes
+    ----------
+    lengths : list[float]      Section II lengths, [m]
+    summaries : list[dict]     :func:`hydroline.scenarios.summarize` of each run
+    results : list             The :class:`~hydroline.simulation.SimulationResult` of each run
+    sides : tuple              Which sections II were set ("supply", "return")
+    scenario : str
+    rig_name : str
+    wall_time : float          Wall time of the whole study, [s]
+    wave_speeds : dict         side -> wave speed c of its section II (M2), [m/s]
+    files : dict               What :meth:`save` wrote
+    """
+
+    lengths: list
+    summaries: list
+    results: list
+    sides: tuple = SIDES
+    scenario: str = "open-loop-step"
+    rig_name: str = ""
+    wall_time: float = 0.0
+    wave_speeds: dict = field(default_factory=dict)
+    files: dict = field(default_factory=dict)
+
+    def records(self) -> list[dict]:
+        """The ``--json`` list: ``[{"section2_length_m", "supply": {frequency_hz,
+        amplitude_mpa, settling_time_s}, "return": {...}}, ...]`` (None where a metric does
+        not exist)."""
+        return [{"section2_length_m": float(L),
+                 **{side: {k: s[side][k] for k in _METRICS} for side in SIDES}}
+                for L, s in zip(self.lengths, self.summaries)]
+
+    def table(self) -> pd.DataFrame:
+        """One row per length: section2_length_m, {supply,return}_{frequency_hz,
+        amplitude_mpa, settling_time_s}, wall_time_s, warnings."""
+        rows = []
+        for L, s in zip(self.lengths, self.summaries):
+            row = {"section2_length_m": float(L)}
+            for side in SIDES:
+                for k in _METRICS:
+                    row[f"{side}_{k}"] = np.nan if s[side][k] is None else s[side][k]
+            row["wall_time_s"] = s["wall_time_s"]
+            row["warnings"] = "; ".join(s["warnings"])
+            rows.append(row)
+        return pd.DataFrame(rows)
+
+    def traces(self) -> pd.DataFrame:
+        """Port pressures of every run on the common output grid: ``time_s`` and
+        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa]."""
+        t = self.results[0].t
+        cols = {"time_s": t}
+        for L, res in zip(self.lengths, self.results):
+            for side in SIDES:
+                y = res[f"{side}_port_pressure"]
+                cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y)
+        return pd.DataFrame(cols)
+
+    def save(self, folder) -> dict:
+        """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder."""
+        folder = Path(folder)
+        folder.mkdir(parents=True, exist_ok=True)
+        self.files = {"csv": folder / "layout.csv", "traces": folder / "layout_traces.csv",
+                      "figure": folder / "layout.png"}
+        self.table().to_csv(self.files["csv"], index=False)
+        self.traces().to_csv(self.files["traces"], index=False)
+        self.plot(self.files["figure"])
+        return self.files
+
+    def plot(self, path=None, title=None):
+        """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
+        return right) above frequency and amplitude against length.
+
+        Returns
+        -------
+        matplotlib.figure.Figure (written as PNG to ``path`` when given)
+        """
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        n = len(self.lengths)
+        fig = plt.figure(figsize=(11, 1.7 * n + 4.0))
+        outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
+        gs = outer[0].subgridspec(n, 2, hspace=0.12)
+        first = {}
+        for r, (L, res) in enumerate(zip(self.lengths, self.results)):
+            t_ms = res.t * 1e3
+            t0 = res.metadata.get("t_disturbance", 0.0)
+            t1 = res.metadata.get("metrics_window_end")
+            for c, side in enumerate(SIDES):
+                ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
+                first.setdefault("x", ax)
+                first.setdefault(side, ax)
+                ax.plot(t_ms, res[f"{side}_port_pressure"] / 1e6, lw=0.9,
+                        color="C0" if side == "supply" else "C3")
+                if t1 and t1 < res.t[-1]:
+                    ax.axvline(t1 * 1e3, color="0.5", lw=0.7, ls=":")
+                ax.axvline(t0 * 1e3, color="0.7", lw=0.7, ls=":")
+                ax.grid(True, alpha=0.3)
+                label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
+                ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
+                        bbox=dict(facecolor="white", edgecolor="none", alpha=0.7))
+                if r == 0:
+                    ax.set_title(f"{side} port pressure [MPa]", fontsize=10)
+                if r < n - 1:
+                    ax.tick_params(labelbottom=False)
+                else:
+                    ax.set_xlabel("time [ms]")
+        sub = outer[1].subgridspec(1, 2, wspace=0.25)
+        ax_f, ax_a = fig.add_subplot(sub[0, 0]), fig.add_subplot(sub[0, 1])
+        tab = self.table().sort_values("section2_length_m")
+        for side, color in (("supply", "C0"), ("return", "C3")):
+            ax_f.plot(tab["section2_length_m"], tab[f"{side}_frequency_hz"], "o-", color=color,
+                      label=side)
+            ax_a.plot(tab["section2_length_m"], tab[f"{side}_amplitude_mpa"], "o-", color=color,
+                      label=side)
+            c = self.wave_speeds.get(side)
+            if c and side in self.sides and max(self.lengths) > 0:
+                lo = min([L for L in self.lengths if L > 0] + [max(self.lengths)])
+                Ls = np.linspace(0.8 * lo, max(self.lengths), 100)
+                ax_f.plot(Ls, c / (4 * Ls), ls="--", lw=0.8, color=color,
+                          label=f"{side}: c/(4L) of section II alone")
+        ax_f.set_ylabel("oscillation frequency [Hz]")
+        ax_a.set_ylabel("peak amplitude [MPa]")
+        for ax in (ax_f, ax_a):
+            ax.set_xlabel("section II length [m]")
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=8)
+            ax.set_xlim(left=-0.05 * max(max(self.lengths), 1e-3))
+        ax_a.set_ylim(bottom=0)
+        flat = sorted({L for L, s in zip(self.lengths, self.summaries)
+                       if any(s[side]["frequency_hz"] is None for side in SIDES)})
+        if flat:
+            ax_f.text(0.02, 0.04, "no point at " + ", ".join(f"{L:g}" for L in flat) +
+                      " m: no oscillation", transform=ax_f.transAxes, fontsize=8, color="0.4")
+        fig.suptitle(title or f"Section II layout study: {self.scenario} on {self.rig_name} "
+                     f"(sections II of {' and '.join(self.sides)} set)", fontsize=11, y=0.995)
+        fig.subplots_adjust(left=0.07, right=0.98, top=0.955, bottom=0.05)
+        if path is not None:
+            fig.savefig(path, dpi=110)
+        return fig
+
+
+def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "open-loop-step",
+           t_end: float | None = None, solver: str = "auto", progress=None) -> LayoutStudy:
+    """The section II layout study: the scenario run once per hose length.
+
+    Parameters
+    ----------
+    rig : Rig, str or None   The rig (None: the embedded 2005 paper's rig)
+    lengths : sequence or str  Section II lengths, [m] (numbers are metres; strings may carry
+                             units, "10 ft"); 0 removes the section (close-coupled manifold)
+    sides : sequence         Which sections II take the length: "supply", "return" or both
+    scenario : str           "open-loop-step" (default, the paper's) or "closed-loop-sine"
+    t_end : float            Simulated time, [s]; the scenario's default when None
+    solver : str             See :func:`hydroline.simulation.integrate`
+    progress : callable      ``progress(done, total)`` after each length
+
+    Returns
+    -------
+    LayoutStudy  (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
+    ``plot()``/``save(folder)`` the figure and CSV files)
+    """
+    tic = _time.perf_counter()
+    if not isinstance(rig, Rig):
+        rig = load_rig(rig)
+    if scenario not in SCENARIOS:
+        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+    sides = (sides,) if isinstance(sides, str) else tuple(sides)
+    if not sides or any(s not in SIDES for s in sides):
+        raise RigError(f"--side: expected 'supply', 'return' or both, got {sides!r}")
+    lengths = parse_lengths(lengths)
+    summaries, results = [], []
+    for k, L in enumerate(lengths):
+        variant = rig.copy()
+        for side in sides:
+            variant.set(f"{side}.section2.length", f"{L!r} m")
+        try:
+            res = simulate(variant, scenario, t_end, solver=solver)
+        except (ValueError, SteadyStateError) as e:
+            msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+            raise RigError(f"section II length {L:g} m: {msg}") from e
+        summaries.append(summarize(res))
+        results.append(res)
+        if progress is not None:
+            progress(k + 1, len(lengths))
+    fluid = make_fluid(rig)
+    speeds = {side: Line(1.0, rig[f"{side}.section2.diameter"], fluid,
+                         rig.get(f"{side}.section2.bulk_modulus")).wave_speed for side in SIDES}
+    return LayoutStudy(lengths, summaries, results, sides, scenario,
+                       str(rig.get("rig.name", rig.source)), _time.perf_counter() - tic, speeds)

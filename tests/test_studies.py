@@ -1,0 +1,346 @@
+"""Design studies (issue 4): the section II layout study and parameter sweeps.
+
+Physics: a section II alone between an ideal pressure source and a blocked end is a
+quarter-wave resonator; its step response rings at the first root of cosh Gamma(s) = 0 of
+the dissipative line (M5-M6), which the test finds independently of hydroline's root finder.
+Bookkeeping: a sweep interrupted (in-process, and a real SIGTERM to the CLI) and resumed gives
+the table of an uninterrupted one; a bad variant is reported and sinks nothing; a Dask cluster
+on loopback gives the local-process table.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import jsonschema
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import optimize, special
+
+from hydroline import components as comp
+from hydroline.analysis import oscillation_frequency
+from hydroline.cli import main
+from hydroline.lines import ModalLine
+from hydroline.network import Network
+from hydroline.rigs import RigError, load_rig
+from hydroline.simulation import integrate, solve_steady_state
+from hydroline.studies import (DEFAULT_LENGTHS, Design, SweepFileError, layout, parse_lengths,
+                               parse_parameters, read_journal, sweep)
+from hydroline.system import make_fluid, make_line
+
+T_END = 0.12      # [s]: the metrics window of the open-loop step ends at the piston stop, ~0.11 s
+SWEEP_SETS = ["supply.section2.bulk_modulus=150 MPa,178 MPa,200 MPa",
+              "supply.accumulator.precharge_pressure=10 MPa,14 MPa"]
+
+
+# --------------------------------------------------------------------------- physics
+
+def _first_dissipative_pole(line):
+    """First root of cosh Gamma(s) = 0, i.e. Gamma(s) = j pi/2 (M6), by Newton from the
+    lossless quarter-wave value; Gamma written here from scratch with scipy's I0, I2:
+    Gamma = (s L/c) sqrt(I0(kappa)/I2(kappa)), kappa = r sqrt(s/nu)  [1/s]."""
+    L, c, r, nu = line.length, line.wave_speed, line.radius, line.fluid.kinematic_viscosity
+
+    def residual(z):
+        s = complex(z[0], z[1])
+        k = r * np.sqrt(s / nu)
+        g = s * L / c * np.sqrt(special.iv(0, k) / special.iv(2, k)) - 0.5j * np.pi
+        return [g.real, g.imag]
+
+    sol = optimize.fsolve(residual, [0.0, 2 * np.pi * c / (4 * L)], xtol=1e-13)
+    return complex(*sol)
+
+
+@pytest.mark.parametrize("length", [3.048, 0.7512])
+def test_section2_alone_rings_at_quarter_wave(length):
+    """PressureSource -> section II (modal PQ, 6 modes) -> blocked end (zero flow): the blocked
+    end's pressure after a 1 MPa step oscillates at the quarter-wave frequency of the line:
+    c/(4L) lossless, lowered by friction to the first dissipative pole (M6)."""
+    rig = load_rig()
+    rig.set("supply.section2.length", f"{length} m")
+    line = make_line(rig, "supply.section2", make_fluid(rig))
+    p0, t_step = 20.7e6, 0.005
+    net = Network([
+        comp.PressureSource(name="source", pressure=p0, step_time=t_step, step_to=p0 - 1e6,
+                            connections={"pressure": "inlet_pressure"}),
+        comp.HoseSection(name="hose", model=ModalLine(line, 6, "PQ"), nominal_pressure=p0,
+                         connections={"upstream_pressure": "inlet_pressure",
+                                      "downstream_flow": "end_flow",
+                                      "downstream_pressure": "end_pressure",
+                                      "upstream_flow": "inlet_flow"}),
+        comp.StepCommand(name="blocked_end", quantity="flow", initial=0.0, final=0.0, time=1.0,
+                         connections={"command": "end_flow"}),
+    ])
+    ss = solve_steady_state(net)
+    quarter_wave = line.wave_speed / (4 * length)                          # [Hz]
+    res = integrate(net, ss.x, t_step + 8 / quarter_wave, dt_out=2e-5, p=ss.p)
+    f = oscillation_frequency(res.t, res["end_pressure"], t_step)
+    exact = _first_dissipative_pole(line).imag / (2 * np.pi)
+    assert f == pytest.approx(exact, rel=5e-3)          # modal accuracy (M15 corrections)
+    # friction lowers the lossless quarter-wave value a little (Dn ~ 0.003-0.0007 here)
+    assert exact < quarter_wave
+    assert f == pytest.approx(quarter_wave, rel=0.05)
+
+
+# --------------------------------------------------------------------------- layout
+
+#: The issue's ``--json`` schema.
+LAYOUT_SCHEMA = {
+    "type": "array",
+    "items": {
+        "type": "object",
+        "required": ["section2_length_m", "supply", "return"],
+        "additionalProperties": False,
+        "properties": {"section2_length_m": {"type": "number"},
+                       "supply": {"$ref": "#/$defs/port"},
+                       "return": {"$ref": "#/$defs/port"}},
+    },
+    "$defs": {"port": {
+        "type": "object",
+        "required": ["frequency_hz", "amplitude_mpa", "settling_time_s"],
+        "additionalProperties": False,
+        "properties": {"frequency_hz": {"type": ["number", "null"]},
+                       "amplitude_mpa": {"type": "number"},
+                       "settling_time_s": {"type": ["number", "null"]}}}},
+}
+
+
+@pytest.fixture(scope="module")
+def default_layout():
+    return layout()
+
+
+def test_layout_default_lengths_give_finite_metrics(default_layout):
+    recs = default_layout.records()
+    assert [r["section2_length_m"] for r in recs] == pytest.approx(list(DEFAULT_LENGTHS))
+    for r in recs:
+        for side in ("supply", "return"):
+            m = r[side]
+            assert math.isfinite(m["amplitude_mpa"]) and m["amplitude_mpa"] > 0
+            for k in ("frequency_hz", "settling_time_s"):
+                assert m[k] is None or (math.isfinite(m[k]) and m[k] >= 0)
+            if r["section2_length_m"] > 0:       # a hose section II rings
+                assert math.isfinite(m["frequency_hz"])
+    for side in ("supply", "return"):
+        # a shorter section II rings faster (quarter-wave frequency ~ 1/L, MODEL.md 2)
+        f = [r[side]["frequency_hz"] for r in recs if r["section2_length_m"] > 0]
+        assert all(b > a for a, b in zip(f, f[1:]))
+        # and the longest one near its quarter-wave value c/(4L): the accumulator holds the
+        # manifold end near constant pressure, the valve nearly blocks the other end
+        c = default_layout.wave_speeds[side]
+        assert f[0] == pytest.approx(c / (4 * DEFAULT_LENGTHS[0]), rel=0.15)
+
+
+def test_layout_json_validates_against_schema(default_layout):
+    recs = json.loads(json.dumps(default_layout.records()))
+    jsonschema.validate(recs, LAYOUT_SCHEMA)
+    assert len(recs) == len(DEFAULT_LENGTHS)
+
+
+def test_layout_cli_json_and_files(tmp_path, capsys):
+    assert main(["layout", "--lengths", "3.048,0", "--json"]) == 0
+    recs = json.loads(capsys.readouterr().out)
+    jsonschema.validate(recs, LAYOUT_SCHEMA)
+    assert [r["section2_length_m"] for r in recs] == [3.048, 0.0]
+    assert main(["layout", "--lengths", "10 ft,0 m", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "3.048" in out                                   # 10 ft = 3.048 m exactly
+    tab = pd.read_csv(tmp_path / "layout.csv")
+    assert list(tab["section2_length_m"]) == pytest.approx([3.048, 0.0])
+    assert (tmp_path / "layout.png").stat().st_size > 10_000
+    assert "time_s" in pd.read_csv(tmp_path / "layout_traces.csv", nrows=2)
+
+
+def test_parse_lengths_bare_metres_and_units():
+    assert parse_lengths("3.048,2.286,1.524,0.7512,0") == [3.048, 2.286, 1.524, 0.7512, 0.0]
+    assert parse_lengths("10 ft, 30 in,0 m") == pytest.approx([3.048, 0.762, 0.0])  # by definition of ft, in
+    assert parse_lengths([1, "2 m"]) == [1.0, 2.0]
+    for bad in ("-1", "1,,2", "3 psi", "abc"):
+        with pytest.raises(ValueError, match="--lengths"):
+            parse_lengths(bad)
+
+
+def test_layout_cli_bad_length_is_one_line(capsys):
+    assert main(["layout", "--lengths", "1 m,-2 m"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--lengths[1]" in err and ">= 0 m" in err
+
+
+# --------------------------------------------------------------------------- design
+
+def test_full_factorial_order_and_units():
+    d = Design(parse_parameters(SWEEP_SETS + ["rig.modes_per_section=4"]))
+    assert len(d) == 3 * 2 * 1
+    assert d.variant(0) == {"supply.section2.bulk_modulus": 150e6,
+                            "supply.accumulator.precharge_pressure": 10e6,
+                            "rig.modes_per_section": 4.0}
+    # first parameter slowest: variant 1 changes the second, variant 2 the first
+    assert d.variant(1)["supply.accumulator.precharge_pressure"] == 14e6
+    assert d.variant(2)["supply.section2.bulk_modulus"] == 178e6
+    assert len({tuple(v.values()) for v in d}) == 6
+    lin = parse_parameters(["supply.section2.length+return.section2.length=linspace(0 m, 3 m, 4)"])[0]
+    assert lin.levels == pytest.approx((0.0, 1.0, 2.0, 3.0))
+    assert Design([lin]).variant(3) == {"supply.section2.length": 3.0, "return.section2.length": 3.0}
+    assert parse_parameters(["supply.section2.diameter=0.5 in"])[0].levels == (0.0127,)
+
+
+def test_random_design_reproducible_and_distributions():
+    params = parse_parameters(["supply.section2.bulk_modulus=uniform(150 MPa, 220 MPa)",
+                               "return.section2.bulk_modulus=normal(178 MPa, 10 MPa)",
+                               "supply.accumulator.capacity=lognormal(1 L, 0.2)",
+                               "rig.line_method=choice(yang-tobler, residue)"])
+    d = Design(params, samples=4000, seed=3)
+    # variant i does not depend on N: a longer sample extends a shorter one
+    assert Design(params, samples=10, seed=3).variant(7) == d.variant(7)
+    assert Design(params, samples=10, seed=4).variant(7) != d.variant(7)
+    v = pd.DataFrame(list(d))
+    u = v["supply.section2.bulk_modulus"]
+    assert u.min() >= 150e6 and u.max() <= 220e6
+    n = len(v)
+    # sample mean within 4 standard errors of the distribution's mean
+    assert abs(u.mean() - 185e6) < 4 * (70e6 / math.sqrt(12)) / math.sqrt(n)
+    g = v["return.section2.bulk_modulus"]
+    assert abs(g.mean() - 178e6) < 4 * 10e6 / math.sqrt(n)
+    assert g.std() == pytest.approx(10e6, rel=0.05)
+    ln = np.log(v["supply.accumulator.capacity"])
+    assert abs(np.median(v["supply.accumulator.capacity"]) - 1e-3) < 2e-5  # median 1 L = 1e-3 m^3
+    assert ln.std() == pytest.approx(0.2, rel=0.05)
+    assert set(v["rig.line_method"]) == {"yang-tobler", "residue"}
+
+
+@pytest.mark.parametrize("spec, match", [
+    ("supply.section2.bulk_modulus=150,178", "bare number"),
+    ("supply.section2.bulk_modulus=150 m", "dimension"),
+    ("supply.section2.bulk_modulus=gauss(1 MPa, 2 MPa)", "unknown distribution"),
+    ("supply.section2.bulk_modulus=uniform(2 MPa, 1 MPa)", "LOW < HIGH"),
+    ("supply.nozzle=1 m", "unknown parameter"),
+    ("supply.section2.length+supply.pressure=1 m", "one unit"),
+    ("supply.section2.length", "PATH=VALUES"),
+])
+def test_bad_parameter_specs_are_one_line(spec, match):
+    with pytest.raises(ValueError, match=match) as e:
+        parse_parameters([spec])
+    assert "\n" not in str(e.value)
+
+
+def test_distribution_needs_samples():
+    with pytest.raises(RigError, match="--samples"):
+        Design(parse_parameters(["supply.section2.bulk_modulus=normal(178 MPa, 10 MPa)"]))
+
+
+# --------------------------------------------------------------------------- sweep
+
+def _without_timing(df):
+    return df.drop(columns=["wall_time_s"]).reset_index(drop=True)
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory):
+    """The reference: the whole sweep in one go on 2 worker processes."""
+    out = tmp_path_factory.mktemp("sweep_full")
+    return sweep(SWEEP_SETS, t_end=T_END, workers=2, out=out)
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_sweep_interrupted_and_resumed_equals_uninterrupted(uninterrupted, tmp_path):
+    ref = uninterrupted.table
+    assert len(ref) == 6 and ref["error"].isna().all()
+    assert ref["supply_frequency_hz"].notna().all()
+    seen = []
+
+    def stop_after_two(row):
+        seen.append(row["variant"])
+        if len(seen) == 2:
+            raise _Stop
+
+    with pytest.raises(_Stop):
+        sweep(SWEEP_SETS, t_end=T_END, workers=1, out=tmp_path, callback=stop_after_two)
+    header, rows = read_journal(tmp_path / "sweep.jsonl")
+    assert sorted(rows) == [0, 1]
+    # a kill in the middle of writing a row leaves half a line: it is dropped and rerun
+    with open(tmp_path / "sweep.jsonl", "a") as f:
+        f.write('{"variant": 2, "supply.section2.bulk_mod')
+    with pytest.raises(SweepFileError, match="--resume"):
+        sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path)
+    with pytest.raises(SweepFileError, match="parameters"):
+        sweep(SWEEP_SETS[:1], t_end=T_END, workers=2, out=tmp_path, resume=True)
+    with pytest.raises(SweepFileError, match="--t-end"):
+        sweep(SWEEP_SETS, t_end=0.2, workers=2, out=tmp_path, resume=True)
+    res = sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, resume=True)
+    assert res.n_computed == 4 and res.complete
+    pd.testing.assert_frame_equal(_without_timing(res.table), _without_timing(ref))
+    csv = pd.read_csv(tmp_path / "sweep.csv")
+    pd.testing.assert_frame_equal(_without_timing(csv), _without_timing(pd.read_csv(
+        uninterrupted.files["csv"])))
+    # resuming a finished sweep runs nothing
+    assert sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, resume=True).n_computed == 0
+
+
+def test_sweep_cli_killed_with_sigterm_resumes(uninterrupted, tmp_path):
+    """A real kill: SIGTERM to ``hydroline sweep`` midway, then ``--resume``."""
+    out = tmp_path / "killed"
+    args = ["sweep", *sum((["--set", s] for s in SWEEP_SETS), []), "--t-end", f"{T_END} s",
+            "--workers", "1", "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, "-m", "hydroline", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    journal = out / "sweep.jsonl"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and proc.poll() is None:
+        if journal.exists() and journal.read_text().count("\n") >= 2:     # header + 1 row
+            break
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err            # stopped midway, cleanly
+    assert "--resume" in err
+    assert 1 <= len(read_journal(journal)[1]) < 6
+    assert main([*args, "--resume"]) == 0
+    pd.testing.assert_frame_equal(_without_timing(pd.read_csv(out / "sweep.csv")),
+                                  _without_timing(pd.read_csv(uninterrupted.files["csv"])))
+
+
+def test_sweep_with_invalid_variant_finishes_the_others(tmp_path, capsys):
+    res = sweep(["supply.section2.diameter=15.9 mm,-5 mm,12.7 mm"], t_end=T_END, workers=2,
+                out=tmp_path)
+    tab = res.table
+    assert len(tab) == 3 and res.n_failed == 1
+    bad = tab.iloc[1]
+    assert bad["supply.section2.diameter"] == -0.005
+    assert "supply.section2.diameter" in bad["error"] and "positive" in bad["error"]
+    assert np.isnan(bad["supply_frequency_hz"])
+    good = tab.iloc[[0, 2]]
+    assert good["error"].isna().all()
+    assert np.isfinite(good[["supply_frequency_hz", "supply_amplitude_mpa",
+                             "return_frequency_hz", "return_amplitude_mpa"]].to_numpy()).all()
+    csv = pd.read_csv(tmp_path / "sweep.csv")
+    assert csv["error"].notna().tolist() == [False, True, False]
+    # the CLI reports it and still succeeds
+    assert main(["sweep", "--set", "return.section2.diameter=-1 mm", "--t-end", "0.12 s",
+                 "--workers", "1", "--out", str(tmp_path / "cli")]) == 0
+    out = capsys.readouterr().out
+    assert "1 failed" in out and "return.section2.diameter" in out
+
+
+def test_sweep_on_dask_cluster_matches_local_processes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    sets = SWEEP_SETS[:1] + ["supply.accumulator.precharge_pressure=10 MPa,14 MPa",
+                             "return.section2.length=1 m,2 m"]
+    sets[0] = "supply.section2.bulk_modulus=150 MPa,178 MPa"
+    local = sweep(sets, t_end=T_END, workers=2)
+    assert len(local.table) == 8
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tcp://127.0.0.1:")
+        remote = sweep(sets, t_end=T_END, scheduler=address, out=tmp_path)
+    assert remote.n_failed == 0
+    pd.testing.assert_frame_equal(_without_timing(remote.table), _without_timing(local.table))
