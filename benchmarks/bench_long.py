@@ -31,9 +31,24 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
+def current_rss_mb() -> float:
+    """Resident memory now (not the high-water mark), from /proc; NaN where there is none."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+RSS_SAMPLES: dict = {}   # percent done -> resident MB, sampled by the progress bar
+
+
 def progress_bar(frac, _state={"t0": None}):
     if _state["t0"] is None:
         _state["t0"] = time.perf_counter()
+    for mark in (10, 25, 50, 75, 100):
+        if frac * 100 >= mark and mark not in RSS_SAMPLES:
+            RSS_SAMPLES[mark] = current_rss_mb()
     n = int(frac * 40)
     el = time.perf_counter() - _state["t0"]
     sys.stderr.write(f"\r  [{'#' * n}{'.' * (40 - n)}] {frac * 100:5.1f} %  {el:6.1f} s")
@@ -72,6 +87,8 @@ def main(argv=None):
         ["real-time factor", f"{args.duration / wall:.1f}"],
         ["solver / steps / f evals", f"{res.metadata['solver']} / {st['nsteps']} / {st['nfevals']}"],
         ["peak RSS before / after the run [MB]", f"{before:.0f} / {after:.0f}"],
+        ["resident MB at " + " / ".join(f"{k} %" for k in RSS_SAMPLES),
+         " / ".join(f"{v:.0f}" for v in RSS_SAMPLES.values())],
         ["piston position min / max [mm]", f"{pos['min'] * 1e3:.1f} / {pos['max'] * 1e3:.1f}"],
         ["supply port pressure min / max [MPa]",
          f"{stats.loc['supply_port_pressure', 'min'] / 1e6:.2f} / "

@@ -229,6 +229,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
+    if not (rtol > 0 and atol_scale > 0):
+        raise ValueError(f"rtol and atol_scale must be > 0 [-], got {rtol!r} and {atol_scale!r}")
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
     model = network.compile()
     n_out = int(round(t_end / dt_out))
@@ -244,6 +246,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     atol = atol_scale * network.state_scales
     x = np.asarray(x0, dtype=float).copy()
     notes = []
+    solver_note = None
     native = None
     build_time = 0.0
     if solver in ("auto", "compiled"):
@@ -255,7 +258,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         except (compiled.CompilerUnavailable, compiled.UnsupportedOperation) as e:
             if solver == "compiled":
                 raise
-            notes.append(f"compiled core unavailable ({e}); used CVODES")
+            solver_note = f"compiled core unavailable ({e}); used CVODES"
+            warnings.warn(solver_note, RuntimeWarning, stacklevel=2)
         build_time = _time.perf_counter() - tic
     backend = "compiled" if native is not None else ("cvodes" if solver == "auto" else solver)
     columns = list(network.signal_names) + list(network.state_names)
@@ -314,6 +318,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     stats["build_time"] = build_time
     res = SimulationResult(data=sink.result(), wall_time=wall, stats=stats, warnings=notes)
     res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
+    if solver_note:
+        res.metadata["solver_note"] = solver_note
     if stream_to is not None:
         res.metadata.update(stream_to=str(stream_to), stream_stats=sink.stats_frame(),
                             stream_rows=sink.rows)

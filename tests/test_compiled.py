@@ -15,7 +15,8 @@ from hydroline.scenarios import build_scenario
 from hydroline.simulation import integrate, solve_steady_state
 from hydroline.system import build_network
 
-pytestmark = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+#: Tests that build a library; the fallback, code-generation and lumped-line tests need no compiler.
+needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
 
 
 @dataclass(kw_only=True)
@@ -59,6 +60,7 @@ def oscillator_network(omega=2 * np.pi * 50.0, zeta=0.05):
     return Network([Hold(name="source"), Oscillator(name="osc", omega=omega, zeta=zeta)])
 
 
+@needs_cc
 def test_oscillator_step_matches_exact_solution():
     # Underdamped step response: x(t) = u (1 - e^{-z w t} (cos(wd t) + z/sqrt(1-z^2) sin(wd t)))
     w, z, u = 2 * np.pi * 50.0, 0.05, 1e-3
@@ -74,6 +76,7 @@ def test_oscillator_step_matches_exact_solution():
     assert res["x"] == pytest.approx(res["osc.x"])   # the signal equals the state
 
 
+@needs_cc
 def test_runtime_parameters_and_constants_need_no_recompile():
     # two stiffnesses = same structure: one library, different constants (values that make
     # a product exactly 1 or 0 would let CasADi simplify the graph: another structure)
@@ -83,6 +86,7 @@ def test_runtime_parameters_and_constants_need_no_recompile():
     assert not np.array_equal(a.generated.constants, b.generated.constants)
 
 
+@needs_cc
 def test_sparse_lu_solves_like_dense_numpy():
     rng = np.random.default_rng(1)
     n = 30
@@ -129,6 +133,7 @@ def default_rig_network():
     return net, solve_steady_state(net)
 
 
+@needs_cc
 def test_compiled_rhs_equals_reference_python_rhs(default_rig_network):
     net, ss = default_rig_network
     solver = compiled.native_model(net).solver(ss.p)
@@ -139,6 +144,7 @@ def test_compiled_rhs_equals_reference_python_rhs(default_rig_network):
         assert solver.rhs(t, x) == pytest.approx(ref, rel=1e-9, abs=1e-12 * np.max(np.abs(ref)))
 
 
+@needs_cc
 def test_compiled_matches_reference_scipy_on_the_default_rig(default_rig_network):
     # 30 ms around the 50 mA step at 10 ms: both within their tolerance of the truth, so they
     # agree to a small multiple of rtol relative to each signal's excursion
@@ -154,6 +160,7 @@ def test_compiled_matches_reference_scipy_on_the_default_rig(default_rig_network
         assert np.max(np.abs(res[k] - ref[k])) < 300 * rtol * span, k
 
 
+@needs_cc
 def test_streaming_writes_every_row_and_keeps_statistics(tmp_path):
     import pandas as pd
 
@@ -175,9 +182,11 @@ def test_without_compiler_auto_falls_back_to_cvodes(monkeypatch, tmp_path):
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(compiled, "_compiler", lambda: None)
     net = oscillator_network(omega=123.0)   # a fresh network object: nothing built yet
-    res = integrate(net, np.zeros(2), 0.01, solver="auto")
+    with pytest.warns(RuntimeWarning, match="compiled core unavailable"):
+        res = integrate(net, np.zeros(2), 0.01, solver="auto")
     assert res.metadata["solver"] == "cvodes"
-    assert any("compiled core unavailable" in w for w in res.warnings)
+    assert "compiled core unavailable" in res.metadata["solver_note"]
+    assert not res.warnings     # validity warnings only: the fallback is no physics warning
     with pytest.raises(compiled.CompilerUnavailable):
         integrate(oscillator_network(omega=124.0), np.zeros(2), 0.01, solver="compiled")
 
@@ -222,3 +231,82 @@ def test_lumped_line_first_resonance_converges_to_quarter_wave():
         errors.append(abs(f1 / quarter - 1))
     assert errors[-1] < 0.01
     assert all(b < a / 3 for a, b in zip(errors, errors[1:]))   # ~1/N: x4 segments, /4 error
+
+
+# ---- robustness of the cache and the C integrator ---------------------------------------
+@needs_cc
+def test_corrupt_cached_library_is_rebuilt(monkeypatch, tmp_path):
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    net = oscillator_network(omega=211.0)
+    path, _ = compiled._library_path(generate(net.compile()))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(b"not a shared library")          # e.g. a build killed mid-write elsewhere
+    res = integrate(net, np.zeros(2), 0.05, solver="compiled")
+    assert res.metadata["solver"] == "compiled"
+    # step of 1 mm into the oscillator (zeta = 0.05): peak 1 + exp(-pi z / sqrt(1 - z^2)) mm
+    peak = 1e-3 * (1 + np.exp(-np.pi * 0.05 / np.sqrt(1 - 0.05**2)))
+    assert res["osc.x"].max() == pytest.approx(peak, rel=2e-3)
+
+
+def test_unusable_cache_directory_falls_back(monkeypatch, tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(blocker / "cache"))   # below a file: no mkdir
+    with pytest.warns(RuntimeWarning, match="compiled core unavailable"):
+        res = integrate(oscillator_network(omega=212.0), np.zeros(2), 0.01, solver="auto")
+    assert res.metadata["solver"] == "cvodes"
+
+
+def test_cache_key_holds_the_cpu_instruction_set():
+    # -march=native code is CPU-specific: the key must change with the CPU's feature flags
+    ident = compiled._cpu_id()
+    assert ident
+    try:
+        flags = [ln for ln in open("/proc/cpuinfo") if ln.lower().startswith(("flags", "features"))]
+    except OSError:
+        flags = []
+    if flags:
+        assert flags[0] in ident
+
+
+@needs_cc
+def test_native_solver_refuses_wrong_sizes_and_times():
+    net = oscillator_network(omega=213.0)
+    nm = compiled.native_model(net)
+    with pytest.raises(ValueError, match="parameter vector"):
+        nm.solver(p=np.zeros(len(net.parameter_values) + 3))
+    ns = nm.solver()
+    with pytest.raises(ValueError, match="x0"):
+        ns.start(0.0, np.zeros(5), 0.01)
+    ns.start(0.0, np.zeros(2), 0.01)
+    with pytest.raises(ValueError, match="within the segment"):
+        ns.advance([0.005, 0.02])
+    with pytest.raises(ValueError, match="rtol"):
+        integrate(net, np.zeros(2), 0.01, rtol=0.0)
+
+
+@dataclass(kw_only=True)
+class Blowup(Component):
+    """dx/dt = 1/sqrt(t_end - t): finite until t_end, NaN after it (a model leaving its domain)."""
+
+    t_end: float = 0.005
+    inputs = {}
+    outputs = {"x": Port("position")}
+    feedthrough = False
+
+    @property
+    def states(self):
+        return [State("x", "m", 1.0)]
+
+    def outputs_of(self, t, x, u, p):
+        return {"x": x["x"]}
+
+    def derivatives(self, t, x, u, p):
+        return {"x": 1.0 / ops.sqrt(self.t_end - t)}
+
+
+@needs_cc
+def test_non_finite_derivative_is_named_in_the_error():
+    net = Network([Blowup(name="blowup")])
+    with pytest.raises(RuntimeError, match=r"derivative of state 'blowup\.x' is not finite"):
+        integrate(net, np.zeros(1), 0.01, solver="compiled")

@@ -72,14 +72,21 @@ def available() -> bool:
 
 
 def _cpu_id() -> str:
+    """This CPU's model and instruction-set flags: ``-march=native`` code built on one CPU may
+    not run on another (a cache on a shared home directory), so both enter the cache key."""
+    keep = ("model name", "flags", "features", "cpu model", "isa")
+    lines = []
     try:
         with open("/proc/cpuinfo") as f:
             for line in f:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
+                key = line.split(":", 1)[0].strip().lower()
+                if key in keep and line not in lines:
+                    lines.append(line)
+                elif not line.strip() and lines:
+                    break    # the first processor's block is enough
     except OSError:
         pass
-    return platform.machine() + platform.processor()
+    return "".join(lines) or (platform.machine() + platform.processor())
 
 
 def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
@@ -89,15 +96,18 @@ def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
     return cache_dir() / f"hl_{tag}.so", full
 
 
-def _build(gen: GeneratedModel) -> ctypes.CDLL:
-    path, full = _library_path(gen)
-    if str(path) in _LIBS:
-        return _LIBS[str(path)]
-    if not path.exists():
-        cc = _compiler()
-        if cc is None:
-            raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
-        path.parent.mkdir(parents=True, exist_ok=True)
+def _compile(cc: str, full: str, path: Path) -> None:
+    """Compile the library source into ``path`` (atomic rename; one builder per key at a time)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = open(path.with_suffix(".lock"), "w")
+    try:
+        try:
+            import fcntl
+            fcntl.flock(lock, fcntl.LOCK_EX)    # other processes wait for this build
+        except ImportError:                     # no fcntl (Windows): concurrent builds are harmless
+            pass
+        if path.exists():                       # built by another process meanwhile
+            return
         with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
             src = Path(tmp) / "model.c"
             src.write_text(full)
@@ -109,8 +119,38 @@ def _build(gen: GeneratedModel) -> ctypes.CDLL:
                                       capture_output=True, text=True)
             if proc.returncode != 0:
                 raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
-            os.replace(out, path)   # atomic: concurrent builders of one key are harmless
-    lib = ctypes.CDLL(str(path))
+            os.replace(out, path)   # atomic: a reader never sees a half-written library
+    finally:
+        lock.close()
+
+
+def _build(gen: GeneratedModel) -> ctypes.CDLL:
+    """Load the model's library from the cache, compiling it on a miss.
+
+    Any failure to compile, store or load it (no compiler, a cache directory that cannot be
+    written, a corrupt cached file) raises :class:`CompilerUnavailable`, so callers can fall
+    back to another solver; a cached file that does not load is rebuilt once.
+    """
+    path, full = _library_path(gen)
+    if str(path) in _LIBS:
+        return _LIBS[str(path)]
+    cc = _compiler()
+    for attempt in (0, 1):
+        try:
+            if not path.exists():
+                if cc is None:
+                    raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
+                _compile(cc, full, path)
+            lib = ctypes.CDLL(str(path))
+            break
+        except OSError as e:
+            if attempt == 0 and path.is_file() and cc is not None:
+                try:                # a corrupt or foreign cached library: build it anew
+                    path.unlink()
+                except OSError:
+                    pass
+                continue
+            raise CompilerUnavailable(f"compiled library unusable at {path}: {e}") from None
     _declare(lib)
     _LIBS[str(path)] = lib
     return lib
@@ -134,6 +174,8 @@ def _declare(lib):
     lib.hl_reset_stats.argtypes = [vp]
     lib.hl_rhs.argtypes = [vp, ctypes.c_double, dp, dp]
     lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, dp, dp]
+    lib.hl_last_nonfinite.argtypes = [vp]
+    lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
 
 
 def _ptr(a):
@@ -185,22 +227,35 @@ class NativeSolver:
     newton_coef : float Newton convergence tolerance relative to the error-test tolerance
     """
 
+    #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
+    #: control instead of hanging in C, where Ctrl-C cannot reach it).
+    max_steps_per_call = 5_000_000
+
     def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
                  newton_coef):
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
         self.model = model
         lib = model.lib
         self._lib = lib
-        self._h = lib.hl_new()
         net = model.network
         p = net.parameter_values if p is None else p
-        self.p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=float)))
-        if self.p.size == 0:
-            self.p = np.zeros(1)
+        self.p = self._checked_parameters(p)
         c = model.generated.constants
         self._c = np.ascontiguousarray(c if c.size else np.zeros(1))
         self._scale = np.ascontiguousarray(np.asarray(net.state_scales, dtype=float))
+        self._t_bound = None
+        self._h = lib.hl_new()
         lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
                      max_step, fixed_step, int(max_order), newton_coef)
+        lib.hl_set_max_steps(self._h, self.max_steps_per_call)
+
+    def _checked_parameters(self, p) -> np.ndarray:
+        p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=float)))
+        n_p = len(self.model.network.parameter_values)
+        if p.shape != (n_p,):
+            raise ValueError(f"parameter vector p must have {n_p} entries, got {p.size}")
+        return p if p.size else np.zeros(1)
 
     def __del__(self):
         h, self._h = getattr(self, "_h", None), None
@@ -208,13 +263,18 @@ class NativeSolver:
             self._lib.hl_free(h)
 
     def set_parameters(self, p):
-        self.p = np.ascontiguousarray(np.asarray(p, dtype=float))
+        self.p = self._checked_parameters(p)
         self._lib.hl_set_parameters(self._h, _ptr(self.p))
 
     def start(self, t0: float, x0, t_bound: float):
         """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0)."""
         x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
+        if x0.shape != (self.model.n,):
+            raise ValueError(f"initial state x0 must have {self.model.n} entries, got {x0.size}")
+        if not (t_bound > t0):
+            raise ValueError(f"segment end t_bound must be after t0 [s], got {t0!r}, {t_bound!r}")
         self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
+        self._t_bound = float(t_bound)
 
     def advance(self, t_out, signals: bool = True, table: bool = False):
         """Integrate through the output times (ascending, within the segment).
@@ -225,6 +285,11 @@ class NativeSolver:
                  with ``table=True`` one array [n_out, n_signals + n_states] (signals first)
         """
         t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
+        if self._t_bound is None:
+            raise RuntimeError("call start(t0, x0, t_bound) before advance()")
+        if t_out.size and (t_out[-1] > self._t_bound or np.any(np.diff(t_out) < 0)):
+            raise ValueError(f"output times must ascend and lie within the segment "
+                             f"(t_bound = {self._t_bound:g} s)")
         n, ny = self.model.n, self.model.n_signals
         ld = (ny if signals else 0) + n
         block = np.empty((len(t_out), ld))
@@ -235,9 +300,18 @@ class NativeSolver:
                                   _ptr(Y) if signals else None, ctypes.byref(done), ld)
         if rc != 0:
             x, t = self.state()
+            names = self.model.network.state_names
+            bad = self._lib.hl_last_nonfinite(self._h)
             why = {-1: "step size fell below the resolution of t",
-                   -2: "singular iteration matrix", -3: "Newton iteration failed in fixed-step mode"}
+                   -2: "singular iteration matrix",
+                   -3: "Newton iteration failed in fixed-step mode",
+                   -4: f"the derivative of state {names[bad] if 0 <= bad < len(names) else bad!r} "
+                       f"is not finite (NaN or inf) there",
+                   -5: f"no progress after {self.max_steps_per_call} steps"}
             raise RuntimeError(f"compiled integrator failed at t = {t:.6g} s: {why.get(rc, rc)}")
+        if done.value != len(t_out):
+            raise RuntimeError(f"compiled integrator stopped after {done.value} of "
+                               f"{len(t_out)} output times")
         if not np.all(np.isfinite(X)):
             raise RuntimeError("compiled integrator produced non-finite states")
         return block if table else (X, Y)

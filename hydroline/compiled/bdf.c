@@ -53,6 +53,10 @@ typedef struct {
     /* statistics */
     long long nsteps, nfev, njev, nlu, nrej, nnewton_fail, ndense;
     int status;
+    /* diagnostics: last state whose derivative was not finite in a Newton iterate (-1: none),
+     * and the most steps one hl_advance call may take (0: no limit) */
+    int last_nonfinite;
+    long long max_steps;
 } hl_solver;
 
 static const double hl_kappa[] = {0., -0.1850, -1. / 9., -0.0823, -0.0415, 0.};
@@ -193,7 +197,7 @@ static int hl_newton(hl_solver* S, double t_new, const double* y_predict, double
         int finite = 1;
         for (int i = 0; i < HL_N; i++) {
             dy[i] = c * f[i] - psi[i] - d[i];
-            if (!isfinite(dy[i])) finite = 0;
+            if (!isfinite(dy[i])) { finite = 0; S->last_nonfinite = i; }
         }
         if (!finite) return 0;
         hl_solve(S, dy);
@@ -276,7 +280,9 @@ int hl_init(hl_solver* S, double t0, const double* x0, double t_bound) {
     return 0;
 }
 
-/* One accepted step; returns 0, or <0 on failure (-1 step too small, -2 singular W). */
+/* One accepted step; returns 0, or <0 on failure (-1 step too small, -2 singular W,
+ * -3 Newton failed in fixed-step mode). hl_advance adds -4 (step too small after a
+ * non-finite derivative) and -5 (max_steps reached). */
 static int hl_step(hl_solver* S) {
     double y_predict[HL_N], psi[HL_N], scale[HL_N], y_new[HL_N], d[HL_N];
     double t = S->t;
@@ -412,6 +418,7 @@ int hl_advance(hl_solver* S, int n_out, const double* t_out, double* X, double* 
     /* row j of X (states) at X + j*ld, of Y (signals) at Y + j*ld: one shared output table */
     double z[HL_N];
     int j = 0;
+    long long steps = 0;
     /* outputs at or before the current time (e.g. t_out == t0) */
     while (j < n_out && t_out[j] <= S->t) {
         if (t_out[j] >= S->t || S->h_step <= 0.) memcpy(z, S->D[0], sizeof z);
@@ -421,7 +428,9 @@ int hl_advance(hl_solver* S, int n_out, const double* t_out, double* X, double* 
         j++;
     }
     while (j < n_out && S->t < S->t_bound) {
-        int rc = hl_step(S);
+        S->last_nonfinite = -1;
+        int rc = (S->max_steps > 0 && steps++ >= S->max_steps) ? -5 : hl_step(S);
+        if (rc == -1 && S->last_nonfinite >= 0) rc = -4;   /* the step shrank on non-finite f */
         if (rc != 0) { S->status = rc; *n_done = j; return rc; }
         while (j < n_out && (t_out[j] <= S->t || S->t >= S->t_bound)) {
             if (t_out[j] >= S->t) memcpy(z, S->D[0], sizeof z);
@@ -434,6 +443,10 @@ int hl_advance(hl_solver* S, int n_out, const double* t_out, double* X, double* 
     *n_done = j;
     return 0;
 }
+
+int hl_last_nonfinite(const hl_solver* S) { return S->last_nonfinite; }
+
+void hl_set_max_steps(hl_solver* S, long long max_steps) { S->max_steps = max_steps; }
 
 void hl_get_state(const hl_solver* S, double* x, double* t) {
     for (int i = 0; i < HL_N; i++) x[i] = S->D[0][i] * S->scale[i];
