@@ -2,7 +2,8 @@
 from .fluid import MINERAL_OIL, Fluid, effective_bulk_modulus
 from .rigs import Rig, load_rig
 from .scenarios import simulate, summarize
+from . import analysis, studies   # hydroline.studies.layout(...), hydroline.analysis.linearize(...)
 
 __version__ = "0.1.0"
 __all__ = ["Fluid", "MINERAL_OIL", "effective_bulk_modulus", "Rig", "load_rig", "simulate",
-           "summarize", "__version__"]
+           "summarize", "analysis", "studies", "__version__"]
