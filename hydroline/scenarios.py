@@ -14,7 +14,7 @@ import numpy as np
 
 from . import components as comp
 from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
-from .rigs import Rig, RigError, load_rig
+from .rigs import SCHEMA, Rig, RigError, load_rig
 from .simulation import SimulationResult, integrate, solve_steady_state
 from .system import build_network, make_actuator
 
@@ -57,8 +57,32 @@ def _scenario_value(rig, scenario, key, default=None):
     return v
 
 
+def _check_scenario(rig, scenario, t_end):
+    """RigError naming the [scenario.*] key whose value no run can use."""
+    def bad(key, rule):
+        path = f"scenario.{scenario}.{key}"
+        unit = SCHEMA.get(f"scenario.{scenario}", {}).get(key, "")
+        raise RigError(f"{path}: must be {rule} [{unit}], got {rig.raw.get(path, rig.get(path))!r}")
+
+    if t_end is None and rig.get(f"scenario.{scenario}.t_end") is not None \
+            and not rig[f"scenario.{scenario}.t_end"] > 0:
+        bad("t_end", "> 0")
+    if scenario == "open-loop-step" and not rig.get(f"scenario.{scenario}.time", 0.0) >= 0:
+        bad("time", ">= 0")
+    if scenario == "closed-loop-sine":
+        if rig.get(f"scenario.{scenario}.frequency") is not None \
+                and not rig[f"scenario.{scenario}.frequency"] > 0:
+            bad("frequency", "> 0")
+        x0 = rig.get(f"scenario.{scenario}.initial_position")
+        half = rig.get("actuator.stroke", np.inf) / 2
+        if x0 is not None and not abs(x0) <= half:
+            bad("initial_position", f"within +-stroke/2 = +-{half * 1e3:g} mm (piston inside the cylinder)")
+
+
 def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None) -> Scenario:
     """The command components and times of a named scenario, from the rig's [scenario.*]."""
+    if scenario in SCENARIOS:
+        _check_scenario(rig, scenario, t_end)
     if scenario == "open-loop-step":
         t_step = _scenario_value(rig, scenario, "time", 0.01)
         cmd = comp.StepCommand(name="command", quantity="current",

@@ -34,9 +34,9 @@ from . import components as comp
 from .fluid import Fluid
 from .lines import Line, ModalLine, RigidColumnLine
 from .network import Network
-from .rigs import Rig, RigError
+from .rigs import SCHEMA, Rig, RigError
 
-__all__ = ["build_network", "make_fluid", "make_line", "hose_lines"]
+__all__ = ["build_network", "make_fluid", "make_line", "hose_lines", "validate_rig"]
 
 
 #: Oil volume of the HSM block's passages, used as the node when a section II is removed, [m^3]
@@ -110,6 +110,93 @@ def _accumulator(rig, side, fluid, nominal, node_signal):
     raise RigError(f"{key}.model: must be 'version-II' or 'modal', got {kind!r}")
 
 
+#: Parameters checked before the network is built: path -> (condition, its text). The unit of
+#: the message is the rig schema's (SI); the value is echoed as written in the file.
+_POSITIVE = ("fluid.density", "fluid.kinematic_viscosity", "fluid.bulk_modulus",
+             "return.pressure", "actuator.stroke", "actuator.area", "actuator.bottom_area",
+             "actuator.top_area", "actuator.dead_volume", "actuator.bulk_modulus",
+             "actuator.moving_mass", "servovalve.rated_current", "servovalve.rated_flow",
+             "servovalve.rated_pressure_drop", "servovalve.max_opening",
+             "servovalve.natural_frequency", "servovalve.damping_ratio",
+             "servovalve.laminar_pressure", "supply.manifold.volume", "return.manifold.volume",
+             "return.check_valve.reverse_resistance", "friction.stribeck_velocity",
+             "friction.regularization_velocity", "controller.current_limit",
+             "controller.sample_time",
+             *(f"{side}.accumulator.{k}" for side in ("supply", "return")
+               for k in ("capacity", "precharge_pressure", "connection_length",
+                         "connection_diameter")))
+_NON_NEGATIVE = ("supply.manifold.resistance", "return.manifold.resistance",
+                 "return.check_valve.forward_resistance", "load.mass", "load.stiffness",
+                 "load.damping", "controller.proportional_gain", "controller.integral_gain",
+                 "controller.derivative_gain",
+                 *(f"friction.{k}" for k in ("viscous_up", "viscous_down", "coulomb_up",
+                                             "coulomb_down", "static_up", "static_down",
+                                             "stribeck_exponent")))
+
+
+def _unit(path):
+    sec, _, key = path.rpartition(".")
+    u = SCHEMA.get(sec, {}).get(key, "")
+    return {"-": "", "str": ""}.get(u, u.replace("list:", ""))
+
+
+def _bad(rig, path, rule, value=None):
+    shown = rig.raw.get(path, value if value is not None else rig.get(path))
+    unit = _unit(path)
+    if unit == "Pa" and path.endswith("pressure"):
+        unit = "Pa, absolute"
+    return RigError(f"{path}: must be {rule}{' [' + unit + ']' if unit else ''}, got {shown!r}")
+
+
+def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
+    """Refuse, with a RigError naming the parameter and its unit, values no physical rig has.
+
+    Checked: signs (positive sizes, moduli, masses, pressures absolute > 0, non-negative
+    resistances, gains and friction coefficients), ``supply.pressure > return.pressure > 0``
+    (MODEL.md 1: the valve needs a supply above the tank), ``|initial_position| <= stroke/2``
+    (the piston inside the cylinder, M23), laps shorter than the spool stroke (M20) and the
+    polytropic exponent within [1, 5/3] (isothermal ... monatomic adiabatic, M16).
+
+    Parameters
+    ----------
+    rig : Rig               Parameters (SI)
+    position_guess : float  Initial piston position given by the scenario, [m]; checked
+                            like ``actuator.initial_position`` when not None
+    """
+    for path in _POSITIVE:
+        v = rig.get(path)
+        if v is not None and not (np.isfinite(v) and v > 0):
+            raise _bad(rig, path, "> 0")
+    for path in _NON_NEGATIVE:
+        v = rig.get(path)
+        if v is not None and not (np.isfinite(v) and v >= 0):
+            raise _bad(rig, path, ">= 0")
+    p_s, p_t = rig["supply.pressure"], rig["return.pressure"]
+    if not (np.isfinite(p_s) and p_s > p_t):
+        raise RigError(f"supply.pressure: must be above return.pressure ({rig.raw.get('return.pressure', p_t)!r}) "
+                       f"[Pa absolute], got {rig.raw.get('supply.pressure', p_s)!r}")
+    half = rig["actuator.stroke"] / 2
+    for path, x in (("actuator.initial_position", rig.get("actuator.initial_position")),
+                    ("initial piston position", position_guess)):
+        if x is not None and not (np.isfinite(x) and abs(x) <= half * (1 + 1e-12)):
+            shown = rig.raw.get(path, f"{x:g} m")
+            raise RigError(f"{path}: must lie within +-stroke/2 = +-{half * 1e3:g} mm [m] "
+                           f"(piston inside the cylinder), got {shown!r}")
+    x_max = rig.get("servovalve.max_opening")
+    laps = rig.get("servovalve.laps")
+    if laps is not None:
+        if len(laps) != 4:
+            raise RigError(f"servovalve.laps: must be four lengths u1..u4 [m], got {rig.raw.get('servovalve.laps')!r}")
+        if x_max is not None and any(not abs(u) < x_max for u in laps):
+            raise RigError(f"servovalve.laps: each lap must be shorter than max_opening "
+                           f"({rig.raw.get('servovalve.max_opening', x_max)!r}) [m], got {rig.raw.get('servovalve.laps')!r}")
+    for side in ("supply", "return"):
+        path = f"{side}.accumulator.polytropic_exponent"
+        m = rig.get(path)
+        if m is not None and not 1.0 <= m <= 5.0 / 3.0:
+            raise _bad(rig, path, "within [1, 5/3] (isothermal ... adiabatic)")
+
+
 def build_network(rig: Rig, commands: list, position_guess: float | None = None) -> Network:
     """The full test-system network of a rig, driven by the given command components.
 
@@ -124,6 +211,7 @@ def build_network(rig: Rig, commands: list, position_guess: float | None = None)
     -------
     Network
     """
+    validate_rig(rig, position_guess)
     try:
         return _build(rig, commands, position_guess)
     except (KeyError,) as e:

@@ -37,3 +37,50 @@ def test_simulate_bad_t_end(tmp_path, capsys):
     rc = main(["simulate", "--t-end", "0.1", "--out", str(tmp_path)])
     err = capsys.readouterr().err
     assert rc == 2 and "--t-end" in err
+
+
+def test_simulate_bad_scenario_initial_position(tmp_path, capsys):
+    f = tmp_path / "bad.toml"
+    f.write_text('[rig]\nbase = "default"\n[scenario.closed-loop-sine]\ninitial_position = "60 mm"\n')
+    rc = main(["simulate", str(f), "--scenario", "closed-loop-sine", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1
+    assert "scenario.closed-loop-sine.initial_position" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("error", ["steady", "compiler", "integrator"])
+def test_simulate_model_failures_are_one_line(tmp_path, capsys, monkeypatch, error):
+    """Failures of the model itself (no steady state, no C compiler, integrator gave up)."""
+    from hydroline.cli import simulate as cli_simulate
+    from hydroline.compiled import CompilerUnavailable
+    from hydroline.simulation import SteadyStateError
+
+    exc = {"steady": SteadyStateError("steady state not found: scaled residual 0.05 1/s\nmore"),
+           "compiler": CompilerUnavailable("no C compiler found (set CC, or install gcc)"),
+           "integrator": RuntimeError("compiled integrator failed at t = 0.1 s: step size")}[error]
+
+    def fail(*a, **k):
+        raise exc
+
+    monkeypatch.setattr(cli_simulate, "simulate", fail)
+    rc = main(["simulate", "--out", str(tmp_path)])
+    err = capsys.readouterr().err.strip()
+    assert rc == 2 and len(err.splitlines()) == 1
+    assert str(exc).splitlines()[0] in err
+
+
+def test_simulate_into_closed_pipe_is_quiet(tmp_path, capsys, monkeypatch):
+    """``hydroline simulate | head``: the reader has gone; no traceback, exit code 141."""
+    import sys
+
+    class ClosedPipe:
+        def write(self, *_):
+            raise BrokenPipeError(32, "Broken pipe")
+
+        def flush(self):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", ClosedPipe())
+    rc = main(["simulate", "--t-end", "0.02 s", "--out", str(tmp_path)])
+    assert rc == 141
+    assert capsys.readouterr().err == ""

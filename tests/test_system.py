@@ -168,6 +168,16 @@ def test_cli_json_summary(capsys, tmp_path):
     ('[rig]\nbase = "default"\n[turbocharger]\nboost = "1 bar"\n', "unknown component"),
     ('[rig]\nbase = "default"\n[connections]\n"servovalve.supply_pressure" = "nowhere"\n', "unconnected"),
     ('[rig]\nbase = "default"\n[connections]\n"pump.outlet" = "x"\n', "unknown component"),
+    # values that used to reach the solver (SteadyStateError, ZeroDivisionError): refused by name
+    ('[rig]\nbase = "default"\n[supply]\npressure = "-1 MPa"\n', "supply.pressure: must be above return.pressure"),
+    ('[rig]\nbase = "default"\n[supply]\npressure = "0 MPa"\n', "supply.pressure: must be above return.pressure"),
+    ('[rig]\nbase = "default"\n[supply]\npressure = "0.5 MPa"\n', "supply.pressure: must be above return.pressure"),
+    ('[rig]\nbase = "default"\n[return]\npressure = "0 MPa"\n', "return.pressure: must be > 0 [Pa, absolute]"),
+    ('[rig]\nbase = "default"\n[return]\npressure = "-0.1 MPa"\n', "return.pressure: must be > 0 [Pa, absolute]"),
+    ('[rig]\nbase = "default"\n[actuator]\ninitial_position = "-80 mm"\n', "actuator.initial_position: must lie within +-stroke/2 = +-51 mm"),
+    ('[rig]\nbase = "default"\n[actuator]\nmoving_mass = "-1 kg"\n', "actuator.moving_mass: must be > 0 [kg]"),
+    ('[rig]\nbase = "default"\n[supply.accumulator]\nprecharge_pressure = "0 MPa"\n', "supply.accumulator.precharge_pressure"),
+    ('[rig]\nbase = "default"\n[servovalve]\nlaps = ["1 mm", "0 mm", "0 mm", "0 mm"]\n', "servovalve.laps"),
 ])
 def test_bad_rig_files_exit_2_with_one_line(tmp_path, capsys, body, needle):
     f = tmp_path / "bad.toml"
