@@ -165,18 +165,23 @@ def test_plain_linear_friction_grossly_underdamped():
     assert min(r.magnitude_error_pct for r in rows) > 200.0
 
 
+@pytest.mark.parametrize("method", ["yang-tobler", "residue"])
 @pytest.mark.parametrize("form", ["PP", "QQ"])
-def test_pp_qq_low_frequency_k0_term(form):
-    # up to a tenth of the first resonance (k pi c/L, k = 1), every entry within 2 % of the
-    # exact model; measured worst 1.1 % (QQ, d = 6 mm, L = 10 m)
+def test_pp_qq_low_frequency_k0_term(form, method):
+    """Issue 2: the PP/QQ k = 0 term right at low frequency within 2 %.
+
+    Up to a tenth of the first resonance (k pi c/L, k = 1), every entry of the modal line
+    (6 modes) within 2 % of the exact model (M6), all nine lines. Measured worst:
+    Yang-Tobler 0.84 % (PP) / 1.07 % (QQ); residue 0.22 % (PP) / 0.38 % (QQ).
+    """
     for d, L in LINES:
         line = hose(L, d)
-        m = ModalLine(line, 6, form)
+        m = ModalLine(line, 6, form, method=method)
         f1 = 1.0 / (2 * line.wave_time)
         s = 2j * np.pi * np.geomspace(1e-4 * f1, 0.1 * f1, 60)
         He, Hm = line.transfer(s, form), m.transfer(s)
         err = np.abs(Hm - He) / np.abs(He)
-        assert err.max() < 0.02, (form, d, L, err.max())
+        assert err.max() < 0.02, (form, method, d, L, err.max())
 
 
 def test_pp_dc_and_qq_steady_flow():

@@ -14,8 +14,8 @@ from hydroline.lines import FORMS, Line, ModalLine
 from hydroline.lines.compare import compare_resonances
 from hydroline.lines.inverse_laplace import exact_step_response, talbot
 from hydroline.lines.modal import StateSpaceLine
-from hydroline.lines.residue import (exact_moments, modal_poles, modal_residues,
-                                     residue_realisation)
+from hydroline.lines.residue import (column_branches, exact_moments, modal_poles,
+                                     modal_residues, residue_realisation)
 
 OIL = Fluid(870.0, 3.2e-5, 1.5e9)          # the rig's oil (MODEL.md 2.3 worked example)
 
@@ -102,6 +102,30 @@ def test_exact_moments_against_the_transfer_matrix(form):
     scale1 = np.abs(H1).max(axis=1, keepdims=True)
     np.testing.assert_allclose((H0 - ref0) / scale0, 0, atol=1e-7)
     np.testing.assert_allclose((H1 - ref1) / scale1, 0, atol=1e-5)
+
+
+def test_pp_column_branches_against_bessel_column():
+    """The PP k = 0 term against ``1/(Zc Gamma) = I2(kappa)/(s I I0(kappa))`` (M6).
+
+    Exact: DC conductance 1/R (M12) and first moment (4/3) I/R^2 (the Laurent series of
+    I0/I2 = 8/kappa^2 + 4/3 + ...); high-frequency inertance I (plug flow) to 0.1 %; the
+    admittance within 0.7 % from 1e-4 to 1e7 times nu/r^2 (the branch design: 0.61 %).
+    """
+    line = Line(3.048, 0.0127, MINERAL_OIL, 1.0e9)
+    I, R = line.inertance, line.resistance
+    br = column_branches(line)
+    assert len(br) == 6 and all(Lb > 0 and Rb > 0 for Lb, Rb in br)     # passive branches
+    assert sum(1.0 / Rb for _, Rb in br) == pytest.approx(1.0 / R, rel=1e-12)
+    assert sum(Lb / Rb**2 for Lb, Rb in br) == pytest.approx(4.0 / 3.0 * I / R**2, rel=1e-12)
+    assert sum(1.0 / Lb for Lb, _ in br) == pytest.approx(1.0 / I, rel=1e-3)
+    j01 = special.jn_zeros(0, 1)[0]                    # the first branch is the exact one
+    assert br[0][0] == pytest.approx(I * j01**2 / 4, rel=1e-12)
+    rate = line.fluid.kinematic_viscosity / line.radius**2
+    s = 1j * rate * np.logspace(-4, 7, 600)
+    kappa = line.radius * np.sqrt(s / line.fluid.kinematic_viscosity)
+    exact = special.ive(2, kappa) / (special.ive(0, kappa) * s * I)
+    model = sum(1.0 / (Lb * s + Rb) for Lb, Rb in br)
+    assert np.abs(model / exact - 1.0).max() < 0.007
 
 
 @pytest.mark.parametrize("form", FORMS)
@@ -357,7 +381,7 @@ def test_qq_impedance_passive():
 
 def test_state_names_and_sizes():
     line = Line(3.048, 0.0127, OIL, 1.0e9)
-    for form, extra in (("PQ", 0), ("QP", 0), ("PP", 2), ("QQ", 1)):
+    for form, extra in (("PQ", 0), ("QP", 0), ("PP", 6), ("QQ", 1)):
         A, B, C, D, names = residue_realisation(line, 4, form)
         assert A.shape == (8 + 8 + extra,) * 2 and B.shape == (A.shape[0], 2)
         assert C.shape == (2, A.shape[0]) and len(names) == A.shape[0] == len(set(names))
