@@ -154,7 +154,8 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
     Checked: signs (positive sizes, moduli, masses, pressures absolute > 0, non-negative
     resistances, gains and friction coefficients), ``supply.pressure > return.pressure > 0``
     (MODEL.md 1: the valve needs a supply above the tank), ``|initial_position| <= stroke/2``
-    (the piston inside the cylinder, M23), laps shorter than the spool stroke (M20) and the
+    (the piston inside the cylinder, M23), accumulator pre-charges below the pressure of their
+    side (an accumulator pre-charged above it holds no oil, M16), laps shorter than the spool stroke (M20) and the
     polytropic exponent within [1, 5/3] (isothermal ... monatomic adiabatic, M16).
 
     Parameters
@@ -190,6 +191,13 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
         if x_max is not None and any(not abs(u) < x_max for u in laps):
             raise RigError(f"servovalve.laps: each lap must be shorter than max_opening "
                            f"({rig.raw.get('servovalve.max_opening', x_max)!r}) [m], got {rig.raw.get('servovalve.laps')!r}")
+    for side, p_side in (("supply", p_s), ("return", p_t)):
+        path = f"{side}.accumulator.precharge_pressure"
+        p0 = rig.get(path)
+        if p0 is not None and not p0 < p_side:
+            raise RigError(f"{path}: must be below {side}.pressure ({rig.raw.get(f'{side}.pressure', p_side)!r}) "
+                           f"[Pa, absolute]: pre-charged above it the accumulator holds no oil, "
+                           f"got {rig.raw.get(path, p0)!r}")
     for side in ("supply", "return"):
         path = f"{side}.accumulator.polytropic_exponent"
         m = rig.get(path)

@@ -84,3 +84,21 @@ def test_simulate_into_closed_pipe_is_quiet(tmp_path, capsys, monkeypatch):
     rc = main(["simulate", "--t-end", "0.02 s", "--out", str(tmp_path)])
     assert rc == 141
     assert capsys.readouterr().err == ""
+
+
+def test_simulate_json_warnings_go_to_stderr(tmp_path, capsys):
+    """A 0.5 MPa back pressure lets the ~0.94 MPa return swing (MODEL.md 7) fall below zero
+    absolute: the cavitation warning is a stderr line; stdout stays the bare JSON schema."""
+    f = tmp_path / "low.toml"
+    f.write_text('[rig]\nbase = "default"\n[return]\npressure = "0.5 MPa"\n'
+                 '[return.accumulator]\nprecharge_pressure = "0.2 MPa"\n')
+    rc = main(["simulate", str(f), "--json", "--t-end", "0.06 s", "--out", str(tmp_path)])
+    cap = capsys.readouterr()
+    assert rc == 0
+    s = json.loads(cap.out)
+    assert set(s) == {"supply", "return", "actuator_natural_frequency_hz", "wall_time_s"}
+    lines = cap.err.strip().splitlines()
+    assert any(ln.startswith("hydroline simulate: warning: return_port_pressure falls below 0 MPa")
+               for ln in lines)
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["warnings"]

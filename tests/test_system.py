@@ -154,10 +154,20 @@ def test_cli_json_summary(capsys, tmp_path):
     rc = main(["simulate", "--json", "--t-end", "0.12 s", "--out", str(tmp_path)])
     assert rc == 0
     s = json.loads(capsys.readouterr().out)
+    # exactly the schema, nothing else
+    assert set(s) == {"supply", "return", "actuator_natural_frequency_hz", "wall_time_s"}
     for side in ("supply", "return"):
-        assert set(s[side]) >= {"frequency_hz", "amplitude_mpa", "settling_time_s"}
+        assert set(s[side]) == {"frequency_hz", "amplitude_mpa", "settling_time_s"}
+        assert s[side]["frequency_hz"] is None or isinstance(s[side]["frequency_hz"], float)
+        assert isinstance(s[side]["amplitude_mpa"], float)
+        assert s[side]["settling_time_s"] is None or isinstance(s[side]["settling_time_s"], float)
     assert isinstance(s["actuator_natural_frequency_hz"], float)
     assert isinstance(s["wall_time_s"], float)
+    # the metrics themselves: the paper's baseline (MODEL.md 7), 172 Hz from w_h (M22-M23)
+    assert s["supply"]["frequency_hz"] == pytest.approx(40.0, rel=0.10)
+    assert s["actuator_natural_frequency_hz"] == pytest.approx(172.0, rel=0.01)
+    # summary.json may carry more (metrics window, warnings)
+    assert "metrics_window_s" in json.loads((tmp_path / "summary.json").read_text())
     for f in ("results.csv", "summary.json", "pressures.png"):
         assert (tmp_path / f).stat().st_size > 0
 
@@ -177,6 +187,7 @@ def test_cli_json_summary(capsys, tmp_path):
     ('[rig]\nbase = "default"\n[actuator]\ninitial_position = "-80 mm"\n', "actuator.initial_position: must lie within +-stroke/2 = +-51 mm"),
     ('[rig]\nbase = "default"\n[actuator]\nmoving_mass = "-1 kg"\n', "actuator.moving_mass: must be > 0 [kg]"),
     ('[rig]\nbase = "default"\n[supply.accumulator]\nprecharge_pressure = "0 MPa"\n', "supply.accumulator.precharge_pressure"),
+    ('[rig]\nbase = "default"\n[return.accumulator]\nprecharge_pressure = "1.5 MPa"\n', "return.accumulator.precharge_pressure: must be below return.pressure"),
     ('[rig]\nbase = "default"\n[servovalve]\nlaps = ["1 mm", "0 mm", "0 mm", "0 mm"]\n', "servovalve.laps"),
 ])
 def test_bad_rig_files_exit_2_with_one_line(tmp_path, capsys, body, needle):

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 from ..rigs import load_rig
 from ..scenarios import SCENARIOS, simulate, summarize
@@ -24,6 +25,30 @@ def register(sub):
     p.set_defaults(func=run)
 
 
+#: What ``--json`` prints (issue 3): per port, then the actuator and the wall time.
+PORT_KEYS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
+JSON_KEYS = ("supply", "return", "actuator_natural_frequency_hz", "wall_time_s")
+
+
+def json_summary(summary: dict) -> dict:
+    """The ``--json`` document: exactly ``{"supply": {frequency_hz, amplitude_mpa,
+    settling_time_s}, "return": {...}, "actuator_natural_frequency_hz", "wall_time_s"}``
+    (floats, [Hz], [MPa], [s]; frequency and settling time null when there is none).
+    ``summary.json`` keeps the extras (metrics window, warnings, tracking error)."""
+    out = {side: {k: _float_or_none(summary[side][k]) for k in PORT_KEYS}
+           for side in ("supply", "return")}
+    for side in ("supply", "return"):
+        if out[side]["amplitude_mpa"] is None:
+            out[side]["amplitude_mpa"] = 0.0
+    out["actuator_natural_frequency_hz"] = float(summary["actuator_natural_frequency_hz"])
+    out["wall_time_s"] = float(summary["wall_time_s"])
+    return out
+
+
+def _float_or_none(v):
+    return None if v is None else float(v)
+
+
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
@@ -38,7 +63,9 @@ def run(args) -> int:
     res.plot(path=out / "pressures.png",
              title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
-        dump_json(summary)
+        for w in summary["warnings"]:
+            print(f"hydroline simulate: warning: {w}", file=sys.stderr)
+        dump_json(json_summary(summary))
         return 0
     print(f"hydroline simulate: {args.scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, steady-state residual {res.steady_state.residual:.1e} 1/s, "
