@@ -136,13 +136,21 @@ def _worst(rows):
 
 @pytest.mark.parametrize("form", FORMS)
 def test_yang_tobler_resonances(form):
-    """First n resonances of every entry: frequency within 1 %, peak within 10 %.
+    """Yang-Tobler line: issue 2's resonance criterion holds on six of the nine lines only.
 
-    The Yang-Tobler line keeps the linear-friction numerators; for the most dissipative
-    lines (Dn > ~0.003) its peaks near the truncation drift beyond 10 % (measured: up to
-    40 % for d = 6 mm, L = 10 m, Dn = 0.033, mode 10 of -Zc tanh Gamma). Those lines are
-    checked on their first half of modes here, and in full by the residue line
-    (tests/test_residue.py), which converges.
+    Issue 2 asks for the first n resonances (n = 6-10) within 1 % in frequency and 10 % in
+    peak of every entry. The Yang-Tobler line (corrected poles, linear-friction numerators)
+    meets that, all n modes, on the six lines with Dn < 0.003: 6 mm x 0.5 m, 12.7 mm x 0.5 m
+    and 3.048 m, 25 mm x 0.5, 3.048 and 10 m (worst peak 9.1 %, 12.7 mm x 3.048 m, PQ,
+    n = 10). It does NOT on the three more dissipative lines, where this test checks only
+    the first n/2 modes, with peaks within 20 %. Measured on all n modes there (worst
+    entry, PQ/QP; PP; QQ), n = 6 / n = 10:
+    12.7 mm x 10 m (Dn 0.0074): 14.4 / 18.8 %; 3.9 / 9.5 %; 2.7 / 7.9 %;
+    6 mm x 3.048 m (Dn 0.010): 16.9 / 22.7 %; 5.2 / 12.0 %; 3.6 / 10.1 %;
+    6 mm x 10 m (Dn 0.033): 29.4 / 39.7 %, frequency 1.17 %; 12.1 / 23.5 %;
+    9.5 / 20.4 %, frequency 1.28 %.
+    The residue line (tests/test_residue.py::test_all_forms_range_of_lines) meets the
+    criterion in full on all nine lines.
     """
     for d, L in LINES:
         line = hose(L, d)

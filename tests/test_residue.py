@@ -299,25 +299,33 @@ def test_rig_hoses_pq_peaks(n):
           + (f", Yang-Tobler {worst_yt[0]:.2f} % / {worst_yt[1]:.3f} %" if n == 10 else ""))
 
 
+@pytest.mark.parametrize("n", [6, 10])
 @pytest.mark.parametrize("form", FORMS)
-def test_all_forms_range_of_lines(form):
-    # bores 6, 12.7, 25 mm; lengths 0.5, 3.048, 10 m (Dn 1e-4 ... 0.033); 6 modes
-    n = 6
+def test_all_forms_range_of_lines(form, n):
+    """Issue 2's resonance criterion, in full, for the residue line.
+
+    Lines spanning the range (bores 6, 12.7, 25 mm x lengths 0.5, 3.048, 10 m, mineral
+    oil; Dn 1e-4 ... 0.033), n = 6 and 10 modes, every entry of every form: the first n
+    resonances within 1 % in frequency and 10 % in peak magnitude of the exact dissipative
+    model (M6). Measured worst: frequency 0.31 %; peaks 1 .. n-1 <= 1.08 %, peak n
+    3.4 % (n = 6) / 6.1 % (n = 10; d = 6 mm, L = 10 m), the n-th peak being next to the
+    first dropped mode. (Yang-Tobler on the same lines: tests/test_lines.py.)
+    """
     worst = np.zeros(n)
     worst_f = 0.0
     for d in (0.006, 0.0127, 0.025):
         for L in (0.5, 3.048, 10.0):
             line = Line(L, d, MINERAL_OIL, 1.0e9)
             rows = compare_resonances(line, residue_line(line, n, form))
-            assert len(rows) == 4 * n
+            assert len(rows) == 4 * n, (d, L)
             for r in rows:
                 worst[r.mode - 1] = max(worst[r.mode - 1], abs(r.magnitude_error_pct))
                 worst_f = max(worst_f, abs(r.frequency_error_pct))
-    print(f"\n{form}: worst peak magnitude error per mode (%): {np.round(worst, 2).tolist()}, "
-          f"frequency {worst_f:.3f} %")
-    assert worst[:-1].max() < 1.5          # modes 1 .. n-1
-    assert worst[-1] < 5.0                 # mode n: the first dropped mode is next to it
-    assert worst_f < 1.0
+    print(f"\n{form}, n = {n}: worst peak magnitude error per mode (%): "
+          f"{np.round(worst, 2).tolist()}, frequency {worst_f:.3f} %")
+    assert worst_f < 1.0                   # the issue's limits, every mode and entry
+    assert worst.max() < 10.0
+    assert worst[:-1].max() < 1.5          # modes 1 .. n-1 converge much further
 
 
 # ---------------------------------------------------------------------------------------
