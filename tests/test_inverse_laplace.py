@@ -146,6 +146,34 @@ def test_rig_hose_wavefront_agrees_with_dehoog_over_ten_periods():
     assert np.max(np.abs(yw - yd)) < 5e-4
 
 
+@pytest.mark.parametrize("Dn", [0.01, 0.05])
+def test_blocked_line_step_against_mpmath(Dn):
+    """Spot check of the exact reference used by tests/test_residue.py (issue 7's case).
+
+    Independent path: mpmath's de Hoog inversion (30 digits, degree 80) of the whole
+    ``1/(s cosh Gamma(s))`` (M6) with mpmath's Bessel functions, no wave series; at 2.0
+    and 5.5 L/c (away from the fronts at odd multiples), where it agrees with the
+    wave-front Talbot result to ~1e-11 (measured).
+    """
+    mp = pytest.importorskip("mpmath")
+    d, fluid, bulk = 0.006, OIL, 1.0e9
+    c = np.sqrt(bulk / fluid.density)
+    line = Line(Dn * c * d**2 / (4 * fluid.kinematic_viscosity), d, fluid, bulk)
+    T = line.wave_time
+    with mp.workdps(30):
+        nu, r, tau = (mp.mpf(v) for v in (fluid.kinematic_viscosity, line.radius, T))
+
+        def F(s):
+            k = r * mp.sqrt(s / nu)
+            G = s * tau * mp.sqrt(mp.besseli(0, k) / mp.besseli(2, k))
+            return 1 / (s * mp.cosh(G))
+
+        ref = [float(mp.invertlaplace(F, x * T, method="dehoog", degree=80))
+               for x in (2.0, 5.5)]
+    y = exact_step_response(line, np.array([2.0, 5.5]) * T, "PQ", (0, 0))
+    assert np.max(np.abs(y - ref)) < 1e-9
+
+
 def test_speed():
     t = np.linspace(0.0, 40.0, 200) * RIG_HOSE.wave_time
     t0 = time.perf_counter()

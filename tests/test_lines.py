@@ -103,6 +103,46 @@ def test_numerically_sound_over_range():
                 assert np.all(np.isfinite(H)), (d, L, form)
 
 
+def _mp_transfer(line, f, form, mp):
+    """(M5)-(M6) and table 2.1 at s = 2 pi j f in 40-digit arithmetic (mpmath Bessel I)."""
+    nu, r, tau, Z0 = (mp.mpf(v) for v in (line.fluid.kinematic_viscosity, line.radius,
+                                           line.wave_time, line.impedance))
+    s = 2j * mp.pi * mp.mpf(f)
+    kappa = r * mp.sqrt(s / nu)
+    sq = mp.sqrt(mp.besseli(0, kappa) / mp.besseli(2, kappa))
+    G, Zc = s * tau * sq, Z0 * sq
+    ch, sh = mp.cosh(G), mp.sinh(G)
+    return {"PQ": [[1 / ch, -Zc * sh / ch], [sh / ch / Zc, 1 / ch]],
+            "QP": [[Zc * sh / ch, 1 / ch], [1 / ch, -sh / ch / Zc]],
+            "PP": [[ch / sh / Zc, -1 / (Zc * sh)], [1 / (Zc * sh), -ch / sh / Zc]],
+            "QQ": [[Zc * ch / sh, -Zc / sh], [Zc / sh, -Zc * ch / sh]]}[form]
+
+
+@pytest.mark.parametrize("d, L, f", [
+    (0.05, 30.0, 1e4), (0.05, 0.1, 1e4), (0.001, 0.1, 1e4), (0.001, 30.0, 1e4),   # kappa ~ 20-1100
+    (0.0127, 3.048, 2345.6),
+    (0.001, 30.0, 0.01), (0.05, 30.0, 0.01), (0.05, 0.1, 0.01), (0.001, 0.1, 0.01)])
+def test_exact_four_poles_against_mpmath(d, L, f):
+    """Every entry of every form against 40-digit mpmath at the corners of the range.
+
+    Issue 2: numerically sound from 0.01 Hz to 10 kHz for bores 1-50 mm. At 10 kHz the
+    Bessel argument |kappa| reaches ~1100 (I0 ~ e^780, beyond double precision unscaled)
+    and |Gamma| ~ 1800; at 0.01 Hz kappa and Gamma are small. Measured worst relative
+    error 1.3e-12 (50 mm x 0.1 m at 0.01 Hz, where Gamma ~ 1e-5).
+    """
+    mp = pytest.importorskip("mpmath")
+    line = Line(L, d, MINERAL_OIL, 1e9)
+    with mp.workdps(40):
+        for form in FORMS:
+            H = line.transfer(np.array([2j * np.pi * f]), form)[0]
+            M = _mp_transfer(line, f, form, mp)
+            for i in range(2):
+                for j in range(2):
+                    ref = complex(M[i][j])
+                    assert ref != 0 and np.isfinite(ref)
+                    assert abs(H[i, j] - ref) < 1e-10 * abs(ref), (form, i, j, H[i, j], ref)
+
+
 def test_correction_factors_worked_example():
     # MODEL.md 2.3: d = 19 mm, nu = 3.2e-5, c = 488, L = 3.048: alpha_1 ~ 1.03, beta_1 ~ 5.0,
     # alpha_6 ~ 1.01, beta_6 ~ 15.8

@@ -199,17 +199,28 @@ def _blocked_line_response(line, t, W, n_terms=24):
 
 @pytest.mark.parametrize("Dn", [0.01, 0.05])
 def test_blocked_line_pressure_step(Dn):
-    """Blocked end (Q_d = 0), unit step of P_u, P_d over 20 wave periods (80 L/c).
+    """Issue 7: blocked end (Q_d = 0), unit step of P_u, P_d over 20 wave periods (80 L/c).
 
-    The exact response (wave-front inverse Laplace, exact jumps) jumps by 2 at t = L/c and
-    at every later arrival; no finite modal model reproduces a jump, so near the first
-    fronts any n-mode line is off by ~50 % of the step (printed, both methods). The 1 %
-    criterion is checked (a) for the raw step once the fronts have spread, after the first
-    two wave periods, and (b) over all 20 periods for a step that 10 modes resolve (rise
-    time ~0.6 L/c): the unit step through ``W(s) = prod_k a_k/(s + a_k)``,
-    ``a_k = (4/T)(0.8, 0.93, 1.07, 1.2)``, ``T = 20/omega_n`` (|W| < 1e-3 at the first
-    dropped mode); exact by the same wave series and Talbot inversion (converged: 24 and
-    32 nodes agree), models by their exact matrix exponential.
+    Why not the literal "within 1 % over 20 wave periods" on the raw step: the exact
+    response (wave-front inverse Laplace, exact jumps; checked against mpmath in
+    tests/test_inverse_laplace.py) jumps by ~2 at t = L/c and by ~2 at every later
+    arrival, steeply for a while. A modal line is a finite sum of damped sinusoids, so
+    it cannot follow a jump: next to the first fronts any n-mode line is off by about half
+    the jump (Gibbs), ~59 % / 27 % of the step (Dn = 0.01 / 0.05) for the residue line with
+    10 modes and 52 % / 24 % for Yang-Tobler -- a property of truncation, which only more
+    modes shrink (residue, 40 modes: 32 % / 4.5 %), not of the residues. So the 1 %
+    criterion is checked where it means something:
+
+    (a) the raw step after the first two wave periods (t > 8 L/c), once the fronts have
+        spread: residue 10 modes 0.58 % / 0.003 %;
+    (b) over all 20 periods for a step that 10 modes resolve (rise time ~0.6 L/c): the unit
+        step through ``W(s) = prod_k a_k/(s + a_k)``, ``a_k = (4/T)(0.8, 0.93, 1.07, 1.2)``,
+        ``T = 20/omega_n`` (|W| < 1e-3 at the first dropped mode); exact by the same wave
+        series and Talbot inversion (converged: 24 and 32 nodes agree), models by their
+        exact matrix exponential: residue 0.31 % / 0.05 %, Yang-Tobler 4.9 % / 7.6 %;
+    (c) convergence, on (a): the residue line's error falls from 10 to 20 modes (to 0.09 %
+        / 0.0003 %) while Yang-Tobler's stalls above 1 % (2.4 -> 1.6 % / 1.42 -> 1.42 %):
+        the linear-friction residues, not the truncation, limit it.
     """
     line = _line_with_dn(Dn)
     assert line.dissipation_number == pytest.approx(Dn)
@@ -254,6 +265,14 @@ def test_blocked_line_pressure_step(Dn):
     res = errors["residue"]
     assert res[1] < 0.01
     assert res[3] < 0.01
+    # (c) 20 modes: the residue line converges, Yang-Tobler does not get below ~1 %
+    late20 = {name: np.abs(ModalLine(line, 20, "PQ", method=name).step_response(t, 0)[:, 0]
+                           - exact)[late].max() for name in ("residue", "yang-tobler")}
+    print(f"  after 2 periods, 20 modes: residue {100 * late20['residue']:.4f} %, "
+          f"Yang-Tobler {100 * late20['yang-tobler']:.3f} %")
+    assert late20["residue"] < 0.5 * res[1]
+    assert late20["yang-tobler"] > 0.01
+    assert late20["yang-tobler"] > 10.0 * late20["residue"]
 
 
 # ---------------------------------------------------------------------------------------
