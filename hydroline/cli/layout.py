@@ -15,9 +15,11 @@ def register(sub):
         "the sections II (manifold to servovalve), 0 = close-coupled manifold",
         description="Set the supply and return sections II (HSM manifold to servovalve) to each "
         "length, run the open-loop step from the solved steady state, and report per length the "
-        "supply and return port oscillation frequency, peak amplitude and 2 % settling time over "
-        "the metrics window (step to piston stop). '-' in the table: no oscillation (frequency) or "
-        "not settled within the window (settling). With --out DIR: layout.csv, layout_traces.csv "
+        "supply and return port oscillation frequency and peak amplitude over the metrics window "
+        "(step to piston stop) and the 2 % settling time: measured where the port pressure settles "
+        "within the window, '~' estimated from the decay of its oscillation where it is still "
+        "ringing at the stop (the window must hold >= 6 periods and the mean pressure have stopped "
+        "moving), '-' neither (the reason is printed). With --out DIR: layout.csv, layout_traces.csv "
         "and layout.png (the port-pressure traces of every length stacked, as the paper's "
         "Figs. 13-14, plus frequency and amplitude against length).")
     p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
@@ -42,6 +44,13 @@ def _progress(enabled):
     return None if bar is None else (lambda done, total: bar(done / total))
 
 
+def _settling_cell(m, summary):
+    v = m["settling_time_s"]
+    if v is None:
+        return None
+    return f"~{v * 1e3:.4g}" if summary.get("settling_method") == "estimated" else v * 1e3
+
+
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
@@ -57,17 +66,21 @@ def run(args) -> int:
     print(f"hydroline layout: {args.scenario} on {study.rig_name}, sections II of "
           f"{' and '.join(sides)} set to each length ({study.wall_time:.1f} s)")
     rows = []
-    for rec in study.records():
+    for rec, s in zip(study.records(), study.summaries):
         row = [rec["section2_length_m"]]
         for side in ("supply", "return"):
             m = rec[side]
-            row += [m["frequency_hz"], m["amplitude_mpa"],
-                    None if m["settling_time_s"] is None else m["settling_time_s"] * 1e3]
+            row += [m["frequency_hz"], m["amplitude_mpa"], _settling_cell(m, s[side])]
         rows.append(row)
     print_table(["length [m]", "supply [Hz]", "supply [MPa]", "supply settling [ms]",
                  "return [Hz]", "return [MPa]", "return settling [ms]"], rows)
-    print("  '-': no oscillation (frequency) / not settled within the metrics window, which ends "
-          "when the piston reaches its stop (settling)")
+    print("  frequency '-': no oscillation. settling (2 % band): measured within the metrics "
+          "window, which ends when the piston reaches its stop; '~' estimated from the decay of "
+          "the oscillation still ringing at the stop; '-' neither:")
+    for L, s in zip(study.lengths, study.summaries):
+        for side in ("supply", "return"):
+            if s[side].get("settling_method") != "measured" and s[side].get("settling_note"):
+                print(f"    L = {L:g} m, {side}: {s[side]['settling_note']}")
     for L, s in zip(study.lengths, study.summaries):
         for w in s["warnings"]:
             print(f"  WARNING (L = {L:g} m): {w}")

@@ -7,12 +7,15 @@
   random samples from distributions, in parallel over local processes or a Dask cluster,
   every row appended to a results file as it finishes so that an interrupted sweep resumes.
   CLI: ``hydroline sweep``. Value and distribution syntax: :mod:`hydroline.studies.design`.
+* :func:`port_settling` -- the studies' 2 % settling time of a port pressure: measured on the
+  metrics window, or estimated from the decay of its oscillation (:mod:`.settling`).
 """
 from .design import DISTRIBUTIONS, Design, Distribution, Parameter, parse_parameter, parse_parameters
 from .layout import DEFAULT_LENGTHS, LayoutStudy, layout, parse_lengths
+from .settling import port_settling, port_summary
 from .sweep import METRIC_COLUMNS, SweepFileError, SweepResult, read_journal, run_variant, sweep
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths",
            "sweep", "SweepResult", "SweepFileError", "run_variant", "read_journal", "METRIC_COLUMNS",
            "Design", "Parameter", "Distribution", "DISTRIBUTIONS", "parse_parameter",
-           "parse_parameters"]
+           "parse_parameters", "port_settling", "port_summary"]

@@ -7,10 +7,16 @@ the valve. :func:`layout` sets ``supply.section2.length`` and ``return.section2.
 each length in turn (0 removes the section: the manifold node is joined to the valve port,
 see :func:`hydroline.system.build_network`), runs the scenario (the 50 mA open-loop step by
 default) from the solved steady state and takes the port metrics of
-:func:`hydroline.scenarios.summarize`: oscillation frequency [Hz], peak amplitude [MPa] and
-2 % settling time [s] over the metrics window (step to piston stop). A frequency of None
-means the port pressure does not oscillate; a settling time of None that it has not settled
-within the window.
+:func:`hydroline.scenarios.summarize`: oscillation frequency [Hz] and peak amplitude [MPa] over
+the metrics window (step to piston stop), and the 2 % settling time [s] of
+:func:`hydroline.studies.settling.port_settling`: measured on the window where the port
+pressure settles within it, else estimated from the exponential decay of its oscillation
+where the window holds enough of it (the table's ``*_settling_method`` column says which, and
+``*_settling_note`` how, or why there is none). A frequency of None means the port pressure
+does not oscillate; a settling time of None that it neither settled within the window nor
+can be estimated (on the default rig: the long hoses ring for only 3-5 periods before the
+piston stops, and the return port's mean pressure is still rising with the return
+accumulator's charge).
 
 What to expect (MODEL.md 1-2): a section II with a nearly blocked valve end and the
 accumulator-stiffened manifold at the other is close to a quarter-wave resonator, so the
@@ -26,6 +32,7 @@ doi:10.1016/S0019-0578(07)60207-6. Figs. 13-14: port pressures for section II le
 """
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -34,11 +41,12 @@ import numpy as np
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import SCENARIOS, simulate, summarize
+from ..scenarios import SCENARIOS, simulate
 from ..simulation import SteadyStateError
 from ..lines import Line
 from ..system import make_fluid
 from ..units import parse_quantity
+from .settling import port_summary
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES"]
 
@@ -46,6 +54,10 @@ __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES"]
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
 SIDES = ("supply", "return")
 _METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
+
+
+def _finite_or_none(v):
+    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else v
 
 
 def parse_lengths(lengths) -> list[float]:
@@ -95,7 +107,8 @@ class LayoutStudy:
     Attributes
     ----------
     lengths : list[float]      Section II lengths, [m]
-    summaries : list[dict]     :func:`hydroline.scenarios.summarize` of each run
+    summaries : list[dict]     :func:`hydroline.studies.settling.port_summary` of each run
+                               (``summarize`` with ``settling_method``/``settling_note``)
     results : list             The :class:`~hydroline.simulation.SimulationResult` of each run
     sides : tuple              Which sections II were set ("supply", "return")
     scenario : str
@@ -118,20 +131,24 @@ class LayoutStudy:
     def records(self) -> list[dict]:
         """The ``--json`` list: ``[{"section2_length_m", "supply": {frequency_hz,
         amplitude_mpa, settling_time_s}, "return": {...}}, ...]`` (None where a metric does
-        not exist)."""
+        not exist; never NaN, so the list is strict JSON)."""
         return [{"section2_length_m": float(L),
-                 **{side: {k: s[side][k] for k in _METRICS} for side in SIDES}}
+                 **{side: {k: _finite_or_none(s[side][k]) for k in _METRICS} for side in SIDES}}
                 for L, s in zip(self.lengths, self.summaries)]
 
     def table(self) -> pd.DataFrame:
         """One row per length: section2_length_m, {supply,return}_{frequency_hz,
-        amplitude_mpa, settling_time_s}, wall_time_s, warnings."""
+        amplitude_mpa, settling_time_s, settling_method, settling_note}, wall_time_s,
+        warnings (NaN where a metric does not exist)."""
         rows = []
         for L, s in zip(self.lengths, self.summaries):
             row = {"section2_length_m": float(L)}
             for side in SIDES:
                 for k in _METRICS:
                     row[f"{side}_{k}"] = np.nan if s[side][k] is None else s[side][k]
+            for side in SIDES:
+                row[f"{side}_settling_method"] = s[side].get("settling_method") or ""
+                row[f"{side}_settling_note"] = s[side].get("settling_note", "")
             row["wall_time_s"] = s["wall_time_s"]
             row["warnings"] = "; ".join(s["warnings"])
             rows.append(row)
@@ -161,7 +178,8 @@ class LayoutStudy:
 
     def plot(self, path=None, title=None):
         """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
-        return right) above frequency and amplitude against length.
+        return right; dotted: step and piston stop, green dashed: the 2 % settling time) above
+        frequency and amplitude against length.
 
         Returns
         -------
@@ -190,6 +208,9 @@ class LayoutStudy:
                 if t1 and t1 < res.t[-1]:
                     ax.axvline(t1 * 1e3, color="0.5", lw=0.7, ls=":")
                 ax.axvline(t0 * 1e3, color="0.7", lw=0.7, ls=":")
+                ts = self.summaries[r][side].get("settling_time_s")
+                if ts is not None and t0 + ts <= res.t[-1]:     # 2 % settling time
+                    ax.axvline((t0 + ts) * 1e3, color="C2", lw=0.8, ls="--")
                 ax.grid(True, alpha=0.3)
                 label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
                 ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
@@ -274,7 +295,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "o
         except (ValueError, SteadyStateError) as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise RigError(f"section II length {L:g} m: {msg}") from e
-        summaries.append(summarize(res))
+        summaries.append(port_summary(res))
         results.append(res)
         if progress is not None:
             progress(k + 1, len(lengths))
