@@ -158,7 +158,13 @@ def plot_friction(points: dict, fit, path=None, title=None):
     if fit is not None:
         vmax = max(np.max(np.abs(v)) for v, _ in points.values()) if points else 0.1
         v = np.linspace(-vmax, vmax, 801)
-        ax.plot(v * 1e3, fit.force(v), "k", lw=1.5, label="(M24) fitted, up/down separately")
+        label = "(M24) fitted, up/down separately"
+        if not getattr(fit, "static_identified", True):
+            # the hump (F_s, C_s) is not identified: draw only where points are
+            vmin = min(np.min(np.abs(pv)) for pv, _ in points.values()) if points else 0.0
+            v = np.where(np.abs(v) >= vmin, v, np.nan)
+            label += f"; F_s, C_s not identified: not drawn below {vmin * 1e3:.3g} mm/s"
+        ax.plot(v * 1e3, fit.force(v), "k", lw=1.5, label=label)
     ax.axhline(0, color="0.6", lw=0.6)
     ax.axvline(0, color="0.6", lw=0.6)
     ax.set_xlabel("piston velocity [mm/s]")

@@ -35,7 +35,7 @@ from .. import components as comp
 from ..rigs import Rig, load_rig
 from ..simulation import integrate
 from ..system import build_network
-from .fit import DataError, Measurements
+from .fit import DataError, Measurements, noise_level
 from .linearize import OperatingPoint, _transfer_state, solve_operating_point
 
 __all__ = ["newton_friction", "steady_velocity_point", "StribeckFit", "fit_stribeck",
@@ -67,9 +67,12 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
     Returns
     -------
     pandas.DataFrame  columns time [s], velocity [m/s], acceleration [m/s^2],
-    friction_force [N] (opposing +v when > 0), on a uniform time grid
+    friction_force [N] (opposing +v when > 0), on a uniform time grid; ``attrs`` hold the
+    white-noise level of the position (or measured velocity), ``signal_noise``, and the
+    filter that maps it into the velocity, ``velocity_filter`` (for
+    :func:`steady_velocity_point`)
     """
-    from scipy.signal import savgol_filter
+    from scipy.signal import savgol_coeffs, savgol_filter
 
     for c in FRICTION_COLUMNS:
         if c not in meas.data:
@@ -90,9 +93,11 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
     if "piston_velocity" in meas.data:
         v = col("piston_velocity")
         a = savgol_filter(v, n_win, 3, deriv=1, delta=dt)
+        noise, h = noise_level(v), np.ones(1)
     else:
         v = savgol_filter(x, n_win, 3, deriv=1, delta=dt)
         a = savgol_filter(x, n_win, 3, deriv=2, delta=dt)
+        noise, h = noise_level(x), savgol_coeffs(n_win, 3, deriv=1, delta=dt)
     Ab, At = _areas(rig)
     m = rig["actuator.moving_mass"] + rig.get("load.mass", 0.0)
     g = rig.get("actuator.gravity", 9.81)
@@ -106,21 +111,34 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
     keep = np.abs(x) < half - stop_margin
     keep[: n_win // 2] = False
     keep[len(keep) - n_win // 2:] = False
-    return pd.DataFrame({"time": tu[keep], "velocity": v[keep], "acceleration": a[keep],
-                         "friction_force": F[keep]})
+    out = pd.DataFrame({"time": tu[keep], "velocity": v[keep], "acceleration": a[keep],
+                        "friction_force": F[keep]})
+    # white noise on the measured signal and the filter that maps it into the velocity
+    out.attrs.update(signal_noise=noise, velocity_filter=h, window_samples=n_win)
+    return out
 
 
-def steady_velocity_point(nf: pd.DataFrame, tolerance: float = 0.02, min_samples: int = 20):
+def steady_velocity_point(nf: pd.DataFrame, tolerance: float = 0.02, min_samples: int = 20,
+                          max_spread: float = 0.5, min_fraction: float = 0.25):
     """One (velocity, friction) point from an open-loop run at constant valve current.
 
-    The steady velocity is the median velocity over the second half of the moving samples;
-    the point averages the samples within ``tolerance`` (relative) of it.
+    The steady velocity v_ss is the median velocity over the second half of the moving
+    samples. The velocity is smoothed by a moving average over four derivative windows; the
+    steady part is every sample after the last one whose smoothed velocity strays from v_ss
+    by more than ``max(tolerance |v_ss|, 4 sigma)``, sigma being the noise that the measured
+    position's white noise leaves on the smoothed velocity (``nf.attrs``). The point averages
+    the velocity and the friction force over all of the steady part (not only the samples that
+    the noise happens to put near v_ss, which would bias nothing but waste the data).
 
     Parameters
     ----------
     nf : DataFrame        From :func:`newton_friction`
     tolerance : float     Relative velocity band of the steady part, [-]
     min_samples : int     Fewest samples for a point
+    min_fraction : float  The steady part must be at least this fraction of the record (a
+                          stick-slip run passes through v_ss only briefly)
+    max_spread : float    No point when 4 sigma exceeds this fraction of |v_ss|: the noise
+                          would hide a stick-slip run (use a longer derivative window)
 
     Returns
     -------
@@ -132,16 +150,21 @@ def steady_velocity_point(nf: pd.DataFrame, tolerance: float = 0.02, min_samples
     v_ss = float(np.median(v[len(v) // 2:]))
     if v_ss == 0:
         return None
-    sel = np.abs(v - v_ss) <= tolerance * abs(v_ss)
-    # keep only the last contiguous run of steady samples (after the start-up transient)
-    idx = np.flatnonzero(sel)
-    if idx.size < min_samples:
+    n_win = int(nf.attrs.get("window_samples", 1))
+    L = int(max(1, min(4 * n_win, len(v) // 4)))
+    box = np.ones(L) / L
+    vs = np.convolve(v, box, mode="same")
+    h = np.asarray(nf.attrs.get("velocity_filter", np.ones(1)), dtype=float)
+    sigma = float(nf.attrs.get("signal_noise", 0.0)) * float(np.linalg.norm(np.convolve(h, box)))
+    if 4 * sigma > max_spread * abs(v_ss):
         return None
-    breaks = np.flatnonzero(np.diff(idx) > 1)
-    start = idx[breaks[-1] + 1] if breaks.size else idx[0]
-    seg = idx[idx >= start]
-    if seg.size < min_samples:
-        seg = idx
+    band = max(tolerance * abs(v_ss), 4 * sigma)
+    inner = slice(L // 2, len(v) - (L - 1) // 2)      # where the moving average is complete
+    out = np.flatnonzero(np.abs(vs[inner] - v_ss) > band) + inner.start
+    start = int(out[-1]) + 1 if out.size else inner.start
+    seg = np.arange(start, len(v))
+    if seg.size < max(min_samples, min_fraction * len(v)):
+        return None
     return float(np.mean(v[seg])), float(np.mean(F[seg])), int(seg.size)
 
 
@@ -156,10 +179,13 @@ class StribeckFit:
     static_up, static_down : float      F_s+-, [N]
     stribeck_velocity : float           C_s, [m/s]
     stribeck_exponent : float           delta, [-] (held)
-    static_identified : bool            Points near C_s were there to pin F_s and C_s
+    static_identified : bool            Slow steady-velocity points pinned F_s and C_s (see
+                                        :func:`fit_stribeck`); when False the rig's values stand
     rms_up, rms_down : float            rms residual per direction, [N]
     n_up, n_down : int                  Points per direction
-    std : dict                          Standard errors of the linear coefficients, [SI]
+    std : dict                          Standard errors, [SI]: coefficients (``viscous_up``, ...)
+                                        and ``stribeck_velocity`` (0 when held)
+    static_note : str                   Why F_s, C_s are not identified ("" when they are)
     """
 
     viscous_up: float
@@ -176,6 +202,7 @@ class StribeckFit:
     n_up: int
     n_down: int
     std: dict = field(default_factory=dict)
+    static_note: str = ""
 
     def force(self, v):
         """Friction force of the fitted (M24) at velocity v [m/s] (sgn, not regularised), [N]."""
@@ -211,19 +238,34 @@ def _basis(v, cs, delta, sign):
     return np.column_stack([v, sign * (1.0 - e), sign * e]), e
 
 
-def _direction(v, F, cs, delta, sign):
+def _direction(v, F, w, cs, delta, sign):
+    """Weighted non-negative least squares of one direction at a given C_s."""
     from scipy.optimize import nnls
 
     X, e = _basis(v, cs, delta, sign)
     if len(v) == 0:
         return np.zeros(3), 0.0, e, X
-    coef, rnorm = nnls(X, F)
+    sw = np.sqrt(w)
+    coef, rnorm = nnls(X * sw[:, None], F * sw)
     return coef, rnorm**2, e, X
 
 
 def fit_stribeck(v, F, stribeck_exponent: float = 2.0, stribeck_velocity: float | None = None,
-                 min_speed: float = 2e-4) -> StribeckFit:
+                 min_speed: float = 2e-4, weights=None, steady=None,
+                 hump_sigmas: float = 4.0, slow_factor: float = 2.0, min_slow: int = 2) -> StribeckFit:
     """Fit (M24) to friction points, up and down separately (module docstring).
+
+    F_s and C_s are claimed identified (``static_identified``) only when, in each direction,
+
+    * at least ``min_slow`` steady-velocity points move slower than ``slow_factor`` times the
+      fitted C_s (where the Stribeck term of (M24) is still above exp(-4) ~ 2 % for delta = 2),
+      and
+    * the standard error of F_s (from the full covariance, C_s included) is below
+      ``1/hump_sigmas`` of the hump F_s - F_c it is meant to measure.
+
+    Otherwise the fit can still place a hump on whatever ripple the fast points carry (a
+    closed-loop sine's at 20-60 mm/s, say) and the values mean nothing; ``static_note`` then
+    says why, and :meth:`StribeckFit.rig_values` leaves the rig's F_s, C_s alone.
 
     Parameters
     ----------
@@ -232,6 +274,13 @@ def fit_stribeck(v, F, stribeck_exponent: float = 2.0, stribeck_velocity: float 
     stribeck_exponent : float      delta, held, [-]
     stribeck_velocity : float      C_s [m/s]; fitted (common to both directions) when None
     min_speed : float              Points slower than this are dropped (stick), [m/s]
+    weights : array_like           Relative weight of each point (a steady-velocity point that
+                                   averages n samples: n; a single sample: 1); all 1 when None
+    steady : array_like of bool    Which points come from steady-velocity runs (only these
+                                   count as evidence near C_s); all when None
+    hump_sigmas : float            The hump F_s - F_c must exceed this many standard errors of F_s
+    slow_factor : float            "Slow" means |v| < slow_factor * C_s
+    min_slow : int                 Slow steady points needed per direction
 
     Returns
     -------
@@ -240,17 +289,22 @@ def fit_stribeck(v, F, stribeck_exponent: float = 2.0, stribeck_velocity: float 
     from scipy.optimize import minimize_scalar
 
     v, F = np.asarray(v, dtype=float), np.asarray(F, dtype=float)
-    ok = np.isfinite(v) & np.isfinite(F) & (np.abs(v) >= min_speed)
-    v, F = v[ok], F[ok]
+    w = np.ones_like(v) if weights is None else np.asarray(weights, dtype=float)
+    st = np.ones(v.shape, dtype=bool) if steady is None else np.asarray(steady, dtype=bool)
+    if not (w.shape == v.shape == F.shape == st.shape):
+        raise ValueError("fit_stribeck: v, F, weights and steady must have the same length")
+    ok = np.isfinite(v) & np.isfinite(F) & (np.abs(v) >= min_speed) & np.isfinite(w) & (w > 0)
+    v, F, w, st = v[ok], F[ok], w[ok], st[ok]
     up, down = v > 0, v < 0
     if up.sum() < 2 or down.sum() < 2:
         raise ValueError(f"friction fit needs at least 2 points moving up and 2 moving down "
                          f"faster than {min_speed:g} m/s (got {int(up.sum())} up, {int(down.sum())} down)")
+    delta = stribeck_exponent
 
     def total(log_cs):
         cs = np.exp(log_cs)
-        return (_direction(v[up], F[up], cs, stribeck_exponent, 1.0)[1]
-                + _direction(v[down], F[down], cs, stribeck_exponent, -1.0)[1])
+        return (_direction(v[up], F[up], w[up], cs, delta, 1.0)[1]
+                + _direction(v[down], F[down], w[down], cs, delta, -1.0)[1])
 
     if stribeck_velocity is None:
         speeds = np.abs(v)
@@ -263,29 +317,83 @@ def fit_stribeck(v, F, stribeck_exponent: float = 2.0, stribeck_velocity: float 
             else float(np.exp(grid[k]))
     else:
         cs = float(stribeck_velocity)
-    res = {}
-    std = {}
+    coefs, rms, counts = {}, {}, {}
+    ssr = 0.0
     for name, sel, sign in (("up", up, 1.0), ("down", down, -1.0)):
-        coef, ssr, e, X = _direction(v[sel], F[sel], cs, stribeck_exponent, sign)
-        n = int(sel.sum())
-        rms = float(np.sqrt(ssr / max(n, 1)))
+        coef, ssr_d, _, _ = _direction(v[sel], F[sel], w[sel], cs, delta, sign)
+        coefs[name], counts[name] = coef, int(sel.sum())
+        ssr += ssr_d
+        X, _ = _basis(v[sel], cs, delta, sign)
+        r = F[sel] - X @ coef
+        rms[name] = float(np.sqrt(np.mean(r**2))) if r.size else 0.0
+    std = _stribeck_std(v, w, coefs, cs, delta, ssr, fit_cs=stribeck_velocity is None)
+    # identifiability of F_s and C_s (docstring)
+    notes = []
+    for name, sel in (("up", up), ("down", down)):
+        slow = int(np.sum(st[sel] & (np.abs(v[sel]) < slow_factor * cs)))
+        hump = coefs[name][2] - coefs[name][1]
+        if slow < min_slow:
+            notes.append(f"{slow} steady-velocity point{'s' if slow != 1 else ''} moving {name} "
+                         f"slower than {slow_factor:g} C_s = {slow_factor * cs * 1e3:.3g} mm/s "
+                         f"(need {min_slow})")
+        elif not hump > hump_sigmas * std[f"static_{name}"]:
+            notes.append(f"F_s {name} - F_c {name} = {hump:.3g} N is not above {hump_sigmas:g} "
+                         f"standard errors of F_s ({std[f'static_{name}']:.3g} N)")
+    identified = not notes
+    note = ("" if identified else "static friction and Stribeck velocity not identified: "
+            + "; ".join(notes))
+    cu, cd = coefs["up"], coefs["down"]
+    return StribeckFit(cu[0], cd[0], cu[1], cd[1], cu[2], cd[2], cs, delta, identified,
+                       rms["up"], rms["down"], counts["up"], counts["down"], std, note)
+
+
+def _stribeck_std(v, w, coefs, cs, delta, ssr, fit_cs=True):
+    """Standard errors of the (M24) coefficients from the weighted least-squares covariance.
+
+    Parameters (F_v, F_c, F_s) up, (F_v, F_c, F_s) down and, when fitted, ln C_s; the residual
+    variance per unit weight is pooled over both directions. F_s and C_s are strongly
+    correlated, so the C_s column matters: without it the F_s error is far too small."""
+    rows = []
+    for sign, sel in ((1.0, v > 0), (-1.0, v < 0)):
+        X, e = _basis(v[sel], cs, delta, sign)
+        c = coefs["up" if sign > 0 else "down"]
+        J = np.zeros((int(sel.sum()), 7))
+        cols = slice(0, 3) if sign > 0 else slice(3, 6)
+        J[:, cols] = X
+        # d/d ln C_s of sgn (F_s - F_c) exp(-(|v|/C_s)^delta)
+        J[:, 6] = sign * (c[2] - c[1]) * e * delta * (np.abs(v[sel]) / cs) ** delta
+        rows.append(J * np.sqrt(w[sel])[:, None])
+    J = np.vstack(rows)
+    if not fit_cs:
+        J = J[:, :6]
+    dof = max(J.shape[0] - J.shape[1], 1)
+    names = [f"{k}_{d}" for d in ("up", "down") for k in ("viscous", "coulomb", "static")]
+    # columns scaled to unit norm (their sizes differ by orders of magnitude); a column that
+    # is zero (no hump: C_s has no effect) or nearly dependent gets an infinite error
+    scale = np.linalg.norm(J, axis=0)
+    sd = np.full(J.shape[1], np.inf)
+    hump_cols = [i for i in (2, 5, 6) if i < J.shape[1]]
+    live = scale > 0
+    if fit_cs and not live[6]:     # no hump: F_s is not determined without C_s either
+        live[hump_cols] = False
+    while live.any():
+        Js = J[:, live] / scale[live]
         try:
-            cov = ssr / max(n - 3, 1) * np.linalg.inv(X.T @ X)
-            sd = np.sqrt(np.clip(np.diag(cov), 0, np.inf))
+            inv = np.linalg.inv(Js.T @ Js)
         except np.linalg.LinAlgError:
-            sd = np.full(3, np.inf)
-        res[name] = (coef, rms, n, e)
-        std.update({f"viscous_{name}": float(sd[0]), f"coulomb_{name}": float(sd[1]),
-                    f"static_{name}": float(sd[2])})
-    # F_s and C_s are pinned only by points where the Stribeck term is neither ~1 nor ~0,
-    # and mean something only where the fit finds a hump (F_s above F_c by > 5 % and 2 sigma)
-    e_all = np.concatenate([res["up"][3], res["down"][3]])
-    (cu, ru, nu, _), (cd, rd, nd, _) = res["up"], res["down"]
-    hump = any(c[2] - c[1] > max(0.05 * c[1], 2 * std[f"static_{k}"])
-               for k, c in (("up", cu), ("down", cd)))
-    identified = bool(np.sum((e_all > 0.05) & (e_all < 0.95)) >= 2 and hump)
-    return StribeckFit(cu[0], cd[0], cu[1], cd[1], cu[2], cd[2], cs, stribeck_exponent, identified,
-                       ru, rd, nu, nd, std)
+            inv = None
+        if inv is not None and np.linalg.cond(Js) < 1e7:
+            sd[live] = np.sqrt(np.clip(np.diag(inv), 0, np.inf) * ssr / dof) / scale[live]
+            break
+        # ill-determined: give F_s and C_s (together: they are correlated) infinite errors
+        # and the linear F_v, F_c their errors without them
+        if live[hump_cols].any():
+            live[hump_cols] = False
+        else:
+            live[np.flatnonzero(live)[-1]] = False
+    std = {k: float(s) for k, s in zip(names, sd[:6])}
+    std["stribeck_velocity"] = float(cs * sd[6]) if fit_cs else 0.0
+    return std
 
 
 @dataclass
@@ -318,18 +426,23 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     sine_min_speed : float            Slowest sine sample used: near reversal the piston
                                       sticks and Newton's law gives the applied force, [m/s]
 
+    Each steady run's point is weighted by the samples it averages, each sine sample by 1;
+    only steady points count as evidence for F_s and C_s (:func:`fit_stribeck`): a sine's
+    samples near C_s are reversals, where Newton's law lags.
+
     Returns
     -------
     FrictionIdentification
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     points = {}
-    vs, Fs = [], []
+    vs, Fs, ns = [], [], []
     for meas in steady:
         pt = steady_velocity_point(newton_friction(meas, rig, window))
         if pt is not None:
             vs.append(pt[0])
             Fs.append(pt[1])
+            ns.append(pt[2])
     if vs:
         points["steady-velocity open-loop runs"] = (np.array(vs), np.array(Fs))
     sv, sF = [], []
@@ -345,19 +458,48 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
                          "and/or a closed-loop sine)")
     v = np.concatenate([p[0] for p in points.values()])
     F = np.concatenate([p[1] for p in points.values()])
+    n_sine = len(v) - len(vs)
+    # a steady point averages n samples: weight n against a sine sample's 1
+    weights = np.concatenate([np.asarray(ns, dtype=float), np.ones(n_sine)])
+    is_steady = np.concatenate([np.ones(len(vs), dtype=bool), np.zeros(n_sine, dtype=bool)])
     delta = rig.get("friction.stribeck_exponent", 2.0) if stribeck_exponent is None else stribeck_exponent
-    return FrictionIdentification(points, fit_stribeck(v, F, delta, None, min_speed))
+    return FrictionIdentification(points, fit_stribeck(v, F, delta, None, min_speed,
+                                                       weights=weights, steady=is_steady))
 
 
 def _record(res, columns=("valve_current", "supply_port_pressure", "return_port_pressure",
-                          "bottom_chamber_pressure", "top_chamber_pressure", "piston_position")):
+                          "bottom_chamber_pressure", "top_chamber_pressure", "piston_position"),
+            load_cell=False):
     data = {"time": res.t}
     data.update({c: res[c] for c in columns if c in res.data})
+    if load_cell:   # the load force as a load cell on the rod measures it (positive down)
+        data["external_force"] = res["load_force"]
     return pd.DataFrame(data)
 
 
+def _open_loop_run(rig, di, t_run, dt, label, load_cell=False):
+    """Piston held at -+40 mm, then the current steps by di at 5 ms (one steady run)."""
+    half = rig["actuator.stroke"] / 2
+    x0 = -0.04 if di > 0 else 0.04
+    hold = solve_operating_point(rig, OperatingPoint(piston_position=x0))
+    i0 = hold.valve_current
+    cmd = comp.StepCommand(name="command", initial=i0, final=i0 + di, time=5e-3,
+                           connections={"command": "valve_current"})
+    net = build_network(rig, [cmd], x0)
+    x, p = _transfer_state(hold, net)
+    p[net.parameter_names.index("command.initial")] = i0
+    p[net.parameter_names.index("command.final")] = i0 + di
+    res = integrate(net, x, t_run, dt_out=dt, p=p)
+    df = _record(res, load_cell=load_cell)
+    near = np.flatnonzero(np.abs(df["piston_position"].to_numpy()) > half - 2e-3)
+    if near.size:
+        df = df.iloc[:max(int(near[0]), 10)]
+    return Measurements(df, label)
+
+
 def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: float = 0.12,
-                           sine: bool = True, dt: float = 1e-4):
+                           sine: bool = True, dt: float = 1e-4, slow_currents=None,
+                           damper: float = 1e4):
     """The paper's friction experiments run on the model itself (to check the identification).
 
     Open-loop runs: the piston held at -40 mm (up runs) or +40 mm (down runs) by its holding
@@ -365,13 +507,26 @@ def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: f
     ``t_run`` or until the piston nears its stop. Closed-loop sine: the rig's
     ``closed-loop-sine`` scenario (the paper's 2 Hz, 35 mm under P control).
 
+    Slow runs (``slow_currents``, a few mm/s, around the Stribeck velocity): there the friction
+    force falls with speed (M24) -- for the default rig by up to ~5 kN s/m, more than the
+    viscous term and the valve's pressure-flow slope damp -- so an open-loop run (and a P
+    position loop) at these speeds stick-slips instead of reaching a steady velocity (the
+    default rig hunts with a ~0.2 s period at 0.1-0.2 mA). These runs are therefore made against
+    a viscous damper specimen of ``damper`` N s/m added to the rig's load, which makes the
+    steady motion stable; its force is recorded as the ``external_force`` column (a load
+    cell), so Newton's law (M23) removes it exactly and the friction point is unbiased.
+
     Parameters
     ----------
     rig : Rig, str or None
-    currents : list[float]   Current steps [A]; +-(0.3, 1, 3, 10, 25) % of rated when None
+    currents : list[float]   Current steps [A]; +-(1, 3, 10, 25) % of rated when None
     t_run : float            Longest run, [s]
     sine : bool              Also run the closed-loop sine
     dt : float               Sampling interval, [s]
+    slow_currents : list     Current steps of the slow runs against the damper [A];
+                             +-(0.1, 0.14, 0.2, 0.3, 0.4) % of rated when None (about 2-9 mm/s
+                             on the default rig); () for none
+    damper : float           Damping of the slow runs' specimen, [N s/m]
 
     Returns
     -------
@@ -382,25 +537,17 @@ def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: f
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     i_r = rig["servovalve.rated_current"]
     if currents is None:
-        currents = [s * f * i_r for f in (0.003, 0.01, 0.03, 0.1, 0.25) for s in (1, -1)]
-    steady = []
-    half = rig["actuator.stroke"] / 2
-    for di in currents:
-        x0 = -0.04 if di > 0 else 0.04
-        hold = solve_operating_point(rig, OperatingPoint(piston_position=x0))
-        i0 = hold.valve_current
-        cmd = comp.StepCommand(name="command", initial=i0, final=i0 + di, time=5e-3,
-                               connections={"command": "valve_current"})
-        net = build_network(rig, [cmd], x0)
-        x, p = _transfer_state(hold, net)
-        p[net.parameter_names.index("command.initial")] = i0
-        p[net.parameter_names.index("command.final")] = i0 + di
-        res = integrate(net, x, t_run, dt_out=dt, p=p)
-        df = _record(res)
-        near = np.flatnonzero(np.abs(df["piston_position"].to_numpy()) > half - 2e-3)
-        if near.size:
-            df = df.iloc[:max(int(near[0]), 10)]
-        steady.append(Measurements(df, f"virtual open-loop run, {di * 1e3:+.3g} mA"))
+        currents = [s * f * i_r for f in (0.01, 0.03, 0.1, 0.25) for s in (1, -1)]
+    if slow_currents is None:
+        slow_currents = [s * f * i_r for f in (0.001, 0.0014, 0.002, 0.003, 0.004) for s in (1, -1)]
+    steady = [_open_loop_run(rig, di, t_run, dt, f"virtual open-loop run, {di * 1e3:+.3g} mA")
+              for di in currents]
+    if len(slow_currents):
+        damped = rig.copy()
+        damped.set("load.damping", f"{rig.get('load.damping', 0.0) + damper!r} N*s/m")
+        steady += [_open_loop_run(damped, di, t_run, dt, f"virtual slow run against a "
+                                  f"{damper:g} N s/m damper, {di * 1e3:+.3g} mA", load_cell=True)
+                   for di in slow_currents]
     sines = []
     if sine:
         res = simulate(rig, "closed-loop-sine", dt_out=dt)

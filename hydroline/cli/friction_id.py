@@ -18,8 +18,11 @@ def register(sub):
         description="Friction force by Newton's law (M23) from measured chamber pressures and "
         "piston position: one point per steady-velocity open-loop run (--steady) and every "
         "moving sample of a closed-loop sine (--sine); then (M24) fitted up and down "
-        "separately, as in the 2005 paper. CSV columns as for 'hydroline fit' (needs "
-        + ", ".join(FRICTION_COLUMNS) + "). Writes friction.png, friction.json and "
+        "separately, as in the 2005 paper. Static friction and the Stribeck velocity are "
+        "claimed (and written) only when steady-velocity runs slower than about twice C_s "
+        "pin them in both directions; otherwise the rig's values are kept. CSV columns as for "
+        "'hydroline fit' (needs " + ", ".join(FRICTION_COLUMNS) + "; an external_force column, "
+        "a load cell, is used when present). Writes friction.png, friction.json and "
         "friction_rig.toml (the rig with the fitted coefficients) to --out.")
     p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded 2005 rig)")
     p.add_argument("--steady", nargs="*", default=[], metavar="RUN.csv",
@@ -27,7 +30,9 @@ def register(sub):
     p.add_argument("--sine", nargs="*", default=[], metavar="SINE.csv", help="closed-loop sine records")
     p.add_argument("--virtual", action="store_true",
                    help="run the paper's friction experiments on the model itself instead of data "
-                   "(checks the identification against the rig's own coefficients)")
+                   "(checks the identification against the rig's own coefficients); adds slow "
+                   "runs (a few mm/s) against a damper specimen whose force is recorded, so that "
+                   "static friction and the Stribeck velocity are identifiable")
     p.add_argument("--window", default="2 ms", help="derivative window (default '2 ms'; longer for noisy data)")
     p.add_argument("--min-speed", default="0.2 mm/s", help="slowest point used in the fit")
     p.add_argument("--sine-min-speed", default="20 mm/s",
@@ -66,6 +71,7 @@ def run(args) -> int:
     rig_file = out / "friction_rig.toml"
     rig_file.write_text(f"# friction (M24) identified by 'hydroline friction-id' from {source}\n\n"
                         + calibrated.to_toml())
+    static_keys = ("static_up", "static_down", "stribeck_velocity")
     rows = []
     for k in ("viscous", "coulomb", "static"):
         unit = "N*s/m" if k == "viscous" else "N"
@@ -74,11 +80,18 @@ def run(args) -> int:
             rows.append([f"friction.{name}", unit, rig.get(f"friction.{name}"), getattr(fit, name),
                          fit.std.get(name)])
     rows.append(["friction.stribeck_velocity", "m/s", rig.get("friction.stribeck_velocity"),
-                 fit.stribeck_velocity, None])
+                 fit.stribeck_velocity, fit.std.get("stribeck_velocity")])
+    coefficients = {}
+    for path, unit, rig_value, value, se in rows:
+        held = path.split(".")[1] in static_keys and not fit.static_identified
+        coefficients[path] = {"unit": unit, "rig": rig_value,
+                              "identified": None if held else float(value),
+                              "fitted": float(value), "std_error": se,
+                              "written": calibrated.get(path)}
     summary = {"source": source, "points": {k: len(v[0]) for k, v in ident.points.items()},
-               "coefficients": {r[0]: {"unit": r[1], "rig": r[2], "identified": float(r[3]),
-                                       "std_error": r[4]} for r in rows},
+               "coefficients": coefficients,
                "static_identified": fit.static_identified,
+               "static_note": fit.static_note,
                "rms_residual_n": {"up": fit.rms_up, "down": fit.rms_down},
                "rig_file": str(rig_file)}
     (out / "friction.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
@@ -88,10 +101,16 @@ def run(args) -> int:
     print(f"hydroline friction-id: {source}")
     for k, (v, _) in ident.points.items():
         print(f"  {k}: {len(v)} points, |v| {np.min(np.abs(v)) * 1e3:.3g}-{np.max(np.abs(v)) * 1e3:.3g} mm/s")
-    print_table(["parameter", "unit", "rig", "identified", "std error"], rows)
+    table = [[p, u, r, ("not identified" if c["identified"] is None else c["identified"]),
+              ("-" if c["identified"] is None else se), c["written"]]
+             for (p, u, r, _, se), c in zip(rows, coefficients.values())]
+    print_table(["parameter", "unit", "rig", "identified", "std error", "written"], table)
     if not fit.static_identified:
-        print("  static friction and Stribeck velocity are not identifiable from these points "
-              "(no slow runs near C_s): the rig file keeps the rig's values")
+        print(f"  {fit.static_note}.")
+        print("  The rig file keeps the rig's static_up, static_down and stribeck_velocity; "
+              "slow steady-velocity runs (below about twice C_s, both directions) pin them.")
+        print(f"  (the fit's unreliable values: F_s up {fit.static_up:.4g} N, down "
+              f"{fit.static_down:.4g} N, C_s {fit.stribeck_velocity * 1e3:.3g} mm/s)")
     print(f"  rms residual: up {fit.rms_up:.3g} N, down {fit.rms_down:.3g} N")
     print(f"  wrote {out / 'friction.png'}, {out / 'friction.json'}, {rig_file}")
     return 0
