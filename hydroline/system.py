@@ -28,6 +28,8 @@ its pressure is then the port pressure signal (``supply_port_pressure``/``return
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from . import components as comp
@@ -36,7 +38,8 @@ from .lines import Line, ModalLine, RigidColumnLine
 from .network import Network
 from .rigs import SCHEMA, Rig, RigError
 
-__all__ = ["build_network", "make_fluid", "make_line", "hose_lines", "validate_rig"]
+__all__ = ["build_network", "make_fluid", "make_line", "hose_lines", "validate_rig",
+           "pressure_profile"]
 
 
 #: Oil volume of the HSM block's passages, used as the node when a section II is removed, [m^3]
@@ -134,6 +137,85 @@ _NON_NEGATIVE = ("supply.manifold.resistance", "return.manifold.resistance",
                                              "stribeck_exponent")))
 
 
+_PROFILE_KEYS = {"step": ("time", "final"), "sine": ("amplitude", "frequency"),
+                 "ramp": ("slope", "end"), "table": ("file",)}
+
+
+def pressure_profile(rig: Rig, side: str):
+    """The time-varying source pressure of a side from ``[<side>.pressure_profile]``.
+
+    ``type = "step"``: ``<side>.pressure`` until ``time``, then ``final``;
+    ``"sine"``: ``<side>.pressure + amplitude sin(2 pi frequency (t - start))`` from ``start``
+    (default 0); ``"ramp"``: ``<side>.pressure + slope (t - start)`` between ``start`` (default
+    0) and ``end``, held after; ``"table"``: the absolute pressure from the CSV ``file``
+    (header ``time [s], pressure [MPa]``, any units; path relative to the rig file), held
+    beyond its ends; its value at t = 0 replaces ``<side>.pressure``.
+
+    Parameters
+    ----------
+    rig : Rig    Parameters (SI)
+    side : str   "supply" or "return"
+
+    Returns
+    -------
+    tuple  (waveform component or None, level at t = 0 [Pa], (lowest, highest) pressure over
+           all time [Pa])
+    """
+    base = f"{side}.pressure_profile"
+    level = rig.get(f"{side}.pressure")
+    kind = rig.get(f"{base}.type")
+    given = [k for k in rig.values if k.startswith(base + ".") and k != f"{base}.type"]
+    if kind is None:
+        if given:
+            raise RigError(f"{base}.type: must be one of {', '.join(_PROFILE_KEYS)} when "
+                           f"{given[0]} is given, got nothing")
+        return None, level, (level, level)
+    if kind not in _PROFILE_KEYS:
+        raise RigError(f"{base}.type: must be one of {', '.join(_PROFILE_KEYS)}, got {kind!r}")
+    for k in _PROFILE_KEYS[kind]:
+        if f"{base}.{k}" not in rig:
+            raise RigError(f"{base}.{k}: required for type = {kind!r} (not set in rig {rig.source})")
+    allowed = set(_PROFILE_KEYS[kind]) | ({"start"} if kind in ("sine", "ramp") else set())
+    for path in given:
+        if path[len(base) + 1:] not in allowed:
+            raise RigError(f"{path}: not a parameter of type = {kind!r} (give {', '.join(sorted(allowed))})")
+    name = f"{side}.source.waveform"
+    if kind != "table" and level is None:
+        raise RigError(f"{side}.pressure: not set in rig {rig.source} (the {kind} profile is about it)")
+    start = rig.get(f"{base}.start", 0.0)
+    if not (np.isfinite(start) and start >= 0):
+        raise _bad(rig, f"{base}.start", ">= 0")
+    if kind == "step":
+        t_step, final = rig[f"{base}.time"], rig[f"{base}.final"]
+        if not t_step > 0:
+            raise _bad(rig, f"{base}.time", "> 0 (the steady state is solved before the step)")
+        w = comp.StepCommand(name=name, quantity="pressure", initial=level, final=final, time=t_step)
+        return w, level, (min(level, final), max(level, final))
+    if kind == "sine":
+        amp, f = rig[f"{base}.amplitude"], rig[f"{base}.frequency"]
+        if not f > 0:
+            raise _bad(rig, f"{base}.frequency", "> 0")
+        w = comp.SineCommand(name=name, quantity="pressure", offset=level, amplitude=amp,
+                             frequency=f, start=start)
+        return w, level, (level - abs(amp), level + abs(amp))
+    if kind == "ramp":
+        slope, end = rig[f"{base}.slope"], rig[f"{base}.end"]
+        if not end > start:
+            raise _bad(rig, f"{base}.end", f"> start ({start:g} s)")
+        w = comp.RampCommand(name=name, quantity="pressure", initial=level, slope=slope,
+                             start=start, end=end)
+        last = level + slope * (end - start)
+        return w, level, (min(level, last), max(level, last))
+    path = Path(rig[f"{base}.file"])
+    if not path.is_absolute() and not rig.source.startswith("embedded:"):
+        path = Path(rig.source).parent / path
+    try:
+        w = comp.TableCommand.from_csv_with_units(path, "Pa", name=name, quantity="pressure")
+    except ValueError as e:
+        raise RigError(f"{base}.file: {e}") from None
+    return w, float(np.interp(0.0, w.times, w.values)), w.value_range()
+
+
 def _unit(path):
     sec, _, key = path.rpartition(".")
     u = SCHEMA.get(sec, {}).get(key, "")
@@ -172,10 +254,20 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v >= 0):
             raise _bad(rig, path, ">= 0")
-    p_s, p_t = rig["supply.pressure"], rig["return.pressure"]
+    _, p_s, (s_low, _) = pressure_profile(rig, "supply")
+    _, p_t, (t_low, t_high) = pressure_profile(rig, "return")
+    if p_s is None or p_t is None:
+        raise RigError(f"{'supply' if p_s is None else 'return'}.pressure: not set in rig {rig.source}")
     if not (np.isfinite(p_s) and p_s > p_t):
         raise RigError(f"supply.pressure: must be above return.pressure ({rig.raw.get('return.pressure', p_t)!r}) "
                        f"[Pa absolute], got {rig.raw.get('supply.pressure', p_s)!r}")
+    if not t_low > 0:
+        raise RigError(f"return.pressure_profile: the tank pressure must stay > 0 [Pa, absolute]; "
+                       f"it falls to {t_low / 1e6:.6g} MPa")
+    if not s_low > t_high:
+        raise RigError(f"supply.pressure_profile: the supply pressure must stay above the return "
+                       f"pressure [Pa]; it falls to {s_low / 1e6:.6g} MPa "
+                       f"(return up to {t_high / 1e6:.6g} MPa)")
     half = rig["actuator.stroke"] / 2
     for path, x in (("actuator.initial_position", rig.get("actuator.initial_position")),
                     ("initial piston position", position_guess)):
@@ -228,10 +320,11 @@ def build_network(rig: Rig, commands: list, position_guess: float | None = None)
 
 def _build(rig, commands, position_guess):
     fluid = make_fluid(rig)
-    p_s, p_t = rig["supply.pressure"], rig["return.pressure"]
+    w_s, p_s, _ = pressure_profile(rig, "supply")
+    w_t, p_t, _ = pressure_profile(rig, "return")
     parts = []
     # ---- supply side (PQ lines) ----
-    parts.append(comp.PressureSource(name="supply.pump", pressure=p_s,
+    parts.append(comp.PressureSource(name="supply.pump", pressure=p_s, waveform=w_s,
                                      connections={"pressure": "pump_pressure"}))
     s1 = make_line(rig, "supply.section1", fluid)
     parts.append(comp.HoseSection(name="supply.section1", model=_hose(rig, "supply.section1", s1, "PQ", p_s),
@@ -270,7 +363,7 @@ def _build(rig, commands, position_guess):
                          "accumulator": "supply.accumulator_flow", "pressure": node}))
         supply_port = node
     # ---- return side (QP lines, flow toward the tank) ----
-    parts.append(comp.PressureSource(name="return.tank", pressure=p_t,
+    parts.append(comp.PressureSource(name="return.tank", pressure=p_t, waveform=w_t,
                                      connections={"pressure": "tank_pressure"}))
     r1 = make_line(rig, "return.section1", fluid)
     parts.append(comp.HoseSection(name="return.section1", model=_hose(rig, "return.section1", r1, "QP", p_t),
@@ -383,7 +476,7 @@ def make_actuator(rig: Rig, position_guess=None) -> comp.Actuator:
         internal_leakage=rig.get("actuator.internal_leakage", 0.0),
         external_leakage=rig.get("actuator.external_leakage", 0.0),
         initial_position=x0,
-        nominal_pressure=0.5 * (rig["supply.pressure"] + rig["return.pressure"]),
+        nominal_pressure=0.5 * (pressure_profile(rig, "supply")[1] + pressure_profile(rig, "return")[1]),
         connections={"bottom_flow": "bottom_chamber_flow", "top_flow": "top_chamber_flow",
                      "bottom_pressure": "bottom_chamber_pressure",
                      "top_pressure": "top_chamber_pressure", "position": "piston_position",

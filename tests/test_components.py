@@ -186,3 +186,62 @@ def test_network_refuses_bad_wiring():
     bad = comp.PressureSource(name="wrong", pressure=1.0, connections={"pressure": "q_valve"})
     with pytest.raises(NetworkError, match="causality mismatch.*q_valve"):
         Network([src, line, bad])
+
+
+# ---- time-varying pressure source (MODEL.md 1: p_hps(t), p_tank(t) known inputs) -----------
+def test_pressure_source_waveforms_by_hand(tmp_path):
+    sine = comp.PressureSource(name="pump", waveform=comp.SineCommand(
+        name="w", quantity="pressure", offset=20e6, amplitude=1e6, frequency=50.0, start=0.01))
+    p = sine.runtime_parameters()
+    assert sine.pressure == 20e6                                  # level before the disturbance
+    # 50 Hz: a quarter period after the start (5 ms) is the crest, three quarters the trough
+    assert sine.outputs_of(0.005, {}, {}, p)["pressure"] == pytest.approx(20e6)
+    assert sine.outputs_of(0.015, {}, {}, p)["pressure"] == pytest.approx(21e6)
+    assert sine.outputs_of(0.025, {}, {}, p)["pressure"] == pytest.approx(19e6)
+    ramp = comp.PressureSource(name="pump", waveform=comp.RampCommand(
+        name="w", quantity="pressure", initial=20.7e6, slope=-20e6, start=0.01, end=0.11))
+    # -20 MPa/s for 40 ms: 0.8 MPa down; held at 20.7 - 2.0 = 18.7 MPa after 110 ms
+    assert ramp.outputs_of(0.05, {}, {}, ramp.runtime_parameters())["pressure"] == pytest.approx(19.9e6)
+    assert ramp.outputs_of(0.5, {}, {}, ramp.runtime_parameters())["pressure"] == pytest.approx(18.7e6)
+    assert ramp.breakpoints(1.0) == [0.01, 0.11]
+    f = tmp_path / "p_hps.csv"
+    f.write_text("time [ms], pressure [bar]\n0, 207\n20, 207\n30, 187\n")
+    table = comp.PressureSource(name="pump", waveform=comp.TableCommand.from_csv_with_units(
+        f, "Pa", name="w", quantity="pressure"))
+    pt = table.runtime_parameters()
+    assert table.pressure == pytest.approx(20.7e6)                # 207 bar
+    assert table.outputs_of(0.025, {}, {}, pt)["pressure"] == pytest.approx(19.7e6)   # halfway
+    assert table.outputs_of(1.0, {}, {}, pt)["pressure"] == pytest.approx(18.7e6)     # held
+    # the runtime level shifts the whole waveform (sweeps, linearisation)
+    pt["pressure"] += 1e5
+    assert table.outputs_of(0.025, {}, {}, pt)["pressure"] == pytest.approx(19.8e6)
+    # the legacy single step is a StepCommand waveform
+    step = comp.PressureSource(name="pump", pressure=1e6, step_time=0.01, step_to=2e6)
+    assert [step.outputs_of(t, {}, {}, step.runtime_parameters())["pressure"] for t in (0.0, 0.02)] == [1e6, 2e6]
+    with pytest.raises(ValueError, match="quantity='pressure'"):
+        comp.PressureSource(name="pump", waveform=comp.StepCommand(name="w", quantity="current"))
+    with pytest.raises(ValueError, match="value at t = 0"):
+        comp.PressureSource(name="pump", pressure=1e6, waveform=comp.StepCommand(
+            name="w", quantity="pressure", initial=2e6, final=2e6, time=1.0))
+
+
+def test_table_command_compiles_to_exact_ramps():
+    """The symbolic table (a sum of clipped ramps) equals np.interp, also outside the ends."""
+    import casadi as ca
+
+    table = comp.TableCommand(name="t", quantity="pressure", times=[0.0, 0.01, 0.03, 0.04],
+                              values=[1.0, 3.0, 3.0, -1.0])
+    t = ca.SX.sym("t")
+    f = ca.Function("f", [t], [table.outputs_of(t, {}, {}, {})["command"]])
+    for tk in (-1.0, 0.0, 0.005, 0.02, 0.035, 0.04, 1.0):
+        assert float(f(tk)) == pytest.approx(np.interp(tk, table.times, table.values), abs=1e-12)
+
+
+def test_table_csv_errors_name_file_and_column(tmp_path):
+    f = tmp_path / "p.csv"
+    f.write_text("time [ms], pressure\n0, 1\n1, 2\n")
+    with pytest.raises(ValueError, match=r"p\.csv: column 'pressure' has no unit"):
+        comp.TableCommand.from_csv_with_units(f, "Pa")
+    f.write_text("time [ms], pressure [MPa]\n0, 1\n0, 2\n")
+    with pytest.raises(ValueError, match="increase strictly"):
+        comp.TableCommand.from_csv_with_units(f, "Pa")

@@ -9,7 +9,7 @@ import numpy as np
 from ..network import ops
 from ..network.component import Component, Port
 
-__all__ = ["StepCommand", "SineCommand", "RampCommand", "TableCommand"]
+__all__ = ["StepCommand", "SineCommand", "RampCommand", "TableCommand", "read_table_csv"]
 
 
 @dataclass(kw_only=True)
@@ -89,7 +89,15 @@ class RampCommand(_Command):
 
 @dataclass(kw_only=True)
 class TableCommand(_Command):
-    """Piecewise-linear command through (times [s], values [unit]); held beyond the ends."""
+    """Piecewise-linear command through (times [s], values [unit]); held beyond the ends.
+
+    In the compiled model a table of up to ``RAMP_ROWS`` rows is the exact sum of clipped
+    ramps ``v_0 + sum_k s_k min(max(t - t_k, 0), t_(k+1) - t_k)`` (slopes ``s_k``), which the
+    C core compiles; a longer table is a CasADi interpolant (the integrator then uses CVODES).
+    """
+
+    #: Longest table written as a sum of ramps, [rows].
+    RAMP_ROWS = 256
 
     times: list = field(default_factory=list)
     values: list = field(default_factory=list)
@@ -117,8 +125,102 @@ class TableCommand(_Command):
         return cls(name=name, quantity=quantity, times=df.iloc[:, time_column].to_numpy(float),
                    values=df.iloc[:, value_column].to_numpy(float) * value_scale, **kw)
 
+    @classmethod
+    def from_csv_with_units(cls, path, unit, name="command", quantity="current", **kw):
+        """Read a two-column CSV whose header carries units: ``time [ms]``, ``<name> [MPa]``.
+
+        Parameters
+        ----------
+        path : str or Path   CSV file, one header row, then (time, value) rows
+        unit : str           SI unit of the values, e.g. "Pa"; the header may give any unit of
+                             that dimension ("MPa", "bar", "psi"), [-]
+        name, quantity       As for the component
+
+        Raises
+        ------
+        ValueError  one line naming the file and the column or row at fault
+        """
+        return cls(name=name, quantity=quantity, **dict(zip(("times", "values"),
+                                                              read_table_csv(path, unit))), **kw)
+
     def outputs_of(self, t, x, u, p):
         if ops.is_symbolic(t):
+            if len(self.times) <= self.RAMP_ROWS:
+                dt = np.diff(self.times)
+                slopes = np.diff(self.values) / dt
+                out = float(self.values[0])
+                for tk, dtk, sk in zip(self.times[:-1], dt, slopes):
+                    if sk != 0.0:
+                        out = out + float(sk) * ops.fmin(ops.fmax(t - float(tk), 0.0), float(dtk))
+                return {"command": out}
             tc = ca.fmin(ca.fmax(t, self.times[0]), self.times[-1])
             return {"command": self._interp(tc)}
         return {"command": float(np.interp(t, self.times, self.values))}
+
+    def value_range(self):
+        """Smallest and largest value of the table, [unit]."""
+        return float(np.min(self.values)), float(np.max(self.values))
+
+
+def _split_header(col):
+    text = str(col).strip()
+    if "[" not in text or not text.endswith("]"):
+        return text, None
+    name, _, unit = text[:-1].partition("[")
+    return name.strip(), unit.strip()
+
+
+def read_table_csv(path, unit):
+    """(times [s], values [unit]) from a two-column CSV with units in its header.
+
+    Parameters
+    ----------
+    path : str or Path   The file: header ``time [s], <name> [<unit>]``, then rows
+    unit : str           SI unit of the values, [-]
+
+    Returns
+    -------
+    tuple(ndarray, ndarray)  times [s], values [unit]
+
+    Raises
+    ------
+    ValueError  one line naming the file and what is wrong
+    """
+    import pandas as pd
+
+    from ..units import UnitError, parse_quantity
+
+    src = str(path)
+    try:
+        raw = pd.read_csv(path, skipinitialspace=True)
+    except FileNotFoundError:
+        raise ValueError(f"{src}: table file not found") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise ValueError(f"{src}: not a readable CSV file ({str(e).strip().splitlines()[0]})") from None
+    if raw.shape[1] != 2:
+        raise ValueError(f"{src}: needs exactly two columns, 'time [s]' and a value with its unit "
+                         f"[{unit}]; got {raw.shape[1]}")
+    cols = []
+    for col, want in zip(raw.columns, ("s", unit)):
+        _, u = _split_header(col)
+        if u is None:
+            raise ValueError(f"{src}: column '{col}' has no unit; write e.g. '{col} [{want}]'")
+        try:
+            factor = parse_quantity(f"1 {u}", want, f"{src}: column '{col}'")
+        except UnitError as e:
+            raise ValueError(str(e)) from None
+        v = pd.to_numeric(raw[col], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"{src}: column '{col}' has a missing or non-numeric value at data "
+                             f"row {k + 1} (file line {k + 2})")
+        cols.append(v * factor)
+    t, v = cols
+    if len(t) < 2:
+        raise ValueError(f"{src}: needs at least 2 rows of data, got {len(t)}")
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size:
+        raise ValueError(f"{src}: time must increase strictly; data row {int(bad[0]) + 2} is not "
+                         f"after row {int(bad[0]) + 1}")
+    return t, v

@@ -5,6 +5,10 @@
 below) or a complete description. Parameters are addressed by their dotted path in the file,
 e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with units.
 
+Optional ``[supply.pressure_profile]`` / ``[return.pressure_profile]`` tables make the pump or
+tank pressure vary in time (step, sine, ramp about ``<side>.pressure``, or a CSV table of the
+absolute pressure); see :func:`hydroline.system.pressure_profile`.
+
 An optional ``[connections]`` table rewires component ports to other signals, e.g.
 ``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
 (an ideal supply). The network checks the result: a port wired to a signal nobody outputs is
@@ -28,6 +32,12 @@ class RigError(ValueError):
     """A rig file or parameter that cannot be used; the message is one line naming it."""
 
 
+#: A time-varying source pressure (``[supply.pressure_profile]``, ``[return.pressure_profile]``):
+#: ``type`` step (``time``, ``final``), sine (``amplitude``, ``frequency``, ``start``), ramp
+#: (``slope``, ``start``, ``end``) about ``<side>.pressure``, or table (``file``: CSV with
+#: ``time [unit]``, ``pressure [unit]`` columns, absolute, path relative to the rig file).
+_PROFILE = {"type": "str", "time": "s", "final": "Pa", "amplitude": "Pa", "frequency": "Hz",
+            "start": "s", "end": "s", "slope": "Pa/s", "file": "str"}
 _LINE = {"length": "m", "diameter": "m", "bulk_modulus": "Pa", "modes": "-"}
 _ACC = {"capacity": "m^3", "precharge_pressure": "Pa", "polytropic_exponent": "-",
         "connection_length": "m", "connection_diameter": "m", "model": "str", "modes": "-"}
@@ -38,10 +48,12 @@ SCHEMA = {
     "rig": {"name": "str", "modes_per_section": "-", "base": "str", "line_method": "str"},
     "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa"},
     "supply": {"pressure": "Pa"},
+    "supply.pressure_profile": _PROFILE,
     "supply.section1": _LINE, "supply.section2": _LINE,
     "supply.manifold": {"resistance": "Pa*s/m^3", "volume": "m^3"},
     "supply.accumulator": _ACC,
     "return": {"pressure": "Pa"},
+    "return.pressure_profile": _PROFILE,
     "return.section1": _LINE, "return.section2": _LINE,
     "return.manifold": {"resistance": "Pa*s/m^3", "volume": "m^3"},
     "return.check_valve": {"reverse_resistance": "Pa*s/m^3", "forward_resistance": "Pa*s/m^3"},
