@@ -89,6 +89,22 @@ def test_near_lossless_blocked_line_square_wave():
     assert np.max(np.abs(yd - np.where(k2 % 2 == 1, 2.0, 0.0))) < 2e-3
 
 
+def test_input_filter_near_lossless_lag():
+    # the blocked near-lossless line driven through a first-order lag a/(s + a): each
+    # arriving wave 2 (-1)^j of the square wave becomes 2 (-1)^j (1 - exp(-a (t - t_j)))
+    line = near_lossless()
+    T = line.wave_time
+    a = 3.0 / T
+    t = np.linspace(0.01, 12.0, 300) * T
+    y = exact_step_response(line, t, "PQ", (0, 0), friction="linear",
+                            input_filter=lambda s: a / (s + a))
+    expected = np.zeros_like(t)
+    for j in range(6):
+        tj = (2 * j + 1) * T
+        expected += np.where(t > tj, 2.0 * (-1) ** j * (1.0 - np.exp(-a * (t - tj))), 0.0)
+    assert np.max(np.abs(y - expected)) < 1e-6
+
+
 def test_near_lossless_other_entries():
     line = near_lossless()
     T, Z0 = line.wave_time, line.impedance

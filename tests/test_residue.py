@@ -246,6 +246,8 @@ def test_blocked_line_pressure_step(Dn):
     smooth = _blocked_line_response(line, t, W)
     assert np.abs(_blocked_line_response(line, t[sub], lambda s: 1.0) - exact[sub]).max() < 1e-12
     assert np.abs(_blocked_line_response(line, t[sub], W, 32) - smooth[sub]).max() < 1e-8
+    assert np.abs(exact_step_response(line, t[sub], "PQ", (0, 0), input_filter=W)
+                  - smooth[sub]).max() < 1e-10      # the library's filtered step (CLI table)
 
     late = t > 8 * tau
     errors = {}

@@ -11,7 +11,7 @@ from scipy.optimize import minimize_scalar
 
 from .line import FORM_PORTS
 
-__all__ = ["Resonance", "find_resonances", "compare_resonances"]
+__all__ = ["Resonance", "find_resonances", "compare_resonances", "resonance_f_max"]
 
 
 @dataclass
@@ -65,6 +65,17 @@ def find_resonances(response, f_max: float, entry, n_points: int = 4000, f_min: 
     return out
 
 
+def resonance_f_max(line, form: str, n_peaks: int) -> float:
+    """Frequency up to which the first ``n_peaks`` resonances of a form are scanned, [Hz].
+
+    Half a mode spacing above the n-th undamped modal frequency (M9): PQ/QP resonate at
+    ``(k - 1/2) pi/tau``, PP/QQ at ``k pi/tau``; the scan stops at ``n pi/tau`` or
+    ``(n + 1/2) pi/tau`` (``tau = L/c``).
+    """
+    theta_top = (n_peaks + 0.5) * np.pi if form in ("PP", "QQ") else n_peaks * np.pi
+    return theta_top / line.wave_time / (2 * np.pi)
+
+
 def compare_resonances(line, model, n_peaks: int | None = None, f_max: float | None = None):
     """Resonances of every entry of ``model.transfer`` against ``line.transfer`` (dissipative).
 
@@ -78,8 +89,7 @@ def compare_resonances(line, model, n_peaks: int | None = None, f_max: float | N
     form = model.form
     n = n_peaks or model.n_modes
     if f_max is None:
-        theta_top = (n + 0.5) * np.pi if form in ("PP", "QQ") else n * np.pi
-        f_max = theta_top / line.wave_time / (2 * np.pi)
+        f_max = resonance_f_max(line, form, n)
 
     def exact(s):
         return line.transfer(s, form)

@@ -302,7 +302,8 @@ def wave_series(line: Line, s, form: str = "PQ", entry=(0, 1), friction: str = "
 
 def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
                         friction: str = "dissipative", alpha: float = 1.0, beta: float = 1.0,
-                        method: str = "wavefront", n_terms: int | None = None):
+                        method: str = "wavefront", n_terms: int | None = None,
+                        input_filter=None):
     """Step response of one entry of the exact line transfer matrix (inverse of H(s)/s).
 
     The response, at times ``t``, of output ``entry[0]`` of the causal ``form`` to a unit step
@@ -329,6 +330,11 @@ def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
         Re(s) > 0 through :meth:`Line.transfer`; rings near fronts -- a cross-check).
     n_terms : int, optional
         Talbot nodes per wave (default 24) or de Hoog terms M (default 64) [-].
+    input_filter : callable, optional
+        ``W(s)``: the response to the step passed through W instead (inverse of
+        ``H(s) W(s)/s``), e.g. a smooth step that a finite modal model can resolve. W must
+        be analytic off the negative real axis (real poles, delays excluded) and W(0) = 1
+        for a unit final value; default W = 1.
 
     Returns
     -------
@@ -369,7 +375,8 @@ def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
         M = _n_terms(n_terms, min(1024, max(64, 8 * waves)), 2)
 
         def F(s):
-            return line.transfer(s, form, friction, alpha, beta)[..., i, j] / s
+            H = line.transfer(s, form, friction, alpha, beta)[..., i, j] / s
+            return H if input_filter is None else H * input_filter(s)
 
         out[pos] = dehoog(F, tf[pos], n_terms=M, tol=1e-12, period=float(tf.max()))
         return out.reshape(t.shape)
@@ -396,6 +403,8 @@ def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
         r = 0.4 * M / tps
         s = r[:, None] * st[None, :]
         G = np.exp(-m * excess(s)) / s
+        if input_filter is not None:
+            G = G * input_filter(s)
         if kfac != "1":
             _, zc = line.propagation(s, friction, alpha, beta)
             G = G * (zc if kfac == "Zc" else 1.0 / zc)
