@@ -245,3 +245,181 @@ def test_table_csv_errors_name_file_and_column(tmp_path):
     f.write_text("time [ms], pressure [MPa]\n0, 1\n0, 2\n")
     with pytest.raises(ValueError, match="increase strictly"):
         comp.TableCommand.from_csv_with_units(f, "Pa")
+
+
+# ---- servovalve: spool dynamics (M19), laps and the laminar region (M20) --------------------
+def test_spool_step_is_the_critically_damped_140_hz_curve():
+    """(M19) with zeta = 1: a current step i0 below saturation moves the spool as
+    x_v(t) = G_v i0 (1 - (1 + w tau) exp(-w tau)), tau = t - t_step, w = 2 pi 140 Hz,
+    G_v = x_max / i_rated (0.4 mm / 50 mA): 25 mA gives 0.2 mm."""
+    ports = {"current": "i", "supply_pressure": "pS", "return_pressure": "pR",
+             "bottom_pressure": "pb", "top_pressure": "pt"}
+    parts = [valve(connections=ports),
+             comp.StepCommand(name="cmd", initial=0.0, final=0.025, time=1e-3,
+                              connections={"command": "i"})]
+    parts += [comp.PressureSource(name=f"src_{k}", pressure=v, connections={"pressure": k})
+              for k, v in (("pS", 21e6), ("pR", 1e6), ("pb", 11e6), ("pt", 11e6))]
+    net = Network(parts)
+    res = integrate(net, np.zeros(len(net.state_names)), 0.03, dt_out=1e-4)
+    w = 2 * np.pi * 140.0
+    tau = np.maximum(res.t - 1e-3, 0.0)
+    x_hand = 0.2e-3 * (1 - (1 + w * tau) * np.exp(-w * tau))
+    assert np.max(np.abs(res["servovalve.spool_position"] - x_hand)) < 1e-4 * 0.2e-3
+    # no overshoot (critical damping); 10-90 % rise by hand: 1 - (1 + y) e^-y = 0.1, 0.9 at
+    # y = w tau = 0.5318, 3.8897, so t_r = 3.3579 / w = 3.817 ms
+    x = res["servovalve.spool_position"]
+    assert x.max() <= 0.2e-3 * (1 + 1e-6)
+    t10, t90 = (np.interp(f * 0.2e-3, x[res.t < 0.02], res.t[res.t < 0.02]) for f in (0.1, 0.9))
+    assert t90 - t10 == pytest.approx(3.3579 / w, rel=0.01)
+
+
+def test_null_leakage_through_underlap_by_hand():
+    """Spool at null, laps u = 4 um (1 % of x_max), ports at p_b = p_t = (p_S + p_R)/2: the
+    four edges are open by u, so (M20, M21)
+    q_S = 2 K_v u sqrt((p_S - p_R)/2) = 2 Q_N (u/x_max) sqrt((p_S - p_R)/dp_N)
+        = 2 * 3.1667e-4 * 0.01 * sqrt(19.7 MPa / 6.895 MPa) = 1.0705e-5 m^3/s (0.64 L/min),
+    all of it returning (q_R = q_S) and none into the chambers (q_b = q_t = 0)."""
+    u = 4e-6
+    v = valve(laps=(u,) * 4)
+    pS, pR = 20.7e6, 1.0e6
+    y = v.outputs_of(0.0, {"spool_position": 0.0, "spool_velocity": 0.0},
+                     {"current": 0.0, "supply_pressure": pS, "return_pressure": pR,
+                      "bottom_pressure": (pS + pR) / 2, "top_pressure": (pS + pR) / 2}, {})
+    q_hand = 2 * Q_N * (u / X_MAX) * np.sqrt((pS - pR) / DP_N)
+    assert q_hand == pytest.approx(1.0705e-5, rel=1e-4)
+    # laminar smoothing: (1 + (p_lam/dp)^2)^(-1/4) = 1 - 3e-7 at dp = 9.85 MPa, p_lam = 10 kPa
+    assert y["supply_flow"] == pytest.approx(q_hand, rel=1e-6)
+    assert y["return_flow"] == pytest.approx(q_hand, rel=1e-6)
+    assert abs(y["bottom_flow"]) < 1e-15 and abs(y["top_flow"]) < 1e-15
+    # zero laps: a critically lapped valve at null passes nothing; an overlap (negative lap)
+    # keeps every edge shut while |x_v| < the overlap
+    for laps, xv in (((0.0,) * 4, 0.0), ((-1e-5,) * 4, 5e-6)):
+        y = valve(laps=laps).outputs_of(0.0, {"spool_position": xv, "spool_velocity": 0.0},
+                                        {"current": 0.0, "supply_pressure": pS, "return_pressure": pR,
+                                         "bottom_pressure": 5e6, "top_pressure": 15e6}, {})
+        assert all(q == 0.0 for q in y.values())
+
+
+def test_laminar_region_slope_at_zero_drop():
+    """phi(dp) = dp/(dp^2 + p_lam^2)^(1/4) has slope 1/sqrt(p_lam) at dp = 0, so an edge
+    opened by x passes q = K_v x dp / sqrt(p_lam) near zero drop (finite conductance), and
+    the square-root law K_v x sqrt(dp) well above p_lam."""
+    v = valve(laminar_pressure=1e5)
+    K, x = v.coefficient, 2e-4
+    slope_hand = K * x / np.sqrt(1e5)
+    for dp in (1.0, -1.0, 10.0):
+        assert v.orifice(x, dp) / dp == pytest.approx(slope_hand, rel=1e-8)
+    # odd, smooth, and turbulent far away: 1 % of the square root at 7 p_lam
+    assert v.orifice(x, -5e4) == pytest.approx(-v.orifice(x, 5e4))
+    assert v.orifice(x, 7e5) == pytest.approx(K * x * np.sqrt(7e5), rel=0.011)
+    assert v.orifice(x, 1e7) == pytest.approx(K * x * np.sqrt(1e7), rel=1e-4)
+
+
+# ---- actuator (M22-M23), load, controller --------------------------------------------------
+def actuator(**kw):
+    args = dict(name="actuator", bottom_area=1e-3, top_area=1e-3, bottom_volume=1e-4,
+                top_volume=1e-4, bulk_modulus=1.4e9, moving_mass=20.0, stroke=0.1,
+                gravity=0.0, stop_stiffness=1e9)
+    args.update(kw)
+    return comp.Actuator(**args)
+
+
+def test_actuator_leakage_flows_by_hand():
+    """(M22) at x_p = 10 mm, v_p = 0.05 m/s, p_b = 10 MPa, p_t = 5 MPa, q_b = q_t = 0.1 L/s,
+    C_i = 1e-12, C_e = 2e-13 m^3/s/Pa:
+    q_i = C_i (p_t - p_b) = -5e-6, q_eb = 2e-6, q_et = 1e-6, A v = 5e-5 [m^3/s];
+    V_b = 1e-4 + 1e-5 = 1.1e-4, V_t = 0.9e-4 [m^3];
+    dp_b/dt = 1.4e9/1.1e-4 (1e-4 - 5e-5 - 5e-6 - 2e-6) = 5.4727e8 Pa/s,
+    dp_t/dt = 1.4e9/0.9e-4 (-1e-4 + 5e-5 + 5e-6 - 1e-6) = -7.1556e8 Pa/s."""
+    a = actuator(internal_leakage=1e-12, external_leakage=2e-13)
+    x = {"bottom_pressure": 10e6, "top_pressure": 5e6, "position": 0.01, "velocity": 0.05}
+    u = {"bottom_flow": 1e-4, "top_flow": 1e-4, "friction_force": 0.0, "load_force": 0.0}
+    d = a.derivatives(0.0, x, u, {})
+    assert d["bottom_pressure"] == pytest.approx(5.4727e8, rel=1e-4)
+    assert d["top_pressure"] == pytest.approx(-7.1556e8, rel=1e-4)
+    # (M23): A_b p_b - A_t p_t = 1e4 - 5e3 = 5 kN on 20 kg
+    assert d["velocity"] == pytest.approx(250.0)
+    # no leakage: the same chamber with the leak terms removed
+    d0 = actuator().derivatives(0.0, x, u, {})
+    assert d0["bottom_pressure"] - d["bottom_pressure"] == pytest.approx(1.4e9 / 1.1e-4 * 7e-6, rel=1e-9)
+
+
+def test_actuator_end_stop_force_by_hand():
+    """Stops at +-stroke/2 = +-50 mm: spring k = 1e9 N/m on the penetration, damper
+    c = 2 sqrt(k m) = 2 sqrt(1e9 * 20) = 2.828e5 N s/m engaged over the first 10 um."""
+    a = actuator()
+    pb = pt = 5e6
+    u = {"bottom_flow": 0.0, "top_flow": 0.0, "friction_force": 0.0, "load_force": 0.0}
+
+    def accel(xp, vp):
+        return a.derivatives(0.0, {"bottom_pressure": pb, "top_pressure": pt, "position": xp,
+                                   "velocity": vp}, u, {})["velocity"]
+
+    assert accel(0.0499, 0.1) == 0.0                                     # clear of the stop
+    assert accel(0.0501, 0.0) == pytest.approx(-1e9 * 1e-4 / 20.0)       # -100 kN
+    c = 2 * np.sqrt(1e9 * 20.0)
+    assert accel(0.050005, 0.1) == pytest.approx((-1e9 * 5e-6 - c * 0.1 * 0.5) / 20.0)
+    assert accel(-0.0502, 0.0) == pytest.approx(+1e9 * 2e-4 / 20.0)      # bottom stop pushes up
+    assert accel(-0.0502, -0.1) == pytest.approx((1e9 * 2e-4 + c * 0.1) / 20.0)
+
+
+def test_load_force_by_hand():
+    """F = k (x - x0) + b v + F_applied (+ F_step after its time), positive down:
+    1e5 (0.03 - 0.01) + 2e3 * 0.1 + 500 = 2000 + 200 + 500 = 2700 N."""
+    load = comp.Load(name="load", stiffness=1e5, damping=2e3, free_position=0.01, applied_force=500.0,
+                     step_time=0.5, step_force=100.0)
+    u = {"position": 0.03, "velocity": 0.1}
+    p = load.runtime_parameters()
+    assert load.outputs_of(0.0, {}, u, p)["load_force"] == pytest.approx(2700.0)
+    assert load.outputs_of(1.0, {}, u, p)["load_force"] == pytest.approx(2800.0)
+    assert load.breakpoints(1.0) == [0.5]
+
+
+def test_pid_output_by_hand():
+    """i = Kp e + Ki int(e) - Kd v_p (derivative on the measurement), clipped at +-limit:
+    Kp = 1.5 A/m, Ki = 10 A/(m s), Kd = 0.02 A s/m, e = 0.02 - 0.01 = 0.01 m,
+    int(e) = 0.002 m s, v_p = 0.05 m/s: i = 0.015 + 0.020 - 0.001 = 0.034 A."""
+    c = comp.PositionController(name="ctl", proportional_gain=1.5, integral_gain=10.0,
+                                derivative_gain=0.02, current_limit=0.05)
+    x = {"error_integral": 0.002}
+    u = {"reference": 0.02, "position": 0.01, "velocity": 0.05}
+    assert c.outputs_of(0.0, x, u, {})["current"] == pytest.approx(0.034)
+    assert c.derivatives(0.0, x, u, {})["error_integral"] == pytest.approx(0.01)   # d/dt int(e) = e
+    # the integral term alone saturates: 10 * 0.01 = 0.1 A > 50 mA
+    assert c.outputs_of(0.0, {"error_integral": 0.01}, u, {})["current"] == pytest.approx(0.05)
+    assert c.outputs_of(0.0, {"error_integral": -0.01}, u, {})["current"] == pytest.approx(-0.05)
+
+
+def test_pid_integral_accumulates_in_time():
+    """A constant error e = 5 mm for 0.2 s (reference held, position held): the integrator
+    state reaches e t = 1e-3 m s and the current Kp e + Ki e t = 7.5 mA + 10 mA = 17.5 mA."""
+    parts = [comp.PositionController(name="ctl", proportional_gain=1.5, integral_gain=10.0,
+                                     current_limit=0.05,
+                                     connections={"current": "i"}),
+             comp.StepCommand(name="ref", quantity="position", initial=0.005, final=0.005, time=1.0,
+                              connections={"command": "reference"}),
+             comp.StepCommand(name="pos", quantity="position", connections={"command": "position"}),
+             comp.StepCommand(name="vel", quantity="velocity", connections={"command": "velocity"})]
+    net = Network(parts)
+    res = integrate(net, np.zeros(len(net.state_names)), 0.2, dt_out=1e-3)
+    assert res["ctl.error_integral"][-1] == pytest.approx(1e-3, rel=1e-6)
+    assert res["i"][-1] == pytest.approx(0.0175, rel=1e-6)
+
+
+def test_modal_and_version_ii_accumulator_connections_agree():
+    """MODEL.md 3: the accumulator connection as a rigid column (R, I; version II, M18) or as a
+    full modal PP line; the 0.1 m passage is short (first mode c/2L ~ 6.6 kHz, far above the 40 Hz
+    and 31 Hz port oscillations), so both give the same port oscillation within a few %."""
+    from hydroline.rigs import load_rig
+    from hydroline.scenarios import simulate, summarize
+
+    out = {}
+    for model in ("version-II", "modal"):
+        rig = load_rig()
+        for side in ("supply", "return"):
+            rig.set(f"{side}.accumulator.model", model)
+        out[model] = summarize(simulate(rig, t_end=0.12))
+    for side in ("supply", "return"):
+        a, b = out["version-II"][side], out["modal"][side]
+        assert b["frequency_hz"] == pytest.approx(a["frequency_hz"], rel=0.03)
+        assert b["amplitude_mpa"] == pytest.approx(a["amplitude_mpa"], rel=0.05)
