@@ -41,7 +41,20 @@ def _fmt(c):
 
 
 def dump_json(obj, file=None):
-    json.dump(obj, file or sys.stdout, indent=2)
+    """Strict JSON (RFC 8259) on stdout or ``file``: NaN and +-inf, which JSON has no word
+    for, are written as null (a metric that does not exist)."""
+    import math
+
+    def clean(v):
+        if isinstance(v, float):
+            return v if math.isfinite(v) else None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        return v
+
+    json.dump(clean(obj), file or sys.stdout, indent=2, allow_nan=False)
     (file or sys.stdout).write("\n")
 
 
