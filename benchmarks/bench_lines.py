@@ -13,17 +13,33 @@ one vectorised update per time step dt = L/(N c)). "State updates per s": states
 right-hand-side evaluations (ODE models) or nodes times unknowns per node times time steps
 (characteristics) per simulated second, a language-neutral measure of work.
 
-Usage: python benchmarks/bench_lines.py
+Before that, a resonance table on the same hose (issue 2's frequency-domain check, both
+methods side by side, issue 7): for every form and n = 6, 10, 20 modes, the worst error in
+frequency and in peak magnitude of the first n resonances of every entry against the exact
+dissipative model (M6), split into modes 1..n-1 and mode n (the one next to the first
+dropped mode).
+
+Then issue 7's time-domain check on the same hose, both methods side by side: blocked end,
+unit pressure step, 20 wave periods, each model by its exact matrix exponential against the
+exact response (``hydroline.cli.line_response.blocked_step_errors``): max and rms error,
+max after two periods, and max for a step smoothed so that the n retained modes resolve it
+(the raw step's error near the first wave fronts is truncation, ~half the jump, for any
+finite modal line).
+
+Usage: python benchmarks/bench_lines.py [--resonances-only | --accuracy-only]
 """
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
 
 import hydroline
 from hydroline import components as comp
-from hydroline.lines import ModalLine
+from hydroline.cli.line_response import blocked_step_errors
+from hydroline.lines import FORMS, ModalLine
+from hydroline.lines.compare import compare_resonances
 from hydroline.lines.characteristics import CharacteristicsLine
 from hydroline.lines.inverse_laplace import exact_step_response
 from hydroline.lines.lumped import LumpedLine
@@ -69,8 +85,72 @@ def run_state_space(model, line, t_end, dt_out, repeat=3):
     return res.t, res["pd"] / STEP, best, res.stats
 
 
-def main():
+def resonance_table(line, modes=(6, 10, 20)):
+    """Print the worst resonance errors per method, form and n against the exact line (M6)."""
+    print(f"Resonances against the exact dissipative line: L = {line.length:g} m, "
+          f"d = {line.diameter * 1e3:g} mm, Dn = {line.dissipation_number:.4f}; worst over "
+          "the 4 entries, in %")
+    head = ["method", "form", "n", "freq err", "peak err modes 1..n-1", "peak err mode n",
+            "build [ms]"]
+    rows = []
+    for method in ("yang-tobler", "residue"):
+        for form in FORMS:
+            for n in modes:
+                tic = time.perf_counter()
+                model = ModalLine(line, n, form, method=method)
+                build = 1e3 * (time.perf_counter() - tic)
+                res = compare_resonances(line, model)
+                if len(res) != 4 * n:
+                    rows.append([method, form, n, f"{len(res)} of {4 * n} peaks found", "-", "-",
+                                 f"{build:.0f}"])
+                    continue
+                fe = max(abs(r.frequency_error_pct) for r in res)
+                inner = max((abs(r.magnitude_error_pct) for r in res if r.mode < n), default=0.0)
+                top = max(abs(r.magnitude_error_pct) for r in res if r.mode == n)
+                rows.append([method, form, n, f"{fe:.3f}", f"{inner:.2f}", f"{top:.2f}",
+                             f"{build:.0f}"])
+    widths = [max(len(str(r[i])) for r in rows + [head]) for i in range(len(head))]
+    print("  ".join(h.rjust(w) for h, w in zip(head, widths)))
+    print("  ".join("-" * w for w in widths))
+    for r in rows:
+        print("  ".join(str(c).rjust(w) for c, w in zip(r, widths)))
+    print()
+
+
+def step_table(line, modes=(6, 10, 20), periods=20):
+    """Print the blocked-line step errors per method and n (exact matrix exponential)."""
+    print(f"Blocked end, unit pressure step, {periods} wave periods, against the exact "
+          "dissipative response; error in % of the step")
+    head = ["method", "n", "max", "rms", "max after 2 periods", "smoothed step max"]
+    rows = []
+    for n in modes:
+        models = {m: ModalLine(line, n, "PQ", method=m) for m in ("yang-tobler", "residue")}
+        _, _, _, err = blocked_step_errors(line, models, periods)
+        for m, e in err.items():
+            rows.append([m, n, f"{e['max_pct']:.2f}", f"{e['rms_pct']:.3f}",
+                         f"{e['max_settled_pct']:.3f}", f"{e['max_smooth_pct']:.3f}"])
+    widths = [max(len(str(r[i])) for r in rows + [head]) for i in range(len(head))]
+    print("  ".join(h.rjust(w) for h, w in zip(head, widths)))
+    print("  ".join("-" * w for w in widths))
+    for r in sorted(rows, key=lambda r: (r[0], r[1])):
+        print("  ".join(str(c).rjust(w) for c, w in zip(r, widths)))
+    print()
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--resonances-only", action="store_true",
+                    help="print the resonance table only (no time-domain runs)")
+    ap.add_argument("--accuracy-only", action="store_true",
+                    help="print the resonance and step-error tables only (no timing)")
+    args = ap.parse_args(argv)
     line = hose_lines(hydroline.load_rig())["supply.section1"]
+    resonance_table(line)
+    if args.resonances_only:
+        return
+    step_table(line)
+    if args.accuracy_only:
+        return
     tau = line.wave_time
     t_end = 40 * tau
     dt_out = t_end / 2000
