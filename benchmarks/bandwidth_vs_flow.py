@@ -4,7 +4,9 @@ against the operating velocity, modal lines, exact lines (M6) and ideal constant
 At rest an underlapped valve draws the same supply flow whichever way the spool moves (to
 first order), so the hoses hardly matter; with flow through the valve the supply and return
 line resonances enter the plant, and at high flow the first line resonance becomes the
-bandwidth limit (the 2005 paper's point).
+bandwidth limit (the 2005 paper's point). Where the piston velocity's response rises more
+than 3 dB above its low-frequency gain (at rest: the 172 Hz actuator resonance, +16 dB) it is
+resonant, not low-pass, and has no -3 dB bandwidth ('-'; bode_analysis notes why).
 
     /tmp/venv/bin/python benchmarks/bandwidth_vs_flow.py
 """
@@ -17,6 +19,11 @@ from hydroline.analysis.frequency import CONSTANT, EXACT, MODAL, rated_velocity
 from hydroline.rigs import load_rig
 
 
+def _hz(bw):
+    """A bandwidth [Hz], or '-' where the response is resonant (not low-pass) and has none."""
+    return "-" if bw is None else f"{bw:.1f}"
+
+
 def main():
     rig = load_rig()
     f = np.logspace(0, np.log10(500.0), 1500)
@@ -27,8 +34,8 @@ def main():
         tic = time.perf_counter()
         res = bode_analysis(rig, OperatingPoint(0.0, v), "valve_current", ["piston_velocity"], f)
         bw = {k: res.bandwidths[k]["piston_velocity"] for k in (MODAL, EXACT, CONSTANT)}
-        print(f"{v:8.3f} {res.operating_points[MODAL].valve_current * 1e3:7.2f} {bw[MODAL]:11.1f} "
-              f"{bw[EXACT]:11.1f} {bw[CONSTANT]:14.1f} {time.perf_counter() - tic:9.2f}")
+        print(f"{v:8.3f} {res.operating_points[MODAL].valve_current * 1e3:7.2f} {_hz(bw[MODAL]):>11} "
+              f"{_hz(bw[EXACT]):>11} {_hz(bw[CONSTANT]):>14} {time.perf_counter() - tic:9.2f}")
 
 
 if __name__ == "__main__":

@@ -121,6 +121,50 @@ def test_dominant_eigenvalues_match_nonlinear_small_step(rest_model):
     assert 25 < fr["return_port_pressure"] < fr["supply_port_pressure"] < 50 < 150 < fr["piston_velocity"]
 
 
+def test_dominant_eigenvalues_match_nonlinear_small_step_default_rig():
+    """The same check on the default rig (hydroline.load_rig(), Coulomb and static friction
+    in): a 1 mA step at rest, mid-stroke. The piston then slides at 16-50 mm/s, well above
+    C_s = 5 mm/s, where (M24)'s slope is its viscous coefficient -- the slope the linear model
+    uses (friction='viscous'). Measured: piston velocity and bottom chamber 172.20 Hz
+    nonlinear vs 171.98 Hz linear (+0.13 %), supply port 39.11 vs 39.10 Hz, return port
+    31.40 vs 31.40 Hz.
+
+    Steps inside the friction dead band miss by ~3 %: after a 0.1 mA step the piston rings
+    between 0 and 9.5 mm/s, in and out of the Stribeck region and the regularised stick
+    (|v| < 0.1 mm/s), where (M24)'s slope is nowhere near F_v (strongly negative below 2 C_s,
+    F_s/v_reg ~ 9e5 N s/m at stick), so the actuator mode rings at 166.5 Hz instead of 172.0 Hz
+    (-3.2 %; the port modes still agree, 39.12 / 31.40 Hz). No linear model holds that."""
+    rig = load_rig()
+    sys = linearize(rig, OperatingPoint(0.0, 0.0), inputs=["valve_current"], outputs=OUTS)
+    res = _nonlinear_step(rig, sys, 1e-3, 0.3)
+    moving = res["piston_velocity"][res.t > 10e-3]
+    assert moving.min() > 3 * rig["friction.stribeck_velocity"]     # sliding, past the hump
+    rs = resonances(sys, "valve_current", OUTS)
+    for out in OUTS:
+        dominant = max(rs, key=lambda r: r.strength[out])
+        f_linear = abs(dominant.eigenvalue.imag) / (2 * np.pi)
+        f_nonlinear = oscillation_frequency(res.t, res[out], 5e-3)
+        assert f_nonlinear == pytest.approx(f_linear, rel=0.02), (out, f_nonlinear, f_linear)
+    fr = {o: max(rs, key=lambda r: r.strength[o]).frequency_hz for o in OUTS}
+    assert 25 < fr["return_port_pressure"] < fr["supply_port_pressure"] < 50 < 150 < fr["piston_velocity"]
+
+
+def test_linearize_default_input_and_output_names():
+    """linearize() with no arguments: the issue's inputs (valve current, external force, pump
+    pressure) and outputs (valve port pressures, chamber pressures, piston position and
+    velocity), in that order, about the piston at rest at mid-stroke."""
+    sys = linearize()
+    assert sys.input_labels == ["valve_current", "external_force", "pump_pressure"]
+    assert sys.output_labels == ["supply_port_pressure", "return_port_pressure",
+                                 "bottom_chamber_pressure", "top_chamber_pressure",
+                                 "piston_position", "piston_velocity"]
+    n = sys.A.shape[0]
+    assert sys.B.shape == (n, 3) and sys.C.shape == (6, n) and sys.D.shape == (6, 3)
+    s = sys.operating_point.signals
+    assert s["piston_position"] == pytest.approx(0.0, abs=1e-12)
+    assert s["piston_velocity"] == pytest.approx(0.0, abs=1e-12)
+
+
 def _linear_step(sys, t, di):
     """Response of the linear model's outputs to a step di of its first input at t = 0
     (exact discretisation: matrix exponential of the augmented system)."""
@@ -172,16 +216,36 @@ def bode_default():
 def test_constant_supply_bandwidth_above_hoses_default_rig(bode_default, tmp_path):
     """The 2005 paper's point: the hoses cost bandwidth. Piston velocity per valve current at
     the rated-flow operating point of the default rig: the -3 dB bandwidth with ideal supply
-    and return pressures is above that with the hoses (modal and exact lines)."""
+    and return pressures is above that with the hoses (modal and exact lines).
+
+    Measured: 152.7 Hz constant supply, 149.4 Hz modal lines, 149.1 Hz exact lines (-2.2 %,
+    -2.4 %). The comparison is strict (>): no physical law fixes how much the hoses must
+    cost -- at 150 Hz it depends on the port impedance of the hoses between their line modes
+    -- so no margin is asserted. What is asserted is that the effect is resolved: the
+    constant-vs-hoses gap is several times the modal-vs-exact discrepancy (0.4 Hz), so it is
+    not an artefact of the modal truncation.
+
+    The supply port pressure is resonant (+25 dB at the 39 Hz line mode above its
+    low-frequency gain): it has no -3 dB bandwidth, only the note "resonant, not low-pass"."""
     bw = bode_default.bandwidths
     assert bw[CONSTANT]["piston_velocity"] > bw[MODAL]["piston_velocity"]
     assert bw[CONSTANT]["piston_velocity"] > bw[EXACT]["piston_velocity"]
+    gap = bw[CONSTANT]["piston_velocity"] - bw[EXACT]["piston_velocity"]
+    assert gap > 3 * abs(bw[MODAL]["piston_velocity"] - bw[EXACT]["piston_velocity"])
+    for label in (MODAL, EXACT):
+        g = np.abs(bode_default.curves[label][:, 1])
+        assert g.max() > 10 * g[0]                      # +20 dB and more: a resonance
+        assert bw[label]["supply_port_pressure"] is None
+        assert "resonant, not low-pass" in bode_default.notes[label]["supply_port_pressure"]
     # the ideal supply holds the port pressure: nothing to plot, no bandwidth
     assert np.all(bode_default.curves[CONSTANT][:, 1] == 0)
     fig = plot_bode(bode_default.f, bode_default.curves, "valve_current", bode_default.outputs,
-                    bw, path=tmp_path / "bode.png")
+                    bw, path=tmp_path / "bode.png", highest_mode_hz=bode_default.highest_mode_hz)
     labels = {ln.get_label() for ln in fig.axes[0].get_lines()}
     assert {MODAL, EXACT, CONSTANT} <= labels
+    f_top = bode_default.highest_mode_hz
+    assert 300 < f_top < 400                                       # 6 modes, 3.048 m hoses
+    assert f"highest retained mode, {f_top:.0f} Hz" in labels    # the vertical line
     assert (tmp_path / "bode.png").stat().st_size > 10_000
 
 
@@ -195,6 +259,8 @@ def test_bode_cli_json_and_figure(tmp_path, capsys):
     assert bw[MODAL]["piston_position"] is None          # an integrator has no DC gain
     assert "integrating" in out["bandwidth_notes"][MODAL]["piston_position"]
     assert any(abs(r["frequency_hz"] - 172) < 10 for r in out["resonances"][CONSTANT])
+    assert bw[MODAL]["top_chamber_pressure"] is None   # +20 dB at the actuator mode
+    assert "resonant, not low-pass" in out["bandwidth_notes"][MODAL]["top_chamber_pressure"]
     for name in ("bode.png", "bode.json", "bode.csv"):
         assert (tmp_path / name).is_file()
     rc = main(["bode", "--output", "no_such_signal", "--out", str(tmp_path)])
@@ -227,18 +293,29 @@ def test_modal_vs_exact_lines_agree_up_to_highest_retained_mode(coupled):
     """Exact lines (M6) against the modal rig, judged by the line library's own accuracy on the
     rig's hoses (compare_resonances: every entry of every hose, all retained modes):
 
-    * every lightly damped pole below the highest retained mode has an exact-line twin
-      (root of det(I - G_rw L)) within 1 % in frequency (the library's tested bound) and
-      within the library's worst peak error in damping (a peak scales as 1/zeta);
-    * every resonance peak of the exact port pressures below the highest retained mode has a
-      modal peak within 1 % in frequency; their heights agree within the library's worst peak
-      error over the lower half of the modes (the part the library itself guarantees for
-      lines with Dn > 0.003, tests/test_lines.py).
+    * every lightly damped pole below the highest retained mode f_top (363 Hz) has an
+      exact-line twin (root of det(I - G_rw L)) within 1 % in frequency (the library's tested
+      bound) and within the library's worst peak error in damping (a peak scales as 1/zeta);
+    * every resonance peak of the exact port pressures below f_top has a modal peak within 1 %
+      in frequency, and their heights agree, all the way to f_top, within the library's
+      per-mode yardstick: eps = the largest peak error of the port's own hoses (every
+      entry) at the two line modes that bracket the peak, compounded over the n hose
+      sections in series between the port and the pump/tank, (1 + eps)^n - 1. Both sections
+      of a side have the same length, so their modes coincide and their errors multiply at
+      the rig's peak. Measured (modal vs exact peak height, yardstick), supply port:
+      38.8 Hz +6.7 % (11.7 %), 108 Hz +5.2 % (11.7 %), 180 Hz +3.5 % (11.7 %), 251 Hz +5.3 %
+      (13.8 %), 324 Hz -0.5 % (13.8 %); return port: 31.6 Hz +3.4 % (8.6 %), 95 Hz +4.7 %
+      (11.9 %), 159 Hz +1.9 % (11.9 %), 223 Hz +6.6 % (14.1 %), 288 Hz -0.5 % (14.1 %),
+      352 Hz +19.3 % (22.2 %: the library's own error at the 6th mode is 10.5 %, and both
+      return sections sit at that mode). Peaks below 2 % of the channel's largest
+      (ripples next to an antiresonance, e.g. 160 Hz supply -24 %, 180 Hz return +60 %) are
+      not resonances and are not judged.
     """
     sys, model = coupled
-    rows = [r for h in model.hoses for r in compare_resonances(h.model.line, h.model)]
-    lib_peak = max(abs(r.magnitude_error_pct) for r in rows) / 100
-    assert max(abs(r.frequency_error_pct) for r in rows) < 1.0
+    rows = {h.name: compare_resonances(h.model.line, h.model) for h in model.hoses}
+    every = [r for rs in rows.values() for r in rs]
+    lib_peak = max(abs(r.magnitude_error_pct) for r in every) / 100
+    assert max(abs(r.frequency_error_pct) for r in every) < 1.0
     f_top = highest_retained_mode(model)
     rs = [r for r in resonances(sys, "valve_current", list(DEFAULT_OUTPUTS), f_max=f_top)
           if r.damping_ratio < 0.2]
@@ -249,8 +326,23 @@ def test_modal_vs_exact_lines_agree_up_to_highest_retained_mode(coupled):
         f_e, z_e = twins[r.eigenvalue]
         assert r.frequency_hz == pytest.approx(f_e, rel=0.01), r
         assert r.damping_ratio == pytest.approx(z_e, rel=lib_peak), r
+
+    def yardstick(side, fe):
+        """(1 + eps)^n - 1 of the side's n hoses, eps at the modes bracketing fe."""
+        hoses = [name for name in rows if name.startswith(side + ".")]
+        eps = 0.0
+        for name in hoses:
+            modes = sorted({r.exact_frequency_hz for r in rows[name] if r.entry == (0, 0)})
+            below = max([m for m in modes if m <= fe], default=modes[0])
+            above = min([m for m in modes if m >= fe], default=modes[-1])
+            eps = max([eps] + [abs(r.magnitude_error_pct) / 100 for r in rows[name]
+                               if min(abs(r.exact_frequency_hz - below),
+                                      abs(r.exact_frequency_hz - above)) < 0.02 * fe])
+        return (1 + eps) ** len(hoses) - 1
+
     j = 0   # valve_current
-    for out in ("supply_port_pressure", "return_port_pressure"):
+    judged = 0
+    for out, side in (("supply_port_pressure", "supply"), ("return_port_pressure", "return")):
         i = list(DEFAULT_OUTPUTS).index(out)
         peaks = {}
         for lines in ("modal", "exact"):
@@ -266,5 +358,8 @@ def test_modal_vs_exact_lines_agree_up_to_highest_retained_mode(coupled):
         for fe, me in exact_peaks:
             fm, mm = min(peaks["modal"], key=lambda p: abs(p[0] - fe))
             assert fm == pytest.approx(fe, rel=0.01), (out, fm, fe)
-            if fe < f_top / 2:
-                assert mm == pytest.approx(me, rel=lib_peak), (out, fe, mm, me)
+            tol = yardstick(side, fe)
+            assert tol < 0.25                         # the yardstick itself stays meaningful
+            assert mm == pytest.approx(me, rel=tol), (out, fe, mm / me - 1, tol)
+            judged += fe > f_top / 2
+    assert judged >= 4                                # the upper half is checked too

@@ -38,7 +38,7 @@ def _display(name):
 
 
 def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None = None,
-              path=None, title=None):
+              path=None, title=None, highest_mode_hz: float | None = None):
     """Magnitude and phase of ``output/input`` for several model variants.
 
     Parameters
@@ -51,6 +51,8 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
                           lines and listed in each panel's lower left, in the curves' colours
     path : str            PNG to write
     title : str           Figure title
+    highest_mode_hz : float  Highest retained mode of the modal lines (the frequency up to
+                          which they follow the exact lines), drawn as a grey vertical line
 
     Returns
     -------
@@ -58,6 +60,8 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     """
     plt = _plt()
     outputs = list(outputs)
+    f_top = highest_mode_hz if highest_mode_hz is not None and np.isfinite(highest_mode_hz) \
+        and f[0] < highest_mode_hz < f[-1] else None
     n = len(outputs)
     fig, axes = plt.subplots(2, n, figsize=(max(4.6 * n + 0.8, 8.0), 7.0), sharex=True, squeeze=False)
     styles = ["-", "--", ":", "-."]
@@ -86,6 +90,10 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
         for k, (text, color) in enumerate(notes):
             am.text(0.02, 0.03 + 0.08 * (len(notes) - 1 - k), ("-3 dB: " if k == 0 else "") + text,
                     transform=am.transAxes, fontsize=8, color=color, ha="left", va="bottom")
+        if f_top is not None:
+            for ax in (am, ap):
+                ax.axvline(f_top, color="0.5", lw=1.0, ls="-.",
+                           label=f"highest retained mode, {f_top:.0f} Hz" if ax is am else None)
         am.set_title(f"{o_label} / {in_label}", fontsize=10)
         am.set_ylabel(f"|H| [dB re 1 {o_unit}/{in_unit}]")
         ap.set_ylabel("phase [deg]")

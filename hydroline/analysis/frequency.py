@@ -420,7 +420,9 @@ class BodeResult:
     input : str
     outputs : list[str]
     curves : dict             Variant label -> complex ``(len(f), len(outputs))``, [SI]
-    bandwidths : dict         Label -> {output: -3 dB bandwidth [Hz] or None}
+    bandwidths : dict         Label -> {output: -3 dB bandwidth [Hz] or None}; None also
+                              where |H| rises more than 3 dB above its low-frequency gain
+                              (resonant, not low-pass: e.g. the port pressures)
     notes : dict              Label -> {output: why there is no bandwidth} where None
     resonances : dict         Label -> list[Resonance] (modal and constant-supply models)
     exact_poles : dict        Modal eigenvalue -> (frequency [Hz], damping [-]) of the
@@ -445,6 +447,12 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
                   input_name: str = "valve_current", outputs=("piston_velocity",), f=None,
                   compare: bool = True, exact: bool = True, friction: str = "viscous") -> BodeResult:
     """Bode data with modal lines, exact lines and (optionally) ideal constant supply.
+
+    The -3 dB bandwidth of a channel is measured against its low-frequency gain and only for
+    a low-pass response: where |H| rises more than 3 dB above that gain anywhere in ``f``
+    (the port pressures' line resonances, the chamber pressures' actuator resonance, or the
+    piston velocity at rest, +16 dB at 172 Hz on the default rig) it is None with the note
+    "resonant, not low-pass"; integrating outputs (piston position) have none either.
 
     Parameters
     ----------
@@ -501,10 +509,20 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
             elif integrating:
                 notes[label][out] = "integrating output (no DC gain)"
             else:
-                bw = bandwidth(f, H[:, j], reference=dc)
-                if bw is None:
-                    notes[label][out] = f"above {f[-1]:g} Hz"
-                elif bw <= f[0]:
-                    bw, notes[label][out] = None, f"below {f[0]:g} Hz"
+                g = np.abs(H[:, j])
+                k = int(np.argmax(g))
+                if g[k] > np.sqrt(2.0) * dc:
+                    # a -3 dB point of a response that climbs above its low-frequency gain
+                    # (a port pressure's line resonance, +25 dB) says nothing about how fast
+                    # the channel follows: a bandwidth only means something for a low-pass
+                    notes[label][out] = (f"resonant, not low-pass (peak "
+                                         f"{20 * np.log10(g[k] / dc):+.1f} dB re low-frequency "
+                                         f"gain, at {f[k]:.4g} Hz)")
+                else:
+                    bw = bandwidth(f, H[:, j], reference=dc)
+                    if bw is None:
+                        notes[label][out] = f"above {f[-1]:g} Hz"
+                    elif bw <= f[0]:
+                        bw, notes[label][out] = None, f"below {f[0]:g} Hz"
             bws[label][out] = bw
     return BodeResult(f, input_name, outputs, curves, bws, notes, res, exact_poles, ops, f_top)
