@@ -47,39 +47,103 @@ def test_steady_state_pressure_drops_along_supply_and_return():
     assert abs(s["supply.accumulator_flow"]) < 1e-12 and abs(s["return.accumulator_flow"]) < 1e-12
 
 
-def test_fluid_volume_conserved_in_closed_network():
-    """QQ hose blocked at the valve end + accumulator: the oil the gas pushes out is stored in
-    the hose's compliance. Final common pressure p_f solves, by hand,
-    C (p_f - p_i) = V_g(p_f) - V_g0,  V_g(p) = V_g0 (p_g0/p)^(1/m)   (M16)."""
-    line = Line(3.0, 0.0159, MINERAL_OIL, 2e8)
-    hose = comp.HoseSection(name="hose", model=ModalLine(line, 4, "QQ"), nominal_pressure=10e6,
-                            connections={"upstream_flow": "hose_inflow", "downstream_flow": "valve_flow",
-                                         "upstream_pressure": "node_pressure",
-                                         "downstream_pressure": "valve_port_pressure"})
-    blocked = comp.StepCommand(name="valve", quantity="flow", initial=0.0, final=0.0, time=1.0,
-                               connections={"command": "valve_flow"})
-    acc = comp.PistonAccumulator(name="acc", capacity=1e-3, precharge_pressure=5e6, polytropic_exponent=1.4,
-                                 resistance=2e9, inertance=3e5, nominal_pressure=15e6,
-                                 connections={"pressure": "node_pressure", "flow": "acc_flow"})
-    node = comp.FlowJunction(name="node", terms={"acc": -1},
-                             connections={"acc": "acc_flow", "flow": "hose_inflow"})
-    net = Network([hose, blocked, acc, node])
-    # start: hose at rest at 10 MPa, gas charged to 15 MPa (out of equilibrium)
-    p_i, p_g0 = 10e6, 15e6
-    x0 = np.zeros(len(net.state_names))
-    x0[net.state_names.index("hose.column.volume")] = line.capacitance * p_i
-    Vg0 = 1e-3 * 5e6 / p_g0
-    x0[net.state_names.index("acc.gas_volume")] = Vg0
+def _closed_network(laps):
+    """Two hoses, an accumulator, two manifold nodes and a real servovalve at null, sealed.
+
+    V1 (accumulator) -> supply hose (PQ) -> valve P port;  valve T port -> return hose (PQ,
+    oriented from V2 toward the valve, so its downstream flow is minus the valve's return
+    flow) -> V2 -> resistance -> V1. Valve control ports end in closed chamber volumes.
+    Lumped R-I-C hoses: their stored volume is a function of their states, (C/N) sum p_k."""
+    from hydroline.lines.lumped import LumpedLine
+
+    beta = MINERAL_OIL.bulk_modulus
+    l1 = Line(3.0, 0.0159, MINERAL_OIL, 2e8)
+    l2 = Line(2.0, 0.0159, MINERAL_OIL, 1.5e8)
+    vol = lambda name, V, terms, p, conn: comp.HydraulicVolume(  # noqa: E731
+        name=name, volume=V, bulk_modulus=beta, terms=terms, nominal_pressure=p, connections=conn)
+    parts = [
+        comp.StepCommand(name="command", connections={"command": "valve_current"}),   # null
+        comp.Servovalve(name="valve", rated_current=0.05, rated_flow=19e-3 / 60,
+                        rated_pressure_drop=6.895e6, max_opening=4e-4, laps=laps,
+                        connections={"current": "valve_current", "supply_pressure": "pS",
+                                     "return_pressure": "pR", "bottom_pressure": "pb",
+                                     "top_pressure": "pt", "supply_flow": "qS",
+                                     "return_flow": "qR", "bottom_flow": "qb", "top_flow": "qt"}),
+        comp.HoseSection(name="supply", model=LumpedLine(l1, 8), nominal_pressure=10e6, connections={
+            "upstream_pressure": "p1", "downstream_flow": "qS", "downstream_pressure": "pS",
+            "upstream_flow": "q1"}),
+        comp.FlowJunction(name="flip", terms={"r": -1}, connections={"r": "qR", "flow": "q_to_T"}),
+        comp.HoseSection(name="return", model=LumpedLine(l2, 8), nominal_pressure=5e6, connections={
+            "upstream_pressure": "p2", "downstream_flow": "q_to_T", "downstream_pressure": "pR",
+            "upstream_flow": "q2"}),
+        comp.LinearResistance(name="R", compute="flow", resistance=2e9,
+                              connections={"inlet_pressure": "p2", "outlet_pressure": "p1",
+                                           "flow": "q21"}),
+        comp.PistonAccumulator(name="acc", capacity=1e-3, precharge_pressure=5e6,
+                               polytropic_exponent=1.4, resistance=2e9, inertance=3e5,
+                               nominal_pressure=15e6, connections={"pressure": "p1", "flow": "qa"}),
+        vol("V1", 50e-6, {"r": 1, "line": -1, "acc": -1}, 12e6,
+            {"r": "q21", "line": "q1", "acc": "qa", "pressure": "p1"}),
+        vol("V2", 30e-6, {"line": -1, "r": -1}, 5e6, {"line": "q2", "r": "q21", "pressure": "p2"}),
+        vol("Vb", 20e-6, {"valve": 1}, 8e6, {"valve": "qb", "pressure": "pb"}),
+        vol("Vt", 25e-6, {"valve": -1}, 11e6, {"valve": "qt", "pressure": "pt"}),
+    ]
+    return Network(parts), l1, l2, beta
+
+
+@pytest.mark.parametrize("lap", [0.0, 4e-6])
+def test_fluid_volume_conserved_in_closed_network(lap):
+    """Mass (MODEL.md 2-4): in a sealed network of hoses, accumulator, nodes and a servovalve
+    at null the oil volume at zero gauge pressure is constant:
+        S = C1/N sum p_k + C2/N sum p_k + (V_0 - V_g) + sum_nodes V p / beta
+    (hose storage, accumulator oil (M16), node compressibility). Started far from
+    equilibrium: hoses at 10 and 5 MPa, nodes at 12, 5, 8 and 11 MPa, gas at 15 MPa.
+    Zero laps: the valve is blocked (M20: every opening sg(0) = 0), the chambers keep their
+    pressures and the rest reaches one pressure p_f; by hand (adiabatic gas, M16)
+        sum_j C_j (p_f - p_j0) = V_g0 ((p_g0/p_f)^(1/1.4) - 1),  j: hoses, V1, V2
+    (C_j = A L/beta_e for a hose, V/beta for a node).
+    4 um underlap: the valve's null leakage joins the chambers to the hoses, so every
+    volume ends at one p_f that solves the same balance over all volumes."""
+    net, l1, l2, beta = _closed_network((lap,) * 4)
+    names = net.state_names
+    x0 = np.zeros(len(names))
+    init = {"supply": 10e6, "return": 5e6}
+    for n in names:
+        if n.endswith(".pressure"):
+            x0[names.index(n)] = init.get(n.split(".")[0], 0.0)
+    node_p0 = {"V1": 12e6, "V2": 5e6, "Vb": 8e6, "Vt": 11e6}
+    node_V = {"V1": 50e-6, "V2": 30e-6, "Vb": 20e-6, "Vt": 25e-6}
+    for k, v in node_p0.items():
+        x0[names.index(f"{k}.pressure")] = v
+    p_g0, V0, p0 = 15e6, 1e-3, 5e6
+    Vg0 = V0 * p0 / p_g0
+    x0[names.index("acc.gas_volume")] = Vg0
     p = net.parameter_values.copy()
     p[net.parameter_names.index("acc.reference_pressure")] = p_g0
-    res = integrate(net, x0, 3.0, dt_out=1e-3, p=p)
-    C = line.capacitance
-    p_f = brentq(lambda pf: C * (pf - p_i) - (Vg0 * (p_g0 / pf) ** (1 / 1.4) - Vg0), p_i, p_g0)
-    assert res["node_pressure"][-1] == pytest.approx(p_f, rel=1e-5)
-    assert res["valve_port_pressure"][-1] == pytest.approx(p_f, rel=1e-5)
-    # and at every instant: hose storage + accumulator oil = const (to the integrator's tolerance)
-    stored = res["hose.column.volume"] + (1e-3 - res["acc.gas_volume"])
-    assert np.ptp(stored) < 1e-6 * stored[0]
+    res = integrate(net, x0, 4.0, dt_out=2e-3, p=p)
+
+    def hose(name, line):
+        cols = [c for c in res.data.columns if c.startswith(f"{name}.segment") and c.endswith(".pressure")]
+        return line.capacitance / len(cols) * res.data[cols].to_numpy().sum(axis=1)
+
+    S = hose("supply", l1) + hose("return", l2) + (V0 - res["acc.gas_volume"]) \
+        + sum(node_V[k] * res[f"{k}.pressure"] / beta for k in node_V)
+    moved = res["acc.gas_volume"].max() - Vg0        # oil the gas pushed out, [m^3]
+    assert moved > 1e-5                               # a real transient: > 10 cm^3
+    assert np.max(np.abs(S - S[0])) < 1e-8 * moved    # conserved (linear invariant of BDF)
+    # final state by hand
+    C = {"supply": l1.capacitance, "return": l2.capacitance,
+         **{k: node_V[k] / beta for k in node_V}}
+    start = {"supply": 10e6, "return": 5e6, **node_p0}
+    joined = list(C) if lap > 0 else ["supply", "return", "V1", "V2"]
+    p_f = brentq(lambda pf: sum(C[j] * (pf - start[j]) for j in joined)
+                 - Vg0 * ((p_g0 / pf) ** (1 / 1.4) - 1), p0, p_g0)
+    for sig in ("p1", "p2", "pS", "pR") + (("pb", "pt") if lap > 0 else ()):
+        assert res[sig][-1] == pytest.approx(p_f, rel=1e-5)
+    if lap == 0:   # blocked: no flow at any port, the chambers untouched
+        for q in ("qS", "qR", "qb", "qt"):
+            assert np.all(res[q] == 0.0)
+        assert np.ptp(res["pb"]) == 0.0 and np.ptp(res["pt"]) == 0.0
 
 
 def test_linearised_natural_frequency_with_ideal_supply():
