@@ -23,8 +23,29 @@ def _figure(n):
     return plt.subplots(n, 1, figsize=(8, 2.4 * n + 0.6), sharex=True, squeeze=False)
 
 
+def _window_end(result):
+    """End of the metrics window (piston clear of its stops), [s]; None when it is the end."""
+    t1 = result.metadata.get("metrics_window_end")
+    if t1 is None and "piston_position" in result.data and "stroke" in result.metadata:
+        from .scenarios import metrics_window
+
+        t1 = metrics_window(result)[1]
+    return t1 if t1 is not None and t1 < result.t[-1] else None
+
+
+def _limits(values, margin=0.08):
+    lo, hi = float(np.min(values)), float(np.max(values))
+    pad = margin * (hi - lo) if hi > lo else max(abs(hi), 1.0) * 0.05
+    return lo - pad, hi + pad
+
+
 def plot_result(result, signals=None, path=None, title=None):
     """Plot a simulation result; panels of the paper's Figs. 10-12 by default.
+
+    When the piston reaches a stop before the end (the open-loop step), the part after it
+    -- a second transient, outside the metrics window -- is drawn in grey on a shaded
+    background, and every panel's y-range is set by the metrics window, so the oscillation
+    after the step (what the paper's Figs. 10-12 show) fills the panel.
 
     Parameters
     ----------
@@ -41,23 +62,37 @@ def plot_result(result, signals=None, path=None, title=None):
     panels = tuple(p for p in panels if any(k in result.data for k in p[1]))
     fig, axes = _figure(len(panels))
     t_ms = result.t * 1e3
+    t1 = _window_end(result)
+    inside = result.t <= t1 if t1 is not None else np.ones(len(result.t), bool)
+    k1 = int(np.count_nonzero(inside))
+    t0 = result.metadata.get("t_disturbance")
     for ax, (label, keys, scale) in zip(axes[:, 0], panels):
+        shown = []
         for k in keys:
             if k in result.data:
-                ax.plot(t_ms, result[k] * scale, lw=1.0, label=k.replace("_", " "))
+                y = result[k] * scale
+                line, = ax.plot(t_ms[:k1], y[:k1], lw=1.0, label=k.replace("_", " "))
+                if t1 is not None:   # after the stop: grey, and not in the y-range
+                    ax.plot(t_ms[k1 - 1:], y[k1 - 1:], lw=0.8, color="0.6")
+                shown.append(y[:k1])
+        if t1 is not None and shown:
+            ax.set_ylim(*_limits(np.concatenate(shown)))
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
         ax.legend(loc="best", fontsize=8)
-    t1 = result.metadata.get("metrics_window_end")
     for ax in axes[:, 0]:
-        t0 = result.metadata.get("t_disturbance")
         if t0:
             ax.axvline(t0 * 1e3, color="0.6", lw=0.8, ls=":")
-        if t1 and t1 < result.t[-1]:
+        if t1 is not None:
+            ax.axvspan(t1 * 1e3, t_ms[-1], color="0.88", zorder=0, lw=0)
             ax.axvline(t1 * 1e3, color="r", lw=0.8, ls=":")
-    if t1 and t1 < result.t[-1]:
-        axes[0, 0].annotate("piston reaches its stop", (t1 * 1e3, 1.0), xycoords=("data", "axes fraction"),
-                            fontsize=8, color="r", ha="left", va="top")
+        ax.set_xlim(t_ms[0], t_ms[-1])
+    if t1 is not None:
+        axes[0, 0].annotate(f"piston at its stop ({t1 * 1e3:.0f} ms): outside the metrics window,\n"
+                            "greyed, not in the y-range", (t1 * 1e3, 0.98),
+                            xycoords=("data", "axes fraction"), xytext=(4, 0),
+                            textcoords="offset points", fontsize=8, color="r", ha="left", va="top",
+                            bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.85))
     axes[-1, 0].set_xlabel("time [ms]")
     fig.suptitle(title or f"hydroline: {result.metadata.get('scenario', 'simulation')}")
     fig.tight_layout()

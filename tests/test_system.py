@@ -332,3 +332,26 @@ def test_supply_pressure_table_from_rig_file(tmp_path):
     assert p_f - p_i == pytest.approx(-2.0e6, abs=5e3)
     V_i, V_f = res["supply.accumulator.gas_volume"][[0, -1]]
     assert V_f / V_i == pytest.approx((p_i / p_f) ** (1 / 1.4), rel=1e-4)
+
+
+def test_pressure_figure_scaled_to_the_metrics_window(default_run):
+    """pressures.png: after the piston reaches its stop (end of the metrics window) the traces
+    are greyed on a shaded span and do not set the y-range; the oscillation after the step
+    fills the panels (the paper's Figs. 10-12)."""
+    import matplotlib.pyplot as plt
+    from hydroline.scenarios import metrics_window
+
+    t0, t1 = metrics_window(default_run)
+    assert t0 < t1 < default_run.t[-1]                       # the piston does reach its stop
+    fig = default_run.plot()
+    ax = fig.axes[0]                                          # supply port [MPa]
+    p = default_run["supply_port_pressure"] / 1e6
+    inside, after = p[default_run.t <= t1], p[default_run.t > t1]
+    lo, hi = ax.get_ylim()
+    assert lo <= inside.min() and inside.max() <= hi          # the window fits
+    assert hi < after.max()                                   # the stop transient is clipped
+    assert hi - lo < 1.2 * np.ptp(inside)
+    spans = [a for a in ax.patches   # axvspan: x in data units, whatever the patch class
+             if a.get_path().get_extents(a.get_patch_transform()).x0 == pytest.approx(t1 * 1e3)]
+    assert spans, "no shaded span after the stop"
+    plt.close(fig)
