@@ -5,7 +5,7 @@ rig's values, many noise seeds: the standardised errors z = (ln est - ln truth)/
 have mean ~0 and standard deviation ~1, and the 95 % intervals should cover the truth in
 about 95 % of the records (binomial standard error sqrt(0.05*0.95/n)).
 
-    /tmp/venv/bin/python benchmarks/fit_coverage.py [n_seeds]
+    /tmp/venv/bin/python benchmarks/fit_coverage.py [n_seeds] [case substring]
 """
 import sys
 import time
@@ -27,6 +27,16 @@ CASES = {
                "friction.viscous_up": ("1000 N*s/m", 1000.0)},
         current=lambda t: np.where(t >= 0.01, 5e-3, 0.0), t_end=0.06, start="hold", x0=-0.02,
         noise={"supply_port_pressure": 2e4, "piston_position": 1e-5}),
+    "open-loop rated step from the stop; supply accumulator pre-charge; p_S 20 kPa": dict(
+        truth={"supply.accumulator.precharge_pressure": ("8 MPa", 8e6)},
+        current=lambda t: np.where(t >= 0.01, 0.05, 0.0), t_end=0.06, start="rest", x0=None,
+        noise={"supply_port_pressure": 2e4}),
+    "held at +40 mm, -2 then -10 mA; friction down (viscous, Coulomb); p_b, p_t 20 kPa, x_p 10 um": dict(
+        truth={"friction.viscous_down": ("750 N*s/m", 750.0),
+               "friction.coulomb_down": ("40 N", 40.0)},
+        current=lambda t: np.where(t >= 0.04, -10e-3, np.where(t >= 0.01, -2e-3, 0.0)),
+        t_end=0.07, start="hold", x0=0.04,
+        noise={"bottom_chamber_pressure": 2e4, "top_chamber_pressure": 2e4, "piston_position": 1e-5}),
 }
 
 
@@ -45,10 +55,12 @@ def record(case, seed):
     return meas
 
 
-def main(n=40):
+def main(n=40, only=None):
     rig = load_rig()
-    print(f"{'case':<90} {'parameter':<30} {'mean z':>7} {'std z':>6} {'95% cover':>9} {'s/fit':>6}")
+    print(f"{'case':<92} {'parameter':<37} {'mean z':>7} {'std z':>6} {'95% cover':>9} {'s/fit':>6}")
     for label, case in CASES.items():
+        if only and only not in label:
+            continue
         names = list(case["truth"])
         truth = np.array([case["truth"][k][1] for k in names])
         zs, tic = [], time.perf_counter()
@@ -58,10 +70,10 @@ def main(n=40):
         wall = (time.perf_counter() - tic) / n
         zs = np.array(zs)
         for j, k in enumerate(names):
-            print(f"{label:<90} {k:<30} {zs[:, j].mean():7.2f} {zs[:, j].std():6.2f} "
+            print(f"{label:<92} {k:<37} {zs[:, j].mean():7.2f} {zs[:, j].std():6.2f} "
                   f"{np.mean(np.abs(zs[:, j]) < 1.96):9.0%} {wall:6.2f}")
     print(f"(n = {n} seeds; binomial standard error of the coverage {np.sqrt(0.05 * 0.95 / n):.1%})")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 40)
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 40, sys.argv[2] if len(sys.argv) > 2 else None)

@@ -16,8 +16,17 @@
    exp(-(|v|/C_s)^delta))`` with its own ``F_v, F_c, F_s`` for v > 0 and v < 0 and a common
    Stribeck velocity C_s (one value in the rig, as in (M24)) and exponent delta (held). For
    a given C_s the model is linear in the coefficients, solved by non-negative least squares
-   per direction; C_s minimises the total residual (variable projection). Without points at
-   speeds near C_s, F_s and C_s are not identifiable; the result says so.
+   per direction, each steady point weighted by the samples it averages; C_s minimises the
+   total residual (variable projection). F_s and C_s are identifiable only from steady points
+   slower than about 2 C_s in both directions (a sine's samples there are reversals, and a
+   fit to faster points hangs the hump on their ripple): ``static_identified`` is False
+   without them, or when the standard error of F_s is not well below the hump F_s - F_c,
+   and the rig's values are kept.
+4. **Slow runs**: below ~2 C_s (M24)'s friction falls with speed, faster than the viscous
+   term and the valve's pressure-flow slope damp, and an open-loop run stick-slips instead of
+   settling (the default rig does at 0.1-0.2 mA). A viscous damper specimen, its
+   force measured (``external_force``), restores a steady velocity there;
+   :func:`virtual_friction_tests` does so.
 
 Data come as :class:`~hydroline.analysis.fit.Measurements` (CSV columns of
 :mod:`hydroline.analysis.fit`): ``time``, ``piston_position``, ``bottom_chamber_pressure``,
