@@ -1,8 +1,6 @@
 """``hydroline bode``: frequency response of the linearised test system, hoses vs ideal supply."""
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 from ..analysis.figures import plot_bode
@@ -110,7 +108,8 @@ def run(args) -> int:
                         exact=not args.no_exact, friction=args.friction)
     out = out_dir(args.out)
     summary = summary_dict(res, op)
-    (out / "bode.json").write_text(json.dumps(summary, indent=2) + "\n")
+    with open(out / "bode.json", "w") as fh:     # strict JSON: NaN/inf as null
+        dump_json(summary, fh)
     cols = {"frequency [Hz]": res.f}
     for label, H in res.curves.items():
         for j, o in enumerate(outputs):

@@ -1,8 +1,6 @@
 """``hydroline fit``: calibrate rig parameters to a measured record (nonlinear least squares)."""
 from __future__ import annotations
 
-import json
-
 from ..analysis.figures import plot_fit
 from ..analysis.fit import COLUMNS, STARTS, fit_parameters, read_measurements
 from ..rigs import load_rig
@@ -74,7 +72,8 @@ def run(args) -> int:
     summary = res.to_dict()
     summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),
                    ignored_columns=meas.ignored)
-    (out / "fit.json").write_text(json.dumps(summary, indent=2) + "\n")
+    with open(out / "fit.json", "w") as fh:     # strict JSON: NaN/inf as null
+        dump_json(summary, fh)
     t = meas.t
     plot_fit(t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial, res.fitted,
              path=out / "fit.png", title=f"hydroline fit: {data_path}")

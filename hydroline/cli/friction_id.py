@@ -1,8 +1,6 @@
 """``hydroline friction-id``: friction by Newton's law, (M24) fitted up and down separately."""
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 from ..analysis.figures import plot_friction
@@ -94,7 +92,8 @@ def run(args) -> int:
                "static_note": fit.static_note,
                "rms_residual_n": {"up": fit.rms_up, "down": fit.rms_down},
                "rig_file": str(rig_file)}
-    (out / "friction.json").write_text(json.dumps(summary, indent=2, default=float) + "\n")
+    with open(out / "friction.json", "w") as fh:     # strict JSON: NaN/inf as null
+        dump_json(summary, fh)
     if args.json:
         dump_json(summary)
         return 0
