@@ -259,7 +259,9 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
             if solver == "compiled":
                 raise
             solver_note = f"compiled core unavailable ({e}); used CVODES"
-            warnings.warn(solver_note, RuntimeWarning, stacklevel=2)
+            if isinstance(e, compiled.CompilerUnavailable):   # a machine problem: say it once
+                warnings.warn(solver_note, RuntimeWarning, stacklevel=2)
+            # (an operation the C writer lacks, e.g. a long interpolation table, is by design)
         build_time = _time.perf_counter() - tic
     backend = "compiled" if native is not None else ("cvodes" if solver == "auto" else solver)
     columns = list(network.signal_names) + list(network.state_names)
