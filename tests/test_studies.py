@@ -9,6 +9,7 @@ on loopback gives the local-process table.
 """
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -16,6 +17,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import jsonschema
 import numpy as np
@@ -37,6 +39,9 @@ from hydroline.system import make_fluid, make_line
 T_END = 0.12      # [s]: the metrics window of the open-loop step ends at the piston stop, ~0.11 s
 SWEEP_SETS = ["supply.section2.bulk_modulus=150 MPa,178 MPa,200 MPa",
               "supply.accumulator.precharge_pressure=10 MPa,14 MPa"]
+#: 12 variants (~50 ms each): long enough for a signal to land midway through the CLI's run.
+KILL_SETS = ["supply.section2.bulk_modulus=linspace(150 MPa, 200 MPa, 4)",
+             "supply.accumulator.precharge_pressure=10 MPa,12 MPa,14 MPa"]
 
 
 # --------------------------------------------------------------------------- physics
@@ -354,27 +359,149 @@ def test_sweep_interrupted_and_resumed_equals_uninterrupted(uninterrupted, tmp_p
     assert sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, resume=True).n_computed == 0
 
 
-def test_sweep_cli_killed_with_sigterm_resumes(uninterrupted, tmp_path):
-    """A real kill: SIGTERM to ``hydroline sweep`` midway, then ``--resume``."""
-    out = tmp_path / "killed"
-    args = ["sweep", *sum((["--set", s] for s in SWEEP_SETS), []), "--t-end", f"{T_END} s",
-            "--workers", "1", "--out", str(out)]
-    proc = subprocess.Popen([sys.executable, "-m", "hydroline", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    journal = out / "sweep.jsonl"
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and proc.poll() is None:
-        if journal.exists() and journal.read_text().count("\n") >= 2:     # header + 1 row
-            break
-        time.sleep(0.01)
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
-    assert proc.returncode == 130, err            # stopped midway, cleanly
+def test_sweep_interrupted_on_worker_processes_keeps_the_running_variants(uninterrupted,
+                                                                          tmp_path):
+    """Stopped at its first row on 2 worker processes, the sweep waits for the variant the
+    other worker is running and records it too: nothing already computed is lost."""
+    seen = []
+
+    def stop_at_first(row):
+        seen.append(row["variant"])
+        if len(seen) == 1:
+            raise _Stop
+
+    with pytest.raises(_Stop):
+        sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, callback=stop_at_first)
+    rows = read_journal(tmp_path / "sweep.jsonl")[1]
+    # the first, the other worker's, and any already handed to a worker (not cancellable)
+    assert len(rows) >= 2
+    assert sorted(rows) == sorted(seen)             # every recorded row was reported
+    res = sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, resume=True)
+    assert res.n_computed == 6 - len(rows)
+    pd.testing.assert_frame_equal(_without_timing(res.table), _without_timing(uninterrupted.table))
+
+
+def test_sweep_parquet_matches_csv(uninterrupted):
+    pytest.importorskip("pyarrow")
+    pq = pd.read_parquet(uninterrupted.files["parquet"])
+    csv = pd.read_csv(uninterrupted.files["csv"])
+    assert list(pq.columns) == list(csv.columns) and len(pq) == 6
+    # CSV has no empty text or None: both read back as NaN
+    pd.testing.assert_frame_equal(pq.replace("", np.nan).fillna(np.nan), csv, check_dtype=False)
+    pd.testing.assert_frame_equal(pq, uninterrupted.table)
+
+
+def test_sweep_without_pyarrow_says_so(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)          # import pyarrow -> ImportError
+    assert main(["sweep", "--set", "supply.section2.bulk_modulus=178 MPa", "--t-end", "0.12 s",
+                 "--workers", "1", "--out", str(tmp_path)]) == 0
+    assert "sweep.parquet not written: pip install pyarrow" in capsys.readouterr().out
+    assert (tmp_path / "sweep.csv").exists() and not (tmp_path / "sweep.parquet").exists()
+
+
+def test_sweep_resumed_with_fewer_samples_keeps_the_extra_rows(tmp_path):
+    spec = ["supply.section2.bulk_modulus=uniform(150 MPa, 200 MPa)"]
+    first = sweep(spec, samples=3, seed=5, t_end=T_END, workers=1, out=tmp_path)
+    assert len(first.table) == 3 and not first.notes
+    fewer = sweep(spec, samples=2, seed=5, t_end=T_END, workers=1, out=tmp_path, resume=True)
+    assert fewer.n_computed == 0 and len(fewer.table) == 2
+    assert len(read_journal(tmp_path / "sweep.jsonl")[1]) == 3      # nothing dropped
+    assert any("--samples 3" in n for n in fewer.notes)
+    pd.testing.assert_frame_equal(fewer.table, first.table.iloc[:2])
+
+
+@pytest.fixture(scope="module")
+def kill_reference():
+    """The 12-variant sweep of the kill tests, uninterrupted, in memory (as its CSV reads)."""
+    table = sweep(KILL_SETS, t_end=T_END, workers=2).table
+    return pd.read_csv(io.StringIO(table.to_csv(index=False)))
+
+
+def _kill_args(out, workers):
+    return ["sweep", *sum((["--set", s] for s in KILL_SETS), []), "--t-end", f"{T_END} s",
+            "--workers", str(workers), "--out", str(out)]
+
+
+def _proc_stat(pid):
+    try:
+        return (Path("/proc") / str(pid) / "stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+
+
+def _descendants(root):
+    children = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit() and (st := _proc_stat(d.name)) is not None:
+            children.setdefault(int(st[1]), []).append(int(d.name))
+    found, todo = [], [root]
+    while todo:
+        for c in children.get(todo.pop(), []):
+            found.append(c)
+            todo.append(c)
+    return found
+
+
+def _running(pid):
+    st = _proc_stat(pid)
+    return st is not None and st[0] not in ("Z", "X")       # zombies have ended
+
+
+def _start_and_signal(tmp_path, workers, sig):
+    """Run the CLI sweep and send it ``sig`` once its first row is in the results file;
+    (out, returncode, stderr, descendant pids at the signal). Tried again in a fresh folder
+    if the sweep had already finished (a heavily loaded machine)."""
+    for attempt in range(3):
+        out = tmp_path / f"run{attempt}"
+        proc = subprocess.Popen([sys.executable, "-m", "hydroline", *_kill_args(out, workers)],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        journal = out / "sweep.jsonl"
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            if journal.exists() and journal.read_text().count("\n") >= 2:     # header + 1 row
+                break
+            time.sleep(0.005)
+        pids = _descendants(proc.pid) if Path("/proc/self/stat").exists() else []
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+        if proc.returncode != 0:
+            return out, proc.returncode, err, pids
+    pytest.fail("the sweep finished three times before the signal reached it")
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_sweep_cli_killed_with_sigterm_resumes(kill_reference, tmp_path, workers):
+    """A real kill: SIGTERM to ``hydroline sweep`` midway, then ``--resume``. On worker
+    processes the variants running at the signal are finished and recorded as well."""
+    out, code, err, _ = _start_and_signal(tmp_path, workers, signal.SIGTERM)
+    assert code == 130, err                       # stopped midway, cleanly
     assert "--resume" in err
-    assert 1 <= len(read_journal(journal)[1]) < 6
-    assert main([*args, "--resume"]) == 0
+    rows = read_journal(out / "sweep.jsonl")[1]
+    assert 1 <= len(rows) < 12
+    if workers == 2:      # the first row, and at least the variant the other worker ran
+        assert len(rows) >= 2
+    # the message counts what this run recorded, the in-flight variants included
+    assert f"interrupted after {len(rows)} variants" in err
+    assert main([*_kill_args(out, 2), "--resume"]) == 0     # resumed on 2 workers: faster
     pd.testing.assert_frame_equal(_without_timing(pd.read_csv(out / "sweep.csv")),
-                                  _without_timing(pd.read_csv(uninterrupted.files["csv"])))
+                                  _without_timing(kill_reference))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sweep_cli_killed_with_sigkill_leaves_no_workers(tmp_path):
+    """SIGKILL gives the CLI no chance to stop its pool: the worker processes notice that
+    it is gone and end (and with them the forkserver). (Resuming after a kill that cuts a
+    line short: test_sweep_interrupted_and_resumed_equals_uninterrupted.)"""
+    out, code, err, pids = _start_and_signal(tmp_path, 2, signal.SIGKILL)
+    assert code == -signal.SIGKILL
+    assert len(pids) >= 3          # forkserver, 2 workers (and the resource tracker)
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and any(_running(p) for p in pids):
+        time.sleep(0.05)
+    left = [p for p in pids if _running(p)]
+    for p in left:                 # clean up before failing
+        os.kill(p, signal.SIGKILL)
+    assert not left, "worker processes outlived the killed sweep"
 
 
 def test_sweep_with_invalid_variant_finishes_the_others(tmp_path, capsys):
@@ -392,11 +519,27 @@ def test_sweep_with_invalid_variant_finishes_the_others(tmp_path, capsys):
                              "return_frequency_hz", "return_amplitude_mpa"]].to_numpy()).all()
     csv = pd.read_csv(tmp_path / "sweep.csv")
     assert csv["error"].notna().tolist() == [False, True, False]
+    # the results file is strict JSON: the failed row's missing metrics are null, not NaN
+    lines = (tmp_path / "sweep.jsonl").read_text().splitlines()
+    rows = {r["variant"]: r for r in (json.loads(line, parse_constant=_no_constant)
+                                      for line in lines[1:])}
+    assert rows[1]["supply_frequency_hz"] is None and rows[1]["error"]
     # the CLI reports it and still succeeds
     assert main(["sweep", "--set", "return.section2.diameter=-1 mm", "--t-end", "0.12 s",
                  "--workers", "1", "--out", str(tmp_path / "cli")]) == 0
     out = capsys.readouterr().out
     assert "1 failed" in out and "return.section2.diameter" in out
+    # and --json is strict JSON too (null for the metrics of the failed variant)
+    assert main(["sweep", "--set", "return.section2.diameter=-1 mm,15.9 mm", "--t-end", "0.12 s",
+                 "--workers", "1", "--out", str(tmp_path / "cli_json"), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out, parse_constant=_no_constant)
+    assert rows[0]["supply_amplitude_mpa"] is None and rows[0]["error"]
+    assert rows[1]["supply_amplitude_mpa"] > 0 and rows[1]["error"] is None
+    json.dumps(rows, allow_nan=False)
+
+
+def _no_constant(name):
+    raise ValueError(f"{name} is not JSON")
 
 
 def test_sweep_on_dask_cluster_matches_local_processes(tmp_path):
@@ -413,3 +556,25 @@ def test_sweep_on_dask_cluster_matches_local_processes(tmp_path):
         remote = sweep(sets, t_end=T_END, scheduler=address, out=tmp_path)
     assert remote.n_failed == 0
     pd.testing.assert_frame_equal(_without_timing(remote.table), _without_timing(local.table))
+
+
+def test_sweep_cli_on_local_dask_cluster(uninterrupted, tmp_path, capsys):
+    """``--scheduler local``: a dask.distributed cluster on loopback, started and closed by
+    the CLI; its rows equal those of the same variants on local processes."""
+    pytest.importorskip("distributed")
+    assert main(["sweep", "--set", "supply.section2.bulk_modulus=150 MPa,178 MPa",
+                 "--set", "supply.accumulator.precharge_pressure=14 MPa", "--t-end", "0.12 s",
+                 "--scheduler", "local", "--workers", "1", "--out", str(tmp_path), "--json"]) == 0
+    got = pd.DataFrame(json.loads(capsys.readouterr().out))
+    ref = uninterrupted.table.iloc[[1, 3]]          # 150/14 MPa and 178/14 MPa
+    for col in ("supply.section2.bulk_modulus", "supply_frequency_hz", "supply_amplitude_mpa",
+                "return_frequency_hz", "return_amplitude_mpa"):
+        assert got[col].tolist() == pytest.approx(ref[col].tolist(), rel=1e-9)
+
+
+def test_studies_reachable_from_import_hydroline():
+    """``import hydroline`` alone (a fresh interpreter) gives hydroline.studies.layout/sweep."""
+    code = ("import hydroline; assert callable(hydroline.studies.layout) and "
+            "callable(hydroline.studies.sweep); print('ok')")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr

@@ -36,10 +36,15 @@ examples:
   hydroline sweep ... --scheduler tcp://10.0.0.5:8786   # an existing Dask cluster
   hydroline sweep ... --scheduler local --workers 8     # a local Dask cluster
 
-out/sweep.jsonl gets every row as it finishes (the record --resume continues from);
-out/sweep.csv (and out/sweep.parquet where pyarrow is installed) the table in variant order:
-variant, inputs in SI units (one column per path), supply/return frequency_hz, amplitude_mpa,
-settling_time_s, wall_time_s, warnings, error (the reason a variant failed, else empty).
+out/sweep.jsonl gets every row as it finishes (the record --resume continues from; on
+Ctrl-C or SIGTERM the variants already running are finished and recorded too);
+out/sweep.csv (and out/sweep.parquet where pyarrow is installed, else a note says so) the
+table in variant order: variant, inputs in SI units (one column per path), supply/return
+frequency_hz, amplitude_mpa, settling_time_s, wall_time_s, supply/return_settling_method
+("measured" within the metrics window, "estimated" from the decay of the ringing at the
+piston stop, as in 'hydroline layout'), warnings, error (the reason a variant failed, else
+empty). A random design resumed with a smaller --samples keeps the extra rows in
+sweep.jsonl, not in the table (a note says so).
 """
 
 
@@ -142,6 +147,8 @@ def run(args) -> int:
         signal.signal(signal.SIGTERM, old)
     table = result.table
     if args.json:
+        for note in result.notes:   # stdout holds only the JSON
+            print(f"hydroline sweep: note: {note}", file=sys.stderr)
         dump_json([{k: _plain(v) for k, v in r.items()} for r in table.to_dict("records")])
         return 0
     d = result.design
@@ -178,6 +185,8 @@ def run(args) -> int:
         if len(fails) > 10:
             print(f"  ... and {len(fails) - 10} more failed variants (column 'error')")
     print(f"  wrote {', '.join(str(p) for p in result.files.values())}")
+    for note in result.notes:       # parquet not written, rows beyond a smaller --samples
+        print(f"  note: {note}")
     return 0
 
 

@@ -23,9 +23,19 @@ arrives (one JSON object per line, after a header line that identifies the sweep
 scenario, end time, solver and the design). ``resume=True`` reads that file, checks that it
 belongs to the same sweep, keeps every row already there (failed ones included: a failure is
 a result) and runs only the missing variants; a line cut short by a kill is dropped and its
-variant run again. At the end (or on interruption) the table of every finished variant, in
-variant order, is written to ``DIR/sweep.csv`` and, where pyarrow is installed, to
-``DIR/sweep.parquet``.
+variant run again. On an interruption (Ctrl-C, SIGTERM to the CLI, an exception from the
+callback) the variants already running are waited for and recorded too. At the end (or on
+interruption) the table of every finished variant of the design, in variant order, is
+written to ``DIR/sweep.csv`` and, where pyarrow is installed, to ``DIR/sweep.parquet``
+(otherwise :attr:`SweepResult.notes` says so). Rows of a random design resumed with a smaller
+``samples`` stay in the results file, out of the table (a note says so).
+
+Worker processes end with the process that started the sweep, even when it is killed with
+SIGKILL (a thread in each worker watches it: a pidfd on Linux, else a poll every 0.5 s).
+
+Per-variant time limits are not offered: the compiled integrator runs a whole variant in one
+C call, which a Python-level timer cannot interrupt, and ending a worker process from the
+parent breaks the pool for the other variants in flight.
 """
 from __future__ import annotations
 
@@ -42,8 +52,9 @@ from pathlib import Path
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import SCENARIOS, simulate, summarize
+from ..scenarios import SCENARIOS, simulate
 from .design import Design, Parameter, parse_parameters
+from .settling import port_summary
 
 __all__ = ["sweep", "run_variant", "SweepResult", "SweepFileError", "METRIC_COLUMNS",
            "JOURNAL_NAME", "read_journal"]
@@ -54,6 +65,9 @@ METRIC_COLUMNS = ["supply_frequency_hz", "supply_amplitude_mpa", "supply_settlin
                   "return_frequency_hz", "return_amplitude_mpa", "return_settling_time_s",
                   "wall_time_s"]
 TRACKING_COLUMNS = ["tracking_error_rms_mm", "tracking_error_max_mm"]
+#: How each settling time was obtained: "measured", "estimated" or "" (none), see
+#: :func:`hydroline.studies.settling.port_settling`.
+SETTLING_COLUMNS = ["supply_settling_method", "return_settling_method"]
 JOURNAL_NAME = "sweep.jsonl"
 FORMAT_VERSION = 1
 #: Times a variant may be in flight when a worker process dies before it is recorded failed.
@@ -92,7 +106,9 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
     -------
     dict  ``variant``, the inputs, :data:`METRIC_COLUMNS` (frequencies [Hz], amplitudes
           [MPa], settling times [s], wall time [s]; None where a metric does not exist),
-          ``warnings`` (text, "" when none) and ``error`` (None, or "Type: reason").
+          :data:`SETTLING_COLUMNS` (how each settling time was obtained, as in the layout
+          study: :func:`hydroline.studies.settling.port_settling`), ``warnings`` (text, ""
+          when none) and ``error`` (None, or "Type: reason").
     """
     from .design import parameter_unit
 
@@ -103,24 +119,41 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
     if scenario == "closed-loop-sine":
         for k in TRACKING_COLUMNS:
             row[k] = None
+    for k in SETTLING_COLUMNS:
+        row[k] = ""
     row["warnings"], row["error"] = "", None
     try:
         r = rig.copy()
         for path, v in values.items():
             _set_si(r, path, v, (units or {}).get(path) or parameter_unit(path))
         res = simulate(r, scenario, t_end, solver=solver)
-        s = summarize(res)
+        s = port_summary(res)
         for side in ("supply", "return"):
             for k in ("frequency_hz", "amplitude_mpa", "settling_time_s"):
-                row[f"{side}_{k}"] = s[side][k]
+                row[f"{side}_{k}"] = _finite_or_none(s[side][k])
+            row[f"{side}_settling_method"] = s[side]["settling_method"] or ""
         for k in TRACKING_COLUMNS:
             if k in s:
-                row[k] = s[k]
+                row[k] = _finite_or_none(s[k])
         row["warnings"] = "; ".join(s["warnings"])
     except Exception as e:   # a failed variant is recorded, never sinks the sweep
         row["error"] = _reason(e)
     row["wall_time_s"] = _time.perf_counter() - tic
     return row
+
+
+def _finite_or_none(v):
+    """None for a metric that does not exist (None or NaN/inf): rows are strict JSON."""
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _json_line(row: dict) -> str:
+    """One results-file line; NaN/inf (never valid JSON) become null."""
+    return json.dumps({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                       for k, v in row.items()}, allow_nan=False)
 
 
 def _reason(e: BaseException) -> str:
@@ -132,6 +165,7 @@ def _failed_row(index, values, reason, scenario) -> dict:
     row = {"variant": int(index), **values, **{k: None for k in METRIC_COLUMNS}}
     if scenario == "closed-loop-sine":
         row.update({k: None for k in TRACKING_COLUMNS})
+    row.update({k: "" for k in SETTLING_COLUMNS})
     row["warnings"], row["error"] = "", reason
     return row
 
@@ -204,6 +238,9 @@ class SweepResult:
     wall_time : float         Wall time of this call, [s]
     files : dict              "journal", "csv", "parquet" -> Path of the files written
     complete : bool           Every variant of the design is in the table
+    notes : list[str]         What the user should know about the files: sweep.parquet not
+                              written (pyarrow missing), rows of the results file beyond
+                              this design left out of the table (a larger --samples earlier)
     """
 
     table: pd.DataFrame
@@ -212,6 +249,7 @@ class SweepResult:
     wall_time: float = 0.0
     files: dict = field(default_factory=dict)
     complete: bool = True
+    notes: list = field(default_factory=list)
 
     @property
     def failed(self) -> pd.DataFrame:
@@ -227,25 +265,34 @@ def _table(rows: dict, design: Design, scenario: str) -> pd.DataFrame:
     cols = ["variant", *design.columns, *METRIC_COLUMNS]
     if scenario == "closed-loop-sine":
         cols += TRACKING_COLUMNS
-    cols += ["warnings", "error"]
+    cols += [*SETTLING_COLUMNS, "warnings", "error"]
     data = [rows[i] for i in sorted(rows) if i < len(design)]
     df = pd.DataFrame(data, columns=cols)
     for c in cols:
         if c in METRIC_COLUMNS or c in TRACKING_COLUMNS:
             df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
     df["variant"] = df["variant"].astype(int)
+    for c in SETTLING_COLUMNS:          # rows of an older results file lack them
+        df[c] = df[c].fillna("").astype(str)
     df["error"] = df["error"].astype(object).where(df["error"].notna(), None)
     return df.reset_index(drop=True)
 
 
-def _write_tables(df: pd.DataFrame, out: Path, files: dict):
+def _write_tables(df: pd.DataFrame, out: Path, files: dict, notes: list):
+    """sweep.csv, and sweep.parquet where pyarrow is installed (a note says why not)."""
     df.to_csv(out / "sweep.csv", index=False)
     files["csv"] = out / "sweep.csv"
     try:
         import pyarrow  # noqa: F401  (optional)
     except ImportError:
+        notes.append("sweep.parquet not written: pip install pyarrow (sweep.csv holds the "
+                     "same table)")
         return
-    df.to_parquet(out / "sweep.parquet", index=False)
+    try:
+        df.to_parquet(out / "sweep.parquet", index=False)
+    except Exception as e:      # e.g. a column pyarrow cannot type; the CSV stands
+        notes.append(f"sweep.parquet not written: {_reason(e)} (sweep.csv holds the table)")
+        return
     files["parquet"] = out / "sweep.parquet"
 
 
@@ -254,8 +301,54 @@ def _write_tables(df: pd.DataFrame, out: Path, files: dict):
 _WORKER: dict = {}
 
 
-def _init_worker(rig, scenario, t_end, solver, units):
+def _die_with_parent(parent_pid: int):
+    """End this worker as soon as the process that started the sweep is gone, even when it
+    was killed with SIGKILL and could not stop its pool.
+
+    A daemon thread waits on a pidfd of that process (Linux >= 5.3: readable when it exits,
+    immune to pid reuse) or, where there is none, checks once every 0.5 s that it is still
+    alive; then it ends the worker with ``os._exit``. (``prctl(PR_SET_PDEATHSIG)`` would not
+    do: the workers' parent is the forkserver, which itself stays up while any worker holds
+    its "alive" pipe.) No-op on Windows, where the pool's own pipes end the workers."""
+    if os.name != "posix":
+        return
+    import threading
+
+    try:
+        fd = os.pidfd_open(parent_pid)
+    except ProcessLookupError:      # gone already
+        os._exit(1)
+    except (AttributeError, OSError):   # no pidfd (not Linux, old kernel, seccomp): poll
+        fd = None
+
+    def watch():
+        if fd is not None:
+            import select
+
+            select.select([fd], [], [])
+        else:
+            while _alive(parent_pid):
+                _time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="hydroline-parent-watch", daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:             # exists, owned by someone else
+        return True
+    return True
+
+
+def _init_worker(rig, scenario, t_end, solver, units, parent_pid=None):
     signal.signal(signal.SIGINT, signal.SIG_IGN)    # the parent decides when to stop
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if parent_pid is not None:
+        _die_with_parent(parent_pid)
     _WORKER.update(rig=rig, scenario=scenario, t_end=t_end, solver=solver, units=units)
 
 
@@ -282,7 +375,9 @@ def _run_serial(tasks, run, record):
 
 def _run_processes(tasks, workers, init_args, record, scenario):
     """Local worker processes; a pool broken by a dying worker is restarted and the variants
-    in flight retried, up to :data:`MAX_ATTEMPTS` times each."""
+    in flight retried, up to :data:`MAX_ATTEMPTS` times each. On an interruption (Ctrl-C,
+    SIGTERM, an exception from ``record``) the variants already running are waited for and
+    every one that finished is recorded before the exception goes on."""
     from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
     from concurrent.futures.process import BrokenProcessPool
 
@@ -290,6 +385,7 @@ def _run_processes(tasks, workers, init_args, record, scenario):
     attempts: dict = {}
     window = 4 * workers
     ctx = _mp_context()
+    init_args = (*init_args, os.getpid())
     while pending:
         inflight = {}
         pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
@@ -301,16 +397,22 @@ def _run_processes(tasks, workers, init_args, record, scenario):
                     inflight[pool.submit(_pool_task, index, values)] = (index, values)
                 done, _ = wait(inflight, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    index, values = inflight.pop(fut)
+                    index, values = inflight[fut]
                     try:
                         row = fut.result()
                     except BrokenProcessPool:
-                        inflight[fut] = (index, values)
                         raise
                     except Exception as e:      # e.g. a result that could not be sent back
                         row = _failed_row(index, values, _reason(e), scenario)
-                    record(row)
-        except BrokenProcessPool:
+                    try:
+                        record(row)
+                    finally:                    # until recorded, an interruption leaves it
+                        inflight.pop(fut, None)  # to the handler below
+        except BaseException as e:
+            if not isinstance(e, BrokenProcessPool):    # interrupted: let the running ones
+                _finish_interrupted(pool, inflight, record)   # finish, keep what they computed
+                raise
+            # a worker died: keep what finished, retry the rest
             for fut, (index, values) in inflight.items():
                 if fut.done() and not fut.cancelled() and fut.exception() is None:
                     record(fut.result())
@@ -323,6 +425,29 @@ def _run_processes(tasks, workers, init_args, record, scenario):
                     pending.appendleft((index, values))
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _finish_interrupted(pool, inflight: dict, record):
+    """After an interruption: cancel the variants not started, wait for the running ones
+    and record every one that finished without an exception (in variant order)."""
+    try:
+        pool.shutdown(wait=True, cancel_futures=True)
+    except BaseException:       # a second Ctrl-C: record what is done now, then stop
+        pass
+    finished = [(index, fut) for fut, (index, _) in inflight.items()
+                if fut.done() and not fut.cancelled() and fut.exception() is None]
+    inflight.clear()
+    _record_all(record, [fut.result() for _, fut in sorted(finished, key=lambda item: item[0])])
+
+
+def _record_all(record, rows):
+    """Record rows while an interruption is being handled: an exception from the user's
+    callback (raised after the row is written) does not keep the others from the file."""
+    for row in rows:
+        try:
+            record(row)
+        except Exception:
+            pass
 
 
 def _dask_client(scheduler, workers):
@@ -368,18 +493,29 @@ def _run_dask(tasks, client, init_args, record, scenario):
         submit()
     try:
         for fut in ac:
-            index, values, _ = meta.pop(fut.key)
+            index, values, _ = meta[fut.key]
             try:
                 row = fut.result()
             except Exception as e:      # KilledWorker and the like: recorded, sweep goes on
                 row = _failed_row(index, values, _reason(e), scenario)
-            fut.release()
-            record(row)
+            try:
+                record(row)
+            finally:                    # until recorded, an interruption leaves it to the
+                meta.pop(fut.key, None)  # clean-up below
+                fut.release()
             while pending and len(meta) < window:
                 submit()
     finally:
-        if meta:        # interrupted: drop what is still queued on the cluster
+        if meta:        # interrupted: keep what finished, drop what is still queued
+            done = sorted((i, f) for i, _, f in meta.values() if f.status == "finished")
+            rows = []
+            for _, f in done:
+                try:
+                    rows.append(f.result(timeout=10))
+                except Exception:
+                    pass
             client.cancel([f for _, _, f in meta.values()])
+            _record_all(record, rows)
 
 
 # --------------------------------------------------------------------------- the sweep
@@ -495,7 +631,7 @@ def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, r
         i = row["variant"]
         rows[i] = row
         if journal is not None:
-            journal.write(json.dumps(row) + "\n")
+            journal.write(_json_line(row) + "\n")
             journal.flush()
         computed[0] += 1
         done[0] += 1
@@ -522,10 +658,17 @@ def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, r
         if journal is not None:
             journal.close()
         table = _table(rows, design, scenario)
+        notes = []
+        extra = sorted(i for i in rows if i >= total)
+        if extra:           # a random design resumed with a smaller --samples: kept in the file
+            notes.append(f"{len(extra)} variants of an earlier, larger run ({total}..{extra[-1]}) "
+                         f"stay in {JOURNAL_NAME} but not in the table, which holds the "
+                         f"{total} of this design; resume with --samples {extra[-1] + 1} to "
+                         f"include them")
         if out is not None:
-            _write_tables(table, out, files)
+            _write_tables(table, out, files, notes)
     return SweepResult(table, design, computed[0], _time.perf_counter() - tic, files,
-                       complete=len(table) == total)
+                       complete=len(table) == total, notes=notes)
 
 
 def _check_same_sweep(path, old: dict, new: dict):
