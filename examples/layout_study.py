@@ -33,7 +33,15 @@ def main(out="layout-example"):
     # 1. the layout study: lengths in metres (or strings with units, "10 ft")
     study = layout(lengths=[3.048, 2.286, 1.524, 0.7512, 0.0])
     print("Section II layout study (open-loop 50 mA step, default rig):")
-    print(study.table().drop(columns=["warnings"]).to_string(index=False, float_format="%.4g"))
+    table = study.table()
+    print(table.drop(columns=["warnings", "supply_settling_note", "return_settling_note"])
+          .to_string(index=False, float_format="%.4g"))
+    # settling_method: "measured" within the window (step to piston stop), "estimated" from
+    # the decay of the ringing at the stop, "" none -- the note says why
+    for L, s in zip(study.lengths, study.summaries):
+        for side in ("supply", "return"):
+            if s[side]["settling_method"] != "measured":
+                print(f"  {L:g} m, {side} settling: {s[side]['settling_note']}")
     files = study.save(out / "layout")
     print(f"figure: {files['figure']}   metrics: {files['csv']}")
 
