@@ -111,7 +111,7 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
 
 def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
-             progress=None, rtol: float = 1e-7, stream_to=None,
+             progress=None, rtol: float = 1e-6, stream_to=None,
              stream_columns=None) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state.
 

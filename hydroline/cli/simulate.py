@@ -79,6 +79,11 @@ def run(args) -> int:
         rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
                      None if m["settling_time_s"] is None else m["settling_time_s"] * 1e3])
     print_table(["pressure", "oscillation [Hz]", "peak amplitude [MPa]", "settling [ms]"], rows)
+    unsettled = [side for side in ("supply", "return") if summary[side]["settling_time_s"] is None]
+    if unsettled and args.scenario == "open-loop-step":
+        which = " and ".join(unsettled) + (" port pressures are" if len(unsettled) > 1 else " port pressure is")
+        print(f"  settling '-': the {which} not yet within 2 % of the change by {t1 * 1e3:.0f} ms, "
+              f"when the piston stops (the hoses still ring; 'hydroline layout' estimates it)")
     print(f"  actuator hydraulic natural frequency: {summary['actuator_natural_frequency_hz']:.1f} Hz")
     if "tracking_error_rms_mm" in summary:
         print(f"  tracking error: rms {summary['tracking_error_rms_mm']:.2f} mm, "
