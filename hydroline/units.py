@@ -42,7 +42,8 @@ import numbers
 
 import pint
 
-__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity"]
+__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "split_header",
+           "csv_column"]
 
 #: The one unit registry of hydroline. Quantities from other registries are re-read into it.
 ureg = pint.UnitRegistry()
@@ -221,3 +222,50 @@ def format_quantity(value_si: float, unit: str, display_unit: str | None = None,
     shown = ureg.Quantity(value, source).to(target).magnitude
     text = f"{shown:.{int(digits)}g}"
     return f"{text} {shown_unit}" if shown_unit not in _DIMENSIONLESS else text
+
+
+def split_header(col) -> tuple[str, str | None]:
+    """``"pressure [MPa]"`` -> ``("pressure", "MPa")``; ``(name, None)`` without brackets."""
+    text = str(col).strip()
+    if "[" not in text or not text.endswith("]"):
+        return text, None
+    name, _, unit = text[:-1].partition("[")
+    return name.strip(), unit.strip()
+
+
+def csv_column(raw, col, unit: str, src: str, example: str | None = None):
+    """One column of a CSV table whose header carries its unit, converted to SI.
+
+    Parameters
+    ----------
+    raw : pandas.DataFrame  The table as read
+    col : str               Column header, e.g. ``"time [ms]"``
+    unit : str              SI unit the column must convert to (dimension check)
+    src : str               File name, for the messages
+    example : str           Name to suggest in the no-unit message (the header's name if None)
+
+    Returns
+    -------
+    ndarray  The values in ``unit``
+
+    Raises
+    ------
+    ValueError  One line naming the file, the column and, for a bad value, its row
+    """
+    import numpy as np
+    import pandas as pd
+
+    name, u = split_header(col)
+    if u is None:
+        raise ValueError(f"{src}: column '{col}' has no unit; write e.g. '{example or name} [{unit}]'")
+    try:
+        factor = parse_quantity(f"1 {u}", unit, f"{src}: column '{col}'")
+    except UnitError as e:
+        raise ValueError(str(e)) from None
+    values = pd.to_numeric(raw[col], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"{src}: column '{col}' has a missing, NaN or non-numeric value at data "
+                         f"row {k + 1} (file line {k + 2}): '{raw[col].iloc[k]}'")
+    return values * factor

@@ -59,7 +59,7 @@ from .. import components as comp
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..simulation import integrate, solve_steady_state
 from ..system import build_network
-from ..units import UnitError, parse_quantity
+from ..units import csv_column, split_header
 from .linearize import OperatingPoint, _transfer_state, solve_operating_point
 
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
@@ -116,14 +116,6 @@ class Measurements:
         self.data.rename(columns={c: f"{c} [{COLUMNS[c]}]" for c in self.data}).to_csv(path, index=False)
 
 
-def _split_header(col):
-    text = str(col).strip()
-    if "[" not in text or not text.endswith("]"):
-        return text, None
-    name, _, unit = text[:-1].partition("[")
-    return name.strip(), unit.strip()
-
-
 def read_measurements(path, required=("time", "valve_current"), need_signal: bool = True) -> Measurements:
     """Read and check a measurement CSV (see the module docstring).
 
@@ -150,25 +142,17 @@ def read_measurements(path, required=("time", "valve_current"), need_signal: boo
         raise DataError(f"{src}: not a readable CSV file ({str(e).strip().splitlines()[0]})") from None
     cols, ignored = {}, []
     for col in raw.columns:
-        name, unit = _split_header(col)
+        name, _ = split_header(col)
         if name not in COLUMNS:
             ignored.append(str(col))
             continue
-        if unit is None:
-            raise DataError(f"{src}: column '{col}' has no unit; write e.g. '{name} [{COLUMNS[name]}]'")
         if name in cols:
             raise DataError(f"{src}: column '{name}' appears twice")
         try:
-            factor = parse_quantity(f"1 {unit}", COLUMNS[name], f"{src}: column '{col}'")
-        except UnitError as e:
+            values = csv_column(raw, col, COLUMNS[name], src)
+        except ValueError as e:
             raise DataError(str(e)) from None
-        values = pd.to_numeric(raw[col], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            k = int(bad[0])
-            raise DataError(f"{src}: column '{col}' has a missing, NaN or non-numeric value at data "
-                            f"row {k + 1} (file line {k + 2}): '{raw[col].iloc[k]}'")
-        cols[name] = values * factor
+        cols[name] = values
     for name in required:
         if name not in cols:
             raise DataError(f"{src}: missing column '{name} [{COLUMNS[name]}]' "

@@ -162,14 +162,6 @@ class TableCommand(_Command):
         return float(np.min(self.values)), float(np.max(self.values))
 
 
-def _split_header(col):
-    text = str(col).strip()
-    if "[" not in text or not text.endswith("]"):
-        return text, None
-    name, _, unit = text[:-1].partition("[")
-    return name.strip(), unit.strip()
-
-
 def read_table_csv(path, unit):
     """(times [s], values [unit]) from a two-column CSV with units in its header.
 
@@ -188,7 +180,7 @@ def read_table_csv(path, unit):
     """
     import pandas as pd
 
-    from ..units import UnitError, parse_quantity
+    from ..units import csv_column
 
     src = str(path)
     try:
@@ -200,22 +192,7 @@ def read_table_csv(path, unit):
     if raw.shape[1] != 2:
         raise ValueError(f"{src}: needs exactly two columns, 'time [s]' and a value with its unit "
                          f"[{unit}]; got {raw.shape[1]}")
-    cols = []
-    for col, want in zip(raw.columns, ("s", unit)):
-        _, u = _split_header(col)
-        if u is None:
-            raise ValueError(f"{src}: column '{col}' has no unit; write e.g. '{col} [{want}]'")
-        try:
-            factor = parse_quantity(f"1 {u}", want, f"{src}: column '{col}'")
-        except UnitError as e:
-            raise ValueError(str(e)) from None
-        v = pd.to_numeric(raw[col], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(v))
-        if bad.size:
-            k = int(bad[0])
-            raise ValueError(f"{src}: column '{col}' has a missing or non-numeric value at data "
-                             f"row {k + 1} (file line {k + 2})")
-        cols.append(v * factor)
+    cols = [csv_column(raw, col, want, src) for col, want in zip(raw.columns, ("s", unit))]
     t, v = cols
     if len(t) < 2:
         raise ValueError(f"{src}: needs at least 2 rows of data, got {len(t)}")
