@@ -18,8 +18,6 @@ import sys
 import tempfile
 import time
 
-import numpy as np
-
 from hydroline.scenarios import simulate
 
 COLUMNS = ["position_reference", "piston_position", "piston_velocity", "valve_current",

@@ -16,7 +16,7 @@ from . import components as comp
 from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .simulation import SimulationResult, integrate, solve_steady_state
-from .system import build_network, make_actuator
+from .system import build_network
 
 __all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario"]
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from . import components as comp
 from .fluid import Fluid
-from .lines import Line, ModalLine, RigidColumnLine
+from .lines import Line, ModalLine
 from .network import Network
 from .rigs import SCHEMA, Rig, RigError
 
@@ -104,7 +104,6 @@ def _accumulator(rig, side, fluid, nominal, node_signal):
               polytropic_exponent=rig[f"{key}.polytropic_exponent"], nominal_pressure=nominal,
               connections={"pressure": node_signal, "flow": f"{side}.accumulator_flow"})
     if kind == "version-II":
-        rc = RigidColumnLine(conn)
         return comp.PistonAccumulator(name=key, resistance=conn.resistance,
                                       inertance=conn.inertance, **kw)
     if kind == "modal":

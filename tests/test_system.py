@@ -8,7 +8,7 @@ from scipy.optimize import brentq
 import hydroline
 from hydroline import components as comp
 from hydroline.cli import main
-from hydroline.lines import Line, ModalLine
+from hydroline.lines import Line
 from hydroline.fluid import MINERAL_OIL
 from hydroline.network import Network
 from hydroline.rigs import load_rig

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fluid import Fluid, MINERAL_OIL
+from ..fluid import Fluid
 from ..lines import FORMS, Line, ModalLine, StateSpaceLine
 from ..lines.compare import compare_resonances, resonance_f_max
 from ..lines.inverse_laplace import exact_step_response

@@ -160,7 +160,7 @@ def run(args) -> int:
         where = f"{args.workers or 'CPU-count'} local worker processes"
     print(f"hydroline sweep: {d.describe()}, {args.scenario} on {rig.get('rig.name', rig.source)}, "
           f"{where}")
-    print(f"  parameters: " + "; ".join(f"{p.name} = {p.describe()}" for p in d.parameters))
+    print("  parameters: " + "; ".join(f"{p.name} = {p.describe()}" for p in d.parameters))
     print(f"  {result.n_computed} variants run now, {len(table) - result.n_computed} from the "
           f"results file; {result.n_failed} failed; {result.wall_time:.1f} s")
     inputs = d.columns

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .codegen import GeneratedModel, UnsupportedOperation, generate
+from .codegen import GeneratedModel, UnsupportedOperation, generate  # noqa: F401 (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
            "available", "CFLAGS"]

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network import ops
 from ..network.component import Component, Port
 
 __all__ = ["LinearResistance", "OrientedResistance"]

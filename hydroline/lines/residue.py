@@ -382,7 +382,7 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     n = _check_modes(n_modes)
     form = check_form(form)
     ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
-    nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
+    tau = line.wave_time
     blocks = []                                                     # (A, B, C, names)
 
     # k = 0 terms

@@ -11,7 +11,6 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from . import ops
 from .component import Component
 
 __all__ = ["Network", "NetworkError", "CompiledModel"]

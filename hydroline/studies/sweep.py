@@ -53,7 +53,7 @@ import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios import SCENARIOS, simulate
-from .design import Design, Parameter, parse_parameters
+from .design import Design, parse_parameters
 from .settling import port_summary
 
 __all__ = ["sweep", "run_variant", "SweepResult", "SweepFileError", "METRIC_COLUMNS",
