@@ -51,6 +51,7 @@ from hydroline import compiled  # noqa: E402
 from hydroline.rigs import load_rig  # noqa: E402
 from hydroline.scenarios import build_scenario  # noqa: E402
 from hydroline.simulation import integrate, solve_steady_state  # noqa: E402
+from hydroline.compiled.codegen import assignments, scaled_functions  # noqa: E402
 from hydroline.system import build_network  # noqa: E402
 
 KEYS = ("supply_port_pressure", "return_port_pressure", "piston_velocity")
@@ -113,53 +114,25 @@ _INPUTS = ["t", "z[{nz}]", "p[{nz}]"]
 def emit(fun: ca.Function, name: str, lang: str, constants: list) -> str:
     """``fun(t, z, p)`` as Python source ``name(t, z, p, c[, out])``; constants go to ``c``.
 
-    lang "numba": writes the outputs into ``out``; lang "jax": returns them stacked."""
+    lang "numba": writes the outputs into ``out``; lang "jax": returns them stacked.
+    The instruction walk is the C writer's (:func:`hydroline.compiled.codegen.assignments`)."""
     binary, unary = (_PY_BIN, _PY_UN) if lang == "numba" else (_JAX_BIN, _JAX_UN)
-    head = f"def {name}(t, z, p, c, out):" if lang == "numba" else f"def {name}(t, z, p, c):"
-    body, outs = [], {}
-    for k in range(fun.n_instructions()):
-        op = fun.instruction_id(k)
-        if op == ca.OP_CONST:
-            (o,) = fun.instruction_output(k)
-            body.append(f"w{o} = c[{len(constants)}]")
-            constants.append(float(fun.instruction_constant(k)))
-        elif op == ca.OP_INPUT:
-            (o,) = fun.instruction_output(k)
-            i, nz = fun.instruction_input(k)
-            body.append(f"w{o} = {_INPUTS[i].format(nz=nz)}")
-        elif op == ca.OP_OUTPUT:
-            (a,) = fun.instruction_input(k)
-            _, nz = fun.instruction_output(k)
-            if lang == "numba":
-                body.append(f"out[{nz}] = w{a}")
-            else:
-                body.append(f"o{nz} = w{a}")
-                outs[nz] = True
-        elif op in binary:
-            a, b = fun.instruction_input(k)
-            (o,) = fun.instruction_output(k)
-            body.append(f"w{o} = " + binary[op].format(a=f"w{a}", b=f"w{b}"))
-        elif op in unary:
-            (a,) = fun.instruction_input(k)
-            (o,) = fun.instruction_output(k)
-            body.append(f"w{o} = " + unary[op].format(a=f"w{a}"))
-        else:
-            raise NotImplementedError(f"CasADi operation code {op} in {fun.name()}")
+    if lang == "numba":
+        head, body = f"def {name}(t, z, p, c, out):", []
+        output = "out[{nz}]"
+    else:
+        head, body = f"def {name}(t, z, p, c):", [f"o = [jnp.zeros(())] * {fun.nnz_out(0)}"]
+        output = "o[{nz}]"
+    body += [f"{target} = {expr}" for target, expr in
+             assignments(fun, binary, unary, _INPUTS, output, constants)]
     if lang == "jax":
-        n = fun.nnz_out(0)
-        body.append("return jnp.stack([" + ", ".join(
-            f"o{i}" if i in outs else "jnp.zeros(())" for i in range(n)) + "])")
+        body.append("return jnp.stack(o)")
     return head + "\n" + "\n".join("    " + s for s in body) + "\n"
 
 
 def scaled_graph(net):
-    """f and its sparse Jacobian in scaled states z = x / scale, as codegen builds them."""
-    model = net.compile()
-    scales = np.asarray(net.state_scales, dtype=float)
-    z = ca.SX.sym("z", len(scales))
-    dz = ca.substitute(model.dx, model.x, z * ca.DM(scales)) / ca.DM(scales)
-    f = ca.Function("f", [model.t, z, model.p], [dz])
-    jac = ca.Function("jac_f", [model.t, z, model.p], [ca.jacobian(dz, z)])
+    """f and its sparse Jacobian in scaled states z = x / scale, exactly as the C core's."""
+    f, jac, _ = scaled_functions(net.compile())
     return f, jac
 
 

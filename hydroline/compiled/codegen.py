@@ -55,6 +55,51 @@ _UNARY = {
 }
 
 
+def assignments(fun: ca.Function, binary: dict, unary: dict, inputs: list[str], output: str,
+                constants: list[float]):
+    """The straight-line program of an SX function as ``(target, expression)`` pairs.
+
+    Parameters
+    ----------
+    fun : casadi.Function     An SX function
+    binary, unary : dict      CasADi operation code -> expression template (``{a}``, ``{b}``):
+                              the target language's spelling of each operation
+    inputs : list[str]        Per function input, how to read nonzero ``{nz}`` (``"z[{nz}]"``)
+    output : str              How to write output nonzero ``{nz}`` (``"dz[{nz}]"``)
+    constants : list[float]   Constants found are appended here and read as ``c[k]``
+
+    Work variables are ``w0, w1, ...`` (``fun.sz_w()`` of them).
+
+    Raises
+    ------
+    UnsupportedOperation  An operation without a template (e.g. a call to an interpolant)
+    """
+    for k in range(fun.n_instructions()):
+        op = fun.instruction_id(k)
+        if op == ca.OP_CONST:
+            (o,) = fun.instruction_output(k)
+            yield f"w{o}", f"c[{len(constants)}]"
+            constants.append(float(fun.instruction_constant(k)))
+        elif op == ca.OP_INPUT:
+            (o,) = fun.instruction_output(k)
+            i, nz = fun.instruction_input(k)
+            yield f"w{o}", inputs[i].format(nz=nz)
+        elif op == ca.OP_OUTPUT:
+            (a,) = fun.instruction_input(k)
+            _, nz = fun.instruction_output(k)
+            yield output.format(nz=nz), f"w{a}"
+        elif op in binary:
+            a, b = fun.instruction_input(k)
+            (o,) = fun.instruction_output(k)
+            yield f"w{o}", binary[op].format(a=f"w{a}", b=f"w{b}")
+        elif op in unary:
+            (a,) = fun.instruction_input(k)
+            (o,) = fun.instruction_output(k)
+            yield f"w{o}", unary[op].format(a=f"w{a}")
+        else:
+            raise UnsupportedOperation(f"CasADi operation code {op} in {fun.name()}")
+
+
 def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
                 constants: list[float]) -> str:
     """One SX function as C; its constants are appended to ``constants`` (read as c[k])."""
@@ -63,37 +108,31 @@ def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
     nw = fun.sz_w()
     if nw:
         lines.append("  double " + ", ".join(f"w{i}" for i in range(nw)) + ";")
-    body = []
-    for k in range(fun.n_instructions()):
-        op = fun.instruction_id(k)
-        if op == ca.OP_CONST:
-            (o,) = fun.instruction_output(k)
-            body.append(f"  w{o}=c[{len(constants)}];")
-            constants.append(float(fun.instruction_constant(k)))
-        elif op == ca.OP_INPUT:
-            (o,) = fun.instruction_output(k)
-            i, nz = fun.instruction_input(k)
-            body.append(f"  w{o}={inputs[i].format(nz=nz)};")
-        elif op == ca.OP_OUTPUT:
-            (a,) = fun.instruction_input(k)
-            _, nz = fun.instruction_output(k)
-            body.append(f"  {output}[{nz}]=w{a};")
-        elif op in _BINARY:
-            a, b = fun.instruction_input(k)
-            (o,) = fun.instruction_output(k)
-            body.append(f"  w{o}=" + _BINARY[op].format(a=f"w{a}", b=f"w{b}") + ";")
-        elif op in _UNARY:
-            (a,) = fun.instruction_input(k)
-            (o,) = fun.instruction_output(k)
-            body.append(f"  w{o}=" + _UNARY[op].format(a=f"w{a}") + ";")
-        else:
-            raise UnsupportedOperation(f"CasADi operation code {op} in {fun.name()}")
+    body = [f"  {target}={expr};" for target, expr in
+            assignments(fun, _BINARY, _UNARY, inputs, output + "[{nz}]", constants)]
     if not body:
         body.append("  (void)t; (void)z; (void)p; (void)c;")
     lines.extend(body)
     lines.append("  (void)t; (void)z; (void)p; (void)c;")
     lines.append("}")
     return "\n".join(lines)
+
+
+def scaled_functions(model):
+    """f, its sparse Jacobian and the signals of a compiled model in scaled states z = x/scale.
+
+    Returns
+    -------
+    (f, jac, signals) : casadi.Function of (t, z, p): dz/dt, d(dz/dt)/dz, every signal [SI]
+    """
+    scales = np.asarray(model.network.state_scales, dtype=float)
+    z = ca.SX.sym("z", len(scales))
+    x_of_z = z * ca.DM(scales)
+    dz = ca.substitute(model.dx, model.x, x_of_z) / ca.DM(scales)
+    y = ca.substitute(model.y, model.x, x_of_z)
+    return (ca.Function("hl_f", [model.t, z, model.p], [dz]),
+            ca.Function("hl_jac", [model.t, z, model.p], [ca.jacobian(dz, z)]),
+            ca.Function("hl_signals", [model.t, z, model.p], [y]))
 
 
 # ---- sparse LU with a fixed order ----------------------------------------------------------
@@ -245,16 +284,8 @@ def generate(model) -> GeneratedModel:
     model : CompiledModel   The network's CasADi graph (``network.compile()``)
     """
     net = model.network
-    scales = np.asarray(net.state_scales, dtype=float)
     n, m = len(net.state_names), len(net.parameter_names)
-    z = ca.SX.sym("z", n)
-    x_of_z = z * ca.DM(scales)
-    dz = ca.substitute(model.dx, model.x, x_of_z) / ca.DM(scales)
-    y = ca.substitute(model.y, model.x, x_of_z)
-    f = ca.Function("hl_f", [model.t, z, model.p], [dz])
-    J = ca.jacobian(dz, z)
-    jac = ca.Function("hl_jac", [model.t, z, model.p], [J])
-    sig = ca.Function("hl_signals", [model.t, z, model.p], [y])
+    f, jac, sig = scaled_functions(model)
     sp = jac.sparsity_out(0)
     colind = np.asarray(sp.colind(), dtype=np.int64)
     row = np.asarray(sp.row(), dtype=np.int64)
