@@ -325,19 +325,21 @@ class _Stop(Exception):
     pass
 
 
+def _stop_after(n, seen):
+    """A sweep callback that records each finished variant and interrupts at the n-th."""
+    def callback(row):
+        seen.append(row["variant"])
+        if len(seen) == n:
+            raise _Stop
+    return callback
+
+
 def test_sweep_interrupted_and_resumed_equals_uninterrupted(uninterrupted, tmp_path):
     ref = uninterrupted.table
     assert len(ref) == 6 and ref["error"].isna().all()
     assert ref["supply_frequency_hz"].notna().all()
-    seen = []
-
-    def stop_after_two(row):
-        seen.append(row["variant"])
-        if len(seen) == 2:
-            raise _Stop
-
     with pytest.raises(_Stop):
-        sweep(SWEEP_SETS, t_end=T_END, workers=1, out=tmp_path, callback=stop_after_two)
+        sweep(SWEEP_SETS, t_end=T_END, workers=1, out=tmp_path, callback=_stop_after(2, []))
     header, rows = read_journal(tmp_path / "sweep.jsonl")
     assert sorted(rows) == [0, 1]
     # a kill in the middle of writing a row leaves half a line: it is dropped and rerun
@@ -364,14 +366,8 @@ def test_sweep_interrupted_on_worker_processes_keeps_the_running_variants(uninte
     """Stopped at its first row on 2 worker processes, the sweep waits for the variant the
     other worker is running and records it too: nothing already computed is lost."""
     seen = []
-
-    def stop_at_first(row):
-        seen.append(row["variant"])
-        if len(seen) == 1:
-            raise _Stop
-
     with pytest.raises(_Stop):
-        sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, callback=stop_at_first)
+        sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, callback=_stop_after(1, seen))
     rows = read_journal(tmp_path / "sweep.jsonl")[1]
     # the first, the other worker's, and any already handed to a worker (not cancellable)
     assert len(rows) >= 2
