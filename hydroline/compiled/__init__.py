@@ -16,6 +16,7 @@ Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import os
 import platform
@@ -71,6 +72,7 @@ def available() -> bool:
     return _compiler() is not None
 
 
+@functools.lru_cache(maxsize=None)
 def _cpu_id() -> str:
     """This CPU's model and instruction-set flags: ``-march=native`` code built on one CPU may
     not run on another (a cache on a shared home directory), so both enter the cache key."""
@@ -89,8 +91,13 @@ def _cpu_id() -> str:
     return "".join(lines) or (platform.machine() + platform.processor())
 
 
+@functools.lru_cache(maxsize=None)
+def _bdf_source() -> str:
+    return _BDF_SOURCE.read_text()
+
+
 def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
-    full = gen.source + "\n" + _BDF_SOURCE.read_text()
+    full = gen.source + "\n" + _bdf_source()
     ident = full + " ".join(CFLAGS + NATIVE_FLAGS) + sys.platform + _cpu_id()
     tag = hashlib.sha256(ident.encode()).hexdigest()[:32]
     return cache_dir() / f"hl_{tag}.so", full
@@ -124,14 +131,13 @@ def _compile(cc: str, full: str, path: Path) -> None:
         lock.close()
 
 
-def _build(gen: GeneratedModel) -> ctypes.CDLL:
+def _build(path: Path, full: str) -> ctypes.CDLL:
     """Load the model's library from the cache, compiling it on a miss.
 
     Any failure to compile, store or load it (no compiler, a cache directory that cannot be
     written, a corrupt cached file) raises :class:`CompilerUnavailable`, so callers can fall
     back to another solver; a cached file that does not load is rebuilt once.
     """
-    path, full = _library_path(gen)
     if str(path) in _LIBS:
         return _LIBS[str(path)]
     cc = _compiler()
@@ -199,9 +205,9 @@ class NativeModel:
         tic = time.perf_counter()
         self.network = network
         self.generated = generate(network.compile())
-        self.library_path, _ = _library_path(self.generated)
+        self.library_path, full = _library_path(self.generated)
         self.cache_hit = self.library_path.exists()
-        self.lib = _build(self.generated)
+        self.lib = _build(self.library_path, full)
         sizes = (ctypes.c_longlong * 7)()
         self.lib.hl_sizes(sizes)
         self.n, self.n_signals = int(sizes[0]), int(sizes[3])
