@@ -229,7 +229,7 @@ def _bad(rig, path, rule, value=None):
     return RigError(f"{path}: must be {rule}{' [' + unit + ']' if unit else ''}, got {shown!r}")
 
 
-def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
+def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
     """Refuse, with a RigError naming the parameter and its unit, values no physical rig has.
 
     Checked: signs (positive sizes, moduli, masses, pressures absolute > 0, non-negative
@@ -244,6 +244,10 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
     rig : Rig               Parameters (SI)
     position_guess : float  Initial piston position given by the scenario, [m]; checked
                             like ``actuator.initial_position`` when not None
+
+    Returns
+    -------
+    dict  side -> its :func:`pressure_profile` (read once, for the network builder)
     """
     for path in _POSITIVE:
         v = rig.get(path)
@@ -253,8 +257,9 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v >= 0):
             raise _bad(rig, path, ">= 0")
-    _, p_s, (s_low, _) = pressure_profile(rig, "supply")
-    _, p_t, (t_low, t_high) = pressure_profile(rig, "return")
+    profiles = {side: pressure_profile(rig, side) for side in ("supply", "return")}
+    _, p_s, (s_low, _) = profiles["supply"]
+    _, p_t, (t_low, t_high) = profiles["return"]
     if p_s is None or p_t is None:
         raise RigError(f"{'supply' if p_s is None else 'return'}.pressure: not set in rig {rig.source}")
     if not (np.isfinite(p_s) and p_s > p_t):
@@ -294,6 +299,7 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> None:
         m = rig.get(path)
         if m is not None and not 1.0 <= m <= 5.0 / 3.0:
             raise _bad(rig, path, "within [1, 5/3] (isothermal ... adiabatic)")
+    return profiles
 
 
 def build_network(rig: Rig, commands: list, position_guess: float | None = None) -> Network:
@@ -310,17 +316,17 @@ def build_network(rig: Rig, commands: list, position_guess: float | None = None)
     -------
     Network
     """
-    validate_rig(rig, position_guess)
+    profiles = validate_rig(rig, position_guess)
     try:
-        return _build(rig, commands, position_guess)
+        return _build(rig, commands, position_guess, profiles)
     except (KeyError,) as e:
         raise RigError(f"rig is missing {e}") from None
 
 
-def _build(rig, commands, position_guess):
+def _build(rig, commands, position_guess, profiles):
     fluid = make_fluid(rig)
-    w_s, p_s, _ = pressure_profile(rig, "supply")
-    w_t, p_t, _ = pressure_profile(rig, "return")
+    w_s, p_s, _ = profiles["supply"]
+    w_t, p_t, _ = profiles["return"]
     parts = []
     # ---- supply side (PQ lines) ----
     parts.append(comp.PressureSource(name="supply.pump", pressure=p_s, waveform=w_s,
@@ -422,7 +428,7 @@ def _build(rig, commands, position_guess):
                      "top_pressure": "top_chamber_pressure", "supply_flow": "supply_port_flow",
                      "return_flow": "return_port_flow", "bottom_flow": "bottom_chamber_flow",
                      "top_flow": "top_chamber_flow"}))
-    parts.append(make_actuator(rig, position_guess))
+    parts.append(make_actuator(rig, position_guess, nominal_pressure=0.5 * (p_s + p_t)))
     fr = {k: rig[f"friction.{k}"] for k in (
         "viscous_up", "viscous_down", "coulomb_up", "coulomb_down", "static_up", "static_down",
         "stribeck_velocity", "stribeck_exponent", "regularization_velocity",
@@ -456,8 +462,11 @@ def _rewire(rig, parts):
         c.connections = dict(c.connections, **{port: signal})
 
 
-def make_actuator(rig: Rig, position_guess=None) -> comp.Actuator:
-    """The actuator component of a rig (load mass added to the moving mass)."""
+def make_actuator(rig: Rig, position_guess=None, nominal_pressure=None) -> comp.Actuator:
+    """The actuator component of a rig (load mass added to the moving mass).
+
+    ``nominal_pressure`` [Pa] scales the chamber-pressure states; the mean of the supply and
+    return pressures at t = 0 when None."""
     area = rig.get("actuator.area")
     Ab = rig.get("actuator.bottom_area", area)
     At = rig.get("actuator.top_area", area)
@@ -475,7 +484,8 @@ def make_actuator(rig: Rig, position_guess=None) -> comp.Actuator:
         internal_leakage=rig.get("actuator.internal_leakage", 0.0),
         external_leakage=rig.get("actuator.external_leakage", 0.0),
         initial_position=x0,
-        nominal_pressure=0.5 * (pressure_profile(rig, "supply")[1] + pressure_profile(rig, "return")[1]),
+        nominal_pressure=nominal_pressure if nominal_pressure is not None else 0.5 * (
+            pressure_profile(rig, "supply")[1] + pressure_profile(rig, "return")[1]),
         connections={"bottom_flow": "bottom_chamber_flow", "top_flow": "top_chamber_flow",
                      "bottom_pressure": "bottom_chamber_pressure",
                      "top_pressure": "top_chamber_pressure", "position": "piston_position",
