@@ -1,9 +1,43 @@
-"""hydroline: electrohydraulic servo systems with the dynamics of their supply and return hoses."""
-from .fluid import MINERAL_OIL, Fluid, effective_bulk_modulus
-from .rigs import Rig, load_rig
-from .scenarios import simulate, summarize
-from . import analysis, studies   # hydroline.studies.layout(...), hydroline.analysis.linearize(...)
+"""hydroline: electrohydraulic servo systems with the dynamics of their supply and return hoses.
+
+The public names below load on first use (PEP 562), so ``import hydroline`` is quick and a
+command pays only for what it uses (``hydroline.studies`` pulls in the sweep machinery,
+``hydroline.analysis`` SciPy's signal and optimisation modules, ``simulate`` CasADi).
+"""
+from __future__ import annotations
+
+import importlib
 
 __version__ = "0.1.0"
+
+#: Public name -> (module, attribute or None for the module itself).
+_LAZY = {
+    "Fluid": ("hydroline.fluid", "Fluid"),
+    "MINERAL_OIL": ("hydroline.fluid", "MINERAL_OIL"),
+    "effective_bulk_modulus": ("hydroline.fluid", "effective_bulk_modulus"),
+    "Rig": ("hydroline.rigs", "Rig"),
+    "load_rig": ("hydroline.rigs", "load_rig"),
+    "simulate": ("hydroline.scenarios", "simulate"),
+    "summarize": ("hydroline.scenarios", "summarize"),
+    "analysis": ("hydroline.analysis", None),   # hydroline.analysis.linearize(...)
+    "studies": ("hydroline.studies", None),     # hydroline.studies.layout(...)
+}
+
 __all__ = ["Fluid", "MINERAL_OIL", "effective_bulk_modulus", "Rig", "load_rig", "simulate",
            "summarize", "analysis", "studies", "__version__"]
+
+
+def __getattr__(name):
+    try:
+        module, attr = _LAZY[name]
+    except KeyError:
+        raise AttributeError(f"module 'hydroline' has no attribute {name!r}") from None
+    value = importlib.import_module(module)
+    if attr is not None:
+        value = getattr(value, attr)
+    globals()[name] = value   # later look-ups skip this function
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import components as comp
-from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
+from .analysis.metrics import oscillation_amplitude, oscillation_frequency, settling_time
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .simulation import SimulationResult, integrate, solve_steady_state
 from .system import build_network
@@ -172,7 +172,7 @@ def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSU
     """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8)."""
     out = []
     for k in WATCHED_PRESSURES:
-        if k not in res.data:
+        if k not in res:
             continue
         p = res[k]
         i = int(np.argmin(p))

@@ -11,11 +11,9 @@ from __future__ import annotations
 
 import time as _time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
-import pandas as pd
 
 from .network import Network
 
@@ -142,43 +140,90 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     return SteadyState(x, p, res, network.state_names[k])
 
 
-@dataclass
 class SimulationResult:
     """Time series of every named signal and state.
 
     Attributes
     ----------
     data : pandas.DataFrame   Index ``time`` [s]; one column per signal and per state
-                              (``<component>.<state>``), SI units
+                              (``<component>.<state>``), SI units (made on first access;
+                              ``res[name]``, ``res.t`` and ``name in res`` need no pandas)
+    columns : list[str]       Column names of ``data``, signals first
     steady_state : SteadyState
     wall_time : float         Integration wall time, [s]
     stats : dict              Solver statistics (function/Jacobian evaluations, steps)
     warnings : list[str]      Validity warnings (e.g. pressure below zero absolute)
     """
 
-    data: pd.DataFrame
-    steady_state: SteadyState | None = None
-    wall_time: float = 0.0
-    stats: dict = field(default_factory=dict)
-    warnings: list = field(default_factory=list)
-    metadata: dict = field(default_factory=dict)
+    def __init__(self, data=None, steady_state: SteadyState | None = None, wall_time: float = 0.0,
+                 stats: dict | None = None, warnings: list | None = None,
+                 metadata: dict | None = None, *, times=None, table=None, columns=None):
+        if data is not None:   # a DataFrame given: its index is the time
+            times, table, columns = data.index.to_numpy(), data.to_numpy(), list(data.columns)
+        self._times = np.asarray(times, dtype=float)
+        self._table = np.asarray(table, dtype=float).reshape(len(self._times), -1)
+        self.columns = list(columns)
+        self._column_index = {c: k for k, c in enumerate(self.columns)}
+        self._data = data
+        self.steady_state = steady_state
+        self.wall_time = wall_time
+        self.stats = {} if stats is None else stats
+        self.warnings = [] if warnings is None else warnings
+        self.metadata = {} if metadata is None else metadata
+
+    @property
+    def data(self):
+        if self._data is None:
+            import pandas as pd
+
+            self._data = pd.DataFrame(self._table, index=pd.Index(self._times, name="time"),
+                                      columns=self.columns, copy=False)
+        return self._data
 
     @property
     def t(self) -> np.ndarray:
-        return self.data.index.to_numpy()
+        return self._times
 
     def __getitem__(self, key) -> np.ndarray:
-        return self.data[key].to_numpy()
+        if self._data is not None:
+            return self._data[key].to_numpy()
+        try:
+            return self._table[:, self._column_index[key]]
+        except KeyError:
+            raise KeyError(key) from None
+
+    def __contains__(self, key) -> bool:
+        return key in self._column_index if self._data is None else key in self._data
 
     def to_csv(self, path):
         """Write all series to CSV (time in the first column, SI units)."""
-        self.data.to_csv(path, index_label="time")
+        if self._data is not None:
+            self._data.to_csv(path, index_label="time")
+            return
+        with open(path, "w", buffering=1 << 20) as f:
+            f.write(",".join(["time"] + self.columns) + "\n")
+            write_csv_rows(f, self._times, self._table)
 
     def plot(self, signals=None, path=None, title=None):
         """Plot signals (default: the paper's Figs. 10-12 set when present). Returns the figure."""
         from .plotting import plot_result
 
         return plot_result(self, signals=signals, path=path, title=title)
+
+
+def write_csv_rows(file, t, block):
+    """Rows ``t, block[i, :]`` as CSV text, each number in Python's shortest round-trip form
+    (what pandas writes; NaN as an empty field)."""
+    data = np.column_stack([np.asarray(t, dtype=float), np.asarray(block, dtype=float)])
+    step = max(1, 100_000 // max(data.shape[1], 1))
+    for k in range(0, len(data), step):
+        part = data[k:k + step]
+        rows = part.tolist()
+        if np.isnan(part).any():
+            text = "\n".join(",".join("" if v != v else repr(v) for v in r) for r in rows)
+        else:
+            text = "\n".join(",".join(map(repr, r)) for r in rows)
+        file.write(text + "\n")
 
 
 def _segments(t_end, breakpoints, sample_time=None):
@@ -318,7 +363,9 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     if ns is not None:
         stats.update(ns.stats())
     stats["build_time"] = build_time
-    res = SimulationResult(data=sink.result(), wall_time=wall, stats=stats, warnings=notes)
+    t_rows, table = sink.result()
+    res = SimulationResult(times=t_rows, table=table, columns=columns, wall_time=wall,
+                           stats=stats, warnings=notes)
     res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
     if solver_note:
         res.metadata["solver_note"] = solver_note
@@ -332,6 +379,8 @@ def _integrate_cvodes_scipy(backend, network, scaled_dae, a, grid, x, p, rtol, a
                             stats):
     """States at the grid times (the last one is the segment end) by CVODES or SciPy BDF."""
     if backend == "cvodes":
+        import casadi as ca
+
         F = ca.integrator("F", "cvodes", scaled_dae, a, list(grid),
                           {"reltol": rtol, "abstol": atol_scale, "max_num_steps": 200000})
         out = F(x0=x / network.state_scales, p=p)
@@ -398,16 +447,19 @@ class _Sink:
         np.savetxt(self.file, np.column_stack([t, sel]), fmt="%.9g", delimiter=",")
         self.last = (np.array(t[-1:], dtype=float), block[-1:])
 
-    def result(self) -> pd.DataFrame:
+    def result(self):
+        """(times, table): every row kept, or the last one when streaming."""
         if self.path is not None:
             self.file.close()
-            t, block = self.last
-        else:
-            t = np.concatenate([q[0] for q in self.parts])
-            block = np.vstack([q[1] for q in self.parts])
-        return pd.DataFrame(block, index=pd.Index(t, name="time"), columns=self.columns)
+            return self.last
+        if len(self.parts) == 1:
+            return self.parts[0]
+        return (np.concatenate([q[0] for q in self.parts]),
+                np.vstack([q[1] for q in self.parts]))
 
-    def stats_frame(self) -> pd.DataFrame:
+    def stats_frame(self):
+        import pandas as pd
+
         n = max(self.rows, 1)
         mean = self.sum / n
         return pd.DataFrame({"min": self.mn, "max": self.mx, "mean": mean,
@@ -416,6 +468,8 @@ class _Sink:
 
 def _scaled_dae(dae, scales):
     """The ODE in scaled states z = x/scale, so one absolute tolerance fits every state."""
+    import casadi as ca
+
     z = ca.SX.sym("z", dae["x"].shape[0])
     ode = ca.substitute(dae["ode"], dae["x"], z * ca.DM(scales)) / ca.DM(scales)
     return {"t": dae["t"], "x": z, "p": dae["p"], "ode": ode}

@@ -40,16 +40,34 @@ from __future__ import annotations
 import math
 import numbers
 
-import pint
+from .unit_table import si_value
 
 __all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "split_header",
            "csv_column"]
 
-#: The one unit registry of hydroline. Quantities from other registries are re-read into it.
-ureg = pint.UnitRegistry()
-if "gpm" not in ureg:
-    # US liquid gallon per minute; pint's ``gallon`` is the US liquid gallon (231 in^3).
-    ureg.define("gallon_per_minute = gallon / minute = gpm")
+
+
+def _load_pint():
+    """Import pint and build :data:`ureg`, the one unit registry of hydroline (quantities
+    from other registries are re-read into it), on first use: about half a second that a
+    run whose quantities the unit table reads (:mod:`hydroline.unit_table`) never pays."""
+    global pint, ureg
+    if "ureg" in globals():
+        return
+    import pint as _pint
+
+    registry = _pint.UnitRegistry()
+    if "gpm" not in registry:
+        # US liquid gallon per minute; pint's ``gallon`` is the US liquid gallon (231 in^3).
+        registry.define("gallon_per_minute = gallon / minute = gpm")
+    pint, ureg = _pint, registry
+
+
+def __getattr__(name):   # PEP 562: hydroline.units.ureg / .pint load pint when first asked for
+    if name in ("ureg", "pint"):
+        _load_pint()
+        return globals()[name]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 #: Unit strings that mean "no unit".
 _DIMENSIONLESS = {"", "-", "1", "dimensionless"}
@@ -61,6 +79,7 @@ class UnitError(ValueError):
 
 def _target_units(unit: str) -> pint.Unit:
     """Parse the SI unit a caller asks for (a programming error if it fails)."""
+    _load_pint()
     if unit is None or str(unit).strip() in _DIMENSIONLESS:
         return ureg.dimensionless
     try:
@@ -124,6 +143,11 @@ def parse_quantity(value, unit: str, name: str = "value") -> float:
     ...
     hydroline.units.UnitError: supply.section1.length: bare number 3.048 is ambiguous, give a unit like '3.048 m'
     """
+    if isinstance(value, (str, int, float)):   # "NUMBER UNIT" in common units: no pint needed
+        fast = si_value(value, unit)
+        if fast is not None:
+            return fast
+    _load_pint()
     target = _target_units(unit)
     target_text = "dimensionless" if target == ureg.dimensionless else str(unit).strip()
     dimensionless_target = target.dimensionless
@@ -211,6 +235,7 @@ def format_quantity(value_si: float, unit: str, display_unit: str | None = None,
     if isinstance(digits, bool) or not isinstance(digits, numbers.Integral) or digits < 1:
         raise ValueError(f"digits must be an integer >= 1, got {digits!r}")
     value = _finite("value_si", value_si, value_si)
+    _load_pint()
     source = _target_units(unit)
     shown_unit = str(unit).strip() if display_unit is None else str(display_unit).strip()
     target = _target_units(shown_unit)

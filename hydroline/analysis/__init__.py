@@ -1,11 +1,34 @@
-"""Analysis of simulated and measured traces."""
-from .metrics import oscillation_amplitude, oscillation_frequency, settling_time
-from .linearize import OperatingPoint, OperatingPointError, linearize, solve_operating_point
-from .frequency import bandwidth, bode_analysis, line_coupled_model, resonances
-from .fit import DataError, fit_parameters, read_measurements
-from .friction_id import fit_stribeck, identify_friction
+"""Analysis of simulated and measured traces.
 
-__all__ = ["oscillation_frequency", "oscillation_amplitude", "settling_time",
-           "OperatingPoint", "OperatingPointError", "linearize", "solve_operating_point",
-           "bandwidth", "bode_analysis", "line_coupled_model", "resonances",
-           "DataError", "fit_parameters", "read_measurements", "fit_stribeck", "identify_friction"]
+The names below load on first use (PEP 562): the metrics need SciPy's peak finder, the
+linearisation python-control, the fits SciPy's optimisers; a run that uses none pays for none.
+"""
+from __future__ import annotations
+
+import importlib
+
+#: Public name -> submodule that defines it.
+_LAZY = {
+    "oscillation_frequency": "metrics", "oscillation_amplitude": "metrics",
+    "settling_time": "metrics",
+    "OperatingPoint": "linearize", "OperatingPointError": "linearize", "linearize": "linearize",
+    "solve_operating_point": "linearize",
+    "bandwidth": "frequency", "bode_analysis": "frequency", "line_coupled_model": "frequency",
+    "resonances": "frequency",
+    "DataError": "fit", "fit_parameters": "fit", "read_measurements": "fit",
+    "fit_stribeck": "friction_id", "identify_friction": "friction_id",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name):
+    if name not in _LAZY:
+        raise AttributeError(f"module 'hydroline.analysis' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

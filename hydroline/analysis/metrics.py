@@ -69,7 +69,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.signal import find_peaks
+from .peaks import find_peaks   # scipy.signal.find_peaks without loading scipy.signal
 
 __all__ = ["oscillation_frequency", "oscillation_amplitude", "settling_time"]
 

@@ -31,18 +31,32 @@ class UsageError(ValueError):
     """Bad input from the user: printed as one line, exit code 2."""
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser; with ``only`` (a module name of ``SUBCOMMANDS``) just that
+    subcommand is registered, so a command imports only its own module and what it uses."""
     parser = argparse.ArgumentParser(
         prog="hydroline",
         description="Electrohydraulic servo systems with supply and return hose dynamics.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in SUBCOMMANDS:
+    for name in SUBCOMMANDS if only is None else [only]:
         importlib.import_module(f"{__name__}.{name}").register(sub)
     return parser
 
 
+def _requested_subcommand(argv) -> str | None:
+    """The module of the subcommand named first on the command line (None: none or unknown,
+    then every subcommand is registered for help and error messages)."""
+    for arg in argv:
+        if arg.startswith("-"):
+            return None   # a global option (-h) before the command
+        name = arg.replace("-", "_")
+        return name if name in SUBCOMMANDS else None
+    return None
+
+
 def main(argv=None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_requested_subcommand(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -17,8 +17,10 @@ def register(sub):
     p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
     p.add_argument("--scenario", default="open-loop-step", choices=SCENARIOS)
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
-    p.add_argument("--out", default="hydroline-out", help="output folder (default: hydroline-out)")
-    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout only")
+    p.add_argument("--out", help="output folder (default: hydroline-out; with --json no files "
+                   "are written unless --out is given)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout "
+                   "(and write the files only when --out is given)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
                    help="auto (default: the compiled C core where a C compiler exists, else "
                    "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
@@ -57,11 +59,12 @@ def run(args) -> int:
     res = simulate(rig, args.scenario, t_end, solver=args.solver,
                    progress=progress_printer("simulating", not args.json))
     summary = summarize(res)
-    out = out_dir(args.out)
-    res.to_csv(out / "results.csv")
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    res.plot(path=out / "pressures.png",
-             title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
+    if args.out is not None or not args.json:
+        out = out_dir(args.out if args.out is not None else "hydroline-out")
+        res.to_csv(out / "results.csv")
+        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        res.plot(path=out / "pressures.png",
+                 title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)

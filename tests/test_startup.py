@@ -1,0 +1,106 @@
+"""Start-up path: the pint-free unit table and the SciPy-free peak finder against the
+libraries they stand in for, and what ``import hydroline`` / a --json run load."""
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from scipy.signal import find_peaks as scipy_find_peaks
+
+from hydroline.analysis.peaks import find_peaks, local_maxima
+from hydroline.unit_table import UNITS, si_value
+from hydroline import units
+from hydroline.units import parse_quantity
+
+UREG = units.ureg   # pint's registry as hydroline sets it up
+
+
+@pytest.mark.parametrize("name", sorted(UNITS))
+def test_every_table_unit_equals_pint(name):
+    """Factor and dimension of each entry against pint's own definition."""
+    factor, dims = UNITS[name]
+    q = UREG.Quantity(1.0, "percent" if name == "%" else name).to_base_units()
+    assert q.magnitude == pytest.approx(factor, rel=1e-14)
+    want = dict(q.dimensionality)
+    got = {"[length]": dims[0], "[mass]": dims[1], "[time]": dims[2], "[current]": dims[3]}
+    assert {k: v for k, v in got.items() if v} == {k: v for k, v in want.items() if v}
+
+
+@pytest.mark.parametrize("text, unit", [
+    ("20.7 MPa", "Pa"), ("3000 psi", "Pa"), ("12.7 mm", "m"), ("3.048 m", "m"), ("10 ft", "m"),
+    ("0.5 in", "m"), ("19 L/min", "m^3/s"), ("5 gpm", "m^3/s"), ("32 cSt", "m^2/s"),
+    ("1.25e9 Pa*s/m^3", "Pa*s/m^3"), ("870 kg/m^3", "kg/m^3"), ("2000 N*s/m", "N*s/m"),
+    ("-5 mm", "m"), ("1.5e9 Pa", "Pa"), ("0.04 A/m", "A/m"), ("3 cm^3", "m^3"),
+    ("12 cm^2", "m^2"), ("50 %", "-"), ("0.85", "dimensionless"), ("250 bar", "Pa"),
+    ("10 ms", "s"), ("100 Hz", "Hz"), ("4 um", "m"), ("1 MPa/s", "Pa/s"), ("9.81 m/s^2", "m/s^2"),
+    ("2 m**3", "m^3"), ("1 L", "m^3"), ("1 lbf", "N"), ("1 gal/min", "m^3/s"),
+])
+def test_table_reads_as_pint_does(text, unit):
+    want = UREG.parse_expression(text)
+    target = "dimensionless" if unit == "-" else unit
+    want = float(want.to(target).magnitude) if hasattr(want, "to") else float(want)
+    assert si_value(text, unit) == pytest.approx(want, rel=1e-14)
+    assert parse_quantity(text, unit, "x") == pytest.approx(want, rel=1e-14)
+
+
+@pytest.mark.parametrize("text, unit", [
+    ("3.048", "m"),        # bare number for a length: pint's path words the refusal
+    ("20,7 MPa", "Pa"), ("MPa", "Pa"), ("2 3 m", "m"), ("20.7 MPa 3", "Pa"), ("N m", "N*m"),
+    ("100 rad/s", "Hz"), ("600 rpm", "Hz"),   # angles: pint's path checks them
+    ("3000 psi", "m"),     # wrong dimension
+    ("1 furlong", "m"),    # not in the table
+    ("1e999 m", "m"), ("9**9**9 m", "m"),
+])
+def test_table_leaves_the_doubtful_to_pint(text, unit):
+    assert si_value(text, unit) is None
+
+
+def test_find_peaks_equals_scipy():
+    rng = np.random.default_rng(1)
+    for trial in range(60):
+        n = int(rng.integers(3, 400))
+        x = rng.normal(size=n).cumsum() if trial % 2 else rng.normal(size=n)
+        if trial % 3 == 0:   # plateaus
+            x = np.round(x * 2) / 2
+        for prom in (None, 0.0, 0.3, 1.5):
+            got, props = find_peaks(x, prominence=prom)
+            want, wprops = scipy_find_peaks(x, prominence=prom)
+            np.testing.assert_array_equal(got, want)
+            if prom is not None:
+                np.testing.assert_allclose(props["prominences"], wprops["prominences"])
+        for dist in (1, 2.5, 7):
+            np.testing.assert_array_equal(find_peaks(x, distance=dist)[0],
+                                          scipy_find_peaks(x, distance=dist)[0])
+    t = np.linspace(0, 1, 4096)   # a padded spectrum: many ripples, few prominent peaks
+    spec = np.abs(np.fft.rfft(np.sin(2 * np.pi * 40 * t) * np.exp(-3 * t), 1 << 15))
+    for frac in (0.02, 0.2):
+        np.testing.assert_array_equal(find_peaks(spec, prominence=frac * spec.max())[0],
+                                      scipy_find_peaks(spec, prominence=frac * spec.max())[0])
+    assert local_maxima([1.0, 2.0]).size == 0
+
+
+def _loaded_modules(code):
+    out = subprocess.run([sys.executable, "-c", code + "\nimport sys\n"
+                          "print(' '.join(sorted(sys.modules)))"],
+                         capture_output=True, text=True, check=True).stdout.split()
+    return {m.split(".")[0] for m in out} | set(out)
+
+
+def test_import_hydroline_loads_no_heavy_library():
+    loaded = _loaded_modules("import hydroline")
+    for heavy in ("pint", "pandas", "matplotlib", "dask", "control", "scipy", "casadi"):
+        assert heavy not in loaded, heavy
+
+
+def test_json_run_loads_only_what_it_uses(tmp_path):
+    """``hydroline simulate --json`` (no --out): no files, and no pint, pandas, matplotlib,
+    dask, python-control or scipy.signal/stats/optimize in the process."""
+    loaded = _loaded_modules(
+        "import contextlib, io\nfrom hydroline.cli import main\n"
+        f"import os; os.chdir({str(tmp_path)!r})\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    assert main(['simulate', '--json', '--t-end', '0.05 s']) == 0\n")
+    for heavy in ("pint", "pandas", "matplotlib", "dask", "control", "scipy.signal",
+                  "scipy.stats", "scipy.optimize"):
+        assert heavy not in loaded, heavy
+    assert list(tmp_path.iterdir()) == []
