@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .network import Network
+from .network import Component, Network
 
 __all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
            "SteadyStateError", "SOLVERS"]
@@ -49,6 +49,97 @@ def _scaled_residual(model, t, x, p, scales):
     return float(abs(r[k])), k
 
 
+class _CompiledRest:
+    """f(t, x, p) and its Jacobian from the network's compiled C library, with the interface
+    of :class:`~hydroline.network.CompiledModel` (``rhs``, ``jacobian``, ``signals``): the
+    steady-state iterations then cost microseconds each instead of CasADi's call overhead."""
+
+    def __init__(self, model, native):
+        self.model = model
+        self.solver = native.solver(model.network.parameter_values)
+        self.p_bytes = np.asarray(model.network.parameter_values, dtype=float).tobytes()
+        self.scales = np.asarray(model.network.state_scales, dtype=float)
+        g = native.generated
+        self.rows = np.asarray(g.jac_row, dtype=np.intp)
+        self.cols = np.repeat(np.arange(g.n_states), np.diff(g.jac_colind))
+        self.jnz = np.empty(max(g.jac_nnz, 1))
+        self.signals = model.signals
+
+    def _use(self, p):
+        b = np.asarray(p, dtype=float).tobytes()
+        if b != self.p_bytes:   # the components' settling changed a parameter
+            self.solver.set_parameters(p)
+            self.p_bytes = b
+
+    def rhs(self, t, x, p):
+        self._use(p)
+        return self.solver.rhs(t, x)
+
+    def scaled_jacobian(self, t, x, p):
+        """d(dz/dt)/dz, dense, in the scaled states z = x/scale."""
+        self._use(p)
+        J = np.zeros((len(self.scales), len(self.scales)))
+        self.solver.scaled_jacobian_nonzeros(t, x, self.jnz)
+        J[self.rows, self.cols] = self.jnz[:len(self.rows)]
+        return J
+
+    def jacobian(self, t, x, p):
+        return self.scaled_jacobian(t, x, p) * self.scales[:, None] / self.scales[None, :]
+
+
+def _rest_functions(network):
+    """The model's f and Jacobian for the steady-state solve: compiled C where a library can
+    be built (it is the one the integration uses), else the CasADi functions."""
+    model = network.compile()
+    try:
+        from . import compiled
+
+        return _CompiledRest(model, compiled.native_model(network))
+    except Exception:   # no compiler, an operation the C writer lacks, an unusable cache
+        return model
+
+
+def _scaled_jacobian(model, t, x, p, scales):
+    if hasattr(model, "scaled_jacobian"):
+        return model.scaled_jacobian(t, x, p)
+    return model.jacobian(t, x, p) * scales[None, :] / scales[:, None]
+
+
+def _newton(model, t0, x, p, scales, tol, max_iter=30):
+    """Newton's method with the exact Jacobian and a backtracking line search on the scaled
+    states, from x. Returns (x, converged): quick where it converges; where it does not (the
+    kinks of check valves, stops and orifices), pseudo-transient continuation takes over."""
+    z = x / scales
+
+    def resid(z):
+        return model.rhs(t0, z * scales, p) / scales
+
+    r = resid(z)
+    norm = np.linalg.norm(r)
+    for _ in range(max_iter):
+        if not np.isfinite(norm):
+            return x, False
+        if np.max(np.abs(r)) < tol:
+            return z * scales, True
+        J = _scaled_jacobian(model, t0, z * scales, p, scales)
+        try:
+            dz = np.linalg.solve(J, -r)
+        except np.linalg.LinAlgError:
+            return x, False
+        lam = 1.0
+        while True:
+            z_new = z + lam * dz
+            r_new = resid(z_new)
+            norm_new = np.linalg.norm(r_new)
+            if np.isfinite(norm_new) and norm_new <= (1.0 - 1e-4 * lam) * norm:
+                break
+            lam *= 0.5
+            if lam < 0.05:   # far from the root's basin: leave it to the continuation
+                return x, False
+        z, r, norm = z_new, r_new, norm_new
+    return (z * scales, True) if np.max(np.abs(r)) < tol else (x, False)
+
+
 def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     """Pseudo-transient continuation (Kelley & Keyes, SIAM J. Numer. Anal. 35 (1998) 508):
     implicit-Euler steps ``(I/dt - J) dz = f`` in scaled states with dt growing as the residual
@@ -66,7 +157,7 @@ def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     for _ in range(max_iter):
         if np.max(np.abs(r)) < tol:
             break
-        J = model.jacobian(t0, z * scales, p) * scales[None, :] / scales[:, None]
+        J = _scaled_jacobian(model, t0, z * scales, p, scales)
         M = np.eye(n) / dt - J
         try:
             dz = np.linalg.solve(M, r)
@@ -88,10 +179,11 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
                        max_rounds: int = 3) -> SteadyState:
     """Solve ``f(t0, x) = 0`` for the whole network (MODEL.md 6), then let components settle.
 
-    Pseudo-transient continuation with the compiled model's exact Jacobian, on the states
-    scaled by their typical magnitudes, starting from the components' guesses; components
-    then settle (e.g. accumulators adopt the steady pressure as their charge state) and the
-    solve repeats until nothing changes.
+    Newton's method with the compiled model's exact Jacobian (in C where a compiler exists),
+    on the states scaled by their typical magnitudes, starting from the components' guesses;
+    where Newton does not converge, pseudo-transient continuation from the same start.
+    Components then settle (e.g. accumulators adopt the steady pressure as their charge
+    state) and the solve repeats until nothing changes.
 
     Parameters
     ----------
@@ -104,17 +196,20 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     -------
     SteadyState
     """
-    model = network.compile()
+    model = _rest_functions(network)
     scales = network.state_scales
     p = network.parameter_values.copy()
     x = network.guess() if x_guess is None else np.asarray(x_guess, dtype=float).copy()
+    # only components that define settle() can change anything after a solve
+    settling = [c for c in network.components if type(c).settle is not Component.settle]
     for _ in range(max_rounds):
-        x = _pseudo_transient(model, t0, x, p, scales, tol)
+        x_newton, converged = _newton(model, t0, x, p, scales, tol)
+        x = x_newton if converged else _pseudo_transient(model, t0, x, p, scales, tol)
         changed = False
-        for c in network.components:
+        for c in settling:
             sl = network.state_slice(c.name)
             xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
-            u = network.signals_at(t0, x, p)
+            u = _signals(model, network, t0, x, p)
             ps = {k: p[network.parameter_names.index(f"{c.name}.{k}")]
                   for k in c.runtime_parameters()}
             cu = {port: u[c.signal(port)] for port in c.inputs}
@@ -138,6 +233,12 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
             f"steady state not found: scaled residual {res:.3g} 1/s at state "
             f"'{network.state_names[k]}' (check pressures, laps and initial position)")
     return SteadyState(x, p, res, network.state_names[k])
+
+
+def _signals(model, network, t, x, p) -> dict:   # model: CompiledModel or _CompiledRest
+    """Every signal at (t, x, p) from the compiled graph (as ``network.signals_at``, whose
+    per-component Python evaluation costs about a hundred times more)."""
+    return dict(zip(network.signal_names, np.asarray(model.signals(t, x, p), dtype=float).ravel()))
 
 
 class SimulationResult:

@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cache import cache_dir   # re-exported: the directory of the compiled libraries
 from .codegen import GeneratedModel, UnsupportedOperation, generate  # noqa: F401 (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
@@ -45,15 +46,6 @@ _LIBS: dict = {}
 
 class CompilerUnavailable(RuntimeError):
     """No working C compiler: the compiled core cannot be built on this machine."""
-
-
-def cache_dir() -> Path:
-    """Directory of the compiled libraries (created on demand)."""
-    env = os.environ.get("HYDROLINE_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
-    return Path(base) / "hydroline"
 
 
 def _compiler() -> str | None:
@@ -178,8 +170,9 @@ def _declare(lib):
     lib.hl_get_state.argtypes = [vp, dp, dp]
     lib.hl_stats.argtypes = [vp, llp]
     lib.hl_reset_stats.argtypes = [vp]
-    lib.hl_rhs.argtypes = [vp, ctypes.c_double, dp, dp]
-    lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, dp, dp]
+    # called in tight loops (steady state): raw addresses, no per-call pointer objects
+    lib.hl_rhs.argtypes = [vp, ctypes.c_double, vp, vp]
+    lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, vp, vp]
     lib.hl_last_nonfinite.argtypes = [vp]
     lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
 
@@ -340,12 +333,26 @@ class NativeSolver:
     def reset_stats(self):
         self._lib.hl_reset_stats(self._h)
 
+    def scaled_jacobian_nonzeros(self, t: float, x, out=None) -> np.ndarray:
+        """d(dz/dt)/dz at (t, x) in the scaled states z = x/scale: the nonzeros in the
+        compressed-column order of ``model.generated.jac_colind`` / ``jac_row``, [1/s]."""
+        x = np.ascontiguousarray(np.asarray(x, dtype=float))
+        if x.shape != (self.model.n,):
+            raise ValueError(f"state x must have {self.model.n} entries, got {x.size}")
+        g = self.model.generated
+        if out is None or len(out) < max(g.jac_nnz, 1):
+            out = np.empty(max(g.jac_nnz, 1))
+        self._lib.hl_scaled_jacobian(self._h, float(t), x.ctypes.data, out.ctypes.data)
+        return out[:g.jac_nnz]
+
     def rhs(self, t: float, x) -> np.ndarray:
         """dx/dt at (t, x) from the compiled code, [SI/s]."""
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
+        if x.shape != (self.model.n,):
+            raise ValueError(f"state x must have {self.model.n} entries, got {x.size}")
         dx = np.empty(self.model.n)
-        self._lib.hl_rhs(self._h, float(t), _ptr(x), _ptr(dx))
-        return dx * 1.0
+        self._lib.hl_rhs(self._h, float(t), x.ctypes.data, dx.ctypes.data)
+        return dx
 
 
 def native_model(network) -> NativeModel:

@@ -13,8 +13,11 @@ friction root with alpha = beta = 1 and continued from the previous mode.
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
+from ..cache import load_table, source_tag, store_table
 from .line import Line, bessel_ratio, check_form
 
 __all__ = ["correction_factors", "modal_angles", "dissipative_root"]
@@ -87,6 +90,24 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     -------
     (alpha, beta) : arrays of shape (n_modes,), [-]
     """
+    n_modes, form = _check_modes(n_modes), check_form(form)
+    # a pure function of these numbers, kept on disk: a later build of the same line skips
+    # the root finding (and the import of scipy.special)
+    key = (f"{_SOURCE_TAG}|{form}|{n_modes}|{line.length!r}|{line.diameter!r}|"
+           f"{line.fluid.kinematic_viscosity!r}|{line.wave_time!r}")
+    stored = load_table("correction_factors", key)
+    if stored is not None and len(stored) == 2 and all(len(v) == n_modes for v in stored):
+        return np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
+    alphas, betas = _solve_correction_factors(line, n_modes, form)
+    store_table("correction_factors", key, [alphas.tolist(), betas.tolist()])
+    return alphas, betas
+
+
+_SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"))
+
+
+def _solve_correction_factors(line: Line, n_modes: int, form: str):
+    """alpha_i, beta_i (M15) by root matching, modes 1..n_modes."""
     thetas = modal_angles(n_modes, form)
     nu, d = line.fluid.kinematic_viscosity, line.diameter
     alphas, betas, roots = [], [], []

@@ -17,7 +17,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
 
 from ..fluid import Fluid, _positive
 
@@ -48,6 +47,8 @@ def bessel_ratio(kappa):
     Uses exponentially scaled Bessel functions (the scaling cancels in the ratio); for
     |kappa| < 1e-3 the series ``8/kappa^2 + 4/3 + kappa^2/24`` avoids cancellation in I2.
     """
+    from scipy import special   # here, not at import: a cached run never needs it
+
     kappa = np.asarray(kappa, dtype=complex)
     small = np.abs(kappa) < 1e-3
     k_safe = np.where(small, 1.0, kappa)
