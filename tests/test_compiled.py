@@ -1,7 +1,12 @@
 """The compiled core (hydroline.compiled) against independent truth: the exact solution of a
 damped oscillator, NumPy's dense linear algebra, the reference Python right-hand side, and the
 reference SciPy integration of the full default rig."""
+import hashlib
+import os
+import subprocess
+import sys
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -234,18 +239,107 @@ def test_lumped_line_first_resonance_converges_to_quarter_wave():
 
 
 # ---- robustness of the cache and the C integrator ---------------------------------------
+def _oscillator_peak(zeta=0.05):
+    """Peak of the 1 mm step response of the oscillator: 1 + exp(-pi z / sqrt(1 - z^2)) mm."""
+    return 1e-3 * (1 + np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2)))
+
+
+def _fresh_process_cache(monkeypatch):
+    """Forget the libraries and models this process has loaded, as a new process would."""
+    monkeypatch.setattr(compiled, "_LIBS", {})
+    monkeypatch.setattr(compiled, "_MODELS", {})
+
+
 @needs_cc
-def test_corrupt_cached_library_is_rebuilt(monkeypatch, tmp_path):
+@pytest.mark.parametrize("damage", ["garbage", "random-bytes", "other-library", "unrecorded"])
+def test_damaged_cached_library_is_rebuilt(monkeypatch, tmp_path, damage):
+    """A cached library that is not the file its build recorded (size + SHA-256) is rebuilt
+    before anything loads it: text, random bytes, another model's valid library, or a file
+    without a record (a cache from before the records)."""
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
     net = oscillator_network(omega=211.0)
-    path, _ = compiled._library_path(generate(net.compile()))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(b"not a shared library")          # e.g. a build killed mid-write elsewhere
-    res = integrate(net, np.zeros(2), 0.05, solver="compiled")
+    path = compiled.native_model(net).library_path
+    record = path.with_suffix(".sha256")
+    assert record.read_text().split()[0] == str(path.stat().st_size)
+    if damage == "garbage":
+        _replace(path, b"not a shared library")   # e.g. a build killed mid-write elsewhere
+    elif damage == "random-bytes":
+        _replace(path, np.random.default_rng(0).bytes(path.stat().st_size))
+    elif damage == "other-library":
+        _replace(path, _other_library())
+    else:
+        record.unlink()
+    _fresh_process_cache(monkeypatch)
+    res = integrate(oscillator_network(omega=211.0), np.zeros(2), 0.05, solver="compiled")
     assert res.metadata["solver"] == "compiled"
-    # step of 1 mm into the oscillator (zeta = 0.05): peak 1 + exp(-pi z / sqrt(1 - z^2)) mm
-    peak = 1e-3 * (1 + np.exp(-np.pi * 0.05 / np.sqrt(1 - 0.05**2)))
-    assert res["osc.x"].max() == pytest.approx(peak, rel=2e-3)
+    assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+    assert compiled.native_model(oscillator_network(omega=211.0)).library_path == path
+    data = path.read_bytes()
+    assert record.read_text().split() == [str(len(data)), hashlib.sha256(data).hexdigest()]
+
+
+def _replace(path, data):
+    """Put other bytes at ``path`` as a new file: this process has the old one mapped, and
+    rewriting a mapped library in place would crash the test itself."""
+    tmp = path.with_suffix(".damaged")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+
+
+def _other_library() -> bytes:
+    """The bytes of a valid library of another model structure (two oscillators in a row)."""
+    net = Network([Hold(name="source"), Oscillator(name="osc"),
+                   Oscillator(name="osc2", connections={"u": "x", "x": "x2"})])
+    return compiled.native_model(net).library_path.read_bytes()
+
+
+@needs_cc
+def test_truncated_cached_library_does_not_crash_a_new_process(tmp_path):
+    """Half a library (a disk filled mid-copy) mapped by the loader kills the process with
+    SIGBUS; the recorded size and hash keep it from being loaded: the run rebuilds it."""
+    code = (
+        "import sys, numpy as np\n"
+        f"sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
+        "from test_compiled import oscillator_network, _oscillator_peak\n"
+        "from hydroline import compiled\n"
+        "from hydroline.simulation import integrate\n"
+        "res = integrate(oscillator_network(omega=215.0), np.zeros(2), 0.05, solver='compiled')\n"
+        "assert abs(res['osc.x'].max() / _oscillator_peak() - 1) < 2e-3\n"
+        "print(compiled.native_model(oscillator_network(omega=215.0)).library_path)\n")
+    env = dict(os.environ, HYDROLINE_CACHE_DIR=str(tmp_path))
+    first = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    path = Path(first.stdout.strip())
+    data = path.read_bytes()
+    _replace(path, data[:len(data) // 2])
+    second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert second.returncode == 0, second.stderr   # not -7 (SIGBUS)
+    rebuilt = path.read_bytes()
+    assert path.with_suffix(".sha256").read_text().split() == [
+        str(len(rebuilt)), hashlib.sha256(rebuilt).hexdigest()]
+
+
+@needs_cc
+def test_known_model_skips_code_generation(monkeypatch, tmp_path):
+    """A model seen before (same graph and numbers) loads its library without writing C: the
+    record in the cache directory holds its constants; the result is the same."""
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    net = oscillator_network(omega=217.0)
+    first = integrate(net, np.zeros(2), 0.05, solver="compiled")
+    _fresh_process_cache(monkeypatch)
+    import hydroline.compiled.codegen as codegen_module
+
+    def no_codegen(model):
+        raise AssertionError("C generated for a known model")
+
+    monkeypatch.setattr(compiled, "generate", no_codegen)
+    again = integrate(oscillator_network(omega=217.0), np.zeros(2), 0.05, solver="compiled")
+    np.testing.assert_array_equal(again["osc.x"], first["osc.x"])
+    assert codegen_module.generate is not no_codegen
+    # other numbers (a variant): a new record, same library (structure-only C)
+    monkeypatch.setattr(compiled, "generate", codegen_module.generate)
+    variant = compiled.native_model(oscillator_network(omega=218.0))
+    assert variant.library_path == compiled.native_model(net).library_path
 
 
 def test_unusable_cache_directory_falls_back(monkeypatch, tmp_path):

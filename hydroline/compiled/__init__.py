@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cache import cache_dir   # re-exported: the directory of the compiled libraries
+from ..cache import cache_dir, load_table, source_tag, store_table  # cache_dir re-exported
 from .codegen import GeneratedModel, UnsupportedOperation, generate  # noqa: F401 (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
@@ -95,8 +95,40 @@ def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
     return cache_dir() / f"hl_{tag}.so", full
 
 
+def _digest(path: Path) -> tuple[int, str]:
+    """(size [bytes], SHA-256) of a file."""
+    data = path.read_bytes()
+    return len(data), hashlib.sha256(data).hexdigest()
+
+
+def _record_path(path: Path) -> Path:
+    return path.with_suffix(".sha256")
+
+
+def _verified(path: Path) -> bool:
+    """True when the cached library at ``path`` is the file its build recorded: same size and
+    content hash. Checked before the library is loaded: a truncated, overwritten or foreign
+    file mapped into the process would crash it (SIGBUS, SIGSEGV) instead of raising."""
+    try:
+        size, digest = _record_path(path).read_text().split()
+        if path.stat().st_size != int(size):
+            return False
+        return _digest(path) == (int(size), digest)
+    except (OSError, ValueError):
+        return False
+
+
+def _discard(path: Path) -> None:
+    for p in (path, _record_path(path)):
+        try:
+            p.unlink()
+        except OSError:
+            pass
+
+
 def _compile(cc: str, full: str, path: Path) -> None:
-    """Compile the library source into ``path`` (atomic rename; one builder per key at a time)."""
+    """Compile the library source into ``path`` and record its size and hash next to it (atomic
+    renames; one builder per key at a time; a cached file that fails verification is rebuilt)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = open(path.with_suffix(".lock"), "w")
     try:
@@ -105,8 +137,9 @@ def _compile(cc: str, full: str, path: Path) -> None:
             fcntl.flock(lock, fcntl.LOCK_EX)    # other processes wait for this build
         except ImportError:                     # no fcntl (Windows): concurrent builds are harmless
             pass
-        if path.exists():                       # built by another process meanwhile
+        if _verified(path):                     # built by another process meanwhile
             return
+        _discard(path)                          # damaged or unrecorded: build it anew
         with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
             src = Path(tmp) / "model.c"
             src.write_text(full)
@@ -118,38 +151,41 @@ def _compile(cc: str, full: str, path: Path) -> None:
                                       capture_output=True, text=True)
             if proc.returncode != 0:
                 raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
-            os.replace(out, path)   # atomic: a reader never sees a half-written library
+            size, digest = _digest(out)
+            record = Path(tmp) / "model.sha256"
+            record.write_text(f"{size} {digest}\n")
+            os.replace(record, _record_path(path))   # the record first: a reader that sees the
+            os.replace(out, path)                     # library can always verify it
     finally:
         lock.close()
 
 
-def _build(path: Path, full: str) -> ctypes.CDLL:
+def _build(path: Path, full) -> ctypes.CDLL:
     """Load the model's library from the cache, compiling it on a miss.
 
-    Any failure to compile, store or load it (no compiler, a cache directory that cannot be
-    written, a corrupt cached file) raises :class:`CompilerUnavailable`, so callers can fall
-    back to another solver; a cached file that does not load is rebuilt once.
+    The cached file is verified against the size and hash recorded at its build before it is
+    loaded; one that fails (truncated, overwritten, another library) is rebuilt. Any failure
+    to compile, store or load it (no compiler, a cache directory that cannot be written)
+    raises :class:`CompilerUnavailable`, so callers can fall back to another solver.
+    ``full`` is the library source, or a callable that makes it (only a rebuild needs it).
     """
     if str(path) in _LIBS:
         return _LIBS[str(path)]
     cc = _compiler()
     for attempt in (0, 1):
         try:
-            if not path.exists():
+            if not _verified(path):
                 if cc is None:
                     raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
-                _compile(cc, full, path)
+                _compile(cc, full() if callable(full) else full, path)
             lib = ctypes.CDLL(str(path))
+            _declare(lib)
             break
-        except OSError as e:
+        except (OSError, AttributeError) as e:   # AttributeError: a symbol is missing
             if attempt == 0 and path.is_file() and cc is not None:
-                try:                # a corrupt or foreign cached library: build it anew
-                    path.unlink()
-                except OSError:
-                    pass
+                _discard(path)   # a corrupt or foreign cached library: build it anew
                 continue
             raise CompilerUnavailable(f"compiled library unusable at {path}: {e}") from None
-    _declare(lib)
     _LIBS[str(path)] = lib
     return lib
 
@@ -197,13 +233,28 @@ class NativeModel:
 
         tic = time.perf_counter()
         self.network = network
-        self.generated = generate(network.compile())
-        self.library_path, full = _library_path(self.generated)
+        model = network.compile()
+        fingerprint = model_fingerprint(model)
+        self.generated, tag = _known_model(fingerprint)
+        if self.generated is None:   # first time this model is seen: write its C
+            self.generated = generate(model)
+            self.library_path, full = _library_path(self.generated)
+        else:                        # known: its C is regenerated only to rebuild a library
+            self.library_path = cache_dir() / f"hl_{tag}.so"
+
+            def full():
+                return _library_path(generate(model))[1]
         self.cache_hit = self.library_path.exists()
         self.lib = _build(self.library_path, full)
         sizes = (ctypes.c_longlong * 7)()
         self.lib.hl_sizes(sizes)
+        g = self.generated
+        if tuple(sizes)[:5] != (g.n_states, max(g.n_parameters, 1), max(len(g.constants), 1),
+                                max(g.n_signals, 1), max(g.jac_nnz, 1)):
+            raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
+                                      f"the model (sizes {tuple(sizes)[:5]})")
         self.n, self.n_signals = int(sizes[0]), int(sizes[3])
+        _remember_model(fingerprint, g, self.library_path)
         self.build_time = time.perf_counter() - tic
 
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
@@ -353,6 +404,54 @@ class NativeSolver:
         dx = np.empty(self.model.n)
         self._lib.hl_rhs(self._h, float(t), x.ctypes.data, dx.ctypes.data)
         return dx
+
+
+#: This module's code generation and integrator: a change makes old model records unused.
+_CODE_TAG = source_tag(Path(__file__), Path(__file__).with_name("codegen.py"), _BDF_SOURCE)
+_MODELS: dict = {}
+
+
+def model_fingerprint(model) -> str:
+    """SHA-256 of a compiled model's CasADi graph (structure and numbers), its state scales
+    and this machine's build settings: the same fingerprint means the same C code and the
+    same constants, so the code generation can be skipped."""
+    h = hashlib.sha256()
+    for part in (model.f.serialize(), model.signals.serialize(), _CODE_TAG,
+                 " ".join(CFLAGS + NATIVE_FLAGS), sys.platform, _cpu_id()):
+        h.update(part.encode())
+        h.update(b"\0")
+    h.update(np.asarray(model.network.state_scales, dtype=float).tobytes())
+    return h.hexdigest()
+
+
+_ARRAYS = ("constants", "jac_colind", "jac_row")
+_SCALARS = ("key", "n_states", "n_parameters", "n_signals", "jac_nnz", "lu_slots", "lu_flops")
+
+
+def _known_model(fingerprint: str):
+    """(GeneratedModel without its source, library tag) of a model seen before, in this
+    process or recorded in the cache directory; (None, None) if unknown."""
+    if fingerprint in _MODELS:
+        return _MODELS[fingerprint]
+    rec = load_table("models", fingerprint)
+    try:
+        gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS},
+                             constants=np.asarray(rec["constants"], dtype=float),
+                             jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
+                             jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
+        return gen, str(rec["library"])
+    except (TypeError, KeyError, ValueError):   # none, or damaged: generate anew
+        return None, None
+
+
+def _remember_model(fingerprint: str, gen, library_path: Path) -> None:
+    tag = library_path.stem[3:]
+    if fingerprint in _MODELS:
+        return
+    _MODELS[fingerprint] = (gen, tag)
+    rec = {k: getattr(gen, k) for k in _SCALARS}
+    rec.update({k: np.asarray(getattr(gen, k)).tolist() for k in _ARRAYS}, library=tag)
+    store_table("models", fingerprint, rec)
 
 
 def native_model(network) -> NativeModel:
