@@ -112,7 +112,7 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
 def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-             stream_columns=None) -> SimulationResult:
+             stream_columns=None, **options) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state.
 
     Parameters
@@ -134,6 +134,8 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                              runs); ``data`` then holds the last row only and
                              ``metadata["stream_stats"]`` per-column min/max/mean/rms
     stream_columns : list    Columns to stream (all when None)
+    options                  Further keywords of :func:`hydroline.simulation.integrate`
+                             (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
 
     Returns
     -------
@@ -148,7 +150,7 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     ss = solve_steady_state(net, t0=0.0)
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
-                    stream_columns=stream_columns)
+                    stream_columns=stream_columns, **options)
     res.steady_state = ss
     act = net.component("actuator")
     res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
@@ -156,9 +158,9 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                         actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
                         total_wall_time=_time.perf_counter() - tic,
                         steady_state_residual=ss.residual, n_states=len(net.state_names))
-    if stream_to is None:
+    if "stream_stats" not in res.metadata:
         res.warnings.extend(check_cavitation(res))
-    else:   # streamed: only the column statistics are in memory
+    else:   # streamed or kept in part: the column statistics have every column
         lows = res.metadata["stream_stats"]["min"]
         res.warnings.extend(f"{k} falls below {CAVITATION_PRESSURE / 1e6:g} MPa absolute (lowest "
                             f"{lows[k] / 1e6:.2f} MPa): the line model is not valid there"

@@ -296,14 +296,18 @@ class SimulationResult:
     def __contains__(self, key) -> bool:
         return key in self._column_index if self._data is None else key in self._data
 
-    def to_csv(self, path):
-        """Write all series to CSV (time in the first column, SI units)."""
+    def to_csv(self, path, every: int = 1):
+        """Write all series to CSV (time in the first column, SI units); with ``every`` > 1
+        only every n-th row and the last."""
+        rows = slice(None)
+        if every > 1:
+            rows = np.unique(np.r_[np.arange(0, len(self._times), every), len(self._times) - 1])
         if self._data is not None:
-            self._data.to_csv(path, index_label="time")
+            self._data.iloc[rows].to_csv(path, index_label="time")
             return
         with open(path, "w", buffering=1 << 20) as f:
             f.write(",".join(["time"] + self.columns) + "\n")
-            write_csv_rows(f, self._times, self._table)
+            write_csv_rows(f, self._times[rows], self._table[rows])
 
     def plot(self, signals=None, path=None, title=None):
         """Plot signals (default: the paper's Figs. 10-12 set when present). Returns the figure."""
@@ -342,7 +346,8 @@ SOLVERS = ("auto", "compiled", "cvodes", "scipy")
 def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               solver: str = "auto", rtol: float = 1e-7, atol_scale: float = 1e-8,
               progress=None, stream_to=None, chunk_rows: int = 20000,
-              stream_columns=None) -> SimulationResult:
+              stream_columns=None, stream_every: int = 1, keep_columns=None,
+              preview_columns=None, preview_rows: int = 50_000) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -366,6 +371,14 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
                         ``metadata["stream_stats"]`` the min/max/mean/rms of every column
     chunk_rows : int    Output rows per chunk (streaming and the compiled path)
     stream_columns : list  Columns to write when streaming (all signals and states if None)
+    stream_every : int  Write every n-th output row to ``stream_to`` (decimation; the last row
+                        always), [-]
+    keep_columns : list Keep only these columns in memory (every output row): ``data`` then
+                        holds them, and ``metadata["stream_stats"]`` has the statistics of
+                        every column (bounded memory for long runs without a file)
+    preview_columns : list  Also keep these columns at every k-th row, at most
+                        ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
+                        a figure of a long run)
 
     Returns
     -------
@@ -411,7 +424,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         build_time = _time.perf_counter() - tic
     backend = "compiled" if native is not None else ("cvodes" if solver == "auto" else solver)
     columns = list(network.signal_names) + list(network.state_names)
-    sink = _Sink(columns, stream_to, stream_columns)
+    sink = _Sink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
+                 preview_columns, preview_rows)
     stats = {"nfevals": 0, "njevals": 0, "nsteps": 0}
     scaled_dae = None
     if backend == "cvodes":
@@ -431,7 +445,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         n_in = max(i1 - i0, 0)
         ends_on_grid = n_in > 0 and abs(t_out(i1 - 1, i1)[0] - b) <= 1e-12
         n_grid = n_in if ends_on_grid else n_in + 1   # the segment end b is always reached
-        step = len_chunk = chunk_rows if (backend == "compiled" or stream_to is not None) else n_grid
+        bounded = stream_to is not None or keep_columns is not None
+        step = len_chunk = chunk_rows if (backend == "compiled" or bounded) else n_grid
         if backend == "compiled":
             if sampled:
                 ns.set_parameters(p)
@@ -464,15 +479,21 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     if ns is not None:
         stats.update(ns.stats())
     stats["build_time"] = build_time
-    t_rows, table = sink.result()
-    res = SimulationResult(times=t_rows, table=table, columns=columns, wall_time=wall,
+    t_rows, table, kept = sink.result()
+    res = SimulationResult(times=t_rows, table=table, columns=kept, wall_time=wall,
                            stats=stats, warnings=notes)
     res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
     if solver_note:
         res.metadata["solver_note"] = solver_note
     if stream_to is not None:
-        res.metadata.update(stream_to=str(stream_to), stream_stats=sink.stats_frame(),
-                            stream_rows=sink.rows)
+        res.metadata.update(stream_to=str(stream_to), stream_rows=sink.written,
+                            stream_stats=sink.stats_frame(sink.keep_file))
+    elif keep_columns is not None:
+        res.metadata.update(stream_stats=sink.stats_frame())
+    preview = sink.preview_result()
+    if preview is not None:
+        res.metadata["preview"] = SimulationResult(times=preview[0], table=preview[1],
+                                                   columns=preview[2])
     return res
 
 
@@ -505,27 +526,53 @@ def _integrate_cvodes_scipy(backend, network, scaled_dae, a, grid, x, p, rtol, a
     return Z
 
 
-class _Sink:
-    """Collects output rows in memory, or streams them to CSV keeping column statistics."""
+def _column_indices(what, names, columns):
+    names = list(names)
+    unknown = [k for k in names if k not in columns]
+    if unknown:
+        raise ValueError(f"{what}: unknown signal(s)/state(s) {', '.join(unknown)}")
+    return names, np.array([columns.index(k) for k in names], dtype=int)
 
-    def __init__(self, columns, path, keep=None):
+
+class _Sink:
+    """Where output rows go: kept in memory (all columns, or only ``keep``), streamed to CSV
+    (every ``every``-th row of ``stream`` columns, the last row always) with per-column
+    statistics, and a preview (``preview`` columns at most ``preview_rows`` rows, for a
+    figure). Memory stays bounded by what is kept, whatever the run's length."""
+
+    def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
+                 preview=None, preview_rows=50_000):
         self.columns = columns
         self.path = path
         self.rows = 0
         self.parts = []
         self.last = None
+        self.every = max(int(every), 1)
+        self.n_total = n_total
+        self.stats_index = None
         if path is not None:
-            keep = list(columns) if keep is None else list(keep)
-            unknown = [k for k in keep if k not in columns]
-            if unknown:
-                raise ValueError(f"stream_columns: unknown signal(s)/state(s) {', '.join(unknown)}")
-            self.keep = keep
-            self.index = np.array([columns.index(k) for k in keep], dtype=int)
+            self.keep_file, self.index = _column_indices(
+                "stream_columns", columns if stream is None else stream, columns)
             self.file = open(path, "w", buffering=1 << 20)
-            self.file.write(",".join(["time"] + keep) + "\n")
-            n = len(keep)
+            self.file.write(",".join(["time"] + self.keep_file) + "\n")
+            self.written = 0
+        if path is not None or keep is not None:   # statistics of every column
+            self.stats_names = list(columns)
+            n = len(columns)
             self.mn, self.mx = np.full(n, np.inf), np.full(n, -np.inf)
             self.sum, self.sumsq = np.zeros(n), np.zeros(n)
+            self.stats_index = True
+        self.keep = self.kept = None
+        if keep is not None:
+            self.keep, self.keep_index = _column_indices("keep_columns", keep, columns)
+            if n_total is not None:   # preallocated: no copy at the end
+                self.kept_t = np.empty(n_total)
+                self.kept = np.empty((n_total, len(self.keep)))
+        self.preview = None
+        if preview is not None:
+            self.preview, self.preview_index = _column_indices("preview_columns", preview, columns)
+            self.preview_every = max(1, -(-int(n_total or 1) // max(int(preview_rows), 1)))
+            self.preview_parts = []
 
     def write(self, t, X, Y, model, p):
         """Rows at times t: states X and signals Y (None: computed here), or with X None the
@@ -536,35 +583,75 @@ class _Sink:
             if Y is None:
                 Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
             block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
+        t = np.asarray(t, dtype=float)
+        i0 = self.rows
         self.rows += len(t)
-        if self.path is None:
-            self.parts.append((np.array(t, dtype=float), block))
-            return
-        sel = block[:, self.index]
-        self.mn = np.minimum(self.mn, sel.min(axis=0))
-        self.mx = np.maximum(self.mx, sel.max(axis=0))
-        self.sum += sel.sum(axis=0)
-        self.sumsq += (sel * sel).sum(axis=0)
-        np.savetxt(self.file, np.column_stack([t, sel]), fmt="%.9g", delimiter=",")
-        self.last = (np.array(t[-1:], dtype=float), block[-1:])
+        if self.preview is not None:
+            k = np.arange(i0, self.rows)
+            sel = (k % self.preview_every == 0) | (k == (self.n_total or 0) - 1)
+            if sel.any():
+                self.preview_parts.append((t[sel], block[np.ix_(sel, self.preview_index)]))
+        if self.stats_index is not None:
+            self.mn = np.minimum(self.mn, block.min(axis=0))
+            self.mx = np.maximum(self.mx, block.max(axis=0))
+            self.sum += block.sum(axis=0)
+            self.sumsq += (block * block).sum(axis=0)
+        if self.keep is not None:
+            if self.kept is not None and self.rows <= len(self.kept_t):
+                self.kept_t[i0:self.rows] = t
+                self.kept[i0:self.rows] = block[:, self.keep_index]
+            else:   # more rows than foreseen: go on in parts
+                if self.kept is not None:
+                    self.parts.append((self.kept_t[:i0], self.kept[:i0]))
+                    self.kept = None
+                self.parts.append((t.copy(), block[:, self.keep_index]))
+        elif self.path is None:
+            self.parts.append((t, block))
+        if self.path is not None:
+            rows = np.arange(i0, self.rows)
+            sel = (rows % self.every == 0)
+            if self.n_total is not None:
+                sel |= rows == self.n_total - 1   # the run's end is always written
+            if sel.all():
+                out_t, out = t, block[:, self.index]
+            else:
+                out_t, out = t[sel], block[np.ix_(sel, self.index)]
+            if len(out_t):
+                np.savetxt(self.file, np.column_stack([out_t, out]), fmt="%.9g", delimiter=",")
+                self.written += len(out_t)
+        self.last = (t[-1:].copy(), block[-1:].copy())
 
     def result(self):
-        """(times, table): every row kept, or the last one when streaming."""
+        """(times, table, columns): the rows kept (all columns, or the ``keep`` columns), or the
+        last row of every column when streaming without ``keep``."""
         if self.path is not None:
             self.file.close()
-            return self.last
+        if self.keep is not None:
+            if self.kept is not None:
+                return self.kept_t[:self.rows], self.kept[:self.rows], self.keep
+            t = np.concatenate([q[0] for q in self.parts])
+            return t, np.vstack([q[1] for q in self.parts]), self.keep
+        if self.path is not None:
+            return self.last[0], self.last[1], self.columns
         if len(self.parts) == 1:
-            return self.parts[0]
+            return self.parts[0][0], self.parts[0][1], self.columns
         return (np.concatenate([q[0] for q in self.parts]),
-                np.vstack([q[1] for q in self.parts]))
+                np.vstack([q[1] for q in self.parts]), self.columns)
 
-    def stats_frame(self):
+    def preview_result(self):
+        """(times, table, columns) of the preview, or None."""
+        if self.preview is None or not self.preview_parts:
+            return None
+        return (np.concatenate([q[0] for q in self.preview_parts]),
+                np.vstack([q[1] for q in self.preview_parts]), self.preview)
+
+    def stats_frame(self, names=None):
         import pandas as pd
 
         n = max(self.rows, 1)
-        mean = self.sum / n
-        return pd.DataFrame({"min": self.mn, "max": self.mx, "mean": mean,
-                             "rms": np.sqrt(self.sumsq / n)}, index=self.keep)
+        frame = pd.DataFrame({"min": self.mn, "max": self.mx, "mean": self.sum / n,
+                              "rms": np.sqrt(self.sumsq / n)}, index=self.stats_names)
+        return frame if names is None else frame.loc[list(names)]
 
 
 def _scaled_dae(dae, scales):

@@ -104,3 +104,43 @@ def test_json_run_loads_only_what_it_uses(tmp_path):
                   "scipy.stats", "scipy.optimize"):
         assert heavy not in loaded, heavy
     assert list(tmp_path.iterdir()) == []
+
+
+def test_long_run_cli_streams_the_same_numbers(tmp_path, monkeypatch):
+    """A run the CLI treats as long (here: made long by lowering the threshold) keeps only the
+    summary's columns in memory and streams results.csv: same summary and same rows (to the
+    9 digits written) as the in-memory run; --dt-out keeps every n-th row and the last."""
+    import json
+
+    import pandas as pd
+
+    from hydroline.cli import main
+    from hydroline.cli import simulate as cli_simulate
+
+    args = ["simulate", "--json", "--t-end", "0.05 s", "--dt-out", "0.5 ms"]
+    assert main(args + ["--out", str(tmp_path / "short")]) == 0
+    monkeypatch.setattr(cli_simulate, "LONG_ROWS", 100)
+    assert main(args + ["--out", str(tmp_path / "long")]) == 0
+    short = json.loads((tmp_path / "short" / "summary.json").read_text())
+    long = json.loads((tmp_path / "long" / "summary.json").read_text())
+    short.pop("wall_time_s"), long.pop("wall_time_s")
+    assert long == short
+    a = pd.read_csv(tmp_path / "short" / "results.csv")
+    b = pd.read_csv(tmp_path / "long" / "results.csv")
+    assert list(a.columns) == list(b.columns)
+    assert len(a) == len(b) == 101                         # 0, 0.5 ms, ..., 50 ms
+    np.testing.assert_allclose(b["time"], np.arange(101) * 5e-4, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(b.to_numpy(), a.to_numpy(), rtol=1e-8, atol=1e-12)
+    assert not (tmp_path / "long" / "results.csv.part").exists()
+    assert (tmp_path / "long" / "pressures.png").stat().st_size > 0
+
+
+def test_output_grid_of_dt_out():
+    from hydroline.cli.simulate import output_grid
+
+    assert output_grid(0.25, None) == (1e-4, 1, 2501)
+    h, every, rows = output_grid(0.25, 1e-3)
+    assert (every, rows) == (10, 251) and h == pytest.approx(1e-4)
+    h, every, rows = output_grid(1.0, 2.5e-4)              # not a multiple of 0.1 ms
+    assert every == 3 and h == pytest.approx(2.5e-4 / 3) and rows == 4001
+    assert output_grid(1.0, 1e-5)[:2] == (1e-5, 1)         # finer than 0.1 ms: every row

@@ -5,7 +5,7 @@ import json
 import sys
 
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS, simulate, summarize
+from ..scenarios import SCENARIOS, build_scenario, simulate, summarize
 from .common import dump_json, out_dir, print_table, progress_printer, quantity
 
 
@@ -21,6 +21,9 @@ def register(sub):
                    "are written unless --out is given)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout "
                    "(and write the files only when --out is given)")
+    p.add_argument("--dt-out", help="interval of the rows written to results.csv, with unit, "
+                   "e.g. '1 ms' (default: every 0.1 ms output row; the summary always uses "
+                   "the full output)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
                    help="auto (default: the compiled C core where a C compiler exists, else "
                    "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
@@ -51,20 +54,69 @@ def _float_or_none(v):
     return None if v is None else float(v)
 
 
+#: Output interval of the integration, [s]: what the summary's metrics are computed from.
+DT_OUT = 1e-4
+#: Output rows above which a run is long: kept in memory only in the columns the summary needs
+#: and streamed to results.csv as it goes (the full table of ~90 columns would take 140 MB).
+LONG_ROWS = 200_000
+#: Columns the summary needs at every output row, and the figure's (a decimated copy).
+SUMMARY_COLUMNS = ("supply_port_pressure", "return_port_pressure", "piston_position")
+FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
+                  "top_chamber_pressure", "piston_velocity", "piston_position")
+#: Rough rates for the cost estimate of a long run: simulated seconds per wall second of the
+#: compiled integrator, and CSV bytes written per second.
+INTEGRATION_SPEED = 40.0
+CSV_RATE = 15e6
+
+
+def output_grid(t_end: float, dt_out: float | None):
+    """(integration output interval [s], write every n-th row, rows written) for --dt-out."""
+    if dt_out is None:
+        return DT_OUT, 1, int(round(t_end / DT_OUT)) + 1
+    every = max(1, int(-(-dt_out // DT_OUT)))   # ceil: the summary's rows no coarser than DT_OUT
+    h = dt_out / every
+    n = int(round(t_end / h))
+    return h, every, n // every + 1 + (n % every != 0)
+
+
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
-    res = simulate(rig, args.scenario, t_end, solver=args.solver,
-                   progress=progress_printer("simulating", not args.json))
+    dt_out = quantity(args.dt_out, "s", "--dt-out") if args.dt_out else None
+    if dt_out is not None and not dt_out > 0:
+        raise ValueError(f"--dt-out must be > 0 s, got {args.dt_out!r}")
+    write = args.out is not None or not args.json
+    out = out_dir(args.out if args.out is not None else "hydroline-out") if write else None
+    duration = t_end if t_end is not None else build_scenario(rig, args.scenario).t_end
+    h, every, rows = output_grid(duration, dt_out)
+    long_run = round(duration / h) + 1 > LONG_ROWS
+    if long_run and write:
+        _say_cost(rig, args, duration, rows, dt_out)
+    options = {}
+    if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
+        keep = list(SUMMARY_COLUMNS)
+        if args.scenario == "closed-loop-sine":
+            keep.append("position_reference")
+        options = dict(keep_columns=keep)
+        if write:
+            part = out / "results.csv.part"
+            options.update(stream_to=part, stream_every=every, preview_columns=list(FIGURE_COLUMNS))
+    res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
+                   progress=progress_printer("simulating", not args.json), **options)
     summary = summarize(res)
-    if args.out is not None or not args.json:
-        out = out_dir(args.out if args.out is not None else "hydroline-out")
-        res.to_csv(out / "results.csv")
+    if write:
+        if long_run:
+            part.replace(out / "results.csv")
+            figure = res.metadata["preview"]
+            figure.metadata.update({k: v for k, v in res.metadata.items() if k != "preview"})
+        else:
+            res.to_csv(out / "results.csv", every=every)
+            figure = res
         (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        res.plot(path=out / "pressures.png",
-                 title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
+        figure.plot(path=out / "pressures.png",
+                    title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
@@ -95,3 +147,28 @@ def run(args) -> int:
         print(f"  WARNING: {w}")
     print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
     return 0
+
+
+def _say_cost(rig, args, duration, rows, dt_out):
+    """One line on stderr before a run that writes more than ~1 GB or takes minutes."""
+    from ..system import build_network
+
+    sc = build_scenario(rig, args.scenario, duration)
+    net = build_network(rig, sc.commands, sc.position_guess)
+    columns = 1 + len(net.signal_names) + len(net.state_names)
+    size = rows * columns * 15.0   # "%.9g" and a comma: ~15 bytes a number
+    seconds = duration / INTEGRATION_SPEED + size / CSV_RATE
+    if size < 1e9 and seconds < 120:
+        return
+    hint = ("; --dt-out 10 ms would write 1/100 of it" if dt_out is None
+            else "; a larger --dt-out writes less")
+    print(f"hydroline simulate: {duration:g} s simulated, {rows:,} rows x {columns} columns to "
+          f"results.csv: about {_size(size)} and {_duration(seconds)}{hint}", file=sys.stderr)
+
+
+def _size(n):
+    return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
+
+
+def _duration(s):
+    return f"{s / 60:.0f} min" if s >= 120 else f"{s:.0f} s"
