@@ -26,7 +26,7 @@ def _figure(n):
 def _window_end(result):
     """End of the metrics window (piston clear of its stops), [s]; None when it is the end."""
     t1 = result.metadata.get("metrics_window_end")
-    if t1 is None and "piston_position" in result.data and "stroke" in result.metadata:
+    if t1 is None and "piston_position" in result and "stroke" in result.metadata:
         from .scenarios import metrics_window
 
         t1 = metrics_window(result)[1]
@@ -59,7 +59,7 @@ def plot_result(result, signals=None, path=None, title=None):
     matplotlib.figure.Figure
     """
     panels = PRESSURE_PANELS if signals is None else tuple((s, (s,), 1.0) for s in signals)
-    panels = tuple(p for p in panels if any(k in result.data for k in p[1]))
+    panels = tuple(p for p in panels if any(k in result for k in p[1]))
     fig, axes = _figure(len(panels))
     t_ms = result.t * 1e3
     t1 = _window_end(result)
@@ -69,7 +69,7 @@ def plot_result(result, signals=None, path=None, title=None):
     for ax, (label, keys, scale) in zip(axes[:, 0], panels):
         shown = []
         for k in keys:
-            if k in result.data:
+            if k in result:
                 y = result[k] * scale
                 line, = ax.plot(t_ms[:k1], y[:k1], lw=1.0, label=k.replace("_", " "))
                 if t1 is not None:   # after the stop: grey, and not in the y-range
