@@ -8,7 +8,7 @@ whose ``metadata`` holds what the summary needs.
 from __future__ import annotations
 
 import time as _time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -146,8 +146,7 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
     sc = build_scenario(rig, scenario, t_end)
-    net = build_network(rig, sc.commands, sc.position_guess)
-    ss = solve_steady_state(net, t0=0.0)
+    net, ss = _network_and_rest(rig, sc)
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                     stream_columns=stream_columns, **options)
@@ -168,6 +167,29 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                             if k in lows.index and lows[k] < CAVITATION_PRESSURE)
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
     return res
+
+
+#: Recent (scenario, rig values) -> (network, steady state): a repeated run of the same rig in
+#: one process reuses its model, compiled library and rest state (built anew otherwise).
+_MODELS: dict = {}
+_MODELS_KEPT = 8
+
+
+def _network_and_rest(rig: Rig, sc: Scenario):
+    """The scenario's network on the rig and its steady state before the disturbance."""
+    key = None
+    if not any(k.endswith(".file") for k in rig.values):   # a table file may change on disk
+        key = (sc.name, sc.position_guess, repr(sc.commands), repr(sorted(rig.values.items())))
+    if key in _MODELS:
+        net, ss = _MODELS[key]
+    else:
+        net = build_network(rig, sc.commands, sc.position_guess)
+        ss = solve_steady_state(net, t0=0.0)
+        if key is not None:
+            if len(_MODELS) >= _MODELS_KEPT:
+                _MODELS.pop(next(iter(_MODELS)))
+            _MODELS[key] = (net, ss)
+    return net, replace(ss, x=ss.x.copy(), p=ss.p.copy())
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:

@@ -404,3 +404,30 @@ def test_non_finite_derivative_is_named_in_the_error():
     net = Network([Blowup(name="blowup")])
     with pytest.raises(RuntimeError, match=r"derivative of state 'blowup\.x' is not finite"):
         integrate(net, np.zeros(1), 0.01, solver="compiled")
+
+
+@needs_cc
+def test_known_structure_reads_only_the_constants(monkeypatch, tmp_path):
+    """A variant of a known structure (other numbers, same graph) takes its constants from the
+    graph without writing C: the same constants as a full code generation, the same library,
+    and the oscillator's exact step response."""
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    first = compiled.native_model(oscillator_network(omega=2 * np.pi * 40.0))
+    _fresh_process_cache(monkeypatch)        # the structure record on disk is what is left
+    import hydroline.compiled.codegen as codegen_module
+
+    def no_codegen(model, functions=None):
+        raise AssertionError("C generated for a known structure")
+
+    monkeypatch.setattr(compiled, "generate", no_codegen)
+    net = oscillator_network(omega=2 * np.pi * 60.0, zeta=0.1)
+    variant = compiled.native_model(net)
+    assert variant.library_path == first.library_path
+    full = codegen_module.generate(net.compile())
+    np.testing.assert_array_equal(variant.generated.constants, full.constants)
+    res = integrate(net, np.zeros(2), 0.05, solver="compiled")
+    assert res["osc.x"].max() == pytest.approx(_oscillator_peak(0.1), rel=2e-3)
+    # a value that CasADi simplifies away (zeta = 0: no damping term) is another structure
+    assert codegen_module.structure_key(codegen_module.scaled_functions(
+        oscillator_network(zeta=0.0).compile())) != codegen_module.structure_key(
+        codegen_module.scaled_functions(net.compile()))

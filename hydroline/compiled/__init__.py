@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import cache_dir, load_table, source_tag, store_table  # cache_dir re-exported
-from .codegen import GeneratedModel, UnsupportedOperation, generate  # noqa: F401 (re-exported)
+from .codegen import (GeneratedModel, UnsupportedOperation, constant_positions,  # noqa: F401
+                      constants_at, generate, scaled_functions, structure_key)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
            "available", "CFLAGS"]
@@ -236,10 +237,14 @@ class NativeModel:
         model = network.compile()
         fingerprint = model_fingerprint(model)
         self.generated, tag = _known_model(fingerprint)
-        if self.generated is None:   # first time this model is seen: write its C
-            self.generated = generate(model)
-            self.library_path, full = _library_path(self.generated)
-        else:                        # known: its C is regenerated only to rebuild a library
+        if self.generated is None:   # other numbers: is the structure known?
+            functions = scaled_functions(model)
+            self.generated, tag = _known_structure(functions)
+            if self.generated is None:   # a new structure: write its C
+                self.generated = generate(model, functions)
+                self.library_path, full = _library_path(self.generated)
+                _remember_structure(functions, self.generated, self.library_path)
+        if tag is not None:          # known: its C is regenerated only to rebuild a library
             self.library_path = cache_dir() / f"hl_{tag}.so"
 
             def full():
@@ -442,6 +447,45 @@ def _known_model(fingerprint: str):
         return gen, str(rec["library"])
     except (TypeError, KeyError, ValueError):   # none, or damaged: generate anew
         return None, None
+
+
+_STRUCTURES: dict = {}
+
+
+def _known_structure(functions):
+    """(GeneratedModel with this model's constants and no source, library tag) when a model
+    of the same structure was generated before (this process or recorded on disk): only the
+    constants are read from the graph; (None, None) otherwise."""
+    key = structure_key(functions) + _CODE_TAG
+    rec = _STRUCTURES.get(key)
+    if rec is None:
+        rec = load_table("structures", key)
+        if rec is None:
+            return None, None
+        _STRUCTURES[key] = rec
+    try:
+        constants = constants_at(functions, rec["positions"])
+        gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS}, constants=constants,
+                             jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
+                             jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
+        if len(constants) != rec["n_constants"]:
+            return None, None
+        return gen, str(rec["library"])
+    except (TypeError, KeyError, ValueError, RuntimeError):   # damaged record: generate anew
+        return None, None
+
+
+def _remember_structure(functions, gen, library_path: Path) -> None:
+    positions = constant_positions(functions)
+    if sum(map(len, positions)) != len(gen.constants):   # not the order generate() numbers
+        return
+    rec = {k: getattr(gen, k) for k in _SCALARS}
+    rec.update(jac_colind=np.asarray(gen.jac_colind).tolist(),
+               jac_row=np.asarray(gen.jac_row).tolist(), positions=positions,
+               n_constants=len(gen.constants), library=library_path.stem[3:])
+    key = structure_key(functions) + _CODE_TAG
+    _STRUCTURES[key] = rec
+    store_table("structures", key, rec)
 
 
 def _remember_model(fingerprint: str, gen, library_path: Path) -> None:

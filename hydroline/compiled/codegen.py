@@ -20,12 +20,14 @@ Generated functions (``z`` are the states scaled by their typical magnitudes, ``
 from __future__ import annotations
 
 import hashlib
+import re
 from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
 
-__all__ = ["GeneratedModel", "generate", "UnsupportedOperation"]
+__all__ = ["GeneratedModel", "generate", "UnsupportedOperation", "structure_key",
+           "constant_positions", "constants_at", "scaled_functions"]
 
 
 class UnsupportedOperation(NotImplementedError):
@@ -276,16 +278,46 @@ class GeneratedModel:
     lu_flops: int
 
 
-def generate(model) -> GeneratedModel:
+def structure_key(functions) -> str:
+    """SHA-256 of the straight-line programs of ``(f, jac, signals)`` with every constant's
+    value masked: equal keys mean the same C source (:func:`generate`), whatever the numbers."""
+    h = hashlib.sha256()
+    for fun in functions:
+        h.update(_CONSTANT_LINE.sub(r"\1 = c;", fun.str(True)).encode())
+        h.update(b"\0")
+    return h.hexdigest()
+
+
+#: A constant instruction in CasADi's algorithm listing, ``@3 = -22798.5;`` (operands of other
+#: instructions are ``@k``, ``input[i][j]`` or calls with parentheses).
+_CONSTANT_LINE = re.compile(r"^(@\d+) = [^;@\[\]()]*;$", re.M)
+
+
+def constant_positions(functions) -> list[list[int]]:
+    """Per function, the indices of its constant instructions, in the order :func:`generate`
+    numbers the constants ``c[k]``."""
+    return [[k for k in range(fun.n_instructions()) if fun.instruction_id(k) == ca.OP_CONST]
+            for fun in functions]
+
+
+def constants_at(functions, positions) -> np.ndarray:
+    """The constants ``c`` of a model whose structure is known (its :func:`constant_positions`):
+    what :func:`generate` would return as ``constants``, without writing the C."""
+    return np.array([fun.instruction_constant(k) for fun, ks in zip(functions, positions)
+                     for k in ks], dtype=float)
+
+
+def generate(model, functions=None) -> GeneratedModel:
     """C source and constants of a :class:`~hydroline.network.CompiledModel` (scaled states).
 
     Parameters
     ----------
     model : CompiledModel   The network's CasADi graph (``network.compile()``)
+    functions : tuple       Its :func:`scaled_functions`, when already made
     """
     net = model.network
     n, m = len(net.state_names), len(net.parameter_names)
-    f, jac, sig = scaled_functions(model)
+    f, jac, sig = scaled_functions(model) if functions is None else functions
     sp = jac.sparsity_out(0)
     colind = np.asarray(sp.colind(), dtype=np.int64)
     row = np.asarray(sp.row(), dtype=np.int64)
