@@ -144,3 +144,15 @@ def test_output_grid_of_dt_out():
     h, every, rows = output_grid(1.0, 2.5e-4)              # not a multiple of 0.1 ms
     assert every == 3 and h == pytest.approx(2.5e-4 / 3) and rows == 4001
     assert output_grid(1.0, 1e-5)[:2] == (1e-5, 1)         # finer than 0.1 ms: every row
+
+
+def test_lazy_analysis_names_are_the_functions():
+    """``hydroline.analysis.linearize`` is the function even after its submodule (of the same
+    name) was imported, as with the package's former eager imports."""
+    code = ("import types, hydroline.analysis.linearize\n"
+            "from hydroline.analysis import linearize, oscillation_frequency\n"
+            "import hydroline\n"
+            "assert callable(linearize) and not isinstance(linearize, types.ModuleType)\n"
+            "assert hydroline.analysis.linearize is linearize\n"
+            "assert hydroline.simulate.__module__ == 'hydroline.scenarios'\n")
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -6,6 +6,8 @@ linearisation python-control, the fits SciPy's optimisers; a run that uses none 
 from __future__ import annotations
 
 import importlib
+import sys
+import types
 
 #: Public name -> submodule that defines it.
 _LAZY = {
@@ -32,3 +34,17 @@ def __getattr__(name):
 
 def __dir__():
     return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """When a submodule of the same name as a public function is imported (``linearize``),
+    the import system binds the submodule on the package; keep the function there instead
+    (as the eager imports of this package used to)."""
+
+    def __setattr__(self, name, value):
+        if name in _LAZY and isinstance(value, types.ModuleType) and hasattr(value, name):
+            value = getattr(value, name)
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
