@@ -12,6 +12,8 @@ import types
 #: Public name -> submodule that defines it.
 _LAZY = {
     "oscillation_frequency": "metrics", "oscillation_amplitude": "metrics",
+    "oscillation_baseline": "metrics", "overshoot": "metrics", "first_excursion": "metrics",
+    "peak_to_peak": "metrics", "pressure_metrics": "metrics", "port_settling": "metrics",
     "settling_time": "metrics",
     "OperatingPoint": "linearize", "OperatingPointError": "linearize", "linearize": "linearize",
     "solve_operating_point": "linearize",
