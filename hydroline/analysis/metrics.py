@@ -708,8 +708,7 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
     grid, values, baseline = oscillation_baseline(t, p, t_step, frequency, t_end)
     swing = values - baseline
     per_period = int(round(1.0 / (frequency * (grid[1] - grid[0]))))
-    from scipy.ndimage import maximum_filter1d, minimum_filter1d
-    from scipy.signal import savgol_filter
+    from .filters import maximum_filter1d, minimum_filter1d, savgol_filter   # SciPy's, in NumPy
 
     # a cubic Savitzky-Golay fit over 1/8 period keeps the crests of the oscillation and its
     # first harmonics (attenuation at the fundamental ~1e-4) and averages measurement noise
@@ -811,7 +810,7 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
           ("measured", "estimated" or None) and ``settling_note`` (how it was estimated, or
           why there is none; "" when measured)
     """
-    from scipy.ndimage import uniform_filter1d
+    from .filters import uniform_filter1d   # scipy.ndimage's, in NumPy
 
     t = np.asarray(t, dtype=float)
     p = np.asarray(p, dtype=float)
