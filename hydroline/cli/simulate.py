@@ -108,7 +108,8 @@ def run(args) -> int:
         options = dict(keep_columns=keep)
         if write:
             part = out / "results.csv.part"
-            options.update(stream_to=part, stream_every=every, preview_columns=list(FIGURE_COLUMNS))
+            options.update(stream_to=part, stream_every=every,
+                           preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):])
     res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
                    progress=progress_printer("simulating", not args.json), **options)
     summary = summarize(res)
