@@ -242,11 +242,23 @@ def _toml_value(v):
     return repr(v)
 
 
+def shipped_rig(name: str) -> str | None:
+    """The file of a rig shipped with the package named ``name`` ("two_axis" or
+    "two_axis.toml"), or None."""
+    if "/" in name or "\\" in name:
+        return None
+    fname = name if name.endswith(".toml") else f"{name}.toml"
+    return fname if resources.files(__name__).joinpath(fname).is_file() else None
+
+
 def _read_toml(path) -> tuple[dict, str]:
     if path is None:
         text = resources.files(__name__).joinpath(DEFAULT_RIG).read_text()
         return tomllib.loads(text), f"embedded:{DEFAULT_RIG}"
     p = Path(path)
+    if not p.is_file() and shipped_rig(str(path)) is not None:
+        name = shipped_rig(str(path))
+        return tomllib.loads(resources.files(__name__).joinpath(name).read_text()), f"embedded:{name}"
     if not p.is_file():
         raise RigError(f"rig file not found: {path}")
     try:
@@ -256,7 +268,8 @@ def _read_toml(path) -> tuple[dict, str]:
 
 
 def load_rig(path=None) -> Rig:
-    """Load a rig file (the embedded default when ``path`` is None).
+    """Load a rig file (the embedded default when ``path`` is None); a rig shipped with the
+    package may be named instead of a path (``load_rig("two_axis")``).
 
     A file with ``[rig] base = "default"`` starts from the embedded rig and overrides only
     what it lists.
