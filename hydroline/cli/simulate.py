@@ -14,8 +14,10 @@ def register(sub):
                        "50 mA open-loop step)",
                        description="Simulate a rig from its solved steady state. Writes results.csv, "
                        "summary.json and pressures.png to --out and prints a summary.")
-    p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
-    p.add_argument("--scenario", default="open-loop-step", choices=SCENARIOS)
+    p.add_argument("rig", nargs="?", help="rig TOML file or the name of a shipped rig, e.g. "
+                   "two_axis (default: the embedded Ayalew & Kulakowski 2005 rig)")
+    p.add_argument("--scenario", default=None, choices=SCENARIOS,
+                   help="experiment (default: the rig's rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--out", default="hydroline-out", help="output folder (default: hydroline-out)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout only")
@@ -45,6 +47,20 @@ def json_summary(summary: dict) -> dict:
     return out
 
 
+def json_axes_summary(summary: dict) -> dict:
+    """The ``--json`` document of a multi-axis rig: ``{"axes": {"<axis>": {"supply": {...},
+    "return": {...}, "position_disturbance_mm": float or null (the stepped axis), ...}},
+    "wall_time_s": float}`` ([Hz], [MPa], [s], [mm])."""
+    axes = {}
+    for name, a in summary["axes"].items():
+        entry = {side: {k: _float_or_none(a[side][k]) for k in PORT_KEYS} for side in ("supply", "return")}
+        for k in ("position_disturbance_mm", "position_change_mm", "actuator_natural_frequency_hz"):
+            if k in a:
+                entry[k] = _float_or_none(a[k])
+        axes[name] = entry
+    return {"axes": axes, "wall_time_s": float(summary["wall_time_s"])}
+
+
 def _float_or_none(v):
     return None if v is None else float(v)
 
@@ -60,14 +76,17 @@ def run(args) -> int:
     out = out_dir(args.out)
     res.to_csv(out / "results.csv")
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    scenario = res.metadata["scenario"]
+    if "axes" in summary:
+        return _report_axes(args, rig, res, summary, scenario)
     res.plot(path=out / "pressures.png",
-             title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
+             title=f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
         dump_json(json_summary(summary))
         return 0
-    print(f"hydroline simulate: {args.scenario} on {rig.get('rig.name', rig.source)}")
+    print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, steady-state residual {res.steady_state.residual:.1e} 1/s, "
           f"wall time {summary['wall_time_s']:.2f} s "
           f"({res.t[-1] / max(res.wall_time, 1e-9):.1f}x real time in the integrator)")
@@ -80,7 +99,7 @@ def run(args) -> int:
                      None if m["settling_time_s"] is None else m["settling_time_s"] * 1e3])
     print_table(["pressure", "oscillation [Hz]", "peak amplitude [MPa]", "settling [ms]"], rows)
     unsettled = [side for side in ("supply", "return") if summary[side]["settling_time_s"] is None]
-    if unsettled and args.scenario == "open-loop-step":
+    if unsettled and scenario == "open-loop-step":
         which = " and ".join(unsettled) + (" port pressures are" if len(unsettled) > 1 else " port pressure is")
         print(f"  settling '-': the {which} not yet within 2 % of the change by {t1 * 1e3:.0f} ms, "
               f"when the piston stops (the hoses still ring; 'hydroline layout' estimates it)")
@@ -91,4 +110,32 @@ def run(args) -> int:
     for w in summary["warnings"]:
         print(f"  WARNING: {w}")
     print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
+    return 0
+
+
+def _report_axes(args, rig, res, summary, scenario) -> int:
+    """Print a multi-axis run: per axis the port metrics and the position disturbance."""
+    if args.json:
+        for w in summary["warnings"]:
+            print(f"hydroline simulate: warning: {w}", file=sys.stderr)
+        dump_json(json_axes_summary(summary))
+        return 0
+    print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
+    t0, t1 = summary["metrics_window_s"]
+    print(f"  {res.metadata['n_states']} states, wall time {summary['wall_time_s']:.2f} s; "
+          f"metrics from {t0 * 1e3:.0f} ms to {t1 * 1e3:.0f} ms")
+    rows = []
+    for name, a in summary["axes"].items():
+        for side in ("supply", "return"):
+            m = a[side]
+            rows.append([f"{name} {side} port", m["frequency_hz"], m["amplitude_mpa"],
+                         None if m["settling_time_s"] is None else m["settling_time_s"] * 1e3])
+    print_table(["", "frequency [Hz]", "peak [MPa]", "settling [ms]"], rows)
+    for name, a in summary["axes"].items():
+        d = a["position_disturbance_mm"]
+        what = (f"moved {a['position_change_mm']:.3g} mm (stepped)" if d is None
+                else f"position disturbance {d * 1e3:.3g} um")
+        print(f"  {name}: {what}")
+    for w in summary["warnings"]:
+        print(f"  warning: {w}")
     return 0
