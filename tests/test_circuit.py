@@ -207,3 +207,18 @@ def test_component_parameters_declared_once():
     rig.set("servovalve.rated_current", "-5 mA")
     with pytest.raises(RigError, match=r"servovalve.rated_current: must be > 0 \[A\]"):
         hydroline.simulate(rig)
+
+
+def test_circuit_command_prints_and_draws(tmp_path, capsys):
+    """`hydroline circuit two_axis` lists every component with its causality, every signal with
+    the port that outputs it and those reading it, the axes; --png writes the graph."""
+    from hydroline.cli import main
+    png = tmp_path / "c.png"
+    assert main(["circuit", "two_axis", "--png", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "axis2.servovalve  (servovalve" in out
+    assert "current <- axis2.valve_current" in out
+    assert ("supply.manifold_pressure [Pa]: supply.manifold.outlet_pressure -> "
+            "supply.accumulator.pressure, axis1.supply_hose.upstream_pressure, "
+            "axis2.supply_hose.upstream_pressure") in out
+    assert png.stat().st_size > 10_000
