@@ -222,3 +222,44 @@ def test_circuit_command_prints_and_draws(tmp_path, capsys):
             "supply.accumulator.pressure, axis1.supply_hose.upstream_pressure, "
             "axis2.supply_hose.upstream_pressure") in out
     assert png.stat().st_size > 10_000
+
+
+def test_two_axis_fluid_volume_conserved_with_blocked_valves():
+    """Mass (MODEL.md 2-3) through a transient of the shared supply: both valves blocked
+    (zero laps, zero current: every opening sg(0) = 0, M20), the circuit starts at 20.7 MPa
+    and the pump drops to 15 MPa. The oil the pump line delivers, int q_pump dt, equals what
+    the supply hoses and the accumulator give up:
+        sum_h C_h (p_f - p_0) - (V_g(end) - V_g(0))      (M16: oil side = V_0 - V_g)
+    with C_h each hose's compliance in the model, -C A^-2 B of its (upstream pressure ->
+    upstream flow) channel, the blocked line's low-frequency admittance s C_h; it lies within
+    3 % of the distributed A L / beta_e (the modal truncation and corrections, M13-M15)."""
+    from hydroline.simulation import integrate
+    rig = load_rig("two_axis")
+    for n in ("axis1", "axis2"):
+        rig.set(f"circuit.{n}.servovalve.laps", ["0 um"] * 4)
+        rig.set(f"circuit.{n}.controller.proportional_gain", "0 A/m")
+    circ = build_circuit(rig)
+    refs = [comp.StepCommand(name=f"{n}.reference", quantity="position",
+                             connections={"command": f"{n}.position_reference"}) for n in circ.axes]
+    net = circ.network(refs)
+    p = net.parameter_values.copy()
+    p[net.parameter_names.index("pump.pressure")] = 15e6
+    res = integrate(net, net.guess(), 2.0, dt_out=1e-4, p=p)
+    delivered = np.trapezoid(res["pump_flow"], res.t)
+
+    def compliance(m):
+        i, j = m.input_names.index("upstream_pressure"), m.output_names.index("upstream_flow")
+        Ai = np.linalg.inv(m.A)
+        return float(-(m.C @ Ai @ Ai @ m.B)[j, i])
+
+    hoses = [circ.component(n).model for n in ("supply.section1", "axis1.supply_hose", "axis2.supply_hose")]
+    for m in hoses:
+        assert compliance(m) == pytest.approx(m.line.capacitance, rel=0.03)
+    gas = res["supply.accumulator.gas_volume"]
+    stored = sum(compliance(m) for m in hoses) * (15e6 - 20.7e6) - (gas[-1] - gas[0])
+    assert abs(stored) > 1e-4                                   # > 100 cm^3 moved
+    assert delivered == pytest.approx(stored, rel=1e-4)
+    assert res["axis2.supply_port_pressure"][-1] == pytest.approx(15e6, rel=1e-6)
+    for n in ("axis1", "axis2"):                                # blocked: nothing reaches the pistons
+        for q in ("supply_port_flow", "return_port_flow", "bottom_chamber_flow", "top_chamber_flow"):
+            assert np.all(res[f"{n}.{q}"] == 0.0)
