@@ -169,7 +169,7 @@ def _one_line_error(tmp_path, capsys, text, replace=None):
      'ports = { inlet_pressure = "x_a", outlet_pressure = "tank_pressure", flow = "x_q" }\n'
      '[circuit.r3]\ntype = "resistance"\nresistance = "1e9 Pa*s/m^3"\ncompute = "inlet"\n'
      'ports = { outlet_pressure = "x_a", flow = "x_q", inlet_pressure = "x_b" }\n',
-     None, ("algebraic loop", "r1")),
+     None, ("algebraic loop", "r1.flow reads 'x_q' from r2.flow")),
     # unknown component type
     ('[circuit.gizmo]\ntype = "flux_capacitor"\n', None, ("gizmo", "unknown component type")),
     # a parameter without its unit

@@ -327,12 +327,35 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
         parts.append(c)
     rewire(parts, overrides or {}, allow_unknown=True)
     circuit = Circuit(parts, axes_of(parts), rig.source, dict(overrides or {}))
-    try:   # the wiring checks (two outputs, causality, loops) on the circuit alone where it
-        Network(parts)   # is closed; an open one (inputs from an experiment) is checked later
+    try:   # the wiring checks (two outputs, causality, loops) on the circuit alone, with a
+        Network(parts + experiment_placeholders(parts))   # stand-in for what an experiment feeds
     except NetworkError as e:
-        if "is unconnected" not in str(e):
-            raise CircuitError(f"circuit: {e}") from None
+        raise CircuitError(f"circuit: {e}") from None
     return circuit
+
+
+def experiment_placeholders(parts: list) -> list:
+    """Constant commands on every input signal no component outputs (what an experiment will
+    drive: valve currents, position references), so a circuit can be checked on its own.
+
+    Parameters
+    ----------
+    parts : list   Components
+
+    Returns
+    -------
+    list  One :class:`~hydroline.components.StepCommand` per such signal
+    """
+    produced = {c.signal(p) for c in parts for p in c.outputs}
+    out, seen = [], set()
+    for c in parts:
+        for port, spec in c.inputs.items():
+            sig = c.signal(port)
+            if sig not in produced and sig not in seen and spec.quantity in QUANTITY_UNIT:
+                seen.add(sig)
+                out.append(comp.StepCommand(name=f"experiment:{sig}", quantity=spec.quantity,
+                                            connections={"command": sig}))
+    return out
 
 
 def _make(rig, fluid, name, ctype, params, terms):
