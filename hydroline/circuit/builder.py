@@ -42,12 +42,22 @@ PREFIX = "circuit."
 
 
 def has_circuit(values: dict) -> bool:
-    """True when a rig's values describe a circuit (any ``circuit.*`` key)."""
+    """True when a rig's values describe a circuit (any ``circuit.*`` key).
+
+    Parameters
+    ----------
+    values : dict   A rig's values, path -> SI value
+    """
     return any(k.startswith(PREFIX) for k in values)
 
 
 def circuit_names(values: dict) -> list[str]:
-    """Component names of the circuit, in file order."""
+    """Component names of the circuit, in file order.
+
+    Parameters
+    ----------
+    values : dict   A rig's values, path -> SI value
+    """
     return [k[len(PREFIX):-len(".type")] for k in values
             if k.startswith(PREFIX) and k.endswith(".type")]
 
@@ -150,7 +160,20 @@ class Axis:
 
 
 def axes_of(components: list) -> dict:
-    """The servo axes among components, axis name -> :class:`Axis` (in component order)."""
+    """The servo axes among components, axis name -> :class:`Axis` (in component order).
+
+    An axis is an actuator whose chambers a servovalve feeds; its controller is the position
+    controller whose current drives that valve, its friction the friction component on its
+    friction-force signal.
+
+    Parameters
+    ----------
+    components : list   Components joined by signal names
+
+    Returns
+    -------
+    dict
+    """
     valves = [c for c in components if isinstance(c, comp.Servovalve)]
     ctls = [c for c in components if isinstance(c, comp.PositionController)]
     frs = [c for c in components if isinstance(c, comp.StribeckFriction)]
@@ -194,13 +217,25 @@ class Circuit:
     overrides: dict = field(default_factory=dict)
 
     def component(self, name: str):
+        """The component called ``name`` (KeyError if none).
+
+        Parameters
+        ----------
+        name : str   Component name
+        """
         for c in self.components:
             if c.name == name:
                 return c
         raise KeyError(name)
 
     def place(self, position_guess: float | None, axis: str | None = None):
-        """Start an axis (the first when None) from a piston position guess [m]."""
+        """Start an axis from a piston position guess for the steady-state solver.
+
+        Parameters
+        ----------
+        position_guess : float   Piston position from mid-stroke, [m]; None: leave as is
+        axis : str               Axis name; None: the first
+        """
         if position_guess is None or not self.axes:
             return
         ax = self.axes[axis or next(iter(self.axes))]
@@ -212,13 +247,31 @@ class Circuit:
         act.initial_position = float(position_guess)
 
     def network(self, commands=()) -> Network:
-        """The network of the circuit driven by ``commands`` (experiment components)."""
+        """The network of the circuit driven by an experiment.
+
+        Parameters
+        ----------
+        commands : list   Experiment components (valve currents, position references, ...)
+
+        Returns
+        -------
+        Network
+        """
         parts = list(self.components) + list(commands)
         rewire(parts, self.overrides)
         return Network(parts)
 
     def connection_table(self, commands=()) -> list[dict]:
-        """One row per signal: its producer ``component.port`` and consumers, quantity, unit."""
+        """One row per signal: its producer ``component.port`` and consumers, quantity, unit.
+
+        Parameters
+        ----------
+        commands : list   Experiment components to include
+
+        Returns
+        -------
+        list of dict  keys signal, producer (None: from the experiment), consumers, quantity, unit
+        """
         parts = list(self.components) + list(commands)
         rows, by_signal = [], {}
         for c in parts:

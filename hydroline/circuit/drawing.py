@@ -8,7 +8,12 @@ __all__ = ["type_name", "component_rows", "draw_circuit"]
 
 
 def type_name(component) -> str:
-    """The circuit-file type of a component (its class name when no type builds it)."""
+    """The circuit-file type of a component (its class name when no type builds it).
+
+    Parameters
+    ----------
+    component : Component   The component
+    """
     for name, t in COMPONENT_TYPES.items():
         if type(component) is t.component:
             return name
@@ -16,7 +21,16 @@ def type_name(component) -> str:
 
 
 def component_rows(circuit: Circuit) -> list[dict]:
-    """One row per component: name, type, inputs and outputs (``port=signal``), states."""
+    """One row per component: name, type, inputs and outputs (port -> signal), states.
+
+    Parameters
+    ----------
+    circuit : Circuit   The circuit
+
+    Returns
+    -------
+    list of dict
+    """
     rows = []
     for c in circuit.components:
         rows.append({"component": c.name, "type": type_name(c),

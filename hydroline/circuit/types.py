@@ -88,7 +88,13 @@ class ComponentType:
         return {**own, **self.parameters}
 
     def unit_of(self, key: str, values: dict) -> str | None:
-        """SI unit of a parameter (a command's values take its ``quantity``'s); None if unknown."""
+        """SI unit of a parameter (a command's values take its ``quantity``'s); None if unknown.
+
+        Parameters
+        ----------
+        key : str      Parameter name
+        values : dict  The component's other raw values (for a command's ``quantity``)
+        """
         if self.name in _COMMAND_KEYS and key in _COMMAND_KEYS[self.name] + ("slope",):
             q = QUANTITY_UNIT.get(values.get("quantity", "current"), "-")
             return q + "/s" if key == "slope" else q

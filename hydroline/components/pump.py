@@ -57,7 +57,12 @@ class Pump(Component):
         return self.displacement * self.shaft_speed
 
     def flow(self, dp):
-        """Delivered flow at outlet-minus-inlet pressure dp [Pa], [m^3/s]."""
+        """Delivered flow, [m^3/s].
+
+        Parameters
+        ----------
+        dp : float   Outlet minus inlet pressure, [Pa]
+        """
         q = self.geometric_flow
         if self.control == "pressure-compensated":
             span = self.deadhead_pressure - self.compensator_pressure

@@ -46,7 +46,12 @@ class ReliefValve(Component):
         self.check_parameters()
 
     def flow(self, dp):
-        """Relieved flow at the drop dp [Pa], [m^3/s]."""
+        """Relieved flow, [m^3/s].
+
+        Parameters
+        ----------
+        dp : float   Inlet minus outlet pressure, [Pa]
+        """
         y = dp - self.cracking_pressure
         pw = self.transition_pressure
         y_pos = ops.fmax(y, 0.0) + pw * ops.log(1.0 + ops.exp(-ops.fabs(y) / pw))

@@ -105,7 +105,16 @@ class Parameter:
         return "finite"
 
     def violation(self, value) -> str | None:
-        """None when ``value`` [unit] meets the declaration, else the rule it breaks."""
+        """None when ``value`` meets the declaration, else the rule it breaks.
+
+        Parameters
+        ----------
+        value : object   The value, [unit] (a list for "list:" units, text for "str")
+
+        Returns
+        -------
+        str or None
+        """
         if value is None:
             return None if self.optional else "given"
         if self.unit == "str":
@@ -203,9 +212,27 @@ class Component:
         return []
 
     def outputs_of(self, t, x, u, p):
+        """The outputs, local port name -> value [SI unit of the port].
+
+        Parameters
+        ----------
+        t : float   Time, [s]
+        x : dict    States, local name -> value [SI]
+        u : dict    Inputs, local port name -> value [SI] (empty when not ``feedthrough``)
+        p : dict    Runtime parameters, name -> value [SI]
+        """
         raise NotImplementedError
 
     def derivatives(self, t, x, u, p):
+        """The time derivatives of the states, local name -> value [SI unit/s].
+
+        Parameters
+        ----------
+        t : float   Time, [s]
+        x : dict    States, local name -> value [SI]
+        u : dict    Inputs, local port name -> value [SI]
+        p : dict    Runtime parameters, name -> value [SI]
+        """
         return {}
 
     # ---- optional hooks ------------------------------------------------------------------
@@ -219,13 +246,30 @@ class Component:
 
     def settle(self, x: dict, u: dict, p: dict):
         """Called with the solved steady state; may return ``(new_x, new_p)`` dicts to adopt
-        (e.g. an accumulator takes its pre-charge reference from the steady pressure)."""
+        (e.g. an accumulator takes its pre-charge reference from the steady pressure).
+
+        Parameters
+        ----------
+        x : dict   States at the steady state, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        p : dict   Runtime parameters, name -> value [SI]
+        """
         return None
 
     def breakpoints(self, t_end: float) -> list[float]:
-        """Times in (0, t_end) where the component's inputs to the ODE jump, [s]."""
+        """Times in (0, t_end) where the component's inputs to the ODE jump, [s].
+
+        Parameters
+        ----------
+        t_end : float   End of the run, [s]
+        """
         return []
 
     def signal(self, port: str) -> str:
-        """Network signal connected to a local port."""
+        """Network signal connected to a local port.
+
+        Parameters
+        ----------
+        port : str   Local port name
+        """
         return self.connections.get(port, port)
