@@ -105,12 +105,12 @@ def test_relief_valve_cracking_and_slope():
 
 
 def test_fixed_pump_with_relief_settles_on_the_override_line():
-    """Fixed pump D n = 10 cm^3 x 25 Hz = 250 cm^3/s into a node with a 1e11 Pa s/m^3 load
-    orifice (0.2 cm^3/s per MPa... passes 210 cm^3/s at 21 MPa) and a relief valve cracking at
+    """Fixed pump D n = 10 cm^3 x 1500 rpm = 250 cm^3/s into a node with a 1e11 Pa s/m^3 load
+    orifice (10 cm^3/s per MPa: 210 cm^3/s at 21 MPa) and a relief valve cracking at
     21 MPa with G = 2e-11 m^3/s/Pa: the balance D n = p/R + G (p - p_c) (gauge, tank 0.1 MPa)
     gives p - p_t = (D n + G p_c) / (1/R + G)."""
     Dn, R, G, pc = 10e-6 * 25, 1e11, 2e-11, 21e6
-    net, sig = _pump_node(comp.Pump(name="pump", displacement=10e-6, shaft_speed=25.0),
+    net, sig = _pump_node(comp.Pump(name="pump", displacement=10e-6, shaft_speed=2 * np.pi * 25.0),
                           comp.ReliefValve(name="rv", cracking_pressure=pc, flow_gradient=G), R)
     p_hand = (Dn + G * pc) / (1 / R + G) + 1e5
     assert sig["p"] == pytest.approx(p_hand, rel=1e-6)
@@ -123,7 +123,7 @@ def test_pressure_compensated_pump_destrokes_between_settings():
     orifice R the node settles where q_max (p_d - p)/(p_d - p_c) = p/R (gauge), i.e.
     p = p_d / (1 + (p_d - p_c)/(R q_max)); and q = q_max below p_c."""
     qmax, pc, pd, R = 250e-6, 20e6, 21e6, 1e11
-    pump = comp.Pump(name="pump", displacement=10e-6, shaft_speed=25.0,
+    pump = comp.Pump(name="pump", displacement=10e-6, shaft_speed=2 * np.pi * 25.0,
                      control="pressure-compensated", compensator_pressure=pc, deadhead_pressure=pd)
     net, sig = _pump_node(pump, comp.ReliefValve(name="rv", cracking_pressure=30e6), R)
     p_hand = pd / (1 + (pd - pc) / (R * qmax))
@@ -263,3 +263,46 @@ def test_two_axis_fluid_volume_conserved_with_blocked_valves():
     for n in ("axis1", "axis2"):                                # blocked: nothing reaches the pistons
         for q in ("supply_port_flow", "return_port_flow", "bottom_chamber_flow", "top_chamber_flow"):
             assert np.all(res[f"{n}.{q}"] == 0.0)
+
+
+def test_pump_and_relief_valve_from_a_circuit_file(tmp_path):
+    """The same fixed pump / relief / orifice node as above, written as a circuit file (types
+    pump, relief_valve, volume, resistance, pressure_source; units as a user writes them):
+    the node settles at (D n + G p_c)/(1/R + G) above the tank."""
+    path = tmp_path / "pump.toml"
+    path.write_text('''
+[fluid]
+density = "870 kg/m^3"
+kinematic_viscosity = "32 cSt"
+bulk_modulus = "1.5 GPa"
+[circuit.tank]
+type = "pressure_source"
+pressure = "0.1 MPa"
+ports = { pressure = "p_tank" }
+[circuit.pump]
+type = "pump"
+displacement = "10 cm^3"
+shaft_speed = "1500 rpm"
+ports = { outlet_pressure = "p", inlet_pressure = "p_tank", flow = "q_pump" }
+[circuit.relief]
+type = "relief_valve"
+cracking_pressure = "21 MPa"
+flow_gradient = "1.2 L/min/bar"
+ports = { inlet_pressure = "p", outlet_pressure = "p_tank", flow = "q_relief" }
+[circuit.orifice]
+type = "resistance"
+compute = "flow"
+resistance = "1e11 Pa*s/m^3"
+ports = { inlet_pressure = "p", outlet_pressure = "p_tank", flow = "q_load" }
+[circuit.node]
+type = "volume"
+volume = "50 cm^3"
+terms = { pump = 1, relief = -1, load = -1 }
+ports = { pump = "q_pump", relief = "q_relief", load = "q_load", pressure = "p" }
+''')
+    circ = build_circuit(load_rig(path))
+    assert circ.axes == {}
+    net = circ.network()
+    sig = net.signals_at(0.0, solve_steady_state(net).x)
+    Dn, G, pc, R = 10e-6 * 25, 1.2e-3 / 60 / 1e5, 21e6, 1e11
+    assert sig["p"] - 1e5 == pytest.approx((Dn + G * pc) / (1 / R + G), rel=1e-6)

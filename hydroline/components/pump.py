@@ -1,6 +1,7 @@
 """Hydraulic pumps as flow sources: fixed displacement, or pressure compensated."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..network import ops
@@ -13,7 +14,7 @@ __all__ = ["Pump"]
 class Pump(Component):
     """A positive-displacement pump delivering into a node (its outlet), static.
 
-    ``control = "fixed"``: ``q = D n - C_l p`` (geometric flow less leakage), to be protected
+    ``control = "fixed"``: ``q = D n - C_l p`` with ``n = omega / 2 pi`` revolutions per second (geometric flow less leakage), to be protected
     by a :class:`~hydroline.components.ReliefValve` on its outlet node.
     ``control = "pressure-compensated"``: the swash plate destrokes between the compensator
     setting p_c (full flow below) and the dead-head pressure p_d (no flow):
@@ -23,7 +24,7 @@ class Pump(Component):
     Parameters
     ----------
     displacement : float           D, volume per revolution, [m^3]
-    shaft_speed : float            n, revolutions per second, [Hz]
+    shaft_speed : float            omega, shaft speed (a file may give "1500 rpm"), [rad/s]
     leakage : float                C_l, volumetric loss per pressure, [m^3/s/Pa]
     control : str                  "fixed" or "pressure-compensated"
     compensator_pressure : float   p_c, where destroking starts, [Pa]
@@ -34,7 +35,8 @@ class Pump(Component):
     """
 
     displacement: float = parameter(10e-6, "m^3", "D, geometric volume per revolution", positive=True)
-    shaft_speed: float = parameter(25.0, "Hz", "n, shaft revolutions per second", positive=True)
+    shaft_speed: float = parameter(157.07963267948966, "rad/s", "omega, shaft speed (1500 rpm)",
+                                   positive=True)
     leakage: float = parameter(0.0, "m^3/s/Pa", "C_l, volumetric loss per pressure", minimum=0.0)
     control: str = parameter("fixed", "str", "fixed displacement or pressure compensated",
                              choices=("fixed", "pressure-compensated"))
@@ -53,8 +55,8 @@ class Pump(Component):
 
     @property
     def geometric_flow(self) -> float:
-        """D n, [m^3/s]."""
-        return self.displacement * self.shaft_speed
+        """D omega / 2 pi, [m^3/s]."""
+        return self.displacement * self.shaft_speed / (2.0 * math.pi)
 
     def flow(self, dp):
         """Delivered flow, [m^3/s].
