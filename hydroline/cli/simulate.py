@@ -4,6 +4,8 @@ from __future__ import annotations
 import json
 import sys
 
+import numpy as np
+
 from ..rigs import load_rig
 from ..scenarios import SCENARIOS, simulate, summarize
 from .common import dump_json, out_dir, print_table, progress_printer, quantity
@@ -113,8 +115,47 @@ def run(args) -> int:
     return 0
 
 
+def plot_axes(res, summary, path, title=""):
+    """Per-axis figure of a multi-axis run: valve supply and return port pressures [MPa] and
+    piston position change [mm] of every axis against time [ms]; the metrics window shaded.
+
+    Parameters
+    ----------
+    res : SimulationResult   The run (``metadata["axes"]`` holds the handles)
+    summary : dict           Its summary (for the metrics window)
+    path : str or Path       PNG to write
+    title : str              Figure title
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    axes = res.metadata["axes"]
+    t0, t1 = summary["metrics_window_s"]
+    fig, ax = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    t = res.t * 1e3
+    i0 = int(np.searchsorted(res.t, t0))
+    for name, a in axes.items():
+        ax[0].plot(t, res[a.supply_pressure] / 1e6, label=name)
+        ax[1].plot(t, res[a.return_pressure] / 1e6, label=name)
+        x = res[a.position]
+        ax[2].plot(t, (x - x[i0]) * 1e3, label=name)
+    for a_, lab in zip(ax, ("Supply port [MPa]", "Return port [MPa]", "Position change [mm]")):
+        a_.set_ylabel(lab)
+        a_.axvspan(t0 * 1e3, t1 * 1e3, color="0.93", zorder=0)
+        a_.legend(loc="best", fontsize=8)
+        a_.grid(alpha=0.3)
+    ax[2].set_yscale("symlog", linthresh=1e-4)
+    ax[2].set_xlabel("time [ms]")
+    fig.suptitle(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def _report_axes(args, rig, res, summary, scenario) -> int:
     """Print a multi-axis run: per axis the port metrics and the position disturbance."""
+    out = out_dir(args.out)
+    plot_axes(res, summary, out / "pressures.png", f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
@@ -138,4 +179,5 @@ def _report_axes(args, rig, res, summary, scenario) -> int:
         print(f"  {name}: {what}")
     for w in summary["warnings"]:
         print(f"  warning: {w}")
+    print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
     return 0
