@@ -45,7 +45,7 @@ def test_two_axis_disturbance_at_supply_line_frequency(two_axis_runs):
     """Axis 1 steps 40 mm; axis 2, held by its P loop, is shaken through the shared manifold
     at the frequency its supply port rings with: the supply hose's quarter wave c/(4L)
     between the accumulator-held manifold (pressure node) and the valve (closed end), with
-    c = sqrt(178 MPa/870 kg/m^3) = 452 m/s and L = 3.048 m -> 37.1 Hz;
+    c = sqrt(194.5 MPa/870 kg/m^3) = 473 m/s and L = 3.048 m -> 38.8 Hz;
     and with an ideal pressure source at each valve the disturbance all but vanishes."""
     res, ideal = two_axis_runs
     s = hydroline.summarize(res)
@@ -55,7 +55,7 @@ def test_two_axis_disturbance_at_supply_line_frequency(two_axis_runs):
     m = res.t <= t1
     f_x = oscillation_frequency(res.t[m], res["axis2.piston_velocity"][m], t0)
     f_p = ax2["supply"]["frequency_hz"]
-    c = np.sqrt(178e6 / 870)
+    c = np.sqrt(194.5e6 / 870)
     assert f_p == pytest.approx(c / (4 * 3.048), rel=0.1)
     assert f_x == pytest.approx(f_p, rel=0.1)
     d_ideal = hydroline.summarize(ideal)["axes"]["axis2"]["position_disturbance_mm"]
