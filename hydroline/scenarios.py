@@ -122,31 +122,67 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
         return _position_step(rig, axes, t_end)
     axis = next(iter(axes.values()))
     rated = rig.get("servovalve.rated_current", 0.05)
+    others = hold_other_axes(rig, axes, axis.name)
     if scenario == "open-loop-step":
+        if axis.controller:
+            raise RigError(f"scenario open-loop-step: the valve current of axis '{axis.name}' is "
+                           f"driven by '{axis.controller}' in the circuit; use position-step")
         t_step = _scenario_value(rig, scenario, "time", 0.01)
         cmd = comp.StepCommand(name="command", quantity="current",
                                initial=rig.get(f"scenario.{scenario}.initial_current", 0.0),
                                final=_scenario_value(rig, scenario, "current", rated),
                                time=t_step, connections={"command": axis.current})
-        return Scenario(scenario, [cmd], t_end or _scenario_value(rig, scenario, "t_end", 0.25), t_step)
+        return Scenario(scenario, [cmd] + others,
+                        t_end or _scenario_value(rig, scenario, "t_end", 0.25), t_step)
     if scenario == "closed-loop-sine":
         ref = comp.SineCommand(name="command", quantity="position",
                                offset=_scenario_value(rig, scenario, "offset", 0.0),
                                amplitude=_scenario_value(rig, scenario, "amplitude"),
                                frequency=_scenario_value(rig, scenario, "frequency"),
                                start=0.0, connections={"command": axis.reference_signal})
-        ctl = comp.PositionController(
-            name="controller", proportional_gain=rig["controller.proportional_gain"],
-            integral_gain=rig.get("controller.integral_gain", 0.0),
-            derivative_gain=rig.get("controller.derivative_gain", 0.0),
-            current_limit=rig.get("controller.current_limit", rated),
-            sample_time=rig.get("controller.sample_time"),
-            connections={"reference": axis.reference_signal, "position": axis.position,
-                         "velocity": axis.velocity, "current": axis.current})
-        cmds = [ref] if axis.controller else [ref, ctl]
-        return Scenario(scenario, cmds, t_end or _scenario_value(rig, scenario, "t_end", 1.0), 0.0,
+        cmds = [ref]
+        if not axis.controller:   # the template's P loop, from [controller]
+            cmds.append(comp.PositionController(
+                name="controller", proportional_gain=rig["controller.proportional_gain"],
+                integral_gain=rig.get("controller.integral_gain", 0.0),
+                derivative_gain=rig.get("controller.derivative_gain", 0.0),
+                current_limit=rig.get("controller.current_limit", rated),
+                sample_time=rig.get("controller.sample_time"),
+                connections={"reference": axis.reference_signal, "position": axis.position,
+                             "velocity": axis.velocity, "current": axis.current}))
+        return Scenario(scenario, cmds + others, t_end or _scenario_value(rig, scenario, "t_end", 1.0), 0.0,
                         position_guess=_scenario_value(rig, scenario, "initial_position", 0.0))
     raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+
+
+def hold_other_axes(rig: Rig, axes: dict, driven: str) -> list:
+    """Commands that hold every axis but ``driven``: a constant position reference where the
+    circuit has the axis's controller (it holds where its actuator starts), else zero valve
+    current.
+
+    Parameters
+    ----------
+    rig : Rig      Parameters (SI)
+    axes : dict    Axis handles, name -> :class:`hydroline.circuit.Axis`
+    driven : str   The axis the experiment drives
+
+    Returns
+    -------
+    list  Command components
+    """
+    out = []
+    for ax in axes.values():
+        if ax.name == driven:
+            continue
+        if ax.controller:
+            x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
+            out.append(comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
+                                        final=x0, time=0.0,
+                                        connections={"command": ax.reference_signal}))
+        else:
+            out.append(comp.StepCommand(name=f"{ax.name}.command", quantity="current",
+                                        connections={"command": ax.current}))
+    return out
 
 
 def _position_step(rig, axes, t_end):
@@ -160,15 +196,15 @@ def _position_step(rig, axes, t_end):
         raise RigError(f"{key}.time: must be > 0 [s] (the steady state is solved before the "
                        f"step), got {rig.raw.get(f'{key}.time', t_step)!r}")
     step = _scenario_value(rig, "position-step", "step")
-    cmds = []
-    for ax in axes.values():
-        if ax.controller is None:
-            raise RigError(f"{key}: axis '{ax.name}' has no position controller in the circuit "
-                           f"(a position_controller whose current drives '{ax.valve}')")
-        x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
-        cmds.append(comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
-                                     final=x0 + (step if ax.name == name else 0.0), time=t_step,
-                                     connections={"command": ax.reference_signal}))
+    ax = axes[name]
+    if ax.controller is None:
+        raise RigError(f"{key}: axis '{ax.name}' has no position controller in the circuit "
+                       f"(a position_controller whose current drives '{ax.valve}')")
+    x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
+    cmds = [comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
+                             final=x0 + step, time=t_step,
+                             connections={"command": ax.reference_signal})]
+    cmds += hold_other_axes(rig, axes, name)
     return Scenario("position-step", cmds, t_end or _scenario_value(rig, "position-step", "t_end", 0.15),
                     t_step)
 

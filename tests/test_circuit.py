@@ -306,3 +306,22 @@ ports = { pump = "q_pump", relief = "q_relief", load = "q_load", pressure = "p" 
     sig = net.signals_at(0.0, solve_steady_state(net).x)
     Dn, G, pc, R = 10e-6 * 25, 1.2e-3 / 60 / 1e5, 21e6, 1e11
     assert sig["p"] - 1e5 == pytest.approx((Dn + G * pc) / (1 / R + G), rel=1e-6)
+
+
+def test_experiments_on_two_axes_drive_one_and_hold_the_others():
+    """Scenarios take the axes from the handles: on the two-axis rig the closed-loop sine
+    drives axis 1's reference and holds axis 2's where it starts (its own P loop, no second
+    controller added); an open-loop current step onto a controlled axis is refused."""
+    from hydroline.scenarios import build_scenario
+    rig = load_rig("two_axis")
+    sc = build_scenario(rig, "closed-loop-sine")
+    wired = {c.signal("command"): c for c in sc.commands}
+    assert set(wired) == {"axis1.position_reference", "axis2.position_reference"}
+    assert isinstance(wired["axis1.position_reference"], comp.SineCommand)
+    hold = wired["axis2.position_reference"]
+    assert hold.initial == hold.final == 0.0          # axis 2 starts at 0 mm (two_axis.toml)
+    step = build_scenario(rig, "position-step")
+    assert {c.signal("command"): c.final - c.initial for c in step.commands} == pytest.approx(
+        {"axis1.position_reference": 0.040, "axis2.position_reference": 0.0})
+    with pytest.raises(RigError, match="axis1.controller.*position-step"):
+        build_scenario(rig, "open-loop-step")

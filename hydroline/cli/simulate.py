@@ -193,7 +193,7 @@ def _report_axes(args, rig, res, summary, scenario) -> int:
                  "peak-to-peak [MPa]", "settling [ms]"], rows)
     for name, a in summary["axes"].items():
         d = a["position_disturbance_mm"]
-        what = (f"moved {a['position_change_mm']:.3g} mm (stepped)" if d is None
+        what = (f"moved {a['position_change_mm']:.3g} mm (driven by the experiment)" if d is None
                 else f"position disturbance {d * 1e3:.3g} um")
         print(f"  {name}: {what}")
     for w in summary["warnings"]:
