@@ -174,6 +174,9 @@ def _one_line_error(tmp_path, capsys, text, replace=None):
     ('[circuit.gizmo]\ntype = "flux_capacitor"\n', None, ("gizmo", "unknown component type")),
     # a parameter without its unit
     ("", ('rated_current = "50 mA"', "rated_current = 0.05"), ("servovalve.rated_current",)),
+    # a value outside its declared bounds, echoed as written
+    ("", ('rated_current = "50 mA"', 'rated_current = "-50 mA"'),
+     ("circuit.servovalve.rated_current", "must be > 0 [A]", "-50 mA")),
     # a port the type does not have
     ("", ('ports = { current = "valve_current", ', 'ports = { current = "valve_current", coil = "x", '),
      ("servovalve", "no port 'coil'")),

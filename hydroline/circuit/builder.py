@@ -349,6 +349,13 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
         head = f"{PREFIX}{name}."
         params = {k[len(head):]: v for k, v in values.items()
                   if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+        decls = ctype.declarations()
+        for key, v in params.items():   # the declared bounds, with the value as written
+            rule = decls[key].violation(v) if key in decls else None
+            if rule is not None:
+                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
+                raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
+                                   f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
         specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
     # the load mass rides on the actuator whose position it reads (Load's docstring)
     for name, (ctype, params, ports, _) in specs.items():

@@ -79,6 +79,9 @@ class Servovalve(Component):
         self.check_parameters()
         if len(self.laps) != 4:
             raise ValueError(f"{self.name}: laps must be four lengths (u1..u4) [m]")
+        if any(not abs(u) < self.max_opening for u in self.laps):
+            raise ValueError(f"{self.name}: laps must each be shorter than max_opening "
+                             f"({self.max_opening:g} m) [m], got {tuple(self.laps)!r}")
 
     @property
     def coefficient(self) -> float:
