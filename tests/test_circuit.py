@@ -338,3 +338,18 @@ def test_experiments_on_two_axes_drive_one_and_hold_the_others():
         {"axis1.position_reference": 0.040, "axis2.position_reference": 0.0})
     with pytest.raises(RigError, match="axis1.controller.*position-step"):
         build_scenario(rig, "open-loop-step")
+
+
+def test_parameter_reference_derives_from_declarations(capsys):
+    """`hydroline circuit --types` (the docs' reference) lists every type and every declared
+    parameter with the declaration's unit and bounds."""
+    from hydroline.circuit import COMPONENT_TYPES
+    from hydroline.cli import main
+    assert main(["circuit", "--types"]) == 0
+    out = capsys.readouterr().out
+    for name, t in COMPONENT_TYPES.items():
+        assert f"### `{name}`" in out
+        for key in t.declarations():
+            assert f"| `{key}` |" in out
+    assert "| `rated_current` | A | > 0 | 0.05 |" in out
+    assert "| `polytropic_exponent` | - | within [1, 1.66667] | 1.4 |" in out

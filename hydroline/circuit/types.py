@@ -8,13 +8,15 @@ these tables; nothing else repeats a unit or a bound.
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 
 from .. import components as comp
 from ..network.component import Parameter
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
-           "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT"]
+           "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT",
+           "parameter_reference"]
 
 
 class CircuitError(ValueError):
@@ -133,3 +135,41 @@ COMPONENT_TYPES = {t.name: t for t in (
                   _cmd(comp.TableCommand, file=Parameter("str", "CSV with units in its header")),
                   hidden=("times", "values")),
 )}
+
+
+def _fmt_default(decl) -> str:
+    d = decl.default
+    if d is None or d is dataclasses.MISSING:
+        return "-"
+    if isinstance(d, float):
+        return f"{d:g}"
+    return repr(d) if isinstance(d, str) else str(d)
+
+
+def parameter_reference() -> str:
+    """The component types and their parameters as Markdown, from the declarations alone
+    (the reference the docs and ``hydroline circuit --types`` show).
+
+    Returns
+    -------
+    str  One section per type: description, ports, then a table of parameter, unit, bounds,
+         default and description
+    """
+    lines = []
+    for name, t in COMPONENT_TYPES.items():
+        lines += [f"### `{name}`", "", t.description + ".", ""]
+        cls = t.component
+        ins = [f"`{p}` ({s.quantity})" for p, s in cls.inputs.items()]
+        outs = [f"`{p}` ({s.quantity})" for p, s in cls.outputs.items()]
+        if ins or outs:   # static ports (others depend on form, causality or terms)
+            lines += ["Ports: in " + (", ".join(ins) or "-") + "; out " + (", ".join(outs) or "-")
+                      + ".", ""]
+        lines += ["| parameter | unit | bounds | default | description |", "|---|---|---|---|---|"]
+        for key, d in t.declarations().items():
+            unit = {"-": "-", "str": "text"}.get(d.unit, d.unit)
+            if d.unit == "-" and name.endswith("_command") and key in ("initial", "final", "offset",
+                                                                       "amplitude", "slope"):
+                unit = "of quantity"
+            lines.append(f"| `{key}` | {unit} | {d.rule()} | {_fmt_default(d)} | {d.description} |")
+        lines.append("")
+    return "\n".join(lines)

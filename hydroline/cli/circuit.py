@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 
 from ..circuit.drawing import component_rows, draw_circuit
+from ..circuit.types import parameter_reference
 from ..rigs import load_rig
 from ..system import build_circuit
 from .common import print_table
@@ -19,10 +20,15 @@ def register(sub):
                    "(default: the embedded 2005 rig)")
     p.add_argument("--png", help="draw the circuit graph to this PNG file")
     p.add_argument("--json", action="store_true", help="print components, connections and axes as JSON")
+    p.add_argument("--types", action="store_true", help="list the component types a circuit file "
+                   "may use, with every parameter's unit, bounds, default and description")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    if args.types:
+        print(parameter_reference())
+        return 0
     rig = load_rig(args.rig)
     circuit = build_circuit(rig)
     comps = component_rows(circuit)
