@@ -43,6 +43,8 @@ _LINE = {"length": "m", "diameter": "m", "bulk_modulus": "Pa", "modes": "-"}
 
 #: The sections of the template rig whose parameters a component declares (unit, bounds):
 #: section -> (component type of :mod:`hydroline.circuit.types`, keys; None for all).
+#: A bound belongs on the component's declaration (``parameter(..., minimum=...)``), not in a
+#: table here: rig validation, circuit files and ``hydroline circuit --types`` all read it.
 COMPONENT_SECTIONS = {
     "servovalve": ("servovalve", None),
     "friction": ("friction", None),
