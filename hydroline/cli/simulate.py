@@ -115,7 +115,7 @@ def run(args) -> int:
     write = args.out is not None or not args.json
     out = out_dir(args.out if args.out is not None else "hydroline-out") if write else None
     scenario = args.scenario or default_scenario(rig)
-    duration = t_end if t_end is not None else build_scenario(rig, scenario).t_end
+    duration = t_end or rig.get(f"scenario.{scenario}.t_end") or build_scenario(rig, scenario).t_end
     h, every, rows = output_grid(duration, dt_out)
     long_run = round(duration / h) + 1 > LONG_ROWS and len(build_circuit(rig).axes) == 1
     if long_run and write:
