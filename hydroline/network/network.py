@@ -6,6 +6,7 @@ can change between runs without recompiling.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import casadi as ca
@@ -221,8 +222,14 @@ class CompiledModel:
         self.y = ca.vertcat(*[ca.SX(sig[k]) if not isinstance(sig[k], ca.SX) else sig[k]
                               for k in net.signal_names])
         self.f = ca.Function("f", [t, x, p], [self.dx], ["t", "x", "p"], ["dx"])
-        self.jac = ca.Function("jacobian_f", [t, x, p], [ca.jacobian(self.dx, x)], ["t", "x", "p"], ["J"])
         self.signals = ca.Function("signals", [t, x, p], [self.y], ["t", "x", "p"], ["y"])
+
+    @functools.cached_property
+    def jac(self):
+        """d(dx/dt)/dx as a CasADi function, made on first use (the compiled core writes its
+        own sparse Jacobian; building this one costs ~10 ms per network)."""
+        return ca.Function("jacobian_f", [self.t, self.x, self.p], [ca.jacobian(self.dx, self.x)],
+                           ["t", "x", "p"], ["J"])
 
     def rhs(self, t, x, p):
         return np.asarray(self.f(t, x, p)).ravel()
