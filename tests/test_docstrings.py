@@ -15,6 +15,7 @@ fails here would also read wrongly there.
 from __future__ import annotations
 
 import ast
+import dataclasses
 import doctest
 import importlib
 import inspect
@@ -90,10 +91,12 @@ def _signature_params(obj, kind):
     return names
 
 
-def _documented(doc):
-    """name -> (type, description) of the Parameters section; 'a, b : float' gives both."""
+def _documented(doc, fields_too=False):
+    """name -> (type, description) of the Parameters section; 'a, b : float' gives both.
+
+    For a dataclass (``fields_too``) the Attributes section documents the constructor too."""
     out = {}
-    for p in doc["Parameters"] + doc["Other Parameters"]:
+    for p in doc["Parameters"] + doc["Other Parameters"] + (doc["Attributes"] if fields_too else []):
         for name in p.name.split(","):
             out[name.strip()] = (p.type, " ".join(p.desc).strip())
     return out
@@ -135,10 +138,12 @@ def test_documented(qualname, obj, kind):
         return                                  # one line, unit in brackets where it has one
     doc = ClassDoc(obj, config={"show_class_members": False}) if kind == "class" else FunctionDoc(obj)
     assert doc["Summary"], f"{qualname}: no one-line summary"
-    documented = _documented(doc)
+    documented = _documented(doc, fields_too=kind == "class" and dataclasses.is_dataclass(obj))
     sig = _signature_params(obj, kind)
     missing = [p for p in sig if p.lstrip("*") not in documented and p not in documented]
     assert not missing, f"{qualname}: parameters not documented: {missing}"
+    if kind == "class" and dataclasses.is_dataclass(obj):
+        documented = {k: v for k, v in documented.items() if k in sig}   # properties may be listed
     extra = [p for p in documented if p not in sig and "*" + p not in sig and "**" + p not in sig
              and p.lstrip("*") not in [s.lstrip("*") for s in sig]]
     assert not extra, f"{qualname}: documented but not in the signature: {extra}"

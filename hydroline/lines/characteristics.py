@@ -1,6 +1,6 @@
 """Reference time-domain line: method of characteristics with unsteady laminar friction.
 
-This is an independent time-domain model of one hydraulic line (MODEL.md section 2), meant as a
+This is an independent time-domain model of one hydraulic line (model reference §2), meant as a
 reference for the modal state-space lines.  It uses no modal code and nothing from the
 Laplace-domain models: only the line's geometry and fluid properties.
 
@@ -174,11 +174,16 @@ class CharacteristicsResult:
 
     Attributes
     ----------
-    t : ndarray                    Times t_n = n dt, [s]
-    upstream_pressure : ndarray    p at x = 0 (imposed), [Pa]
-    downstream_pressure : ndarray  p at x = L (PQ-form output), [Pa]
-    upstream_flow : ndarray        q at x = 0, positive into the line (PQ-form output), [m^3/s]
-    downstream_flow : ndarray      q at x = L, positive out of the line (imposed), [m^3/s]
+    t : ndarray
+        Times t_n = n dt, [s].
+    upstream_pressure : ndarray
+        p at x = 0 (imposed), [Pa].
+    downstream_pressure : ndarray
+        p at x = L (PQ-form output), [Pa].
+    upstream_flow : ndarray
+        q at x = 0, positive into the line (PQ-form output), [m^3/s].
+    downstream_flow : ndarray
+        q at x = L, positive out of the line (imposed), [m^3/s].
     """
 
     t: np.ndarray
@@ -233,8 +238,10 @@ class CharacteristicsLine:
 
     Attributes
     ----------
-    dt : float         Time step [s]
-    dx : float         Reach length [m]
+    dt : float
+        Time step, [s].
+    dx : float
+        Reach length, [m].
 
     Notes
     -----
