@@ -22,7 +22,7 @@ __all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario"]
 
 SCENARIOS = ("open-loop-step", "closed-loop-sine")
 
-#: Pressures watched for cavitation (MODEL.md 8): below this absolute pressure the oil
+#: Pressures watched for cavitation (docs/model.md 8): below this absolute pressure the oil
 #: releases gas and the linear line model no longer holds, [Pa].
 CAVITATION_PRESSURE = 0.0
 WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
@@ -169,7 +169,7 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
-    """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8)."""
+    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md 8)."""
     out = []
     for k in WATCHED_PRESSURES:
         if k not in res.data:

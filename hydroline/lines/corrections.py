@@ -2,7 +2,7 @@
 
 Each mode of the linear-friction line (M7) solves ``s^2 + (32 nu beta/(d^2 alpha)) s +
 omega_i^2/alpha^2 = 0``. Matching that root to the root ``s_i`` of the dissipative model
-(M6) on the same modal line ``Gamma(s_i) = j theta_i`` gives
+(M6) on the same modal line ``Gamma(s_i) = j theta_i`` gives::
 
     alpha_i = omega_i/|s_i|,   beta_i = -2 Re(s_i) d^2 alpha_i/(32 nu)          (M15)
 

@@ -18,7 +18,7 @@ can be estimated (on the default rig: the long hoses ring for only 3-5 periods b
 piston stops, and the return port's mean pressure is still rising with the return
 accumulator's charge).
 
-What to expect (MODEL.md 1-2): a section II with a nearly blocked valve end and the
+What to expect (docs/model.md 1-2): a section II with a nearly blocked valve end and the
 accumulator-stiffened manifold at the other is close to a quarter-wave resonator, so the
 frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 37 Hz for 3 m),
 and the amplitude falls with the volume of oil that the step must accelerate.
