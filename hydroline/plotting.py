@@ -25,11 +25,8 @@ def _figure(n):
 
 def _window_end(result):
     """End of the metrics window (piston clear of its stops), [s]; None when it is the end."""
-    t1 = result.metadata.get("metrics_window_end")
-    if t1 is None and "piston_position" in result.data and "stroke" in result.metadata:
-        from .scenarios import metrics_window
-
-        t1 = metrics_window(result)[1]
+    window = result.metadata.get("metrics_window")
+    t1 = window[1] if window is not None and window[2] == "stop" else None
     return t1 if t1 is not None and t1 < result.t[-1] else None
 
 
