@@ -58,7 +58,8 @@ def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     alone stalls on the kinks of check valves, stops and orifices."""
     z0 = x / scales
     for attempt in range(3):   # a first step too long can land in a far basin: shorter ones
-        z = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt, max_iter)
+        z = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt,
+                                  max_iter * (1 + 3 * attempt))
         if np.all(np.isfinite(z)) and np.max(np.abs(model.rhs(t0, z * scales, p) / scales)) < tol:
             break
     return z * scales

@@ -605,8 +605,8 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
     decaying sinusoid leaks into it by about ``sigma T / (2 pi)`` of its amplitude, 90 degrees out
     of phase, which changes the swing about the baseline by less than 1 % for damping ratios up
     to 0.2. Over the first and last half period of the window, where no centred period fits,
-    the baseline is continued as the straight line fitted to its first (last) half period of
-    values.
+    the baseline is continued as a straight line fitted, together with a sinusoid of the
+    oscillation's period that absorbs the leak, to its first (last) period of values.
 
     Parameters
     ----------
@@ -633,7 +633,11 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
         raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
     period = 1.0 / frequency
     duration = t_end - t_start
-    per_period = int(min(_BASELINE_SAMPLES, max(8, _MAX_GRID * period / duration))) // 2 * 2
+    # at least 64 samples per period, more where the trace has them (up to 1024), so that a
+    # noisy record keeps every sample for the smoothing of oscillation_amplitude
+    inside = np.count_nonzero((t >= t_start) & (t <= t_end))
+    density = inside * period / duration
+    per_period = int(min(max(_BASELINE_SAMPLES, density), 1024, max(8, _MAX_GRID * period / duration))) // 2 * 2
     dt = period / per_period
     n = int(math.floor(duration / dt + 1e-9)) + 1
     if n < per_period + 1:
@@ -644,12 +648,20 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
     centred, lost = _centred_average(values, per_period)
     baseline = np.empty(n)
     baseline[lost:n - lost] = centred
-    h = max(2, min(centred.size, per_period // 2))
     if lost:
-        head = np.polyfit(grid[lost:lost + h], centred[:h], 1)
-        baseline[:lost] = np.polyval(head, grid[:lost])
-        tail = np.polyfit(grid[n - lost - h:n - lost], centred[-h:], 1)
-        baseline[n - lost:] = np.polyval(tail, grid[n - lost:])
+        # fit a line plus a sinusoid of the oscillation's period over a full period of
+        # centred means (a decaying oscillation leaks into the mean as a sinusoid of its own
+        # period, which a line alone would mistake for a slope) and continue the line only
+        h = max(2, min(centred.size, per_period + 1))
+        w = 2 * np.pi * frequency
+
+        def line(tt, yy, at):
+            basis = np.column_stack([np.ones_like(tt), tt - tt[0], np.cos(w * tt), np.sin(w * tt)])
+            coef = np.linalg.lstsq(basis[:, :4 if tt.size >= 8 else 2], yy, rcond=None)[0]
+            return coef[0] + coef[1] * (at - tt[0])
+
+        baseline[:lost] = line(grid[lost:lost + h], centred[:h], grid[:lost])
+        baseline[n - lost:] = line(grid[n - lost - h:n - lost], centred[-h:], grid[n - lost:])
     return grid, values, baseline
 
 
@@ -658,7 +670,8 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
 
     Half the largest peak-to-peak swing of ``p - baseline`` within any one period of the
     window ``[t_step, t_end]``, where the baseline is the trace's centred mean over one period
-    (:func:`oscillation_baseline`). For ``p = b(t) + A cos(2 pi f t + phi)`` with a slowly varying
+    (:func:`oscillation_baseline`), after a cubic Savitzky-Golay smoothing over 1/8 period
+    against measurement noise. For ``p = b(t) + A cos(2 pi f t + phi)`` with a slowly varying
     ``b`` it is ``A``; for a decaying oscillation it is half the largest swing from a crest to
     the next trough (or trough to crest), the number an engineer reads off the trace as
     "+-A". Unlike an overshoot beyond a final value it does not depend on where the final
@@ -696,6 +709,13 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
     swing = values - baseline
     per_period = int(round(1.0 / (frequency * (grid[1] - grid[0]))))
     from scipy.ndimage import maximum_filter1d, minimum_filter1d
+    from scipy.signal import savgol_filter
+
+    # a cubic Savitzky-Golay fit over 1/8 period keeps the crests of the oscillation and its
+    # first harmonics (attenuation at the fundamental ~1e-4) and averages measurement noise
+    length = (per_period // 8) | 1
+    if length >= 5:
+        swing = savgol_filter(swing, length, 3, mode="interp")
 
     width = per_period + 1
     span = maximum_filter1d(swing, width, mode="nearest") - minimum_filter1d(swing, width,
