@@ -72,8 +72,9 @@ print(res.data[["supply_port_pressure", "return_port_pressure"]].describe().loc[
 # pressures stop oscillating.
 study = hydroline.studies.layout(lengths=[3.048, 1.524, 0.7512, 0.0])
 table = study.table()
-cols = [c for c in table.columns if c.startswith(("length", "supply_f", "supply_a",
-                                                   "return_f", "return_a"))]
+cols = ["section2_length_m"] + [
+    f"{side}_{m}" for side in ("supply", "return")
+    for m in ("frequency_hz", "amplitude_mpa", "first_excursion_mpa") if f"{side}_{m}" in table]
 print(table[cols].to_string(index=False, float_format="%.3g"))
 files = study.save(OUT / "layout")
 print("figure:", files["figure"])
@@ -82,5 +83,7 @@ print("figure:", files["figure"])
 # Conclusion
 # ----------
 # As in the paper: the oscillation that limits the test bandwidth comes from the hoses
-# between manifold and valve. Shortening them raises its frequency and lowers its
-# amplitude; close-coupling the manifold (and its accumulators) removes it.
+# between manifold and valve. Shortening them raises its frequency (about as 1/L, the
+# quarter-wave law) and lowers its amplitude; close-coupling the manifold (and its
+# accumulators) removes the ringing, leaving only the first excursion (the valve's flow step
+# against the manifold's impedance). ``docs/metrics.md`` defines each metric.
