@@ -8,14 +8,45 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL"]
+__all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive"]
 
 
-def _positive(name: str, value: float, unit: str) -> float:
+def require_positive(name: str, value: float, unit: str) -> float:
+    """A positive finite number, or ValueError naming the parameter and its unit.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name for the message, e.g. "diameter".
+    value : float
+        The value, [unit].
+    unit : str
+        Its SI unit for the message, e.g. "m".
+
+    Returns
+    -------
+    float
+        ``value`` as a float, [unit].
+
+    Raises
+    ------
+    ValueError
+        If the value is zero, negative, NaN or infinite.
+
+    Examples
+    --------
+    >>> require_positive("diameter", -0.0127, "m")
+    Traceback (most recent call last):
+    ...
+    ValueError: diameter must be a positive finite number in [m], got -0.0127
+    """
     value = float(value)
     if not value > 0 or value != value or value == float("inf"):
         raise ValueError(f"{name} must be a positive finite number in [{unit}], got {value!r}")
     return value
+
+
+_positive = require_positive     # the former private name
 
 
 @dataclass(frozen=True)

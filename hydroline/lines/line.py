@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
-from ..fluid import Fluid, _positive
+from ..fluid import Fluid, require_positive
 
 __all__ = ["Line", "FORMS", "FORM_PORTS", "check_form", "bessel_ratio"]
 
@@ -143,12 +143,12 @@ class Line:
     bulk_modulus: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "length", _positive("length", self.length, "m"))
-        object.__setattr__(self, "diameter", _positive("diameter", self.diameter, "m"))
+        object.__setattr__(self, "length", require_positive("length", self.length, "m"))
+        object.__setattr__(self, "diameter", require_positive("diameter", self.diameter, "m"))
         if not isinstance(self.fluid, Fluid):
             raise ValueError(f"fluid must be a hydroline.Fluid, got {type(self.fluid).__name__}")
         beta = self.fluid.bulk_modulus if self.bulk_modulus is None else self.bulk_modulus
-        object.__setattr__(self, "bulk_modulus", _positive("bulk_modulus", beta, "Pa"))
+        object.__setattr__(self, "bulk_modulus", require_positive("bulk_modulus", beta, "Pa"))
 
     # ---- derived parameters (M2)-(M4) -------------------------------------------------
     @property
