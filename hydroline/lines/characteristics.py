@@ -104,6 +104,18 @@ def zielke_weighting(tau) -> np.ndarray:
     -------
     ndarray
         W(tau), the shape of ``tau`` [-].
+
+    Examples
+    --------
+    At large tau only the first term is left, ``exp(-j_{2,1}^2 tau)`` with
+    ``j_{2,1} = 5.1356223``; at small tau Zielke's expansion starts
+    ``0.282095/sqrt(tau) - 1.25``:
+
+    >>> import numpy as np
+    >>> round(float(zielke_weighting(0.5)) / np.exp(-5.1356223**2 * 0.5), 6)
+    1.0
+    >>> round(float(zielke_weighting(1e-6)), 3), round(0.282095 / np.sqrt(1e-6) - 1.25, 3)
+    (280.846, 280.845)
     """
     tau = np.asarray(tau, dtype=float)
     if np.any(~(tau > 0)):

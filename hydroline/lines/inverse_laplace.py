@@ -102,6 +102,15 @@ def talbot(F, t, n_terms: int = 24):
     -------
     ndarray
         f(t), the shape of ``t`` [units of F times 1/s].
+
+    Examples
+    --------
+    ``1/(s + 1)`` is the transform of ``exp(-t)``:
+
+    >>> import numpy as np
+    >>> f = talbot(lambda s: 1.0 / (s + 1.0), np.array([0.5, 1.0, 2.0]))
+    >>> bool(np.allclose(f, np.exp(-np.array([0.5, 1.0, 2.0])), rtol=1e-10))
+    True
     """
     M = _n_terms(n_terms, 24, 2)
     t = _times(t)
