@@ -14,7 +14,7 @@ below. Run time: about 15-30 s on two cores (16 samples in processes, then 4 on 
 Command-line equivalent::
 
     hydroline sweep --samples 16 --seed 1 \\
-        --set 'supply.section1.bulk_modulus+supply.section2.bulk_modulus=normal(178 MPa, 10.68 MPa)' \\
+        --set 'supply.section1.bulk_modulus+supply.section2.bulk_modulus=normal(194.5 MPa, 11.67 MPa)' \\
         --out tutorial-out/mc --resume [--scheduler tcp://host:8786]
 """
 

@@ -21,7 +21,7 @@ Run time: about 30 s. Command line: ``hydroline fit`` and ``hydroline friction-i
 # A synthetic record
 # ------------------
 # The "true" rig has section-II bulk moduli of 200 MPa (supply) and 160 MPa (return); the
-# default rig says 178 and 141 MPa. 60 ms after a 50 mA step, supply and return port
+# fit starts from the default rig's values. 60 ms after a 50 mA step, supply and return port
 # pressures with 20 kPa of white sensor noise, written as a CSV with units in its header.
 from pathlib import Path
 

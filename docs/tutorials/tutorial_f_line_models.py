@@ -14,8 +14,8 @@ supply hose and on a lossier, narrower line, against the exact dissipative model
 - ``CharacteristicsLine``: method of characteristics with Zielke's unsteady friction, an
   independent time-domain reference.
 
-Run time: about 10 s. Command line: ``hydroline line-response --length "3.048 m"
---diameter "15.9 mm" --bulk-modulus "178 MPa" --method both``.
+Run time: about 10 s. Command line (a hose of your own): ``hydroline line-response
+--length "3.048 m" --diameter "15.9 mm" --bulk-modulus "178 MPa" --method both``.
 """
 
 # %%
@@ -23,14 +23,16 @@ Run time: about 10 s. Command line: ``hydroline line-response --length "3.048 m"
 # ---------
 import numpy as np
 
-from hydroline import MINERAL_OIL
+from hydroline import MINERAL_OIL, load_rig
 from hydroline.lines import Line, ModalLine
 from hydroline.lines.characteristics import CharacteristicsLine
 from hydroline.lines.compare import compare_resonances
 from hydroline.lines.lumped import LumpedLine
 
+rig = load_rig()
 lines = {
-    "rig supply hose": Line(3.048, 0.0159, MINERAL_OIL, bulk_modulus=178e6),
+    "rig supply hose": Line(rig["supply.section2.length"], rig["supply.section2.diameter"],
+                            MINERAL_OIL, bulk_modulus=rig["supply.section2.bulk_modulus"]),
     "lossy 6 mm line": Line(3.0, 0.006, MINERAL_OIL, bulk_modulus=178e6),
 }
 for name, line in lines.items():

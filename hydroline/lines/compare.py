@@ -151,7 +151,8 @@ def compare_resonances(line, model, n_peaks: int | None = None, f_max: float | N
 
     Examples
     --------
-    The rig's supply hose, six Yang-Tobler modes: resonance frequencies within 0.2 % of the
+    A 10 ft, 15.9 mm hose (SAE 100R2 size -10, effective bulk modulus 178 MPa), six
+    Yang-Tobler modes: resonance frequencies within 0.2 % of the
     exact model, peaks within 10 % (the model reference, §2.2):
 
     >>> from hydroline import MINERAL_OIL

@@ -265,10 +265,11 @@ class ModalLine(StateSpaceLine):
 
     Examples
     --------
-    The rig's supply hose with six modes: the DC gain is the laminar steady state (M12),
-    ``P_d = P_u - R Q_d`` and ``Q_u = Q_d``, exactly, thanks to the modifier G (M13); the
-    first mode has the natural frequency of the exact dissipative model's first root, the
-    quarter-wave frequency c/(4L) = 37.1 Hz lowered by alpha_1 (M9), (M15):
+    A 10 ft, 15.9 mm hose (effective bulk modulus 178 MPa) with six modes: the DC gain is
+    the laminar steady state (M12), ``P_d = P_u - R Q_d`` and ``Q_u = Q_d``, exactly, thanks
+    to the modifier G (M13); the first mode has the natural frequency of the exact
+    dissipative model's first root, the quarter-wave frequency c/(4L) = 37.1 Hz lowered by
+    alpha_1 (M9), (M15):
 
     >>> import numpy as np
     >>> from hydroline import MINERAL_OIL
