@@ -17,7 +17,7 @@ import numpy as np
 
 from .line import Line, bessel_ratio, check_form
 
-__all__ = ["correction_factors", "modal_angles", "dissipative_root"]
+__all__ = ["correction_factors", "modal_angles", "dissipative_root", "check_modes"]
 
 
 def modal_angles(n_modes: int, form: str = "PQ") -> np.ndarray:
@@ -43,16 +43,36 @@ def modal_angles(n_modes: int, form: str = "PQ") -> np.ndarray:
     >>> modal_angles(3, "PP") / np.pi
     array([1., 2., 3.])
     """
-    n_modes = _check_modes(n_modes)
+    n_modes = check_modes(n_modes)
     form = check_form(form)
     i = np.arange(1, n_modes + 1, dtype=float)
     return (i - 0.5) * np.pi if form in ("PQ", "QP") else i * np.pi
 
 
-def _check_modes(n_modes) -> int:
+def check_modes(n_modes) -> int:
+    """A number of modes as an int, or ValueError naming ``n_modes``.
+
+    Parameters
+    ----------
+    n_modes : int
+        Number of modes, an integer >= 1.
+
+    Returns
+    -------
+    int
+        ``n_modes``.
+
+    Raises
+    ------
+    ValueError
+        If it is not a whole number >= 1.
+    """
     if int(n_modes) != n_modes or n_modes < 1:
         raise ValueError(f"n_modes must be an integer >= 1, got {n_modes!r}")
     return int(n_modes)
+
+
+_check_modes = check_modes       # the former private name (still imported by residue.py)
 
 
 def _gamma_squared(line: Line, s):

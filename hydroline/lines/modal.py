@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .corrections import _check_modes, correction_factors, modal_angles
+from .corrections import check_modes, correction_factors, modal_angles
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["ModalLine", "RigidColumnLine", "StateSpaceLine"]
@@ -289,7 +289,7 @@ class ModalLine(StateSpaceLine):
         if not isinstance(line, Line):
             raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
         self.line = line
-        self.n_modes = _check_modes(n_modes)
+        self.n_modes = check_modes(n_modes)
         self.form = check_form(form)
         self.method = method
         if method == "residue":
