@@ -68,7 +68,7 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
 }
 
-#: Modules whose docstrings are numpydoc (checked by tests/test_docstrings.py).
+#: Modules whose docstrings are numpydoc (checked by tests/test_docstrings_numpydoc.py).
 NUMPYDOC_MODULES = [line.strip() for line in (ROOT / "docs" / "numpydoc_modules.txt").read_text().splitlines()
                     if line.strip() and not line.startswith("#")]
 
