@@ -37,7 +37,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     subcommand is registered, so a command imports only its own module and what it uses."""
     parser = argparse.ArgumentParser(
         prog="hydroline",
-        description="Electrohydraulic servo systems with supply and return hose dynamics.")
+        description="Electrohydraulic servo systems with supply and return hose dynamics.",
+        epilog="Equations cited as (M#) are in the model reference, docs/model.md.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS if only is None else [only]:
         importlib.import_module(f"{__name__}.{name}").register(sub)
