@@ -15,6 +15,7 @@ import numpy as np
 from . import components as comp
 from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
 from .rigs import SCHEMA, Rig, RigError, load_rig
+from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency
 from .simulation import SimulationResult, integrate, solve_steady_state
 from .system import build_network
 
@@ -22,9 +23,11 @@ __all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario"]
 
 SCENARIOS = ("open-loop-step", "closed-loop-sine")
 
-#: Pressures watched for cavitation (MODEL.md 8): below this absolute pressure the oil
-#: releases gas and the linear line model no longer holds, [Pa].
-CAVITATION_PRESSURE = 0.0
+#: Pressures watched for gas release and cavitation (MODEL.md 8): below the rig's
+#: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
+#: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
+#: no longer holds, [Pa].
+CAVITATION_PRESSURE = ATMOSPHERIC_PRESSURE
 WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
                      "top_chamber_pressure", "supply.manifold_pressure", "return.manifold_pressure")
 
@@ -83,6 +86,7 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
     """The command components and times of a named scenario, from the rig's [scenario.*]."""
     if scenario in SCENARIOS:
         _check_scenario(rig, scenario, t_end)
+        check_consistency(rig, scenario)
     if scenario == "open-loop-step":
         t_step = _scenario_value(rig, scenario, "time", 0.01)
         cmd = comp.StepCommand(name="command", quantity="current",
@@ -156,20 +160,29 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                         actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
                         total_wall_time=_time.perf_counter() - tic,
                         steady_state_residual=ss.residual, n_states=len(net.state_names))
+    threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
     if stream_to is None:
-        res.warnings.extend(check_cavitation(res))
+        res.warnings.extend(check_cavitation(res, threshold))
     else:   # streamed: only the column statistics are in memory
         lows = res.metadata["stream_stats"]["min"]
-        res.warnings.extend(f"{k} falls below {CAVITATION_PRESSURE / 1e6:g} MPa absolute (lowest "
-                            f"{lows[k] / 1e6:.2f} MPa): the line model is not valid there"
+        res.warnings.extend(f"{k} falls below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                            f"absolute (fluid.gas_release_pressure; lowest {lows[k] / 1e6:.3g} "
+                            f"MPa): the line model is not valid there"
                             for k in WATCHED_PRESSURES
-                            if k in lows.index and lows[k] < CAVITATION_PRESSURE)
+                            if k in lows.index and lows[k] < threshold)
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
     return res
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
-    """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8)."""
+    """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8),
+    giving the time of the first crossing.
+
+    Parameters
+    ----------
+    res : SimulationResult
+    threshold : float      Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
+    """
     out = []
     for k in WATCHED_PRESSURES:
         if k not in res.data:
@@ -178,10 +191,13 @@ def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSU
         i = int(np.argmin(p))
         if p[i] < threshold:
             below = res.t[p < threshold]
-            out.append(f"{k} falls below {threshold / 1e6:g} MPa absolute from t = {below[0] * 1e3:.1f} ms "
-                       f"(lowest {p[i] / 1e6:.2f} MPa at {res.t[i] * 1e3:.1f} ms): the oil would release "
-                       f"gas/cavitate there and the line model is not valid; raise the return/back "
-                       f"pressure or shorten the hose")
+            what = ("cavitate (below 0 Pa absolute)" if threshold <= 0 else
+                    f"release gas (below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                    f"absolute, fluid.gas_release_pressure)")
+            out.append(f"{k} falls below {threshold / 1e6:.3g} MPa absolute from t = "
+                       f"{below[0] * 1e3:.1f} ms (lowest {p[i] / 1e6:.3g} MPa at "
+                       f"{res.t[i] * 1e3:.1f} ms): the oil would {what} there and the line model "
+                       f"is not valid; raise the return/back pressure or shorten the hose")
     return out
 
 

@@ -20,7 +20,7 @@ import pandas as pd
 from .network import Network
 
 __all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
-           "SteadyStateError", "SOLVERS"]
+           "SteadyStateError", "SOLVERS", "column_units"]
 
 
 class SteadyStateError(RuntimeError):
@@ -171,8 +171,11 @@ class SimulationResult:
         return self.data[key].to_numpy()
 
     def to_csv(self, path):
-        """Write all series to CSV (time in the first column, SI units)."""
-        self.data.to_csv(path, index_label="time")
+        """Write all series to CSV: ``time [s]`` first, then every column with its SI unit in
+        the header (``supply_port_pressure [Pa]``), as ``hydroline fit`` reads it."""
+        units = self.metadata.get("units", {})
+        named = {c: f"{c} [{units[c]}]" for c in self.data.columns if c in units}
+        self.data.rename(columns=named).to_csv(path, index_label="time [s]")
 
     def plot(self, signals=None, path=None, title=None):
         """Plot signals (default: the paper's Figs. 10-12 set when present). Returns the figure."""
@@ -319,13 +322,26 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         stats.update(ns.stats())
     stats["build_time"] = build_time
     res = SimulationResult(data=sink.result(), wall_time=wall, stats=stats, warnings=notes)
-    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
+    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale,
+                        units=column_units(network))
     if solver_note:
         res.metadata["solver_note"] = solver_note
     if stream_to is not None:
         res.metadata.update(stream_to=str(stream_to), stream_stats=sink.stats_frame(),
                             stream_rows=sink.rows)
     return res
+
+
+def column_units(network: Network) -> dict:
+    """Signal or state name -> its SI unit (``"-"`` for a pure number), from the ports and
+    states the components declare."""
+    units = {}
+    for c in network.components:
+        for port, spec in c.outputs.items():
+            units[c.signal(port)] = spec.unit
+        for st in c.states:
+            units[f"{c.name}.{st.name}"] = st.unit or "-"
+    return units
 
 
 def _integrate_cvodes_scipy(backend, network, scaled_dae, a, grid, x, p, rtol, atol_scale, atol,

@@ -37,6 +37,7 @@ from .fluid import Fluid
 from .lines import Line, ModalLine
 from .network import Network
 from .rigs import SCHEMA, Rig, RigError
+from .rigs.parameters import check_consistency, check_ranges
 
 __all__ = ["build_network", "make_fluid", "make_line", "hose_lines", "validate_rig",
            "pressure_profile"]
@@ -249,6 +250,8 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
     -------
     dict  side -> its :func:`pressure_profile` (read once, for the network builder)
     """
+    check_ranges(rig)          # plausible ranges, [rig] allow_implausible (rigs.parameters)
+    check_consistency(rig)
     for path in _POSITIVE:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v > 0):

@@ -48,6 +48,7 @@ from __future__ import annotations
 import math
 import numbers
 import re
+import reprlib
 
 import pint
 
@@ -218,8 +219,8 @@ def parse_quantity(value, unit: str, name: str = "value") -> float:
         quantity = _read_text(name, text, target_text)
         shown = text
     else:
-        raise UnitError(f"{name}: {value!r} ({type(value).__name__}) is not a quantity, "
-                        f"expected a string like '1 {target_text}'")
+        raise UnitError(f"{name}: {reprlib.repr(value)} ({type(value).__name__}) is not a "
+                        f"quantity, expected a string like '1 {target_text}'")
 
     magnitude = _finite(name, quantity.magnitude, shown)
 

@@ -85,7 +85,9 @@ def run(args) -> int:
     print(f"  {res.n_data} residuals from {', '.join(res.sigma)}; {res.n_evaluations} model runs; "
           f"{res.message}")
     if meas.ignored:
-        print(f"  ignored columns: {', '.join(meas.ignored)}")
+        shown = ", ".join(meas.ignored[:8]) + (f" and {len(meas.ignored) - 8} more"
+                                               if len(meas.ignored) > 8 else "")
+        print(f"  ignored columns: {shown}")
     print_table(["parameter", "unit", "start", "estimate", f"{pct} CI low", f"{pct} CI high",
                  "rel. std error"], res.table())
     rows = [[s, res.sigma[s], res.rms.get(s)] for s in res.sigma]

@@ -5,8 +5,12 @@ import json
 import sys
 
 from ..rigs import load_rig
+from ..rigs.parameters import defaults_used
 from ..scenarios import SCENARIOS, simulate, summarize
-from .common import dump_json, out_dir, print_table, progress_printer, quantity
+from .common import atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity
+
+#: The files written to --out.
+OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
 
 
 def register(sub):
@@ -54,14 +58,19 @@ def run(args) -> int:
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
+    out = out_dir(args.out, OUTPUT_FILES)     # checked before the run, not after it
+    defaults = defaults_used(rig, args.scenario)
+    if defaults:   # every key that changes the result is given or reported (once)
+        print("hydroline simulate: note: not in the rig, defaults used: "
+              + "; ".join(f"{path} = {value}" for path, value in defaults), file=sys.stderr)
     res = simulate(rig, args.scenario, t_end, solver=args.solver,
                    progress=progress_printer("simulating", not args.json))
     summary = summarize(res)
-    out = out_dir(args.out)
-    res.to_csv(out / "results.csv")
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    res.plot(path=out / "pressures.png",
-             title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
+    with atomic_outputs(out) as temp:   # all three replaced, or none (previous results kept)
+        res.to_csv(temp("results.csv"))
+        temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        res.plot(path=temp("pressures.png"),
+                 title=f"{args.scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
