@@ -14,6 +14,7 @@ import numpy as np
 
 from . import components as comp
 from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
+from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency
 from .simulation import SimulationResult, integrate, solve_steady_state
@@ -149,6 +150,9 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
         rig = load_rig(rig)
     sc = build_scenario(rig, scenario, t_end)
     net = build_network(rig, sc.commands, sc.position_guess)
+    check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
+                      stream_to=stream_to,
+                      name="t_end" if t_end is not None else f"scenario.{scenario}.t_end")
     ss = solve_steady_state(net, t0=0.0)
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,

@@ -53,12 +53,26 @@ def _float_or_none(v):
     return None if v is None else float(v)
 
 
+def _check_size(rig, scenario, t_end, out, name):
+    """Rows and bytes of the run estimated before it starts: memory and free disk for
+    results.csv (one line, ValueError, when it would not fit)."""
+    from ..limits import check_output_size
+    from ..scenarios import build_scenario
+    from ..system import build_network
+
+    sc = build_scenario(rig, scenario, t_end)
+    net = build_network(rig, sc.commands, sc.position_guess)
+    check_output_size(sc.t_end, 1e-4, len(net.signal_names) + len(net.state_names),
+                      csv_folder=out, name=name or f"scenario.{scenario}.t_end")
+
+
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
     out = out_dir(args.out, OUTPUT_FILES)     # checked before the run, not after it
+    _check_size(rig, args.scenario, t_end, out, "--t-end" if args.t_end else None)
     defaults = defaults_used(rig, args.scenario)
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
