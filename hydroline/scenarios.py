@@ -16,8 +16,8 @@ from . import components as comp
 from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
-from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency
-from .simulation import SimulationResult, integrate, solve_steady_state
+from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency, steady_state_hint
+from .simulation import SimulationResult, SteadyStateError, integrate, solve_steady_state
 from .system import build_network
 
 __all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario"]
@@ -153,7 +153,15 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
                       stream_to=stream_to,
                       name="t_end" if t_end is not None else f"scenario.{scenario}.t_end")
-    ss = solve_steady_state(net, t0=0.0)
+    try:
+        ss = solve_steady_state(net, t0=0.0)
+    except SteadyStateError as e:   # say it in terms of the rig's parameters
+        if e.state is None:
+            raise
+        raise SteadyStateError(f"steady state not found before the run: "
+                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
+                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
+                               e.state, e.residual) from None
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                     stream_columns=stream_columns)

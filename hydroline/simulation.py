@@ -24,7 +24,17 @@ __all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
 
 
 class SteadyStateError(RuntimeError):
-    """The steady-state solver did not converge; the message says how far it got."""
+    """The steady-state solver did not converge; the message says how far it got.
+
+    Attributes
+    ----------
+    state : str        The state with the largest scaled residual (None when unknown)
+    residual : float   Its scaled residual, [1/s]
+    """
+
+    def __init__(self, message, state=None, residual=None):
+        super().__init__(message)
+        self.state, self.residual = state, residual
 
 
 @dataclass
@@ -81,7 +91,11 @@ def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
             dt *= 0.1
             continue
         z, r = z_new, r_new
-        dt = min(dt * max(norm / max(norm_new, 1e-300), 0.5), 1e12)
+        # grow dt by the residual ratio, and by at least 1.5x per accepted step: a slow
+        # transient (an accumulator filling through a 2 mm hose, a return side behind a
+        # closed check valve) would otherwise creep for thousands of steps; a step that
+        # overshoots is still refused above and dt cut
+        dt = min(dt * max(norm / max(norm_new, 1e-300), 1.5), 1e12)
         norm = norm_new
     return z * scales
 
@@ -138,7 +152,8 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     if not np.all(np.isfinite(x)) or res > 1e-4:
         raise SteadyStateError(
             f"steady state not found: scaled residual {res:.3g} 1/s at state "
-            f"'{network.state_names[k]}' (check pressures, laps and initial position)")
+            f"'{network.state_names[k]}' (check pressures, laps and initial position)",
+            state=network.state_names[k], residual=res)
     return SteadyState(x, p, res, network.state_names[k])
 
 

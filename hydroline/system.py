@@ -250,8 +250,6 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
     -------
     dict  side -> its :func:`pressure_profile` (read once, for the network builder)
     """
-    check_ranges(rig)          # plausible ranges, [rig] allow_implausible (rigs.parameters)
-    check_consistency(rig)
     for path in _POSITIVE:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v > 0):
@@ -302,6 +300,8 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
         m = rig.get(path)
         if m is not None and not 1.0 <= m <= 5.0 / 3.0:
             raise _bad(rig, path, "within [1, 5/3] (isothermal ... adiabatic)")
+    check_ranges(rig)          # plausible ranges, [rig] allow_implausible (rigs.parameters)
+    check_consistency(rig)
     return profiles
 
 

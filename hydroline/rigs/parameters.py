@@ -29,7 +29,12 @@ import math
 from dataclasses import dataclass
 
 __all__ = ["Parameter", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
-           "check_ranges", "check_consistency", "defaults_used", "allowed_implausible"]
+           "check_ranges", "check_consistency", "defaults_used", "allowed_implausible",
+           "steady_state_hint", "MIN_GAS_FRACTION"]
+
+#: Smallest gas volume of an accumulator model as a fraction of its capacity (the piston at
+#: its gas-side end, hydroline.components.PistonAccumulator), [-].
+MIN_GAS_FRACTION = 1e-3
 
 #: Marks a parameter without a default: a rig must give it.
 REQUIRED = "required"
@@ -316,6 +321,16 @@ def check_consistency(rig, scenario: str | None = None):
             refuse(path, f"the weight of the moving mass and load, {weight / 1e3:.3g} kN "
                    f"[(m + m_L) g - applied force], exceeds the actuator's force capacity "
                    f"p_s A_b - p_t A_t = {capacity / 1e3:.3g} kN: the piston cannot lift off")
+    for side in ("supply", "return"):     # a model limit, not overridable
+        path = f"{side}.accumulator.precharge_pressure"
+        p0, p_line = rig.get(path), rig.get(f"{side}.pressure")
+        if p0 is not None and p_line and p0 > 0 and p0 < 1.05 * MIN_GAS_FRACTION * p_line:
+            raise _error(f"{path}: {_shown(rig, path, p0)} is {100 * p0 / p_line:.2g} % of "
+                         f"{side}.pressure: charged to it (isothermally, M16) the gas would "
+                         f"shrink below {100 * MIN_GAS_FRACTION:g} % of the capacity, where "
+                         f"the accumulator's piston reaches its gas-side end and no rest state "
+                         f"exists; pre-charge to at least {100 * 1.05 * MIN_GAS_FRACTION:.2g} % "
+                         f"(usually 25-90 %) of the line pressure [Pa, absolute]")
     rated = rig.get("servovalve.rated_current")
     if scenario == _STEP and rated is not None:
         for key in ("current", "initial_current"):
@@ -381,3 +396,36 @@ def _fmt_value(v):
     if isinstance(v, list):
         return "[" + ", ".join(_fmt(x) for x in v) + "]"
     return _fmt(v)
+
+
+#: Where a steady-state solve that fails at a state points: a state-name prefix -> the
+#: balance that does not close and the parameters to look at (first match wins).
+_STATE_HINTS = (
+    ("accumulator", "the {side} accumulator's gas cannot balance the line pressure",
+     "{side}.accumulator.precharge_pressure, {side}.accumulator.capacity, {side}.pressure"),
+    ("section", "the flow along {section} does not settle",
+     "{section}.diameter, {section}.length, {section}.bulk_modulus, servovalve.laps "
+     "(the null leakage it carries), return.check_valve"),
+    ("servovalve", "the spool does not find its rest position",
+     "servovalve.laps, servovalve.max_opening, scenario current"),
+    ("actuator", "the forces on the piston or the chamber flows do not balance",
+     "actuator.initial_position, actuator.area, load.mass, load.applied_force, "
+     "servovalve.laps, actuator.internal_leakage"),
+    ("friction", "the friction state does not settle", "friction.*"),
+    ("controller", "the position loop does not hold the piston",
+     "controller.proportional_gain, scenario initial_position"),
+)
+
+
+def steady_state_hint(state: str) -> str:
+    """The balance behind a state that keeps a steady-state solve from converging and the rig
+    parameters to look at, e.g. ``"the flow along return.section2 does not settle (look at
+    return.section2.diameter, ...)"``."""
+    parts = state.split(".")
+    side = parts[0] if parts[0] in ("supply", "return") else "supply"
+    section = ".".join(parts[:2]) if len(parts) > 1 else state
+    for key, balance, params in _STATE_HINTS:
+        if key in state:
+            text = balance.format(side=side, section=section)
+            return f"{text} (look at {params.format(side=side, section=section)})"
+    return f"state '{state}' does not settle"
