@@ -273,6 +273,7 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
         raise RigError(f"supply.pressure_profile: the supply pressure must stay above the return "
                        f"pressure [Pa]; it falls to {s_low / 1e6:.6g} MPa "
                        f"(return up to {t_high / 1e6:.6g} MPa)")
+    check_ranges(rig)          # plausible ranges, [rig] allow_implausible (rigs.parameters)
     half = rig["actuator.stroke"] / 2
     for path, x in (("actuator.initial_position", rig.get("actuator.initial_position")),
                     ("initial piston position", position_guess)):
@@ -300,8 +301,7 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
         m = rig.get(path)
         if m is not None and not 1.0 <= m <= 5.0 / 3.0:
             raise _bad(rig, path, "within [1, 5/3] (isothermal ... adiabatic)")
-    check_ranges(rig)          # plausible ranges, [rig] allow_implausible (rigs.parameters)
-    check_consistency(rig)
+    check_consistency(rig)     # weight vs force capacity, pre-charge vs the model's limit
     return profiles
 
 

@@ -95,7 +95,9 @@ def _grammar_error(name: str, text: str, target_text: str) -> UnitError:
         return UnitError(f"{name}: {text[:20]!r}... is {len(text)} characters long; a quantity "
                          f"has at most {MAX_QUANTITY_LENGTH} ({expected})")
     shown = repr(text)
-    if re.search(r"\d,\d", text):
+    if re.match(r"^\s*[+-]?(nan|inf)", text, re.IGNORECASE):
+        why = "not a finite number"
+    elif re.search(r"\d,\d", text):
         why = "a decimal comma; write a decimal point"
     elif not _NUMBER_RE.match(text):
         why = "no number before the unit" if re.match(r"^\s*[A-Za-z_%]", text) else "no number"

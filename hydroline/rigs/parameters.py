@@ -293,7 +293,8 @@ def check_consistency(rig, scenario: str | None = None):
     Parameters
     ----------
     rig : Rig           Parameters (SI)
-    scenario : str      The scenario run (its checks are skipped when None)
+    scenario : str      The scenario run: only its checks are made (the command against
+                        the rating and stroke); None: the rig's own (weight, pre-charge)
 
     Raises
     ------
@@ -306,6 +307,9 @@ def check_consistency(rig, scenario: str | None = None):
             raise _error(f"{path}: {text}; if it is meant, add \"{path}\" to [rig] "
                          f"allow_implausible")
 
+    if scenario is not None:
+        _check_scenario_consistency(rig, scenario, refuse)
+        return
     area = rig.get("actuator.area")
     a_b = rig.get("actuator.bottom_area", area)
     a_t = rig.get("actuator.top_area", area)
@@ -331,8 +335,20 @@ def check_consistency(rig, scenario: str | None = None):
                          f"the accumulator's piston reaches its gas-side end and no rest state "
                          f"exists; pre-charge to at least {100 * 1.05 * MIN_GAS_FRACTION:.2g} % "
                          f"(usually 25-90 %) of the line pressure [Pa, absolute]")
+
+
+def _plausible(path, value) -> bool:
+    """True for a number within the path's plausible range (else its own check names it)."""
+    p = PARAMETERS[path]
+    return (isinstance(value, (int, float)) and math.isfinite(value)
+            and (p.low is None or value >= p.low) and (p.high is None or value <= p.high))
+
+
+def _check_scenario_consistency(rig, scenario, refuse):
+    """The scenario's command against the valve's rating and the stroke (values of the wrong
+    sign are left to :func:`hydroline.system.validate_rig`, which names them)."""
     rated = rig.get("servovalve.rated_current")
-    if scenario == _STEP and rated is not None:
+    if scenario == _STEP and _plausible("servovalve.rated_current", rated):
         for key in ("current", "initial_current"):
             path = f"scenario.{_STEP}.{key}"
             i = rig.get(path)
@@ -340,7 +356,7 @@ def check_consistency(rig, scenario: str | None = None):
                 refuse(path, f"{_shown(rig, path, i)} exceeds the servovalve's rated current "
                        f"{rated * 1e3:g} mA [A] (the valve would clip it to its full opening)")
     stroke = rig.get("actuator.stroke")
-    if scenario == _SINE and stroke is not None:
+    if scenario == _SINE and _plausible("actuator.stroke", stroke):
         amp = rig.get(f"scenario.{_SINE}.amplitude")
         offset = rig.get(f"scenario.{_SINE}.offset", 0.0)
         if amp is not None and abs(offset) + abs(amp) > stroke / 2 * (1 + 1e-9):

@@ -74,6 +74,8 @@ JOURNAL_NAME = "sweep.jsonl"
 FORMAT_VERSION = 1
 #: Times a variant may be in flight when a worker process dies before it is recorded failed.
 MAX_ATTEMPTS = 2
+#: Most local worker processes (or local Dask workers) a sweep starts, [-].
+MAX_WORKERS = 512
 
 
 class SweepFileError(ValueError):
@@ -604,8 +606,9 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     params = parse_parameters(parameters)
     design = Design(params, samples, seed)
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
-    if workers < 1:
-        raise RigError(f"--workers must be >= 1, got {workers}")
+    if not 1 <= workers <= MAX_WORKERS:
+        raise RigError(f"--workers must be within 1 ... {MAX_WORKERS} [-] (processes on this "
+                       f"machine or Dask workers), got {workers}")
     units = {path: p.unit for p in params for path in p.paths}
     header = _header(rig, design, scenario, t_end, solver)
 
