@@ -262,7 +262,8 @@ def check_ranges(rig):
             if p.zero_allowed and v == 0:
                 continue
             if p.low is not None and p.low >= 0 and v < 0:   # no override makes a size negative
-                raise _error(f"{path}: must be >= 0{unit} ({p.description}), got "
+                rule = "positive" if p.low > 0 else ">= 0"
+                raise _error(f"{path}: must be {rule}{unit} ({p.description}), got "
                              f"{_shown(rig, path, v)}")
             low_ok = p.low is None or v >= p.low
             high_ok = p.high is None or v <= p.high
