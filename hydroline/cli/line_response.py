@@ -195,6 +195,7 @@ def run(args) -> int:
     if args.step_periods > MAX_STEP_PERIODS:
         raise ValueError(f"--step-periods must be at most {MAX_STEP_PERIODS} [-], got "
                          f"{args.step_periods}")
+    out = out_dir(args.out)           # checked before the responses are computed
     methods = ("yang-tobler", "residue") if args.method == "both" else (args.method,)
     n = args.modes
     models = _models(line, n, args.form, methods, args.method != "both")
@@ -202,7 +203,6 @@ def run(args) -> int:
     # resonance is on the plot
     f_top = resonance_f_max(line, args.form, n)
     f = np.linspace(f_top / 4000, f_top, 4000)
-    out = out_dir(args.out)
     png = out / "line_response.png"
     plot_line_response(line, {f"modal {k}, n={n}": v for k, v in models.items()}, f, args.form, path=png)
     report = {"line": {"length_m": line.length, "diameter_m": line.diameter,
