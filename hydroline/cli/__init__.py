@@ -29,6 +29,7 @@ SUBCOMMANDS = [
     "friction_id",
     "layout",
     "sweep",
+    "circuit",
 ]
 
 
