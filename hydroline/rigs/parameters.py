@@ -201,6 +201,12 @@ PARAMETERS: dict[str, Parameter] = {
                                                    0.0, scope=_STEP),
     f"scenario.{_STEP}.time": Parameter("s", 0.0, 100.0, "time of the step", 0.01, scope=_STEP),
     f"scenario.{_STEP}.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 0.25, scope=_STEP),
+    "scenario.position-step.step": Parameter("m", -5.0, 5.0, "position reference step",
+                                             scope="position-step"),
+    "scenario.position-step.time": Parameter("s", 0.0, 100.0, "time of the step", 0.01,
+                                             scope="position-step"),
+    "scenario.position-step.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 0.15,
+                                              scope="position-step"),
     f"scenario.{_SINE}.amplitude": Parameter("m", 0.0, 5.0, "sine reference amplitude",
                                              scope=_SINE),
     f"scenario.{_SINE}.frequency": Parameter("Hz", 1e-3, 1e3, "sine reference frequency",
@@ -369,7 +375,7 @@ def _check_scenario_consistency(rig, scenario, refuse):
 def _in_scope(rig, p: Parameter, path: str, scenario: str | None) -> bool:
     if p.scope == "always":
         return True
-    if p.scope in (_STEP, _SINE):
+    if p.scope in (_STEP, _SINE, "position-step"):
         return scenario == p.scope
     side = path.split(".")[0]
     if p.scope == "close-coupled":
