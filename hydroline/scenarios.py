@@ -33,7 +33,7 @@ def default_scenario(rig: Rig) -> str:
     """The rig's ``rig.scenario``, else "open-loop-step"."""
     return rig.get("rig.scenario", "open-loop-step")
 
-#: Pressures watched for gas release and cavitation (MODEL.md 8): below the rig's
+#: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
 #: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
 #: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
 #: no longer holds, [Pa].
@@ -311,8 +311,8 @@ def watched_pressures(res: SimulationResult) -> list[str]:
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
-    """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8),
-    giving the time of the first crossing.
+    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md
+    8), giving the time of the first crossing.
 
     Parameters
     ----------

@@ -62,7 +62,8 @@ def version() -> str:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hydroline",
-        description="Electrohydraulic servo systems with supply and return hose dynamics.")
+        description="Electrohydraulic servo systems with supply and return hose dynamics.",
+        epilog="Equations cited as (M#) are in the model reference, docs/model.md.")
     parser.add_argument("--version", action="version", version=f"hydroline {version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
