@@ -18,11 +18,21 @@ import numpy as np
 from .network import Component, Network
 
 __all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
-           "SteadyStateError", "SOLVERS"]
+           "SteadyStateError", "SOLVERS", "column_units"]
 
 
 class SteadyStateError(RuntimeError):
-    """The steady-state solver did not converge; the message says how far it got."""
+    """The steady-state solver did not converge; the message says how far it got.
+
+    Attributes
+    ----------
+    state : str        The state with the largest scaled residual (None when unknown)
+    residual : float   Its scaled residual, [1/s]
+    """
+
+    def __init__(self, message, state=None, residual=None):
+        super().__init__(message)
+        self.state, self.residual = state, residual
 
 
 @dataclass
@@ -185,7 +195,11 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
             dt *= 0.1
             continue
         z, r = z_new, r_new
-        dt = min(dt * max(norm / max(norm_new, 1e-300), 0.5), 1e12)
+        # grow dt by the residual ratio, and by at least 1.5x per accepted step: a slow
+        # transient (an accumulator filling through a 2 mm hose, a return side behind a
+        # closed check valve) would otherwise creep for thousands of steps; a step that
+        # overshoots is still refused above and dt cut
+        dt = min(dt * max(norm / max(norm_new, 1e-300), 1.5), 1e12)
         norm = norm_new
     return z
 
@@ -246,7 +260,8 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     if not np.all(np.isfinite(x)) or res > 1e-4:
         raise SteadyStateError(
             f"steady state not found: scaled residual {res:.3g} 1/s at state "
-            f"'{network.state_names[k]}' (check pressures, laps and initial position)")
+            f"'{network.state_names[k]}' (check pressures, laps and initial position)",
+            state=network.state_names[k], residual=res)
     return SteadyState(x, p, res, network.state_names[k])
 
 
@@ -311,17 +326,24 @@ class SimulationResult:
     def __contains__(self, key) -> bool:
         return key in self._column_index if self._data is None else key in self._data
 
+    def csv_header(self) -> list[str]:
+        """``time [s]``, then every column with its SI unit (``supply_port_pressure [Pa]``), as
+        ``hydroline fit`` reads it."""
+        units = self.metadata.get("units", {})
+        return ["time [s]"] + [f"{c} [{units[c]}]" if c in units else c for c in self.columns]
+
     def to_csv(self, path, every: int = 1):
-        """Write all series to CSV (time in the first column, SI units); with ``every`` > 1
-        only every n-th row and the last."""
+        """Write all series to CSV: ``time [s]`` first, then every column with its SI unit in
+        the header (``supply_port_pressure [Pa]``), as ``hydroline fit`` reads it; with
+        ``every`` > 1 only every n-th row and the last."""
         rows = slice(None)
         if every > 1:
             rows = np.unique(np.r_[np.arange(0, len(self._times), every), len(self._times) - 1])
         if self._data is not None:
-            self._data.iloc[rows].to_csv(path, index_label="time")
-            return
+            self._times, self._table = self._data.index.to_numpy(), self._data.to_numpy()
+            self.columns = list(self._data.columns)
         with open(path, "w", buffering=1 << 20) as f:
-            f.write(",".join(["time"] + self.columns) + "\n")
+            f.write(",".join(self.csv_header()) + "\n")
             write_csv_rows(f, self._times[rows], self._table[rows])
 
     def plot(self, signals=None, path=None, title=None):
@@ -440,7 +462,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     backend = "compiled" if native is not None else ("cvodes" if solver == "auto" else solver)
     columns = list(network.signal_names) + list(network.state_names)
     sink = _Sink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
-                 preview_columns, preview_rows)
+                 preview_columns, preview_rows, column_units(network) if stream_to else None)
     stats = {"nfevals": 0, "njevals": 0, "nsteps": 0}
     scaled_dae = None
     if backend == "cvodes":
@@ -497,7 +519,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     t_rows, table, kept = sink.result()
     res = SimulationResult(times=t_rows, table=table, columns=kept, wall_time=wall,
                            stats=stats, warnings=notes)
-    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
+    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale,
+                        units=column_units(network))
     if solver_note:
         res.metadata["solver_note"] = solver_note
     if stream_to is not None:
@@ -510,6 +533,18 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         res.metadata["preview"] = SimulationResult(times=preview[0], table=preview[1],
                                                    columns=preview[2])
     return res
+
+
+def column_units(network: Network) -> dict:
+    """Signal or state name -> its SI unit (``"-"`` for a pure number), from the ports and
+    states the components declare."""
+    units = {}
+    for c in network.components:
+        for port, spec in c.outputs.items():
+            units[c.signal(port)] = spec.unit
+        for st in c.states:
+            units[f"{c.name}.{st.name}"] = st.unit or "-"
+    return units
 
 
 def _integrate_cvodes_scipy(backend, network, scaled_dae, a, grid, x, p, rtol, atol_scale, atol,
@@ -556,7 +591,7 @@ class _Sink:
     figure). Memory stays bounded by what is kept, whatever the run's length."""
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
-                 preview=None, preview_rows=50_000):
+                 preview=None, preview_rows=50_000, units=None):
         self.columns = columns
         self.path = path
         self.rows = 0
@@ -569,7 +604,9 @@ class _Sink:
             self.keep_file, self.index = _column_indices(
                 "stream_columns", columns if stream is None else stream, columns)
             self.file = open(path, "w", buffering=1 << 20)
-            self.file.write(",".join(["time"] + self.keep_file) + "\n")
+            units = units or {}
+            self.file.write(",".join(["time [s]"] + [f"{c} [{units[c]}]" if c in units else c
+                                                    for c in self.keep_file]) + "\n")
             self.written = 0
         if path is not None or keep is not None:   # statistics of every column
             self.stats_names = list(columns)

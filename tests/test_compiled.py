@@ -174,9 +174,9 @@ def test_streaming_writes_every_row_and_keeps_statistics(tmp_path):
     path = tmp_path / "run.csv"
     res = integrate(net, np.zeros(2), 0.05, dt_out=1e-4, solver="compiled", stream_to=path,
                     chunk_rows=64)
-    back = pd.read_csv(path, index_col="time")
+    back = pd.read_csv(path, index_col="time [s]")
     assert len(back) == len(full.data) == res.metadata["stream_rows"]
-    assert back["osc.x"].to_numpy() == pytest.approx(full["osc.x"], rel=1e-8, abs=1e-15)
+    assert back["osc.x [m]"].to_numpy() == pytest.approx(full["osc.x"], rel=1e-8, abs=1e-15)
     stats = res.metadata["stream_stats"]
     assert stats.loc["osc.x", "max"] == pytest.approx(full["osc.x"].max())
     assert stats.loc["osc.x", "mean"] == pytest.approx(full["osc.x"].mean())

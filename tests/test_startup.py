@@ -129,9 +129,9 @@ def test_long_run_cli_streams_the_same_numbers(tmp_path, monkeypatch):
     b = pd.read_csv(tmp_path / "long" / "results.csv")
     assert list(a.columns) == list(b.columns)
     assert len(a) == len(b) == 101                         # 0, 0.5 ms, ..., 50 ms
-    np.testing.assert_allclose(b["time"], np.arange(101) * 5e-4, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(b["time [s]"], np.arange(101) * 5e-4, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(b.to_numpy(), a.to_numpy(), rtol=1e-8, atol=1e-12)
-    assert not (tmp_path / "long" / "results.csv.part").exists()
+    assert sorted(p.name for p in (tmp_path / "long").iterdir()) == ["pressures.png", "results.csv", "summary.json"]
     assert (tmp_path / "long" / "pressures.png").stat().st_size > 0
 
 

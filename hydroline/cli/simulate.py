@@ -1,15 +1,20 @@
 """``hydroline simulate``: run a scenario on a rig; CSV, JSON summary and the pressure figure."""
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
 
 import numpy as np
 
 from ..rigs import load_rig
+from ..rigs.parameters import defaults_used
 from ..scenarios import SCENARIOS, build_scenario, default_scenario, simulate, summarize
 from ..system import build_circuit
-from .common import dump_json, out_dir, print_table, progress_printer, quantity
+from .common import atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity
+
+#: The files written to --out.
+OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
 
 
 def register(sub):
@@ -104,6 +109,20 @@ def output_grid(t_end: float, dt_out: float | None):
     return h, every, n // every + 1 + (n % every != 0)
 
 
+def _check_size(rig, scenario, t_end, out, name):
+    """Rows and bytes of the run estimated before it starts: memory and free disk for
+    results.csv (one line, ValueError, when it would not fit)."""
+    from ..limits import check_output_size
+    from ..scenarios import build_scenario
+    from ..system import build_circuit
+
+    circuit = build_circuit(rig)
+    sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+    net = circuit.network(sc.commands)
+    check_output_size(sc.t_end, 1e-4, len(net.signal_names) + len(net.state_names),
+                      csv_folder=out, name=name or f"scenario.{scenario}.t_end")
+
+
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
@@ -113,41 +132,48 @@ def run(args) -> int:
     if dt_out is not None and not dt_out > 0:
         raise ValueError(f"--dt-out must be > 0 s, got {args.dt_out!r}")
     write = args.out is not None or not args.json
-    out = out_dir(args.out if args.out is not None else "hydroline-out") if write else None
     scenario = args.scenario or default_scenario(rig)
     duration = t_end or rig.get(f"scenario.{scenario}.t_end") or build_scenario(rig, scenario).t_end
     h, every, rows = output_grid(duration, dt_out)
     long_run = round(duration / h) + 1 > LONG_ROWS and len(build_circuit(rig).axes) == 1
-    if long_run and write:
-        _say_cost(rig, scenario, duration, rows, dt_out)
-    options = {}
-    if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
-        keep = list(SUMMARY_COLUMNS)
-        if scenario == "closed-loop-sine":
-            keep.append("position_reference")
-        options = dict(keep_columns=keep)
-        if write:
-            part = out / "results.csv.part"
-            options.update(stream_to=part, stream_every=every,
-                           preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):])
-    res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
-                   progress=progress_printer("simulating", not args.json), **options)
-    summary = summarize(res)
-    scenario = res.metadata["scenario"]
+    out = None
     if write:
-        if long_run:
-            part.replace(out / "results.csv")
-            figure = res.metadata["preview"]
-            figure.metadata.update({k: v for k, v in res.metadata.items() if k != "preview"})
+        out = out_dir(args.out if args.out is not None else "hydroline-out", OUTPUT_FILES)
+        if not long_run:   # (a long run streams: memory bounded, its disk checked in simulate)
+            _check_size(rig, scenario, t_end, out, "--t-end" if args.t_end else None)
         else:
-            res.to_csv(out / "results.csv", every=every)
-            figure = res
-        (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+            _say_cost(rig, scenario, duration, rows, dt_out)
+    defaults = defaults_used(rig, scenario)
+    if defaults:   # every key that changes the result is given or reported (once)
+        print("hydroline simulate: note: not in the rig, defaults used: "
+              + "; ".join(f"{path} = {value}" for path, value in defaults), file=sys.stderr)
+    with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp:
+        options = {}
+        if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
+            keep = list(SUMMARY_COLUMNS)
+            if scenario == "closed-loop-sine":
+                keep.append("position_reference")
+            options = dict(keep_columns=keep)
+            if write:
+                options.update(stream_to=temp("results.csv"), stream_every=every,
+                               preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):])
+        res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
+                       progress=progress_printer("simulating", not args.json), **options)
+        summary = summarize(res)
+        scenario = res.metadata["scenario"]
+        if write:   # replaced together, or none (previous results kept)
+            if long_run:
+                figure = res.metadata["preview"]
+                figure.metadata.update({k: v for k, v in res.metadata.items() if k != "preview"})
+            else:
+                res.to_csv(temp("results.csv"), every=every)
+                figure = res
+            temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+            if "axes" not in summary:       # (a multi-axis figure is drawn by _report_axes)
+                figure.plot(path=temp("pressures.png"),
+                            title=f"{scenario} on {rig.get('rig.name', rig.source)}")
     if "axes" in summary:
         return _report_axes(args, rig, res, summary, scenario)
-    if write:
-        figure.plot(path=out / "pressures.png",
-                    title=f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
