@@ -142,7 +142,8 @@ def run(args) -> int:
         if not long_run:   # (a long run streams: memory bounded, its disk checked in simulate)
             _check_size(rig, scenario, t_end, out, "--t-end" if args.t_end else None)
         else:
-            _say_cost(rig, scenario, duration, rows, dt_out)
+            _say_cost(rig, scenario, duration, rows, dt_out, out, h * every,
+                      "--t-end" if args.t_end else f"scenario.{scenario}.t_end")
     defaults = defaults_used(rig, scenario)
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
@@ -219,12 +220,16 @@ def run(args) -> int:
     return 0
 
 
-def _say_cost(rig, scenario, duration, rows, dt_out):
-    """One line on stderr before a run that writes more than ~1 GB or takes minutes."""
+def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
+    """Refuse a streamed run whose CSV would not fit on the disk (one line, ValueError), and
+    say on stderr what one that writes more than ~1 GB or takes minutes will cost."""
+    from ..limits import check_output_size
+
     circuit = build_circuit(rig)
     sc = build_scenario(rig, scenario, duration, axes=circuit.axes)
     net = circuit.network(sc.commands)
     columns = 1 + len(net.signal_names) + len(net.state_names)
+    check_output_size(duration, step, columns - 1, stream_to=out / "results.csv", name=name)
     size = rows * columns * 15.0   # "%.9g" and a comma: ~15 bytes a number
     seconds = duration / INTEGRATION_SPEED + size / CSV_RATE
     if size < 1e9 and seconds < 120:
