@@ -138,7 +138,7 @@ def _model_description(plant: Plant, gen, lay: _Layout, ident: str, guid: str, k
     # inputs (runtime parameters of the plant), then tunable parameters
     for name, k in plant.inputs.items():
         _, unit, meaning = INPUTS[name]
-        var(name, lay.vr_par + k, meaning + (" (positive down, opposing +x)" if name == "external_force" else ""),
+        var(name, lay.vr_par + k, meaning,
             "input", "continuous", unit=_fmi_unit(unit), start=plant.p[k])
     for j, tun in enumerate(plant.tunables):
         var(tun.name, lay.vr_par + lay.m + j, tun.description, "parameter", "tunable", "exact",
