@@ -234,29 +234,57 @@ def test_p_loop_converges_to_the_continuous_closed_loop_sine(closed_loop_fmu):
     assert np.sqrt(np.mean((xr - run[:, 1]) ** 2)) * 1e3 == pytest.approx(res, rel=0.01)
 
 
-def test_other_structure_through_the_cli(tmp_path):
+def test_other_structure_as_fmi3_through_the_cli(tmp_path):
     """Supply section II removed (HSM close-coupled) and return section II shortened: another
-    network structure, exported by ``hydroline export-fmu``, validated and run."""
+    network structure, exported by ``hydroline export-fmu --fmi 3`` (FMI 3.0, both kinds),
+    validated and run."""
     rig = hydroline.load_rig().set("supply.section2.length", "0 m").set(
         "return.section2.length", "0.75 m")
     rig_file = tmp_path / "close_coupled.toml"
     rig_file.write_text("[rig]\nbase = \"default\"\n\n[supply.section2]\nlength = \"0 m\"\n\n"
                         "[return.section2]\nlength = \"0.75 m\"\n")
     out = tmp_path / "close_coupled.fmu"
-    assert main(["export-fmu", str(rig_file), "--out", str(out), "--kind", "cs"]) == 0
+    assert main(["export-fmu", str(rig_file), "--out", str(out), "--fmi", "3", "--kind", "both"]) == 0
     assert validate_fmu(str(out)) == []
     md, v = variables(out)
+    assert md.fmiVersion == "3.0" and v["time"].causality == "independent"
     assert not any(n.startswith("supply.section2.") for n in v)      # the removed section
     assert any(n.startswith("return.section2.") for n in v)
     assert "supply.node.pressure" in v                               # the HSM block's oil volume
     ref = hydroline.simulate(rig, "open-loop-step")
-    res = run_step(out, "CoSimulation")
-    for key in ("supply_port_pressure", "return_port_pressure"):
-        assert excursion_error(res, ref, key) < 0.005, key
+    for fmi_type in ("CoSimulation", "ModelExchange"):
+        res = run_step(out, fmi_type)
+        for key in ("supply_port_pressure", "return_port_pressure"):
+            assert excursion_error(res, ref, key) < 0.005, (fmi_type, key)
+
+
+def test_fmu_state_restores_a_co_simulation_step(default_fmu):
+    """fmi2GetFMUstate/SetFMUstate (canGetAndSetFMUstate): a step repeated from a restored
+    state gives the same outputs as the first time, also through serialization."""
+    md, v = variables(default_fmu)
+    s = FMU2Slave(guid=md.guid, unzipDirectory=fmpy.extract(str(default_fmu)),
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="state")
+    s.instantiate()
+    try:
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        out = [v[k].valueReference for k in OUTPUTS]
+        s.setReal([v["valve_current"].valueReference], [0.05])
+        s.doStep(0.0, 0.01)
+        saved = s.serializeFMUState(s.getFMUState())
+        s.doStep(0.01, 0.01)
+        first = s.getReal(out)
+        s.setFMUState(s.deserializeFMUState(saved))
+        s.doStep(0.01, 0.01)
+        assert s.getReal(out) == first
+    finally:
+        s.terminate()
+        s.freeInstance()
 
 
 @pytest.mark.parametrize("args, word", [
-    (["--fmi", "3"], "--fmi"),
+    (["--fmi", "4"], "--fmi"),
     (["--kind", "hybrid"], "--kind"),
     (["--out", "plant.zip"], "--out"),
     (["--start", "fatigue"], "--start"),

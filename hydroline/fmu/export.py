@@ -1,8 +1,9 @@
-"""Write a rig's plant as an FMI 2.0 FMU (Model Exchange and/or Co-Simulation).
+"""Write a rig's plant as an FMI 2.0 or 3.0 FMU (Model Exchange and/or Co-Simulation).
 
 The FMU holds the plant's generated C (:mod:`hydroline.compiled.codegen`: right-hand side,
-exact sparse Jacobian, signals, sparse LU), hydroline's BDF integrator (``bdf.c``) and an FMI
-2.0 wrapper (``fmi2_wrapper.c``), compiled by the system C compiler for this platform into
+exact sparse Jacobian, signals, sparse LU), hydroline's BDF integrator (``bdf.c``), the
+instance logic (``fmu_core.c``) and an FMI wrapper (``fmi2_wrapper.c``/``fmi3_wrapper.c``),
+compiled by the system C compiler for this platform into
 ``binaries/<platform>/``; the same sources are in ``sources/`` so other platforms can build
 them. Nothing in the FMU needs Python.
 """
@@ -18,6 +19,7 @@ import sys
 import tempfile
 import uuid
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -30,7 +32,7 @@ from .plant import INPUTS, OUTPUTS, Plant, rest_state, symbolic_model
 
 __all__ = ["export_fmu", "FMI_VERSIONS", "KINDS", "platform_folder", "C_FLAGS"]
 
-FMI_VERSIONS = (2,)
+FMI_VERSIONS = (2, 3)
 KINDS = ("cs", "me", "both")
 #: Flags for the FMU's binary: portable (no -march=native), symbols hidden but the fmi2 API.
 C_FLAGS = ["-O2", "-std=c99", "-shared", "-fPIC", "-fvisibility=hidden", "-fno-math-errno"]
@@ -50,8 +52,16 @@ _INPUT_NOMINAL = {"valve_current": 0.05, "external_force": 1e3, "pump_pressure":
                   "tank_pressure": 1e5}
 
 
-def platform_folder() -> str:
-    """FMI 2.0 binaries folder of this platform (``linux64``, ``darwin64``, ``win64``, ...)."""
+def platform_folder(fmi: int = 2) -> str:
+    """Binaries folder of this platform: FMI 2.0 ``linux64``, ``darwin64``, ``win64``, ...;
+    FMI 3.0 ``x86_64-linux``, ``aarch64-darwin``, ``x86_64-windows``, ..."""
+    if fmi == 3:
+        arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64",
+                "i386": "x86", "i686": "x86", "x86": "x86"}.get(platform.machine().lower(),
+                                                               platform.machine().lower())
+        system = {"win32": "windows", "cygwin": "windows", "darwin": "darwin"}.get(
+            sys.platform, "linux" if sys.platform.startswith("linux") else sys.platform)
+        return f"{arch}-{system}"
     bits = "64" if sys.maxsize > 2**32 else "32"
     if sys.platform.startswith("linux"):
         return "linux" + bits
@@ -95,139 +105,186 @@ def model_identifier(name: str) -> str:
     return ident
 
 
-class _Layout:
-    """Value references and descriptions of every FMU variable."""
+@dataclass
+class _Variable:
+    """One FMU variable, independent of the FMI version."""
 
-    def __init__(self, plant: Plant, gen):
-        net = plant.network
-        self.n, self.ny = gen.n_states, gen.n_signals
-        self.m = len(net.parameter_names)
-        self.np = self.m + len(plant.tunables)
-        self.vr_der, self.vr_sig, self.vr_par = self.n, 2 * self.n, 2 * self.n + self.ny
-        self.signal_units = {}
-        for s in net.signal_names:
-            c, port = net.producer[s]
-            self.signal_units[s] = _fmi_unit(c.outputs[port].unit)
-        self.state_units = [_fmi_unit(st.unit) for c in net.components for st in c.states]
+    name: str
+    vr: int
+    description: str
+    causality: str
+    variability: str
+    initial: str | None = None
+    unit: str = ""
+    start: float | None = None
+    nominal: float | None = None
+    derivative_of: int | None = None     # value reference of the state
+    kind: str = "Real"                    # "Real" or "Boolean"
+    role: tuple = ()                      # "output", "derivative", "initial_unknown"
 
 
-def _model_description(plant: Plant, gen, lay: _Layout, ident: str, guid: str, kinds: set,
-                       stop_time: float) -> str:
+def _variables(plant: Plant, gen) -> list:
+    """The FMU's variables with the value-reference layout of ``fmu_core.c``."""
     net = plant.network
-    vars_, outputs, derivatives, initial_unknowns = [], [], [], []
-    used_units = set()
-
-    def var(name, vr, description, causality, variability, initial=None, unit="", start=None,
-            extra=""):
-        attrs = [f"name={quoteattr(name)}", f'valueReference="{vr}"',
-                 f"description={quoteattr(description)}", f'causality="{causality}"',
-                 f'variability="{variability}"']
-        if initial:
-            attrs.append(f'initial="{initial}"')
-        real = []
-        if unit:
-            real.append(f'unit="{unit}"')
-            used_units.add(unit)
-        if start is not None:
-            real.append(f'start="{float(start)!r}"')
-        real.append(extra)
-        vars_.append(f"    <ScalarVariable {' '.join(attrs)}>\n"
-                     f"      <Real {' '.join(r for r in real if r)}/>\n    </ScalarVariable>")
-        return len(vars_)    # 1-based index in ModelVariables
-
+    n, ny, m = gen.n_states, gen.n_signals, len(net.parameter_names)
+    vr_der, vr_sig, vr_par = n, 2 * n, 2 * n + ny
+    vr_end = vr_par + m + len(plant.tunables)
+    out = []
     # inputs (runtime parameters of the plant), then tunable parameters
     for name, k in plant.inputs.items():
         _, unit, meaning = INPUTS[name]
-        var(name, lay.vr_par + k, meaning,
-            "input", "continuous", unit=_fmi_unit(unit), start=plant.p[k])
+        out.append(_Variable(name, vr_par + k, meaning, "input", "continuous",
+                             unit=_fmi_unit(unit), start=plant.p[k]))
     for j, tun in enumerate(plant.tunables):
-        var(tun.name, lay.vr_par + lay.m + j, tun.description, "parameter", "tunable", "exact",
-            unit=tun.unit, start=plant.tunable_values[j])
-    # outputs and the other signals
-    hidden = set(plant.inputs)   # a signal equal to an input (valve_current, pump_pressure)
+        out.append(_Variable(tun.name, vr_par + m + j, tun.description, "parameter", "tunable",
+                             "exact", unit=tun.unit, start=plant.tunable_values[j]))
+    out.append(_Variable("solve_steady_state", vr_end, "re-solve the rest state at the end of "
+                         "initialization when the start state is not at rest for the parameters "
+                         "and inputs set", "parameter", "fixed", "exact", start=True,
+                         kind="Boolean"))
+    # outputs and the other signals (a signal equal to an input is not repeated)
     for i, s in enumerate(net.signal_names):
+        c, port = net.producer[s]
+        unit = _fmi_unit(c.outputs[port].unit)
         if s in OUTPUTS:
-            idx = var(s, lay.vr_sig + i, OUTPUTS[s], "output", "continuous", "calculated",
-                      unit=lay.signal_units[s])
-            outputs.append(idx)
-            initial_unknowns.append(idx)
-        elif s not in hidden:
-            c, port = net.producer[s]
-            var(s, lay.vr_sig + i, f"{c.outputs[port].description} ({c.name}.{port})", "local",
-                "continuous", "calculated", unit=lay.signal_units[s])
-    # states and their derivatives
-    state_index = []
+            out.append(_Variable(s, vr_sig + i, OUTPUTS[s], "output", "continuous", "calculated",
+                                 unit=unit, role=("output", "initial_unknown")))
+        elif s not in plant.inputs:
+            out.append(_Variable(s, vr_sig + i, f"{c.outputs[port].description} ({c.name}.{port})",
+                                 "local", "continuous", "calculated", unit=unit))
+    units = [_fmi_unit(st.unit) for c in net.components for st in c.states]
     for i, s in enumerate(net.state_names):
-        idx = var(s, i, "state of the plant (steady state solved at export)", "local",
-                  "continuous", "approx", unit=lay.state_units[i], start=plant.x[i],
-                  extra=f'nominal="{float(net.state_scales[i])!r}"')
-        state_index.append(idx)
+        out.append(_Variable(s, i, "state of the plant (rest state solved at export)", "local",
+                             "continuous", "approx", unit=units[i], start=plant.x[i],
+                             nominal=float(net.state_scales[i]), role=("initial_unknown",)))
     for i, s in enumerate(net.state_names):
-        du = lay.state_units[i]
-        unit = (du + "/s") if du and "/" not in du else ""
-        idx = var(f"der({s})", lay.vr_der + i, f"time derivative of {s}", "local", "continuous",
-                  "calculated", extra=f'derivative="{state_index[i]}"')
-        derivatives.append(idx)
-    initial_unknowns += state_index + derivatives
-    initial_unknowns.sort()
-    units = []
-    for u in sorted(used_units):
+        out.append(_Variable(f"der({s})", vr_der + i, f"time derivative of {s}", "local",
+                             "continuous", "calculated", derivative_of=i,
+                             role=("derivative", "initial_unknown")))
+    return out
+
+
+def _unit_definitions(variables) -> str:
+    lines = []
+    for u in sorted({v.unit for v in variables if v.unit}):
         base = _UNITS.get(u)
         if base:
-            b = " ".join(f'{k}="{v}"' for k, v in base.items())
-            units.append(f'    <Unit name="{u}">\n      <BaseUnit {b}/>\n    </Unit>')
+            b = " ".join(f'{k}="{e}"' for k, e in base.items())
+            lines.append(f'    <Unit name="{u}">\n      <BaseUnit {b}/>\n    </Unit>')
         else:
-            units.append(f'    <Unit name="{u}"/>')
+            lines.append(f'    <Unit name="{u}"/>')
+    return "  <UnitDefinitions>\n" + "\n".join(lines) + "\n  </UnitDefinitions>"
+
+
+def _header(plant: Plant, ident: str, version: str, token_attr: str, extra="") -> str:
+    from .. import __version__
+
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    desc = (f"hydroline plant of rig {plant.rig.get('rig.name', plant.rig.source)}: hoses, HSM, "
+            f"accumulators, servovalve, actuator, friction, load; starts at the {plant.start} "
+            f"rest state")
+    return (f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiModelDescription fmiVersion="{version}" '
+            f'modelName={quoteattr(ident)} {token_attr}\n  description={quoteattr(desc)} '
+            f'generationTool="hydroline {__version__}"\n  generationDateAndTime="{now}" '
+            f'variableNamingConvention="flat"{extra}>')
+
+
+def _model_description_2(plant, variables, ident, guid, kinds, stop_time) -> str:
+    """modelDescription.xml of FMI 2.0."""
+    index = {}   # value reference of a Real -> 1-based index in ModelVariables
+    body = []
+    for v in variables:
+        attrs = (f"name={quoteattr(v.name)} valueReference=\"{v.vr}\" "
+                 f"description={quoteattr(v.description)} causality=\"{v.causality}\" "
+                 f"variability=\"{v.variability}\"" + (f' initial="{v.initial}"' if v.initial else ""))
+        if v.kind == "Boolean":
+            typ = f'<Boolean start="{str(bool(v.start)).lower()}"/>'
+        else:
+            t = [f'unit="{v.unit}"' if v.unit else "",
+                 f'start="{float(v.start)!r}"' if v.start is not None else "",
+                 f'nominal="{v.nominal!r}"' if v.nominal is not None else "",
+                 f'derivative="{index[v.derivative_of]}"' if v.derivative_of is not None else ""]
+            typ = "<Real " + " ".join(x for x in t if x) + "/>"
+            index[v.vr] = len(body) + 1
+        body.append(f"    <ScalarVariable {attrs}>\n      {typ}\n    </ScalarVariable>")
+    pos = {id(v): k + 1 for k, v in enumerate(variables)}
+
+    def unknowns(role):
+        return "\n".join(f'      <Unknown index="{pos[id(v)]}"/>' for v in variables if role in v.role)
+
     src = '      <SourceFiles>\n        <File name="fmi2_wrapper.c"/>\n      </SourceFiles>'
     common = (f'modelIdentifier="{ident}" canGetAndSetFMUstate="true" '
               f'canSerializeFMUstate="true" providesDirectionalDerivative="true"')
     parts = []
     if "me" in kinds:
-        parts.append(f"  <ModelExchange {common} completedIntegratorStepNotNeeded=\"true\">\n{src}\n  </ModelExchange>")
+        parts.append(f'  <ModelExchange {common} completedIntegratorStepNotNeeded="true">\n{src}\n'
+                     f'  </ModelExchange>')
     if "cs" in kinds:
-        parts.append(f"  <CoSimulation {common} canHandleVariableCommunicationStepSize=\"true\" "
-                     f"canInterpolateInputs=\"false\" maxOutputDerivativeOrder=\"0\">\n{src}\n  </CoSimulation>")
-    desc = (f"hydroline plant of rig {plant.rig.get('rig.name', plant.rig.source)}: hoses, HSM, "
-            f"accumulators, servovalve, actuator, friction, load; starts at the {plant.start} rest state")
-    boolean = ('    <ScalarVariable name="solve_steady_state" valueReference="0" description='
-               '"re-solve the rest state at the end of initialization when the start state is not '
-               'at rest for the parameters and inputs set" causality="parameter" variability="fixed" '
-               'initial="exact">\n      <Boolean start="true"/>\n    </ScalarVariable>')
-    vars_.append(boolean)
-    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
-    from .. import __version__ as version
-
-    def unknowns(indices, deps=None):
-        return "\n".join(f'      <Unknown index="{i}"/>' for i in indices)
-
-    return f"""<?xml version="1.0" encoding="UTF-8"?>
-<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(ident)} guid="{guid}"
-  description={quoteattr(desc)} generationTool="hydroline {version}"
-  generationDateAndTime="{now}" variableNamingConvention="flat" numberOfEventIndicators="0">
-{chr(10).join(parts)}
-  <UnitDefinitions>
-{chr(10).join(units)}
-  </UnitDefinitions>
-  <DefaultExperiment startTime="0.0" stopTime="{stop_time!r}" tolerance="1e-06"/>
-  <ModelVariables>
-{chr(10).join(vars_)}
-  </ModelVariables>
-  <ModelStructure>
-    <Outputs>
-{unknowns(outputs)}
-    </Outputs>
-    <Derivatives>
-{unknowns(derivatives)}
-    </Derivatives>
-    <InitialUnknowns>
-{unknowns(initial_unknowns)}
-    </InitialUnknowns>
-  </ModelStructure>
-</fmiModelDescription>
-"""
+        parts.append(f'  <CoSimulation {common} canHandleVariableCommunicationStepSize="true" '
+                     f'canInterpolateInputs="false" maxOutputDerivativeOrder="0">\n{src}\n'
+                     f'  </CoSimulation>')
+    return "\n".join([
+        _header(plant, ident, "2.0", f'guid="{guid}"', ' numberOfEventIndicators="0"'), *parts,
+        _unit_definitions(variables),
+        f'  <DefaultExperiment startTime="0.0" stopTime="{stop_time!r}" tolerance="1e-06"/>',
+        "  <ModelVariables>", *body, "  </ModelVariables>",
+        "  <ModelStructure>", "    <Outputs>", unknowns("output"), "    </Outputs>",
+        "    <Derivatives>", unknowns("derivative"), "    </Derivatives>",
+        "    <InitialUnknowns>", unknowns("initial_unknown"), "    </InitialUnknowns>",
+        "  </ModelStructure>", "</fmiModelDescription>", ""])
 
 
-def _data_header(plant: Plant, gen, lay: _Layout, guid: str, kinds: set) -> str:
+def _model_description_3(plant, variables, ident, guid, kinds, stop_time) -> str:
+    """modelDescription.xml of FMI 3.0 (Float64 and Boolean variables, time independent)."""
+    vr_time = max(v.vr for v in variables if v.kind == "Boolean") + 1   # as fmu_core.c
+    body = [f'    <Float64 name="time" valueReference="{vr_time}" causality="independent" '
+            f'variability="continuous" description="simulation time" unit="s"/>']
+    for v in variables:
+        attrs = (f"name={quoteattr(v.name)} valueReference=\"{v.vr}\" "
+                 f"description={quoteattr(v.description)} causality=\"{v.causality}\" "
+                 f"variability=\"{v.variability}\"" + (f' initial="{v.initial}"' if v.initial else ""))
+        if v.kind == "Boolean":
+            body.append(f'    <Boolean {attrs} start="{str(bool(v.start)).lower()}"/>')
+            continue
+        t = [f'unit="{v.unit}"' if v.unit else "",
+             f'start="{float(v.start)!r}"' if v.start is not None else "",
+             f'nominal="{v.nominal!r}"' if v.nominal is not None else "",
+             f'derivative="{v.derivative_of}"' if v.derivative_of is not None else ""]
+        body.append(f"    <Float64 {attrs} " + " ".join(x for x in t if x) + "/>")
+
+    def unknowns(tag, role):
+        return [f'    <{tag} valueReference="{v.vr}"/>' for v in variables if role in v.role]
+
+    common = (f'modelIdentifier="{ident}" canGetAndSetFMUState="true" '
+              f'canSerializeFMUState="true" providesDirectionalDerivatives="true"')
+    parts = []
+    if "me" in kinds:
+        parts.append(f'  <ModelExchange {common} needsCompletedIntegratorStep="false"/>')
+    if "cs" in kinds:
+        parts.append(f'  <CoSimulation {common} canHandleVariableCommunicationStepSize="true" '
+                     f'maxOutputDerivativeOrder="0"/>')
+    variables_with_time = variables + [_Variable("time", vr_time, "", "independent", "continuous",
+                                                 unit="s")]
+    return "\n".join([
+        _header(plant, ident, "3.0", f'instantiationToken="{guid}"'), *parts,
+        _unit_definitions(variables_with_time),
+        f'  <DefaultExperiment startTime="0.0" stopTime="{stop_time!r}" tolerance="1e-06"/>',
+        "  <ModelVariables>", *body, "  </ModelVariables>",
+        "  <ModelStructure>", *unknowns("Output", "output"),
+        *unknowns("ContinuousStateDerivative", "derivative"),
+        *unknowns("InitialUnknown", "initial_unknown"),
+        "  </ModelStructure>", "</fmiModelDescription>", ""])
+
+
+def _build_description(ident: str) -> str:
+    """sources/buildDescription.xml of FMI 3.0."""
+    return (f'<?xml version="1.0" encoding="UTF-8"?>\n<fmiBuildDescription fmiVersion="3.0">\n'
+            f'  <BuildConfiguration modelIdentifier="{ident}">\n'
+            f'    <SourceFileSet language="C99">\n      <SourceFile name="fmi3_wrapper.c"/>\n'
+            f'    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n')
+
+
+def _data_header(plant: Plant, gen, guid: str, kinds: set) -> str:
     net = plant.network
     p0 = np.concatenate([plant.p, plant.tunable_values])
     nominal = np.maximum(np.abs(p0), 1e-300)
@@ -261,8 +318,8 @@ def _data_header(plant: Plant, gen, lay: _Layout, guid: str, kinds: set) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _compile(cc: str, src_dir: Path, out: Path) -> None:
-    cmd = [cc, *C_FLAGS, "-o", str(out), str(src_dir / "fmi2_wrapper.c"), "-lm"]
+def _compile(cc: str, source: Path, out: Path) -> None:
+    cmd = [cc, *C_FLAGS, "-o", str(out), str(source), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise compiled.CompilerUnavailable(f"C compiler failed on the FMU sources: "
@@ -277,7 +334,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     ----------
     rig : Rig, str or None   The rig (a path, or None for the embedded default)
     out : path               The .fmu file to write; its stem is the modelIdentifier
-    fmi : int                FMI version (2)
+    fmi : int                FMI version: 2 (FMI 2.0) or 3 (FMI 3.0)
     kind : str               "cs" (Co-Simulation: hydroline's BDF integrator between
                              communication points), "me" (Model Exchange: the ODE, the
                              importer integrates), or "both"
@@ -296,7 +353,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     CompilerUnavailable    No C compiler, or it failed
     """
     if fmi not in FMI_VERSIONS:
-        raise ValueError(f"--fmi: FMI {fmi} export is not available; give 2 (FMI 2.0)")
+        raise ValueError(f"--fmi: must be 2 (FMI 2.0) or 3 (FMI 3.0), got {fmi!r}")
     if kind not in KINDS:
         raise ValueError(f"--kind: must be one of {', '.join(KINDS)}, got {kind!r}")
     out = Path(out)
@@ -309,27 +366,32 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     plant = rest_state(rig, start)
     gen = generate(symbolic_model(plant))
-    lay = _Layout(plant, gen)
     if stop_time is None:
         from ..scenarios import build_scenario
         stop_time = build_scenario(rig, start).t_end
     kinds = {"cs", "me"} if kind == "both" else {kind}
     ident = model_identifier(out.stem)
     digest = hashlib.sha256((gen.source + repr(plant.x.tolist()) + repr(plant.p.tolist())
-                             + repr(plant.tunable_values.tolist()) + ident + kind).encode())
+                             + repr(plant.tunable_values.tolist()) + ident + kind + str(fmi)).encode())
     guid = "{" + str(uuid.UUID(bytes=digest.digest()[:16])) + "}"
-    xml = _model_description(plant, gen, lay, ident, guid, kinds, float(stop_time))
+    variables = _variables(plant, gen)
+    describe = _model_description_2 if fmi == 2 else _model_description_3
+    xml = describe(plant, variables, ident, guid, kinds, float(stop_time))
+    wrapper = f"fmi{fmi}_wrapper.c"
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)
         (src / "model.c").write_text(gen.source)
         shutil.copy(Path(compiled.__file__).with_name("bdf.c"), src / "bdf.c")
-        shutil.copy(_HERE / "fmi2_wrapper.c", src / "fmi2_wrapper.c")
-        (src / "fmu_data.h").write_text(_data_header(plant, gen, lay, guid, kinds))
-        binaries = root / "binaries" / platform_folder()
+        for name in ("fmu_core.c", wrapper):
+            shutil.copy(_HERE / name, src / name)
+        (src / "fmu_data.h").write_text(_data_header(plant, gen, guid, kinds))
+        if fmi == 3:
+            (src / "buildDescription.xml").write_text(_build_description(ident))
+        binaries = root / "binaries" / platform_folder(fmi)
         binaries.mkdir(parents=True)
-        _compile(cc, src, binaries / (ident + _library_suffix()))
+        _compile(cc, src / wrapper, binaries / (ident + _library_suffix()))
         (root / "modelDescription.xml").write_text(xml)
         doc = root / "documentation"
         doc.mkdir()
