@@ -1,6 +1,6 @@
 """FMU export: the rig's plant for co-simulation in Simulink, OpenModelica, Dymola or Python.
 
-:func:`export_fmu` writes an FMI 2.0 FMU (Co-Simulation, Model Exchange or both) of a rig's
+:func:`export_fmu` writes an FMI 2.0 or 3.0 FMU (Co-Simulation, Model Exchange or both) of a rig's
 plant -- hoses, HSM, accumulators, check valve, servovalve, actuator, friction and load --
 with inputs ``valve_current`` [A], ``external_force`` [N], ``pump_pressure`` and
 ``tank_pressure`` [Pa], the port and chamber pressures and the piston position and velocity
