@@ -17,7 +17,7 @@ from hydroline.cli import main
 pytestmark = pytest.mark.skipif(not compiled.available(),
                                 reason="no C compiler: an FMU's binary is built with the system C compiler")
 
-fmpy = pytest.importorskip("fmpy")
+import fmpy  # noqa: E402  (the test extra)
 from fmpy.fmi2 import FMU2Model, FMU2Slave  # noqa: E402
 from fmpy.validation import validate_fmu  # noqa: E402
 
@@ -107,16 +107,21 @@ def test_open_loop_step_matches_hydroline_simulate(default_fmu, open_loop_refere
         "supply_port_pressure"][0]
 
 
-def test_tuned_parameters_match_a_rig_with_those_values(default_fmu):
-    """Tunable parameters enter the generated code exactly: the FMU with tuned values (rest
-    state re-solved in C at initialization) against hydroline.simulate of the rig set so."""
-    tuned = {"load.mass": 20.0, "friction.coulomb_up": 120.0, "actuator.bulk_modulus": 1.0e9,
-             "supply.manifold.resistance": 2.0e9}
+@pytest.mark.parametrize("start_values, rig_values", [
+    ({"load.mass": 20.0, "friction.coulomb_up": 120.0, "actuator.bulk_modulus": 1.0e9,
+      "supply.manifold.resistance": 2.0e9}, None),
+    ({"external_force": 2000.0}, {"load.applied_force": 2000.0}),
+    ({"pump_pressure": 18.0e6}, {"supply.pressure": 18.0e6}),
+], ids=["tunable-parameters", "external-force", "pump-pressure"])
+def test_other_values_match_a_rig_with_those_values(default_fmu, start_values, rig_values):
+    """Tunable parameters enter the generated code exactly, and inputs are runtime values: the
+    FMU started with other values (rest state and accumulator charge re-solved in C at
+    initialization) against hydroline.simulate of the rig set so."""
     rig = hydroline.load_rig()
-    for k, val in tuned.items():
+    for k, val in (rig_values or start_values).items():
         rig.values[k] = val
     ref = hydroline.simulate(rig, "open-loop-step")
-    res = run_step(default_fmu, "CoSimulation", start_values=tuned)
+    res = run_step(default_fmu, "CoSimulation", start_values=start_values)
     for key in ("supply_port_pressure", "return_port_pressure", "piston_velocity"):
         assert excursion_error(res, ref, key) < 0.005, key
 

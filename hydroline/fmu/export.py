@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import compiled
 from ..compiled.codegen import generate
+from ..components import PistonAccumulator
 from ..rigs import Rig, load_rig
 from .plant import INPUTS, OUTPUTS, Plant, rest_state, symbolic_model
 
@@ -296,6 +297,14 @@ def _data_header(plant: Plant, gen, guid: str, kinds: set) -> str:
         k = plant.inputs["valve_current"]
         mirrors.append((net.parameter_names.index("command.initial"), k))
     consts = gen.constants if gen.constants.size else np.zeros(1)
+    acc = []   # accumulators: gas state, reference parameter, node signal, V0, p0
+    for c in net.components:
+        if isinstance(c, PistonAccumulator):
+            acc.append("{%d,%d,%d,%s,%s}" % (
+                net.state_names.index(f"{c.name}.gas_volume"),
+                net.parameter_names.index(f"{c.name}.reference_pressure"),
+                net.signal_names.index(c.signal("pressure")),
+                _c_double(c.capacity), _c_double(c.precharge_pressure)))
     lines = [
         "/* This FMU's numbers (written by hydroline.fmu). */",
         f"#define HL_FMU_GUID {_c_string(guid)}",
@@ -311,11 +320,27 @@ def _data_header(plant: Plant, gen, guid: str, kinds: set) -> str:
         _c_array("double", "hl_fmu_pnominal", nominal, _c_double),
         "static const int hl_fmu_mirror[][2] = {" + (",".join(f"{{{a},{b}}}" for a, b in mirrors)
                                                      or "{0,0}") + "};",
+        f"#define HL_FMU_NACC {len(acc)}",
+        "typedef struct { int gas_state, reference_parameter, node_signal; double capacity, "
+        "precharge; } hl_fmu_accumulator;",
+        "static const hl_fmu_accumulator hl_fmu_acc[] = {" + (",".join(acc) or "{0,0,0,0.,0.}") + "};",
         _c_array("char*", "hl_fmu_state_names", net.state_names, _c_string),
         _c_array("char*", "hl_fmu_parameter_names",
                  list(net.parameter_names) + [t.name for t in plant.tunables], _c_string),
     ]
     return "\n".join(lines) + "\n"
+
+
+def _c_compiler() -> str | None:
+    """The system C compiler, found as the compiled core finds it: ``$CC``, else ``cc``,
+    ``gcc`` or ``clang`` on the PATH (None if there is none)."""
+    cc = os.environ.get("CC")
+    if cc and shutil.which(cc):
+        return shutil.which(cc)
+    for name in ("cc", "gcc", "clang"):
+        if shutil.which(name):
+            return shutil.which(name)
+    return None
 
 
 def _compile(cc: str, source: Path, out: Path) -> None:
@@ -359,7 +384,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     out = Path(out)
     if out.suffix.lower() != ".fmu":
         raise ValueError(f"--out: an FMU file name ends in .fmu, got {str(out)!r}")
-    cc = compiled._compiler()
+    cc = _c_compiler()
     if cc is None:
         raise compiled.CompilerUnavailable("no C compiler found (set CC, or install gcc): the FMU's "
                                            "binary is built with the system C compiler")
@@ -396,7 +421,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
         doc = root / "documentation"
         doc.mkdir()
         (doc / "index.html").write_text(
-            f"<html><body><h1>{ident}</h1><p>{xml_escape_text(plant, ident)}</p></body></html>\n")
+            f"<html><body><h1>{ident}</h1><p>{_documentation_text(plant, ident)}</p></body></html>\n")
         out.parent.mkdir(parents=True, exist_ok=True)
         part = out.with_name(out.name + ".part")
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
@@ -407,7 +432,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     return out
 
 
-def xml_escape_text(plant: Plant, ident: str) -> str:
+def _documentation_text(plant: Plant, ident: str) -> str:
     from xml.sax.saxutils import escape
 
     return escape(f"hydroline plant {ident}: rig {plant.rig.source}, starting at the "

@@ -17,7 +17,8 @@
  * parameter, another input) the rest state is solved again here by pseudo-transient
  * continuation -- implicit-Euler steps (I - dt J) dz = dt f(z), dt growing as the residual
  * falls (Kelley & Keyes, SIAM J. Numer. Anal. 35 (1998) 508), exact sparse Jacobian -- as
- * hydroline.simulation.solve_steady_state does in Python, unless solve_steady_state is false.
+ * hydroline.simulation.solve_steady_state does in Python, and the accumulators settle to the new
+ * node pressures (their charge), unless solve_steady_state is false.
  */
 #include <stdarg.h>
 #include <stdio.h>
@@ -169,18 +170,43 @@ static void hl_setup_experiment(hl_fmu* m, int tolerance_defined, double toleran
     m->time = start;
 }
 
+/* Accumulators adopt the node pressure at rest as the end of their isothermal charge (as
+ * PistonAccumulator.settle in Python: gas volume V0 p0 / p, reference pressure p, M16);
+ * returns 1 when something changed. */
+static int hl_settle_accumulators(hl_fmu* m) {
+    double z[HL_N], y[HL_NY];
+    int changed = 0;
+    hl_to_scaled(m, z);
+    hl_signals(m->time, z, m->S.p, m->S.c, y);
+    for (int k = 0; k < HL_FMU_NACC; k++) {
+        double p_node = y[hl_fmu_acc[k].node_signal];
+        if (!(p_node > hl_fmu_acc[k].precharge)) continue;   /* empty: piston on its stop */
+        double v = hl_fmu_acc[k].capacity * hl_fmu_acc[k].precharge / p_node;
+        if (fabs(v - m->x[hl_fmu_acc[k].gas_state]) > 1e-12 * m->S.scale[hl_fmu_acc[k].gas_state])
+            changed = 1;
+        m->x[hl_fmu_acc[k].gas_state] = v;
+        m->S.p[hl_fmu_acc[k].reference_parameter] = p_node;
+    }
+    return changed;
+}
+
 static int hl_exit_initialization(hl_fmu* m) {
+    double f[HL_N];
     hl_apply_mirrors(m);
-    if (m->solve_steady && hl_solve_steady(m) != 0) {
-        double f[HL_N];
-        double r = hl_residual(m, f);
-        int worst = 0;
-        for (int i = 0; i < HL_N; i++) if (fabs(f[i]) > fabs(f[worst])) worst = i;
-        hl_log(m, HL_ERROR, "steady state not found at t = %g s: scaled residual %g 1/s at state "
-               "%s (set solve_steady_state = false to start from the given states)", m->time, r,
-               hl_fmu_state_names[worst]);
-        m->mode = HL_FAILED;
-        return HL_ERROR;
+    if (m->solve_steady && hl_residual(m, f) >= HL_FMU_STEADY_TOL) {
+        int failed = hl_solve_steady(m) != 0;
+        for (int round = 0; !failed && round < 4 && hl_settle_accumulators(m); round++)
+            failed = hl_solve_steady(m) != 0;
+        if (failed) {
+            double r = hl_residual(m, f);
+            int worst = 0;
+            for (int i = 0; i < HL_N; i++) if (fabs(f[i]) > fabs(f[worst])) worst = i;
+            hl_log(m, HL_ERROR, "steady state not found at t = %g s: scaled residual %g 1/s at "
+                   "state %s (set solve_steady_state = false to start from the given states)",
+                   m->time, r, hl_fmu_state_names[worst]);
+            m->mode = HL_FAILED;
+            return HL_ERROR;
+        }
     }
     m->mode = HL_RUNNING;
     m->restart = 1;
