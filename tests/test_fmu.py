@@ -163,6 +163,18 @@ def test_model_exchange_jacobian_is_the_derivative_of_the_derivatives(default_fm
         fd = (f(x + h * direction) - f(x - h * direction)) / (2 * h)
         np.testing.assert_allclose(exact / scale, fd / scale, rtol=1e-4,
                                    atol=1e-6 * np.max(np.abs(fd / scale)))
+        # the declared dependencies (ModelStructure) hold every nonzero of the Jacobian
+        der_vr = [d.variable.valueReference for d in md.derivatives]
+        state_of_vr = {st.valueReference: j for j, st in enumerate(states)}
+        declared = np.zeros((n, n), dtype=bool)
+        for i, d in enumerate(md.derivatives):
+            for dep in d.dependencies:
+                if dep.valueReference in state_of_vr:
+                    declared[i, state_of_vr[dep.valueReference]] = True
+        for j, st in enumerate(states):
+            col = np.array(m.getDirectionalDerivative(der_vr, [st.valueReference], [1.0]))
+            assert not np.any((col != 0) & ~declared[:, j]), st.name
+        assert declared.sum() < 0.2 * n * n          # sparse: an importer can use it
     finally:
         m.terminate()
         m.freeInstance()

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
+import casadi as ca
 import numpy as np
 
 from .. import compiled
@@ -122,13 +123,34 @@ class _Variable:
     derivative_of: int | None = None     # value reference of the state
     kind: str = "Real"                    # "Real" or "Boolean"
     role: tuple = ()                      # "output", "derivative", "initial_unknown"
+    depends_on: tuple | None = None       # value references of the states and inputs it
+                                          # depends on in continuous time (None: all)
 
 
-def _variables(plant: Plant, gen) -> list:
+def _dependencies(sym, plant: Plant, vr_par: int):
+    """Structural dependencies of the derivatives and the signals on the states and inputs,
+    from the sparsity of the CasADi graph's Jacobians: (derivatives, signals), each a list of
+    tuples of value references."""
+    inputs = list(plant.inputs.values())
+    known = ca.vertcat(sym.x, *[sym.p[k] for k in inputs])
+    vrs = list(range(sym.x.numel())) + [vr_par + k for k in inputs]
+
+    def rows(expr):
+        sp = ca.jacobian(expr, known).sparsity()
+        out = [[] for _ in range(expr.numel())]
+        for i, j in zip(sp.row(), sp.get_col()):
+            out[i].append(vrs[j])
+        return [tuple(sorted(r)) for r in out]
+
+    return rows(sym.dx), rows(sym.y)
+
+
+def _variables(plant: Plant, gen, sym=None) -> list:
     """The FMU's variables with the value-reference layout of ``fmu_core.c``."""
     net = plant.network
     n, ny, m = gen.n_states, gen.n_signals, len(net.parameter_names)
     vr_der, vr_sig, vr_par = n, 2 * n, 2 * n + ny
+    dep_dx, dep_y = _dependencies(sym, plant, vr_par) if sym is not None else ([None] * n, [None] * ny)
     vr_end = vr_par + m + len(plant.tunables)
     out = []
     # inputs (runtime parameters of the plant), then tunable parameters
@@ -149,7 +171,8 @@ def _variables(plant: Plant, gen) -> list:
         unit = _fmi_unit(c.outputs[port].unit)
         if s in OUTPUTS:
             out.append(_Variable(s, vr_sig + i, OUTPUTS[s], "output", "continuous", "calculated",
-                                 unit=unit, role=("output", "initial_unknown")))
+                                 unit=unit, role=("output", "initial_unknown"),
+                                 depends_on=dep_y[i]))
         elif s not in plant.inputs:
             out.append(_Variable(s, vr_sig + i, f"{c.outputs[port].description} ({c.name}.{port})",
                                  "local", "continuous", "calculated", unit=unit))
@@ -161,7 +184,7 @@ def _variables(plant: Plant, gen) -> list:
     for i, s in enumerate(net.state_names):
         out.append(_Variable(f"der({s})", vr_der + i, f"time derivative of {s}", "local",
                              "continuous", "calculated", derivative_of=i,
-                             role=("derivative", "initial_unknown")))
+                             role=("derivative", "initial_unknown"), depends_on=dep_dx[i]))
     return out
 
 
@@ -211,7 +234,15 @@ def _model_description_2(plant, variables, ident, guid, kinds, stop_time) -> str
     pos = {id(v): k + 1 for k, v in enumerate(variables)}
 
     def unknowns(role):
-        return "\n".join(f'      <Unknown index="{pos[id(v)]}"/>' for v in variables if role in v.role)
+        lines = []
+        for v in variables:
+            if role not in v.role:
+                continue
+            deps = ""
+            if role != "initial_unknown" and v.depends_on is not None:
+                deps = ' dependencies="' + " ".join(str(k) for k in sorted(index[d] for d in v.depends_on)) + '"'
+            lines.append(f'      <Unknown index="{pos[id(v)]}"{deps}/>')
+        return "\n".join(lines)
 
     src = '      <SourceFiles>\n        <File name="fmi2_wrapper.c"/>\n      </SourceFiles>'
     common = (f'modelIdentifier="{ident}" canGetAndSetFMUstate="true" '
@@ -254,7 +285,15 @@ def _model_description_3(plant, variables, ident, guid, kinds, stop_time) -> str
         body.append(f"    <Float64 {attrs} " + " ".join(x for x in t if x) + "/>")
 
     def unknowns(tag, role):
-        return [f'    <{tag} valueReference="{v.vr}"/>' for v in variables if role in v.role]
+        out = []
+        for v in variables:
+            if role not in v.role:
+                continue
+            deps = ""
+            if role != "initial_unknown" and v.depends_on is not None:
+                deps = ' dependencies="' + " ".join(str(d) for d in v.depends_on) + '"'
+            out.append(f'    <{tag} valueReference="{v.vr}"{deps}/>')
+        return out
 
     common = (f'modelIdentifier="{ident}" canGetAndSetFMUState="true" '
               f'canSerializeFMUState="true" providesDirectionalDerivatives="true"')
@@ -390,7 +429,8 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
                                            "binary is built with the system C compiler")
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     plant = rest_state(rig, start)
-    gen = generate(symbolic_model(plant))
+    sym = symbolic_model(plant)
+    gen = generate(sym)
     if stop_time is None:
         from ..scenarios import build_scenario
         stop_time = build_scenario(rig, start).t_end
@@ -399,7 +439,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     digest = hashlib.sha256((gen.source + repr(plant.x.tolist()) + repr(plant.p.tolist())
                              + repr(plant.tunable_values.tolist()) + ident + kind + str(fmi)).encode())
     guid = "{" + str(uuid.UUID(bytes=digest.digest()[:16])) + "}"
-    variables = _variables(plant, gen)
+    variables = _variables(plant, gen, sym)
     describe = _model_description_2 if fmi == 2 else _model_description_3
     xml = describe(plant, variables, ident, guid, kinds, float(stop_time))
     wrapper = f"fmi{fmi}_wrapper.c"
