@@ -306,6 +306,7 @@ def test_fmu_state_restores_a_co_simulation_step(default_fmu):
     (["--out", "plant.zip"], "--out"),
     (["--start", "fatigue"], "--start"),
     (["no_such_rig.toml"], "no_such_rig.toml"),
+    (["--out", "/dev/null/plant.fmu"], "--out"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(capsys, args, word):
     assert main(["export-fmu", *args]) == 2

@@ -349,7 +349,7 @@ def _data_header(plant: Plant, gen, guid: str, kinds: set) -> str:
         f"#define HL_FMU_GUID {_c_string(guid)}",
         f"#define HL_FMU_ME {int('me' in kinds)}",
         f"#define HL_FMU_CS {int('cs' in kinds)}",
-        f"#define HL_FMU_RTOL 1e-6",
+        "#define HL_FMU_RTOL 1e-6",
         f"#define HL_FMU_STEADY_TOL {STEADY_TOL!r}",
         f"#define HL_FMU_NMIRROR {len(mirrors)}",
         _c_array("double", "hl_fmu_c", consts, _c_double),
@@ -423,6 +423,16 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     out = Path(out)
     if out.suffix.lower() != ".fmu":
         raise ValueError(f"--out: an FMU file name ends in .fmu, got {str(out)!r}")
+    part = out.with_name(out.name + ".part")
+    if out.parent.exists() and not out.parent.is_dir():
+        raise ValueError(f"--out: {str(out.parent)!r} is not a folder")
+    try:                                   # refuse an unwritable place before the build
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with open(part, "wb"):
+            pass
+        part.unlink()
+    except OSError as e:
+        raise ValueError(f"--out: cannot write {str(out)!r}: {e.strerror or e}") from None
     cc = _c_compiler()
     if cc is None:
         raise compiled.CompilerUnavailable("no C compiler found (set CC, or install gcc): the FMU's "
@@ -462,8 +472,6 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
         doc.mkdir()
         (doc / "index.html").write_text(
             f"<html><body><h1>{ident}</h1><p>{_documentation_text(plant, ident)}</p></body></html>\n")
-        out.parent.mkdir(parents=True, exist_ok=True)
-        part = out.with_name(out.name + ".part")
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
             for f in sorted(root.rglob("*")):
                 if f.is_file():
