@@ -312,3 +312,11 @@ def test_bad_arguments_give_one_line_and_exit_2(capsys, args, word):
     assert main(["export-fmu", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and word in err
+
+
+def test_no_compiler_gives_one_line(monkeypatch, capsys, tmp_path):
+    monkeypatch.setenv("PATH", str(tmp_path))          # nothing to compile with
+    monkeypatch.delenv("CC", raising=False)
+    assert main(["export-fmu", "--out", str(tmp_path / "plant.fmu")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "C compiler" in err
