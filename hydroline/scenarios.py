@@ -7,13 +7,14 @@ whose ``metadata`` holds what the summary needs.
 """
 from __future__ import annotations
 
+import math
 import time as _time
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import components as comp
-from .analysis import oscillation_amplitude, oscillation_frequency, settling_time
+from .analysis.metrics import pressure_metrics
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .simulation import SimulationResult, integrate, solve_steady_state
 from .system import build_network
@@ -77,6 +78,14 @@ def _check_scenario(rig, scenario, t_end):
         half = rig.get("actuator.stroke", np.inf) / 2
         if x0 is not None and not abs(x0) <= half:
             bad("initial_position", f"within +-stroke/2 = +-{half * 1e3:g} mm (piston inside the cylinder)")
+        amplitude = rig.get(f"scenario.{scenario}.amplitude")
+        offset = rig.get(f"scenario.{scenario}.offset", 0.0)
+        if amplitude is not None and np.isfinite(half) and abs(offset) + abs(amplitude) > half:
+            raise RigError(
+                f"scenario.{scenario}.amplitude: the commanded sine reaches "
+                f"{(abs(offset) + abs(amplitude)) * 1e3:g} mm from mid-stroke (offset "
+                f"{offset * 1e3:g} mm + amplitude {abs(amplitude) * 1e3:g} mm), beyond the "
+                f"actuator's +-{half * 1e3:g} mm (actuator.stroke = {2 * half * 1e3:g} mm)")
 
 
 def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None) -> Scenario:
@@ -151,6 +160,8 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                     stream_columns=stream_columns)
     res.steady_state = ss
     act = net.component("actuator")
+    if scenario == "closed-loop-sine":
+        res.metadata["command_frequency_hz"] = float(sc.commands[0].frequency)
     res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
                         stroke=act.stroke,
                         actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
@@ -164,6 +175,8 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
                             f"{lows[k] / 1e6:.2f} MPa): the line model is not valid there"
                             for k in WATCHED_PRESSURES
                             if k in lows.index and lows[k] < CAVITATION_PRESSURE)
+    if stream_to is None:
+        res.metadata["metrics_window"] = metrics_window(res)
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
     return res
 
@@ -185,50 +198,110 @@ def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSU
     return out
 
 
-def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, float]:
-    """[t_disturbance, t_contact): the part of the run with the piston clear of its stops.
+def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, float, str]:
+    """The part of a run the metrics are taken over: ``(t_start, t_end, why_it_ends)``.
 
-    The open-loop piston runs into its far stop after roughly stroke / speed; what follows is a
-    second transient (the flow stops), not the response to the step. [s]
+    It starts at the disturbance (the valve step; 0 for the closed-loop sine) and ends when the
+    piston arrives at the stop it moves *toward* -- the end stop on the side of its first
+    clear displacement (more than ``margin``) after the disturbance -- or at the end of the run
+    if it never gets there. What follows an arrival is a second transient (the flow stops),
+    not the response to the step. A piston that starts resting on one stop and moves away from
+    it does not end the window there.
+
+    Parameters
+    ----------
+    res : SimulationResult  With ``piston_position`` [m] and metadata ``t_disturbance`` [s],
+                            ``stroke`` [m]
+    margin : float          Distance from a stop that counts as arrived, [m]
+
+    Returns
+    -------
+    tuple  ``(t_start [s], t_end [s], reason)``; ``reason`` is "stop" (the piston reached the
+           stop it moves toward) or "end" (the run ended first)
     """
-    t0 = res.metadata.get("t_disturbance", 0.0)
-    t, x = res.t, res["piston_position"]
+    t0 = float(res.metadata.get("t_disturbance", 0.0))
+    t = res.t
+    if "piston_position" not in res.data:
+        return t0, float(t[-1]), "end"
+    x = res["piston_position"]
     half = res.metadata.get("stroke", np.inf) / 2
-    after = (t > t0 + 5e-3) & (np.abs(x) > half - margin)
-    moving = np.flatnonzero(after)
-    return t0, float(t[moving[0]]) if len(moving) else float(t[-1])
+    after = t >= t0
+    x0 = float(np.interp(t0, t, x))
+    moved = np.flatnonzero(after & (np.abs(x - x0) > margin))
+    if moved.size == 0 or not np.isfinite(half):
+        return t0, float(t[-1]), "end"
+    direction = math.copysign(1.0, x[moved[0]] - x0)
+    arrived = np.flatnonzero(after & (direction * x >= half - margin) & (t > t[moved[0]] - 1e-12))
+    if arrived.size == 0:
+        return t0, float(t[-1]), "end"
+    return t0, float(t[arrived[0]]), "stop"
 
 
-def port_metrics(t, p, t0):
-    """Frequency [Hz], amplitude [MPa] and settling time [s] of one pressure trace."""
-    f = oscillation_frequency(t, p, t0)
-    return {"frequency_hz": None if f is None else float(f),
-            "amplitude_mpa": float(oscillation_amplitude(t, p, t0)) / 1e6,
-            "settling_time_s": _none_or_float(settling_time(t, p, t0))}
+def _window_note(t0, t1, reason, scenario):
+    start = "the valve step" if scenario == "open-loop-step" else "the start of the command"
+    if reason == "stop":
+        return (f"metrics from {start} at {t0 * 1e3:.0f} ms to {t1 * 1e3:.0f} ms, when the piston "
+                f"reaches the stop it moves toward")
+    return (f"metrics from {start} at {t0 * 1e3:.0f} ms to the end of the run at {t1 * 1e3:.0f} ms "
+            f"(the piston has not reached a stop)")
 
 
-def _none_or_float(v):
-    return None if v is None else float(v)
+def _cycle_ripple(t, p, t0, t1, frequency):
+    """Peak-to-peak [Pa] of ``p`` in each full command cycle within ``[t0, t1]``."""
+    period = 1.0 / frequency
+    out = []
+    k = 0
+    while t0 + (k + 1) * period <= t1 + 1e-9:
+        m = (t >= t0 + k * period) & (t <= t0 + (k + 1) * period)
+        if np.count_nonzero(m) >= 2:
+            out.append(float(np.ptp(p[m])))
+        k += 1
+    return out
 
 
 def summarize(res: SimulationResult) -> dict:
-    """The summary of the CLI's ``--json``: supply/return port metrics, w_h, wall time.
+    """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds).
 
-    Metrics are taken over :func:`metrics_window`.
+    Open-loop step: per port (``"supply"``, ``"return"``) the metrics of
+    :func:`hydroline.analysis.pressure_metrics` over :func:`metrics_window`: frequency [Hz],
+    two-sided oscillation amplitude [MPa], first excursion [MPa], steady change [MPa],
+    peak-to-peak [MPa], 2 % settling time [s] (measured or estimated, with its method and
+    note), and a note where an amplitude cannot be given.
+
+    Closed-loop sine (no step, a forced response): per port the peak-to-peak ripple in each
+    full command cycle (``ripple_pp_mpa_per_cycle``, its maximum ``ripple_pp_mpa``);
+    ``amplitude_mpa`` is half that maximum, ``frequency_hz`` and ``settling_time_s`` are None;
+    the tracking error (reference minus position) as rms and max [mm].
+
+    Also: ``actuator_natural_frequency_hz``, ``wall_time_s``, ``metrics_window_s``,
+    ``metrics_window_note``, ``warnings``. The result is not modified.
     """
-    t0, t1 = metrics_window(res)
-    res.metadata["metrics_window_end"] = t1
+    t0, t1, reason = metrics_window(res)
+    scenario = res.metadata.get("scenario")
     m = res.t <= t1
     t = res.t[m]
     out = {}
     for side, key in (("supply", "supply_port_pressure"), ("return", "return_port_pressure")):
-        out[side] = port_metrics(t, res[key][m], t0)
+        p = res[key][m]
+        if scenario == "closed-loop-sine":
+            ripple = _cycle_ripple(t, p, t0, t1, res.metadata["command_frequency_hz"])
+            top = max(ripple) if ripple else None
+            out[side] = {"frequency_hz": None,
+                         "amplitude_mpa": None if top is None else top / 2e6,
+                         "ripple_pp_mpa": None if top is None else top / 1e6,
+                         "ripple_pp_mpa_per_cycle": [r / 1e6 for r in ripple],
+                         "settling_time_s": None,
+                         "amplitude_note": "" if ripple else
+                         "the window holds no full command cycle"}
+        else:
+            out[side] = pressure_metrics(t, p, t0, t1)
     out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
-    if res.metadata.get("scenario") == "closed-loop-sine":
-        err = res["position_reference"] - res["piston_position"]
+    if scenario == "closed-loop-sine":
+        err = (res["position_reference"] - res["piston_position"])[m]
         out["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
         out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
     out["metrics_window_s"] = [t0, t1]
+    out["metrics_window_note"] = _window_note(t0, t1, reason, scenario)
     out["warnings"] = list(res.warnings)
     return out

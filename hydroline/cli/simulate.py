@@ -37,12 +37,18 @@ def json_summary(summary: dict) -> dict:
     ``summary.json`` keeps the extras (metrics window, warnings, tracking error)."""
     out = {side: {k: _float_or_none(summary[side][k]) for k in PORT_KEYS}
            for side in ("supply", "return")}
-    for side in ("supply", "return"):
-        if out[side]["amplitude_mpa"] is None:
-            out[side]["amplitude_mpa"] = 0.0
+    # amplitude_mpa is 0.0 where no oscillation was detected and null only where the window
+    # is too short to tell (summary.json and stderr say why)
     out["actuator_natural_frequency_hz"] = float(summary["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(summary["wall_time_s"])
     return out
+
+
+def _settling_cell(m):
+    v = m["settling_time_s"]
+    if v is None:
+        return None
+    return f"~{v * 1e3:.4g}" if m.get("settling_method") == "estimated" else v * 1e3
 
 
 def _float_or_none(v):
@@ -65,29 +71,42 @@ def run(args) -> int:
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
+        for side in ("supply", "return"):
+            if summary[side].get("amplitude_note"):
+                print(f"hydroline simulate: note: {side} port: {summary[side]['amplitude_note']}",
+                      file=sys.stderr)
         dump_json(json_summary(summary))
         return 0
     print(f"hydroline simulate: {args.scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, steady-state residual {res.steady_state.residual:.1e} 1/s, "
           f"wall time {summary['wall_time_s']:.2f} s "
           f"({res.t[-1] / max(res.wall_time, 1e-9):.1f}x real time in the integrator)")
-    t0, t1 = summary["metrics_window_s"]
-    print(f"  metrics from the step at {t0 * 1e3:.0f} ms to {t1 * 1e3:.0f} ms (piston clear of its stops)")
-    rows = []
-    for side in ("supply", "return"):
-        m = summary[side]
-        rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
-                     None if m["settling_time_s"] is None else m["settling_time_s"] * 1e3])
-    print_table(["pressure", "oscillation [Hz]", "peak amplitude [MPa]", "settling [ms]"], rows)
-    unsettled = [side for side in ("supply", "return") if summary[side]["settling_time_s"] is None]
-    if unsettled and args.scenario == "open-loop-step":
-        which = " and ".join(unsettled) + (" port pressures are" if len(unsettled) > 1 else " port pressure is")
-        print(f"  settling '-': the {which} not yet within 2 % of the change by {t1 * 1e3:.0f} ms, "
-              f"when the piston stops (the hoses still ring; 'hydroline layout' estimates it)")
-    print(f"  actuator hydraulic natural frequency: {summary['actuator_natural_frequency_hz']:.1f} Hz")
-    if "tracking_error_rms_mm" in summary:
-        print(f"  tracking error: rms {summary['tracking_error_rms_mm']:.2f} mm, "
+    print(f"  {summary['metrics_window_note']}")
+    if args.scenario == "closed-loop-sine":
+        rows = [[f"{side} port", summary[side].get("ripple_pp_mpa"),
+                 len(summary[side].get("ripple_pp_mpa_per_cycle", []))]
+                for side in ("supply", "return")]
+        print_table(["pressure", "ripple peak-to-peak, largest cycle [MPa]", "full cycles"], rows)
+        print(f"  tracking error (reference - position): rms {summary['tracking_error_rms_mm']:.2f} mm, "
               f"max {summary['tracking_error_max_mm']:.2f} mm")
+    else:
+        rows = []
+        for side in ("supply", "return"):
+            m = summary[side]
+            rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
+                         m["first_excursion_mpa"], m["steady_change_mpa"], m["peak_to_peak_mpa"],
+                         _settling_cell(m)])
+        print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
+                     "steady change [MPa]", "peak-to-peak [MPa]", "settling [ms]"], rows)
+        print("  amplitude: half the largest swing about the pressure's one-period mean (+-);"
+              " first excursion: largest |p - p0|; '~' settling estimated from the decay")
+        for side in ("supply", "return"):
+            m = summary[side]
+            if m.get("amplitude_note"):
+                print(f"  {side} port: {m['amplitude_note']}")
+            elif m["settling_time_s"] is None and m.get("settling_note"):
+                print(f"  {side} port settling '-': {m['settling_note']}")
+    print(f"  actuator hydraulic natural frequency: {summary['actuator_natural_frequency_hz']:.1f} Hz")
     for w in summary["warnings"]:
         print(f"  WARNING: {w}")
     print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
