@@ -397,6 +397,20 @@ def _centred_average(y, length):
     return np.convolve(y, kernel, mode="valid"), length // 2
 
 
+def _crossing_lobes(y):
+    """Sign changes of ``y`` and the peak |y| of each lobe (before the first crossing, between
+    crossings, after the last); None when ``y`` is zero or crosses fewer than 3 times."""
+    largest = float(np.max(np.abs(y)))
+    if largest == 0.0:
+        return None
+    sign = np.signbit(y)
+    idx = np.flatnonzero(sign[1:] != sign[:-1])
+    if idx.size < 3:
+        return None
+    bounds = np.concatenate(([0], idx + 1, [y.size]))
+    return idx, np.maximum.reduceat(np.abs(y), bounds[:-1]), largest
+
+
 def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     """Frequency [Hz] from the zero crossings of the (filtered) deviation, or None.
 
@@ -439,16 +453,10 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
             ty = ty[lost:ty.size - lost]
     if y.size < per_period:
         return None
-    largest = float(np.max(np.abs(y)))
-    if largest == 0.0:
+    found = _crossing_lobes(y)
+    if found is None:
         return None
-    sign = np.signbit(y)
-    idx = np.flatnonzero(sign[1:] != sign[:-1])
-    if idx.size < 3:
-        return None
-    # peak of each lobe: before the first crossing, between crossings, after the last
-    bounds = np.concatenate(([0], idx + 1, [y.size]))
-    lobe = np.maximum.reduceat(np.abs(y), bounds[:-1])
+    idx, lobe, largest = found
     significant = (lobe[:-1] >= 1e-3 * largest) & (lobe[1:] >= 1e-3 * largest)
     # the crossings kept must be consecutive from the first one on
     stop = np.flatnonzero(~significant)
@@ -759,15 +767,10 @@ def _rough_frequency(t, p, t_start, t_end):
     grid = np.linspace(t_start, t_end, 2048)
     y = np.interp(grid, t, p)
     y = y - np.polyval(np.polyfit(grid - t_start, y, 1), grid - t_start)
-    largest = float(np.max(np.abs(y)))
-    if largest == 0.0:
+    found = _crossing_lobes(y)
+    if found is None:
         return None
-    sign = np.signbit(y)
-    idx = np.flatnonzero(sign[1:] != sign[:-1])
-    if idx.size < 3:
-        return None
-    bounds = np.concatenate(([0], idx + 1, [y.size]))
-    lobes = np.maximum.reduceat(np.abs(y), bounds[:-1])
+    idx, lobes, largest = found
     if np.any(lobes[1:-1] < 0.3 * largest):     # inner lobes: whole half periods
         return None
     return float(0.5 / np.mean(np.diff(grid[idx])))

@@ -7,21 +7,27 @@ the valve. :func:`layout` sets ``supply.section2.length`` and ``return.section2.
 each length in turn (0 removes the section: the manifold node is joined to the valve port,
 see :func:`hydroline.system.build_network`), runs the scenario (the 50 mA open-loop step by
 default) from the solved steady state and takes the port metrics of
-:func:`hydroline.scenarios.summarize`: oscillation frequency [Hz] and peak amplitude [MPa] over
-the metrics window (step to piston stop), and the 2 % settling time [s] of
-:func:`hydroline.studies.settling.port_settling`: measured on the window where the port
-pressure settles within it, else estimated from the exponential decay of its oscillation
-where the window holds enough of it (the table's ``*_settling_method`` column says which, and
-``*_settling_note`` how, or why there is none). A frequency of None means the port pressure
-does not oscillate; a settling time of None that it neither settled within the window nor
-can be estimated (on the default rig: the long hoses ring for only 3-5 periods before the
-piston stops, and the return port's mean pressure is still rising with the return
-accumulator's charge).
+:func:`hydroline.scenarios.summarize` over the metrics window (step to the piston's arrival at
+the stop it moves toward): oscillation frequency [Hz], oscillation amplitude (two-sided, about
+the pressure's one-period mean) [MPa], first excursion and steady change [MPa], and the 2 %
+settling time [s] of :func:`hydroline.analysis.port_settling` -- measured on the window where
+the port pressure settles within it, else estimated from the exponential decay of its
+oscillation where the window holds enough of it (the table's ``*_settling_method`` column says
+which, and ``*_settling_note`` how, or why there is none). A frequency of None means the port
+pressure does not ring (amplitude 0, ``*_amplitude_note`` says so). :func:`conclusion` writes
+the design conclusion from the numbers.
 
 What to expect (MODEL.md 1-2): a section II with a nearly blocked valve end and the
 accumulator-stiffened manifold at the other is close to a quarter-wave resonator, so the
-frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 37 Hz for 3 m),
-and the amplitude falls with the volume of oil that the step must accelerate.
+frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 39 Hz for 3 m). The
+amplitude is the water hammer Z0 * dQ that the valve's flow step starts -- but only where the
+flow rises faster than the hose's round trip 2L/c. On the default rig the flow rises (10-90 %)
+in about 5 ms (spool 140 Hz, zeta = 1, and the actuator's acceleration; the table's
+``flow_rise_time_ms``), against round trips of 12.9 ms at 3.048 m and 3.2 ms at 0.7512 m
+(``*_round_trip_ms``): the long hoses differ little (1.00 / 0.96 / 0.87 MPa at the supply port
+for 3.048 / 2.286 / 1.524 m), the 0.7512 m hose's reflection returns before the flow has risen
+(0.43 MPa), and close-coupling removes the resonator (0). The paper: peak amplitudes
+"progressively reduced", "slightly", the close coupling "eliminates" the oscillation.
 
 References
 ----------
