@@ -17,11 +17,19 @@ from . import components as comp
 from .analysis.metrics import pressure_metrics
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .simulation import SimulationResult, integrate, solve_steady_state
-from .system import build_network
+from .system import build_circuit
 
-__all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario"]
+__all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario", "default_scenario"]
 
-SCENARIOS = ("open-loop-step", "closed-loop-sine")
+#: "position-step": the axis named by ``scenario.position-step.axis`` (the first by default)
+#: steps its position reference by ``step`` at ``time`` while every other axis holds its
+#: position under its controller (multi-axis rigs, e.g. ``two_axis``).
+SCENARIOS = ("open-loop-step", "closed-loop-sine", "position-step")
+
+
+def default_scenario(rig: Rig) -> str:
+    """The rig's ``rig.scenario``, else "open-loop-step"."""
+    return rig.get("rig.scenario", "open-loop-step")
 
 #: Pressures watched for cavitation (MODEL.md 8): below this absolute pressure the oil
 #: releases gas and the linear line model no longer holds, [Pa].
@@ -88,37 +96,120 @@ def _check_scenario(rig, scenario, t_end):
                 f"actuator's +-{half * 1e3:g} mm (actuator.stroke = {2 * half * 1e3:g} mm)")
 
 
-def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None) -> Scenario:
-    """The command components and times of a named scenario, from the rig's [scenario.*]."""
+def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None,
+                   axes: dict | None = None) -> Scenario:
+    """The command components and times of a named scenario, from the rig's [scenario.*].
+
+    Parameters
+    ----------
+    rig : Rig         Parameters (SI)
+    scenario : str    One of :data:`SCENARIOS`
+    t_end : float     Simulated time, [s] (the scenario's default when None)
+    axes : dict       The rig's axis handles (:attr:`hydroline.circuit.Circuit.axes`); built
+                      from the rig when None
+
+    Returns
+    -------
+    Scenario
+    """
+    if axes is None:
+        axes = build_circuit(rig).axes
+    if not axes:
+        raise RigError(f"rig {rig.source}: no servo axis (an actuator driven by a servovalve)")
     if scenario in SCENARIOS:
         _check_scenario(rig, scenario, t_end)
+    if scenario == "position-step":
+        return _position_step(rig, axes, t_end)
+    axis = next(iter(axes.values()))
+    rated = rig.get("servovalve.rated_current", 0.05)
+    others = hold_other_axes(rig, axes, axis.name)
     if scenario == "open-loop-step":
+        if axis.controller:
+            raise RigError(f"scenario open-loop-step: the valve current of axis '{axis.name}' is "
+                           f"driven by '{axis.controller}' in the circuit; use position-step")
         t_step = _scenario_value(rig, scenario, "time", 0.01)
         cmd = comp.StepCommand(name="command", quantity="current",
                                initial=rig.get(f"scenario.{scenario}.initial_current", 0.0),
-                               final=_scenario_value(rig, scenario, "current", rig["servovalve.rated_current"]),
-                               time=t_step, connections={"command": "valve_current"})
-        return Scenario(scenario, [cmd], t_end or _scenario_value(rig, scenario, "t_end", 0.25), t_step)
+                               final=_scenario_value(rig, scenario, "current", rated),
+                               time=t_step, connections={"command": axis.current})
+        return Scenario(scenario, [cmd] + others,
+                        t_end or _scenario_value(rig, scenario, "t_end", 0.25), t_step)
     if scenario == "closed-loop-sine":
         ref = comp.SineCommand(name="command", quantity="position",
                                offset=_scenario_value(rig, scenario, "offset", 0.0),
                                amplitude=_scenario_value(rig, scenario, "amplitude"),
                                frequency=_scenario_value(rig, scenario, "frequency"),
-                               start=0.0, connections={"command": "position_reference"})
-        ctl = comp.PositionController(
-            name="controller", proportional_gain=rig["controller.proportional_gain"],
-            integral_gain=rig.get("controller.integral_gain", 0.0),
-            derivative_gain=rig.get("controller.derivative_gain", 0.0),
-            current_limit=rig.get("controller.current_limit", rig["servovalve.rated_current"]),
-            sample_time=rig.get("controller.sample_time"),
-            connections={"reference": "position_reference", "position": "piston_position",
-                         "velocity": "piston_velocity", "current": "valve_current"})
-        return Scenario(scenario, [ref, ctl], t_end or _scenario_value(rig, scenario, "t_end", 1.0), 0.0,
+                               start=0.0, connections={"command": axis.reference_signal})
+        cmds = [ref]
+        if not axis.controller:   # the template's P loop, from [controller]
+            cmds.append(comp.PositionController(
+                name="controller", proportional_gain=rig["controller.proportional_gain"],
+                integral_gain=rig.get("controller.integral_gain", 0.0),
+                derivative_gain=rig.get("controller.derivative_gain", 0.0),
+                current_limit=rig.get("controller.current_limit", rated),
+                sample_time=rig.get("controller.sample_time"),
+                connections={"reference": axis.reference_signal, "position": axis.position,
+                             "velocity": axis.velocity, "current": axis.current}))
+        return Scenario(scenario, cmds + others, t_end or _scenario_value(rig, scenario, "t_end", 1.0), 0.0,
                         position_guess=_scenario_value(rig, scenario, "initial_position", 0.0))
     raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
 
 
-def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
+def hold_other_axes(rig: Rig, axes: dict, driven: str) -> list:
+    """Commands that hold every axis but ``driven``: a constant position reference where the
+    circuit has the axis's controller (it holds where its actuator starts), else zero valve
+    current.
+
+    Parameters
+    ----------
+    rig : Rig      Parameters (SI)
+    axes : dict    Axis handles, name -> :class:`hydroline.circuit.Axis`
+    driven : str   The axis the experiment drives
+
+    Returns
+    -------
+    list  Command components
+    """
+    out = []
+    for ax in axes.values():
+        if ax.name == driven:
+            continue
+        if ax.controller:
+            x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
+            out.append(comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
+                                        final=x0, time=0.0,
+                                        connections={"command": ax.reference_signal}))
+        else:
+            out.append(comp.StepCommand(name=f"{ax.name}.command", quantity="current",
+                                        connections={"command": ax.current}))
+    return out
+
+
+def _position_step(rig, axes, t_end):
+    """Step one axis's position reference; hold every other axis where it starts."""
+    key = "scenario.position-step"
+    name = rig.get(f"{key}.axis", next(iter(axes)))
+    if name not in axes:
+        raise RigError(f"{key}.axis: no axis {name!r} in the rig (axes: {', '.join(axes)})")
+    t_step = rig.get(f"{key}.time", 0.01)
+    if not t_step > 0:
+        raise RigError(f"{key}.time: must be > 0 [s] (the steady state is solved before the "
+                       f"step), got {rig.raw.get(f'{key}.time', t_step)!r}")
+    step = _scenario_value(rig, "position-step", "step")
+    ax = axes[name]
+    if ax.controller is None:
+        raise RigError(f"{key}: axis '{ax.name}' has no position controller in the circuit "
+                       f"(a position_controller whose current drives '{ax.valve}')")
+    x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
+    cmds = [comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
+                             final=x0 + step, time=t_step,
+                             connections={"command": ax.reference_signal})]
+    cmds += hold_other_axes(rig, axes, name)
+    return Scenario("position-step", cmds, t_end or _scenario_value(rig, "position-step", "t_end", 0.15),
+                    t_step)
+
+
+def simulate(rig: Rig | str | None = None, scenario: str | None = None,
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
              stream_columns=None) -> SimulationResult:
@@ -128,7 +219,8 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     ----------
     rig : Rig, str or None   A parsed rig, a path to a rig TOML file, or None for the
                              embedded default (the 2005 paper's rig)
-    scenario : str           "open-loop-step" or "closed-loop-sine"
+    scenario : str           One of :data:`SCENARIOS`; None: the rig's ``rig.scenario``, else
+                             "open-loop-step"
     t_end : float            Simulated time, [s] (the scenario's default when None)
     dt_out : float           Output sampling interval, [s]
     solver : str             "auto" (the compiled C core where a C compiler exists, else
@@ -152,19 +244,28 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
-    sc = build_scenario(rig, scenario, t_end)
-    net = build_network(rig, sc.commands, sc.position_guess)
+    scenario = scenario or default_scenario(rig)
+    circuit = build_circuit(rig)
+    sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+    if sc.position_guess is not None:
+        circuit = build_circuit(rig, sc.position_guess)
+    net = circuit.network(sc.commands)
     ss = solve_steady_state(net, t0=0.0)
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                     stream_columns=stream_columns)
     res.steady_state = ss
-    act = net.component("actuator")
-    if scenario == "closed-loop-sine":
+    first = next(iter(circuit.axes.values()))
+    act = net.component(first.actuator)
+    if sc.name == "closed-loop-sine":
         res.metadata["command_frequency_hz"] = float(sc.commands[0].frequency)
     res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
-                        stroke=act.stroke,
+                        stroke=act.stroke, axes=circuit.axes,
+                        stepped_axis=rig.get("scenario.position-step.axis", first.name),
                         actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
+                        axis_natural_frequency_hz={
+                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
+                            for n, a in circuit.axes.items()},
                         total_wall_time=_time.perf_counter() - tic,
                         steady_state_residual=ss.residual, n_states=len(net.state_names))
     if stream_to is None:
@@ -173,7 +274,7 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
         lows = res.metadata["stream_stats"]["min"]
         res.warnings.extend(f"{k} falls below {CAVITATION_PRESSURE / 1e6:g} MPa absolute (lowest "
                             f"{lows[k] / 1e6:.2f} MPa): the line model is not valid there"
-                            for k in WATCHED_PRESSURES
+                            for k in watched_pressures(res)
                             if k in lows.index and lows[k] < CAVITATION_PRESSURE)
     if stream_to is None:
         res.metadata["metrics_window"] = metrics_window(res)
@@ -181,10 +282,20 @@ def simulate(rig: Rig | str | None = None, scenario: str = "open-loop-step",
     return res
 
 
+def watched_pressures(res: SimulationResult) -> list[str]:
+    """Pressure signals watched for cavitation: the paper rig's and every axis's ports and
+    chambers (from the handles in ``res.metadata["axes"]``)."""
+    out = list(WATCHED_PRESSURES)
+    for ax in res.metadata.get("axes", {}).values():
+        out += [s for s in (ax.supply_pressure, ax.return_pressure, ax.bottom_pressure,
+                            ax.top_pressure) if s not in out]
+    return out
+
+
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
     """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8)."""
     out = []
-    for k in WATCHED_PRESSURES:
+    for k in watched_pressures(res):
         if k not in res.data:
             continue
         p = res[k]
@@ -221,20 +332,25 @@ def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, 
     """
     t0 = float(res.metadata.get("t_disturbance", 0.0))
     t = res.t
-    if "piston_position" not in res.data:
-        return t0, float(t[-1]), "end"
-    x = res["piston_position"]
-    half = res.metadata.get("stroke", np.inf) / 2
-    after = t >= t0
-    x0 = float(np.interp(t0, t, x))
-    moved = np.flatnonzero(after & (np.abs(x - x0) > margin))
-    if moved.size == 0 or not np.isfinite(half):
-        return t0, float(t[-1]), "end"
-    direction = math.copysign(1.0, x[moved[0]] - x0)
-    arrived = np.flatnonzero(after & (direction * x >= half - margin) & (t > t[moved[0]] - 1e-12))
-    if arrived.size == 0:
-        return t0, float(t[-1]), "end"
-    return t0, float(t[arrived[0]]), "stop"
+    axes = res.metadata.get("axes") or {}
+    pairs = [(ax.position, ax.stroke) for ax in axes.values()] or \
+        [("piston_position", res.metadata.get("stroke", np.inf))]
+    end, reason = float(t[-1]), "end"
+    for signal, stroke in pairs:     # the first axis to arrive at the stop it moves toward
+        if signal not in res.data:
+            continue
+        x = res[signal]
+        half = stroke / 2
+        after = t >= t0
+        x0 = float(np.interp(t0, t, x))
+        moved = np.flatnonzero(after & (np.abs(x - x0) > margin))
+        if moved.size == 0 or not np.isfinite(half):
+            continue
+        direction = math.copysign(1.0, x[moved[0]] - x0)
+        arrived = np.flatnonzero(after & (direction * x >= half - margin) & (t > t[moved[0]] - 1e-12))
+        if arrived.size and float(t[arrived[0]]) < end:
+            end, reason = float(t[arrived[0]]), "stop"
+    return t0, end, reason
 
 
 def _window_note(t0, t1, reason, scenario):
@@ -280,8 +396,13 @@ def summarize(res: SimulationResult) -> dict:
     scenario = res.metadata.get("scenario")
     m = res.t <= t1
     t = res.t[m]
+    axes = res.metadata.get("axes") or {}
+    if len(axes) > 1:
+        return _summarize_axes(res, axes, t0, t1, m, reason)
+    ax = next(iter(axes.values()), None)
     out = {}
-    for side, key in (("supply", "supply_port_pressure"), ("return", "return_port_pressure")):
+    for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
+                      ("return", ax.return_pressure if ax else "return_port_pressure")):
         p = res[key][m]
         if scenario == "closed-loop-sine":
             ripple = _cycle_ripple(t, p, t0, t1, res.metadata["command_frequency_hz"])
@@ -298,10 +419,40 @@ def summarize(res: SimulationResult) -> dict:
     out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
     if scenario == "closed-loop-sine":
-        err = (res["position_reference"] - res["piston_position"])[m]
+        err = (res[ax.reference_signal if ax else "position_reference"]
+               - res[ax.position if ax else "piston_position"])[m]
         out["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
         out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
     out["metrics_window_s"] = [t0, t1]
     out["metrics_window_note"] = _window_note(t0, t1, reason, scenario)
+    out["warnings"] = list(res.warnings)
+    return out
+
+
+def _summarize_axes(res, axes, t0, t1, m, reason):
+    """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
+
+    ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
+    the disturbance, over the metrics window, for every axis but the stepped one (null there:
+    it moves on purpose; ``position_change_mm`` gives its travel), [mm].
+    """
+    t = res.t[m]
+    i0 = int(np.searchsorted(res.t, t0))
+    stepped = res.metadata.get("stepped_axis")
+    out = {"axes": {}}
+    for name, ax in axes.items():
+        x = res[ax.position][m]
+        dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
+        entry = {side: pressure_metrics(t, res[key][m], t0, t1)
+                 for side, key in (("supply", ax.supply_pressure), ("return", ax.return_pressure))}
+        entry["position_disturbance_mm"] = None if name == stepped else dev
+        if name == stepped:
+            entry["position_change_mm"] = float((x[-1] - x[i0]) * 1e3)
+        entry["actuator_natural_frequency_hz"] = float(
+            res.metadata["axis_natural_frequency_hz"][name])
+        out["axes"][name] = entry
+    out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
+    out["metrics_window_s"] = [t0, t1]
+    out["metrics_window_note"] = _window_note(t0, t1, reason, res.metadata.get("scenario"))
     out["warnings"] = list(res.warnings)
     return out

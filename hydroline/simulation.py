@@ -57,12 +57,16 @@ def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     falls (switched evolution relaxation), ending in plain Newton steps. Robust where Newton
     alone stalls on the kinks of check valves, stops and orifices."""
     z0 = x / scales
+    best, best_res = z0, np.inf
     for attempt in range(3):   # a first step too long can land in a far basin: shorter ones
         z = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt,
                                   max_iter * (1 + 3 * attempt))
-        if np.all(np.isfinite(z)) and np.max(np.abs(model.rhs(t0, z * scales, p) / scales)) < tol:
+        r = np.max(np.abs(model.rhs(t0, z * scales, p) / scales)) if np.all(np.isfinite(z)) else np.inf
+        if r < best_res:   # keep the best attempt (a later, shorter start may end worse)
+            best, best_res = z, r
+        if r < tol:
             break
-    return z * scales
+    return best * scales
 
 
 def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
