@@ -7,6 +7,8 @@ state re-solved in C when parameters are tuned). Each FMU is built once per modu
 """
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -307,6 +309,8 @@ def test_fmu_state_restores_a_co_simulation_step(default_fmu):
     (["--start", "fatigue"], "--start"),
     (["no_such_rig.toml"], "no_such_rig.toml"),
     (["--out", "/dev/null/plant.fmu"], "--out"),
+    ([str(Path(hydroline.__file__).parent / "rigs" / "two_axis.toml"), "--start", "position-step"],
+     "single-axis"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(capsys, args, word):
     assert main(["export-fmu", *args]) == 2

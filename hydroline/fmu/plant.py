@@ -130,6 +130,9 @@ def rest_state(rig: Rig, start: str = "open-loop-step") -> Plant:
         raise ValueError(f"start: unknown scenario {start!r} (known: {', '.join(SCENARIOS)})")
     sc = build_scenario(rig, start)
     full = build_network(rig, sc.commands, sc.position_guess)
+    if "valve_current" not in full.signal_names or "actuator" not in {c.name for c in full.components}:
+        raise RigError(f"rig {rig.source}: only a single-axis plant (one servovalve driven by "
+                       f"'valve_current', one 'actuator') can be exported as an FMU")
     ss = solve_steady_state(full, t0=0.0)
     current = full.signals_at(0.0, ss.x, ss.p)["valve_current"]
     net = linear_network(rig, "lines", valve_current=current, position_guess=sc.position_guess)
