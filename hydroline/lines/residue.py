@@ -77,7 +77,12 @@ from .line import FORM_PORTS, Line, check_form
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
            "viscous_poles", "exact_moments", "column_branches", "tail_groups"]
 
-#: The dropped modes k > n are lumped in groups ``[a_g, a_{g+1})`` with
+#: PP and QQ forms: damping ratio of the single pseudo-mode per output that stands for the
+#: dropped modes (the grouped, fitted remainder of PQ/QP is not yet constrained to keep the
+#: port admittance/impedance passive), [-]. Light: its in-band part must stay reactive.
+TAIL_DAMPING = 0.05
+
+#: PQ and QP forms: the dropped modes k > n are lumped in groups ``[a_g, a_{g+1})`` with
 #: ``a_g = (n + 1) TAIL_GROUP_RATIO^g`` (the last group runs to infinity), one pseudo-mode per
 #: group and output, [-]. 4 groups of ratio 1.5: in the band, peaks 1..n-1 within 0.9 %
 #: (n = 6, 9 lines, all forms); above it, nothing beyond the exact envelope (the test's
@@ -366,6 +371,19 @@ def _mode_pp(p, R):
     return A, B, np.array([[0.0, 1.0], [0.0, sg]])
 
 
+def _tail_omega(n_modes: int, form: str) -> float:
+    """Omega tau of one mode with the first and third moments of the lossless tail.
+
+    ``sum_{i>n} 2 s tau/((s tau)^2 + theta_i^2) = 2 S2 s tau - 2 S4 (s tau)^3 + ...`` with
+    ``S_k = sum_{i>n} theta_i^-k`` (polygamma sums); ``K s/(s^2 + Omega^2)`` matches both
+    for ``(Omega tau)^2 = S2/S4``.
+    """
+    a = n_modes + (0.5 if form in ("PQ", "QP") else 1.0)
+    S2 = special.polygamma(1, a) / np.pi**2
+    S4 = special.polygamma(3, a) / (6.0 * np.pi**4)
+    return float(np.sqrt(S2 / S4))
+
+
 def _lumped_rate(V0, V1, rates, weights):
     """Rate of one real pole with DC gain V0 and first moment V1, inside the cluster range."""
     lo, hi = rates.min(), rates.max()
@@ -444,6 +462,12 @@ def tail_groups(n_modes: int, form: str = "PQ"):
     return out
 
 
+def _equality_lsq(Q, q, G, h):
+    """min ``z'Q z - 2 q'z`` subject to ``G z = h`` exactly (KKT system)."""
+    K = np.block([[Q, G.T], [G, np.zeros((len(h), len(h)))]])
+    return np.linalg.solve(K, np.concatenate([q, h]))[:len(q)]
+
+
 def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
     """Pseudo-modes that stand for the dropped modes k > n (module docstring, "Remainder").
 
@@ -497,31 +521,46 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
         return (M.real.T @ M.real + M.imag.T @ M.imag,
                 M.real.T @ y.real + M.imag.T @ y.imag)
 
-    def solve(Q, q, h):
-        K = np.block([[Q, G.T], [G, np.zeros((2, 2))]])
-        return np.linalg.solve(K, np.concatenate([q, h]))[:2 * m]
+    # numerators of output o: beta_j = L[j] @ z, z = [beta_0, beta_1] (j = input)
+    k2 = 2 * m
+    L = [np.hstack([np.eye(k2), np.zeros((k2, k2))]), np.hstack([np.zeros((k2, k2)), np.eye(k2)])]
+    L = [L, L]
 
-    beta = np.zeros((2, 2, 2 * m))
+    beta = np.zeros((2, 2, k2))
     for o in range(2):
+        Qz, qz, Gz, hz, rows = 0.0, 0.0, [], [], []
         for j in range(2):
-            h = np.array([rem0[o, j], rem1[o, j] / tau])
+            Lj = L[o][j]
             scale = max(np.abs(E_in[:, o, j]).max(), 1e-300)
             Q1, q1 = normal(F_in, E_in[:, o, j])
             Q2, q2 = normal(F_up, TAIL_MEAN_WEIGHT * E_up[:, o, j])
-            Q, q = (Q1 + Q2) / scale**2, (q1 + q2) / scale**2
-            b = solve(Q, q, h)
-            weight = 0.03 / TAIL_FIT_POINTS      # per point, against the in-band fit
-            for _ in range(TAIL_ITERATIONS):
-                H = base_c[:, o, j] + F_c @ b
+            Qz = Qz + Lj.T @ (Q1 + Q2) @ Lj / scale**2
+            qz = qz + Lj.T @ (q1 + q2) / scale**2
+            Gz.append(G @ Lj)
+            hz += [rem0[o, j], rem1[o, j] / tau]
+            rows.append(scale)
+        Gz, hz = np.vstack(Gz), np.array(hz)
+        z = _equality_lsq(Qz, qz, Gz, hz)
+        weight = 0.03 / TAIL_FIT_POINTS      # per point, against the in-band fit
+        for _ in range(TAIL_ITERATIONS):
+            added = False
+            for j in range(2):
+                Lj = L[o][j]
+                H = base_c[:, o, j] + F_c @ (Lj @ z)
                 over = np.flatnonzero(np.abs(H) > bound[:, o, j])
-                if over.size == 0:
-                    break
-                target = H[over] * (0.97 * bound[over, o, j] / np.abs(H[over])) - base_c[over, o, j]
-                Qk, qk = normal(F_c[over], target)
-                Q, q = Q + weight * Qk / scale**2, q + weight * qk / scale**2
-                b = solve(Q, q, h)
-                weight *= 4.0
-            beta[o, j] = b
+                if over.size:
+                    added = True
+                    target = (H[over] * (0.97 * bound[over, o, j] / np.abs(H[over]))
+                              - base_c[over, o, j])
+                    Qk, qk = normal(F_c[over], target)
+                    Qz = Qz + weight * Lj.T @ Qk @ Lj / rows[j]**2
+                    qz = qz + weight * Lj.T @ qk / rows[j]**2
+            if not added:
+                break
+            z = _equality_lsq(Qz, qz, Gz, hz)
+            weight *= 4.0
+        for j in range(2):
+            beta[o, j] = L[o][j] @ z
 
     out = []
     for o in range(2):
@@ -534,6 +573,24 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
             # y' = -a1 y + W q + b1 u,  q' = -W y + (b0/W) u:  y = (b1 s + b0)/(s^2 + a1 s + W^2) u
             out.append((np.array([[-a1, W], [-W, 0.0]]), np.vstack([b1, b0 / W]), Ct.copy(),
                         [f"tail{i + 1}_{end}.{kind}1", f"tail{i + 1}_{end}.{kind}2"]))
+    return out
+
+
+def _single_tail_blocks(n, form, tau, rem0, rem1, ends):
+    """PP/QQ: one pseudo-mode per output, ``Omega`` from the lossless tail's first and third
+    moments (:func:`_tail_omega`), ``zeta = TAIL_DAMPING``, numerators from the exact DC gain
+    and first moment. Passive, but it peaks above the band at 2-9 times the exact envelope."""
+    Om = _tail_omega(n, form) / tau
+    a1, a0 = 2.0 * TAIL_DAMPING * Om, Om**2
+    out = []
+    for o in range(2):
+        b0 = rem0[o] * a0
+        b1 = rem1[o] * a0 + rem0[o] * a1
+        Ct = np.zeros((2, 2))
+        Ct[o, 0] = 1.0
+        end, kind = ends[o]
+        out.append((np.array([[-a1, Om], [-Om, 0.0]]), np.vstack([b1, b0 / Om]), Ct,
+                    [f"tail_{end}.{kind}1", f"tail_{end}.{kind}2"]))
     return out
 
 
@@ -610,8 +667,11 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
             rem0[o, j] -= V0
             rem1[o, j] -= -V0 / lam
 
-    # T: dropped modes, well-damped pseudo-modes per output; exact DC gain and first moment
-    blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends)
+    # T: dropped modes; exact DC gain and first moment
+    if form in ("PQ", "QP"):      # well-damped grouped pseudo-modes, fitted and bounded
+        blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends)
+    else:                         # one light pseudo-mode per output (passive)
+        blocks += _single_tail_blocks(n, form, tau, rem0, rem1, ends)
 
     N = sum(b[0].shape[0] for b in blocks)
     A, B, C = np.zeros((N, N)), np.zeros((N, 2)), np.zeros((2, N))
