@@ -331,7 +331,7 @@ def test_all_forms_range_of_lines(form, n):
     model (M6). Measured worst: frequency 0.31 %; peaks 1 .. n-1 <= 1.08 % (PP/QQ, and PQ/QP
     with n = 6: <= 0.91 %), peak n 3.4 % (n = 6) / 6.4 % (n = 10; d = 6 mm, L = 10 m), the
     n-th peak being next to the first dropped mode; PQ/QP n = 10 on d = 6 mm, L = 10 m:
-    peaks n-2, n-1 up to 4.1 % (see the assertion). (Yang-Tobler: tests/test_lines.py.)
+    peaks n-2, n-1 2.2 % and 4.0 % (see the assertion). (Yang-Tobler: tests/test_lines.py.)
     """
     worst = np.zeros(n)
     worst_f = 0.0
@@ -348,7 +348,7 @@ def test_all_forms_range_of_lines(form, n):
     assert worst_f < 1.0                   # the issue's limits, every mode and entry
     assert worst.max() < 10.0
     # modes 1 .. n-1 converge much further; PQ/QP with n = 10 on the lossiest line
-    # (6 mm x 10 m, Dn = 0.033): modes n-2, n-1 up to 4.1 %, the price of a remainder that
+    # (6 mm x 10 m, Dn = 0.033): modes n-2, n-1 2.2 % and 4.0 %, the price of a remainder that
     # stays under the exact envelope above the band (there the exact response is within
     # ~1.5 Zc of Zc, and the dropped modes' in-band reactance must hand over to it within
     # about one mode spacing); all other lines <= 1.0 %
@@ -491,7 +491,8 @@ def test_nothing_above_the_band_exceeds_the_exact_envelope(n):
     passive; not yet done for them: they still peak at 2-9 times the envelope). The
     earlier remainder (one pseudo-mode per output, zeta = 0.05, at ~1.75 f_b) peaked at
     2-3 times the envelope (Dn ~ 0.003: the default supply hose, 777 Hz), up to 9.6 times
-    (Dn = 0.033). Measured now: <= 1.08 (n = 6) and <= 1.10 (n = 10).
+    (Dn = 0.033). Measured now: <= 1.08 (n = 6 and 10; the construction bounds it at 1.08
+    on a coarser grid).
     """
     worst = (0.0, None)
     lines = _nine_lines() if n == 6 else [_nine_lines()[k] for k in (2, 5, 8)]

@@ -35,15 +35,25 @@
     (:func:`viscous_poles`), those slower than the first dropped mode are kept, and for every
     entry they are lumped into one real pole whose DC gain and first moment equal theirs
     (one state per entry);
-  - ``T``, the dropped modes (and the faster real poles): one lightly damped pseudo-mode
-    per output, ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` with ``Omega`` from the
-    moments of the lossless tail and ``zeta = TAIL_DAMPING``, whose numerators make the DC
-    gain and the first moment of every entry of the whole model exact. For the ``tanh`` and
-    ``coth`` entries T is the inertance of the dropped modes, which decides the top
-    resonance peaks; a real-pole block cannot represent it and a feed-through D would make
-    algebraic loops in the network. Price: above the band (~1.6 omega_{n+1}) those entries
-    have one resonance 2-3 times higher than the exact line's there (Dn ~ 0.003; up to 8
-    times at Dn = 0.033).
+  - ``T``, the dropped modes (and the faster real poles). For the ``tanh`` and ``coth``
+    entries T is the inertance of the dropped modes, which decides the top resonance
+    peaks; a real-pole block cannot represent it and a feed-through D would make algebraic
+    loops in the network. Above the band the exact entries oscillate about the
+    reflection-free line (``Zc``, ``1/Zc``; 0 for sech, csch) with the dropped resonances,
+    which a modal line cannot resolve; T must not invent one there.
+
+    PQ, QP (:func:`_remainder_blocks`): the dropped modes in ``TAIL_GROUPS`` groups
+    (:func:`tail_groups`, modes n+1 .. 1.5(n+1), .. 2.25(n+1), .. 3.4(n+1), rest), one
+    damped pair ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` per group and output, with
+    ``Omega`` from the group's lossless first and third moments and ``zeta`` ~ the group's
+    relative width (0.16 ... 0.8; every pair decays within L/c). The numerators are a
+    least-squares fit of the exact remainder in the band and of the reflection-free mean
+    above it, with the DC gain and first moment of every entry exact (equality
+    constraints) and ``|H| <= TAIL_BOUND * envelope`` above the band (re-weighting).
+    PP, QQ (:func:`_single_tail_blocks`): one light pseudo-mode per output
+    (``zeta = TAIL_DAMPING``), numerators from the exact DC gain and first moment; it keeps
+    the port admittance/impedance passive but peaks above the band at 2-9 times the exact
+    envelope (a passive, i.e. positive-real constrained, version of the fit is not done).
 
   The DC gain of every entry is therefore exact: PQ/QP the laminar steady state (M12),
   PP ``1/R``, QQ ``1/(s C)`` plus the offsets ``R/3`` (coth) and ``-R/6`` (csch).
@@ -61,8 +71,8 @@ after the dot gives the unit):
 * ``viscous_{end}{j}.{q}`` -- the lumped real-axis poles' contribution of input j (1, 2)
   to the output at ``end`` ("upstream"/"downstream") of quantity q ("pressure"/"flow"),
   e.g. PQ ``viscous_downstream2.pressure``: part of P_d driven by Q_d;
-* ``tail_{end}.{q}1``, ``tail_{end}.{q}2`` -- the dropped modes' contribution to that
-  output and its quadrature component (same unit).
+* PQ/QP: ``tail{g}_{end}.{q}1``, ``tail{g}_{end}.{q}2`` -- group g's contribution to that
+  output and its quadrature component (same unit); PP/QQ: ``tail_{end}.{q}1``, ``...2``.
 
 Inputs and outputs are in the order of the form's table (:data:`FORM_PORTS`).
 """
@@ -94,7 +104,7 @@ TAIL_GROUP_RATIO = 1.5
 #: Damping ratio of a group's pseudo-mode, as a fraction of the group's relative width
 #: ``zeta = TAIL_ZETA_SCALE * width/(2 Omega)`` (its half-power band covers about the modes it
 #: stands for), at most ``TAIL_ZETA_MAX`` (the infinite group), [-]. The pseudo-modes then
-#: have zeta 0.17 ... 0.8 and decay within 0.3 L/c (n = 6), 20 times faster than mode n.
+#: have zeta 0.16 ... 0.8 and decay within 0.3 L/c (n = 6), 20 times faster than mode n.
 TAIL_ZETA_SCALE = 0.8
 TAIL_ZETA_MAX = 0.8
 
@@ -103,8 +113,10 @@ TAIL_ZETA_MAX = 0.8
 TAIL_MEAN_WEIGHT = 0.1
 
 #: Bound on the model above the band, times the exact response's envelope (running maximum
-#: of |H_exact| over all higher frequencies); enforced by re-weighting, [-].
-TAIL_BOUND = 1.1
+#: of |H_exact| over all higher frequencies); enforced by re-weighting on a grid of
+#: TAIL_POINTS_PER_SPACING points per mode spacing (1.08: the tests, on a finer grid, see
+#: <= 1.075 with their bound 1.1), [-].
+TAIL_BOUND = 1.08
 
 #: Frequency points of the in-band fit and of the reflection-free mean above it, [-].
 TAIL_FIT_POINTS = 300
@@ -607,7 +619,8 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     -------
     (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
     form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
-    2 n modal + 4 viscous + 4 tail, plus 6 column states (PP) or 1 (QQ).
+    2 n modal + 4 viscous + tail (PQ/QP: 4 per group of :func:`tail_groups`, 16; PP/QQ: 4),
+    plus 6 column states (PP) or 1 (QQ).
     """
     if not isinstance(line, Line):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
