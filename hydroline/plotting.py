@@ -25,11 +25,8 @@ def _figure(n):
 
 def _window_end(result):
     """End of the metrics window (piston clear of its stops), [s]; None when it is the end."""
-    t1 = result.metadata.get("metrics_window_end")
-    if t1 is None and "piston_position" in result.data and "stroke" in result.metadata:
-        from .scenarios import metrics_window
-
-        t1 = metrics_window(result)[1]
+    window = result.metadata.get("metrics_window")
+    t1 = window[1] if window is not None and window[2] == "stop" else None
     return t1 if t1 is not None and t1 < result.t[-1] else None
 
 
@@ -59,7 +56,12 @@ def plot_result(result, signals=None, path=None, title=None):
     matplotlib.figure.Figure
     """
     panels = PRESSURE_PANELS if signals is None else tuple((s, (s,), 1.0) for s in signals)
-    panels = tuple(p for p in panels if any(k in result.data for k in p[1]))
+    series = {k: result[k] for k in result.data.columns}
+    if signals is None and "position_reference" in result.data:   # closed loop: tracking
+        series["tracking_error"] = result["position_reference"] - result["piston_position"]
+        panels = panels + (("Command and position [mm]", ("position_reference", "piston_position"), 1e3),
+                           ("Tracking error [mm]", ("tracking_error",), 1e3))
+    panels = tuple(p for p in panels if any(k in series for k in p[1]))
     fig, axes = _figure(len(panels))
     t_ms = result.t * 1e3
     t1 = _window_end(result)
@@ -69,8 +71,8 @@ def plot_result(result, signals=None, path=None, title=None):
     for ax, (label, keys, scale) in zip(axes[:, 0], panels):
         shown = []
         for k in keys:
-            if k in result.data:
-                y = result[k] * scale
+            if k in series:
+                y = series[k] * scale
                 line, = ax.plot(t_ms[:k1], y[:k1], lw=1.0, label=k.replace("_", " "))
                 if t1 is not None:   # after the stop: grey, and not in the y-range
                     ax.plot(t_ms[k1 - 1:], y[k1 - 1:], lw=0.8, color="0.6")

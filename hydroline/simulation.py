@@ -56,7 +56,22 @@ def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     implicit-Euler steps ``(I/dt - J) dz = f`` in scaled states with dt growing as the residual
     falls (switched evolution relaxation), ending in plain Newton steps. Robust where Newton
     alone stalls on the kinks of check valves, stops and orifices."""
-    z = x / scales
+    z0 = x / scales
+    best, best_res = z0, np.inf
+    for attempt in range(3):   # a first step too long can land in a far basin: shorter ones
+        z = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt,
+                                  max_iter * (1 + 3 * attempt))
+        r = np.max(np.abs(model.rhs(t0, z * scales, p) / scales)) if np.all(np.isfinite(z)) else np.inf
+        if r < best_res:   # keep the best attempt (a later, shorter start may end worse)
+            best, best_res = z, r
+        if r < tol:
+            break
+    return best * scales
+
+
+def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
+    """One pseudo-transient run from scaled states ``z``; returns the scaled states reached."""
+    z = z.copy()
     n = len(z)
 
     def resid(z):
@@ -83,7 +98,7 @@ def _pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
         z, r = z_new, r_new
         dt = min(dt * max(norm / max(norm_new, 1e-300), 0.5), 1e12)
         norm = norm_new
-    return z * scales
+    return z
 
 
 def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,

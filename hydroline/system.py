@@ -35,11 +35,12 @@ import numpy as np
 from . import components as comp
 from .fluid import Fluid
 from .lines import Line, ModalLine
+from .circuit import Circuit, CircuitError, axes_of, circuit_components, has_circuit, rewire
 from .network import Network
-from .rigs import SCHEMA, Rig, RigError
+from .rigs import SCHEMA, Rig, RigError, declarations
 
-__all__ = ["build_network", "make_fluid", "make_line", "hose_lines", "validate_rig",
-           "pressure_profile"]
+__all__ = ["build_network", "build_circuit", "make_fluid", "make_line", "hose_lines",
+           "validate_rig", "pressure_profile"]
 
 
 #: Oil volume of the HSM block's passages, used as the node when a section II is removed, [m^3]
@@ -112,28 +113,11 @@ def _accumulator(rig, side, fluid, nominal, node_signal):
     raise RigError(f"{key}.model: must be 'version-II' or 'modal', got {kind!r}")
 
 
-#: Parameters checked before the network is built: path -> (condition, its text). The unit of
-#: the message is the rig schema's (SI); the value is echoed as written in the file.
-_POSITIVE = ("fluid.density", "fluid.kinematic_viscosity", "fluid.bulk_modulus",
-             "return.pressure", "actuator.stroke", "actuator.area", "actuator.bottom_area",
-             "actuator.top_area", "actuator.dead_volume", "actuator.bulk_modulus",
-             "actuator.moving_mass", "servovalve.rated_current", "servovalve.rated_flow",
-             "servovalve.rated_pressure_drop", "servovalve.max_opening",
-             "servovalve.natural_frequency", "servovalve.damping_ratio",
-             "servovalve.laminar_pressure", "supply.manifold.volume", "return.manifold.volume",
-             "return.check_valve.reverse_resistance", "friction.stribeck_velocity",
-             "friction.regularization_velocity", "controller.current_limit",
-             "controller.sample_time",
-             *(f"{side}.accumulator.{k}" for side in ("supply", "return")
-               for k in ("capacity", "precharge_pressure", "connection_length",
-                         "connection_diameter")))
-_NON_NEGATIVE = ("supply.manifold.resistance", "return.manifold.resistance",
-                 "return.check_valve.forward_resistance", "load.mass", "load.stiffness",
-                 "load.damping", "controller.proportional_gain", "controller.integral_gain",
-                 "controller.derivative_gain",
-                 *(f"friction.{k}" for k in ("viscous_up", "viscous_down", "coulomb_up",
-                                             "coulomb_down", "static_up", "static_down",
-                                             "stribeck_exponent")))
+#: Template-rig parameters checked before the network is built that no component declares
+#: (the components' own are checked against their declarations, see
+#: :func:`hydroline.rigs.declarations`). The value is echoed as written in the file.
+_POSITIVE = ("return.pressure", "actuator.area", "actuator.dead_volume",
+             "supply.manifold.volume", "return.manifold.volume")
 
 
 _PROFILE_KEYS = {"step": ("time", "final"), "sine": ("amplitude", "frequency"),
@@ -249,14 +233,19 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
     -------
     dict  side -> its :func:`pressure_profile` (read once, for the network builder)
     """
+    for path, v in rig.values.items():
+        section, _, key = path.rpartition(".")
+        decl = declarations(section).get(key)
+        if decl is not None:
+            rule = decl.violation(v)
+            if rule is not None:
+                raise _bad(rig, path, rule)
+    if has_circuit(rig.values):
+        return {}
     for path in _POSITIVE:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v > 0):
             raise _bad(rig, path, "> 0")
-    for path in _NON_NEGATIVE:
-        v = rig.get(path)
-        if v is not None and not (np.isfinite(v) and v >= 0):
-            raise _bad(rig, path, ">= 0")
     profiles = {side: pressure_profile(rig, side) for side in ("supply", "return")}
     _, p_s, (s_low, _) = profiles["supply"]
     _, p_t, (t_low, t_high) = profiles["return"]
@@ -294,11 +283,6 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
             raise RigError(f"{path}: must be below {side}.pressure ({rig.raw.get(f'{side}.pressure', p_side)!r}) "
                            f"[Pa, absolute]: pre-charged above it the accumulator holds no oil, "
                            f"got {rig.raw.get(path, p0)!r}")
-    for side in ("supply", "return"):
-        path = f"{side}.accumulator.polytropic_exponent"
-        m = rig.get(path)
-        if m is not None and not 1.0 <= m <= 5.0 / 3.0:
-            raise _bad(rig, path, "within [1, 5/3] (isothermal ... adiabatic)")
     return profiles
 
 
@@ -308,22 +292,67 @@ def build_network(rig: Rig, commands: list, position_guess: float | None = None)
     Parameters
     ----------
     rig : Rig             Parameters (SI)
-    commands : list       Components that output ``valve_current`` (open loop) or
-                          ``position_reference`` plus a controller (closed loop)
-    position_guess : float  Initial piston position for the steady-state solver, [m]
+    commands : list       Components that output each axis's valve current (open loop) or
+                          position reference plus a controller (closed loop); see
+                          :attr:`Circuit.axes` for the signal names
+    position_guess : float  Initial piston position of the first axis for the steady-state
+                          solver, [m]
 
     Returns
     -------
     Network
     """
-    profiles = validate_rig(rig, position_guess)
+    circuit = build_circuit(rig, position_guess)
     try:
-        return _build(rig, commands, position_guess, profiles)
+        return circuit.network(commands)
+    except CircuitError as e:
+        raise RigError(str(e)) from None
+
+
+def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
+    """The components of a rig and their axis handles, before an experiment's commands.
+
+    A rig with ``[circuit.<name>]`` tables is built from that description
+    (:func:`hydroline.circuit.circuit_components`); the 2005 paper's flat rig (sections
+    ``supply``, ``supply.section1``, ..., ``servovalve``, ``actuator``) is a compact template
+    that expands into the same kind of component list here.
+
+    Parameters
+    ----------
+    rig : Rig               Parameters (SI)
+    position_guess : float  Initial piston position of the first axis, [m]; None: the rig's
+
+    Returns
+    -------
+    Circuit  components, axes (handles), source
+    """
+    profiles = validate_rig(rig, position_guess if not has_circuit(rig.values) else None)
+    if has_circuit(rig.values):
+        try:
+            circuit = circuit_components(rig, _overrides(rig))
+            circuit.place(position_guess)
+        except CircuitError as e:
+            raise RigError(str(e)) from None
+        return circuit
+    try:
+        parts = _build(rig, position_guess, profiles)
     except (KeyError,) as e:
         raise RigError(f"rig is missing {e}") from None
+    overrides = _overrides(rig)
+    try:
+        rewire(parts, overrides, allow_unknown=True)
+    except CircuitError as e:
+        raise RigError(str(e)) from None
+    return Circuit(parts, axes_of(parts), rig.source, overrides)
 
 
-def _build(rig, commands, position_guess, profiles):
+def _overrides(rig):
+    """The rig's ``[connections]`` overrides, "component.port" -> signal."""
+    return {path[len("connections."):]: signal for path, signal in rig.values.items()
+            if path.startswith("connections.")}
+
+
+def _build(rig, position_guess, profiles):
     fluid = make_fluid(rig)
     w_s, p_s, _ = profiles["supply"]
     w_t, p_t, _ = profiles["return"]
@@ -440,26 +469,7 @@ def _build(rig, commands, position_guess, profiles):
                            applied_force=rig.get("load.applied_force", 0.0),
                            free_position=rig.get("load.free_position", 0.0),
                            connections={"position": "piston_position", "velocity": "piston_velocity"}))
-    parts += list(commands)
-    _rewire(rig, parts)
-    return Network(parts)
-
-
-def _rewire(rig, parts):
-    """Apply the rig's ``[connections]`` overrides ("component.port" = "signal")."""
-    by_name = {c.name: c for c in parts}
-    for path, signal in rig.values.items():
-        if not path.startswith("connections."):
-            continue
-        target = path[len("connections."):]
-        cname, _, port = target.rpartition(".")
-        c = by_name.get(cname)
-        if c is None:
-            raise RigError(f"{path}: unknown component '{cname}' (components: {', '.join(sorted(by_name))})")
-        if port not in c.inputs and port not in c.outputs:
-            raise RigError(f"{path}: component '{cname}' has no port '{port}' "
-                           f"(ports: {', '.join(list(c.inputs) + list(c.outputs))})")
-        c.connections = dict(c.connections, **{port: signal})
+    return parts
 
 
 def make_actuator(rig: Rig, position_guess=None, nominal_pressure=None) -> comp.Actuator:

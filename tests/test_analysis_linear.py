@@ -218,20 +218,36 @@ def test_constant_supply_bandwidth_above_hoses_default_rig(bode_default, tmp_pat
     the rated-flow operating point of the default rig: the -3 dB bandwidth with ideal supply
     and return pressures is above that with the hoses (modal and exact lines).
 
-    Measured: 152.7 Hz constant supply, 149.4 Hz modal lines, 149.1 Hz exact lines (-2.2 %,
-    -2.4 %). The comparison is strict (>): no physical law fixes how much the hoses must
-    cost -- at 150 Hz it depends on the port impedance of the hoses between their line modes
-    -- so no margin is asserted. What is asserted is that the effect is resolved: the
-    constant-vs-hoses gap is several times the modal-vs-exact discrepancy (0.4 Hz), so it is
-    not an artefact of the modal truncation.
+    Measured: 149.5 Hz constant supply, 145.9 Hz exact lines (-2.4 %). The modal lines' first
+    -3 dB crossing is 39.3 Hz: the piston velocity has a notch at the supply line's first mode,
+    -3.07 dB with the modal lines and -2.85 dB with the exact ones, so the first-crossing
+    bandwidth sits on a knife edge there; the bode notes say so, and beyond the notch the
+    modal lines stay above -3 dB up to 146.5 Hz. The comparison is strict (>): no physical
+    law fixes how much the hoses must cost -- at 150 Hz it depends on the port impedance of
+    the hoses between their line modes -- so no margin is asserted. What is asserted is that
+    the effect is resolved: the constant-vs-hoses gap is several times the modal-vs-exact
+    discrepancy beyond the notch (0.6 Hz), and the notch depths agree within 0.5 dB.
 
     The supply port pressure is resonant (+25 dB at the 39 Hz line mode above its
     low-frequency gain): it has no -3 dB bandwidth, only the note "resonant, not low-pass"."""
     bw = bode_default.bandwidths
+    f = bode_default.f
     assert bw[CONSTANT]["piston_velocity"] > bw[MODAL]["piston_velocity"]
     assert bw[CONSTANT]["piston_velocity"] > bw[EXACT]["piston_velocity"]
+    db = {label: 20 * np.log10(np.abs(bode_default.curves[label][:, 0])
+                               / np.abs(bode_default.curves[label][0, 0])) for label in (MODAL, EXACT)}
+    near = (f > 30) & (f < 50)
+    notch = {label: db[label][near].min() for label in db}
+    assert abs(notch[MODAL] - notch[EXACT]) < 0.5
+    assert "notch" in bode_default.notes[MODAL]["piston_velocity"]
+    # the modal response's last fall through -3 dB, beyond the notch (by hand: the crossing
+    # after the last sample above -3 dB)
+    above = np.flatnonzero(db[MODAL] >= -3.0)
+    k = above[-1]
+    assert k + 1 < f.size and f[k] > 100
+    beyond = np.interp(-3.0, [db[MODAL][k + 1], db[MODAL][k]], [f[k + 1], f[k]])
     gap = bw[CONSTANT]["piston_velocity"] - bw[EXACT]["piston_velocity"]
-    assert gap > 3 * abs(bw[MODAL]["piston_velocity"] - bw[EXACT]["piston_velocity"])
+    assert gap > 3 * abs(beyond - bw[EXACT]["piston_velocity"])
     for label in (MODAL, EXACT):
         g = np.abs(bode_default.curves[label][:, 1])
         assert g.max() > 10 * g[0]                      # +20 dB and more: a resonance
@@ -309,7 +325,8 @@ def test_modal_vs_exact_lines_agree_up_to_highest_retained_mode(coupled):
       352 Hz +19.3 % (22.2 %: the library's own error at the 6th mode is 10.5 %, and both
       return sections sit at that mode). Peaks below 2 % of the channel's largest
       (ripples next to an antiresonance, e.g. 160 Hz supply -24 %, 180 Hz return +60 %) are
-      not resonances and are not judged.
+      not resonances and are not judged, nor are humps that rise less than 3 dB above the
+      octave below them.
     """
     sys, model = coupled
     rows = {h.name: compare_resonances(h.model.line, h.model) for h in model.hoses}
@@ -353,13 +370,25 @@ def test_modal_vs_exact_lines_agree_up_to_highest_retained_mode(coupled):
         # genuine resonances: peaks of at least 2 % of the channel's largest (ripples between
         # an antiresonance and a resonance are not), each matched to the nearest modal peak
         top = max(m for _, m in peaks["exact"])
-        exact_peaks = [(fe, me) for fe, me in peaks["exact"] if me > 0.02 * top]
+
+        def rises(fe, me):
+            """A resonance stands >= 3 dB above the trough in the octave below it; the broad
+            hump of the manifold and accumulator (~5.5 Hz, 1.1x its surroundings, its peak
+            ill-defined) does not."""
+            fb = np.linspace(fe / 2, fe, 200)
+            hb = np.abs(model.response_s(2j * np.pi * fb, "exact")[:, i, j])
+            return me >= np.sqrt(2.0) * hb.min()
+
+        exact_peaks = [(fe, me) for fe, me in peaks["exact"] if me > 0.02 * top and rises(fe, me)]
         assert len(exact_peaks) >= 5
         for fe, me in exact_peaks:
             fm, mm = min(peaks["modal"], key=lambda p: abs(p[0] - fe))
             assert fm == pytest.approx(fe, rel=0.01), (out, fm, fe)
             tol = yardstick(side, fe)
-            assert tol < 0.25                         # the yardstick itself stays meaningful
+            # the yardstick itself stays meaningful: the return hoses' 13.9 mm bore (Dn higher
+            # than the 15.9 mm of earlier rigs) gives the library 12 % at the 6th mode, 25.2 %
+            # compounded over the two sections
+            assert tol < 0.3
             assert mm == pytest.approx(me, rel=tol), (out, fe, mm / me - 1, tol)
             judged += fe > f_top / 2
     assert judged >= 4                                # the upper half is checked too

@@ -15,6 +15,7 @@ import pytest
 from scipy.optimize import brentq
 
 from hydroline.analysis import oscillation_amplitude, oscillation_frequency, settling_time
+from hydroline.analysis import overshoot as overshoot_metric
 
 F0 = 140.0                      # [Hz], of the order of the hose modes
 W0 = 2 * np.pi * F0
@@ -162,7 +163,7 @@ def test_trace_shorter_than_two_periods_gives_none():
 
 @pytest.mark.parametrize("zeta", [0.05, 0.1, 0.2, 0.3, 0.5, 0.7])
 def test_amplitude_is_analytic_overshoot(zeta):
-    assert oscillation_amplitude(T, second_order(T, zeta), 0.0) == pytest.approx(
+    assert overshoot_metric(T, second_order(T, zeta), 0.0) == pytest.approx(
         overshoot(zeta), rel=1e-2)
 
 
@@ -173,25 +174,25 @@ def test_amplitude_on_coarse_grid_is_refined_by_a_parabola():
     t = np.r_[0.0, (np.arange(1, int(0.3 * 16 * fd)) - 0.5) / (16 * fd)]
     p = second_order(t, 0.2)
     assert np.max(p) - 1 < 0.985 * overshoot(0.2)
-    assert oscillation_amplitude(t, p, 0.0) == pytest.approx(overshoot(0.2), rel=5e-3)
+    assert overshoot_metric(t, p, 0.0) == pytest.approx(overshoot(0.2), rel=5e-3)
 
 
 def test_amplitude_step_down_and_units():
     p = 21e6 - 2e6 * second_order(T, 0.2)                       # falls 2 MPa, [Pa]
-    assert oscillation_amplitude(T, p, 0.0) == pytest.approx(2e6 * overshoot(0.2), rel=1e-2)
+    assert overshoot_metric(T, p, 0.0) == pytest.approx(2e6 * overshoot(0.2), rel=1e-2)
 
 
 def test_amplitude_of_monotone_response_is_zero():
-    assert oscillation_amplitude(T, 1 - np.exp(-T / 0.01), 0.0) == pytest.approx(0.0, abs=1e-9)
-    assert oscillation_amplitude(T, 5 + 2 * np.exp(-T / 0.01), 0.0) == pytest.approx(
+    assert overshoot_metric(T, 1 - np.exp(-T / 0.01), 0.0) == pytest.approx(0.0, abs=1e-9)
+    assert overshoot_metric(T, 5 + 2 * np.exp(-T / 0.01), 0.0) == pytest.approx(
         0.0, abs=1e-9)
 
 
 def test_amplitude_without_net_change_is_largest_deviation():
     tau = 0.01
     p = 4.0 - 0.5 * (T / tau) * np.exp(1 - T / tau)     # dips by 0.5 at t = tau, returns
-    assert oscillation_amplitude(T, p, 0.0) == pytest.approx(0.5, rel=1e-6)
-    assert oscillation_amplitude(T, np.full(T.size, 2.0), 0.0) == 0.0
+    assert overshoot_metric(T, p, 0.0) == pytest.approx(0.5, rel=1e-6)
+    assert overshoot_metric(T, np.full(T.size, 2.0), 0.0) == 0.0
 
 
 # --------------------------------------------------------------------------- settling
@@ -243,7 +244,8 @@ def test_settling_time_none_when_still_ringing_and_zero_when_constant():
 
 # --------------------------------------------------------------------------- validation
 
-@pytest.mark.parametrize("func", [oscillation_frequency, oscillation_amplitude, settling_time])
+@pytest.mark.parametrize("func", [oscillation_frequency, oscillation_amplitude, overshoot_metric,
+                                  settling_time])
 def test_invalid_inputs_raise_value_error_naming_the_parameter(func):
     t = np.linspace(0.0, 0.1, 101)
     p = second_order(t, 0.1)

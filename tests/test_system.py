@@ -341,7 +341,8 @@ def test_pressure_figure_scaled_to_the_metrics_window(default_run):
     import matplotlib.pyplot as plt
     from hydroline.scenarios import metrics_window
 
-    t0, t1 = metrics_window(default_run)
+    t0, t1, reason = metrics_window(default_run)
+    assert reason == "stop"
     assert t0 < t1 < default_run.t[-1]                       # the piston does reach its stop
     fig = default_run.plot()
     ax = fig.axes[0]                                          # supply port [MPa]

@@ -106,6 +106,54 @@ def bandwidth(f, H, reference=None):
     return float(np.exp(x0 + (np.log(level) - y0) * (x1 - x0) / (y1 - y0)))
 
 
+#: A notch whose depth lies within this many dB of the -3 dB level makes the bandwidth fragile.
+NOTCH_MARGIN_DB = 0.5
+
+
+def notch_near_level(f, g, bw):
+    """Why a -3 dB bandwidth may jump: a notch (a line mode's anti-resonance) near the level.
+
+    The -3 dB bandwidth is the *first* crossing, so a notch that dips just below -3 dB and
+    recovers puts it at the notch, and one that stays just above leaves it far higher: a small
+    parameter change moves it between the two. Reported when the deepest local minimum of the
+    gain before the final fall lies within :data:`NOTCH_MARGIN_DB` of -3 dB.
+
+    Parameters
+    ----------
+    f : array    Increasing frequencies, [Hz]
+    g : array    Gain relative to the low-frequency gain, [-]
+    bw : float   The -3 dB bandwidth found, [Hz] (None: above the range)
+
+    Returns
+    -------
+    str  A note naming the notch and the other reading of the bandwidth, or "" when none.
+    """
+    db = 20 * np.log10(np.maximum(g, 1e-300))
+    below = np.flatnonzero(db < -3.0)
+    if below.size:
+        k0 = int(below[0])
+        back = np.flatnonzero(db[k0:] >= -3.0)
+        if back.size:               # the first crossing is a notch the gain climbs out of
+            k1 = k0 + int(back[0])
+            k = k0 + int(np.argmin(db[k0:k1]))
+            if db[k] >= -3.0 - NOTCH_MARGIN_DB:
+                other = bandwidth(f[k1:], g[k1:], reference=1.0)
+                where = "above the range" if other is None else f"{other:.4g} Hz"
+                return (f"-3 dB bandwidth at a notch ({db[k]:.2f} dB at {f[k]:.3g} Hz, within "
+                        f"{NOTCH_MARGIN_DB:g} dB of the level); the gain is back above -3 dB from "
+                        f"{f[k1]:.3g} Hz up to {where}: a small change can move the bandwidth there")
+        stop = k0
+    else:
+        stop = db.size
+    minima = np.flatnonzero((db[1:-1] < db[:-2]) & (db[1:-1] <= db[2:])) + 1
+    minima = minima[(minima < stop) & (db[minima] <= -3.0 + NOTCH_MARGIN_DB)]
+    if minima.size == 0:
+        return ""
+    k = int(minima[np.argmin(db[minima])])
+    return (f"a notch reaches {db[k]:.2f} dB at {f[k]:.3g} Hz, within {NOTCH_MARGIN_DB:g} dB of "
+            f"the -3 dB level: a small change can move the bandwidth down to there")
+
+
 @dataclass
 class Resonance:
     """One lightly damped pole pair.
@@ -524,5 +572,8 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
                         notes[label][out] = f"above {f[-1]:g} Hz"
                     elif bw <= f[0]:
                         bw, notes[label][out] = None, f"below {f[0]:g} Hz"
+                    notch = notch_near_level(f, g / dc, bw)
+                    if notch:
+                        notes[label][out] = notch
             bws[label][out] = bw
     return BodeResult(f, input_name, outputs, curves, bws, notes, res, exact_poles, ops, f_top)

@@ -71,7 +71,9 @@ import math
 import numpy as np
 from scipy.signal import find_peaks
 
-__all__ = ["oscillation_frequency", "oscillation_amplitude", "settling_time"]
+__all__ = ["oscillation_frequency", "oscillation_amplitude", "oscillation_baseline", "overshoot",
+           "first_excursion", "peak_to_peak", "settling_time", "port_settling", "pressure_metrics",
+           "AMPLITUDE_MIN_PERIODS"]
 
 #: Fraction of the post-step interval, at its end, that defines the final value.
 TAIL_FRACTION = 0.2
@@ -184,8 +186,12 @@ def _refined_max(ts, y):
     return best
 
 
-def oscillation_amplitude(t, p, t_step):
-    """Largest excursion of a step response beyond its final value (the overshoot).
+def overshoot(t, p, t_step):
+    """Largest excursion of a step response beyond its final value (one-sided overshoot).
+
+    The classical overshoot of a settled step response. It is *not* the amplitude of a pressure
+    oscillation whose mean still drifts: which side counts flips when the final value moves
+    across the oscillation (use :func:`oscillation_amplitude` for that).
 
     With ``p0`` the value at ``t_step`` and ``p_final`` the final value (module docstring):
 
@@ -252,7 +258,7 @@ def settling_time(t, p, t_step, band=0.02):
 
     Raises
     ------
-    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`oscillation_amplitude`) or
+    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
                 ``band`` outside (0, 1).
 
     Notes
@@ -391,6 +397,20 @@ def _centred_average(y, length):
     return np.convolve(y, kernel, mode="valid"), length // 2
 
 
+def _crossing_lobes(y):
+    """Sign changes of ``y`` and the peak |y| of each lobe (before the first crossing, between
+    crossings, after the last); None when ``y`` is zero or crosses fewer than 3 times."""
+    largest = float(np.max(np.abs(y)))
+    if largest == 0.0:
+        return None
+    sign = np.signbit(y)
+    idx = np.flatnonzero(sign[1:] != sign[:-1])
+    if idx.size < 3:
+        return None
+    bounds = np.concatenate(([0], idx + 1, [y.size]))
+    return idx, np.maximum.reduceat(np.abs(y), bounds[:-1]), largest
+
+
 def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     """Frequency [Hz] from the zero crossings of the (filtered) deviation, or None.
 
@@ -433,16 +453,10 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
             ty = ty[lost:ty.size - lost]
     if y.size < per_period:
         return None
-    largest = float(np.max(np.abs(y)))
-    if largest == 0.0:
+    found = _crossing_lobes(y)
+    if found is None:
         return None
-    sign = np.signbit(y)
-    idx = np.flatnonzero(sign[1:] != sign[:-1])
-    if idx.size < 3:
-        return None
-    # peak of each lobe: before the first crossing, between crossings, after the last
-    bounds = np.concatenate(([0], idx + 1, [y.size]))
-    lobe = np.maximum.reduceat(np.abs(y), bounds[:-1])
+    idx, lobe, largest = found
     significant = (lobe[:-1] >= 1e-3 * largest) & (lobe[1:] >= 1e-3 * largest)
     # the crossings kept must be consecutive from the first one on
     stop = np.flatnonzero(~significant)
@@ -516,7 +530,7 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
 
     Raises
     ------
-    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`oscillation_amplitude`) or
+    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
                 ``min_cycles <= 0``.
 
     Notes
@@ -548,3 +562,394 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
         return frequency
     return None
 
+
+
+# --------------------------------------------------------------------------- pressure oscillation
+#
+# How a fluid-power engineer reads a port-pressure trace after a valve step (the definitions
+# below are also written down in docs and in :func:`pressure_metrics`):
+#
+#   frequency     of the ringing (:func:`oscillation_frequency`);
+#   amplitude     half the largest peak-to-peak swing of the ringing within one period, measured
+#                 about a baseline that follows the slow drifts (:func:`oscillation_amplitude`);
+#   first excursion  the largest |p - p0| (what a transducer's peak hold shows);
+#   steady change    the level the pressure settles to minus the pre-step level;
+#   peak-to-peak     max p - min p (what a scope's cursors show);
+#   settling time    when the pressure stays within 2 % of the change (:func:`port_settling`).
+
+#: Fewest periods of the oscillation the metrics window must hold for an amplitude, [-]: the
+#: baseline is a centred mean over one period, so a swing is measured only where a period of
+#: signal exists on both sides of the half period it belongs to.
+AMPLITUDE_MIN_PERIODS = 2.0
+#: Half-width of the settling band relative to the step's pressure change, [-].
+SETTLING_BAND = 0.02
+#: Periods of the oscillation the window must hold for a decay to be extrapolated, [-].
+MIN_PERIODS = 6
+#: Largest RMS scatter of ln(peak) about the fitted exponential decay, [-].
+MAX_FIT_SCATTER = 0.25
+_BASELINE_SAMPLES = 64      # uniform grid of the baseline and amplitude, per period
+
+
+def _window(t, p, t_start, t_end):
+    """Validated trace restricted to ``[t[0], t_end]`` and the checked ``t_end`` [s]."""
+    t, p, t_start = _validate(t, p, t_start)
+    if t_end is None:
+        return t, p, t_start, float(t[-1])
+    t_end = float(t_end)
+    if not t_start < t_end:
+        raise ValueError(f"t_end = {t_end:g} s must come after t_start = {t_start:g} s")
+    keep = t <= t_end
+    if np.count_nonzero(keep & (t > t_start)) < 3:
+        raise ValueError("the window [t_start, t_end] must hold at least 3 samples")
+    return t[keep], p[keep], t_start, float(min(t_end, t[keep][-1]))
+
+
+def oscillation_baseline(t, p, t_start, frequency, t_end=None):
+    """The slow part of a trace: its mean over one period of the oscillation, centred.
+
+    A centred mean over exactly one period ``T = 1/frequency`` removes a sinusoid of that
+    period and all its harmonics completely, and keeps a straight line unchanged, so it follows
+    a drift (an accumulator charging, the steady pressure drop) while ignoring the ringing. A
+    decaying sinusoid leaks into it by about ``sigma T / (2 pi)`` of its amplitude, 90 degrees out
+    of phase, which changes the swing about the baseline by less than 1 % for damping ratios up
+    to 0.2. Over the first and last half period of the window, where no centred period fits,
+    the baseline is continued as a straight line fitted, together with a sinusoid of the
+    oscillation's period that absorbs the leak, to its first (last) period of values.
+
+    Parameters
+    ----------
+    t : array_like      Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like      Trace at ``t``, [any unit]
+    t_start : float     Start of the window (the disturbance), [s]
+    frequency : float   Oscillation frequency, > 0, [Hz]
+    t_end : float       End of the window, [s]; the end of ``t`` when None
+
+    Returns
+    -------
+    grid : ndarray      Uniform times on ``[t_start, t_end]``, 64 per period, [s]
+    values : ndarray    The trace on ``grid`` (linear interpolation), [unit of p]
+    baseline : ndarray  The baseline on ``grid``, [unit of p]
+
+    Raises
+    ------
+    ValueError  On an invalid trace or window, ``frequency <= 0``, or a window shorter than
+                one period.
+    """
+    t, p, t_start, t_end = _window(t, p, t_start, t_end)
+    frequency = float(frequency)
+    if not (math.isfinite(frequency) and frequency > 0):
+        raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
+    period = 1.0 / frequency
+    duration = t_end - t_start
+    # at least 64 samples per period, more where the trace has them (up to 1024), so that a
+    # noisy record keeps every sample for the smoothing of oscillation_amplitude
+    inside = np.count_nonzero((t >= t_start) & (t <= t_end))
+    density = inside * period / duration
+    per_period = int(min(max(_BASELINE_SAMPLES, density), 1024, max(8, _MAX_GRID * period / duration))) // 2 * 2
+    dt = period / per_period
+    n = int(math.floor(duration / dt + 1e-9)) + 1
+    if n < per_period + 1:
+        raise ValueError(f"the window ({duration * 1e3:.3g} ms) is shorter than one period "
+                         f"({period * 1e3:.3g} ms) of the oscillation")
+    grid = t_start + dt * np.arange(n)
+    values = np.interp(grid, t, p)
+    centred, lost = _centred_average(values, per_period)
+    baseline = np.empty(n)
+    baseline[lost:n - lost] = centred
+    if lost:
+        # fit a line plus a sinusoid of the oscillation's period over a full period of
+        # centred means (a decaying oscillation leaks into the mean as a sinusoid of its own
+        # period, which a line alone would mistake for a slope) and continue the line only
+        h = max(2, min(centred.size, per_period + 1))
+        w = 2 * np.pi * frequency
+
+        def line(tt, yy, at):
+            basis = np.column_stack([np.ones_like(tt), tt - tt[0], np.cos(w * tt), np.sin(w * tt)])
+            coef = np.linalg.lstsq(basis[:, :4 if tt.size >= 8 else 2], yy, rcond=None)[0]
+            return coef[0] + coef[1] * (at - tt[0])
+
+        baseline[:lost] = line(grid[lost:lost + h], centred[:h], grid[:lost])
+        baseline[n - lost:] = line(grid[n - lost - h:n - lost], centred[-h:], grid[n - lost:])
+    return grid, values, baseline
+
+
+def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
+    """Amplitude of the oscillation after ``t_step``, two-sided, about a drifting baseline.
+
+    Half the largest peak-to-peak swing of ``p - baseline`` within any one period of the
+    window ``[t_step, t_end]``, where the baseline is the trace's centred mean over one period
+    (:func:`oscillation_baseline`), after a cubic Savitzky-Golay smoothing over 1/8 period
+    against measurement noise. For ``p = b(t) + A cos(2 pi f t + phi)`` with a slowly varying
+    ``b`` it is ``A``; for a decaying oscillation it is half the largest swing from a crest to
+    the next trough (or trough to crest), the number an engineer reads off the trace as
+    "+-A". Unlike an overshoot beyond a final value it does not depend on where the final
+    value falls, and it changes by at most about twice as much as the trace itself changes
+    (every step is a mean, a difference or a maximum of samples), so it is continuous in the
+    rig's parameters.
+
+    Parameters
+    ----------
+    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like       Trace at ``t``, [any unit]
+    t_step : float       Time of the disturbance, ``t[0] <= t_step < t[-1]``, [s]
+    frequency : float    Oscillation frequency, [Hz]; found by :func:`oscillation_frequency`
+                         on the window when None
+    t_end : float        End of the window, [s]; the end of ``t`` when None
+
+    Returns
+    -------
+    float or None  Amplitude, >= 0, [unit of p]; 0.0 when no oscillation is detected (no
+                   frequency); None when the window holds fewer than
+                   :data:`AMPLITUDE_MIN_PERIODS` periods of it.
+
+    Raises
+    ------
+    ValueError  On an invalid trace or window.
+    """
+    t, p, t_step, t_end = _window(t, p, t_step, t_end)
+    if frequency is None:
+        frequency = oscillation_frequency(t, p, t_step)
+        if frequency is None:
+            return 0.0
+    if (t_end - t_step) * frequency < AMPLITUDE_MIN_PERIODS:
+        return None
+    grid, values, baseline = oscillation_baseline(t, p, t_step, frequency, t_end)
+    swing = values - baseline
+    per_period = int(round(1.0 / (frequency * (grid[1] - grid[0]))))
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d
+    from scipy.signal import savgol_filter
+
+    # a cubic Savitzky-Golay fit over 1/8 period keeps the crests of the oscillation and its
+    # first harmonics (attenuation at the fundamental ~1e-4) and averages measurement noise
+    length = (per_period // 8) | 1
+    if length >= 5:
+        swing = savgol_filter(swing, length, 3, mode="interp")
+
+    width = per_period + 1
+    span = maximum_filter1d(swing, width, mode="nearest") - minimum_filter1d(swing, width,
+                                                                              mode="nearest")
+    half = width // 2
+    valid = span[half:swing.size - (width - 1 - half)]
+    return float(np.max(valid) / 2) if valid.size else float(np.ptp(swing) / 2)
+
+
+def first_excursion(t, p, t_step, t_end=None):
+    """Largest ``|p - p0|`` after ``t_step``, ``p0`` the value at ``t_step`` (a peak hold).
+
+    Parameters
+    ----------
+    t, p, t_step, t_end  As for :func:`oscillation_amplitude`, [s], [any unit], [s], [s]
+
+    Returns
+    -------
+    float  >= 0, [unit of p], refined by a parabola through the largest sample
+    """
+    t, p, t_step, t_end = _window(t, p, t_step, t_end)
+    ts, ps = _post_step(t, p, t_step)
+    return max(0.0, _refined_max(ts, np.abs(ps - ps[0])))
+
+
+def peak_to_peak(t, p, t_step, t_end=None):
+    """``max p - min p`` over ``[t_step, t_end]``, [unit of p] (what a scope's cursors show)."""
+    t, p, t_step, t_end = _window(t, p, t_step, t_end)
+    ts, ps = _post_step(t, p, t_step)
+    return max(0.0, _refined_max(ts, ps) + _refined_max(ts, -ps))
+
+
+def _rough_frequency(t, p, t_start, t_end):
+    """Rough frequency [Hz] of an oscillation in a record too short for
+    :func:`oscillation_frequency`, or None where the record shows no oscillation.
+
+    The deviation from a fitted straight line must cross zero at least three times (a full
+    period: down and up again; a single sag is not one), and every lobe between crossings
+    must reach 30 % of the largest (a ramp with a small bump is not an oscillation); the mean
+    interval between crossings is then taken as the half period."""
+    grid = np.linspace(t_start, t_end, 2048)
+    y = np.interp(grid, t, p)
+    y = y - np.polyval(np.polyfit(grid - t_start, y, 1), grid - t_start)
+    found = _crossing_lobes(y)
+    if found is None:
+        return None
+    idx, lobes, largest = found
+    if np.any(lobes[1:-1] < 0.3 * largest):     # inner lobes: whole half periods
+        return None
+    return float(0.5 / np.mean(np.diff(grid[idx])))
+
+
+def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> dict:
+    """The 2 % settling time of a port pressure after the step, measured or estimated.
+
+    The time after the step from which the pressure stays within ``+-band`` of the step's
+    pressure change about its final level.
+
+    ``"measured"``
+        The trace settles within the window ``[t_step, t_stop]``: :func:`settling_time` over
+        the window (final level: the mean of the window's last 20 %).
+    ``"estimated"``
+        The trace is still outside the band at ``t_stop`` but is a decaying oscillation of
+        frequency ``f`` about a level that has stopped moving. The level is the trace's double
+        moving average over one period ``T = 1/f``; the band is ``+-band * |p_final - p0|``
+        (or ``band`` times the largest deviation where the net change is below 5 % of it); the
+        peaks of ``|p - level|`` in the second half of the window are fitted with
+        ``ln A = c - sigma t``; the estimate is ``(t_stop - t_step) + ln(A(t_stop) / band) /
+        sigma``. Given only when the window holds at least :data:`MIN_PERIODS` periods, the
+        fit is clean (RMS scatter of ``ln A`` below :data:`MAX_FIT_SCATTER`), the level moves
+        less than half the band over the last period, and the extrapolation reaches no further
+        past ``t_stop`` than the window is long.
+    None
+        Neither: the note says why.
+
+    Parameters
+    ----------
+    t : array          Sample times, increasing, [s]
+    p : array          Port pressure, [Pa]
+    t_step : float     Time of the step, [s]
+    t_stop : float     End of the metrics window, [s]
+    frequency : float  Oscillation frequency of the trace in the window, [Hz]; None: none
+    band : float       Half-width of the band relative to the pressure change, [-]
+
+    Returns
+    -------
+    dict  ``settling_time_s`` (float from the step [s], or None), ``settling_method``
+          ("measured", "estimated" or None) and ``settling_note`` (how it was estimated, or
+          why there is none; "" when measured)
+    """
+    from scipy.ndimage import uniform_filter1d
+
+    t = np.asarray(t, dtype=float)
+    p = np.asarray(p, dtype=float)
+    inside = t <= t_stop
+    measured = settling_time(t[inside], p[inside], t_step, band)
+    if measured is not None:
+        return {"settling_time_s": float(measured), "settling_method": "measured",
+                "settling_note": ""}
+    window = t_stop - t_step
+    where = f"not settled within the metrics window ({window * 1e3:.0f} ms after the step)"
+
+    def none(why):
+        return {"settling_time_s": None, "settling_method": None, "settling_note": f"{where}: {why}"}
+
+    def mpa(v):
+        return f"{v / 1e6:.3g} MPa"
+
+    if frequency is None or not frequency > 0:
+        last = inside & (t >= t_stop - 0.1 * window)
+        slope = np.polyfit(t[last] - t_stop, p[last], 1)[0] if last.sum() >= 2 else 0.0
+        return none(f"no oscillation; the pressure still moves {slope / 1e6:+.2g} MPa/s at the "
+                    f"window's end")
+    period = 1.0 / frequency
+    periods = window / period
+    n = _BASELINE_SAMPLES
+    g = t_step + np.arange(int(math.floor(window / period * n)) + 1) * (period / n)
+    y = np.interp(g, t, p)
+    level = uniform_filter1d(uniform_filter1d(y, n, mode="nearest"), n, mode="nearest")
+    clear = (g >= t_step + period) & (g <= t_stop - period)
+    if periods < MIN_PERIODS or not clear.any():
+        return none(f"{periods:.1f} periods of the {frequency:.3g} Hz oscillation, too few "
+                    f"(< {MIN_PERIODS}) to extrapolate its decay")
+    k_end = int(np.flatnonzero(clear)[-1])
+    p0, p_final = float(y[0]), float(level[k_end])
+    deviation = float(np.max(np.abs(y - p_final)))
+    change = abs(p_final - p0)
+    tolerance = band * (change if change > 0.05 * deviation else deviation)
+    last = clear & (g >= g[k_end] - period)
+    drift = float(np.max(np.abs(level[last] - p_final)))
+    if drift > tolerance / 2:
+        return none(f"the mean pressure still moves {mpa(drift)} in its last period, more than "
+                    f"half the +-{mpa(tolerance)} band")
+    ringing = y - level
+    peaks, _ = find_peaks(np.abs(ringing), distance=max(1, int(0.35 * n)))
+    peaks = peaks[clear[peaks] & (g[peaks] >= t_step + window / 2)]
+    if len(peaks) < 4:
+        return none("too few oscillation peaks in the second half of the window to fit a decay")
+    log_a = np.log(np.abs(ringing[peaks]))
+    slope, c = np.polyfit(g[peaks] - t_stop, log_a, 1)
+    scatter = float(np.sqrt(np.mean((log_a - (c + slope * (g[peaks] - t_stop))) ** 2)))
+    sigma = -float(slope)
+    a_stop = math.exp(c)
+    if not sigma > 0:
+        return none(f"the {frequency:.3g} Hz oscillation does not decay over the window's "
+                    f"second half")
+    if scatter > MAX_FIT_SCATTER:
+        return none(f"the envelope of the {frequency:.3g} Hz oscillation is not a clean "
+                    f"exponential decay (scatter {scatter:.2f} in ln A)")
+    gap = max(0.0, math.log(a_stop / tolerance) / sigma)
+    if gap > window:
+        return none(f"the {frequency:.3g} Hz oscillation (+-{mpa(a_stop)} at the window's end, "
+                    f"decay rate {sigma:.3g} 1/s) would take about {gap * 1e3:.0f} ms more to "
+                    f"enter the +-{mpa(tolerance)} band: longer than the window, not extrapolated")
+    return {"settling_time_s": float(window + gap), "settling_method": "estimated",
+            "settling_note": f"estimated: the {frequency:.3g} Hz oscillation, +-{mpa(a_stop)} "
+                             f"at the window's end {window * 1e3:.0f} ms after the step, decays "
+                             f"as exp(-{sigma:.3g} t) (fit over {len(peaks)} peaks) into the "
+                             f"+-{mpa(tolerance)} band {gap * 1e3:.0f} ms later"}
+
+
+def pressure_metrics(t, p, t_step, t_end=None) -> dict:
+    """Every metric of one port pressure after a disturbance, over ``[t_step, t_end]``.
+
+    Parameters
+    ----------
+    t : array_like    Sample times, strictly increasing, [s]
+    p : array_like    Pressure, [Pa]
+    t_step : float    Time of the disturbance (start of the metrics window), [s]
+    t_end : float     End of the metrics window, [s]; the end of ``t`` when None
+
+    Returns
+    -------
+    dict
+        ``frequency_hz``         oscillation frequency, [Hz] (:func:`oscillation_frequency`);
+                                 None: no oscillation, or too few periods to tell
+        ``amplitude_mpa``        oscillation amplitude, two-sided about the drifting baseline,
+                                 [MPa] (:func:`oscillation_amplitude`); 0.0 with a note when no
+                                 oscillation is detected, None when the window is too short
+        ``first_excursion_mpa``  largest ``|p - p0|``, [MPa] (:func:`first_excursion`)
+        ``steady_change_mpa``    settled level minus the pre-step level ``p0``, [MPa]: the
+                                 level is the mean over the window's last period of the
+                                 oscillation, or over its last 20 % without one; None when
+                                 the window is too short to tell
+        ``peak_to_peak_mpa``     ``max p - min p`` in the window, [MPa]
+        ``settling_time_s``, ``settling_method``, ``settling_note``  (:func:`port_settling`)
+        ``amplitude_note``       "" when frequency and amplitude were measured, else why not
+                                 (no oscillation; the window holds too few periods)
+    """
+    t, p, t_step, t_end = _window(t, p, t_step, t_end)
+    duration = t_end - t_step
+    frequency = oscillation_frequency(t, p, t_step)
+    note = ""
+    amplitude = 0.0
+    if frequency is None:
+        rough = _rough_frequency(t, p, t_step, t_end)
+        if rough is not None and duration * rough < AMPLITUDE_MIN_PERIODS + 0.5:
+            amplitude = None
+            note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * rough:.1f} periods of "
+                    f"an oscillation near {rough:.3g} Hz; frequency and amplitude need "
+                    f"{AMPLITUDE_MIN_PERIODS:g}")
+        else:
+            note = ("no oscillation: the pressure does not ring (no coherent oscillation above "
+                    f"{OSCILLATION_THRESHOLD:.0%} of its excursion for 1.5 periods)")
+    elif duration * frequency < AMPLITUDE_MIN_PERIODS:
+        amplitude = None
+        note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * frequency:.1f} periods of "
+                f"the {frequency:.3g} Hz oscillation; an amplitude needs {AMPLITUDE_MIN_PERIODS:g}")
+    else:
+        amplitude = oscillation_amplitude(t, p, t_step, frequency, t_end)
+    ts, ps = _post_step(t, p, t_step)
+    p0 = float(ps[0])
+    if frequency is not None and duration * frequency >= 1.0:
+        level, _ = _window_moments(ts, ps, t_end - 1.0 / frequency)
+    else:
+        level, _ = _window_moments(ts, ps, t_end - TAIL_FRACTION * duration)
+    if amplitude is None:      # too short to know where the pressure settles, or when
+        settling = {"settling_time_s": None, "settling_method": None,
+                    "settling_note": f"not settled within the window: {note}"}
+        change = None
+    else:
+        settling = port_settling(t, p, t_step, t_end, frequency)
+        change = (level - p0) / 1e6
+    return {"frequency_hz": None if frequency is None else float(frequency),
+            "amplitude_mpa": None if amplitude is None else float(amplitude) / 1e6,
+            "first_excursion_mpa": first_excursion(t, p, t_step) / 1e6,
+            "steady_change_mpa": change,
+            "peak_to_peak_mpa": peak_to_peak(t, p, t_step) / 1e6,
+            **settling, "amplitude_note": note}

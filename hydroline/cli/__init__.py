@@ -24,6 +24,7 @@ SUBCOMMANDS = [
     "friction_id",
     "layout",
     "sweep",
+    "circuit",
 ]
 
 

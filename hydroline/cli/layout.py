@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from ..rigs import load_rig
 from ..scenarios import SCENARIOS
-from ..studies.layout import DEFAULT_LENGTHS, layout
+from ..studies.layout import DEFAULT_LENGTHS, conclusion, layout
 from .common import dump_json, out_dir, print_table, progress_printer, quantity
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
@@ -15,8 +15,10 @@ def register(sub):
         "the sections II (manifold to servovalve), 0 = close-coupled manifold",
         description="Set the supply and return sections II (HSM manifold to servovalve) to each "
         "length, run the open-loop step from the solved steady state, and report per length the "
-        "supply and return port oscillation frequency and peak amplitude over the metrics window "
-        "(step to piston stop) and the 2 % settling time: measured where the port pressure settles "
+        "supply and return port oscillation frequency, oscillation amplitude (half the largest swing "
+        "about the one-period mean), first excursion |p - p0| and steady change over the metrics "
+        "window (step to the stop the piston moves toward), the design conclusion they support, "
+        "and the 2 % settling time: measured where the port pressure settles "
         "within the window, '~' estimated from the decay of its oscillation where it is still "
         "ringing at the stop (the window must hold >= 6 periods and the mean pressure have stopped "
         "moving), '-' neither (the reason is printed). With --out DIR: layout.csv, layout_traces.csv "
@@ -65,18 +67,28 @@ def run(args) -> int:
         return 0
     print(f"hydroline layout: {args.scenario} on {study.rig_name}, sections II of "
           f"{' and '.join(sides)} set to each length ({study.wall_time:.1f} s)")
-    rows = []
-    for rec, s in zip(study.records(), study.summaries):
-        row = [rec["section2_length_m"]]
-        for side in ("supply", "return"):
-            m = rec[side]
-            row += [m["frequency_hz"], m["amplitude_mpa"], _settling_cell(m, s[side])]
-        rows.append(row)
-    print_table(["length [m]", "supply [Hz]", "supply [MPa]", "supply settling [ms]",
-                 "return [Hz]", "return [MPa]", "return settling [ms]"], rows)
-    print("  frequency '-': no oscillation. settling (2 % band): measured within the metrics "
-          "window, which ends when the piston reaches its stop; '~' estimated from the decay of "
-          "the oscillation still ringing at the stop; '-' neither:")
+    for side in ("supply", "return"):
+        rows = []
+        for rec, s in zip(study.records(), study.summaries):
+            m = s[side]
+            rows.append([rec["section2_length_m"], m["frequency_hz"], m["amplitude_mpa"],
+                         m.get("first_excursion_mpa"), m.get("steady_change_mpa"),
+                         _settling_cell(m, m)])
+        print(f"  {side} port:")
+        print_table(["length [m]", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
+                     "steady change [MPa]", "settling [ms]"], rows)
+    print(f"  {conclusion(study)}")
+    rise = [s["flow"]["flow_rise_time_ms"] for s in study.summaries]
+    trips = [(L, s["flow"]["supply_round_trip_ms"]) for L, s in zip(study.lengths, study.summaries)
+             if L > 0]
+    if trips:
+        print(f"  The valve's flow rises (10-90 %) in {min(rise):.1f}-{max(rise):.1f} ms; the supply "
+              f"section II's round trip 2L/c is " + ", ".join(f"{t:.1f} ms at {L:g} m" for L, t in trips)
+              + ": where the round trip is shorter than the rise, the reflection returns before the "
+              "flow has risen and less of the water hammer Z0*dQ builds up.")
+    print("  amplitude: half the largest swing about the one-period mean; 0 with frequency '-': no "
+          "oscillation. settling (2 % band): measured within the metrics window (step to the stop "
+          "the piston moves toward); '~' estimated from the decay of the oscillation; '-' neither:")
     for L, s in zip(study.lengths, study.summaries):
         for side in ("supply", "return"):
             if s[side].get("settling_method") != "measured" and s[side].get("settling_note"):

@@ -8,6 +8,8 @@ from .friction import StribeckFriction
 from .hose import HoseSection
 from .junction import FlowJunction
 from .load import Load
+from .pump import Pump
+from .relief_valve import ReliefValve
 from .resistance import LinearResistance
 from .servovalve import Servovalve, valve_coefficient
 from .sources import PressureSource
@@ -16,4 +18,4 @@ from .volume import HydraulicVolume
 __all__ = ["PistonAccumulator", "Actuator", "CheckValve", "RampCommand", "SineCommand",
            "StepCommand", "TableCommand", "PositionController", "StribeckFriction",
            "HoseSection", "FlowJunction", "Load", "LinearResistance", "Servovalve",
-           "valve_coefficient", "PressureSource", "HydraulicVolume"]
+           "valve_coefficient", "PressureSource", "HydraulicVolume", "Pump", "ReliefValve"]

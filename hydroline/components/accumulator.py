@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 from ..lines.modal import StateSpaceLine
 from ..network import ops
-from ..network.component import Component, Port, State
+from ..network.component import Component, Port, State, parameter
 
 __all__ = ["PistonAccumulator"]
 
@@ -39,24 +39,23 @@ class PistonAccumulator(Component):
     signal ``gas_pressure`` is not a port (see :meth:`gas_pressure`).
     """
 
-    capacity: float = 1e-3
-    precharge_pressure: float = 1e7
-    polytropic_exponent: float = 1.4
-    resistance: float = 0.0
-    inertance: float = 1.0
+    capacity: float = parameter(1e-3, "m^3", "V_0, gas volume at pre-charge (M16)", positive=True)
+    precharge_pressure: float = parameter(1e7, "Pa", "p_0, absolute (M16)", positive=True)
+    polytropic_exponent: float = parameter(1.4, "-", "m: 1 isothermal ... 5/3 adiabatic (M16)",
+                                           minimum=1.0, maximum=5.0 / 3.0)
+    resistance: float = parameter(0.0, "Pa*s/m^3", "R_a of the connection, version II (M18)", minimum=0.0)
+    inertance: float = parameter(1.0, "kg/m^4", "I_a of the connection, version II (M18)", positive=True)
     connection_model: StateSpaceLine | None = None
-    nominal_pressure: float = 2e7
-    stop_stiffness: float | None = None
+    nominal_pressure: float = parameter(2e7, "Pa", "guess of the node pressure", positive=True)
+    stop_stiffness: float | None = parameter(None, "Pa/m^3", "oil side emptied (None: 1 % film)",
+                                             positive=True, optional=True)
 
     inputs = {"pressure": Port("pressure", "pressure at the node the accumulator hangs on")}
     outputs = {"flow": Port("flow", "flow from the node into the accumulator branch")}
     feedthrough = False
 
     def __post_init__(self):
-        for k, unit in (("capacity", "m^3"), ("precharge_pressure", "Pa"),
-                        ("polytropic_exponent", "-"), ("inertance", "kg/m^4")):
-            if not getattr(self, k) > 0:
-                raise ValueError(f"{self.name}: {k} must be > 0 [{unit}], got {getattr(self, k)!r}")
+        self.check_parameters()
         if self.stop_stiffness is None:
             # oil side emptied: stiffness of an oil film of 1 % of V0 (beta = 1.5 GPa)
             self.stop_stiffness = 1.5e9 / (0.01 * self.capacity)

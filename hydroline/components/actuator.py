@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..network import ops
-from ..network.component import Component, Port, State
+from ..network.component import Component, Port, State, parameter
 
 __all__ = ["Actuator"]
 
@@ -40,21 +40,23 @@ class Actuator(Component):
     ``position`` [m], ``velocity`` [m/s].
     """
 
-    bottom_area: float = 1e-3
-    top_area: float = 1e-3
-    bottom_volume: float = 1e-4
-    top_volume: float = 1e-4
-    bulk_modulus: float = 1.4e9
-    moving_mass: float = 10.0
-    stroke: float = 0.1
-    internal_leakage: float = 0.0
-    external_leakage: float = 0.0
-    gravity: float = 9.81
-    stop_stiffness: float = 1e9
-    stop_damping: float | None = None
-    min_volume_fraction: float = 0.02
-    initial_position: float = 0.0
-    nominal_pressure: float = 1e7
+    bottom_area: float = parameter(1e-3, "m^2", "A_b, bottom piston area (M22)", positive=True)
+    top_area: float = parameter(1e-3, "m^2", "A_t, top (rod-side) piston area (M22)", positive=True)
+    bottom_volume: float = parameter(1e-4, "m^3", "V_b at mid-stroke incl. passages (M22)", positive=True)
+    top_volume: float = parameter(1e-4, "m^3", "V_t at mid-stroke incl. passages (M22)", positive=True)
+    bulk_modulus: float = parameter(1.4e9, "Pa", "beta_c of the oil in the chambers (M22)", positive=True)
+    moving_mass: float = parameter(10.0, "kg", "piston, rod and attached load (M23)", positive=True)
+    stroke: float = parameter(0.1, "m", "full stroke; stops at +-stroke/2 (M23)", positive=True)
+    internal_leakage: float = parameter(0.0, "m^3/s/Pa", "C_i across the piston (M22)", minimum=0.0)
+    external_leakage: float = parameter(0.0, "m^3/s/Pa", "C_e of each chamber (M22)", minimum=0.0)
+    gravity: float = parameter(9.81, "m/s^2", "g along the axis, 0 horizontal (M23)")
+    stop_stiffness: float = parameter(1e9, "N/m", "end-stop contact stiffness", positive=True)
+    stop_damping: float | None = parameter(None, "N*s/m", "end-stop contact damping (None: critical)",
+                                           minimum=0.0, optional=True)
+    min_volume_fraction: float = parameter(0.02, "-", "floor of the chamber volumes", positive=True,
+                                           maximum=1.0)
+    initial_position: float = parameter(0.0, "m", "guess of x_p for the steady state")
+    nominal_pressure: float = parameter(1e7, "Pa", "chamber pressure scale and guess", positive=True)
 
     inputs = {"bottom_flow": Port("flow", "q_b into the bottom chamber"),
               "top_flow": Port("flow", "q_t out of the top chamber"),
@@ -67,11 +69,7 @@ class Actuator(Component):
     feedthrough = False
 
     def __post_init__(self):
-        for k, unit in (("bottom_area", "m^2"), ("top_area", "m^2"), ("bottom_volume", "m^3"),
-                        ("top_volume", "m^3"), ("bulk_modulus", "Pa"), ("moving_mass", "kg"),
-                        ("stroke", "m")):
-            if not getattr(self, k) > 0:
-                raise ValueError(f"{self.name}: {k} must be > 0 [{unit}], got {getattr(self, k)!r}")
+        self.check_parameters()
         if self.stop_damping is None:   # critically damped contact
             self.stop_damping = 2.0 * np.sqrt(self.stop_stiffness * self.moving_mass)
 

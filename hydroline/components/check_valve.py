@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..network import ops
+from ..network.component import parameter
 from .resistance import OrientedResistance
 
 __all__ = ["CheckValve"]
@@ -25,12 +26,13 @@ class CheckValve(OrientedResistance):
     transition_flow : float      q_t, width of the switch, [m^3/s]
     """
 
-    forward_resistance: float = 0.0
-    reverse_resistance: float = 1e13
-    transition_flow: float = 1e-7
+    forward_resistance: float = parameter(0.0, "Pa*s/m^3", "R_f in the free direction", minimum=0.0)
+    reverse_resistance: float = parameter(1e13, "Pa*s/m^3", "R_r against it (large)", positive=True)
+    transition_flow: float = parameter(1e-7, "m^3/s", "q_t, width of the switch", positive=True)
 
     def __post_init__(self):
         super().__post_init__()
+        self.check_parameters()
         if self.compute == "flow" and not self.forward_resistance > 0:
             raise ValueError(f"{self.name}: forward_resistance must be > 0 [Pa s/m^3] for compute='flow'")
 

@@ -7,16 +7,21 @@ import casadi as ca
 import numpy as np
 
 from ..network import ops
-from ..network.component import Component, Port
+from ..network.component import Component, Port, parameter
+
+#: Unit of a command value: that of its ``quantity`` (see hydroline.circuit.types).
+_VALUE = "-"
 
 __all__ = ["StepCommand", "SineCommand", "RampCommand", "TableCommand", "read_table_csv"]
 
 
 @dataclass(kw_only=True)
 class _Command(Component):
-    quantity: str = "current"
+    quantity: str = parameter("current", "str", "what the command drives",
+                              choices=("current", "position", "pressure", "velocity", "force", "flow"))
 
     def __post_init__(self):
+        self.check_parameters()
         self.outputs = {"command": Port(self.quantity, f"commanded {self.quantity}")}
         self.feedthrough = False
 
@@ -25,9 +30,9 @@ class _Command(Component):
 class StepCommand(_Command):
     """``initial`` before ``time``, ``final`` after, [SI unit of ``quantity``; s]."""
 
-    initial: float = 0.0
-    final: float = 0.0
-    time: float = 0.0
+    initial: float = parameter(0.0, _VALUE, "value before the step, [unit of quantity]")
+    final: float = parameter(0.0, _VALUE, "value after the step, [unit of quantity]")
+    time: float = parameter(0.0, "s", "time of the step", minimum=0.0)
 
     def runtime_parameters(self):
         return {"initial": self.initial, "final": self.final}
@@ -46,10 +51,10 @@ class SineCommand(_Command):
     Parameters: offset, amplitude [SI unit of ``quantity``], frequency [Hz], start [s].
     """
 
-    offset: float = 0.0
-    amplitude: float = 0.0
-    frequency: float = 1.0
-    start: float = 0.0
+    offset: float = parameter(0.0, _VALUE, "mean value, [unit of quantity]")
+    amplitude: float = parameter(0.0, _VALUE, "amplitude, [unit of quantity]")
+    frequency: float = parameter(1.0, "Hz", "frequency of the sine", positive=True)
+    start: float = parameter(0.0, "s", "time the sine starts", minimum=0.0)
 
     def runtime_parameters(self):
         return {"amplitude": self.amplitude}
@@ -74,10 +79,10 @@ class RampCommand(_Command):
     Parameters: initial [unit], slope [unit/s], start, end [s].
     """
 
-    initial: float = 0.0
-    slope: float = 0.0
-    start: float = 0.0
-    end: float = 1.0
+    initial: float = parameter(0.0, _VALUE, "value before the ramp, [unit of quantity]")
+    slope: float = parameter(0.0, _VALUE, "rate of the ramp, [unit of quantity/s]")
+    start: float = parameter(0.0, "s", "time the ramp starts", minimum=0.0)
+    end: float = parameter(1.0, "s", "time the ramp ends (held after)", minimum=0.0)
 
     def outputs_of(self, t, x, u, p):
         tau = ops.fmin(ops.fmax(t - self.start, 0.0), self.end - self.start)

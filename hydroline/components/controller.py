@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..network import ops
-from ..network.component import Component, Port, State
+from ..network.component import Component, Port, State, parameter
 
 __all__ = ["PositionController"]
 
@@ -30,11 +30,12 @@ class PositionController(Component):
     States: ``error_integral`` [m s] when Ki != 0.
     """
 
-    proportional_gain: float = 0.0
-    integral_gain: float = 0.0
-    derivative_gain: float = 0.0
-    current_limit: float = 0.05
-    sample_time: float | None = None
+    proportional_gain: float = parameter(0.0, "A/m", "Kp", minimum=0.0)
+    integral_gain: float = parameter(0.0, "A/m/s", "Ki", minimum=0.0)
+    derivative_gain: float = parameter(0.0, "A*s/m", "Kd, on the measured velocity", minimum=0.0)
+    current_limit: float = parameter(0.05, "A", "+- limit of the current (the valve's rated)", positive=True)
+    sample_time: float | None = parameter(None, "s", "zero-order-hold period (None: continuous)",
+                                          positive=True, optional=True)
 
     inputs = {"reference": Port("position", "position command"),
               "position": Port("position", "measured piston position"),
@@ -42,10 +43,7 @@ class PositionController(Component):
     outputs = {"current": Port("current", "valve coil current")}
 
     def __post_init__(self):
-        if not self.current_limit > 0:
-            raise ValueError(f"{self.name}: current_limit must be > 0 [A]")
-        if self.sample_time is not None and not self.sample_time > 0:
-            raise ValueError(f"{self.name}: sample_time must be > 0 [s]")
+        self.check_parameters()
 
     @property
     def states(self):

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..network import ops
-from ..network.component import Component, Port, State
+from ..network.component import Component, Port, State, parameter
 
 __all__ = ["StribeckFriction"]
 
@@ -37,29 +37,25 @@ class StribeckFriction(Component):
     Ports: input ``velocity`` [m/s]; output ``friction_force`` [N], opposing +v when > 0.
     """
 
-    viscous_up: float = 0.0
-    viscous_down: float = 0.0
-    coulomb_up: float = 0.0
-    coulomb_down: float = 0.0
-    static_up: float = 0.0
-    static_down: float = 0.0
-    stribeck_velocity: float = 0.01
-    stribeck_exponent: float = 2.0
-    regularization_velocity: float = 1e-4
-    model: str = "stribeck"
-    bristle_stiffness: float = 1e7
-    bristle_damping: float = 1e3
+    viscous_up: float = parameter(0.0, "N*s/m", "F_v+ (M24)", minimum=0.0)
+    viscous_down: float = parameter(0.0, "N*s/m", "F_v- (M24)", minimum=0.0)
+    coulomb_up: float = parameter(0.0, "N", "F_c+ (M24)", minimum=0.0)
+    coulomb_down: float = parameter(0.0, "N", "F_c- (M24)", minimum=0.0)
+    static_up: float = parameter(0.0, "N", "F_s+ (M24)", minimum=0.0)
+    static_down: float = parameter(0.0, "N", "F_s- (M24)", minimum=0.0)
+    stribeck_velocity: float = parameter(0.01, "m/s", "C_s (M24)", positive=True)
+    stribeck_exponent: float = parameter(2.0, "-", "delta (M24)", minimum=0.0)
+    regularization_velocity: float = parameter(1e-4, "m/s", "v_reg of tanh(v/v_reg)", positive=True)
+    model: str = parameter("stribeck", "str", "memory-less Stribeck or LuGre stick-slip",
+                           choices=("stribeck", "lugre"))
+    bristle_stiffness: float = parameter(1e7, "N/m", "sigma0 (LuGre)", positive=True)
+    bristle_damping: float = parameter(1e3, "N*s/m", "sigma1 (LuGre)", minimum=0.0)
 
     inputs = {"velocity": Port("velocity", "piston velocity, up +")}
     outputs = {"friction_force": Port("force", "friction force opposing +v when > 0")}
 
     def __post_init__(self):
-        if self.model not in ("stribeck", "lugre"):
-            raise ValueError(f"{self.name}: model must be 'stribeck' or 'lugre', got {self.model!r}")
-        if not self.stribeck_velocity > 0:
-            raise ValueError(f"{self.name}: stribeck_velocity must be > 0 [m/s]")
-        if not self.regularization_velocity > 0:
-            raise ValueError(f"{self.name}: regularization_velocity must be > 0 [m/s]")
+        self.check_parameters()
         self.feedthrough = True
 
     @property

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..network import ops
-from ..network.component import Component, Port
+from ..network.component import Component, Port, parameter
 
 __all__ = ["Load"]
 
@@ -29,17 +29,21 @@ class Load(Component):
     Ports: inputs ``position`` [m], ``velocity`` [m/s]; output ``load_force`` [N].
     """
 
-    mass: float = 0.0
-    stiffness: float = 0.0
-    damping: float = 0.0
-    free_position: float = 0.0
-    applied_force: float = 0.0
-    step_time: float | None = None
-    step_force: float = 0.0
+    mass: float = parameter(0.0, "kg", "load mass, added to the actuator's moving mass", minimum=0.0)
+    stiffness: float = parameter(0.0, "N/m", "specimen stiffness k", minimum=0.0)
+    damping: float = parameter(0.0, "N*s/m", "specimen damping b", minimum=0.0)
+    free_position: float = parameter(0.0, "m", "x at which the specimen is unloaded")
+    applied_force: float = parameter(0.0, "N", "constant external force, positive down")
+    step_time: float | None = parameter(None, "s", "time of a step of the external force",
+                                        minimum=0.0, optional=True)
+    step_force: float = parameter(0.0, "N", "the force step, positive down")
 
     inputs = {"position": Port("position", "piston position"),
               "velocity": Port("velocity", "piston velocity")}
     outputs = {"load_force": Port("force", "force of the load, positive down")}
+
+    def __post_init__(self):
+        self.check_parameters()
 
     def runtime_parameters(self):
         return {"applied_force": self.applied_force}

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network.component import Component, Port
+from ..network.component import Component, Port, parameter
 
 __all__ = ["LinearResistance", "OrientedResistance"]
 
@@ -21,7 +21,8 @@ class OrientedResistance(Component):
                     output ``flow = q(p_in - p_out)``, the inverse law)
     """
 
-    compute: str = "outlet"
+    compute: str = parameter("outlet", "str", "causality: what the component outputs",
+                             choices=("outlet", "inlet", "flow"))
 
     def __post_init__(self):
         if self.compute not in ("outlet", "inlet", "flow"):
@@ -62,11 +63,12 @@ class LinearResistance(OrientedResistance):
     resistance : float   R, [Pa s/m^3]
     """
 
-    resistance: float = 0.0
+    resistance: float = parameter(0.0, "Pa*s/m^3", "R of dp = R q (M1)", minimum=0.0)
 
     def __post_init__(self):
         super().__post_init__()
-        if not self.resistance >= 0 or (self.compute == "flow" and not self.resistance > 0):
+        self.check_parameters()
+        if (self.compute == "flow" and not self.resistance > 0):
             raise ValueError(f"{self.name}: resistance must be > 0 [Pa s/m^3], got {self.resistance!r}")
 
     def pressure_drop(self, q):

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..network import ops
-from ..network.component import Component, Port, State
+from ..network.component import Component, Port, State, parameter
 
 __all__ = ["Servovalve", "valve_coefficient"]
 
@@ -51,14 +51,15 @@ class Servovalve(Component):
     States ``spool_position`` [m], ``spool_velocity`` [m/s].
     """
 
-    rated_current: float = 0.05
-    rated_flow: float = 3.15e-4
-    rated_pressure_drop: float = 6.895e6
-    max_opening: float = 4e-4
-    natural_frequency: float = 140.0
-    damping_ratio: float = 1.0
-    laps: tuple = (0.0, 0.0, 0.0, 0.0)
-    laminar_pressure: float = 1e5
+    rated_current: float = parameter(0.05, "A", "rated coil current (saturation)", positive=True)
+    rated_flow: float = parameter(3.15e-4, "m^3/s", "Q_N at the rated drop (M21)", positive=True)
+    rated_pressure_drop: float = parameter(6.895e6, "Pa", "dp_N over two orifices (M21)", positive=True)
+    max_opening: float = parameter(4e-4, "m", "spool opening at rated current (M19)", positive=True)
+    natural_frequency: float = parameter(140.0, "Hz", "w_v/2pi of the spool (M19)", positive=True)
+    damping_ratio: float = parameter(1.0, "-", "zeta_v of the spool (M19)", positive=True)
+    laps: tuple = parameter((0.0, 0.0, 0.0, 0.0), "list:m",
+                            "u1..u4: negative overlap, positive underlap (M20)")
+    laminar_pressure: float = parameter(1e5, "Pa", "p_lam, laminar region of (M20)", positive=True)
 
     inputs = {
         "current": Port("current", "coil current"),
@@ -75,14 +76,12 @@ class Servovalve(Component):
     }
 
     def __post_init__(self):
-        for k, unit in (("rated_current", "A"), ("rated_flow", "m^3/s"),
-                        ("rated_pressure_drop", "Pa"), ("max_opening", "m"),
-                        ("natural_frequency", "Hz"), ("damping_ratio", "-"),
-                        ("laminar_pressure", "Pa")):
-            if not getattr(self, k) > 0:
-                raise ValueError(f"{self.name}: {k} must be > 0 [{unit}], got {getattr(self, k)!r}")
+        self.check_parameters()
         if len(self.laps) != 4:
             raise ValueError(f"{self.name}: laps must be four lengths (u1..u4) [m]")
+        if any(not abs(u) < self.max_opening for u in self.laps):
+            raise ValueError(f"{self.name}: laps must each be shorter than max_opening "
+                             f"({self.max_opening:g} m) [m], got {tuple(self.laps)!r}")
 
     @property
     def coefficient(self) -> float:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network.component import Component, Port
+from ..network.component import Component, Port, parameter
 from .commands import StepCommand
 
 __all__ = ["PressureSource"]
@@ -39,7 +39,8 @@ class PressureSource(Component):
     Ports: output ``pressure`` [Pa].
     """
 
-    pressure: float | None = None
+    pressure: float | None = parameter(None, "Pa", "absolute pressure (or the waveform's at t = 0)",
+                                       positive=True, optional=True)
     waveform: Component | None = None
     step_time: float | None = None
     step_to: float | None = None
@@ -48,6 +49,7 @@ class PressureSource(Component):
     feedthrough = False
 
     def __post_init__(self):
+        self.check_parameters()
         if self.step_time is not None:
             if self.waveform is not None or self.step_to is None or self.pressure is None:
                 raise ValueError(f"{self.name}: a step needs pressure and step_to [Pa] and no waveform")

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..network.component import Component, Port, State
+from ..network.component import Component, Port, State, parameter
 
 __all__ = ["HydraulicVolume"]
 
@@ -26,16 +26,15 @@ class HydraulicVolume(Component):
     Ports: the flow terms [m^3/s]; output ``pressure`` [Pa]. State ``pressure``.
     """
 
-    volume: float = 1e-5
-    bulk_modulus: float = 1.5e9
+    volume: float = parameter(1e-5, "m^3", "V, the oil volume", positive=True)
+    bulk_modulus: float = parameter(1.5e9, "Pa", "beta of the oil in it", positive=True)
     terms: dict = field(default_factory=dict)
-    nominal_pressure: float = 1e7
+    nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True)
 
     feedthrough = False
 
     def __post_init__(self):
-        if not self.volume > 0:
-            raise ValueError(f"{self.name}: volume must be > 0 [m^3], got {self.volume!r}")
+        self.check_parameters()
         self.inputs = {k: Port("flow", f"flow term, sign {s:+d}") for k, s in self.terms.items()}
         self.outputs = {"pressure": Port("pressure", "pressure in the volume")}
 

@@ -15,9 +15,11 @@ algebraic loops.
 """
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass, field
 
-__all__ = ["Port", "State", "Component", "QUANTITY_UNITS"]
+__all__ = ["Port", "State", "Component", "QUANTITY_UNITS", "Parameter", "parameter"]
 
 #: Physical quantity kinds of signals and their SI units.
 QUANTITY_UNITS = {
@@ -61,6 +63,109 @@ class State:
     description: str = ""
 
 
+@dataclass(frozen=True)
+class Parameter:
+    """One parameter of a component, declared once: unit, bounds, description, default.
+
+    Rig schemas, validation messages, circuit files and the docs all read these declarations
+    (:meth:`Component.parameters`).
+
+    Parameters
+    ----------
+    unit : str             SI unit ("-" dimensionless, "str" text, "list:<unit>" a list of
+                           quantities, e.g. "list:m")
+    description : str      What it is, with its symbol and equation (M#) where it has one
+    minimum : float        Lower bound, [unit]; None for none
+    maximum : float        Upper bound, [unit]; None for none
+    exclusive_minimum : bool  True: the value must be above ``minimum`` (> rather than >=)
+    optional : bool        True: None is allowed (the parameter is then not used)
+    choices : tuple        Allowed texts of a "str" parameter (empty: any text)
+    default : object       Default value [unit] (filled in from the component's field)
+    """
+
+    unit: str
+    description: str = ""
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    optional: bool = False
+    choices: tuple = ()
+    default: object = None
+
+    def rule(self) -> str:
+        """The bound as text, e.g. "> 0" or "within [1, 1.66667]"."""
+        if self.choices:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        if self.minimum is not None and self.maximum is not None:
+            return f"within {'(' if self.exclusive_minimum else '['}{self.minimum:g}, {self.maximum:g}]"
+        if self.minimum is not None:
+            return f"{'>' if self.exclusive_minimum else '>='} {self.minimum:g}"
+        if self.maximum is not None:
+            return f"<= {self.maximum:g}"
+        return "finite"
+
+    def violation(self, value) -> str | None:
+        """None when ``value`` meets the declaration, else the rule it breaks.
+
+        Parameters
+        ----------
+        value : object   The value, [unit] (a list for "list:" units, text for "str")
+
+        Returns
+        -------
+        str or None
+        """
+        if value is None:
+            return None if self.optional else "given"
+        if self.unit == "str":
+            return None if not self.choices or value in self.choices else self.rule()
+        values = value if self.unit.startswith("list:") else [value]
+        for v in values:
+            try:
+                v = float(v)
+            except (TypeError, ValueError):
+                return "a number"
+            if math.isnan(v):
+                return self.rule()
+            if self.minimum is not None and (v < self.minimum or (self.exclusive_minimum and v == self.minimum)):
+                return self.rule()
+            if self.maximum is not None and v > self.maximum:
+                return self.rule()
+            if (self.minimum is None or self.maximum is None) and math.isinf(v):
+                return self.rule() if self.rule() != "finite" else "finite"
+        return None
+
+    @property
+    def unit_text(self) -> str:
+        """The unit as shown in messages: "" for dimensionless and text."""
+        return {"-": "", "str": ""}.get(self.unit, self.unit.replace("list:", ""))
+
+
+def parameter(default, unit: str, description: str = "", *, minimum=None, maximum=None,
+              positive: bool = False, optional: bool = False, choices: tuple = ()):
+    """A dataclass field declaring a component parameter (see :class:`Parameter`).
+
+    Parameters
+    ----------
+    default : object       Default value, [unit]
+    unit : str             SI unit ("-", "str", "list:<unit>")
+    description : str      What it is
+    minimum : float        Lower bound (inclusive unless ``positive``), [unit]
+    maximum : float        Upper bound (inclusive), [unit]
+    positive : bool        Shorthand for "> 0" (``minimum`` 0, exclusive)
+    optional : bool        None allowed
+    choices : tuple        Allowed texts of a "str" parameter
+
+    Returns
+    -------
+    dataclasses.Field
+    """
+    if positive:
+        minimum = 0.0 if minimum is None else minimum
+    decl = Parameter(unit, description, minimum, maximum, bool(positive), optional, tuple(choices))
+    return field(default=default, metadata={"parameter": decl})
+
+
 @dataclass
 class Component:
     """Base class. Subclasses set ``inputs``, ``outputs``, ``states`` and the equations.
@@ -79,15 +184,55 @@ class Component:
     outputs = {}
     feedthrough = True
 
+    # ---- parameters ----------------------------------------------------------------------
+    @classmethod
+    def parameters(cls) -> dict:
+        """The declared parameters of this component type, name -> :class:`Parameter`
+        (with its default filled in)."""
+        out = {}
+        for f in dataclasses.fields(cls):
+            decl = f.metadata.get("parameter")
+            if decl is not None:
+                out[f.name] = dataclasses.replace(decl, default=f.default)
+        return out
+
+    def check_parameters(self):
+        """Raise ValueError ``"<name>: <parameter> must be <rule> [unit], got <value>"`` for
+        the first declared parameter outside its bounds."""
+        for key, decl in self.parameters().items():
+            value = getattr(self, key)
+            rule = decl.violation(value)
+            if rule is not None:
+                unit = f" [{decl.unit_text}]" if decl.unit_text else ""
+                raise ValueError(f"{self.name}: {key} must be {rule}{unit}, got {value!r}")
+
     # ---- to be provided by subclasses --------------------------------------------------
     @property
     def states(self) -> list[State]:
         return []
 
     def outputs_of(self, t, x, u, p):
+        """The outputs, local port name -> value [SI unit of the port].
+
+        Parameters
+        ----------
+        t : float   Time, [s]
+        x : dict    States, local name -> value [SI]
+        u : dict    Inputs, local port name -> value [SI] (empty when not ``feedthrough``)
+        p : dict    Runtime parameters, name -> value [SI]
+        """
         raise NotImplementedError
 
     def derivatives(self, t, x, u, p):
+        """The time derivatives of the states, local name -> value [SI unit/s].
+
+        Parameters
+        ----------
+        t : float   Time, [s]
+        x : dict    States, local name -> value [SI]
+        u : dict    Inputs, local port name -> value [SI]
+        p : dict    Runtime parameters, name -> value [SI]
+        """
         return {}
 
     # ---- optional hooks ------------------------------------------------------------------
@@ -101,13 +246,30 @@ class Component:
 
     def settle(self, x: dict, u: dict, p: dict):
         """Called with the solved steady state; may return ``(new_x, new_p)`` dicts to adopt
-        (e.g. an accumulator takes its pre-charge reference from the steady pressure)."""
+        (e.g. an accumulator takes its pre-charge reference from the steady pressure).
+
+        Parameters
+        ----------
+        x : dict   States at the steady state, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        p : dict   Runtime parameters, name -> value [SI]
+        """
         return None
 
     def breakpoints(self, t_end: float) -> list[float]:
-        """Times in (0, t_end) where the component's inputs to the ODE jump, [s]."""
+        """Times in (0, t_end) where the component's inputs to the ODE jump, [s].
+
+        Parameters
+        ----------
+        t_end : float   End of the run, [s]
+        """
         return []
 
     def signal(self, port: str) -> str:
-        """Network signal connected to a local port."""
+        """Network signal connected to a local port.
+
+        Parameters
+        ----------
+        port : str   Local port name
+        """
         return self.connections.get(port, port)

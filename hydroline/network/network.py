@@ -101,7 +101,9 @@ class Network:
             if n in visiting:
                 loop = visiting[visiting.index(n):] + [n]
                 raise NetworkError("algebraic loop through feed-through components: "
-                                   + " -> ".join(loop))
+                                   + " -> ".join(loop) + " (" + "; ".join(
+                                       self._reads(by_name[a], b) for a, b in zip(loop, loop[1:]))
+                                   + ")")
             visiting.append(n)
             for d in sorted(deps[n]):
                 visit(d)
@@ -112,6 +114,12 @@ class Network:
         for c in self.components:
             visit(c.name)
         return order
+
+    def _reads(self, c, source: str) -> str:
+        """Which ports of component c read a signal that component ``source`` outputs."""
+        ports = [f"{c.name}.{p} reads '{c.signal(p)}' from {source}.{self.producer[c.signal(p)][1]}"
+                 for p in c.inputs if self.producer[c.signal(p)][0].name == source]
+        return ", ".join(ports)
 
     # ---- evaluation ------------------------------------------------------------------
     def component(self, name: str) -> Component:

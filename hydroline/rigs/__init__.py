@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import copy
 import tomllib
+from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 
@@ -39,45 +40,97 @@ class RigError(ValueError):
 _PROFILE = {"type": "str", "time": "s", "final": "Pa", "amplitude": "Pa", "frequency": "Hz",
             "start": "s", "end": "s", "slope": "Pa/s", "file": "str"}
 _LINE = {"length": "m", "diameter": "m", "bulk_modulus": "Pa", "modes": "-"}
-_ACC = {"capacity": "m^3", "precharge_pressure": "Pa", "polytropic_exponent": "-",
-        "connection_length": "m", "connection_diameter": "m", "model": "str", "modes": "-"}
+
+#: The sections of the template rig whose parameters a component declares (unit, bounds):
+#: section -> (component type of :mod:`hydroline.circuit.types`, keys; None for all).
+#: A bound belongs on the component's declaration (``parameter(..., minimum=...)``), not in a
+#: table here: rig validation, circuit files and ``hydroline circuit --types`` all read it.
+COMPONENT_SECTIONS = {
+    "servovalve": ("servovalve", None),
+    "friction": ("friction", None),
+    "controller": ("position_controller", None),
+    "load": ("load", ("mass", "stiffness", "damping", "applied_force", "free_position")),
+    "return.check_valve": ("check_valve", ("reverse_resistance", "forward_resistance")),
+    "supply.accumulator": ("accumulator", ("capacity", "precharge_pressure", "polytropic_exponent",
+                                           "connection_length", "connection_diameter", "model", "modes")),
+    "return.accumulator": ("accumulator", ("capacity", "precharge_pressure", "polytropic_exponent",
+                                           "connection_length", "connection_diameter", "model", "modes")),
+    "actuator": ("actuator", ("bottom_area", "top_area", "stroke", "bulk_modulus", "moving_mass",
+                              "initial_position", "gravity", "internal_leakage", "external_leakage")),
+    "supply.manifold": ("resistance", ("resistance",)),
+    "return.manifold": ("resistance", ("resistance",)),
+}
+
+
+def declarations(section: str) -> dict:
+    """The declared parameters (:class:`hydroline.network.Parameter`) of a template-rig section
+    that maps onto a component type or the fluid, key -> Parameter; {} for other sections."""
+    from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
+    if section == "fluid":
+        return dict(FLUID_PARAMETERS)
+    if section not in COMPONENT_SECTIONS:
+        return {}
+    ctype, keys = COMPONENT_SECTIONS[section]
+    decl = COMPONENT_TYPES[ctype].declarations()
+    return {k: v for k, v in decl.items() if keys is None or k in keys}
+
+
+class _Schema(Mapping):
+    """SCHEMA, derived on first use from the components' declarations (keeps import light)."""
+
+    def __init__(self, fixed):
+        self._fixed, self._table = fixed, None
+
+    def _build(self):
+        if self._table is None:
+            table = {}
+            for section, units in self._fixed.items():
+                derived = {k: d.unit for k, d in declarations(section).items()}
+                table[section] = {**derived, **units}
+            self._table = table
+        return self._table
+
+    def __getitem__(self, key):
+        return self._build()[key]
+
+    def __iter__(self):
+        return iter(self._build())
+
+    def __len__(self):
+        return len(self._build())
+
 
 #: Every parameter a rig file may hold: section -> key -> SI unit ("-" dimensionless,
-#: "str" text, "list:<unit>" list of quantities).
-SCHEMA = {
-    "rig": {"name": "str", "modes_per_section": "-", "base": "str", "line_method": "str"},
+#: "str" text, "list:<unit>" list of quantities). Sections that are components (servovalve,
+#: friction, controller, load, accumulators, check valve, actuator) take units from the
+#: components' own declarations (:data:`COMPONENT_SECTIONS`); what is listed here is only
+#: what the template rig adds (e.g. ``actuator.area``, ``actuator.dead_volume``). Circuit
+#: files (``[circuit.<name>]``) are read with :mod:`hydroline.circuit`.
+SCHEMA = _Schema({
+    "rig": {"name": "str", "modes_per_section": "-", "base": "str", "line_method": "str",
+            "scenario": "str"},
     "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa"},
     "supply": {"pressure": "Pa"},
     "supply.pressure_profile": _PROFILE,
     "supply.section1": _LINE, "supply.section2": _LINE,
-    "supply.manifold": {"resistance": "Pa*s/m^3", "volume": "m^3"},
-    "supply.accumulator": _ACC,
+    "supply.manifold": {"volume": "m^3"},
+    "supply.accumulator": {},
     "return": {"pressure": "Pa"},
     "return.pressure_profile": _PROFILE,
     "return.section1": _LINE, "return.section2": _LINE,
-    "return.manifold": {"resistance": "Pa*s/m^3", "volume": "m^3"},
-    "return.check_valve": {"reverse_resistance": "Pa*s/m^3", "forward_resistance": "Pa*s/m^3"},
-    "return.accumulator": _ACC,
-    "servovalve": {"rated_current": "A", "rated_flow": "m^3/s", "rated_pressure_drop": "Pa",
-                   "max_opening": "m", "natural_frequency": "Hz", "damping_ratio": "-",
-                   "laps": "list:m", "laminar_pressure": "Pa"},
-    "actuator": {"area": "m^2", "bottom_area": "m^2", "top_area": "m^2", "stroke": "m",
-                 "dead_volume": "m^3", "bulk_modulus": "Pa", "moving_mass": "kg",
-                 "initial_position": "m", "gravity": "m/s^2", "internal_leakage": "m^3/s/Pa",
-                 "external_leakage": "m^3/s/Pa"},
-    "friction": {"viscous_up": "N*s/m", "viscous_down": "N*s/m", "coulomb_up": "N",
-                 "coulomb_down": "N", "static_up": "N", "static_down": "N",
-                 "stribeck_velocity": "m/s", "stribeck_exponent": "-",
-                 "regularization_velocity": "m/s", "model": "str",
-                 "bristle_stiffness": "N/m", "bristle_damping": "N*s/m"},
-    "load": {"mass": "kg", "stiffness": "N/m", "damping": "N*s/m", "applied_force": "N",
-             "free_position": "m"},
-    "controller": {"proportional_gain": "A/m", "integral_gain": "A/m/s",
-                   "derivative_gain": "A*s/m", "current_limit": "A", "sample_time": "s"},
+    "return.manifold": {"volume": "m^3"},
+    "return.check_valve": {},
+    "return.accumulator": {},
+    "servovalve": {},
+    "actuator": {"area": "m^2", "dead_volume": "m^3"},
+    "friction": {},
+    "load": {},
+    "controller": {},
     "scenario.open-loop-step": {"current": "A", "time": "s", "t_end": "s", "initial_current": "A"},
     "scenario.closed-loop-sine": {"amplitude": "m", "frequency": "Hz", "offset": "m",
                                   "t_end": "s", "initial_position": "m"},
-}
+    "scenario.position-step": {"axis": "str", "step": "m", "time": "s", "t_end": "s"},
+})
 
 
 def _flatten(tree, prefix=""):
@@ -91,7 +144,14 @@ def _flatten(tree, prefix=""):
     return out
 
 
-def _parse(path: str, raw):
+def _parse(path: str, raw, context: dict | None = None):
+    if path.startswith("circuit."):
+        # [circuit.<component>] tables: units from the component type's declarations
+        from ..circuit import CircuitError, parse_circuit_value
+        try:
+            return parse_circuit_value(path, raw, context or {}, _parse_as)
+        except CircuitError as e:
+            raise RigError(str(e)) from None
     if path.startswith("connections."):
         # [connections] "component.port" = "signal": rewire one port (see build_network)
         if not isinstance(raw, str) or not raw:
@@ -105,6 +165,11 @@ def _parse(path: str, raw):
     if unit is None:
         raise RigError(f"{path}: unknown parameter '{key}' of '{section}' "
                        f"(known: {', '.join(sorted(SCHEMA[section]))})")
+    return _parse_as(path, raw, unit)
+
+
+def _parse_as(path: str, raw, unit: str):
+    """One value in the SI ``unit`` ("str" text, "-" dimensionless, "list:<unit>")."""
     if unit == "str":
         if not isinstance(raw, str):
             raise RigError(f"{path}: expected text, got {raw!r}")
@@ -147,7 +212,7 @@ class Rig:
     def set(self, path: str, value) -> "Rig":
         """Set one parameter from a quantity with units (``"1.5 m"``) or, for text and
         dimensionless ones, a plain value. Returns self."""
-        self.values[path] = _parse(path, value)
+        self.values[path] = _parse(path, value, {**self.raw, path: value})
         self.raw[path] = value
         return self
 
@@ -179,11 +244,23 @@ def _toml_value(v):
     return repr(v)
 
 
+def shipped_rig(name: str) -> str | None:
+    """The file of a rig shipped with the package named ``name`` ("two_axis" or
+    "two_axis.toml"), or None."""
+    if "/" in name or "\\" in name:
+        return None
+    fname = name if name.endswith(".toml") else f"{name}.toml"
+    return fname if resources.files(__name__).joinpath(fname).is_file() else None
+
+
 def _read_toml(path) -> tuple[dict, str]:
     if path is None:
         text = resources.files(__name__).joinpath(DEFAULT_RIG).read_text()
         return tomllib.loads(text), f"embedded:{DEFAULT_RIG}"
     p = Path(path)
+    if not p.is_file() and shipped_rig(str(path)) is not None:
+        name = shipped_rig(str(path))
+        return tomllib.loads(resources.files(__name__).joinpath(name).read_text()), f"embedded:{name}"
     if not p.is_file():
         raise RigError(f"rig file not found: {path}")
     try:
@@ -193,7 +270,8 @@ def _read_toml(path) -> tuple[dict, str]:
 
 
 def load_rig(path=None) -> Rig:
-    """Load a rig file (the embedded default when ``path`` is None).
+    """Load a rig file (the embedded default when ``path`` is None); a rig shipped with the
+    package may be named instead of a path (``load_rig("two_axis")``).
 
     A file with ``[rig] base = "default"`` starts from the embedded rig and overrides only
     what it lists.
@@ -202,10 +280,10 @@ def load_rig(path=None) -> Rig:
     raw = _flatten(tree)
     if raw.get("rig.base") in ("default", DEFAULT_RIG):
         base = load_rig(None)
-        for k, v in raw.items():
+        for k, v in sorted(raw.items(), key=lambda kv: not kv[0].endswith(".type")):
             if k != "rig.base":
                 base.set(k, v)
         base.source = source
         return base
-    values = {k: _parse(k, v) for k, v in raw.items()}
+    values = {k: _parse(k, v, raw) for k, v in raw.items()}
     return Rig(values, raw, source)

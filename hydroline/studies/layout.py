@@ -7,21 +7,27 @@ the valve. :func:`layout` sets ``supply.section2.length`` and ``return.section2.
 each length in turn (0 removes the section: the manifold node is joined to the valve port,
 see :func:`hydroline.system.build_network`), runs the scenario (the 50 mA open-loop step by
 default) from the solved steady state and takes the port metrics of
-:func:`hydroline.scenarios.summarize`: oscillation frequency [Hz] and peak amplitude [MPa] over
-the metrics window (step to piston stop), and the 2 % settling time [s] of
-:func:`hydroline.studies.settling.port_settling`: measured on the window where the port
-pressure settles within it, else estimated from the exponential decay of its oscillation
-where the window holds enough of it (the table's ``*_settling_method`` column says which, and
-``*_settling_note`` how, or why there is none). A frequency of None means the port pressure
-does not oscillate; a settling time of None that it neither settled within the window nor
-can be estimated (on the default rig: the long hoses ring for only 3-5 periods before the
-piston stops, and the return port's mean pressure is still rising with the return
-accumulator's charge).
+:func:`hydroline.scenarios.summarize` over the metrics window (step to the piston's arrival at
+the stop it moves toward): oscillation frequency [Hz], oscillation amplitude (two-sided, about
+the pressure's one-period mean) [MPa], first excursion and steady change [MPa], and the 2 %
+settling time [s] of :func:`hydroline.analysis.port_settling` -- measured on the window where
+the port pressure settles within it, else estimated from the exponential decay of its
+oscillation where the window holds enough of it (the table's ``*_settling_method`` column says
+which, and ``*_settling_note`` how, or why there is none). A frequency of None means the port
+pressure does not ring (amplitude 0, ``*_amplitude_note`` says so). :func:`conclusion` writes
+the design conclusion from the numbers.
 
 What to expect (MODEL.md 1-2): a section II with a nearly blocked valve end and the
 accumulator-stiffened manifold at the other is close to a quarter-wave resonator, so the
-frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 37 Hz for 3 m),
-and the amplitude falls with the volume of oil that the step must accelerate.
+frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 39 Hz for 3 m). The
+amplitude is the water hammer Z0 * dQ that the valve's flow step starts -- but only where the
+flow rises faster than the hose's round trip 2L/c. On the default rig the flow rises (10-90 %)
+in about 5 ms (spool 140 Hz, zeta = 1, and the actuator's acceleration; the table's
+``flow_rise_time_ms``), against round trips of 12.9 ms at 3.048 m and 3.2 ms at 0.7512 m
+(``*_round_trip_ms``): the long hoses differ little (1.00 / 0.96 / 0.87 MPa at the supply port
+for 3.048 / 2.286 / 1.524 m), the 0.7512 m hose's reflection returns before the flow has risen
+(0.43 MPa), and close-coupling removes the resonator (0). The paper: peak amplitudes
+"progressively reduced", "slightly", the close coupling "eliminates" the oscillation.
 
 References
 ----------
@@ -48,12 +54,14 @@ from ..system import make_fluid
 from ..units import parse_quantity
 from .settling import port_summary
 
-__all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES"]
+__all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion"]
 
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
 SIDES = ("supply", "return")
 _METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
+#: The table's further port metrics (:func:`hydroline.analysis.pressure_metrics`).
+_MORE = ("first_excursion_mpa", "steady_change_mpa", "peak_to_peak_mpa")
 
 
 def _finite_or_none(v):
@@ -138,8 +146,11 @@ class LayoutStudy:
 
     def table(self) -> pd.DataFrame:
         """One row per length: section2_length_m, {supply,return}_{frequency_hz,
-        amplitude_mpa, settling_time_s, settling_method, settling_note}, wall_time_s,
-        warnings (NaN where a metric does not exist)."""
+        amplitude_mpa, settling_time_s, first_excursion_mpa, steady_change_mpa,
+        peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
+        flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
+        {supply,return}_round_trip_ms (2 L / c of that section II), wall_time_s, warnings
+        (NaN where a metric does not exist)."""
         rows = []
         for L, s in zip(self.lengths, self.summaries):
             row = {"section2_length_m": float(L)}
@@ -147,8 +158,15 @@ class LayoutStudy:
                 for k in _METRICS:
                     row[f"{side}_{k}"] = np.nan if s[side][k] is None else s[side][k]
             for side in SIDES:
+                for k in _MORE:
+                    v = s[side].get(k)
+                    row[f"{side}_{k}"] = np.nan if v is None else v
+            for side in SIDES:
                 row[f"{side}_settling_method"] = s[side].get("settling_method") or ""
                 row[f"{side}_settling_note"] = s[side].get("settling_note", "")
+                row[f"{side}_amplitude_note"] = s[side].get("amplitude_note", "")
+            for k in ("flow_rise_time_ms", "supply_round_trip_ms", "return_round_trip_ms"):
+                row[k] = s.get("flow", {}).get(k, np.nan)
             row["wall_time_s"] = s["wall_time_s"]
             row["warnings"] = "; ".join(s["warnings"])
             rows.append(row)
@@ -195,18 +213,23 @@ class LayoutStudy:
         fig = plt.figure(figsize=(11, 1.7 * n + 4.0))
         outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
         gs = outer[0].subgridspec(n, 2, hspace=0.12)
-        first = {}
+        first, lims = {}, {}
         for r, (L, res) in enumerate(zip(self.lengths, self.results)):
             t_ms = res.t * 1e3
             t0 = res.metadata.get("t_disturbance", 0.0)
-            t1 = res.metadata.get("metrics_window_end")
+            window = res.metadata.get("metrics_window")
+            t1 = window[1] if window and window[2] == "stop" else None
             for c, side in enumerate(SIDES):
                 ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
                 first.setdefault("x", ax)
                 first.setdefault(side, ax)
-                ax.plot(t_ms, res[f"{side}_port_pressure"] / 1e6, lw=0.9,
-                        color="C0" if side == "supply" else "C3")
-                if t1 and t1 < res.t[-1]:
+                y = res[f"{side}_port_pressure"] / 1e6
+                k1 = int(np.count_nonzero(res.t <= t1)) if t1 else y.size
+                ax.plot(t_ms[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
+                lims.setdefault(side, []).extend([float(np.min(y[:k1])), float(np.max(y[:k1]))])
+                if t1 and t1 < res.t[-1]:   # after the far stop: grey, outside the metrics
+                    ax.plot(t_ms[k1 - 1:], y[k1 - 1:], lw=0.7, color="0.6")
+                    ax.axvspan(t1 * 1e3, t_ms[-1], color="0.9", zorder=0, lw=0)
                     ax.axvline(t1 * 1e3, color="0.5", lw=0.7, ls=":")
                 ax.axvline(t0 * 1e3, color="0.7", lw=0.7, ls=":")
                 ts = self.summaries[r][side].get("settling_time_s")
@@ -223,6 +246,10 @@ class LayoutStudy:
                     ax.tick_params(labelbottom=False)
                 else:
                     ax.set_xlabel("time [ms]")
+        for side, values in lims.items():   # y-range from the metrics windows only
+            lo, hi = min(values), max(values)
+            pad = 0.08 * (hi - lo) if hi > lo else 0.05
+            first[side].set_ylim(lo - pad, hi + pad)
         sub = outer[1].subgridspec(1, 2, wspace=0.25)
         ax_f, ax_a = fig.add_subplot(sub[0, 0]), fig.add_subplot(sub[0, 1])
         tab = self.table().sort_values("section2_length_m")
@@ -230,7 +257,18 @@ class LayoutStudy:
             ax_f.plot(tab["section2_length_m"], tab[f"{side}_frequency_hz"], "o-", color=color,
                       label=side)
             ax_a.plot(tab["section2_length_m"], tab[f"{side}_amplitude_mpa"], "o-", color=color,
-                      label=side)
+                      label=f"{side}: oscillation amplitude")
+            ax_a.plot(tab["section2_length_m"], tab[f"{side}_first_excursion_mpa"], "^:",
+                      color=color, alpha=0.6, ms=4, label=f"{side}: first excursion |p - p0|")
+            for L, fv, av in zip(tab["section2_length_m"], tab[f"{side}_frequency_hz"],
+                                 tab[f"{side}_amplitude_mpa"]):
+                dy = 6 if side == "supply" else -11
+                if np.isfinite(fv):
+                    ax_f.annotate(f"{fv:.0f}", (L, fv), textcoords="offset points",
+                                  xytext=(4, dy), fontsize=7, color=color)
+                if np.isfinite(av):
+                    ax_a.annotate(f"{av:.2f}", (L, av), textcoords="offset points",
+                                  xytext=(4, dy), fontsize=7, color=color)
             c = self.wave_speeds.get(side)
             if c and side in self.sides and max(self.lengths) > 0:
                 lo = min([L for L in self.lengths if L > 0] + [max(self.lengths)])
@@ -238,11 +276,11 @@ class LayoutStudy:
                 ax_f.plot(Ls, c / (4 * Ls), ls="--", lw=0.8, color=color,
                           label=f"{side}: c/(4L) of section II alone")
         ax_f.set_ylabel("oscillation frequency [Hz]")
-        ax_a.set_ylabel("peak amplitude [MPa]")
+        ax_a.set_ylabel("port pressure [MPa]")
         for ax in (ax_f, ax_a):
             ax.set_xlabel("section II length [m]")
             ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=8)
+            ax.legend(fontsize=7)
             ax.set_xlim(left=-0.05 * max(max(self.lengths), 1e-3))
         ax_a.set_ylim(bottom=0)
         flat = sorted({L for L, s in zip(self.lengths, self.summaries)
@@ -256,6 +294,62 @@ class LayoutStudy:
         if path is not None:
             fig.savefig(path, dpi=110)
         return fig
+
+
+def _flow_rise_time(res) -> float:
+    """10-90 % rise time [s] of the valve's supply-port flow after the step (NaN if none).
+
+    The flow step at the valve starts the water hammer; it reaches the hose as the full
+    Joukowsky swing ``Z0 * dQ`` only when it rises faster than the hose's round-trip wave time
+    ``2 L / c``. The final flow is the mean over the last 20 % of the metrics window."""
+    t0, t1, _ = res.metadata["metrics_window"]
+    t, q = res.t, res["supply_port_flow"]
+    w = (t >= t0) & (t <= t1)
+    tw, qw = t[w], q[w]
+    q0 = float(np.interp(t0, t, q))
+    q1 = float(np.mean(qw[tw >= t1 - 0.2 * (t1 - t0)]))
+    if not abs(q1 - q0) > 0:
+        return float("nan")
+    rel = (qw - q0) / (q1 - q0)
+    reach = [np.flatnonzero(rel >= level) for level in (0.1, 0.9)]
+    if any(r.size == 0 for r in reach):
+        return float("nan")
+    return float(tw[reach[1][0]] - tw[reach[0][0]])
+
+
+def conclusion(study: "LayoutStudy") -> str:
+    """The design conclusion in one sentence, written from the study's own numbers.
+
+    Compares the port oscillation amplitude at the longest section II with the shortest
+    non-zero one and, where the study has it, the close-coupled manifold (0 m)."""
+    recs = {r["section2_length_m"]: r for r in study.records()}
+    hoses = sorted(L for L in recs if L > 0)
+    parts = []
+    if len(hoses) >= 2:
+        long_, short = hoses[-1], hoses[0]
+        pieces, monotone = [], True
+        for side in study.sides:
+            amps = [recs[L][side]["amplitude_mpa"] for L in reversed(hoses)]
+            if any(a is None for a in amps):
+                continue
+            monotone &= all(b <= a for a, b in zip(amps, amps[1:]))
+            pieces.append(f"{amps[0]:.2f} to {amps[-1]:.2f} MPa ({side})")
+        if pieces:
+            verb = "lowers" if monotone else "changes"
+            how = " progressively" if monotone and len(hoses) > 2 else ""
+            freqs = [recs[L]["supply"]["frequency_hz"] for L in (long_, short)]
+            freq = (f", while its frequency rises from {freqs[0]:.0f} to {freqs[1]:.0f} Hz"
+                    if None not in freqs else "")
+            parts.append(f"shortening sections II from {long_:g} m to {short:g} m {verb} the "
+                         f"port oscillation amplitude{how} from " + " and ".join(pieces) + freq)
+    if 0.0 in recs:
+        flat = all(recs[0.0][side]["frequency_hz"] is None for side in SIDES)
+        parts.append("close-coupling the manifold to the valve (0 m) removes the oscillation"
+                     if flat else "close-coupling (0 m) still leaves an oscillation (see the table)")
+    if not parts:
+        return ""
+    text = "; ".join(parts)
+    return text[0].upper() + text[1:] + "."
 
 
 def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "open-loop-step",
@@ -297,12 +391,17 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "o
         except (ValueError, SteadyStateError) as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise RigError(f"section II length {L:g} m: {msg}") from e
-        summaries.append(port_summary(res))
+        summary = port_summary(res)
+        summary["flow"] = {"flow_rise_time_ms": _flow_rise_time(res) * 1e3}
+        summaries.append(summary)
         results.append(res)
         if progress is not None:
             progress(k + 1, len(lengths))
     fluid = make_fluid(rig)
     speeds = {side: Line(1.0, rig[f"{side}.section2.diameter"], fluid,
                          rig.get(f"{side}.section2.bulk_modulus")).wave_speed for side in SIDES}
+    for L, summary in zip(lengths, summaries):
+        for side in SIDES:
+            summary["flow"][f"{side}_round_trip_ms"] = 2 * L / speeds[side] * 1e3
     return LayoutStudy(lengths, summaries, results, sides, scenario,
                        str(rig.get("rig.name", rig.source)), _time.perf_counter() - tic, speeds)

@@ -63,7 +63,13 @@ __all__ = ["sweep", "run_variant", "SweepResult", "SweepFileError", "METRIC_COLU
 #: ``tracking_error_rms_mm`` and ``tracking_error_max_mm``.
 METRIC_COLUMNS = ["supply_frequency_hz", "supply_amplitude_mpa", "supply_settling_time_s",
                   "return_frequency_hz", "return_amplitude_mpa", "return_settling_time_s",
-                  "wall_time_s"]
+                  "supply_first_excursion_mpa", "supply_steady_change_mpa",
+                  "supply_peak_to_peak_mpa", "return_first_excursion_mpa",
+                  "return_steady_change_mpa", "return_peak_to_peak_mpa", "wall_time_s"]
+#: Port metrics taken from :func:`hydroline.scenarios.summarize` into each row (one definition
+#: for simulate, layout and sweep, :func:`hydroline.analysis.pressure_metrics`).
+_PORT_METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s", "first_excursion_mpa",
+                 "steady_change_mpa", "peak_to_peak_mpa")
 TRACKING_COLUMNS = ["tracking_error_rms_mm", "tracking_error_max_mm"]
 #: How each settling time was obtained: "measured", "estimated" or "" (none), see
 #: :func:`hydroline.studies.settling.port_settling`.
@@ -104,8 +110,9 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
 
     Returns
     -------
-    dict  ``variant``, the inputs, :data:`METRIC_COLUMNS` (frequencies [Hz], amplitudes
-          [MPa], settling times [s], wall time [s]; None where a metric does not exist),
+    dict  ``variant``, the inputs, :data:`METRIC_COLUMNS` (frequencies [Hz], amplitudes,
+          first excursions, steady changes and peak-to-peak [MPa], settling times [s], wall
+          time [s]; None where a metric does not exist),
           :data:`SETTLING_COLUMNS` (how each settling time was obtained, as in the layout
           study: :func:`hydroline.studies.settling.port_settling`), ``warnings`` (text, ""
           when none) and ``error`` (None, or "Type: reason").
@@ -129,9 +136,9 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
         res = simulate(r, scenario, t_end, solver=solver)
         s = port_summary(res)
         for side in ("supply", "return"):
-            for k in ("frequency_hz", "amplitude_mpa", "settling_time_s"):
-                row[f"{side}_{k}"] = _finite_or_none(s[side][k])
-            row[f"{side}_settling_method"] = s[side]["settling_method"] or ""
+            for k in _PORT_METRICS:
+                row[f"{side}_{k}"] = _finite_or_none(s[side].get(k))
+            row[f"{side}_settling_method"] = s[side].get("settling_method") or ""
         for k in TRACKING_COLUMNS:
             if k in s:
                 row[k] = _finite_or_none(s[k])

@@ -1,0 +1,11 @@
+"""Circuits as data: component types with declared parameters, the builder, axis handles.
+
+See :mod:`hydroline.circuit.builder` for the file format and :mod:`hydroline.circuit.types`
+for the component types.
+"""
+from .builder import (Axis, Circuit, axes_of, circuit_components, circuit_names, has_circuit,
+                      parse_circuit_value, rewire)
+from .types import COMPONENT_TYPES, CircuitError, ComponentType
+
+__all__ = ["Axis", "Circuit", "axes_of", "circuit_components", "circuit_names", "has_circuit",
+           "parse_circuit_value", "rewire", "COMPONENT_TYPES", "CircuitError", "ComponentType"]

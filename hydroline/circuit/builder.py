@@ -1,0 +1,454 @@
+"""Circuits as data: a rig's ``[circuit.<name>]`` tables -> components, handles, network.
+
+A circuit file lists components by type (:data:`hydroline.circuit.types.COMPONENT_TYPES`),
+each with its parameters (quantities with units, provenance comments) and the signal each of
+its ports is joined to::
+
+    [circuit."supply.section1"]
+    type = "hose"
+    length = "3.048 m"           # [paper]
+    diameter = "15.9 mm"
+    form = "PQ"
+    ports = { upstream_pressure = "pump_pressure", downstream_flow = "supply.manifold_flow",
+              downstream_pressure = "supply.manifold_inlet_pressure", upstream_flow = "pump_flow" }
+
+Two ports are connected when they name the same signal; exactly one of them outputs it
+(causality). ``volume`` and ``junction`` components list their flow terms with signs
+(``terms = { inflow = 1, valve = -1 }``). Every port must be listed: an unlisted port is
+refused, as are a port the type does not have, an unknown type, two outputs on one signal,
+a causality clash and an algebraic loop, each in one line naming the component and port.
+
+:func:`axes_of` finds the servo axes (actuator, its valve, its controller) in any component
+list and returns their handles (:class:`Axis`): which signals are the axis's port pressures,
+piston position, valve current, ... so experiments and analysis never hard-code names.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import components as comp
+from ..fluid import Fluid
+from ..lines import Line, ModalLine
+from ..network import Network, NetworkError
+from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
+
+__all__ = ["Axis", "Circuit", "axes_of", "circuit_components", "circuit_names", "has_circuit",
+           "parse_circuit_value", "rewire"]
+
+PREFIX = "circuit."
+
+
+def has_circuit(values: dict) -> bool:
+    """True when a rig's values describe a circuit (any ``circuit.*`` key).
+
+    Parameters
+    ----------
+    values : dict   A rig's values, path -> SI value
+    """
+    return any(k.startswith(PREFIX) for k in values)
+
+
+def circuit_names(values: dict) -> list[str]:
+    """Component names of the circuit, in file order.
+
+    Parameters
+    ----------
+    values : dict   A rig's values, path -> SI value
+    """
+    return [k[len(PREFIX):-len(".type")] for k in values
+            if k.startswith(PREFIX) and k.endswith(".type")]
+
+
+def _split(path: str, raw: dict) -> tuple[str, str]:
+    """(component name, key) of a ``circuit.<name>.<key>`` path."""
+    parts = path[len(PREFIX):].split(".")
+    for i in range(len(parts) - 1, 0, -1):
+        name = ".".join(parts[:i])
+        if f"{PREFIX}{name}.type" in raw:
+            return name, ".".join(parts[i:])
+    if parts[-1] == "type":
+        return ".".join(parts[:-1]), "type"
+    raise CircuitError(f"{path}: no component of the circuit holds it (give its table a "
+                       f"type = \"...\", one of {', '.join(COMPONENT_TYPES)})")
+
+
+def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
+    """A ``circuit.*`` rig value in SI.
+
+    Parameters
+    ----------
+    path : str                  ``circuit.<component>.<key>``
+    raw_value : object          The value as written (quantity with unit, text, number)
+    raw : dict                  All raw values of the rig (to find the component's type)
+    parse_quantity_as : callable  ``(path, raw_value, unit) -> SI value`` (the rig's reader)
+
+    Returns
+    -------
+    object  float [SI unit of the parameter], text, list or a signal name
+    """
+    name, key = _split(path, raw)
+    if key == "type":
+        if raw_value not in COMPONENT_TYPES:
+            raise CircuitError(f"{path}: unknown component type {raw_value!r} of component "
+                               f"'{name}' (known: {', '.join(COMPONENT_TYPES)})")
+        return raw_value
+    ctype = COMPONENT_TYPES[raw[f"{PREFIX}{name}.type"]]
+    if key.startswith("ports."):
+        if not isinstance(raw_value, str) or not raw_value:
+            raise CircuitError(f"{path}: port '{key[6:]}' of component '{name}' must name a "
+                               f"signal, e.g. \"supply_port_pressure\"; got {raw_value!r}")
+        return raw_value
+    if key.startswith("terms."):
+        if raw_value not in (1, -1):
+            raise CircuitError(f"{path}: flow term '{key[6:]}' of component '{name}' must be "
+                               f"+1 (in) or -1 (out), got {raw_value!r}")
+        return int(raw_value)
+    own = {k[len(PREFIX) + len(name) + 1:]: v for k, v in raw.items()
+           if k.startswith(f"{PREFIX}{name}.")}
+    unit = ctype.unit_of(key, own)
+    if unit is None:
+        raise CircuitError(f"{path}: component '{name}' ({ctype.name}) has no parameter '{key}' "
+                           f"(parameters: {', '.join(ctype.declarations()) or 'none'}; ports, terms)")
+    return parse_quantity_as(path, raw_value, unit)
+
+
+@dataclass
+class Axis:
+    """Handles of one servo axis: the signal and component names experiments use.
+
+    Attributes
+    ----------
+    name : str              Axis name (the actuator's name without ``.actuator``)
+    actuator : str          Actuator component
+    valve : str             Servovalve component driving it
+    current : str           Valve current signal, [A]
+    supply_pressure, return_pressure : str   Valve P and T port pressure signals, [Pa]
+    bottom_pressure, top_pressure : str      Chamber pressure signals, [Pa]
+    position, velocity : str                 Piston position [m] and velocity [m/s] signals
+    controller : str        Position controller in the circuit driving ``current`` (or None)
+    reference : str         Its reference signal, [m] (or None)
+    friction : str          Friction component on the piston (or None)
+    stroke : float          Full stroke, [m]
+    """
+
+    name: str
+    actuator: str
+    valve: str
+    current: str
+    supply_pressure: str
+    return_pressure: str
+    bottom_pressure: str
+    top_pressure: str
+    position: str
+    velocity: str
+    controller: str | None = None
+    reference: str | None = None
+    friction: str | None = None
+    stroke: float = float("inf")
+
+    @property
+    def reference_signal(self) -> str:
+        """The position reference signal [m]: the controller's, else one named for the axis."""
+        if self.reference:
+            return self.reference
+        if self.position == "piston_position":
+            return "position_reference"
+        return f"{self.name}.position_reference"
+
+
+def axes_of(components: list) -> dict:
+    """The servo axes among components, axis name -> :class:`Axis` (in component order).
+
+    An axis is an actuator whose chambers a servovalve feeds; its controller is the position
+    controller whose current drives that valve, its friction the friction component on its
+    friction-force signal.
+
+    Parameters
+    ----------
+    components : list   Components joined by signal names
+
+    Returns
+    -------
+    dict
+    """
+    valves = [c for c in components if isinstance(c, comp.Servovalve)]
+    ctls = [c for c in components if isinstance(c, comp.PositionController)]
+    frs = [c for c in components if isinstance(c, comp.StribeckFriction)]
+    out = {}
+    for a in components:
+        if not isinstance(a, comp.Actuator):
+            continue
+        pb = a.signal("bottom_pressure")
+        v = next((v for v in valves if v.signal("bottom_pressure") == pb), None)
+        if v is None:
+            continue
+        cur = v.signal("current")
+        ctl = next((c for c in ctls if c.signal("current") == cur), None)
+        fr = next((f for f in frs if f.signal("friction_force") == a.signal("friction_force")), None)
+        name = a.name[:-len(".actuator")] if a.name.endswith(".actuator") else a.name
+        out[name] = Axis(name, a.name, v.name, cur, v.signal("supply_pressure"),
+                         v.signal("return_pressure"), pb, a.signal("top_pressure"),
+                         a.signal("position"), a.signal("velocity"),
+                         None if ctl is None else ctl.name,
+                         None if ctl is None else ctl.signal("reference"),
+                         None if fr is None else fr.name, a.stroke)
+    return out
+
+
+@dataclass
+class Circuit:
+    """Components of a rig with their handles; :meth:`network` adds an experiment's commands.
+
+    Attributes
+    ----------
+    components : list   The components (ports joined by signal names)
+    axes : dict         Axis name -> :class:`Axis`
+    source : str        Where the description came from
+    overrides : dict    The rig's ``[connections]``, "component.port" -> signal, applied to
+                        the components and again to an experiment's commands
+    """
+
+    components: list
+    axes: dict = field(default_factory=dict)
+    source: str = ""
+    overrides: dict = field(default_factory=dict)
+
+    def component(self, name: str):
+        """The component called ``name`` (KeyError if none).
+
+        Parameters
+        ----------
+        name : str   Component name
+        """
+        for c in self.components:
+            if c.name == name:
+                return c
+        raise KeyError(name)
+
+    def place(self, position_guess: float | None, axis: str | None = None):
+        """Start an axis from a piston position guess for the steady-state solver.
+
+        Parameters
+        ----------
+        position_guess : float   Piston position from mid-stroke, [m]; None: leave as is
+        axis : str               Axis name; None: the first
+        """
+        if position_guess is None or not self.axes:
+            return
+        ax = self.axes[axis or next(iter(self.axes))]
+        act = self.component(ax.actuator)
+        half = act.stroke / 2
+        if not (np.isfinite(position_guess) and abs(position_guess) <= half * (1 + 1e-12)):
+            raise CircuitError(f"initial piston position of '{ax.actuator}': must lie within "
+                               f"+-stroke/2 = +-{half * 1e3:g} mm [m], got {position_guess:g} m")
+        act.initial_position = float(position_guess)
+
+    def network(self, commands=()) -> Network:
+        """The network of the circuit driven by an experiment.
+
+        Parameters
+        ----------
+        commands : list   Experiment components (valve currents, position references, ...)
+
+        Returns
+        -------
+        Network
+        """
+        parts = list(self.components) + list(commands)
+        rewire(parts, self.overrides)
+        return Network(parts)
+
+    def connection_table(self, commands=()) -> list[dict]:
+        """One row per signal: its producer ``component.port`` and consumers, quantity, unit.
+
+        Parameters
+        ----------
+        commands : list   Experiment components to include
+
+        Returns
+        -------
+        list of dict  keys signal, producer (None: from the experiment), consumers, quantity, unit
+        """
+        parts = list(self.components) + list(commands)
+        rows, by_signal = [], {}
+        for c in parts:
+            for port, spec in c.outputs.items():
+                by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
+                                                      "quantity": spec.quantity, "unit": spec.unit})
+                by_signal[c.signal(port)]["producer"] = f"{c.name}.{port}"
+        for c in parts:
+            for port, spec in c.inputs.items():
+                row = by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
+                                                            "quantity": spec.quantity, "unit": spec.unit})
+                row["consumers"].append(f"{c.name}.{port}")
+        for sig, row in by_signal.items():
+            rows.append({"signal": sig, **row})
+        return rows
+
+
+def rewire(parts: list, overrides: dict, allow_unknown: bool = False):
+    """Join ports to other signals: ``overrides`` maps "component.port" -> signal.
+
+    Parameters
+    ----------
+    parts : list          Components (changed in place)
+    overrides : dict      "component.port" -> signal name
+    allow_unknown : bool  Skip components not among ``parts`` (an experiment adds them later)
+    """
+    by_name = {c.name: c for c in parts}
+    for target, signal in overrides.items():
+        cname, _, port = target.rpartition(".")
+        c = by_name.get(cname)
+        if c is None:
+            if allow_unknown:
+                continue
+            raise CircuitError(f"connections.{target}: unknown component '{cname}' "
+                               f"(components: {', '.join(sorted(by_name))})")
+        if port not in c.inputs and port not in c.outputs:
+            raise CircuitError(f"connections.{target}: component '{cname}' has no port '{port}' "
+                               f"(ports: {', '.join(list(c.inputs) + list(c.outputs))})")
+        c.connections = dict(c.connections, **{port: signal})
+
+
+def _fluid(rig) -> Fluid:
+    try:
+        return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"])
+    except ValueError as e:
+        raise CircuitError(f"fluid: {e}") from None
+
+
+def _table(values: dict, name: str, sub: str) -> dict:
+    head = f"{PREFIX}{name}.{sub}."
+    return {k[len(head):]: v for k, v in values.items() if k.startswith(head)}
+
+
+def circuit_components(rig, overrides: dict | None = None) -> Circuit:
+    """The components of a rig's ``[circuit.*]`` description, checked port by port.
+
+    Parameters
+    ----------
+    rig : Rig         A rig whose values hold a circuit (SI)
+    overrides : dict  "component.port" -> signal, applied after the ports (the rig's
+                      ``[connections]``)
+
+    Returns
+    -------
+    Circuit
+    """
+    fluid = _fluid(rig)
+    values = rig.values
+    names = circuit_names(values)
+    if not names:
+        raise CircuitError(f"rig {rig.source}: no [circuit.<name>] table with a type")
+    specs = {}
+    for name in names:
+        ctype = COMPONENT_TYPES[values[f"{PREFIX}{name}.type"]]
+        head = f"{PREFIX}{name}."
+        params = {k[len(head):]: v for k, v in values.items()
+                  if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+        decls = ctype.declarations()
+        for key, v in params.items():   # the declared bounds, with the value as written
+            rule = decls[key].violation(v) if key in decls else None
+            if rule is not None:
+                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
+                raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
+                                   f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
+        specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
+    # the load mass rides on the actuator whose position it reads (Load's docstring)
+    for name, (ctype, params, ports, _) in specs.items():
+        if ctype.name == "load" and params.get("mass"):
+            act = [n for n, (t, _, p, _) in specs.items()
+                   if t.name == "actuator" and p.get("position") == ports.get("position")]
+            if act:
+                ap = specs[act[0]][1]
+                ap["moving_mass"] = ap.get("moving_mass", comp.Actuator.parameters()["moving_mass"].default) \
+                    + params["mass"]
+    parts = []
+    for name, (ctype, params, ports, terms) in specs.items():
+        try:
+            c = _make(rig, fluid, name, ctype, dict(params), terms)
+        except CircuitError:
+            raise
+        except (ValueError, TypeError) as e:
+            raise CircuitError(f"circuit.{name} ({ctype.name}): {e}") from None
+        have = list(c.inputs) + list(c.outputs)
+        for port in ports:
+            if port not in have:
+                raise CircuitError(f"circuit.{name}.ports.{port}: component '{name}' ({ctype.name}) "
+                                   f"has no port '{port}' (ports: {', '.join(have)})")
+        for port in have:
+            if port not in ports:
+                raise CircuitError(f"circuit.{name}.ports.{port}: port '{port}' of component "
+                                   f"'{name}' is not connected (list it in ports = {{...}})")
+        c.connections = dict(ports)
+        parts.append(c)
+    rewire(parts, overrides or {}, allow_unknown=True)
+    circuit = Circuit(parts, axes_of(parts), rig.source, dict(overrides or {}))
+    try:   # the wiring checks (two outputs, causality, loops) on the circuit alone, with a
+        Network(parts + experiment_placeholders(parts))   # stand-in for what an experiment feeds
+    except NetworkError as e:
+        raise CircuitError(f"circuit: {e}") from None
+    return circuit
+
+
+def experiment_placeholders(parts: list) -> list:
+    """Constant commands on every input signal no component outputs (what an experiment will
+    drive: valve currents, position references), so a circuit can be checked on its own.
+
+    Parameters
+    ----------
+    parts : list   Components
+
+    Returns
+    -------
+    list  One :class:`~hydroline.components.StepCommand` per such signal
+    """
+    produced = {c.signal(p) for c in parts for p in c.outputs}
+    out, seen = [], set()
+    for c in parts:
+        for port, spec in c.inputs.items():
+            sig = c.signal(port)
+            if sig not in produced and sig not in seen and spec.quantity in QUANTITY_UNIT:
+                seen.add(sig)
+                out.append(comp.StepCommand(name=f"experiment:{sig}", quantity=spec.quantity,
+                                            connections={"command": sig}))
+    return out
+
+
+def _make(rig, fluid, name, ctype, params, terms):
+    cls = ctype.component
+    if ctype.name == "hose":
+        line = Line(params["length"], params["diameter"], fluid, params.get("bulk_modulus"))
+        modes = params.get("modes", rig.get("rig.modes_per_section", 6))
+        if int(modes) != modes or modes < 1:
+            raise CircuitError(f"circuit.{name}.modes: must be an integer >= 1, got {modes!r}")
+        model = ModalLine(line, int(modes), params.get("form", "PQ"),
+                          method=params.get("method", rig.get("rig.line_method", "yang-tobler")))
+        return comp.HoseSection(name=name, model=model,
+                                nominal_pressure=params.get("nominal_pressure", 1e7))
+    if ctype.name == "accumulator":
+        conn = Line(params.pop("connection_length"), params.pop("connection_diameter"), fluid)
+        kind = params.pop("model", "version-II")
+        modes = params.pop("modes", rig.get("rig.modes_per_section", 6))
+        if kind == "modal":
+            return cls(name=name, connection_model=ModalLine(conn, int(modes), "PP"), **params)
+        return cls(name=name, resistance=conn.resistance, inertance=conn.inertance, **params)
+    if ctype.name in ("volume", "junction"):
+        if not terms:
+            raise CircuitError(f"circuit.{name}.terms: a {ctype.name} needs its flow terms, e.g. "
+                               f"terms = {{ inflow = 1, outflow = -1 }}")
+        if ctype.name == "volume":
+            params.setdefault("bulk_modulus", fluid.bulk_modulus)
+        return cls(name=name, terms=dict(terms), **params)
+    if ctype.name == "servovalve" and "laps" in params:
+        params["laps"] = tuple(params["laps"])
+    if ctype.name == "table_command":
+        path = Path(params.pop("file"))
+        if not path.is_absolute() and not rig.source.startswith("embedded:"):
+            path = Path(rig.source).parent / path
+        q = params.get("quantity", "current")
+        return cls.from_csv_with_units(path, QUANTITY_UNIT[q], name=name, quantity=q)
+    return cls(name=name, **params)

@@ -1,0 +1,63 @@
+"""``hydroline circuit``: print a rig's circuit (components, connections, causality) and draw it."""
+from __future__ import annotations
+
+import json
+
+from ..circuit.drawing import component_rows, draw_circuit
+from ..circuit.types import parameter_reference
+from ..rigs import load_rig
+from ..system import build_circuit
+from .common import print_table
+
+
+def register(sub):
+    p = sub.add_parser("circuit", help="print a rig's circuit: components, connections, causality",
+                       description="Print the components of a rig's circuit with the signal on "
+                       "each port (inputs <- and outputs ->), the connections (each signal, the "
+                       "port that outputs it and the ports that read it) and the servo axes; "
+                       "--png draws the graph.")
+    p.add_argument("rig", nargs="?", help="rig TOML file or shipped rig name, e.g. two_axis "
+                   "(default: the embedded 2005 rig)")
+    p.add_argument("--png", help="draw the circuit graph to this PNG file")
+    p.add_argument("--json", action="store_true", help="print components, connections and axes as JSON")
+    p.add_argument("--types", action="store_true", help="list the component types a circuit file "
+                   "may use, with every parameter's unit, bounds, default and description")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    if args.types:
+        print(parameter_reference())
+        return 0
+    rig = load_rig(args.rig)
+    circuit = build_circuit(rig)
+    comps = component_rows(circuit)
+    conns = circuit.connection_table()
+    axes = {n: vars(a) for n, a in circuit.axes.items()}
+    if args.png:
+        draw_circuit(circuit, args.png, title=f"{rig.get('rig.name', rig.source)}")
+    if args.json:
+        print(json.dumps({"components": comps, "connections": conns, "axes": axes}, indent=2))
+        return 0
+    print(f"hydroline circuit: {rig.get('rig.name', rig.source)} ({len(comps)} components, "
+          f"{len(conns)} signals)")
+    print("\ncomponents (causality: port <- signal it reads, port -> signal it outputs)")
+    for c in comps:
+        print(f"  {c['component']}  ({c['type']}, {c['states']} states"
+              f"{'' if c['feedthrough'] else ', outputs from states only'})")
+        for p, s in c["inputs"].items():
+            print(f"      {p} <- {s}")
+        for p, s in c["outputs"].items():
+            print(f"      {p} -> {s}")
+    print("\nconnections (signal [unit]: the port that outputs it -> the ports that read it)")
+    for r in conns:
+        print(f"  {r['signal']} [{r['unit']}]: {r['producer'] or '(from the experiment)'} -> "
+              f"{', '.join(r['consumers']) or '(not read)'}")
+    if axes:
+        print("\nservo axes (handles)")
+        print_table(["axis", "valve", "current", "supply port", "return port", "position", "controller"],
+                    [[n, a["valve"], a["current"], a["supply_pressure"], a["return_pressure"],
+                      a["position"], a["controller"] or "(experiment)"] for n, a in axes.items()])
+    if args.png:
+        print(f"\n  wrote {args.png}")
+    return 0
