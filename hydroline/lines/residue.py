@@ -458,7 +458,16 @@ def tail_groups(n_modes: int, form: str = "PQ"):
     last one all the rest. ``(Omega tau)^2 = S2/S4`` over the group matches its lossless first
     and third moments (``sum 2 x/(x^2 + theta_k^2) = 2 S2 x - 2 S4 x^3 + ...``);
     ``zeta = TAIL_ZETA_SCALE * width/(2 Omega)`` with the group's width ``(a_{g+1} - a_g) pi``
-    (``2 Omega`` for the last), at most ``TAIL_ZETA_MAX``.
+    (``2 Omega`` for the last), at most ``TAIL_ZETA_MAX``. Used by the PQ and QP forms.
+
+    Parameters
+    ----------
+    n_modes : int     Number of retained modes n >= 1, [-]
+    form : str        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
+
+    Returns
+    -------
+    list of (Omega tau [-], zeta [-]), one per group, in rising frequency
     """
     n = _check_modes(n_modes)
     edges = [n + 1]
