@@ -31,7 +31,7 @@ def default_scenario(rig: Rig) -> str:
     """The rig's ``rig.scenario``, else "open-loop-step"."""
     return rig.get("rig.scenario", "open-loop-step")
 
-#: Pressures watched for cavitation (MODEL.md 8): below this absolute pressure the oil
+#: Pressures watched for cavitation (docs/model.md 8): below this absolute pressure the oil
 #: releases gas and the linear line model no longer holds, [Pa].
 CAVITATION_PRESSURE = 0.0
 WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
@@ -293,7 +293,7 @@ def watched_pressures(res: SimulationResult) -> list[str]:
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
-    """One warning per watched pressure that falls below ``threshold`` absolute (MODEL.md 8)."""
+    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md 8)."""
     out = []
     for k in watched_pressures(res):
         if k not in res.data:

@@ -1,4 +1,4 @@
-"""Steady-state start and time integration of an assembled network (MODEL.md section 6).
+"""Steady-state start and time integration of an assembled network (docs/model.md section 6).
 
 The model (a :class:`~hydroline.network.Network`), its parameters (components built from a
 rig) and the solver are kept apart: :func:`solve_steady_state` finds the network's rest state
@@ -103,7 +103,7 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
 
 def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,
                        max_rounds: int = 3) -> SteadyState:
-    """Solve ``f(t0, x) = 0`` for the whole network (MODEL.md 6), then let components settle.
+    """Solve ``f(t0, x) = 0`` for the whole network (docs/model.md 6), then let components settle.
 
     Pseudo-transient continuation with the compiled model's exact Jacobian, on the states
     scaled by their typical magnitudes, starting from the components' guesses; components

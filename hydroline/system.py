@@ -1,4 +1,4 @@
-"""Build the electrohydraulic test system's network from a rig (MODEL.md sections 1, 6).
+"""Build the electrohydraulic test system's network from a rig (docs/model.md sections 1, 6).
 
 Signal names (the network's vocabulary; see ``docs`` of each component for its ports):
 
@@ -218,7 +218,7 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
 
     Checked: signs (positive sizes, moduli, masses, pressures absolute > 0, non-negative
     resistances, gains and friction coefficients), ``supply.pressure > return.pressure > 0``
-    (MODEL.md 1: the valve needs a supply above the tank), ``|initial_position| <= stroke/2``
+    (docs/model.md 1: the valve needs a supply above the tank), ``|initial_position| <= stroke/2``
     (the piston inside the cylinder, M23), accumulator pre-charges below the pressure of their
     side (an accumulator pre-charged above it holds no oil, M16), laps shorter than the spool stroke (M20) and the
     polytropic exponent within [1, 5/3] (isothermal ... monatomic adiabatic, M16).

@@ -238,7 +238,7 @@ def test_circuit_command_prints_and_draws(tmp_path, capsys):
 
 
 def test_two_axis_fluid_volume_conserved_with_blocked_valves():
-    """Mass (MODEL.md 2-3) through a transient of the shared supply: both valves blocked
+    """Mass (docs/model.md 2-3) through a transient of the shared supply: both valves blocked
     (zero laps, zero current: every opening sg(0) = 0, M20), the circuit starts at 20.7 MPa
     and the pump drops to 15 MPa. The oil the pump line delivers, int q_pump dt, equals what
     the supply hoses and the accumulator give up:

@@ -87,7 +87,7 @@ def test_simulate_into_closed_pipe_is_quiet(tmp_path, capsys, monkeypatch):
 
 
 def test_simulate_json_warnings_go_to_stderr(tmp_path, capsys):
-    """A 0.5 MPa back pressure lets the ~0.94 MPa return swing (MODEL.md 7) fall below zero
+    """A 0.5 MPa back pressure lets the ~0.94 MPa return swing (docs/model.md 7) fall below zero
     absolute: the cavitation warning is a stderr line; stdout stays the bare JSON schema."""
     f = tmp_path / "low.toml"
     f.write_text('[rig]\nbase = "default"\n[return]\npressure = "0.5 MPa"\n'

@@ -1,4 +1,4 @@
-"""Components against hand-derived numbers (MODEL.md sections 3-5)."""
+"""Components against hand-derived numbers (docs/model.md sections 3-5)."""
 import numpy as np
 import pytest
 
@@ -9,7 +9,7 @@ from hydroline.fluid import MINERAL_OIL
 from hydroline.network import Network, NetworkError
 from hydroline.simulation import integrate, solve_steady_state
 
-# A 5 gpm valve rated at 1000 psi (MODEL.md 7)
+# A 5 gpm valve rated at 1000 psi (docs/model.md 7)
 Q_N = 19e-3 / 60          # 19 L/min, [m^3/s]
 DP_N = 1000 * 6894.757    # 1000 psi, [Pa]
 X_MAX = 4e-4              # [m]
@@ -188,7 +188,7 @@ def test_network_refuses_bad_wiring():
         Network([src, line, bad])
 
 
-# ---- time-varying pressure source (MODEL.md 1: p_hps(t), p_tank(t) known inputs) -----------
+# ---- time-varying pressure source (docs/model.md 1: p_hps(t), p_tank(t) known inputs) -----------
 def test_pressure_source_waveforms_by_hand(tmp_path):
     sine = comp.PressureSource(name="pump", waveform=comp.SineCommand(
         name="w", quantity="pressure", offset=20e6, amplitude=1e6, frequency=50.0, start=0.01))
@@ -407,7 +407,7 @@ def test_pid_integral_accumulates_in_time():
 
 
 def test_modal_and_version_ii_accumulator_connections_agree():
-    """MODEL.md 3: the accumulator connection as a rigid column (R, I; version II, M18) or as a
+    """docs/model.md 3: the accumulator connection as a rigid column (R, I; version II, M18) or as a
     full modal PP line; the 0.1 m passage is short (first mode c/2L ~ 6.6 kHz, far above the 40 Hz
     and 31 Hz port oscillations), so both give the same port oscillation within a few %."""
     from hydroline.rigs import load_rig

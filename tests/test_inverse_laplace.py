@@ -1,4 +1,4 @@
-"""Numerical inverse Laplace transforms and exact line step responses (MODEL.md section 2)."""
+"""Numerical inverse Laplace transforms and exact line step responses (docs/model.md section 2)."""
 import time
 
 import numpy as np

@@ -1,4 +1,4 @@
-"""Line library against exact theory (MODEL.md section 2)."""
+"""Line library against exact theory (docs/model.md section 2)."""
 import numpy as np
 import pytest
 
@@ -15,7 +15,7 @@ def hose(length=3.048, diameter=0.0127, bulk=1.0e9):
 
 
 def test_derived_parameters_by_hand():
-    # d = 19 mm, nu = 3.2e-5, c = 488 m/s, L = 3.048 m (MODEL.md 2.3 worked example)
+    # d = 19 mm, nu = 3.2e-5, c = 488 m/s, L = 3.048 m (docs/model.md 2.3 worked example)
     rho = 870.0
     line = Line(3.048, 0.019, Fluid(rho, 3.2e-5, 488.0**2 * rho))
     A = np.pi * 0.019**2 / 4
@@ -144,7 +144,7 @@ def test_exact_four_poles_against_mpmath(d, L, f):
 
 
 def test_correction_factors_worked_example():
-    # MODEL.md 2.3: d = 19 mm, nu = 3.2e-5, c = 488, L = 3.048: alpha_1 ~ 1.03, beta_1 ~ 5.0,
+    # docs/model.md 2.3: d = 19 mm, nu = 3.2e-5, c = 488, L = 3.048: alpha_1 ~ 1.03, beta_1 ~ 5.0,
     # alpha_6 ~ 1.01, beta_6 ~ 15.8
     rho = 870.0
     line = Line(3.048, 0.019, Fluid(rho, 3.2e-5, 488.0**2 * rho))

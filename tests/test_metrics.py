@@ -1,4 +1,4 @@
-"""Step-response metrics on synthetic signals with exactly known answers (MODEL.md 8).
+"""Step-response metrics on synthetic signals with exactly known answers (docs/model.md 8).
 
 Every expected value comes from closed-form theory of the signal, not from stored output:
 

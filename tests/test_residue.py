@@ -17,7 +17,7 @@ from hydroline.lines.modal import StateSpaceLine
 from hydroline.lines.residue import (column_branches, exact_moments, modal_poles,
                                      modal_residues, residue_realisation, tail_groups)
 
-OIL = Fluid(870.0, 3.2e-5, 1.5e9)          # the rig's oil (MODEL.md 2.3 worked example)
+OIL = Fluid(870.0, 3.2e-5, 1.5e9)          # the rig's oil (docs/model.md 2.3 worked example)
 
 
 def residue_line(line, n, form="PQ"):

@@ -138,7 +138,7 @@ def test_layout_default_lengths_give_finite_metrics(default_layout):
         if r["section2_length_m"] == 0.0:
             assert math.isfinite(r["supply"]["settling_time_s"])
     for side in ("supply", "return"):
-        # a shorter section II rings faster (quarter-wave frequency ~ 1/L, MODEL.md 2)
+        # a shorter section II rings faster (quarter-wave frequency ~ 1/L, docs/model.md 2)
         f = [r[side]["frequency_hz"] for r in recs if r["section2_length_m"] > 0]
         assert all(b > a for a, b in zip(f, f[1:]))
         # and the longest one near its quarter-wave value c/(4L): the accumulator holds the

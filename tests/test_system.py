@@ -93,7 +93,7 @@ def _closed_network(laps):
 
 @pytest.mark.parametrize("lap", [0.0, 4e-6])
 def test_fluid_volume_conserved_in_closed_network(lap):
-    """Mass (MODEL.md 2-4): in a sealed network of hoses, accumulator, nodes and a servovalve
+    """Mass (docs/model.md 2-4): in a sealed network of hoses, accumulator, nodes and a servovalve
     at null the oil volume at zero gauge pressure is constant:
         S = C1/N sum p_k + C2/N sum p_k + (V_0 - V_g) + sum_nodes V p / beta
     (hose storage, accumulator oil (M16), node compressibility). Started far from
@@ -147,7 +147,7 @@ def test_fluid_volume_conserved_in_closed_network(lap):
 
 
 def test_linearised_natural_frequency_with_ideal_supply():
-    """w_h^2 = beta_c (A_b^2/V_b + A_t^2/V_t)/m (MODEL.md 4), from the Jacobian's eigenvalues."""
+    """w_h^2 = beta_c (A_b^2/V_b + A_t^2/V_t)/m (docs/model.md 4), from the Jacobian's eigenvalues."""
     rig = load_rig()
     rig.set("actuator.gravity", "0 m/s^2")
     for k in ("viscous_up", "viscous_down"):
@@ -186,7 +186,7 @@ def test_linearised_natural_frequency_with_ideal_supply():
 
 
 def test_default_scenario_reproduces_paper_baseline(default_run):
-    """MODEL.md 7: supply ~40 Hz / 1.0 MPa, return ~31 Hz / 0.94 MPa after the 50 mA step."""
+    """docs/model.md 7: supply ~40 Hz / 1.0 MPa, return ~31 Hz / 0.94 MPa after the 50 mA step."""
     s = summarize(default_run)
     assert s["supply"]["frequency_hz"] == pytest.approx(40.0, rel=0.10)
     assert s["return"]["frequency_hz"] == pytest.approx(31.0, rel=0.10)
@@ -208,7 +208,7 @@ def test_result_has_every_signal_and_state(default_run, tmp_path):
 
 
 def test_closed_loop_sine_tracks():
-    """The paper's 2 Hz, 35 mm sine under P control (MODEL.md 5, 7): tracking-error amplitude.
+    """The paper's 2 Hz, 35 mm sine under P control (docs/model.md 5, 7): tracking-error amplitude.
 
     The valve (140 Hz) and the hydraulics (172 Hz) are far faster than 2 Hz, and the load
     (m g = 158 N, friction < 100 N, i.e. < 0.35 MPa of the 19.7 MPa supply-to-return drop)
@@ -249,7 +249,7 @@ def test_cli_json_summary(capsys, tmp_path):
         assert s[side]["settling_time_s"] is None or isinstance(s[side]["settling_time_s"], float)
     assert isinstance(s["actuator_natural_frequency_hz"], float)
     assert isinstance(s["wall_time_s"], float)
-    # the metrics themselves: the paper's baseline (MODEL.md 7), 172 Hz from w_h (M22-M23)
+    # the metrics themselves: the paper's baseline (docs/model.md 7), 172 Hz from w_h (M22-M23)
     assert s["supply"]["frequency_hz"] == pytest.approx(40.0, rel=0.10)
     assert s["actuator_natural_frequency_hz"] == pytest.approx(172.0, rel=0.01)
     # summary.json may carry more (metrics window, warnings)

@@ -14,7 +14,7 @@ Lines are linear, so only the rest of the network needs linearising. Cut every
 (e.g. PQ: downstream pressure, upstream flow) become inputs of the rest, held at their
 operating values by sources, and its two input signals ``r`` become outputs of the rest. The
 rest is linearised to ``[y; r] = G(s) [u; w]``; the hoses close the loop with ``w = L(s) r``,
-``L`` block-diagonal of their 2x2 transfer matrices (MODEL.md table 2.1). Then
+``L`` block-diagonal of their 2x2 transfer matrices (docs/model.md table 2.1). Then
 
     r = (I - G_rw L)^-1 G_ru u,      y = G_yu u + G_yw L r.
 

@@ -1,6 +1,6 @@
 """Linear models of the test system about an operating point (for control design).
 
-:func:`linearize` returns the Jacobian linearisation of the compiled network (MODEL.md 6)
+:func:`linearize` returns the Jacobian linearisation of the compiled network (docs/model.md 6)
 as a python-control ``StateSpace`` with named states (``supply.section2.mode3.flow``),
 inputs and outputs.
 

@@ -18,7 +18,7 @@ at most about ``a / (pi * cycles in the window)``.
 standard deviation over the same last 20 % (a noise level: the direction of a change smaller
 than the residual wiggle of the tail is not defined).
 
-Oscillation frequency (MODEL.md section 8)
+Oscillation frequency (docs/model.md section 8)
 ------------------------------------------
 Picking the highest peak of a trace finds a harmonic when the trace has one, and counting
 zero crossings about a constant finds extra crossings where a strong harmonic wiggles
@@ -417,7 +417,7 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     ``filtering`` is one of
 
     ``"raw"``
-        the deviation ``p - p_final`` itself (MODEL.md section 8);
+        the deviation ``p - p_final`` itself (docs/model.md section 8);
     ``"highpass"``
         the deviation minus its centred moving average over one period ``1/frequency``:
         this keeps a damped fundamental ``exp(s t)`` exactly (a linear filter multiplies an

@@ -34,7 +34,7 @@ FLUID_PARAMETERS = {
     "bulk_modulus": Parameter("Pa", "beta of the oil (M2)", 0.0, exclusive_minimum=True),
 }
 
-#: A hose section (MODEL.md 2): the line (M2-M4) and its modal model (M8-M15).
+#: A hose section (docs/model.md 2): the line (M2-M4) and its modal model (M8-M15).
 HOSE_PARAMETERS = {
     "length": Parameter("m", "L of the section (M2)", 0.0, exclusive_minimum=True),
     "diameter": Parameter("m", "bore (M2)", 0.0, exclusive_minimum=True),
@@ -111,7 +111,7 @@ def _cmd(cls, **extra):
 
 COMPONENT_TYPES = {t.name: t for t in (
     ComponentType("pressure_source", comp.PressureSource,
-                  "known pressure p(t): pump unit or tank (MODEL.md 1)", hidden=("step_time", "step_to")),
+                  "known pressure p(t): pump unit or tank (docs/model.md 1)", hidden=("step_time", "step_to")),
     ComponentType("pump", comp.Pump, "positive-displacement pump, fixed or pressure compensated"),
     ComponentType("relief_valve", comp.ReliefValve, "pressure-relief valve, cracking + linear override"),
     ComponentType("hose", comp.HoseSection, "hose section, modal transmission line (M8-M15)",

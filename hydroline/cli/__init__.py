@@ -35,7 +35,8 @@ class UsageError(ValueError):
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hydroline",
-        description="Electrohydraulic servo systems with supply and return hose dynamics.")
+        description="Electrohydraulic servo systems with supply and return hose dynamics.",
+        epilog="Equations cited as (M#) are in the model reference, docs/model.md.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
         importlib.import_module(f"{__name__}.{name}").register(sub)

@@ -9,7 +9,7 @@ sizes) share one compiled library, and the library's cache key is a hash of the 
 
 Generated functions (``z`` are the states scaled by their typical magnitudes, ``x = z s``):
 
-``hl_f(t, z, p, c, dz)``          dz/dt of the scaled states (MODEL.md M1-M24 as assembled)
+``hl_f(t, z, p, c, dz)``          dz/dt of the scaled states (docs/model.md M1-M24 as assembled)
 ``hl_jac(t, z, p, c, jnz)``       d(dz/dt)/dz, nonzeros in compressed-column order
 ``hl_signals(t, z, p, c, y)``     every network signal, [SI]
 ``hl_lu_factor(jnz, g, a)``       sparse LU of ``W = I - g J`` without pivoting, in a

@@ -1,4 +1,4 @@
-"""Gas-charged piston accumulator with its connection line (MODEL.md 3, M16-M18)."""
+"""Gas-charged piston accumulator with its connection line (docs/model.md 3, M16-M18)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,4 @@
-"""Double-ended actuator with chamber compressibility and end stops (MODEL.md 4, M22-M23)."""
+"""Double-ended actuator with chamber compressibility and end stops (docs/model.md 4, M22-M23)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -17,7 +17,7 @@ class Actuator(Component):
 
     ``x_p`` is measured from mid-stroke; the stops are at +-stroke/2, modelled as a stiff
     spring-damper acting on the penetration. Chamber volumes ``V_b + A_b x_p`` and
-    ``V_t - A_t x_p`` are kept above ``min_volume_fraction`` of their centre values (MODEL.md 8).
+    ``V_t - A_t x_p`` are kept above ``min_volume_fraction`` of their centre values (docs/model.md 8).
 
     Parameters
     ----------

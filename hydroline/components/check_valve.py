@@ -1,4 +1,4 @@
-"""Check valve: no dynamics, small forward and large reverse resistance (MODEL.md 1)."""
+"""Check valve: no dynamics, small forward and large reverse resistance (docs/model.md 1)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,4 @@
-"""Position controller of the servo loop: P or PID, current limited to +-rated (MODEL.md 1)."""
+"""Position controller of the servo loop: P or PID, current limited to +-rated (docs/model.md 1)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,4 @@
-"""A hose section: a linear line model (modal or lumped) as a network component (MODEL.md 2)."""
+"""A hose section: a linear line model (modal or lumped) as a network component (docs/model.md 2)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,4 @@
-"""The load on the rod: specimen spring and damper, applied force (MODEL.md 4)."""
+"""The load on the rod: specimen spring and damper, applied force (docs/model.md 4)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

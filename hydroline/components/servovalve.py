@@ -1,4 +1,4 @@
-"""Four-way two-stage servovalve: spool dynamics and orifice flows (MODEL.md 4, M19-M21)."""
+"""Four-way two-stage servovalve: spool dynamics and orifice flows (docs/model.md 4, M19-M21)."""
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,4 +1,4 @@
-"""Pressure sources: the pump unit (HPS) and the tank (MODEL.md section 1, 6)."""
+"""Pressure sources: the pump unit (HPS) and the tank (docs/model.md section 1, 6)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -13,7 +13,7 @@ _PREFIX = "waveform."
 
 @dataclass(kw_only=True)
 class PressureSource(Component):
-    """A known pressure ``p(t)``: constant or any command waveform (MODEL.md 1: ``p_hps(t)``,
+    """A known pressure ``p(t)``: constant or any command waveform (docs/model.md 1: ``p_hps(t)``,
     ``p_tank(t)`` are known inputs).
 
     Constant: ``p(t) = pressure``. With a ``waveform`` (a command of

@@ -1,6 +1,6 @@
 """Reference time-domain line: method of characteristics with unsteady laminar friction.
 
-This is an independent time-domain model of one hydraulic line (MODEL.md section 2), meant as a
+This is an independent time-domain model of one hydraulic line (model reference §2), meant as a
 reference for the modal state-space lines.  It uses no modal code and nothing from the
 Laplace-domain models: only the line's geometry and fluid properties.
 
@@ -104,6 +104,18 @@ def zielke_weighting(tau) -> np.ndarray:
     -------
     ndarray
         W(tau), the shape of ``tau`` [-].
+
+    Examples
+    --------
+    At large tau only the first term is left, ``exp(-j_{2,1}^2 tau)`` with
+    ``j_{2,1} = 5.1356223``; at small tau Zielke's expansion starts
+    ``0.282095/sqrt(tau) - 1.25``:
+
+    >>> import numpy as np
+    >>> round(float(zielke_weighting(0.5)) / np.exp(-5.1356223**2 * 0.5), 6)
+    1.0
+    >>> round(float(zielke_weighting(1e-6)), 3), round(0.282095 / np.sqrt(1e-6) - 1.25, 3)
+    (280.846, 280.845)
     """
     tau = np.asarray(tau, dtype=float)
     if np.any(~(tau > 0)):
@@ -174,11 +186,16 @@ class CharacteristicsResult:
 
     Attributes
     ----------
-    t : ndarray                    Times t_n = n dt, [s]
-    upstream_pressure : ndarray    p at x = 0 (imposed), [Pa]
-    downstream_pressure : ndarray  p at x = L (PQ-form output), [Pa]
-    upstream_flow : ndarray        q at x = 0, positive into the line (PQ-form output), [m^3/s]
-    downstream_flow : ndarray      q at x = L, positive out of the line (imposed), [m^3/s]
+    t : ndarray
+        Times t_n = n dt, [s].
+    upstream_pressure : ndarray
+        p at x = 0 (imposed), [Pa].
+    downstream_pressure : ndarray
+        p at x = L (PQ-form output), [Pa].
+    upstream_flow : ndarray
+        q at x = 0, positive into the line (PQ-form output), [m^3/s].
+    downstream_flow : ndarray
+        q at x = L, positive out of the line (imposed), [m^3/s].
     """
 
     t: np.ndarray
@@ -233,8 +250,10 @@ class CharacteristicsLine:
 
     Attributes
     ----------
-    dt : float         Time step [s]
-    dx : float         Reach length [m]
+    dt : float
+        Time step, [s].
+    dx : float
+        Reach length, [m].
 
     Notes
     -----

@@ -1,8 +1,8 @@
-"""Modal correction factors alpha_i, beta_i of the linear friction model (MODEL.md 2.3, M15).
+"""Modal correction factors alpha_i, beta_i of the linear friction model (model reference §2.3, M15).
 
 Each mode of the linear-friction line (M7) solves ``s^2 + (32 nu beta/(d^2 alpha)) s +
 omega_i^2/alpha^2 = 0``. Matching that root to the root ``s_i`` of the dissipative model
-(M6) on the same modal line ``Gamma(s_i) = j theta_i`` gives
+(M6) on the same modal line ``Gamma(s_i) = j theta_i`` gives::
 
     alpha_i = omega_i/|s_i|,   beta_i = -2 Re(s_i) d^2 alpha_i/(32 nu)          (M15)
 
@@ -17,21 +17,62 @@ import numpy as np
 
 from .line import Line, bessel_ratio, check_form
 
-__all__ = ["correction_factors", "modal_angles", "dissipative_root"]
+__all__ = ["correction_factors", "modal_angles", "dissipative_root", "check_modes"]
 
 
 def modal_angles(n_modes: int, form: str = "PQ") -> np.ndarray:
-    """theta_i of modes 1..n: (i - 1/2) pi for PQ/QP, i pi for PP/QQ, [rad]."""
-    n_modes = _check_modes(n_modes)
+    """Modal angles theta_i of modes 1..n: (i - 1/2) pi for PQ/QP, i pi for PP/QQ.
+
+    Parameters
+    ----------
+    n_modes : int
+        Number of modes, >= 1.
+    form : str
+        Causal form "PQ", "QP" (cosh Gamma = 0 modes) or "PP", "QQ" (sinh Gamma = 0).
+
+    Returns
+    -------
+    ndarray
+        theta_1 ... theta_n, [rad]; the undamped modal frequencies are theta_i c/L (M9).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> modal_angles(3, "PQ") / np.pi
+    array([0.5, 1.5, 2.5])
+    >>> modal_angles(3, "PP") / np.pi
+    array([1., 2., 3.])
+    """
+    n_modes = check_modes(n_modes)
     form = check_form(form)
     i = np.arange(1, n_modes + 1, dtype=float)
     return (i - 0.5) * np.pi if form in ("PQ", "QP") else i * np.pi
 
 
-def _check_modes(n_modes) -> int:
+def check_modes(n_modes) -> int:
+    """A number of modes as an int, or ValueError naming ``n_modes``.
+
+    Parameters
+    ----------
+    n_modes : int
+        Number of modes, an integer >= 1.
+
+    Returns
+    -------
+    int
+        ``n_modes``.
+
+    Raises
+    ------
+    ValueError
+        If it is not a whole number >= 1.
+    """
     if int(n_modes) != n_modes or n_modes < 1:
         raise ValueError(f"n_modes must be an integer >= 1, got {n_modes!r}")
     return int(n_modes)
+
+
+_check_modes = check_modes       # the former private name (still imported by residue.py)
 
 
 def _gamma_squared(line: Line, s):
@@ -42,10 +83,37 @@ def _gamma_squared(line: Line, s):
 
 def dissipative_root(line: Line, theta: float, guess: complex | None = None,
                      tol: float = 1e-13, max_iter: int = 100) -> complex:
-    """Root s (upper half plane) of ``Gamma_dissipative(s) = j theta`` (M6), [1/s].
+    """Root s (upper half plane) of ``Gamma_dissipative(s) = j theta`` (M6).
 
-    Raises ValueError if the mode is overdamped (the root leaves the upper half plane), which
-    happens only for very viscous, long, narrow lines (Dn of order 1).
+    Newton's method on ``Gamma(s)^2 + theta^2 = 0``, damped so that no step is longer than
+    half the distance to the origin.
+
+    Parameters
+    ----------
+    line : Line
+        The line.
+    theta : float
+        Modal angle, (i - 1/2) pi or k pi (see :func:`modal_angles`), [rad].
+    guess : complex or None
+        Starting point, [1/s]; from the linear friction model (alpha = beta = 1) when None.
+    tol : float
+        Relative step size at which the iteration stops, [-].
+    max_iter : int
+        Largest number of Newton steps.
+
+    Returns
+    -------
+    complex
+        The root s_i: ``abs(s_i)`` is the mode's natural frequency and ``-Re(s_i)`` its decay
+        rate, [1/s].
+
+    Raises
+    ------
+    ValueError
+        If the mode is overdamped (the root leaves the upper half plane), which happens only
+        for very viscous, long, narrow lines (Dn of order 1).
+    RuntimeError
+        If Newton's method does not converge in ``max_iter`` steps.
     """
     nu, d = line.fluid.kinematic_viscosity, line.diameter
     omega = theta / line.wave_time
@@ -79,13 +147,33 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line      The line
-    n_modes : int    Number of modes, >= 1
-    form : str       Causal form; PQ/QP use cosh-Gamma modes, PP/QQ sinh-Gamma modes
+    line : Line
+        The line (geometry, fluid, effective bulk modulus).
+    n_modes : int
+        Number of modes, >= 1.
+    form : str
+        Causal form; PQ/QP use the cosh Gamma = 0 modes, PP/QQ the sinh Gamma = 0 modes.
 
     Returns
     -------
-    (alpha, beta) : arrays of shape (n_modes,), [-]
+    alpha : ndarray
+        Frequency factors of modes 1..n, shape (n_modes,), [-].
+    beta : ndarray
+        Damping factors of modes 1..n, shape (n_modes,), [-].
+
+    Examples
+    --------
+    The worked example of the model reference (§2.3): d = 19 mm, nu = 3.2e-5 m^2/s,
+    c = 488 m/s, L = 3.048 m (first mode at 40 Hz, dimensionless frequency about 700):
+
+    >>> from hydroline import Fluid
+    >>> from hydroline.lines import Line
+    >>> line = Line(3.048, 0.019, Fluid(870.0, 3.2e-5, 1.5e9), bulk_modulus=870.0 * 488.0**2)
+    >>> alpha, beta = correction_factors(line, 6)
+    >>> print(f"alpha_1 = {alpha[0]:.3f}, beta_1 = {beta[0]:.2f}")
+    alpha_1 = 1.027, beta_1 = 4.97
+    >>> print(f"alpha_6 = {alpha[5]:.3f}, beta_6 = {beta[5]:.2f}")
+    alpha_6 = 1.008, beta_6 = 15.87
     """
     thetas = modal_angles(n_modes, form)
     nu, d = line.fluid.kinematic_viscosity, line.diameter

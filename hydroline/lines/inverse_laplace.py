@@ -1,4 +1,4 @@
-"""Numerical inverse Laplace transforms and exact step responses of a line (MODEL.md section 2).
+"""Numerical inverse Laplace transforms and exact step responses of a line (model reference §2).
 
 The exact four-pole models (M5)-(M8) are known only in the Laplace domain.  This module turns
 them into time-domain step responses, the reference against which the modal state-space lines
@@ -102,6 +102,15 @@ def talbot(F, t, n_terms: int = 24):
     -------
     ndarray
         f(t), the shape of ``t`` [units of F times 1/s].
+
+    Examples
+    --------
+    ``1/(s + 1)`` is the transform of ``exp(-t)``:
+
+    >>> import numpy as np
+    >>> f = talbot(lambda s: 1.0 / (s + 1.0), np.array([0.5, 1.0, 2.0]))
+    >>> bool(np.allclose(f, np.exp(-np.array([0.5, 1.0, 2.0])), rtol=1e-10))
+    True
     """
     M = _n_terms(n_terms, 24, 2)
     t = _times(t)
@@ -144,7 +153,7 @@ def dehoog(F, t, n_terms: int = 40, tol: float = 1e-10, period: float | None = N
     Returns
     -------
     ndarray
-        f(t), the shape of ``t``.
+        f(t), the shape of ``t``, [unit of F(s) times 1/s].
     """
     M = _n_terms(n_terms, 40, 2)
     if not 0 < tol < 1:
@@ -194,7 +203,7 @@ def dehoog(F, t, n_terms: int = 40, tol: float = 1e-10, period: float | None = N
 # exact line responses
 # ---------------------------------------------------------------------------------------
 #: entry -> (sign, impedance factor K, hyperbolic function) for every causal form
-#: (MODEL.md table 2.1); K is "1", "Zc" or "1/Zc".
+#: (model reference table 2.1); K is "1", "Zc" or "1/Zc".
 _ENTRIES = {
     "PQ": {(0, 0): (1, "1", "sech"), (0, 1): (-1, "Zc", "tanh"),
            (1, 0): (1, "1/Zc", "tanh"), (1, 1): (1, "1", "sech")},
@@ -317,7 +326,7 @@ def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
     t : array_like
         Times [s]; the response is 0 for t <= 0.
     form : str
-        "PQ", "QP", "PP" or "QQ" (MODEL.md table 2.1).
+        "PQ", "QP", "PP" or "QQ" (model reference table 2.1).
     entry : tuple of int
         (row, column) = (output index, input index) in the order of the form's table.
     friction : str

@@ -1,7 +1,7 @@
-"""Line parameters and the exact four-pole models of a hydraulic line (MODEL.md section 2).
+"""Line parameters and the exact four-pole models of a hydraulic line (model reference §2).
 
 Conventions: flow positive from end u (upstream) to end d (downstream); the four causal forms
-map inputs to outputs in the order of MODEL.md table 2.1:
+map inputs to outputs in the order of the model reference's table 2.1:
 
 ====  ==========  ==========
 form  inputs      outputs
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special
 
-from ..fluid import Fluid, _positive
+from ..fluid import Fluid, require_positive
 
 __all__ = ["Line", "FORMS", "FORM_PORTS", "check_form", "bessel_ratio"]
 
@@ -35,7 +35,23 @@ FORM_PORTS = {
 
 
 def check_form(form: str) -> str:
-    """Return the canonical name of a causal form, or raise ValueError naming ``form``."""
+    """Return the canonical name of a causal form, or raise ValueError naming ``form``.
+
+    Parameters
+    ----------
+    form : str
+        "PQ", "QP", "PP" or "QQ", any case.
+
+    Returns
+    -------
+    str
+        The form in upper case.
+
+    Raises
+    ------
+    ValueError
+        If ``form`` is not one of the four.
+    """
     f = str(form).upper()
     if f not in FORMS:
         raise ValueError(f"form must be one of {', '.join(FORMS)}; got {form!r}")
@@ -43,10 +59,32 @@ def check_form(form: str) -> str:
 
 
 def bessel_ratio(kappa):
-    """I0(kappa)/I2(kappa) for complex kappa with Re(kappa) >= 0, overflow-free.
+    """I0(kappa)/I2(kappa) for complex kappa with Re(kappa) >= 0, overflow-free (M6).
 
     Uses exponentially scaled Bessel functions (the scaling cancels in the ratio); for
-    |kappa| < 1e-3 the series ``8/kappa^2 + 4/3 + kappa^2/24`` avoids cancellation in I2.
+    ``abs(kappa) < 1e-3`` the series ``8/kappa^2 + 4/3 + kappa^2/24`` avoids cancellation
+    in I2.
+
+    Parameters
+    ----------
+    kappa : complex or array_like
+        ``r sqrt(s/nu)``, the bore radius over the viscous penetration depth, [-].
+
+    Returns
+    -------
+    complex ndarray
+        ``I0(kappa)/I2(kappa)``, same shape as ``kappa``, [-].
+
+    Examples
+    --------
+    The ratio tends to 1 for large kappa (lossless line) and to ``8/kappa^2 + 4/3`` for
+    small kappa (laminar resistance and 4/3 of the plug-flow inertance):
+
+    >>> abs(complex(bessel_ratio(1e4)) - 1) < 1e-3
+    True
+    >>> k = 1e-4
+    >>> round(float(bessel_ratio(k).real) - 8 / k**2, 6)     # 4/3
+    1.333333
     """
     kappa = np.asarray(kappa, dtype=complex)
     small = np.abs(kappa) < 1e-3
@@ -61,14 +99,42 @@ def bessel_ratio(kappa):
 class Line:
     """A uniform hydraulic line (hose or pipe) of circular bore.
 
+    Derived quantities (M2)-(M4), the lumped R, I, C and the exact transfer matrices of the
+    four causal forms (M5)-(M7) are methods and properties of the line.
+
     Parameters
     ----------
-    length : float        Line length L, [m]
-    diameter : float      Inner diameter d, [m]
-    fluid : Fluid         The fluid (density, kinematic viscosity, bulk modulus)
-    bulk_modulus : float  Effective bulk modulus beta_e of oil in this line (oil, wall and air
-                          in series, see :func:`hydroline.effective_bulk_modulus`), [Pa];
-                          the fluid's when None
+    length : float
+        Line length L, [m].
+    diameter : float
+        Inner diameter d, [m].
+    fluid : Fluid
+        The fluid (density, kinematic viscosity, bulk modulus of the pure oil).
+    bulk_modulus : float or None
+        Effective bulk modulus beta_e of the oil in this line (oil, wall and air in series,
+        see :func:`hydroline.effective_bulk_modulus`), [Pa]; the fluid's when None.
+
+    Raises
+    ------
+    ValueError
+        If a length, diameter or modulus is not positive and finite, or ``fluid`` is not a
+        :class:`~hydroline.fluid.Fluid`.
+
+    Examples
+    --------
+    The worked example of the model reference (§2.3): d = 19 mm, nu = 3.2e-5 m^2/s,
+    c = 488 m/s (beta_e = rho c^2), L = 3.048 m. Its first blocked-line mode (M9) is at
+    c/(4L) = 40 Hz and Dn = 4 nu L/(c d^2) = 2.2e-3 (M4):
+
+    >>> from hydroline import Fluid
+    >>> oil = Fluid(870.0, 3.2e-5, 1.5e9)
+    >>> line = Line(3.048, 0.019, oil, bulk_modulus=870.0 * 488.0**2)
+    >>> round(line.wave_speed, 6), round(line.wave_speed / (4 * line.length), 2)
+    (488.0, 40.03)
+    >>> round(line.dissipation_number, 6)
+    0.002215
+    >>> round(line.resistance / (8 * line.impedance * line.dissipation_number), 12)   # R = 8 Z0 Dn
+    1.0
     """
 
     length: float
@@ -77,12 +143,12 @@ class Line:
     bulk_modulus: float | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "length", _positive("length", self.length, "m"))
-        object.__setattr__(self, "diameter", _positive("diameter", self.diameter, "m"))
+        object.__setattr__(self, "length", require_positive("length", self.length, "m"))
+        object.__setattr__(self, "diameter", require_positive("diameter", self.diameter, "m"))
         if not isinstance(self.fluid, Fluid):
             raise ValueError(f"fluid must be a hydroline.Fluid, got {type(self.fluid).__name__}")
         beta = self.fluid.bulk_modulus if self.bulk_modulus is None else self.bulk_modulus
-        object.__setattr__(self, "bulk_modulus", _positive("bulk_modulus", beta, "Pa"))
+        object.__setattr__(self, "bulk_modulus", require_positive("bulk_modulus", beta, "Pa"))
 
     # ---- derived parameters (M2)-(M4) -------------------------------------------------
     @property
@@ -137,17 +203,28 @@ class Line:
 
     # ---- propagation operator and characteristic impedance -----------------------------
     def propagation(self, s, friction: str = "dissipative", alpha: float = 1.0, beta: float = 1.0):
-        """Gamma(s) and Zc(s) of (M6) or (M7).
+        """Propagation operator Gamma(s) and characteristic impedance Zc(s), (M6) or (M7).
 
         Parameters
         ----------
-        s : array_like complex   Laplace variable, Re(s) >= 0 for the dissipative model, [1/s]
-        friction : str           "dissipative" (M6) or "linear" (M7)
-        alpha, beta : float      Correction factors of the linear model (M7), [-]
+        s : complex or array_like
+            Laplace variable, Re(s) >= 0 for the dissipative model, [1/s].
+        friction : str
+            "dissipative" (M6) or "linear" (M7).
+        alpha, beta : float
+            Frequency and damping correction factors of the linear model (M7), [-].
 
         Returns
         -------
-        (Gamma, Zc) : complex arrays; Gamma [-], Zc [Pa s/m^3]
+        gamma : complex ndarray
+            Gamma(s), same shape as ``s``, [-].
+        zc : complex ndarray
+            Zc(s), [Pa s/m^3].
+
+        Raises
+        ------
+        ValueError
+            If ``friction`` is neither model.
         """
         s = np.asarray(s, dtype=complex)
         nu = self.fluid.kinematic_viscosity
@@ -162,19 +239,35 @@ class Line:
 
     def transfer(self, s, form: str = "PQ", friction: str = "dissipative",
                  alpha: float = 1.0, beta: float = 1.0):
-        """Exact transfer matrix of a causal form (MODEL.md table 2.1).
+        """Exact transfer matrix of a causal form (model reference table 2.1, M5).
 
         Parameters
         ----------
-        s : array_like complex   Laplace variable (e.g. ``2j*pi*f``), [1/s]
-        form : str               "PQ", "QP", "PP" or "QQ"
-        friction : str           "dissipative" (M6) or "linear" (M7)
-        alpha, beta : float      Correction factors for the linear model, [-]
+        s : complex or array_like
+            Laplace variable (e.g. ``2j*pi*f``), [1/s].
+        form : str
+            "PQ", "QP", "PP" or "QQ".
+        friction : str
+            "dissipative" (M6) or "linear" (M7).
+        alpha, beta : float
+            Correction factors for the linear model, [-].
 
         Returns
         -------
-        complex ndarray of shape ``s.shape + (2, 2)``; entry [..., i, j] maps input j to
-        output i of the form. Units: pressures [Pa], flows [m^3/s].
+        complex ndarray
+            Shape ``s.shape + (2, 2)``; entry ``[..., i, j]`` maps input j to output i of
+            the form, [Pa/Pa, Pa/(m^3/s), (m^3/s)/Pa or 1 as the entry requires].
+
+        Examples
+        --------
+        At low frequency the PQ line's pressure-to-pressure gain is 1 and its flow-to-pressure
+        entry is minus the laminar resistance (M12):
+
+        >>> from hydroline import MINERAL_OIL
+        >>> line = Line(3.048, 0.0159, MINERAL_OIL, bulk_modulus=178e6)
+        >>> H = line.transfer(2j * 3.141592653589793 * 1e-4, "PQ")
+        >>> round(abs(H[0, 0]), 6), round(-H[0, 1].real / line.resistance, 4)
+        (1.0, 1.0)
         """
         form = check_form(form)
         s = np.asarray(s, dtype=complex)
@@ -207,10 +300,25 @@ class Line:
         """Laminar steady state of the line (M12) for constant inputs ``u`` of a form.
 
         PQ: P_d = P_u - R Q_d, Q_u = Q_d.  QP: P_u = P_d + R Q_u, Q_d = Q_u.
-        PP: Q_u = Q_d = (P_u - P_d)/R.  QQ has no steady state unless Q_u = Q_d (then the
-        mean pressure is undetermined); it raises ValueError.
+        PP: Q_u = Q_d = (P_u - P_d)/R.
 
-        Returns the outputs in form order, [Pa] and [m^3/s].
+        Parameters
+        ----------
+        form : str
+            "PQ", "QP" or "PP".
+        u : array_like
+            The form's two inputs in form order, pressures [Pa] and flows [m^3/s].
+
+        Returns
+        -------
+        ndarray
+            The two outputs in form order, [Pa] and [m^3/s].
+
+        Raises
+        ------
+        ValueError
+            For the QQ form, which has no steady state unless Q_u = Q_d (and then the mean
+            pressure is undetermined).
         """
         form = check_form(form)
         a, b = (float(v) for v in u)

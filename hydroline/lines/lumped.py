@@ -1,4 +1,4 @@
-"""Lumped segmented line: N equal R-I-C segments in the PQ form (cf. MODEL.md 2, M2-M4).
+"""Lumped segmented line: N equal R-I-C segments in the PQ form (cf. model reference §2, M2-M4).
 
 The line is cut into N equal segments, as the segmented-pipeline blocks of commercial
 simulation tools do. Segment k (k = 1..N, from the upstream end) carries the flow ``q_k``
@@ -36,9 +36,35 @@ class LumpedLine(StateSpaceLine):
 
     Parameters
     ----------
-    line : Line        The line (length, diameter, fluid, effective bulk modulus)
-    n_segments : int   Number of equal segments N >= 1 [-]
-    form : str         Causal form; only "PQ"
+    line : Line
+        The line (length, diameter, fluid, effective bulk modulus).
+    n_segments : int
+        Number of equal segments N >= 1.
+    form : str
+        Causal form; only "PQ".
+
+    Raises
+    ------
+    ValueError
+        For a bad line, segment count or form.
+
+    Examples
+    --------
+    Without friction the first resonance of N segments is
+    ``(4N/pi) sin(pi/(2(2N + 1))) c/(4L)`` (module docstring); with the small laminar
+    friction of a real hose it is the same to 0.01 Hz, and 5 % below the quarter-wave
+    frequency c/(4L) at N = 10 (the error falls as 1/N):
+
+    >>> import numpy as np
+    >>> from hydroline import MINERAL_OIL
+    >>> from hydroline.lines import Line
+    >>> line = Line(3.048, 0.0159, MINERAL_OIL, bulk_modulus=178e6)
+    >>> N = 10
+    >>> lumped = LumpedLine(line, N)
+    >>> f1 = abs(lumped.eigenvalues()).min() / (2 * np.pi)
+    >>> f_ladder = 4 * N / np.pi * np.sin(np.pi / (2 * (2 * N + 1))) * line.wave_speed / (4 * line.length)
+    >>> print(f"{f1:.2f} Hz, frictionless ladder {f_ladder:.2f} Hz, c/(4L) = {line.wave_speed / (4 * line.length):.2f} Hz")
+    35.30 Hz, frictionless ladder 35.30 Hz, c/(4L) = 37.10 Hz
     """
 
     def __init__(self, line: Line, n_segments: int = 10, form: str = "PQ"):

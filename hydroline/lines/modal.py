@@ -1,6 +1,6 @@
 """Modal state-space approximations of a hydraulic line, all four causal forms.
 
-PQ form (MODEL.md 2.2, M8-M13, the 2005 paper's eq. 8-14). Mode i has states
+PQ form (model reference §2.2, M8-M13, the 2005 paper's eq. 8-14). Mode i has states
 ``[mode{i}.pressure, mode{i}.flow] = [p_di, q_ui]`` (its contributions to the downstream
 pressure [Pa] and upstream flow [m^3/s]); inputs ``u = [upstream_pressure, downstream_flow]``;
 outputs ``[downstream_pressure, upstream_flow] = sum_i [p_di, q_ui]`` (M11). The input matrix
@@ -9,7 +9,7 @@ carries the steady-state modifier G (M13) so the DC gain is the laminar steady s
 QP form: the PQ line seen from its other end (the line is symmetric): with the PQ inputs
 ``[P_d, -Q_u]`` the PQ outputs are ``[P_u, -Q_d]``; same states.
 
-PP and QQ forms (MODEL.md 2.4): the partial fractions of ``coth Gamma`` and ``csch Gamma``,
+PP and QQ forms (model reference §2.4): the partial fractions of ``coth Gamma`` and ``csch Gamma``,
 
     coth G = 1/G + sum_k 2G/(G^2 + k^2 pi^2),   csch G = 1/G + sum_k (-1)^k 2G/(G^2 + k^2 pi^2),
 
@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .corrections import _check_modes, correction_factors, modal_angles
+from .corrections import check_modes, correction_factors, modal_angles
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["ModalLine", "RigidColumnLine", "StateSpaceLine"]
@@ -59,11 +59,18 @@ SCHOHL_N = np.array([26.65, 100.0, 669.6, 6497.0, 57990.0])
 class StateSpaceLine:
     """Common behaviour of linear line models ``x' = A x + B u, y = C x + D u``.
 
+    Subclasses (:class:`ModalLine`, :class:`RigidColumnLine`,
+    :class:`~hydroline.lines.lumped.LumpedLine`) set the matrices and names.
+
     Attributes
     ----------
-    A, B, C, D : ndarray     State-space matrices (SI units)
-    state_names : list[str]  Names of the states, in order
-    input_names, output_names : tuple[str, str]  Port signals in the order of the form
+    A, B, C, D : ndarray
+        State-space matrices, [SI].
+    state_names : list of str
+        Names of the states, in order.
+    input_names, output_names : tuple of str
+        Port signals in the order of the form, e.g. ``("upstream_pressure",
+        "downstream_flow")``.
     """
 
     form: str
@@ -78,7 +85,19 @@ class StateSpaceLine:
         return self.A.shape[0]
 
     def transfer(self, s):
-        """Frequency response ``C (sI - A)^-1 B + D``, shape ``s.shape + (2, 2)``."""
+        """Frequency response ``C (sI - A)^-1 B + D``.
+
+        Parameters
+        ----------
+        s : complex or array_like
+            Laplace variable (e.g. ``2j*pi*f``), [1/s].
+
+        Returns
+        -------
+        complex ndarray
+            Shape ``s.shape + (2, 2)``, entry ``[..., i, j]`` from input j to output i, in
+            the units of :meth:`hydroline.lines.Line.transfer`, [SI].
+        """
         s = np.asarray(s, dtype=complex)
         n = self.n_states
         M = s[..., None, None] * np.eye(n) - self.A
@@ -86,14 +105,34 @@ class StateSpaceLine:
         return self.C @ X + self.D
 
     def eigenvalues(self):
-        """Eigenvalues of A, [1/s]."""
+        """Eigenvalues of A.
+
+        Returns
+        -------
+        complex ndarray
+            The poles of the line model, [1/s].
+        """
         return np.linalg.eigvals(self.A)
 
     def initial_state(self, u0, mean_pressure: float | None = None):
         """Steady state for constant inputs u0 (M14): ``x = -A^-1 B u0``.
 
-        For the QQ form (which integrates net flow) the two input flows must be equal and
-        ``mean_pressure`` [Pa] sets the pressure level stored in ``column.volume``.
+        Parameters
+        ----------
+        u0 : array_like
+            The two inputs in form order, pressures [Pa] and flows [m^3/s].
+        mean_pressure : float or None
+            QQ form only: the pressure level stored in ``column.volume``, [Pa]; 0 when None.
+
+        Returns
+        -------
+        ndarray
+            The state vector, [SI, per :attr:`state_names`].
+
+        Raises
+        ------
+        ValueError
+            For the QQ form (which integrates net flow) when the two input flows differ.
         """
         u0 = np.asarray(u0, dtype=float).reshape(2)
         if self.form != "QQ":
@@ -109,11 +148,31 @@ class StateSpaceLine:
         return x
 
     def outputs(self, x, u):
-        """Outputs ``C x + D u`` in form order, [Pa] / [m^3/s]."""
+        """Outputs ``C x + D u`` in form order.
+
+        Parameters
+        ----------
+        x : array_like
+            State vector, [SI, per :attr:`state_names`].
+        u : array_like
+            The two inputs in form order, [Pa] / [m^3/s].
+
+        Returns
+        -------
+        ndarray
+            The two outputs in form order, [Pa] / [m^3/s].
+        """
         return self.C @ np.asarray(x) + self.D @ np.asarray(u)
 
     def to_control(self):
-        """The line as a python-control ``StateSpace`` with named states, inputs, outputs."""
+        """The line as a python-control ``StateSpace`` with named states, inputs, outputs.
+
+        Returns
+        -------
+        control.StateSpace
+            ``(A, B, C, D)`` with :attr:`state_names`, :attr:`input_names` and
+            :attr:`output_names`, SI units.
+        """
         import control
 
         return control.ss(self.A, self.B, self.C, self.D, states=list(self.state_names),
@@ -122,16 +181,23 @@ class StateSpaceLine:
     def step_response(self, t, input_index: int = 0, amplitude: float = 1.0, x0=None):
         """Exact response of the outputs to a step of one input at t = 0 from x0 (rest).
 
+        Computed from the eigen-decomposition of A (no time stepping).
+
         Parameters
         ----------
-        t : array_like          Times >= 0, [s]
-        input_index : int       Which input steps (form order)
-        amplitude : float       Step size in the input's unit
-        x0 : array_like         Initial state (zero when None)
+        t : array_like
+            Times >= 0, [s].
+        input_index : int
+            Which input steps, 0 or 1 (form order).
+        amplitude : float
+            Step size, [Pa] for a pressure input, [m^3/s] for a flow input.
+        x0 : array_like or None
+            Initial state, [SI]; zero when None.
 
         Returns
         -------
-        ndarray (len(t), 2)  outputs in form order
+        ndarray
+            Shape ``(len(t), 2)``: the outputs in form order, [Pa] / [m^3/s].
         """
         t = np.asarray(t, dtype=float)
         u = np.zeros(2)
@@ -162,28 +228,60 @@ def _resolve_corrections(line, n_modes, form, corrections):
 
 
 class ModalLine(StateSpaceLine):
-    """Modal state-space line with Yang-Tobler frequency/damping corrections.
+    """Modal state-space line with Yang-Tobler frequency/damping corrections (M9)-(M15).
 
     Parameters
     ----------
-    line : Line            The line
-    n_modes : int          Number of modes (two states each), >= 1
-    form : str             Causal form "PQ", "QP", "PP" or "QQ" (MODEL.md table 2.1)
-    corrections : str or (alpha, beta)
-                           "exact": alpha_i, beta_i from the dissipative model's roots (M15);
-                           "none": plain linear friction (alpha = beta = 1); or arrays, [-]
-                           (used by method "yang-tobler" only)
-    method : str           "yang-tobler" (the 2005 paper's model, default) or "residue"
-                           (exact poles and exact residues of the dissipative model, see
-                           :mod:`hydroline.lines.residue`)
+    line : Line
+        The line (geometry, fluid, effective bulk modulus).
+    n_modes : int
+        Number of modes (two states each), >= 1.
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (model reference table 2.1).
+    corrections : str or tuple of array_like
+        "exact": alpha_i, beta_i from the dissipative model's roots (M15); "none": plain
+        linear friction (alpha = beta = 1); or an ``(alpha, beta)`` pair of arrays, [-].
+        Used by method "yang-tobler" only.
+    method : str
+        "yang-tobler" (the 2005 paper's model, default) or "residue" (exact poles and exact
+        residues of the dissipative model, see :mod:`hydroline.lines.residue`).
 
     Attributes
     ----------
-    A, B, C, D : ndarray         State-space matrices; states, inputs and outputs as documented
-                                 in the module docstring, inputs/outputs in form order
-    alpha, beta : ndarray        Correction factors used, [-]
-    state_names : list[str]      e.g. ``["mode1.pressure", "mode1.flow", ...]``
-    input_names, output_names    e.g. ``("upstream_pressure", "downstream_flow")``
+    A, B, C, D : ndarray
+        State-space matrices; states, inputs and outputs as in the module docstring, inputs
+        and outputs in form order, [SI].
+    alpha, beta : ndarray or None
+        Correction factors used, [-]; None for the residue method.
+    state_names : list of str
+        e.g. ``["mode1.pressure", "mode1.flow", ...]``.
+    input_names, output_names : tuple of str
+        e.g. ``("upstream_pressure", "downstream_flow")``.
+
+    Raises
+    ------
+    ValueError
+        For a bad line, number of modes, form, method or correction factors.
+
+    Examples
+    --------
+    A 10 ft, 15.9 mm hose (effective bulk modulus 178 MPa) with six modes: the DC gain is
+    the laminar steady state (M12), ``P_d = P_u - R Q_d`` and ``Q_u = Q_d``, exactly, thanks
+    to the modifier G (M13); the first mode has the natural frequency of the exact
+    dissipative model's first root, the quarter-wave frequency c/(4L) = 37.1 Hz lowered by
+    alpha_1 (M9), (M15):
+
+    >>> import numpy as np
+    >>> from hydroline import MINERAL_OIL
+    >>> from hydroline.lines import Line
+    >>> line = Line(3.048, 0.0159, MINERAL_OIL, bulk_modulus=178e6)
+    >>> m = ModalLine(line, 6, "PQ")
+    >>> dc = m.transfer(0.0).real
+    >>> print(np.round(dc[0] / [1.0, -line.resistance], 9), np.round(dc[1], 9))
+    [1. 1.] [0. 1.]
+    >>> f1 = abs(m.eigenvalues()).min() / (2 * np.pi)
+    >>> print(f"{f1:.2f} Hz = c/(4L)/alpha_1 = {line.wave_speed / (4 * line.length) / m.alpha[0]:.2f} Hz")
+    35.90 Hz = c/(4L)/alpha_1 = 35.90 Hz
     """
 
     def __init__(self, line: Line, n_modes: int = 6, form: str = "PQ", corrections="exact",
@@ -191,7 +289,7 @@ class ModalLine(StateSpaceLine):
         if not isinstance(line, Line):
             raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
         self.line = line
-        self.n_modes = _check_modes(n_modes)
+        self.n_modes = check_modes(n_modes)
         self.form = check_form(form)
         self.method = method
         if method == "residue":
@@ -244,7 +342,7 @@ class ModalLine(StateSpaceLine):
         flip_out = np.diag([1.0, -1.0])                   # [P_u, Q_d] = flip_out @ [P_d', Q_u']
         return A, B @ swap_in, flip_out @ C, D, names
 
-    # ---- PP and QQ (MODEL.md 2.4) ------------------------------------------------------
+    # ---- PP and QQ (model reference §2.4) ------------------------------------------------------
     def _mode_coefficients(self):
         ln = self.line
         nu, d = ln.fluid.kinematic_viscosity, ln.diameter
@@ -313,9 +411,24 @@ class RigidColumnLine(StateSpaceLine):
 
     Parameters
     ----------
-    line : Line                The line
-    inertance_factor : float   Multiplier of the plug-flow inertance rho L/A, [-]; 1 as in the
-                               2005 paper (4/3 is the laminar-profile low-frequency value)
+    line : Line
+        The line (R and I from its geometry and fluid).
+    inertance_factor : float
+        Multiplier of the plug-flow inertance rho L/A, [-]; 1 as in the 2005 paper (4/3 is the
+        laminar-profile low-frequency value).
+
+    Examples
+    --------
+    Its single pole is at ``-R/I`` and its DC admittance is ``1/R``:
+
+    >>> from hydroline import MINERAL_OIL
+    >>> from hydroline.lines import Line
+    >>> line = Line(0.3, 0.0254, MINERAL_OIL)
+    >>> col = RigidColumnLine(line)
+    >>> round(float(col.eigenvalues()[0].real) / (-line.resistance / line.inertance), 12)
+    1.0
+    >>> round(float(col.transfer(0.0)[0, 0].real) * line.resistance, 12)
+    1.0
     """
 
     def __init__(self, line: Line, inertance_factor: float = 1.0):

@@ -3,7 +3,7 @@
 ``ModalLine(line, n, form, method="residue")`` builds its matrices with
 :func:`residue_realisation`. The derivation, from (M5)-(M6) to the matrices below, is in
 ``docs/residue_line.md``; in short, every entry ``H(s)`` of a form's transfer matrix
-(MODEL.md table 2.1) is meromorphic in s and is written as
+(docs/model.md table 2.1) is meromorphic in s and is written as
 
     H(s) = sum_{k<=n} [ R_k/(s - p_k) + conj ]          retained modes, exact
          + column term (PP: 1/(Zc Gamma); QQ: 1/(s C))   k = 0 term
@@ -622,7 +622,7 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     ----------
     line : Line       The line (needs Dn well below 1, as for (M15))
     n_modes : int     Number of retained modes n >= 1 (two states each)
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (MODEL.md table 2.1)
+    form : str        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
 
     Returns
     -------

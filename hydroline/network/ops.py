@@ -16,7 +16,24 @@ _SYM = (ca.SX, ca.MX, ca.DM)
 
 
 def is_symbolic(*args) -> bool:
-    """True when any argument is a CasADi expression."""
+    """True when any argument is a CasADi expression.
+
+    Parameters
+    ----------
+    *args : object
+        Values to inspect: numbers, arrays or CasADi ``SX``/``MX``/``DM``.
+
+    Returns
+    -------
+    bool
+        Whether the CasADi branch of the operations below is taken.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> is_symbolic(1.0, 2.0), is_symbolic(1.0, ca.SX.sym("p"))
+    (False, True)
+    """
     return any(isinstance(a, _SYM) for a in args)
 
 
@@ -25,57 +42,204 @@ def _pick(*args):
 
 
 def sqrt(x):
+    """Square root, ``x >= 0``.
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Argument, in its own unit [any].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``sqrt(x)``, [sqrt of the unit of x].
+    """
     return _pick(x).sqrt(x)
 
 
 def exp(x):
+    """Exponential.
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Dimensionless argument, [-].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``exp(x)``, [-].
+    """
     return _pick(x).exp(x)
 
 
 def log(x):
+    """Natural logarithm, ``x > 0``.
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Dimensionless argument, [-].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``ln(x)``, [-].
+    """
     return _pick(x).log(x)
 
 
 def tanh(x):
+    """Hyperbolic tangent (used to regularise sgn, e.g. in the friction of (M24)).
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Dimensionless argument, [-].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``tanh(x)`` in (-1, 1), [-].
+    """
     return _pick(x).tanh(x)
 
 
 def fabs(x):
+    """Absolute value.
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Argument, [any].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``|x|``, [unit of x].
+    """
     return ca.fabs(x) if is_symbolic(x) else np.abs(x)
 
 
 def sign(x):
+    """Sign: -1, 0 or +1.
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Argument, [any].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``sgn(x)``, [-].
+    """
     return ca.sign(x) if is_symbolic(x) else np.sign(x)
 
 
 def power(x, a):
+    """Power ``x**a``.
+
+    Parameters
+    ----------
+    x : float, array_like or CasADi expression
+        Base, [any].
+    a : float or CasADi expression
+        Exponent, [-].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``x**a``, [unit of x to the power a].
+    """
     return x**a
 
 
 def fmax(a, b):
+    """Elementwise maximum.
+
+    Parameters
+    ----------
+    a, b : float, array_like or CasADi expression
+        Values of the same unit, [any].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``max(a, b)``, [unit of a].
+    """
     return ca.fmax(a, b) if is_symbolic(a, b) else np.maximum(a, b)
 
 
 def fmin(a, b):
+    """Elementwise minimum.
+
+    Parameters
+    ----------
+    a, b : float, array_like or CasADi expression
+        Values of the same unit, [any].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``min(a, b)``, [unit of a].
+    """
     return ca.fmin(a, b) if is_symbolic(a, b) else np.minimum(a, b)
 
 
 def if_else(cond, a, b):
-    """``a`` where ``cond`` else ``b`` (both branches are evaluated)."""
+    """``a`` where ``cond`` else ``b`` (both branches are evaluated).
+
+    Parameters
+    ----------
+    cond : bool, array_like of bool or CasADi expression
+        Condition, [-].
+    a, b : float, array_like or CasADi expression
+        Values where the condition holds / does not hold, same unit, [any].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        The selected values, [unit of a].
+    """
     if is_symbolic(cond, a, b):
         return ca.if_else(cond, a, b)
     return np.where(cond, a, b)
 
 
 def matvec(M, x):
-    """Constant matrix times a vector of numbers or symbols."""
+    """Constant matrix times a vector of numbers or symbols.
+
+    Parameters
+    ----------
+    M : array_like
+        Constant matrix, shape (m, n), [SI, output unit per input unit].
+    x : array_like or CasADi expression
+        Vector of length n, [SI].
+
+    Returns
+    -------
+    ndarray or CasADi expression
+        ``M x``, length m, [SI].
+    """
     if is_symbolic(x):
         return ca.mtimes(ca.DM(M), x)
     return np.asarray(M) @ np.asarray(x, dtype=float)
 
 
 def vertcat(items):
-    """Stack scalars into a column (CasADi) or a 1-D array (NumPy)."""
+    """Stack scalars into a column (CasADi) or a 1-D array (NumPy).
+
+    Parameters
+    ----------
+    items : sequence of float or CasADi expressions
+        The scalars, in order, [SI, each item's own unit].
+
+    Returns
+    -------
+    ndarray or CasADi expression
+        Column of the items, [SI, unit of each item].
+    """
     if is_symbolic(*items):
         return ca.vertcat(*items)
     return np.array([float(v) for v in items])
@@ -86,6 +250,28 @@ def smooth_sqrt(dp, transition):
 
     ``dp / (dp^2 + transition^2)^(1/4)``: equals ``sgn(dp) sqrt|dp|`` to 1 % for
     ``|dp| > 7 transition`` and is linear, ``dp/sqrt(transition)``, near zero, so the
-    orifice equation (M20) has a finite slope at zero pressure drop. [sqrt(Pa)]
+    orifice equation (M20) has a finite slope at zero pressure drop.
+
+    Parameters
+    ----------
+    dp : float, array_like or CasADi expression
+        Pressure drop across the orifice, [Pa].
+    transition : float or CasADi expression
+        Pressure drop below which the flow turns laminar, > 0, [Pa].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        Regularised signed square root, [sqrt(Pa)].
+
+    Examples
+    --------
+    Far above the transition it is the turbulent square root; at zero drop its slope is
+    ``1/sqrt(transition)``:
+
+    >>> round(float(smooth_sqrt(1e6, 1e4)), 2)    # sqrt(1e6) (1 - 1e-4/4) = 999.975
+    999.98
+    >>> round(float(smooth_sqrt(1.0, 1e4)), 9)    # 1/sqrt(1e4) = 0.01
+    0.01
     """
     return dp / sqrt(sqrt(dp * dp + transition * transition))

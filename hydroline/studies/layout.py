@@ -17,7 +17,7 @@ which, and ``*_settling_note`` how, or why there is none). A frequency of None m
 pressure does not ring (amplitude 0, ``*_amplitude_note`` says so). :func:`conclusion` writes
 the design conclusion from the numbers.
 
-What to expect (MODEL.md 1-2): a section II with a nearly blocked valve end and the
+What to expect (docs/model.md 1-2): a section II with a nearly blocked valve end and the
 accumulator-stiffened manifold at the other is close to a quarter-wave resonator, so the
 frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 39 Hz for 3 m). The
 amplitude is the water hammer Z0 * dQ that the valve's flow step starts -- but only where the

@@ -1,0 +1,110 @@
+"""Sphinx configuration of the hydroline documentation.
+
+Build locally (after ``pip install -e '.[docs]'``)::
+
+    sphinx-build -W -b html docs docs/_build/html
+
+Tutorials (``docs/tutorials/*.py``) are rendered by sphinx-gallery without executing them
+(the test suite runs them: ``tests/test_tutorials.py``); set ``HYDROLINE_DOCS_EXECUTE=1`` to
+execute them during the build and embed their figures and output.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+os.environ.setdefault("MPLBACKEND", "Agg")
+
+import hydroline  # noqa: E402
+
+project = "hydroline"
+author = "the hydroline developers"
+copyright = "2026, the hydroline developers"
+release = version = hydroline.__version__
+
+extensions = [
+    "sphinx.ext.autodoc",
+    "sphinx.ext.autosummary",
+    "sphinx.ext.mathjax",
+    "sphinx.ext.viewcode",
+    "numpydoc",
+    "myst_parser",
+    "sphinx_gallery.gen_gallery",
+]
+
+source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
+root_doc = "index"
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "tutorials/*.rst",
+                    "auto_tutorials/*.ipynb", "auto_tutorials/*.py", "auto_tutorials/*.zip",
+                    "auto_tutorials/*.json", "auto_tutorials/*.md5"]
+
+# Markdown pages (model reference, notes): $...$ and $$...$$ maths, equation labels.
+# a further-pages glob in the index may match nothing in a checkout without topic notes
+suppress_warnings = ["toc.empty_glob"]
+
+myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
+myst_heading_anchors = 3
+myst_dmath_double_inline = True
+
+# API reference
+autosummary_generate = True
+autodoc_default_options = {"members": True, "ignore-module-all": True}
+autodoc_typehints = "none"           # types are in the numpydoc Parameters sections
+numpydoc_show_class_members = False
+numpydoc_xref_param_type = False
+numpydoc_attributes_as_param_list = True
+
+
+sphinx_gallery_conf = {
+    "examples_dirs": ["tutorials"],
+    "gallery_dirs": ["auto_tutorials"],
+    "filename_pattern": r"/tutorial_",
+    "plot_gallery": os.environ.get("HYDROLINE_DOCS_EXECUTE", "0") == "1",
+    "download_all_examples": False,
+    "within_subsection_order": "FileNameSortKey",
+    "remove_config_comments": True,
+}
+
+#: Modules whose docstrings are numpydoc (checked by tests/test_docstrings_numpydoc.py).
+NUMPYDOC_MODULES = [line.strip() for line in (ROOT / "docs" / "numpydoc_modules.txt").read_text().splitlines()
+                    if line.strip() and not line.startswith("#")]
+
+
+def _owner_module(what, name, obj):
+    """The module a documented object belongs to (its own name for a module)."""
+    if what == "module":
+        return name
+    mod = getattr(obj, "__module__", None)
+    if mod is None:                        # properties, attributes: take the dotted name
+        mod = name.rsplit(".", 2)[0]
+    return mod
+
+
+def show_unconverted_verbatim(app, what, name, obj, options, lines):
+    """Docstrings of modules not yet in numpydoc_modules.txt are shown as they are written.
+
+    The compact one-line style (``name : float   Meaning, [unit]``) reads wrongly when parsed
+    as numpydoc and its ``|x|`` notation breaks reStructuredText, so until a module is
+    converted its docstrings appear verbatim, in a literal block.
+    """
+    if _owner_module(what, name, obj) in NUMPYDOC_MODULES or not lines:
+        return
+    import inspect
+
+    raw = inspect.getdoc(obj) or ""
+    if not raw.strip():
+        return
+    lines[:] = ["::", ""] + ["    " + line for line in raw.splitlines()] + [""]
+
+
+def setup(app):
+    # after numpydoc (priority 500): replace its rendering for unconverted modules
+    app.connect("autodoc-process-docstring", show_unconverted_verbatim, priority=900)
+
+
+html_theme = "alabaster"
+html_title = "hydroline"
+html_static_path: list[str] = []
