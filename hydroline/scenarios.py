@@ -15,8 +15,10 @@ import numpy as np
 
 from . import components as comp
 from .analysis.metrics import pressure_metrics
+from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
-from .simulation import SimulationResult, integrate, solve_steady_state
+from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency, steady_state_hint
+from .simulation import SimulationResult, SteadyStateError, integrate, solve_steady_state
 from .system import build_circuit
 
 __all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario", "default_scenario"]
@@ -31,9 +33,11 @@ def default_scenario(rig: Rig) -> str:
     """The rig's ``rig.scenario``, else "open-loop-step"."""
     return rig.get("rig.scenario", "open-loop-step")
 
-#: Pressures watched for cavitation (docs/model.md 8): below this absolute pressure the oil
-#: releases gas and the linear line model no longer holds, [Pa].
-CAVITATION_PRESSURE = 0.0
+#: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
+#: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
+#: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
+#: no longer holds, [Pa].
+CAVITATION_PRESSURE = ATMOSPHERIC_PRESSURE
 WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
                      "top_chamber_pressure", "supply.manifold_pressure", "return.manifold_pressure")
 
@@ -118,6 +122,7 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
         raise RigError(f"rig {rig.source}: no servo axis (an actuator driven by a servovalve)")
     if scenario in SCENARIOS:
         _check_scenario(rig, scenario, t_end)
+        check_consistency(rig, scenario)
     if scenario == "position-step":
         return _position_step(rig, axes, t_end)
     axis = next(iter(axes.values()))
@@ -250,7 +255,18 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
     if sc.position_guess is not None:
         circuit = build_circuit(rig, sc.position_guess)
     net = circuit.network(sc.commands)
-    ss = solve_steady_state(net, t0=0.0)
+    check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
+                      stream_to=stream_to,
+                      name="t_end" if t_end is not None else f"scenario.{scenario}.t_end")
+    try:
+        ss = solve_steady_state(net, t0=0.0)
+    except SteadyStateError as e:   # say it in terms of the rig's parameters
+        if getattr(e, "state", None) is None:
+            raise
+        raise SteadyStateError(f"steady state not found before the run: "
+                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
+                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
+                               e.state, e.residual) from None
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                     stream_columns=stream_columns)
@@ -268,14 +284,16 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
                             for n, a in circuit.axes.items()},
                         total_wall_time=_time.perf_counter() - tic,
                         steady_state_residual=ss.residual, n_states=len(net.state_names))
+    threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
     if stream_to is None:
-        res.warnings.extend(check_cavitation(res))
+        res.warnings.extend(check_cavitation(res, threshold))
     else:   # streamed: only the column statistics are in memory
         lows = res.metadata["stream_stats"]["min"]
-        res.warnings.extend(f"{k} falls below {CAVITATION_PRESSURE / 1e6:g} MPa absolute (lowest "
-                            f"{lows[k] / 1e6:.2f} MPa): the line model is not valid there"
+        res.warnings.extend(f"{k} falls below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                            f"absolute (fluid.gas_release_pressure; lowest {lows[k] / 1e6:.3g} "
+                            f"MPa): the line model is not valid there"
                             for k in watched_pressures(res)
-                            if k in lows.index and lows[k] < CAVITATION_PRESSURE)
+                            if k in lows.index and lows[k] < threshold)
     if stream_to is None:
         res.metadata["metrics_window"] = metrics_window(res)
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
@@ -293,7 +311,14 @@ def watched_pressures(res: SimulationResult) -> list[str]:
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
-    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md 8)."""
+    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md
+    8), giving the time of the first crossing.
+
+    Parameters
+    ----------
+    res : SimulationResult
+    threshold : float      Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
+    """
     out = []
     for k in watched_pressures(res):
         if k not in res.data:
@@ -302,10 +327,13 @@ def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSU
         i = int(np.argmin(p))
         if p[i] < threshold:
             below = res.t[p < threshold]
-            out.append(f"{k} falls below {threshold / 1e6:g} MPa absolute from t = {below[0] * 1e3:.1f} ms "
-                       f"(lowest {p[i] / 1e6:.2f} MPa at {res.t[i] * 1e3:.1f} ms): the oil would release "
-                       f"gas/cavitate there and the line model is not valid; raise the return/back "
-                       f"pressure or shorten the hose")
+            what = ("cavitate (below 0 Pa absolute)" if threshold <= 0 else
+                    f"release gas (below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                    f"absolute, fluid.gas_release_pressure)")
+            out.append(f"{k} falls below {threshold / 1e6:.3g} MPa absolute from t = "
+                       f"{below[0] * 1e3:.1f} ms (lowest {p[i] / 1e6:.3g} MPa at "
+                       f"{res.t[i] * 1e3:.1f} ms): the oil would {what} there and the line model "
+                       f"is not valid; raise the return/back pressure or shorten the hose")
     return out
 
 

@@ -20,11 +20,21 @@ import pandas as pd
 from .network import Network
 
 __all__ = ["SteadyState", "solve_steady_state", "integrate", "SimulationResult",
-           "SteadyStateError", "SOLVERS"]
+           "SteadyStateError", "SOLVERS", "column_units"]
 
 
 class SteadyStateError(RuntimeError):
-    """The steady-state solver did not converge; the message says how far it got."""
+    """The steady-state solver did not converge; the message says how far it got.
+
+    Attributes
+    ----------
+    state : str        The state with the largest scaled residual (None when unknown)
+    residual : float   Its scaled residual, [1/s]
+    """
+
+    def __init__(self, message, state=None, residual=None):
+        super().__init__(message)
+        self.state, self.residual = state, residual
 
 
 @dataclass
@@ -96,7 +106,11 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
             dt *= 0.1
             continue
         z, r = z_new, r_new
-        dt = min(dt * max(norm / max(norm_new, 1e-300), 0.5), 1e12)
+        # grow dt by the residual ratio, and by at least 1.5x per accepted step: a slow
+        # transient (an accumulator filling through a 2 mm hose, a return side behind a
+        # closed check valve) would otherwise creep for thousands of steps; a step that
+        # overshoots is still refused above and dt cut
+        dt = min(dt * max(norm / max(norm_new, 1e-300), 1.5), 1e12)
         norm = norm_new
     return z
 
@@ -153,7 +167,8 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     if not np.all(np.isfinite(x)) or res > 1e-4:
         raise SteadyStateError(
             f"steady state not found: scaled residual {res:.3g} 1/s at state "
-            f"'{network.state_names[k]}' (check pressures, laps and initial position)")
+            f"'{network.state_names[k]}' (check pressures, laps and initial position)",
+            state=network.state_names[k], residual=res)
     return SteadyState(x, p, res, network.state_names[k])
 
 
@@ -186,8 +201,11 @@ class SimulationResult:
         return self.data[key].to_numpy()
 
     def to_csv(self, path):
-        """Write all series to CSV (time in the first column, SI units)."""
-        self.data.to_csv(path, index_label="time")
+        """Write all series to CSV: ``time [s]`` first, then every column with its SI unit in
+        the header (``supply_port_pressure [Pa]``), as ``hydroline fit`` reads it."""
+        units = self.metadata.get("units", {})
+        named = {c: f"{c} [{units[c]}]" for c in self.data.columns if c in units}
+        self.data.rename(columns=named).to_csv(path, index_label="time [s]")
 
     def plot(self, signals=None, path=None, title=None):
         """Plot signals (default: the paper's Figs. 10-12 set when present). Returns the figure."""
@@ -334,13 +352,26 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         stats.update(ns.stats())
     stats["build_time"] = build_time
     res = SimulationResult(data=sink.result(), wall_time=wall, stats=stats, warnings=notes)
-    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale)
+    res.metadata.update(solver=backend, rtol=rtol, atol_scale=atol_scale,
+                        units=column_units(network))
     if solver_note:
         res.metadata["solver_note"] = solver_note
     if stream_to is not None:
         res.metadata.update(stream_to=str(stream_to), stream_stats=sink.stats_frame(),
                             stream_rows=sink.rows)
     return res
+
+
+def column_units(network: Network) -> dict:
+    """Signal or state name -> its SI unit (``"-"`` for a pure number), from the ports and
+    states the components declare."""
+    units = {}
+    for c in network.components:
+        for port, spec in c.outputs.items():
+            units[c.signal(port)] = spec.unit
+        for st in c.states:
+            units[f"{c.name}.{st.name}"] = st.unit or "-"
+    return units
 
 
 def _integrate_cvodes_scipy(backend, network, scaled_dae, a, grid, x, p, rtol, atol_scale, atol,

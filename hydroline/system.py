@@ -38,6 +38,7 @@ from .lines import Line, ModalLine
 from .circuit import Circuit, CircuitError, axes_of, circuit_components, has_circuit, rewire
 from .network import Network
 from .rigs import SCHEMA, Rig, RigError, declarations
+from .rigs.parameters import check_consistency, check_ranges
 
 __all__ = ["build_network", "build_circuit", "make_fluid", "make_line", "hose_lines",
            "validate_rig", "pressure_profile"]
@@ -261,6 +262,7 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
         raise RigError(f"supply.pressure_profile: the supply pressure must stay above the return "
                        f"pressure [Pa]; it falls to {s_low / 1e6:.6g} MPa "
                        f"(return up to {t_high / 1e6:.6g} MPa)")
+    check_ranges(rig)          # plausible ranges, [rig] allow_implausible (rigs.parameters)
     half = rig["actuator.stroke"] / 2
     for path, x in (("actuator.initial_position", rig.get("actuator.initial_position")),
                     ("initial piston position", position_guess)):
@@ -283,6 +285,7 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
             raise RigError(f"{path}: must be below {side}.pressure ({rig.raw.get(f'{side}.pressure', p_side)!r}) "
                            f"[Pa, absolute]: pre-charged above it the accumulator holds no oil, "
                            f"got {rig.raw.get(path, p0)!r}")
+    check_consistency(rig)     # weight vs force capacity, pre-charge vs the model's limit
     return profiles
 
 

@@ -8,7 +8,15 @@ go back out to people. This module converts at those edges with one shared pint
 * a bare number for a dimensional parameter (``3.048`` for a length) is an error, because
   "3.048" in a rig file could be metres or feet or inches; write ``"3.048 m"``;
 * a value of the wrong dimension (``"3000 psi"`` for a length) is an error;
-* NaN and infinite values are errors.
+* NaN and infinite values are errors;
+* text must follow one strict grammar (:data:`QUANTITY_GRAMMAR`): one number (optional sign,
+  decimal point, optional exponent ``e-3``), then at most one unit expression: unit names
+  joined by ``*`` or ``/``, each with at most one exponent (``m^3``, ``m**3``, ``s^-1``).
+  Anything else is refused with a message that quotes the text: a decimal comma
+  (``"20,7 MPa"``), a unit without a number (``"MPa"``), two numbers (``"2 3 m"``,
+  ``"20.7 MPa 3"``), units side by side without ``*`` (``"N m"``), exponent towers
+  (``"9**9**9 m"``) and text longer than :data:`MAX_QUANTITY_LENGTH` characters. (pint alone
+  reads ``"20,7 MPa"`` as 207 MPa, ``"MPa"`` as 1 MPa and ``"2 3 m"`` as 6 m.)
 
 Every error is a :class:`UnitError` (a :class:`ValueError`) whose message is one line naming
 the parameter, so that a rig file with thirty entries points at the wrong one.
@@ -39,11 +47,13 @@ from __future__ import annotations
 
 import math
 import numbers
+import re
+import reprlib
 
 import pint
 
 __all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "split_header",
-           "csv_column"]
+           "csv_column", "QUANTITY_GRAMMAR", "MAX_QUANTITY_LENGTH"]
 
 #: The one unit registry of hydroline. Quantities from other registries are re-read into it.
 ureg = pint.UnitRegistry()
@@ -57,6 +67,68 @@ _DIMENSIONLESS = {"", "-", "1", "dimensionless"}
 
 class UnitError(ValueError):
     """A value that cannot be read as a quantity of the expected unit."""
+
+
+#: Longest quantity text read, [characters]: a quantity is a number and a unit, not a
+#: document (a 100,000-digit number would otherwise take minutes to parse).
+MAX_QUANTITY_LENGTH = 80
+
+_NUMBER = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d{1,4})?"
+_UNIT_NAME = r"[A-Za-z_\u00b5\u03bc\u2126%][A-Za-z_\u00b5\u03bc\u2126]*"
+_POWER = r"(?:\s*(?:\^|\*\*)\s*[+-]?\d{1,2}(?:\.\d{1,4})?)?"
+_FACTOR = _UNIT_NAME + _POWER
+_UNIT_EXPR = rf"(?:1\s*/\s*)?{_FACTOR}(?:\s*[*/]\s*{_FACTOR})*"
+#: The grammar of a quantity in text: ``NUMBER [UNIT]``, e.g. ``"20.7 MPa"``, ``"1.5e9 Pa"``,
+#: ``"19 L/min"``, ``"-5 mm"``, ``"1.25e9 Pa*s/m^3"``, ``"0.85"`` (a regular expression).
+QUANTITY_GRAMMAR = rf"^\s*(?P<number>{_NUMBER})\s*(?P<unit>{_UNIT_EXPR})?\s*$"
+_QUANTITY_RE = re.compile(QUANTITY_GRAMMAR)
+_NUMBER_RE = re.compile(rf"^\s*{_NUMBER}")
+
+
+def _grammar_error(name: str, text: str, target_text: str) -> UnitError:
+    """The one-line reason why ``text`` is not ``NUMBER [UNIT]``."""
+    example = f"'20.7 MPa'" if target_text == "Pa" else f"'1.5 {target_text}'"
+    expected = f"expected one number and one unit, like {example}"
+    if target_text == "dimensionless":
+        expected = "expected one plain number, like '0.85'"
+    if len(text) > MAX_QUANTITY_LENGTH:
+        return UnitError(f"{name}: {text[:20]!r}... is {len(text)} characters long; a quantity "
+                         f"has at most {MAX_QUANTITY_LENGTH} ({expected})")
+    shown = repr(text)
+    if re.match(r"^\s*[+-]?(nan|inf)", text, re.IGNORECASE):
+        why = "not a finite number"
+    elif re.search(r"\d,\d", text):
+        why = "a decimal comma; write a decimal point"
+    elif not _NUMBER_RE.match(text):
+        why = "no number before the unit" if re.match(r"^\s*[A-Za-z_%]", text) else "no number"
+    elif re.search(r"\*\*[^*]*\*\*|\^[^^]*\^|\*\*[^*]*\^|\^[^^*]*\*\*", text):
+        why = "an exponent of an exponent"
+    elif len(re.findall(_NUMBER, re.sub(r"(\^|\*\*)\s*[+-]?[\d.]+", "", text))) > 1 \
+            and not re.search(r"[eE][+-]?\d", text.split()[-1] if text.split() else ""):
+        why = "more than one number"
+    else:
+        why = "not NUMBER UNIT (join units with '*' or '/', one exponent each: 'Pa*s/m^3')"
+    return UnitError(f"{name}: cannot read {shown}: {why}; {expected}")
+
+
+def _read_text(name: str, text: str, target_text: str) -> pint.Quantity:
+    """Parse ``NUMBER [UNIT]`` (:data:`QUANTITY_GRAMMAR`) into a Quantity of :data:`ureg`."""
+    if len(text) > MAX_QUANTITY_LENGTH:
+        raise _grammar_error(name, text, target_text)
+    match = _QUANTITY_RE.match(text)
+    if match is None:
+        raise _grammar_error(name, text, target_text)
+    number = float(match["number"])
+    unit = match["unit"]
+    if unit is None:
+        return ureg.Quantity(number, ureg.dimensionless)
+    try:
+        units = ureg.parse_units(unit.replace("**", "^"))
+    except Exception as exc:  # pint raises a zoo of exception types on bad input
+        detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise UnitError(f"{name}: cannot read {text!r} as a quantity in {target_text}: "
+                        f"unknown unit {unit!r} ({detail})") from None
+    return ureg.Quantity(number, units)
 
 
 def _target_units(unit: str) -> pint.Unit:
@@ -146,18 +218,11 @@ def parse_quantity(value, unit: str, name: str = "value") -> float:
         text = value.strip()
         if not text:
             raise UnitError(f"{name}: empty string, expected a quantity in {target_text}")
-        try:
-            quantity = ureg.parse_expression(text)
-        except Exception as exc:  # pint raises a zoo of exception types on bad input
-            detail = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise UnitError(f"{name}: cannot read {value!r} as a quantity in {target_text} "
-                            f"({detail})") from None
-        if not isinstance(quantity, pint.Quantity):  # a plain number such as "3.048"
-            quantity = ureg.Quantity(quantity, ureg.dimensionless)
+        quantity = _read_text(name, text, target_text)
         shown = text
     else:
-        raise UnitError(f"{name}: {value!r} ({type(value).__name__}) is not a quantity, "
-                        f"expected a string like '1 {target_text}'")
+        raise UnitError(f"{name}: {reprlib.repr(value)} ({type(value).__name__}) is not a "
+                        f"quantity, expected a string like '1 {target_text}'")
 
     magnitude = _finite(name, quantity.magnitude, shown)
 

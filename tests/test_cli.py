@@ -25,7 +25,9 @@ def test_line_response_writes_figure_and_table(tmp_path, capsys):
     (["--length", "3.048", "--diameter", "12.7mm"], "--length: bare number"),
     (["--length", "-3 m", "--diameter", "12.7mm"], "length"),
     (["--length", "3 m", "--diameter", "12.7 kg"], "--diameter"),
-    (["--length", "3 m", "--diameter", "12.7 mm", "--modes", "0"], "n_modes"),
+    (["--length", "3 m", "--diameter", "12.7 mm", "--modes", "0"], "--modes"),
+    (["--length", "3 m", "--diameter", "12.7 mm", "--modes", "100000"], "--modes"),  # issue 14
+    (["--length", "9**9**9 m", "--diameter", "12.7 mm"], "--length: cannot read"),
 ])
 def test_line_response_bad_input(tmp_path, capsys, args, needle):
     rc = main(["line-response", *args, "--out", str(tmp_path)])
@@ -98,7 +100,7 @@ def test_simulate_json_warnings_go_to_stderr(tmp_path, capsys):
     s = json.loads(cap.out)
     assert set(s) == {"supply", "return", "actuator_natural_frequency_hz", "wall_time_s"}
     lines = cap.err.strip().splitlines()
-    assert any(ln.startswith("hydroline simulate: warning: return_port_pressure falls below 0 MPa")
-               for ln in lines)
+    assert any(ln.startswith("hydroline simulate: warning: return_port_pressure falls below "
+                             "0.101 MPa absolute") for ln in lines)
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["warnings"]

@@ -442,14 +442,14 @@ def test_sweep_cli_killed_with_sigterm_resumes(kill_reference, tmp_path, workers
     """A real kill: SIGTERM to ``hydroline sweep`` midway, then ``--resume``. On worker
     processes the variants running at the signal are finished and recorded as well."""
     out, code, err, _ = _start_and_signal(tmp_path, workers, signal.SIGTERM)
-    assert code == 130, err                       # stopped midway, cleanly
+    assert code == 143, err                       # stopped midway, cleanly; 128 + SIGTERM
     assert "--resume" in err
     rows = read_journal(out / "sweep.jsonl")[1]
     assert 1 <= len(rows) < 12
     if workers == 2:      # the first row, and at least the variant the other worker ran
         assert len(rows) >= 2
     # the message counts what this run recorded, the in-flight variants included
-    assert f"interrupted after {len(rows)} variants" in err
+    assert f"terminated (SIGTERM) after {len(rows)} variants" in err
     assert main([*_kill_args(out, 2), "--resume"]) == 0     # resumed on 2 workers: faster
     pd.testing.assert_frame_equal(_without_timing(pd.read_csv(out / "sweep.csv")),
                                   _without_timing(kill_reference))
@@ -492,14 +492,16 @@ def test_sweep_with_invalid_variant_finishes_the_others(tmp_path, capsys):
     rows = {r["variant"]: r for r in (json.loads(line, parse_constant=_no_constant)
                                       for line in lines[1:])}
     assert rows[1]["supply_frequency_hz"] is None and rows[1]["error"]
-    # the CLI reports it and still succeeds
+    # the CLI reports it, writes the table and exits 1 with the count on stderr
     assert main(["sweep", "--set", "return.section2.diameter=-1 mm", "--t-end", "0.12 s",
-                 "--workers", "1", "--out", str(tmp_path / "cli")]) == 0
-    out = capsys.readouterr().out
-    assert "1 failed" in out and "return.section2.diameter" in out
+                 "--workers", "1", "--out", str(tmp_path / "cli")]) == 1
+    cap = capsys.readouterr()
+    assert "1 failed" in cap.out and "return.section2.diameter" in cap.out
+    failed = [ln for ln in cap.err.splitlines() if ln.startswith("hydroline sweep: ")]
+    assert len(failed) == 1 and failed[0].startswith("hydroline sweep: 1 of 1 variants failed")
     # and --json is strict JSON too (null for the metrics of the failed variant)
     assert main(["sweep", "--set", "return.section2.diameter=-1 mm,15.9 mm", "--t-end", "0.12 s",
-                 "--workers", "1", "--out", str(tmp_path / "cli_json"), "--json"]) == 0
+                 "--workers", "1", "--out", str(tmp_path / "cli_json"), "--json"]) == 1
     rows = json.loads(capsys.readouterr().out, parse_constant=_no_constant)
     assert rows[0]["supply_amplitude_mpa"] is None and rows[0]["error"]
     assert rows[1]["supply_amplitude_mpa"] > 0 and rows[1]["error"] is None

@@ -150,3 +150,47 @@ def test_format_quantity():
 def test_docstring_examples():
     result = doctest.testmod(hydroline.units, optionflags=doctest.ELLIPSIS)
     assert result.failed == 0 and result.attempted > 0
+
+
+# ---- issue 14: the strict grammar (pint alone misread every one of these)
+@pytest.mark.parametrize("text, unit, why", [
+    ("20,7 MPa", "Pa", "decimal comma"),         # pint: 207 MPa
+    ("MPa", "Pa", "no number"),                  # pint: 1 MPa
+    ("cm^2", "m^2", "no number"),                # pint: 1 cm^2
+    ("2 3 m", "m", "more than one number"),      # pint: 6 m
+    ("20.7 MPa 3", "Pa", "more than one number"),  # pint: 62.1 MPa
+    ("9**9**9 m", "m", "exponent of an exponent"),  # pint: hangs
+    ("3 N m", "N*m", "join units with '*'"),     # juxtaposed units
+    ("nan Pa", "Pa", "not a finite number"),
+])
+def test_strict_grammar_refuses_with_the_text_quoted(text, unit, why):
+    with pytest.raises(UnitError) as err:
+        parse_quantity(text, unit, "rig.param")
+    msg = str(err.value)
+    assert msg.startswith(f"rig.param: cannot read {text!r}: ") and why in msg
+    assert "expected one number and one unit" in msg and "\n" not in msg
+
+
+def test_a_100000_digit_number_is_refused_at_once():
+    import time
+
+    text = "1" * 100_000 + " m"
+    tic = time.perf_counter()
+    with pytest.raises(UnitError, match=r"^x: '1{20}'\.\.\. is 100002 characters long; a quantity "
+                                        r"has at most 80"):
+        parse_quantity(text, "m", "x")
+    assert time.perf_counter() - tic < 1.0       # was 98 s
+
+
+@pytest.mark.parametrize("text, unit, expected", [
+    ("-5 mm", "m", -5e-3),                       # accepted here, refused later by its range
+    ("2 m**3", "m^3", 2.0),
+    ("1.5e9 Pa", "Pa", 1.5e9),
+    ("1.25e9 Pa*s/m^3", "Pa*s/m^3", 1.25e9),
+    ("9.81 m/s^2", "m/s^2", 9.81),
+    ("+3 m", "m", 3.0),
+    (".5 m", "m", 0.5),
+    ("5 1/s", "Hz", 5.0),
+])
+def test_strict_grammar_keeps_ordinary_quantities(text, unit, expected):
+    assert parse_quantity(text, unit, "x") == pytest.approx(expected, rel=1e-12)

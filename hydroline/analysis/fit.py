@@ -64,7 +64,7 @@ from .linearize import OperatingPoint, _transfer_state, solve_operating_point
 
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
            "FitResult", "fit_parameters", "simulate_record", "parameter_unit", "noise_level",
-           "STARTS"]
+           "STARTS", "residual_correlation"]
 
 #: Columns understood in a measurement file: name -> SI unit.
 COLUMNS = {
@@ -261,7 +261,8 @@ def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto"):
         return _Start(net, x, p)
     cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=current,
                             connections={"command": "valve_current"})
-    guess = x0 if x0 is not None and abs(x0) >= half - 1e-3 else None
+    # on a stop: the measured position may lie a hair beyond it (the stop's compliance, M23)
+    guess = float(np.clip(x0, -half, half)) if x0 is not None and abs(x0) >= half - 1e-3 else None
     net = build_network(rig, [cmd], guess)
     ss = solve_steady_state(net, t0=0.0)
     return _Start(net, ss.x, ss.p)
@@ -471,6 +472,19 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         cov = s2 * np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
         cov = np.full((k, k), np.inf)
+    rho, inflation = residual_correlation([
+        (model(sol.x)[s] - y[s]) / sigma[s] for s in signals] if model(sol.x) else [])
+    note = ""
+    if inflation > 1.0:
+        # misfit correlated in time is model error, not white noise: N residuals carry about
+        # N (1 - rho)/(1 + rho) independent ones (AR(1)), which widens the interval
+        cov = cov * inflation
+        note = (f"; residuals correlated in time (lag-1 autocorrelation {rho:.3f}): the misfit "
+                f"is model or sampling error, not white noise, so the intervals are widened "
+                f"{np.sqrt(inflation):.3g}x for the ~{N / inflation:.0f} independent residuals "
+                f"and still assume the model is right (a step in the current between samples, "
+                f"a stop impact in the record bias the estimate; fit the part of the record "
+                f"before the piston reaches a stop)")
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
     tq = float(student_t.ppf(0.5 + confidence / 2, dof))
     est = np.exp(sol.x)
@@ -489,4 +503,35 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     offset_values = {s: float(np.mean(y[s] - model(sol.x)[s])) for s in offsets if model(sol.x)}
     return FitResult(params, units, start_values, est, np.exp(sol.x - tq * sd), np.exp(sol.x + tq * sd), sd,
                      corr, confidence, {s: float(v) for s, v in sigma.items()}, rms, s2, N,
-                     count["n"], bool(sol.success), str(sol.message), fitted, initial, calibrated, offset_values)
+                     count["n"], bool(sol.success), str(sol.message) + note, fitted, initial,
+                     calibrated, offset_values)
+
+
+def residual_correlation(traces) -> tuple[float, float]:
+    """Lag-1 autocorrelation of weighted residual traces and the variance inflation it implies.
+
+    For AR(1) residuals of lag-1 correlation rho the variance of a mean (and of a
+    least-squares estimate) is ``(1 + rho)/(1 - rho)`` times the white-noise value; a fit
+    on a record whose misfit is a smooth model error (rho near 1) is otherwise as sure of
+    itself as if every sample were independent.
+
+    Parameters
+    ----------
+    traces : list of arrays   Weighted residuals per channel, in time order, [-]
+
+    Returns
+    -------
+    (rho, inflation)  rho in [-1, 1] (0 for no data); inflation >= 1, [-]
+    """
+    num = den = 0.0
+    for r in traces:
+        r = np.asarray(r, dtype=float)
+        if len(r) < 3:
+            continue
+        r = r - np.mean(r)
+        num += float(r[1:] @ r[:-1])
+        den += float(r @ r)
+    if den <= 0:
+        return 0.0, 1.0
+    rho = float(np.clip(num / den, -1.0, 0.999))
+    return rho, max((1 + rho) / (1 - rho), 1.0)

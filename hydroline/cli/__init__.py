@@ -2,18 +2,23 @@
 
 Every subcommand turns bad input into one clear line on stderr and exit code 2 (no
 traceback); so do a model that cannot be started or run (no steady state, no C compiler
-for ``--solver compiled``, integrator failure). A closed output pipe (``hydroline simulate
-| head``) ends the command quietly with exit code 141 (128 + SIGPIPE, as a shell reports it). To add one, write a module with ``register(subparsers)`` (which sets
+for ``--solver compiled``, integrator failure), an output that cannot be written (a full
+disk, stdout on ``/dev/full``), input nested too deeply to read and a run too large for
+memory. A closed output pipe (``hydroline simulate | head``) ends the command quietly with
+exit code 141 (128 + SIGPIPE, as a shell reports it); Ctrl-C with 130 and SIGTERM with 143
+(128 + the signal). To add one, write a module with ``register(subparsers)`` (which sets
 ``func=run`` on its parser, ``run(args) -> int``) and list it in ``SUBCOMMANDS``.
 """
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
+import signal
 import sys
 
-__all__ = ["main", "UsageError"]
+__all__ = ["main", "UsageError", "Terminated", "version"]
 
 #: Subcommand modules, in help order.
 SUBCOMMANDS = [
@@ -32,11 +37,34 @@ class UsageError(ValueError):
     """Bad input from the user: printed as one line, exit code 2."""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into an exception so that a run stops as cleanly as on Ctrl-C (temporary
+    files removed, finished sweep variants recorded); the command exits with 143."""
+
+
+def _terminate(signum, frame):
+    raise Terminated
+
+
+def version() -> str:
+    """The installed version of hydroline (from the package metadata, without importing the
+    model)."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("hydroline")
+    except metadata.PackageNotFoundError:     # run from a source tree that is not installed
+        from .. import __version__
+
+        return __version__
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="hydroline",
         description="Electrohydraulic servo systems with supply and return hose dynamics.",
         epilog="Equations cited as (M#) are in the model reference, docs/model.md.")
+    parser.add_argument("--version", action="version", version=f"hydroline {version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS:
         importlib.import_module(f"{__name__}.{name}").register(sub)
@@ -54,7 +82,13 @@ def main(argv=None) -> int:
     from ..simulation import SteadyStateError
 
     try:
-        return int(args.func(args) or 0)
+        old_term = signal.signal(signal.SIGTERM, _terminate)
+    except ValueError:          # not the main thread (e.g. called from a worker thread)
+        old_term = None
+    try:
+        rc = int(args.func(args) or 0)
+        sys.stdout.flush()      # a full or closed stdout is found here, not at exit
+        return rc
     except (ValueError, FileNotFoundError, KeyError) as e:   # UnitError, RigError, NetworkError
         return _one_line(args, e)
     except (SteadyStateError, CompilerUnavailable, UnsupportedOperation) as e:
@@ -62,22 +96,61 @@ def main(argv=None) -> int:
     except BrokenPipeError:
         _silence_stdout()
         return 141
+    except OSError as e:        # disk full, stdout on /dev/full, a folder that went away
+        if _is_stdout_error():
+            _silence_stdout()
+            return _one_line(args, e, "cannot write to stdout: ")
+        return _one_line(args, e, _os_prefix(e))
     except RecursionError:
-        raise
+        return _one_line(args, "input nested too deeply to process (lists or tables inside "
+                         "each other hundreds of levels deep)")
+    except MemoryError:
+        return _one_line(args, "out of memory: the run is too large for this machine (fewer "
+                         "modes, a shorter --t-end or a coarser output step)")
     except RuntimeError as e:   # the integrator gave up (step size, non-finite states)
         return _one_line(args, e, "model error: ")
+    except Terminated:
+        _say(f"hydroline {args.command}: terminated (SIGTERM)")
+        return 143
     except KeyboardInterrupt:
-        print(f"hydroline {args.command}: interrupted", file=sys.stderr)
+        _say(f"hydroline {args.command}: interrupted")
         return 130
+    finally:
+        if old_term is not None:
+            signal.signal(signal.SIGTERM, old_term)
+
+
+def _say(text):
+    try:
+        print(text, file=sys.stderr)
+    except (OSError, ValueError):
+        pass
+
+
+def _is_stdout_error() -> bool:
+    """True when stdout cannot take what is buffered (a full device, a closed pipe)."""
+    try:
+        sys.stdout.flush()
+        return False
+    except (OSError, ValueError):
+        return True
+
+
+def _os_prefix(e: OSError) -> str:
+    if e.errno == errno.ENOSPC and not e.filename:
+        return "cannot write the output: "
+    return f"cannot write {e.filename}: " if e.filename else ""
 
 
 def _one_line(args, e, prefix="") -> int:
     """Print an exception as one line on stderr; exit code 2."""
-    msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-    try:
-        print(f"hydroline {args.command}: error: {prefix}{msg}", file=sys.stderr)
-    except BrokenPipeError:
-        pass
+    if isinstance(e, OSError) and not isinstance(e, FileNotFoundError) and e.strerror:
+        msg = e.strerror
+    else:
+        msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+    if len(msg) > 500:         # one line, not a page (a huge value quoted back)
+        msg = msg[:497] + "..."
+    _say(f"hydroline {args.command}: error: {prefix}{msg}")
     return 2
 
 

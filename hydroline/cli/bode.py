@@ -99,6 +99,7 @@ def summary_dict(res, op) -> dict:
 
 def run(args) -> int:
     rig = load_rig(args.rig)
+    out = out_dir(args.out)       # checked before the analysis, not after it
     outputs = [o.strip() for o in args.output.split(",") if o.strip()]
     if not outputs:
         raise ValueError("--output: give at least one signal, e.g. piston_velocity")
@@ -106,7 +107,6 @@ def run(args) -> int:
     f = _frequencies(args)
     res = bode_analysis(rig, op, args.input, outputs, f, compare=args.compare != "none",
                         exact=not args.no_exact, friction=args.friction)
-    out = out_dir(args.out)
     summary = summary_dict(res, op)
     with open(out / "bode.json", "w") as fh:     # strict JSON: NaN/inf as null
         dump_json(summary, fh)

@@ -1,13 +1,28 @@
-"""Helpers shared by the subcommands: units on the command line, output folders, tables."""
+"""Helpers shared by the subcommands: units on the command line, output folders, tables.
+
+Output files are checked before a run (:func:`out_dir`) and written atomically
+(:func:`atomic_outputs`): each to a temporary file in the output folder, renamed over the old
+one only when all of them are written, so a run that fails (an error, a full disk, Ctrl-C)
+leaves the previous results as they were and no partial file behind.
+"""
 from __future__ import annotations
 
+import contextlib
+import errno
 import json
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 from ..units import parse_quantity
 
-__all__ = ["quantity", "out_dir", "print_table", "dump_json", "progress_printer"]
+__all__ = ["quantity", "out_dir", "atomic_outputs", "OutputError", "print_table", "dump_json",
+           "progress_printer"]
+
+
+class OutputError(ValueError):
+    """An output path that cannot be written; the message is one line naming it."""
 
 
 def quantity(text, unit, name):
@@ -15,10 +30,103 @@ def quantity(text, unit, name):
     return parse_quantity(text, unit, name)
 
 
-def out_dir(path) -> Path:
+def out_dir(path, files=(), option: str = "--out") -> Path:
+    """The output folder, created and checked writable before any work is done.
+
+    Parameters
+    ----------
+    path : str or Path   The folder (created with its parents when missing)
+    files : iterable     Names of the files the command will write there; each must not be
+                         a folder
+    option : str         The option that named it, for the messages
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputError  One line: an existing file (not a folder) at or above ``path``, a folder that
+                 cannot be created or written, or a file name taken by a folder
+    """
     p = Path(path)
-    p.mkdir(parents=True, exist_ok=True)
+    if p.exists() and not p.is_dir():
+        raise OutputError(f"{option}: {path} exists and is not a folder; give a folder")
+    for parent in p.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise OutputError(f"{option}: {path} lies under {parent}, which is a file, "
+                                  f"not a folder")
+            break
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"{option}: cannot create the folder {path} "
+                          f"({e.strerror or e})") from None
+    try:   # writable? (os.access is wrong for root and some file systems: try it)
+        fd, probe = tempfile.mkstemp(prefix=".hydroline-probe-", dir=p)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise OutputError(f"{option}: cannot write in the folder {path} "
+                          f"({e.strerror or e})") from None
+    for name in files:
+        target = p / name
+        if target.is_dir():
+            raise OutputError(f"{option}: {target} is a folder; the command writes a file "
+                              f"of that name there (move the folder or choose another {option})")
     return p
+
+
+@contextlib.contextmanager
+def atomic_outputs(folder):
+    """Write several files so that either all of them are replaced or none is.
+
+    ``with atomic_outputs(out) as temp: df.to_csv(temp("results.csv"))`` -- ``temp(name)``
+    gives a temporary path in ``folder`` (hidden, same extension, so writers that look at the
+    extension still work); when the block ends without an exception every temporary file is
+    renamed (``os.replace``, atomic on one file system) to its name, otherwise all of them are
+    removed. A full disk gives one line (:class:`OutputError`) naming the file.
+    """
+    folder = Path(folder)
+    pending = {}
+
+    def temp(name):
+        target = folder / name
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}",
+                                   dir=folder)
+        os.close(fd)
+        pending[target] = Path(tmp)
+        return Path(tmp)
+
+    try:
+        yield temp
+        mode = 0o666 & ~_umask()         # what a plain open() would have given
+        for target, tmp in pending.items():
+            os.chmod(tmp, mode)
+            os.replace(tmp, target)
+        pending.clear()
+    except OSError as e:
+        raise OutputError(_os_message(e, folder)) from None
+    finally:
+        for tmp in pending.values():
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+
+
+def _umask() -> int:
+    mask = os.umask(0o22)
+    os.umask(mask)
+    return mask
+
+
+def _os_message(e: OSError, folder) -> str:
+    where = e.filename or folder
+    if e.errno == errno.ENOSPC:
+        return f"no space left on the device writing {where}; the previous results are unchanged"
+    if e.errno == errno.EDQUOT:
+        return f"disk quota exceeded writing {where}; the previous results are unchanged"
+    return f"cannot write {where} ({e.strerror or e}); the previous results are unchanged"
 
 
 def print_table(headers, rows, file=None):

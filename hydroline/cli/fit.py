@@ -54,6 +54,7 @@ def run(args) -> int:
     if args.max_evals < 2:
         raise ValueError(f"--max-evals must be >= 2, got {args.max_evals}")
     rig = load_rig(rig_path)
+    out = out_dir(args.out)       # checked before the fit, not after it
     params = [s.strip() for s in args.params.split(",") if s.strip()]
     meas = read_measurements(data_path)
     signals = [s.strip() for s in args.signals.split(",") if s.strip()] if args.signals else None
@@ -66,7 +67,6 @@ def run(args) -> int:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
     res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
                          max_evaluations=args.max_evals, start=args.start, offsets=offsets)
-    out = out_dir(args.out)
     rig_file = out / "calibrated_rig.toml"
     rig_file.write_text(res.calibrated_toml(data_path))
     summary = res.to_dict()
@@ -85,7 +85,9 @@ def run(args) -> int:
     print(f"  {res.n_data} residuals from {', '.join(res.sigma)}; {res.n_evaluations} model runs; "
           f"{res.message}")
     if meas.ignored:
-        print(f"  ignored columns: {', '.join(meas.ignored)}")
+        shown = ", ".join(meas.ignored[:8]) + (f" and {len(meas.ignored) - 8} more"
+                                               if len(meas.ignored) > 8 else "")
+        print(f"  ignored columns: {shown}")
     print_table(["parameter", "unit", "start", "estimate", f"{pct} CI low", f"{pct} CI high",
                  "rel. std error"], res.table())
     rows = [[s, res.sigma[s], res.rms.get(s)] for s in res.sigma]

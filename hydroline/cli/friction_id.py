@@ -42,6 +42,7 @@ def register(sub):
 
 def run(args) -> int:
     rig = load_rig(args.rig)
+    out = out_dir(args.out)       # checked before the identification, not after it
     window = quantity(args.window, "s", "--window")
     if not window > 0:
         raise ValueError(f"--window must be > 0 s, got {args.window!r}")
@@ -62,7 +63,6 @@ def run(args) -> int:
     ident = identify_friction(rig, steady, sine, window=window, min_speed=min_speed,
                               sine_min_speed=sine_min)
     fit = ident.fit
-    out = out_dir(args.out)
     plot_friction(ident.points, fit, path=out / "friction.png",
                   title=f"friction identification: {source}")
     calibrated = fit.apply(rig)

@@ -22,6 +22,12 @@ from ..lines.inverse_laplace import exact_step_response
 from ..plotting import plot_line_response
 from .common import dump_json, out_dir, print_table, quantity
 
+#: Most modes a line response computes (the frequency axis and the modal matrices grow with
+#: them: 40 modes take ~1 GB and ~40 s on one core), [-].
+MAX_MODES = 40
+#: Longest blocked-end step, in wave periods, [-].
+MAX_STEP_PERIODS = 1000
+
 #: Samples per wave period (4 L/c) of the blocked-line step, [-].
 STEP_SAMPLES_PER_PERIOD = 50
 
@@ -182,6 +188,14 @@ def run(args) -> int:
                 fluid, beta)
     if args.step_periods < 1:
         raise ValueError(f"--step-periods must be an integer >= 1, got {args.step_periods!r}")
+    if not 1 <= args.modes <= MAX_MODES:
+        raise ValueError(f"--modes must be an integer within 1 ... {MAX_MODES} [-] (memory and "
+                         f"time grow about with its square: {MAX_MODES} modes take ~1 GB), got "
+                         f"{args.modes}")
+    if args.step_periods > MAX_STEP_PERIODS:
+        raise ValueError(f"--step-periods must be at most {MAX_STEP_PERIODS} [-], got "
+                         f"{args.step_periods}")
+    out = out_dir(args.out)           # checked before the responses are computed
     methods = ("yang-tobler", "residue") if args.method == "both" else (args.method,)
     n = args.modes
     models = _models(line, n, args.form, methods, args.method != "both")
@@ -189,7 +203,6 @@ def run(args) -> int:
     # resonance is on the plot
     f_top = resonance_f_max(line, args.form, n)
     f = np.linspace(f_top / 4000, f_top, 4000)
-    out = out_dir(args.out)
     png = out / "line_response.png"
     plot_line_response(line, {f"modal {k}, n={n}": v for k, v in models.items()}, f, args.form, path=png)
     report = {"line": {"length_m": line.length, "diameter_m": line.diameter,

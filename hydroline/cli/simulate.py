@@ -7,8 +7,12 @@ import sys
 import numpy as np
 
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS, simulate, summarize
-from .common import dump_json, out_dir, print_table, progress_printer, quantity
+from ..rigs.parameters import defaults_used
+from ..scenarios import SCENARIOS, default_scenario, simulate, summarize
+from .common import atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity
+
+#: The files written to --out.
+OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
 
 
 def register(sub):
@@ -73,22 +77,44 @@ def _float_or_none(v):
     return None if v is None else float(v)
 
 
+def _check_size(rig, scenario, t_end, out, name):
+    """Rows and bytes of the run estimated before it starts: memory and free disk for
+    results.csv (one line, ValueError, when it would not fit)."""
+    from ..limits import check_output_size
+    from ..scenarios import build_scenario
+    from ..system import build_circuit
+
+    circuit = build_circuit(rig)
+    sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+    net = circuit.network(sc.commands)
+    check_output_size(sc.t_end, 1e-4, len(net.signal_names) + len(net.state_names),
+                      csv_folder=out, name=name or f"scenario.{scenario}.t_end")
+
+
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
+    out = out_dir(args.out, OUTPUT_FILES)     # checked before the run, not after it
+    scenario = args.scenario or default_scenario(rig)
+    _check_size(rig, scenario, t_end, out, "--t-end" if args.t_end else None)
+    defaults = defaults_used(rig, scenario)
+    if defaults:   # every key that changes the result is given or reported (once)
+        print("hydroline simulate: note: not in the rig, defaults used: "
+              + "; ".join(f"{path} = {value}" for path, value in defaults), file=sys.stderr)
     res = simulate(rig, args.scenario, t_end, solver=args.solver,
                    progress=progress_printer("simulating", not args.json))
     summary = summarize(res)
-    out = out_dir(args.out)
-    res.to_csv(out / "results.csv")
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     scenario = res.metadata["scenario"]
+    with atomic_outputs(out) as temp:   # replaced together, or none (previous results kept)
+        res.to_csv(temp("results.csv"))
+        temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        if "axes" not in summary:       # (a multi-axis figure is drawn by _report_axes)
+            res.plot(path=temp("pressures.png"),
+                     title=f"{scenario} on {rig.get('rig.name', rig.source)}")
     if "axes" in summary:
         return _report_axes(args, rig, res, summary, scenario)
-    res.plot(path=out / "pressures.png",
-             title=f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)

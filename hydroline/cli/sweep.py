@@ -114,10 +114,6 @@ class _Progress:
                 print(f"sweep: {text}", file=sys.stderr, flush=True)
 
 
-def _terminate(signum, frame):
-    raise KeyboardInterrupt
-
-
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
@@ -132,17 +128,20 @@ def run(args) -> int:
     def count(row):
         done["rows"] += 1
 
+    from . import Terminated, _terminate
+
     old = signal.signal(signal.SIGTERM, _terminate)    # a kill finishes cleanly, like Ctrl-C
     try:
         result = sweep(args.sets, rig, samples=args.samples, seed=args.seed,
                        scenario=args.scenario, t_end=t_end, solver=args.solver,
                        workers=args.workers, scheduler=args.scheduler, out=args.out,
                        resume=args.resume, progress=progress, callback=count)
-    except KeyboardInterrupt:
-        print(f"\nhydroline sweep: interrupted after {done['rows']} variants of this run; "
+    except KeyboardInterrupt as e:
+        what = "terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted"
+        print(f"\nhydroline sweep: {what} after {done['rows']} variants of this run; "
               f"every finished row is in {args.out}/sweep.jsonl: rerun the same command with "
               f"--resume to continue", file=sys.stderr)
-        return 130
+        return 143 if isinstance(e, Terminated) else 130
     finally:
         signal.signal(signal.SIGTERM, old)
     table = result.table
@@ -150,7 +149,7 @@ def run(args) -> int:
         for note in result.notes:   # stdout holds only the JSON
             print(f"hydroline sweep: note: {note}", file=sys.stderr)
         dump_json([{k: _plain(v) for k, v in r.items()} for r in table.to_dict("records")])
-        return 0
+        return _failed_status(result, args)
     d = result.design
     if args.scheduler == "local":
         where = f"a local Dask cluster of {args.workers or 'CPU-count'} workers"
@@ -187,7 +186,23 @@ def run(args) -> int:
     print(f"  wrote {', '.join(str(p) for p in result.files.values())}")
     for note in result.notes:       # parquet not written, rows beyond a smaller --samples
         print(f"  note: {note}")
-    return 0
+    return _failed_status(result, args)
+
+
+#: Exit status of a sweep in which at least one variant failed (2 stays "bad input").
+EXIT_VARIANTS_FAILED = 1
+
+
+def _failed_status(result, args) -> int:
+    """0 when every variant ran; else one line on stderr with the count, and 1."""
+    n = result.n_failed
+    if not n:
+        return 0
+    first = result.failed.iloc[0]
+    print(f"hydroline sweep: {n} of {len(result.table)} variants failed (reason in the 'error' "
+          f"column of {args.out}/sweep.csv; the first, variant {first['variant']}: "
+          f"{_short(str(first['error']), 120)})", file=sys.stderr)
+    return EXIT_VARIANTS_FAILED
 
 
 def _plain(v):

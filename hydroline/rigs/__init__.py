@@ -27,6 +27,10 @@ from ..units import UnitError, parse_quantity
 __all__ = ["Rig", "RigError", "load_rig", "SCHEMA", "DEFAULT_RIG"]
 
 DEFAULT_RIG = "ayalew2005.toml"
+#: Longest list a rig parameter may hold (the laps have four), [items].
+MAX_LIST_LENGTH = 64
+#: Largest rig file read, [bytes]: a rig is a page of parameters, not a data set.
+MAX_RIG_BYTES = 1 << 20
 
 
 class RigError(ValueError):
@@ -105,11 +109,13 @@ class _Schema(Mapping):
 #: friction, controller, load, accumulators, check valve, actuator) take units from the
 #: components' own declarations (:data:`COMPONENT_SECTIONS`); what is listed here is only
 #: what the template rig adds (e.g. ``actuator.area``, ``actuator.dead_volume``). Circuit
-#: files (``[circuit.<name>]``) are read with :mod:`hydroline.circuit`.
+#: files (``[circuit.<name>]``) are read with :mod:`hydroline.circuit`. Plausible ranges,
+#: defaults and the ``allow_implausible`` override: :mod:`hydroline.rigs.parameters`.
 SCHEMA = _Schema({
     "rig": {"name": "str", "modes_per_section": "-", "base": "str", "line_method": "str",
-            "scenario": "str"},
-    "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa"},
+            "scenario": "str", "allow_implausible": "list:str"},
+    "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa",
+              "gas_release_pressure": "Pa"},
     "supply": {"pressure": "Pa"},
     "supply.pressure_profile": _PROFILE,
     "supply.section1": _LINE, "supply.section2": _LINE,
@@ -133,12 +139,15 @@ SCHEMA = _Schema({
 })
 
 
-def _flatten(tree, prefix=""):
+def _flatten(tree, prefix="", depth=0):
     out = {}
     for k, v in tree.items():
         path = f"{prefix}{k}"
         if isinstance(v, dict):
-            out.update(_flatten(v, path + "."))
+            if depth >= 4:
+                raise RigError(f"{path[:60]}...: tables nested too deeply; a rig parameter is "
+                               f"section.key or section.subsection.key")
+            out.update(_flatten(v, path + ".", depth + 1))
         else:
             out[path] = v
     return out
@@ -174,10 +183,17 @@ def _parse_as(path: str, raw, unit: str):
         if not isinstance(raw, str):
             raise RigError(f"{path}: expected text, got {raw!r}")
         return raw
+    if unit.startswith("list:") and not (isinstance(raw, list) and len(raw) <= MAX_LIST_LENGTH):
+        what = "text" if unit == "list:str" else f"quantities in [{unit[5:]}]"
+        size = f" of {len(raw)} items" if isinstance(raw, list) else ""
+        raise RigError(f"{path}: expected a list of at most {MAX_LIST_LENGTH} {what}, got a "
+                       f"{type(raw).__name__}{size}")
+    if unit == "list:str":
+        if not all(isinstance(v, str) for v in raw):
+            raise RigError(f"{path}: expected a list of text, e.g. [\"actuator.moving_mass\"]")
+        return list(raw)
     try:
         if unit.startswith("list:"):
-            if not isinstance(raw, list):
-                raise RigError(f"{path}: expected a list of quantities in [{unit[5:]}]")
             return [parse_quantity(v, unit[5:], f"{path}[{i}]") for i, v in enumerate(raw)]
         return parse_quantity(raw, "dimensionless" if unit == "-" else unit, path)
     except UnitError as e:
@@ -264,9 +280,19 @@ def _read_toml(path) -> tuple[dict, str]:
     if not p.is_file():
         raise RigError(f"rig file not found: {path}")
     try:
-        return tomllib.loads(p.read_text()), str(p)
+        if p.stat().st_size > MAX_RIG_BYTES:
+            raise RigError(f"{path}: {p.stat().st_size} bytes is too large for a rig file "
+                           f"(at most {MAX_RIG_BYTES} bytes)")
+        return tomllib.loads(p.read_text(encoding="utf-8")), str(p)
     except tomllib.TOMLDecodeError as e:
         raise RigError(f"{path}: not valid TOML: {e}") from None
+    except UnicodeDecodeError as e:
+        raise RigError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except RecursionError:
+        raise RigError(f"{path}: nested too deeply to be a rig file (arrays or tables "
+                       f"inside each other hundreds of levels deep)") from None
+    except OSError as e:
+        raise RigError(f"{path}: cannot read the rig file ({e.strerror or e})") from None
 
 
 def load_rig(path=None) -> Rig:

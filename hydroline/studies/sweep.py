@@ -39,11 +39,13 @@ parent breaks the pool for the other variants in flight.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
 import os
 import signal
+import sys
 import time as _time
 from collections import deque
 from dataclasses import dataclass, field
@@ -78,6 +80,8 @@ JOURNAL_NAME = "sweep.jsonl"
 FORMAT_VERSION = 1
 #: Times a variant may be in flight when a worker process dies before it is recorded failed.
 MAX_ATTEMPTS = 2
+#: Most local worker processes (or local Dask workers) a sweep starts, [-].
+MAX_WORKERS = 512
 
 
 class SweepFileError(ValueError):
@@ -380,7 +384,39 @@ def _run_serial(tasks, run, record):
         record(run(index, values))
 
 
+@contextlib.contextmanager
+def _main_module_hidden():
+    """Keep worker processes from re-running the caller's script.
+
+    The spawn and forkserver start methods import the parent's ``__main__`` (by path or by
+    module name) in every new worker, as ``__mp_main__``; a script that calls
+    :func:`sweep` at its top level without an ``if __name__ == "__main__":`` guard would then
+    start the sweep again inside each worker. The workers need nothing from ``__main__``
+    (the task, the rig and the results are hydroline objects), so while the pool starts
+    workers ``__main__`` shows neither its ``__spec__`` nor its ``__file__``."""
+    main = sys.modules.get("__main__")
+    saved = {}
+    if main is not None:
+        for attr in ("__spec__", "__file__"):
+            if attr in vars(main):
+                saved[attr] = vars(main)[attr]
+        if "__spec__" in saved:
+            main.__spec__ = None
+        if "__file__" in saved:
+            del main.__file__
+    try:
+        yield
+    finally:
+        for attr, value in saved.items():
+            setattr(main, attr, value)
+
+
 def _run_processes(tasks, workers, init_args, record, scenario):
+    with _main_module_hidden():
+        _run_process_pool(tasks, workers, init_args, record, scenario)
+
+
+def _run_process_pool(tasks, workers, init_args, record, scenario):
     """Local worker processes; a pool broken by a dying worker is restarted and the variants
     in flight retried, up to :data:`MAX_ATTEMPTS` times each. On an interruption (Ctrl-C,
     SIGTERM, an exception from ``record``) the variants already running are waited for and
@@ -577,8 +613,9 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     params = parse_parameters(parameters)
     design = Design(params, samples, seed)
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
-    if workers < 1:
-        raise RigError(f"--workers must be >= 1, got {workers}")
+    if not 1 <= workers <= MAX_WORKERS:
+        raise RigError(f"--workers must be within 1 ... {MAX_WORKERS} [-] (processes on this "
+                       f"machine or Dask workers), got {workers}")
     units = {path: p.unit for p in params for path in p.paths}
     header = _header(rig, design, scenario, t_end, solver)
 

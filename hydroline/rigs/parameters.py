@@ -1,0 +1,454 @@
+"""Every rig parameter in one declarative table: SI unit, plausible range, default, meaning.
+
+:data:`PARAMETERS` maps a parameter's dotted path to a :class:`Parameter`. It is the one place
+that says what a value of a rig may be; :func:`check_ranges` refuses a value outside its
+plausible range with one line naming the parameter, its range and its unit, and
+:func:`defaults_used` lists the parameters a run takes from a default because the rig file does
+not give them (``hydroline simulate`` prints that list once on stderr).
+
+Plausible is wider than typical: the bounds catch slips of unit or exponent (an actuator area
+of 1e-30 cm^2, a dead volume of 1e30 cm^3, a 1e30 L accumulator), not unusual designs. A rig
+that really is outside a range names the parameter in ``[rig] allow_implausible``::
+
+    [rig]
+    allow_implausible = ["actuator.moving_mass", "rig.modes_per_section"]
+
+Consistency checks between parameters (:func:`check_consistency`) follow the same rule: a
+weight the actuator cannot lift, a step current above the valve's rating (the valve would
+clip it), a sine reference that leaves the stroke. Signs and orderings that no physical rig
+can violate (pressures absolute and positive, pre-charge below the line pressure, the piston
+inside the cylinder) are checked by :func:`hydroline.system.validate_rig` and cannot be
+overridden.
+
+The table is meant to move onto the components when each declares its own parameters; the
+checks here only read it.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["Parameter", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
+           "check_ranges", "check_consistency", "defaults_used", "allowed_implausible",
+           "steady_state_hint", "MIN_GAS_FRACTION"]
+
+#: Smallest gas volume of an accumulator model as a fraction of its capacity (the piston at
+#: its gas-side end, hydroline.components.PistonAccumulator), [-].
+MIN_GAS_FRACTION = 1e-3
+
+#: Marks a parameter without a default: a rig must give it.
+REQUIRED = "required"
+
+#: Standard atmosphere, [Pa]: the default gas-release pressure (oil that stood in a vented
+#: tank holds air dissolved at this pressure and starts releasing it below, Henry's law).
+ATMOSPHERIC_PRESSURE = 101325.0
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One rig parameter.
+
+    Attributes
+    ----------
+    unit : str          SI unit (``"-"`` dimensionless, ``"str"`` text)
+    low, high : float   Plausible range, inclusive, [unit]; None: no bound on that side
+    description : str   What it is (said in messages)
+    default : object    Value used when the rig does not give it: a number [unit], the dotted
+                        path of another parameter whose value is taken, None (the feature is
+                        off), or :data:`REQUIRED`
+    scope : str         When the parameter changes a run: "always", a scenario name,
+                        "close-coupled" (section II of zero length), "lugre" (friction model),
+                        "modal-accumulator", "load-spring" (a load stiffness given)
+    zero_allowed : bool 0 is accepted below ``low`` (a length of 0 removes a hose section)
+    integer : bool      The value must be a whole number
+    inherited : bool    The default is a rig-wide setting by design (the modes of a section
+                        are ``rig.modes_per_section``): not reported as a default
+    """
+
+    unit: str
+    low: float | None
+    high: float | None
+    description: str
+    default: object = REQUIRED
+    scope: str = "always"
+    zero_allowed: bool = False
+    integer: bool = False
+    inherited: bool = False
+
+
+def _sides(template: dict) -> dict:
+    out = {}
+    for side in ("supply", "return"):
+        for key, p in template.items():
+            out[key.format(side=side)] = p
+    return out
+
+
+_STEP, _SINE = "open-loop-step", "closed-loop-sine"
+
+#: path -> Parameter, for every numeric parameter of a rig (text parameters and the optional
+#: pressure profiles are checked where they are read, hydroline.system).
+PARAMETERS: dict[str, Parameter] = {
+    "rig.allow_implausible": Parameter("str", None, None, "parameters allowed outside their "
+                                       "plausible range", None),
+    "rig.modes_per_section": Parameter("-", 1, 40, "modes per hose section (M8)", 6, integer=True),
+    "fluid.density": Parameter("kg/m^3", 600, 1300, "oil density"),
+    "fluid.kinematic_viscosity": Parameter("m^2/s", 3e-7, 1e-2, "oil kinematic viscosity"),
+    "fluid.bulk_modulus": Parameter("Pa", 1e8, 5e9, "oil bulk modulus"),
+    "fluid.gas_release_pressure": Parameter(
+        "Pa", 0.0, 1e6, "absolute pressure below which dissolved air leaves the oil (the line "
+        "model no longer holds)", ATMOSPHERIC_PRESSURE),
+    "supply.pressure": Parameter("Pa", 1e5, 1e8, "supply (pump) pressure, absolute"),
+    "return.pressure": Parameter("Pa", 1e4, 5e7, "tank (return) pressure, absolute"),
+    **_sides({
+        "{side}.section1.length": Parameter("m", 1e-2, 1e3, "hose section I length"),
+        "{side}.section2.length": Parameter("m", 1e-2, 1e3, "hose section II length (0 removes "
+                                            "it)", zero_allowed=True),
+        "{side}.section1.diameter": Parameter("m", 1e-3, 0.2, "hose section I bore"),
+        "{side}.section2.diameter": Parameter("m", 1e-3, 0.2, "hose section II bore"),
+        "{side}.section1.bulk_modulus": Parameter("Pa", 1e7, 5e9, "effective bulk modulus of "
+                                                  "hose section I", "fluid.bulk_modulus"),
+        "{side}.section2.bulk_modulus": Parameter("Pa", 1e7, 5e9, "effective bulk modulus of "
+                                                  "hose section II", "fluid.bulk_modulus"),
+        "{side}.section1.modes": Parameter("-", 1, 40, "modes of hose section I",
+                                           "rig.modes_per_section", integer=True,
+                                           inherited=True),
+        "{side}.section2.modes": Parameter("-", 1, 40, "modes of hose section II",
+                                           "rig.modes_per_section", integer=True,
+                                           inherited=True),
+        "{side}.manifold.resistance": Parameter("Pa*s/m^3", 0.0, 1e13, "manifold (HSM) "
+                                                "linear flow resistance (M1)"),
+        "{side}.manifold.volume": Parameter("m^3", 1e-7, 1e-2, "manifold block oil volume, the "
+                                            "node when section II is removed", 50e-6,
+                                            scope="close-coupled"),
+        "{side}.accumulator.capacity": Parameter("m^3", 1e-5, 0.1, "accumulator gas volume at "
+                                                 "pre-charge"),
+        "{side}.accumulator.precharge_pressure": Parameter("Pa", 1e4, 1e8, "accumulator gas "
+                                                           "pre-charge, absolute"),
+        "{side}.accumulator.polytropic_exponent": Parameter("-", 1.0, 5 / 3, "polytropic "
+                                                            "exponent of the gas (M16)"),
+        "{side}.accumulator.connection_length": Parameter("m", 1e-3, 10.0, "accumulator "
+                                                          "connection length"),
+        "{side}.accumulator.connection_diameter": Parameter("m", 1e-3, 0.1, "accumulator "
+                                                            "connection bore"),
+        "{side}.accumulator.modes": Parameter("-", 1, 40, "modes of the accumulator connection",
+                                              "rig.modes_per_section",
+                                              scope="modal-accumulator", integer=True,
+                                              inherited=True),
+    }),
+    "return.check_valve.reverse_resistance": Parameter("Pa*s/m^3", 1e6, 1e16, "check valve "
+                                                       "back-flow resistance", 1e13),
+    "return.check_valve.forward_resistance": Parameter("Pa*s/m^3", 0.0, 1e13, "check valve "
+                                                       "forward resistance", 0.0),
+    "servovalve.rated_current": Parameter("A", 1e-4, 5.0, "servovalve rated current"),
+    "servovalve.rated_flow": Parameter("m^3/s", 1e-6, 0.1, "servovalve rated flow"),
+    "servovalve.rated_pressure_drop": Parameter("Pa", 1e5, 5e7, "servovalve rated pressure "
+                                                "drop"),
+    "servovalve.max_opening": Parameter("m", 1e-5, 1e-2, "spool opening at rated current"),
+    "servovalve.natural_frequency": Parameter("Hz", 1.0, 2000.0, "servovalve natural "
+                                              "frequency"),
+    "servovalve.damping_ratio": Parameter("-", 0.05, 5.0, "servovalve damping ratio"),
+    "servovalve.laps": Parameter("m", -1e-3, 1e-3, "spool laps u1..u4 (+ underlap)",
+                                 [0.0, 0.0, 0.0, 0.0]),
+    "servovalve.laminar_pressure": Parameter("Pa", 1e2, 1e7, "laminar region of the orifice "
+                                             "law", 1e5),
+    "actuator.area": Parameter("m^2", 1e-6, 1.0, "piston area, both sides", None),
+    "actuator.bottom_area": Parameter("m^2", 1e-6, 1.0, "piston area, bottom side", None),
+    "actuator.top_area": Parameter("m^2", 1e-6, 1.0, "piston area, top side", None),
+    "actuator.stroke": Parameter("m", 1e-3, 10.0, "actuator stroke"),
+    "actuator.dead_volume": Parameter("m^3", 1e-8, 1e-2, "dead volume per chamber"),
+    "actuator.bulk_modulus": Parameter("Pa", 1e8, 5e9, "oil bulk modulus in the chambers"),
+    "actuator.moving_mass": Parameter("kg", 1e-2, 1e5, "piston, rod and attached mass"),
+    "actuator.initial_position": Parameter("m", -5.0, 5.0, "initial piston position", 0.0),
+    "actuator.gravity": Parameter("m/s^2", -15.0, 15.0, "gravity along the rod (up +)", 9.81),
+    "actuator.internal_leakage": Parameter("m^3/s/Pa", 0.0, 1e-10, "leakage across the piston",
+                                           0.0),
+    "actuator.external_leakage": Parameter("m^3/s/Pa", 0.0, 1e-10, "leakage out of the "
+                                           "chambers", 0.0),
+    "friction.viscous_up": Parameter("N*s/m", 0.0, 1e6, "viscous friction, up (M24)", 0.0),
+    "friction.viscous_down": Parameter("N*s/m", 0.0, 1e6, "viscous friction, down (M24)", 0.0),
+    "friction.coulomb_up": Parameter("N", 0.0, 1e6, "Coulomb friction, up (M24)", 0.0),
+    "friction.coulomb_down": Parameter("N", 0.0, 1e6, "Coulomb friction, down (M24)", 0.0),
+    "friction.static_up": Parameter("N", 0.0, 1e6, "static friction, up (M24)", 0.0),
+    "friction.static_down": Parameter("N", 0.0, 1e6, "static friction, down (M24)", 0.0),
+    "friction.stribeck_velocity": Parameter("m/s", 1e-6, 1.0, "Stribeck velocity (M24)", 0.01),
+    "friction.stribeck_exponent": Parameter("-", 0.1, 5.0, "Stribeck exponent (M24)", 2.0),
+    "friction.regularization_velocity": Parameter("m/s", 1e-8, 0.1, "friction regularisation "
+                                                  "velocity", 1e-4),
+    "friction.bristle_stiffness": Parameter("N/m", 1e2, 1e12, "LuGre bristle stiffness", 1e7,
+                                            scope="lugre"),
+    "friction.bristle_damping": Parameter("N*s/m", 0.0, 1e8, "LuGre bristle damping", 1e3,
+                                          scope="lugre"),
+    "load.mass": Parameter("kg", 0.0, 1e5, "load mass", 0.0),
+    "load.stiffness": Parameter("N/m", 0.0, 1e10, "load stiffness", 0.0),
+    "load.damping": Parameter("N*s/m", 0.0, 1e8, "load damping", 0.0),
+    "load.applied_force": Parameter("N", -1e7, 1e7, "constant force on the rod (up +)", 0.0),
+    "load.free_position": Parameter("m", -10.0, 10.0, "load spring's free position", 0.0,
+                                    scope="load-spring"),
+    "controller.proportional_gain": Parameter("A/m", 0.0, 1e3, "position loop P gain",
+                                              scope=_SINE),
+    "controller.integral_gain": Parameter("A/m/s", 0.0, 1e5, "position loop I gain", 0.0,
+                                          scope=_SINE),
+    "controller.derivative_gain": Parameter("A*s/m", 0.0, 10.0, "position loop D gain", 0.0,
+                                            scope=_SINE),
+    "controller.current_limit": Parameter("A", 1e-4, 5.0, "controller output limit",
+                                          "servovalve.rated_current", scope=_SINE),
+    "controller.sample_time": Parameter("s", 1e-6, 1.0, "controller sample time (None: "
+                                        "continuous)", None, scope=_SINE),
+    f"scenario.{_STEP}.current": Parameter("A", -5.0, 5.0, "step current",
+                                           "servovalve.rated_current", scope=_STEP),
+    f"scenario.{_STEP}.initial_current": Parameter("A", -5.0, 5.0, "current before the step",
+                                                   0.0, scope=_STEP),
+    f"scenario.{_STEP}.time": Parameter("s", 0.0, 100.0, "time of the step", 0.01, scope=_STEP),
+    f"scenario.{_STEP}.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 0.25, scope=_STEP),
+    "scenario.position-step.step": Parameter("m", -5.0, 5.0, "position reference step",
+                                             scope="position-step"),
+    "scenario.position-step.time": Parameter("s", 0.0, 100.0, "time of the step", 0.01,
+                                             scope="position-step"),
+    "scenario.position-step.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 0.15,
+                                              scope="position-step"),
+    f"scenario.{_SINE}.amplitude": Parameter("m", 0.0, 5.0, "sine reference amplitude",
+                                             scope=_SINE),
+    f"scenario.{_SINE}.frequency": Parameter("Hz", 1e-3, 1e3, "sine reference frequency",
+                                             scope=_SINE),
+    f"scenario.{_SINE}.offset": Parameter("m", -5.0, 5.0, "sine reference offset", 0.0,
+                                          scope=_SINE),
+    f"scenario.{_SINE}.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 1.0, scope=_SINE),
+    f"scenario.{_SINE}.initial_position": Parameter("m", -5.0, 5.0, "initial piston position",
+                                                    0.0, scope=_SINE),
+}
+
+
+def _error(message):
+    from . import RigError   # the package imports this module; RigError lives there
+
+    return RigError(message)
+
+
+def allowed_implausible(rig) -> set:
+    """The paths a rig lists in ``rig.allow_implausible`` (checked: each one a parameter)."""
+    listed = rig.get("rig.allow_implausible") or []
+    for path in listed:
+        if path not in PARAMETERS:
+            raise _error(f"rig.allow_implausible: {path!r} is not a rig parameter with a "
+                         f"plausible range (e.g. 'actuator.moving_mass')")
+    return set(listed)
+
+
+def _shown(rig, path, value):
+    raw = rig.raw.get(path)
+    return repr(raw) if raw is not None else f"{value:g}"
+
+
+def _fmt(x):
+    return f"{x:g}"
+
+
+def check_ranges(rig):
+    """Refuse a value outside its plausible range (:data:`PARAMETERS`) or a fractional count.
+
+    Raises
+    ------
+    RigError  One line: the path, the value as written, the range with its SI unit, and how to
+              override (``[rig] allow_implausible``)
+    """
+    allowed = allowed_implausible(rig)
+    for path, p in PARAMETERS.items():
+        value = rig.get(path)
+        if value is None or p.unit == "str":
+            continue
+        values = value if isinstance(value, list) else [value]
+        unit = "" if p.unit == "-" else f" [{p.unit}]"
+        for v in values:
+            if not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise _error(f"{path}: must be a finite number{unit}, got {_shown(rig, path, v)}")
+            if p.integer and v != int(v):
+                raise _error(f"{path}: must be a whole number ({p.description}), got "
+                             f"{_shown(rig, path, v)}")
+            if p.zero_allowed and v == 0:
+                continue
+            if p.low is not None and p.low >= 0 and v < 0:   # no override makes a size negative
+                rule = "positive" if p.low > 0 else ">= 0"
+                raise _error(f"{path}: must be {rule}{unit} ({p.description}), got "
+                             f"{_shown(rig, path, v)}")
+            low_ok = p.low is None or v >= p.low
+            high_ok = p.high is None or v <= p.high
+            if low_ok and high_ok or path in allowed:
+                continue
+            if p.low is None:
+                rule = f"at most {_fmt(p.high)}"
+            elif p.high is None:
+                rule = f"at least {_fmt(p.low)}"
+            else:
+                rule = f"within {_fmt(p.low)} ... {_fmt(p.high)}"
+            zero = " (or 0)" if p.zero_allowed else ""
+            raise _error(f"{path}: {_shown(rig, path, v)} is outside the plausible range of the "
+                         f"{p.description}: {rule}{zero}{unit}; if it is meant, add "
+                         f"\"{path}\" to [rig] allow_implausible")
+
+
+def check_consistency(rig, scenario: str | None = None):
+    """Refuse parameter combinations no test can mean (overridable like a range).
+
+    * the static load -- weight of the moving mass and the load, ``(m + m_L) g``, plus the
+      applied force -- beyond the actuator's force capacity ``p_s A_b - p_t A_t`` (M23):
+      the piston could never lift off its stop;
+    * a step current (open-loop-step) beyond the servovalve's rated current: the valve would
+      saturate at ``max_opening`` and the step be clipped silently;
+    * a sine reference (closed-loop-sine) whose ``|offset| + amplitude`` leaves +-stroke/2.
+
+    Parameters
+    ----------
+    rig : Rig           Parameters (SI)
+    scenario : str      The scenario run: only its checks are made (the command against
+                        the rating and stroke); None: the rig's own (weight, pre-charge)
+
+    Raises
+    ------
+    RigError  One line naming the parameter to look at, its unit and the override
+    """
+    allowed = allowed_implausible(rig)
+
+    def refuse(path, text):
+        if path not in allowed:
+            raise _error(f"{path}: {text}; if it is meant, add \"{path}\" to [rig] "
+                         f"allow_implausible")
+
+    if scenario is not None:
+        _check_scenario_consistency(rig, scenario, refuse)
+        return
+    area = rig.get("actuator.area")
+    a_b = rig.get("actuator.bottom_area", area)
+    a_t = rig.get("actuator.top_area", area)
+    p_s, p_t = rig.get("supply.pressure"), rig.get("return.pressure")
+    mass = rig.get("actuator.moving_mass")
+    if None not in (a_b, a_t, p_s, p_t, mass):
+        g = rig.get("actuator.gravity", 9.81)
+        load = rig.get("load.mass", 0.0)
+        weight = (mass + load) * g - rig.get("load.applied_force", 0.0)
+        capacity = p_s * a_b - p_t * a_t
+        if weight > capacity > 0:
+            path = "load.mass" if load > 0 else "actuator.moving_mass"
+            refuse(path, f"the weight of the moving mass and load, {weight / 1e3:.3g} kN "
+                   f"[(m + m_L) g - applied force], exceeds the actuator's force capacity "
+                   f"p_s A_b - p_t A_t = {capacity / 1e3:.3g} kN: the piston cannot lift off")
+    for side in ("supply", "return"):     # a model limit, not overridable
+        path = f"{side}.accumulator.precharge_pressure"
+        p0, p_line = rig.get(path), rig.get(f"{side}.pressure")
+        if p0 is not None and p_line and p0 > 0 and p0 < 1.05 * MIN_GAS_FRACTION * p_line:
+            raise _error(f"{path}: {_shown(rig, path, p0)} is {100 * p0 / p_line:.2g} % of "
+                         f"{side}.pressure: charged to it (isothermally, M16) the gas would "
+                         f"shrink below {100 * MIN_GAS_FRACTION:g} % of the capacity, where "
+                         f"the accumulator's piston reaches its gas-side end and no rest state "
+                         f"exists; pre-charge to at least {100 * 1.05 * MIN_GAS_FRACTION:.2g} % "
+                         f"(usually 25-90 %) of the line pressure [Pa, absolute]")
+
+
+def _plausible(path, value) -> bool:
+    """True for a number within the path's plausible range (else its own check names it)."""
+    p = PARAMETERS[path]
+    return (isinstance(value, (int, float)) and math.isfinite(value)
+            and (p.low is None or value >= p.low) and (p.high is None or value <= p.high))
+
+
+def _check_scenario_consistency(rig, scenario, refuse):
+    """The scenario's command against the valve's rating and the stroke (values of the wrong
+    sign are left to :func:`hydroline.system.validate_rig`, which names them)."""
+    rated = rig.get("servovalve.rated_current")
+    if scenario == _STEP and _plausible("servovalve.rated_current", rated):
+        for key in ("current", "initial_current"):
+            path = f"scenario.{_STEP}.{key}"
+            i = rig.get(path)
+            if i is not None and abs(i) > rated * (1 + 1e-9):
+                refuse(path, f"{_shown(rig, path, i)} exceeds the servovalve's rated current "
+                       f"{rated * 1e3:g} mA [A] (the valve would clip it to its full opening)")
+    stroke = rig.get("actuator.stroke")
+    if scenario == _SINE and _plausible("actuator.stroke", stroke):
+        amp = rig.get(f"scenario.{_SINE}.amplitude")
+        offset = rig.get(f"scenario.{_SINE}.offset", 0.0)
+        if amp is not None and abs(offset) + abs(amp) > stroke / 2 * (1 + 1e-9):
+            path = f"scenario.{_SINE}.amplitude"
+            refuse(path, f"|offset| + amplitude = {(abs(offset) + abs(amp)) * 1e3:g} mm [m] "
+                   f"leaves the stroke (+-{stroke / 2 * 1e3:g} mm): the piston would hit its stops")
+
+
+def _in_scope(rig, p: Parameter, path: str, scenario: str | None) -> bool:
+    if p.scope == "always":
+        return True
+    if p.scope in (_STEP, _SINE, "position-step"):
+        return scenario == p.scope
+    side = path.split(".")[0]
+    if p.scope == "close-coupled":
+        return rig.get(f"{side}.section2.length", 0.0) == 0
+    if p.scope == "lugre":
+        return rig.get("friction.model") == "lugre"
+    if p.scope == "load-spring":
+        return rig.get("load.stiffness", 0.0) != 0
+    if p.scope == "modal-accumulator":
+        return rig.get(f"{side}.accumulator.model") == "modal"
+    return True
+
+
+def defaults_used(rig, scenario: str | None = None) -> list[tuple[str, str]]:
+    """The parameters a run of ``scenario`` takes from a default, not from the rig.
+
+    Returns
+    -------
+    list of (path, what is used) -- e.g. ``("supply.section1.bulk_modulus",
+    "fluid.bulk_modulus = 1.5e+09 Pa")``, in table order; parameters whose default turns a
+    feature off (no sample time, no area when both side areas are given) are left out
+    """
+    out = []
+    for path, p in PARAMETERS.items():
+        if path in rig or p.default is None or p.default == REQUIRED or p.inherited:
+            continue
+        if not _in_scope(rig, p, path, scenario):
+            continue
+        unit = "" if p.unit == "-" else f" {p.unit}"
+        if isinstance(p.default, str):
+            value = rig.get(p.default, PARAMETERS[p.default].default)
+            if value is None or value == REQUIRED:
+                continue
+            out.append((path, f"{p.default} = {_fmt_value(value)}{unit}"))
+        else:
+            out.append((path, f"{_fmt_value(p.default)}{unit}"))
+    return out
+
+
+def _fmt_value(v):
+    if isinstance(v, list):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return _fmt(v)
+
+
+#: Where a steady-state solve that fails at a state points: a state-name prefix -> the
+#: balance that does not close and the parameters to look at (first match wins).
+_STATE_HINTS = (
+    ("accumulator", "the {side} accumulator's gas cannot balance the line pressure",
+     "{side}.accumulator.precharge_pressure, {side}.accumulator.capacity, {side}.pressure"),
+    ("section", "the flow along {section} does not settle",
+     "{section}.diameter, {section}.length, {section}.bulk_modulus, servovalve.laps "
+     "(the null leakage it carries), return.check_valve"),
+    ("servovalve", "the spool does not find its rest position",
+     "servovalve.laps, servovalve.max_opening, scenario current"),
+    ("actuator", "the forces on the piston or the chamber flows do not balance",
+     "actuator.initial_position, actuator.area, load.mass, load.applied_force, "
+     "servovalve.laps, actuator.internal_leakage"),
+    ("friction", "the friction state does not settle", "friction.*"),
+    ("controller", "the position loop does not hold the piston",
+     "controller.proportional_gain, scenario initial_position"),
+)
+
+
+def steady_state_hint(state: str) -> str:
+    """The balance behind a state that keeps a steady-state solve from converging and the rig
+    parameters to look at, e.g. ``"the flow along return.section2 does not settle (look at
+    return.section2.diameter, ...)"``."""
+    parts = state.split(".")
+    side = parts[0] if parts[0] in ("supply", "return") else "supply"
+    section = ".".join(parts[:2]) if len(parts) > 1 else state
+    for key, balance, params in _STATE_HINTS:
+        if key in state:
+            text = balance.format(side=side, section=section)
+            return f"{text} (look at {params.format(side=side, section=section)})"
+    return f"state '{state}' does not settle"
