@@ -30,6 +30,7 @@ SUBCOMMANDS = [
     "layout",
     "sweep",
     "circuit",
+    "export_fmu",
 ]
 
 
