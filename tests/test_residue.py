@@ -11,11 +11,11 @@ from scipy import special
 
 from hydroline import MINERAL_OIL, Fluid
 from hydroline.lines import FORMS, Line, ModalLine
-from hydroline.lines.compare import compare_resonances
+from hydroline.lines.compare import compare_resonances, resonance_f_max
 from hydroline.lines.inverse_laplace import exact_step_response, talbot
 from hydroline.lines.modal import StateSpaceLine
 from hydroline.lines.residue import (column_branches, exact_moments, modal_poles,
-                                     modal_residues, residue_realisation)
+                                     modal_residues, residue_realisation, tail_groups)
 
 OIL = Fluid(870.0, 3.2e-5, 1.5e9)          # the rig's oil (docs/model.md 2.3 worked example)
 
@@ -328,9 +328,10 @@ def test_all_forms_range_of_lines(form, n):
     Lines spanning the range (bores 6, 12.7, 25 mm x lengths 0.5, 3.048, 10 m, mineral
     oil; Dn 1e-4 ... 0.033), n = 6 and 10 modes, every entry of every form: the first n
     resonances within 1 % in frequency and 10 % in peak magnitude of the exact dissipative
-    model (M6). Measured worst: frequency 0.31 %; peaks 1 .. n-1 <= 1.08 %, peak n
-    3.4 % (n = 6) / 6.1 % (n = 10; d = 6 mm, L = 10 m), the n-th peak being next to the
-    first dropped mode. (Yang-Tobler on the same lines: tests/test_lines.py.)
+    model (M6). Measured worst: frequency 0.31 %; peaks 1 .. n-1 <= 1.08 % (PP/QQ, and PQ/QP
+    with n = 6: <= 0.91 %), peak n 3.4 % (n = 6) / 6.4 % (n = 10; d = 6 mm, L = 10 m), the
+    n-th peak being next to the first dropped mode; PQ/QP n = 10 on d = 6 mm, L = 10 m:
+    peaks n-2, n-1 2.2 % and 4.0 % (see the assertion). (Yang-Tobler: tests/test_lines.py.)
     """
     worst = np.zeros(n)
     worst_f = 0.0
@@ -346,7 +347,13 @@ def test_all_forms_range_of_lines(form, n):
           f"{np.round(worst, 2).tolist()}, frequency {worst_f:.3f} %")
     assert worst_f < 1.0                   # the issue's limits, every mode and entry
     assert worst.max() < 10.0
-    assert worst[:-1].max() < 1.5          # modes 1 .. n-1 converge much further
+    # modes 1 .. n-1 converge much further; PQ/QP with n = 10 on the lossiest line
+    # (6 mm x 10 m, Dn = 0.033): modes n-2, n-1 2.2 % and 4.0 %, the price of a remainder that
+    # stays under the exact envelope above the band (there the exact response is within
+    # ~1.5 Zc of Zc, and the dropped modes' in-band reactance must hand over to it within
+    # about one mode spacing); all other lines <= 1.0 %
+    assert worst[:-3].max() < 1.5
+    assert worst[:-1].max() < (4.5 if (form in ("PQ", "QP") and n == 10) else 1.5)
 
 
 # ---------------------------------------------------------------------------------------
@@ -412,7 +419,9 @@ def test_state_names_and_sizes():
     line = Line(3.048, 0.0127, OIL, 1.0e9)
     for form, extra in (("PQ", 0), ("QP", 0), ("PP", 6), ("QQ", 1)):
         A, B, C, D, names = residue_realisation(line, 4, form)
-        assert A.shape == (8 + 8 + extra,) * 2 and B.shape == (A.shape[0], 2)
+        # PQ/QP: a pair per tail group and output; PP/QQ: one pair per output
+        n_tail = 4 * len(tail_groups(4, form)) if form in ("PQ", "QP") else 4
+        assert A.shape == (8 + 4 + n_tail + extra,) * 2 and B.shape == (A.shape[0], 2)
         assert C.shape == (2, A.shape[0]) and len(names) == A.shape[0] == len(set(names))
         kinds = {nm.split(".")[1].rstrip("0123456789") for nm in names}
         assert kinds <= {"pressure", "flow", "volume", "pressure_integral"}
@@ -423,3 +432,116 @@ def test_state_names_and_sizes():
         residue_realisation(line, 0, "PQ")
     with pytest.raises(ValueError):
         residue_realisation(line, 3, "XY")
+
+
+# ---------------------------------------------------------------------------------------
+# above the retained band: the remainder must not invent a resonance (issue 11, item 6)
+# ---------------------------------------------------------------------------------------
+def _nine_lines():
+    return [Line(L, d, MINERAL_OIL, 1.0e9) for d in (0.006, 0.0127, 0.025)
+            for L in (0.5, 3.048, 10.0)]
+
+
+def _default_rig_hoses():
+    from hydroline.rigs import load_rig
+
+    rig = load_rig()
+    fluid = Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"],
+                  rig["fluid.bulk_modulus"])
+    hoses = {}
+    for sec in ("supply.section1", "supply.section2", "return.section1", "return.section2"):
+        key = tuple(rig[f"{sec}.{k}"] for k in ("length", "diameter", "bulk_modulus"))
+        hoses[key] = Line(key[0], key[1], fluid, key[2])
+    return list(hoses.values())
+
+
+def exact_envelope_ratio(line, model, top=8.0, per_spacing=40):
+    """Largest ``|H_model| / E`` above the retained band, per entry, and where, [-], [Hz].
+
+    The envelope of the exact response above the band is, for each entry,
+    ``E(f) = max_{f' >= f} |H_exact(2 pi j f')|``: the running maximum from above, i.e. the
+    height of the next exact resonance peak at or beyond f (the exact peaks fall with
+    frequency, so E is the curve through the peaks, stepped down at each peak).
+    Evaluated from the band edge ``f_b`` (half a mode spacing above mode n,
+    :func:`resonance_f_max`) to ``top * f_b``, on a grid of ``per_spacing`` points per mode
+    spacing ``1/(2 tau)``, the exact response two spacings further so that E near the top
+    still sees the next peak. ``H_exact`` is (M6) through :meth:`Line.transfer`.
+    """
+    fb = resonance_f_max(line, model.form, model.n_modes)
+    df = 1.0 / (2.0 * line.wave_time)
+    f = np.arange(fb, top * fb + 2 * df, df / per_spacing)
+    s = 2j * np.pi * f
+    exact = np.abs(line.transfer(s, model.form))
+    env = np.maximum.accumulate(exact[::-1], axis=0)[::-1]
+    sel = f <= top * fb
+    ratio = (np.abs(model.transfer(s[sel])) / env[sel]).reshape(-1, 4)
+    k = ratio.argmax(axis=0)
+    return ratio.max(axis=0).reshape(2, 2), f[sel][k].reshape(2, 2)
+
+
+@pytest.mark.parametrize("n", [6, 10])
+def test_nothing_above_the_band_exceeds_the_exact_envelope(n):
+    """Above mode n no entry of the PQ and QP forms rises above 1.1 times the exact envelope.
+
+    Envelope as in :func:`exact_envelope_ratio` (running maximum of |H_exact| from above),
+    checked from half a spacing above mode n to 8 times that frequency. On the nine lines of
+    :func:`test_all_forms_range_of_lines` (n = 6; n = 10: the three 10 m lines, the
+    lossiest, to keep the suite's time) and the default rig's hoses, forms PQ and QP (PP and
+    QQ keep the single light pseudo-mode, which keeps their port admittance/impedance
+    passive; not yet done for them: they still peak at 2-9 times the envelope). The
+    earlier remainder (one pseudo-mode per output, zeta = 0.05, at ~1.75 f_b) peaked at
+    2-3 times the envelope (Dn ~ 0.003: the default supply hose, 777 Hz), up to 9.6 times
+    (Dn = 0.033). Measured now: <= 1.08 (n = 6 and 10; the construction bounds it at 1.08
+    on a coarser grid).
+    """
+    worst = (0.0, None)
+    lines = _nine_lines() if n == 6 else [_nine_lines()[k] for k in (2, 5, 8)]
+    for line in lines + _default_rig_hoses():
+        for form in ("PQ", "QP"):
+            ratio, where = exact_envelope_ratio(line, residue_line(line, n, form))
+            i, j = np.unravel_index(ratio.argmax(), ratio.shape)
+            assert ratio[i, j] <= 1.1, (form, line, (i, j), where[i, j], ratio[i, j])
+            if ratio[i, j] > worst[0]:
+                worst = (ratio[i, j], (form, line.length, line.diameter, (i, j)))
+    print(f"\nn = {n}: largest |H_model|/envelope above the band {worst[0]:.3f} at {worst[1]}")
+
+
+def test_default_supply_hose_has_no_pseudo_resonance():
+    """The issue's case: default supply hose, 6 modes, PQ (15.9 mm, 178 MPa: |H12|, |H21| peaked
+    at 777 Hz, 2.1-2.2 times the exact highest value above the band).
+
+    Above the band the model now stays below the exact response's largest value there
+    (previously 2.1-2.2 times it), and below 1.1 times the envelope everywhere.
+    """
+    rig_hose = _default_rig_hoses()[0]
+    for line in (Line(3.048, 0.0159, rig_hose.fluid, 178e6), rig_hose):
+        model = residue_line(line, 6, "PQ")
+        fb = resonance_f_max(line, "PQ", 6)
+        f = np.linspace(fb, 8 * fb, 4000)
+        exact = np.abs(line.transfer(2j * np.pi * f, "PQ")).max(axis=0)
+        mod = np.abs(model.transfer(2j * np.pi * f)).max(axis=0)
+        print(f"\nsupply hose d = {line.diameter * 1e3:.2f} mm above {fb:.0f} Hz: model/exact "
+              f"highest value {np.round(mod / exact, 3).tolist()}")
+        assert np.all(mod <= exact)
+
+
+@pytest.mark.parametrize("form", ["PQ", "QP"])
+def test_remainder_well_damped(form):
+    """The remainder's poles decay within one wave time L/c and faster than any kept mode.
+
+    The earlier pseudo-mode (zeta = 0.05 at ~1.75 times the band edge) decayed in ~5 L/c,
+    as slowly as the retained modes, and rang at its own frequency.
+    """
+    for line in (_nine_lines()[2], _default_rig_hoses()[0], _nine_lines()[6]):
+        for n in (1, 6, 10):
+            A, B, C, D, names = residue_realisation(line, n, form)
+            tail = [k for k, nm in enumerate(names) if nm.startswith("tail")]
+            assert len(tail) == 4 * len(tail_groups(n, form))
+            lam_t = np.linalg.eigvals(A[np.ix_(tail, tail)])
+            modes = [k for k, nm in enumerate(names) if nm.startswith("mode")]
+            lam_m = np.linalg.eigvals(A[np.ix_(modes, modes)])
+            rate_t = -lam_t.real * line.wave_time
+            assert rate_t.min() > 1.0, (line, n, rate_t.min())          # decays within L/c
+            assert rate_t.min() > 3.0 * (-lam_m.real * line.wave_time).max()
+            zeta = -lam_t.real / np.abs(lam_t)
+            assert zeta.min() > 0.1
