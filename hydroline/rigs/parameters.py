@@ -398,6 +398,10 @@ def defaults_used(rig, scenario: str | None = None) -> list[tuple[str, str]]:
     "fluid.bulk_modulus = 1.5e+09 Pa")``, in table order; parameters whose default turns a
     feature off (no sample time, no area when both side areas are given) are left out
     """
+    from ..circuit import has_circuit
+
+    if has_circuit(rig.values):   # the table describes the flat (template) rig; a circuit's
+        return []                 # components declare their own parameters and defaults
     out = []
     for path, p in PARAMETERS.items():
         if path in rig or p.default is None or p.default == REQUIRED or p.inherited:
