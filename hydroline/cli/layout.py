@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from ..rigs import load_rig
 from ..scenarios import SCENARIOS
-from ..studies.layout import DEFAULT_LENGTHS, conclusion, layout
-from .common import dump_json, out_dir, print_table, progress_printer, quantity
+from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout
+from .common import atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
@@ -59,9 +59,14 @@ def run(args) -> int:
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
     sides = ("supply", "return") if args.side == "both" else (args.side,)
+    # the folder is checked before the study runs, not after it
+    out = out_dir(args.out, tuple(LayoutStudy.FILES.values())) if args.out else None
     study = layout(rig, args.lengths, sides=sides, scenario=args.scenario, t_end=t_end,
                    solver=args.solver, progress=_progress(not args.json))
-    files = study.save(out_dir(args.out)) if args.out else {}
+    files = {}
+    if args.out:   # all three files replaced together, or none (a failed write keeps the old)
+        with atomic_outputs(out) as temp:
+            files = study.save(out, temp)
     if args.json:
         dump_json(study.records())
         return 0

@@ -183,15 +183,30 @@ class LayoutStudy:
                 cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y)
         return pd.DataFrame(cols)
 
-    def save(self, folder) -> dict:
-        """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder."""
+    #: The files :meth:`save` writes, by role.
+    FILES = {"csv": "layout.csv", "traces": "layout_traces.csv", "figure": "layout.png"}
+
+    def save(self, folder, temp=None) -> dict:
+        """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder.
+
+        Parameters
+        ----------
+        folder : path      Output folder (created)
+        temp : callable    ``temp(name) -> path`` to write each file to first (e.g. the CLI's
+                           atomic writer, which renames them all at the end); the final names
+                           are returned either way
+
+        Returns
+        -------
+        dict  role ("csv", "traces", "figure") -> path
+        """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        self.files = {"csv": folder / "layout.csv", "traces": folder / "layout_traces.csv",
-                      "figure": folder / "layout.png"}
-        self.table().to_csv(self.files["csv"], index=False)
-        self.traces().to_csv(self.files["traces"], index=False)
-        self.plot(self.files["figure"])
+        self.files = {role: folder / name for role, name in self.FILES.items()}
+        where = {role: (temp(name) if temp else folder / name) for role, name in self.FILES.items()}
+        self.table().to_csv(where["csv"], index=False)
+        self.traces().to_csv(where["traces"], index=False)
+        self.plot(where["figure"])
         return self.files
 
     def plot(self, path=None, title=None):
