@@ -113,7 +113,7 @@ TAIL_ZETA_MAX = 0.8
 TAIL_MEAN_WEIGHT = 0.1
 
 #: Bound on the model above the band, times the exact response's envelope (running maximum
-#: of |H_exact| over all higher frequencies); enforced by re-weighting on a grid of
+#: of ``|H_exact|`` over all higher frequencies); enforced by re-weighting on a grid of
 #: TAIL_POINTS_PER_SPACING points per mode spacing (1.08: the tests, on a finer grid, see
 #: <= 1.075 with their bound 1.1), [-].
 TAIL_BOUND = 1.08
