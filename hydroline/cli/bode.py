@@ -7,7 +7,7 @@ from ..analysis.figures import plot_bode
 from ..analysis.frequency import MODAL, bode_analysis, rated_velocity
 from ..analysis.linearize import INPUTS, OperatingPoint
 from ..rigs import load_rig
-from .common import dump_json, out_dir, print_table, quantity
+from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 
 DEFAULT_OUTPUTS = "piston_velocity,supply_port_pressure,return_port_pressure"
 
@@ -108,8 +108,6 @@ def run(args) -> int:
     res = bode_analysis(rig, op, args.input, outputs, f, compare=args.compare != "none",
                         exact=not args.no_exact, friction=args.friction)
     summary = summary_dict(res, op)
-    with open(out / "bode.json", "w") as fh:     # strict JSON: NaN/inf as null
-        dump_json(summary, fh)
     cols = {"frequency [Hz]": res.f}
     for label, H in res.curves.items():
         for j, o in enumerate(outputs):
@@ -117,12 +115,15 @@ def run(args) -> int:
             cols[f"{o}/{args.input} phase [deg] ({label})"] = np.degrees(np.angle(H[:, j]))
     import pandas as pd
 
-    pd.DataFrame(cols).to_csv(out / "bode.csv", index=False)
     name = rig.get("rig.name", rig.source)
     title = (f"{name}: x_p = {op.piston_position * 1e3:g} mm, v_p = {op.piston_velocity:.3g} m/s, "
              f"i = {res.operating_points[MODAL].valve_current * 1e3:.3g} mA")
-    plot_bode(res.f, res.curves, args.input, outputs, res.bandwidths, path=out / "bode.png", title=title,
-              highest_mode_hz=res.highest_mode_hz)
+    with atomic_outputs(out) as temp:   # the three files replaced together, or none
+        with open(temp("bode.json"), "w") as fh:     # strict JSON: NaN/inf as null
+            dump_json(summary, fh)
+        pd.DataFrame(cols).to_csv(temp("bode.csv"), index=False)
+        plot_bode(res.f, res.curves, args.input, outputs, res.bandwidths, path=temp("bode.png"),
+                  title=title, highest_mode_hz=res.highest_mode_hz)
     if args.json:
         dump_json(summary)
         return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 from ..analysis.figures import plot_fit
 from ..analysis.fit import COLUMNS, STARTS, fit_parameters, read_measurements
 from ..rigs import load_rig
-from .common import dump_json, out_dir, print_table
+from .common import atomic_outputs, dump_json, out_dir, print_table
 
 _COLUMN_HELP = ", ".join(f"'{k} [{u}]'" for k, u in COLUMNS.items())
 
@@ -68,15 +68,17 @@ def run(args) -> int:
     res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
                          max_evaluations=args.max_evals, start=args.start, offsets=offsets)
     rig_file = out / "calibrated_rig.toml"
-    rig_file.write_text(res.calibrated_toml(data_path))
     summary = res.to_dict()
     summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),
                    ignored_columns=meas.ignored)
-    with open(out / "fit.json", "w") as fh:     # strict JSON: NaN/inf as null
-        dump_json(summary, fh)
     t = meas.t
-    plot_fit(t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial, res.fitted,
-             path=out / "fit.png", title=f"hydroline fit: {data_path}")
+    with atomic_outputs(out) as temp:   # the three files replaced together, or none
+        temp_rig = temp(rig_file.name)
+        temp_rig.write_text(res.calibrated_toml(data_path))
+        with open(temp("fit.json"), "w") as fh:     # strict JSON: NaN/inf as null
+            dump_json(summary, fh)
+        plot_fit(t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial,
+                 res.fitted, path=temp("fit.png"), title=f"hydroline fit: {data_path}")
     if args.json:
         dump_json(summary)
         return 0

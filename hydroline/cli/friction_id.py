@@ -7,7 +7,7 @@ from ..analysis.figures import plot_friction
 from ..analysis.fit import read_measurements
 from ..analysis.friction_id import FRICTION_COLUMNS, identify_friction, virtual_friction_tests
 from ..rigs import load_rig
-from .common import dump_json, out_dir, print_table, quantity
+from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 
 
 def register(sub):
@@ -63,12 +63,8 @@ def run(args) -> int:
     ident = identify_friction(rig, steady, sine, window=window, min_speed=min_speed,
                               sine_min_speed=sine_min)
     fit = ident.fit
-    plot_friction(ident.points, fit, path=out / "friction.png",
-                  title=f"friction identification: {source}")
     calibrated = fit.apply(rig)
     rig_file = out / "friction_rig.toml"
-    rig_file.write_text(f"# friction (M24) identified by 'hydroline friction-id' from {source}\n\n"
-                        + calibrated.to_toml())
     static_keys = ("static_up", "static_down", "stribeck_velocity")
     rows = []
     for k in ("viscous", "coulomb", "static"):
@@ -92,8 +88,14 @@ def run(args) -> int:
                "static_note": fit.static_note,
                "rms_residual_n": {"up": fit.rms_up, "down": fit.rms_down},
                "rig_file": str(rig_file)}
-    with open(out / "friction.json", "w") as fh:     # strict JSON: NaN/inf as null
-        dump_json(summary, fh)
+    with atomic_outputs(out) as temp:   # the three files replaced together, or none
+        plot_friction(ident.points, fit, path=temp("friction.png"),
+                      title=f"friction identification: {source}")
+        temp(rig_file.name).write_text(
+            f"# friction (M24) identified by 'hydroline friction-id' from {source}\n\n"
+            + calibrated.to_toml())
+        with open(temp("friction.json"), "w") as fh:     # strict JSON: NaN/inf as null
+            dump_json(summary, fh)
     if args.json:
         dump_json(summary)
         return 0

@@ -20,7 +20,7 @@ from ..lines import FORMS, Line, ModalLine, StateSpaceLine
 from ..lines.compare import compare_resonances, resonance_f_max
 from ..lines.inverse_laplace import exact_step_response
 from ..plotting import plot_line_response
-from .common import dump_json, out_dir, print_table, quantity
+from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 
 #: Most modes a line response computes (the frequency axis and the modal matrices grow with
 #: them: 40 modes take ~1 GB and ~40 s on one core), [-].
@@ -203,37 +203,40 @@ def run(args) -> int:
     # resonance is on the plot
     f_top = resonance_f_max(line, args.form, n)
     f = np.linspace(f_top / 4000, f_top, 4000)
-    png = out / "line_response.png"
-    plot_line_response(line, {f"modal {k}, n={n}": v for k, v in models.items()}, f, args.form, path=png)
-    report = {"line": {"length_m": line.length, "diameter_m": line.diameter,
-                       "wave_speed_m_s": line.wave_speed, "dissipation_number": line.dissipation_number,
-                       "impedance_pa_s_m3": line.impedance}, "form": args.form, "resonances": []}
-    rows = []
-    for label, model in models.items():
-        for r in compare_resonances(line, model, f_max=f_top):
-            entry = r.entry_name(args.form)
-            report["resonances"].append({
-                "method": label, "entry": entry, "mode": r.mode,
-                "exact_frequency_hz": r.exact_frequency_hz, "model_frequency_hz": r.model_frequency_hz,
-                "frequency_error_pct": r.frequency_error_pct, "exact_peak": r.exact_magnitude,
-                "model_peak": r.model_magnitude, "peak_error_pct": r.magnitude_error_pct})
-            rows.append([label, entry, r.mode, r.exact_frequency_hz, r.frequency_error_pct,
-                         r.exact_magnitude, r.magnitude_error_pct])
-    report["figures"] = [str(png)]
+    with atomic_outputs(out) as temp:   # the figures replaced together, or none
+        png = out / "line_response.png"
+        plot_line_response(line, {f"modal {k}, n={n}": v for k, v in models.items()}, f, args.form,
+                       path=temp(png.name))
+        report = {"line": {"length_m": line.length, "diameter_m": line.diameter,
+                           "wave_speed_m_s": line.wave_speed, "dissipation_number": line.dissipation_number,
+                           "impedance_pa_s_m3": line.impedance}, "form": args.form, "resonances": []}
+        rows = []
+        for label, model in models.items():
+            for r in compare_resonances(line, model, f_max=f_top):
+                entry = r.entry_name(args.form)
+                report["resonances"].append({
+                    "method": label, "entry": entry, "mode": r.mode,
+                    "exact_frequency_hz": r.exact_frequency_hz, "model_frequency_hz": r.model_frequency_hz,
+                    "frequency_error_pct": r.frequency_error_pct, "exact_peak": r.exact_magnitude,
+                    "model_peak": r.model_magnitude, "peak_error_pct": r.magnitude_error_pct})
+                rows.append([label, entry, r.mode, r.exact_frequency_hz, r.frequency_error_pct,
+                             r.exact_magnitude, r.magnitude_error_pct])
+        report["figures"] = [str(png)]
 
-    step_rows = []
-    if not args.no_step:
-        pq = models if args.form == "PQ" else _models(line, n, "PQ", list(models), False)
-        t, exact, responses, errors = blocked_step_errors(line, pq, args.step_periods)
-        step_png = out / "line_step_response.png"
-        plot_step(line, t, exact, {f"modal {k}, n={n}": y for k, y in responses.items()}, step_png)
-        report["figures"].append(str(step_png))
-        report["step_response"] = {"case": "blocked end (PQ, Q_d = 0), unit step of P_u; error of "
-                                           "P_d in % of the step",
-                                   "periods": args.step_periods, "settle_periods": STEP_SETTLE_PERIODS,
-                                   "errors": [{"method": k, "modes": n, **v} for k, v in errors.items()]}
-        step_rows = [[k, n, v["max_pct"], v["rms_pct"], v["max_settled_pct"], v["max_smooth_pct"]]
-                     for k, v in errors.items()]
+        step_rows = []
+        if not args.no_step:
+            pq = models if args.form == "PQ" else _models(line, n, "PQ", list(models), False)
+            t, exact, responses, errors = blocked_step_errors(line, pq, args.step_periods)
+            step_png = out / "line_step_response.png"
+            plot_step(line, t, exact, {f"modal {k}, n={n}": y for k, y in responses.items()},
+                      temp(step_png.name))
+            report["figures"].append(str(step_png))
+            report["step_response"] = {"case": "blocked end (PQ, Q_d = 0), unit step of P_u; error of "
+                                               "P_d in % of the step",
+                                       "periods": args.step_periods, "settle_periods": STEP_SETTLE_PERIODS,
+                                       "errors": [{"method": k, "modes": n, **v} for k, v in errors.items()]}
+            step_rows = [[k, n, v["max_pct"], v["rms_pct"], v["max_settled_pct"], v["max_smooth_pct"]]
+                         for k, v in errors.items()]
     if args.json:
         dump_json(report)
         return 0
