@@ -18,7 +18,7 @@ from pathlib import Path
 from ..units import parse_quantity
 
 __all__ = ["quantity", "out_dir", "atomic_outputs", "OutputError", "print_table", "dump_json",
-           "progress_printer"]
+           "progress_printer", "settling_cell"]
 
 
 class OutputError(ValueError):
@@ -179,3 +179,12 @@ def progress_printer(label, enabled=True):
         sys.stderr.flush()
 
     return show
+
+
+def settling_cell(metrics: dict):
+    """A port's settling time for a table: [ms], "~..." when estimated, None when there is
+    none (``metrics`` holds ``settling_time_s`` [s] and ``settling_method``)."""
+    v = metrics["settling_time_s"]
+    if v is None:
+        return None
+    return f"~{v * 1e3:.4g}" if metrics.get("settling_method") == "estimated" else v * 1e3

@@ -4,7 +4,8 @@ from __future__ import annotations
 from ..rigs import load_rig
 from ..scenarios import SCENARIOS
 from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout
-from .common import atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity
+from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
+                     settling_cell)
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
@@ -46,13 +47,6 @@ def _progress(enabled):
     return None if bar is None else (lambda done, total: bar(done / total))
 
 
-def _settling_cell(m, summary):
-    v = m["settling_time_s"]
-    if v is None:
-        return None
-    return f"~{v * 1e3:.4g}" if summary.get("settling_method") == "estimated" else v * 1e3
-
-
 def run(args) -> int:
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
@@ -78,7 +72,7 @@ def run(args) -> int:
             m = s[side]
             rows.append([rec["section2_length_m"], m["frequency_hz"], m["amplitude_mpa"],
                          m.get("first_excursion_mpa"), m.get("steady_change_mpa"),
-                         _settling_cell(m, m)])
+                         settling_cell(m)])
         print(f"  {side} port:")
         print_table(["length [m]", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                      "steady change [MPa]", "settling [ms]"], rows)

@@ -11,7 +11,8 @@ from ..rigs import load_rig
 from ..rigs.parameters import defaults_used
 from ..scenarios import SCENARIOS, build_scenario, default_scenario, simulate, summarize
 from ..system import build_circuit
-from .common import atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity
+from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
+                     settling_cell)
 
 #: The files written to --out.
 OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
@@ -71,13 +72,6 @@ def json_axes_summary(summary: dict) -> dict:
                 entry[k] = _float_or_none(a[k])
         axes[name] = entry
     return {"axes": axes, "wall_time_s": float(summary["wall_time_s"])}
-
-
-def _settling_cell(m):
-    v = m["settling_time_s"]
-    if v is None:
-        return None
-    return f"~{v * 1e3:.4g}" if m.get("settling_method") == "estimated" else v * 1e3
 
 
 def _float_or_none(v):
@@ -202,7 +196,7 @@ def run(args) -> int:
             m = summary[side]
             rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
                          m["first_excursion_mpa"], m["steady_change_mpa"], m["peak_to_peak_mpa"],
-                         _settling_cell(m)])
+                         settling_cell(m)])
         print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                      "steady change [MPa]", "peak-to-peak [MPa]", "settling [ms]"], rows)
         print("  amplitude: half the largest swing about the pressure's one-period mean (+-);"
@@ -304,7 +298,7 @@ def _report_axes(args, rig, res, summary, scenario) -> int:
         for side in ("supply", "return"):
             m = a[side]
             rows.append([f"{name} {side} port", m["frequency_hz"], m["amplitude_mpa"],
-                         m.get("first_excursion_mpa"), m.get("peak_to_peak_mpa"), _settling_cell(m)])
+                         m.get("first_excursion_mpa"), m.get("peak_to_peak_mpa"), settling_cell(m)])
     print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                  "peak-to-peak [MPa]", "settling [ms]"], rows)
     for name, a in summary["axes"].items():
