@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import components as comp
-from .analysis.metrics import pressure_metrics
+from .traces.metrics import pressure_metrics
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency, steady_state_hint

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.signal import find_peaks as scipy_find_peaks
 
-from hydroline.analysis.peaks import find_peaks, local_maxima
+from hydroline.traces.peaks import find_peaks, local_maxima
 from hydroline.unit_table import UNITS, si_value
 from hydroline import units
 from hydroline.units import parse_quantity
@@ -164,7 +164,7 @@ def test_filters_equal_scipy():
     from scipy.ndimage import uniform_filter1d as sunif
     from scipy.signal import savgol_filter as ssavgol
 
-    from hydroline.analysis import filters
+    from hydroline.traces import filters
 
     rng = np.random.default_rng(3)
     for n in (7, 30, 257, 1000):

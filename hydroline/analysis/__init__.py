@@ -1,4 +1,7 @@
-"""Analysis of simulated and measured traces.
+"""Model-level analysis: linearisation, frequency response, parameter and friction fits.
+
+The trace metrics (oscillation amplitude, settling, ...) live in :mod:`hydroline.traces`; their
+names are also reachable here for convenience.
 
 The names below load on first use (PEP 562): the metrics need SciPy's peak finder, the
 linearisation python-control, the fits SciPy's optimisers; a run that uses none pays for none.
@@ -11,10 +14,11 @@ import types
 
 #: Public name -> submodule that defines it.
 _LAZY = {
-    "oscillation_frequency": "metrics", "oscillation_amplitude": "metrics",
-    "oscillation_baseline": "metrics", "overshoot": "metrics", "first_excursion": "metrics",
-    "peak_to_peak": "metrics", "pressure_metrics": "metrics", "port_settling": "metrics",
-    "settling_time": "metrics",
+    "oscillation_frequency": "..traces.metrics", "oscillation_amplitude": "..traces.metrics",
+    "oscillation_baseline": "..traces.metrics", "overshoot": "..traces.metrics",
+    "first_excursion": "..traces.metrics", "peak_to_peak": "..traces.metrics",
+    "pressure_metrics": "..traces.metrics", "port_settling": "..traces.metrics",
+    "settling_time": "..traces.metrics",
     "OperatingPoint": "linearize", "OperatingPointError": "linearize", "linearize": "linearize",
     "solve_operating_point": "linearize",
     "bandwidth": "frequency", "bode_analysis": "frequency", "line_coupled_model": "frequency",
@@ -29,7 +33,11 @@ __all__ = list(_LAZY)
 def __getattr__(name):
     if name not in _LAZY:
         raise AttributeError(f"module 'hydroline.analysis' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{_LAZY[name]}"), name)
+    module = _LAZY[name]
+    if module.startswith(".."):   # the trace metrics live in hydroline.traces (pure functions)
+        value = getattr(importlib.import_module(module[1:], "hydroline"), name)
+    else:
+        value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
     globals()[name] = value
     return value
 

@@ -1,7 +1,7 @@
 """The design studies' port metrics: the same definitions as ``hydroline simulate``.
 
 Kept as a module for its names: :func:`port_settling` is
-:func:`hydroline.analysis.metrics.port_settling` (2 % settling time, measured within the
+:func:`hydroline.traces.metrics.port_settling` (2 % settling time, measured within the
 metrics window or estimated from the decay of the oscillation), and :func:`port_summary` is
 :func:`hydroline.scenarios.summarize`, which takes every port metric -- frequency, two-sided
 amplitude, first excursion, steady change, peak-to-peak, settling time -- with one definition
@@ -9,7 +9,7 @@ for simulate, layout and sweep.
 """
 from __future__ import annotations
 
-from ..analysis.metrics import MAX_FIT_SCATTER, MIN_PERIODS, SETTLING_BAND as BAND, port_settling
+from ..traces.metrics import MAX_FIT_SCATTER, MIN_PERIODS, SETTLING_BAND as BAND, port_settling
 from ..scenarios import summarize as port_summary
 
 __all__ = ["port_settling", "port_summary", "MIN_PERIODS", "MAX_FIT_SCATTER", "BAND"]
