@@ -384,7 +384,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               solver: str = "auto", rtol: float = 1e-7, atol_scale: float = 1e-8,
               progress=None, stream_to=None, chunk_rows: int = 20000,
               stream_columns=None, stream_every: int = 1, keep_columns=None,
-              preview_columns=None, preview_rows: int = 50_000) -> SimulationResult:
+              preview_columns=None, preview_rows: int = 50_000,
+              observe=None) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -416,6 +417,9 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     preview_columns : list  Also keep these columns at every k-th row, at most
                         ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
                         a figure of a long run)
+    observe : callable  Called with ``(t, table, columns)`` for every block of output rows as
+                        the run goes (times [s], rows of signals and states [SI], their names):
+                        statistics of a long run computed chunk by chunk, in constant memory
 
     Returns
     -------
@@ -462,7 +466,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     backend = "compiled" if native is not None else ("cvodes" if solver == "auto" else solver)
     columns = list(network.signal_names) + list(network.state_names)
     sink = _Sink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
-                 preview_columns, preview_rows, column_units(network) if stream_to else None)
+                 preview_columns, preview_rows, column_units(network) if stream_to else None,
+                 observe)
     stats = {"nfevals": 0, "njevals": 0, "nsteps": 0}
     scaled_dae = None
     if backend == "cvodes":
@@ -591,8 +596,9 @@ class _Sink:
     figure). Memory stays bounded by what is kept, whatever the run's length."""
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
-                 preview=None, preview_rows=50_000, units=None):
+                 preview=None, preview_rows=50_000, units=None, observe=None):
         self.columns = columns
+        self.observe = observe   # (issue 13: per-chunk statistics of a long run)
         self.path = path
         self.rows = 0
         self.parts = []
@@ -636,6 +642,8 @@ class _Sink:
                 Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
             block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
         t = np.asarray(t, dtype=float)
+        if self.observe is not None:
+            self.observe(t, block, self.columns)
         i0 = self.rows
         self.rows += len(t)
         if self.preview is not None:

@@ -9,7 +9,8 @@ import numpy as np
 
 from ..rigs import load_rig
 from ..rigs.parameters import defaults_used
-from ..scenarios import SCENARIOS, build_scenario, default_scenario, simulate, summarize
+from ..scenarios import (SCENARIOS, SineSummaryStream, build_scenario, default_scenario, simulate,
+                         summarize)
 from ..system import build_circuit
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
@@ -85,6 +86,9 @@ DT_OUT = 1e-4
 LONG_ROWS = 200_000
 #: Columns the summary needs at every output row, and the figure's (a decimated copy).
 SUMMARY_COLUMNS = ("supply_port_pressure", "return_port_pressure", "piston_position")
+#: Rows of the decimated copy a long run's figure is drawn from (a 10 min run has ~1200 sine
+#: cycles: more rows only slow the drawing).
+PREVIEW_ROWS = 20_000
 FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
                   "top_chamber_pressure", "piston_velocity", "piston_position")
 #: Rough rates for the cost estimate of a long run: simulated seconds per wall second of the
@@ -144,17 +148,30 @@ def run(args) -> int:
               + "; ".join(f"{path} = {value}" for path, value in defaults), file=sys.stderr)
     with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp:
         options = {}
+        stream = None
         if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
             keep = list(SUMMARY_COLUMNS)
             if scenario == "closed-loop-sine":
                 keep.append("position_reference")
-            options = dict(keep_columns=keep)
+                # constant memory: the summary computed chunk by chunk as the rows arrive
+                stream = _sine_summary_stream(rig, scenario, duration)
+                options = dict(observe=stream.update, keep_columns=[])
+            else:
+                options = dict(keep_columns=keep)
             if write:
                 options.update(stream_to=temp("results.csv"), stream_every=every,
-                               preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):])
+                               preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):],
+                               preview_rows=PREVIEW_ROWS)
+                if stream is not None:
+                    del options["keep_columns"]
         res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
                        progress=progress_printer("simulating", not args.json), **options)
-        summary = summarize(res)
+        if stream is not None:
+            summary = stream.summary(res)
+            t0, t1 = summary["metrics_window_s"]
+            res.metadata["metrics_window"] = (t0, t1, "stop" if stream.arrived else "end")
+        else:
+            summary = summarize(res)
         scenario = res.metadata["scenario"]
         if write:   # replaced together, or none (previous results kept)
             if long_run:
@@ -212,6 +229,16 @@ def run(args) -> int:
         print(f"  WARNING: {w}")
     print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
     return 0
+
+
+def _sine_summary_stream(rig, scenario, duration) -> SineSummaryStream:
+    """The closed-loop sine's summary accumulator for a long run of a single-axis rig."""
+    circuit = build_circuit(rig)
+    sc = build_scenario(rig, scenario, duration, axes=circuit.axes)
+    ax = next(iter(circuit.axes.values()))
+    return SineSummaryStream(sc.t_disturbance, ax.stroke, float(sc.commands[0].frequency),
+                             ax.supply_pressure, ax.return_pressure, ax.position,
+                             ax.reference_signal)
 
 
 def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
