@@ -526,7 +526,8 @@ class SineSummaryStream:
             return
         if self.index is None:
             self.index = [list(columns).index(k) for k in self.names]
-        ps, pr, x, ref = (table[:, i] for i in self.index)
+        # one pass over the rows gathers the four columns (contiguous: each later pass is cheap)
+        ps, pr, x, ref = np.ascontiguousarray(table[:, self.index].T)
         end = len(t)
         if self.x0 is None and t[-1] >= self.t0:   # the piston's position at the disturbance
             tt, xx = (t, x) if self.prev is None else (np.r_[self.prev[0], t], np.r_[self.prev[1], x])

@@ -655,7 +655,7 @@ class _Sink:
             self.mn = np.minimum(self.mn, block.min(axis=0))
             self.mx = np.maximum(self.mx, block.max(axis=0))
             self.sum += block.sum(axis=0)
-            self.sumsq += (block * block).sum(axis=0)
+            self.sumsq += np.einsum("ij,ij->j", block, block)   # (no temporary block)
         if self.keep is not None:
             if self.kept is not None and self.rows <= len(self.kept_t):
                 self.kept_t[i0:self.rows] = t
