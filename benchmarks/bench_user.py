@@ -108,9 +108,10 @@ def main():
                 [str(BIN), "simulate", "--scenario", "closed-loop-sine", "--t-end", "600 s",
                  "--dt-out", "10 ms", "--out", tmp], 1)
         rows.append(('CLI closed-loop sine --t-end "600 s" --dt-out "10 ms"',
-                     f"{wall:.1f} s wall, {rss:.0f} MB", "<= 15 s, <= 400 MB"))
+                     f"{wall:.1f} s wall, {cpu:.1f} s CPU, {rss:.0f} MB", "<= 15 s, <= 400 MB"))
     print(f"hydroline {sys.version.split()[0]}, {os.cpu_count()} CPUs, median of {args.repeat} "
-          f"after a warm-up")
+          f"after a warm-up; load average {os.getloadavg()[0]:.1f} (other jobs inflate every "
+          f"figure: compare runs at equal load)")
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     print(f"{'what':<{w0}}  {'measured':<{w1}}  target")

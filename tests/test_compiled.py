@@ -81,6 +81,69 @@ def test_oscillator_step_matches_exact_solution():
     assert res["x"] == pytest.approx(res["osc.x"])   # the signal equals the state
 
 
+
+@dataclass(kw_only=True)
+class ModalBlock(Component):
+    """Lightly damped modes driven by one input, as a hose's modal states (M10): per mode
+    q'' + 2 zeta w q' + w^2 q = w^2 g u; output the sum of the q."""
+
+    omegas: tuple = ()
+    zetas: tuple = ()
+    gains: tuple = ()
+    inputs = {"u": Port("position")}
+    outputs = {"y": Port("position")}
+    feedthrough = False
+
+    @property
+    def states(self):
+        return [s for i in range(len(self.omegas))
+                for s in (State(f"q{i}", "m", 1e-3), State(f"r{i}", "m/s", 1e-3 * self.omegas[i]))]
+
+    def outputs_of(self, t, x, u, p):
+        return {"y": sum(x[f"q{i}"] for i in range(len(self.omegas)))}
+
+    def derivatives(self, t, x, u, p):
+        out = {}
+        for i, (w, z, g) in enumerate(zip(self.omegas, self.zetas, self.gains)):
+            out[f"q{i}"] = x[f"r{i}"]
+            out[f"r{i}"] = w * w * (g * u["u"] - x[f"q{i}"]) - 2 * z * w * x[f"r{i}"]
+        return out
+
+
+@needs_cc
+def test_stiff_modal_block_matches_the_matrix_exponential():
+    # modes from 40 Hz to 16 kHz (damping 1 % to 30 %): eigenvalues from -2.5 to -3e4 1/s in
+    # real part, the stiffness of a hose's modal line (M10) next to its slow first mode; the
+    # exact solution of x' = A x + b u (u constant) is x(t) = e^{At} x0 + A^-1 (e^{At} - I) b u
+    from scipy.linalg import expm
+
+    omegas = tuple(2 * np.pi * f for f in (40.0, 400.0, 2500.0, 16000.0))
+    zetas, gains, u = (0.01, 0.02, 0.05, 0.3), (1.0, -0.5, 0.25, 0.1), 1e-3
+    net = Network([Hold(name="source", value=u),
+                   ModalBlock(name="m", omegas=omegas, zetas=zetas, gains=gains)])
+    n = 2 * len(omegas)
+    A, b = np.zeros((n, n)), np.zeros(n)
+    for i, (w, z, g) in enumerate(zip(omegas, zetas, gains)):
+        A[2 * i, 2 * i + 1] = 1.0
+        A[2 * i + 1, 2 * i], A[2 * i + 1, 2 * i + 1] = -w * w, -2 * z * w
+        b[2 * i + 1] = w * w * g * u
+    x0 = np.zeros(n)
+    x0[0], x0[3] = 2e-3, -1.0                # start away from rest in the slow and a fast mode
+    res = integrate(net, x0, 0.05, dt_out=2e-4, solver="compiled", rtol=1e-8, atol_scale=1e-9)
+    assert res.metadata["solver"] == "compiled"
+    names = net.state_names
+    worst = 0.0
+    for k in (10, 50, 125, 250):            # 2, 10, 25, 50 ms
+        E = expm(A * res.t[k])
+        exact = E @ x0 + np.linalg.solve(A, (E - np.eye(n)) @ b)
+        got = np.array([res[name][k] for name in names])
+        for i in range(len(omegas)):       # error of each mode's position, of its swing
+            q = 2 * i
+            swing = max(abs(x0[q]), abs(gains[i] * u), 1e-3 * abs(x0[q + 1]) / omegas[i])
+            worst = max(worst, abs(got[q] - exact[q]) / swing)
+    # a tolerance-controlled BDF's global error: some hundred rtol of the swing
+    assert worst < 1e-5
+
 @needs_cc
 def test_runtime_parameters_and_constants_need_no_recompile():
     # two stiffnesses = same structure: one library, different constants (values that make
