@@ -99,8 +99,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     chosen = [c for c in CANDIDATES if not args.only or c[0] in args.only.split(",")]
     head = ["candidate", "rtol", "atol", "steps", "f evals", "LU", "rejected", "max err [%]",
-            "CPU min [ms]", "CPU median [ms]", "vs baseline"]
-    rows = []
+            "CPU min [ms]", "CPU median [ms]", "CPU / baseline"]
+    rows, notes = [], []
     with tempfile.TemporaryDirectory() as tmp:
         ref = os.path.join(tmp, "ref.npz")
         reference(ref)
@@ -108,8 +108,8 @@ def main(argv=None):
             base = run("baseline", [], 1e-6, 1e-7, args.repeat, ref, tmp)   # the pair's baseline
             got = base if label == "baseline" else run(label, flags, rtol, atol, args.repeat, ref, tmp)
             if "failed" in got:
-                rows.append([label, f"{rtol:g}", f"{atol:g}", "failed: " + got["failed"]]
-                            + [""] * (len(head) - 4))
+                notes.append(f"{label}: {got['failed']}")
+                rows.append([label, f"{rtol:g}", f"{atol:g}", "failed"] + ["-"] * (len(head) - 4))
                 continue
             rows.append([label, f"{rtol:g}", f"{atol:g}", got["nsteps"], got["nfevals"], got["nlu"],
                          got["nrejected"], f"{got['err']:.2e}", f"{got['cpu_min'] * 1e3:.2f}",
@@ -123,6 +123,8 @@ def main(argv=None):
     print("  ".join("-" * w for w in widths))
     for r in rows:
         print("  ".join(str(c).rjust(w) for c, w in zip(r, widths)))
+    for note in notes:
+        print(note)
 
 
 if __name__ == "__main__":
