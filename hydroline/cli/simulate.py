@@ -187,7 +187,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             if scenario == "closed-loop-sine":
                 keep.append("position_reference")
                 # constant memory: the summary computed chunk by chunk as the rows arrive
-                stream = _sine_summary_stream(rig, scenario, duration)
+                stream = _sine_summary_stream(rig, scenario, t_end)
                 options = dict(observe=stream.update, keep_columns=[])
             else:
                 options = dict(keep_columns=keep)
@@ -264,10 +264,11 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     return 0
 
 
-def _sine_summary_stream(rig, scenario, duration) -> SineSummaryStream:
-    """The closed-loop sine's summary accumulator for a long run of a single-axis rig."""
+def _sine_summary_stream(rig, scenario, t_end) -> SineSummaryStream:
+    """The closed-loop sine's summary accumulator for a long run of a single-axis rig (t_end
+    [s], None: the scenario's)."""
     circuit = build_circuit(rig)
-    sc = build_scenario(rig, scenario, duration, axes=circuit.axes)
+    sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
     ax = next(iter(circuit.axes.values()))
     return SineSummaryStream(sc.t_disturbance, ax.stroke, float(sc.commands[0].frequency),
                              ax.supply_pressure, ax.return_pressure, ax.position,
