@@ -60,7 +60,7 @@ from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..simulation import integrate, solve_steady_state
 from ..system import build_network
 from ..units import csv_column, split_header
-from .linearize import OperatingPoint, _transfer_state, solve_operating_point
+from .linearize import OperatingPoint, transfer_state, solve_operating_point
 
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
            "FitResult", "fit_parameters", "simulate_record", "parameter_unit", "noise_level",
@@ -257,7 +257,7 @@ def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto"):
         cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=values,
                                 connections={"command": "valve_current"})
         net = build_network(rig, [cmd], float(x0))
-        x, p = _transfer_state(hold, net)
+        x, p = transfer_state(hold, net)
         return _Start(net, x, p)
     cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=current,
                             connections={"command": "valve_current"})

@@ -45,7 +45,7 @@ from ..rigs import Rig, load_rig
 from ..simulation import integrate
 from ..system import build_network
 from .fit import DataError, Measurements, noise_level
-from .linearize import OperatingPoint, _transfer_state, solve_operating_point
+from .linearize import OperatingPoint, transfer_state, solve_operating_point
 
 __all__ = ["newton_friction", "steady_velocity_point", "StribeckFit", "fit_stribeck",
            "FrictionIdentification", "identify_friction", "virtual_friction_tests",
@@ -495,7 +495,7 @@ def _open_loop_run(rig, di, t_run, dt, label, load_cell=False):
     cmd = comp.StepCommand(name="command", initial=i0, final=i0 + di, time=5e-3,
                            connections={"command": "valve_current"})
     net = build_network(rig, [cmd], x0)
-    x, p = _transfer_state(hold, net)
+    x, p = transfer_state(hold, net)
     p[net.parameter_names.index("command.initial")] = i0
     p[net.parameter_names.index("command.final")] = i0 + di
     res = integrate(net, x, t_run, dt_out=dt, p=p)
