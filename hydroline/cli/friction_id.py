@@ -5,7 +5,8 @@ import numpy as np
 
 from ..analysis.figures import plot_friction
 from ..analysis.fit import read_measurements
-from ..analysis.friction_id import FRICTION_COLUMNS, identify_friction, virtual_friction_tests
+from ..analysis.friction_id import FRICTION_COLUMNS, identify_friction
+from ..studies.friction_tests import virtual_friction_tests
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 
