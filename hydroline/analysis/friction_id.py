@@ -40,24 +40,82 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from .. import components as comp
 from ..rigs import Rig, load_rig
+from ..system import build_circuit
 from .fit import DataError, Measurements, noise_level
+from .linearize import select_axis
 
 __all__ = ["newton_friction", "steady_velocity_point", "StribeckFit", "fit_stribeck",
-           "FrictionIdentification", "identify_friction",
+           "FrictionIdentification", "identify_friction", "axis_mechanics",
            "FRICTION_COLUMNS"]
 
 #: Columns friction identification needs.
 FRICTION_COLUMNS = ("time", "piston_position", "bottom_chamber_pressure", "top_chamber_pressure")
 
 
-def _areas(rig):
-    area = rig.get("actuator.area")
-    return rig.get("actuator.bottom_area", area), rig.get("actuator.top_area", area)
+@dataclass
+class AxisMechanics:
+    """What Newton's law (M23) on one axis's piston needs, from its components.
+
+    Attributes
+    ----------
+    bottom_area, top_area : float   A_b, A_t, [m^2]
+    mass : float                    Moving mass, actuator and load, [kg]
+    gravity : float                 g along the axis (0: horizontal), [m/s^2]
+    stroke : float                  Full stroke, [m]
+    load : Load or None             The load on the piston (stiffness, damping, applied force)
+    stribeck_exponent : float       delta of (M24) of the axis's friction, [-]
+    """
+
+    bottom_area: float
+    top_area: float
+    mass: float
+    gravity: float
+    stroke: float
+    load: object
+    stribeck_exponent: float
+
+    def load_force(self, x, v):
+        """The load's force on the piston, positive down, [N] (M23).
+
+        Parameters
+        ----------
+        x : array   Piston position, [m]
+        v : array   Piston velocity, [m/s]
+        """
+        ld = self.load
+        if ld is None:
+            return np.zeros_like(x)
+        return ld.stiffness * (x - ld.free_position) + ld.damping * v + ld.applied_force
+
+
+def axis_mechanics(rig: Rig, axis: str | None = None) -> AxisMechanics:
+    """The piston mechanics of one servo axis of a rig (its actuator, load and friction).
+
+    Parameters
+    ----------
+    rig : Rig    Parameters (SI)
+    axis : str   The axis (None: the first)
+
+    Returns
+    -------
+    AxisMechanics
+    """
+    ax = select_axis(rig, axis)
+    circuit = build_circuit(rig)
+    act = circuit.component(ax.actuator)
+    load = next((c for c in circuit.components if isinstance(c, comp.Load)
+                 and c.signal("load_force") == act.signal("load_force")), None)
+    fr = circuit.component(ax.friction) if ax.friction else None
+    return AxisMechanics(act.bottom_area, act.top_area,
+                         act.moving_mass + (load.mass if load is not None else 0.0), act.gravity,
+                         act.stroke, load, fr.stribeck_exponent if fr is not None else 2.0)
 
 
 def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
-                    stop_margin: float = 1e-3) -> pd.DataFrame:
+                    stop_margin: float = 1e-3, axis: str | None = None,
+                    mechanics: AxisMechanics | None = None) -> pd.DataFrame:
     """Friction force on the piston from Newton's law (M23), sample by sample.
 
     Parameters
@@ -68,6 +126,8 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
                           follow the actuator's resonance after a friction reversal (1-2 ms
                           at 172 Hz), long enough to tame the noise of a measured position
     stop_margin : float   Samples closer than this to an end stop are dropped, [m]
+    axis : str            The axis the record is of (None: the first)
+    mechanics : AxisMechanics  The axis's mechanics (from ``rig`` and ``axis`` when None)
 
     Returns
     -------
@@ -103,16 +163,11 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
         v = savgol_filter(x, n_win, 3, deriv=1, delta=dt)
         a = savgol_filter(x, n_win, 3, deriv=2, delta=dt)
         noise, h = noise_level(x), savgol_coeffs(n_win, 3, deriv=1, delta=dt)
-    Ab, At = _areas(rig)
-    m = rig["actuator.moving_mass"] + rig.get("load.mass", 0.0)
-    g = rig.get("actuator.gravity", 9.81)
-    if "external_force" in meas.data:
-        f_load = col("external_force")
-    else:
-        f_load = (rig.get("load.stiffness", 0.0) * (x - rig.get("load.free_position", 0.0))
-                  + rig.get("load.damping", 0.0) * v + rig.get("load.applied_force", 0.0))
+    mech = mechanics or axis_mechanics(rig, axis)
+    Ab, At, m, g = mech.bottom_area, mech.top_area, mech.mass, mech.gravity
+    f_load = col("external_force") if "external_force" in meas.data else mech.load_force(x, v)
     F = Ab * col("bottom_chamber_pressure") - At * col("top_chamber_pressure") - f_load - m * g - m * a
-    half = rig["actuator.stroke"] / 2
+    half = mech.stroke / 2
     keep = np.abs(x) < half - stop_margin
     keep[: n_win // 2] = False
     keep[len(keep) - n_win // 2:] = False
@@ -417,7 +472,7 @@ class FrictionIdentification:
 
 def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float = 2e-3,
                       min_speed: float = 2e-4, stribeck_exponent: float | None = None,
-                      sine_min_speed: float = 0.02) -> FrictionIdentification:
+                      sine_min_speed: float = 0.02, axis: str | None = None) -> FrictionIdentification:
     """Friction from steady-velocity open-loop runs and closed-loop sine records.
 
     Parameters
@@ -430,6 +485,8 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     stribeck_exponent : float         delta [-]; the rig's when None
     sine_min_speed : float            Slowest sine sample used: near reversal the piston
                                       sticks and Newton's law gives the applied force, [m/s]
+    axis : str                        The axis the records are of (None: the first); its
+                                      actuator, load and friction give the mechanics
 
     Each steady run's point is weighted by the samples it averages, each sine sample by 1;
     only steady points count as evidence for F_s and C_s (:func:`fit_stribeck`): a sine's
@@ -440,10 +497,11 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     FrictionIdentification
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
+    mech = axis_mechanics(rig, axis)
     points = {}
     vs, Fs, ns = [], [], []
     for meas in steady:
-        pt = steady_velocity_point(newton_friction(meas, rig, window))
+        pt = steady_velocity_point(newton_friction(meas, rig, window, mechanics=mech))
         if pt is not None:
             vs.append(pt[0])
             Fs.append(pt[1])
@@ -452,7 +510,7 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
         points["steady-velocity open-loop runs"] = (np.array(vs), np.array(Fs))
     sv, sF = [], []
     for meas in sine:
-        nf = newton_friction(meas, rig, window)
+        nf = newton_friction(meas, rig, window, mechanics=mech)
         moving = np.abs(nf["velocity"].to_numpy()) >= sine_min_speed
         sv.append(nf["velocity"].to_numpy()[moving])
         sF.append(nf["friction_force"].to_numpy()[moving])
@@ -467,6 +525,6 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     # a steady point averages n samples: weight n against a sine sample's 1
     weights = np.concatenate([np.asarray(ns, dtype=float), np.ones(n_sine)])
     is_steady = np.concatenate([np.ones(len(vs), dtype=bool), np.zeros(n_sine, dtype=bool)])
-    delta = rig.get("friction.stribeck_exponent", 2.0) if stribeck_exponent is None else stribeck_exponent
+    delta = mech.stribeck_exponent if stribeck_exponent is None else stribeck_exponent
     return FrictionIdentification(points, fit_stribeck(v, F, delta, None, min_speed,
                                                        weights=weights, steady=is_steady))

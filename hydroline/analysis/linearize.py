@@ -66,7 +66,7 @@ from ..system import build_circuit
 
 __all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
            "solve_operating_point", "linearize", "linear_network", "jacobians", "SUPPLIES",
-           "AXIS_SIGNALS", "select_axis", "axis_signal", "input_parameter", "check_names",
+           "AXIS_SIGNALS", "select_axis", "axis_network", "axis_signal", "input_parameter", "check_names",
            "transfer_state", "friction_slope"]
 
 #: Inputs of the linear model: name -> (runtime parameter of the network, SI unit, meaning).
@@ -227,6 +227,36 @@ class SolvedOperatingPoint:
     axis: object = None
 
 
+def axis_network(rig: Rig, commands: list, axis: str | None = None,
+                 position_guess: float | None = None) -> Network:
+    """The rig's network with one axis driven open loop by ``commands`` (its valve current):
+    that axis's position controller, if the circuit has one, is left out; every other axis
+    holds (:func:`hydroline.scenarios.hold_other_axes`).
+
+    Parameters
+    ----------
+    rig : Rig               Parameters (SI)
+    commands : list         Components driving the axis's valve current signal
+                            (``select_axis(rig, axis).current``)
+    axis : str              The axis (None: the first)
+    position_guess : float  Its piston position for the steady-state solver's guess, [m]
+
+    Returns
+    -------
+    Network
+    """
+    ax = select_axis(rig, axis)
+    first = next(iter(build_circuit(rig).axes))
+    circuit = build_circuit(rig, position_guess if ax.name == first else None)
+    if ax.name != first:
+        try:
+            circuit.place(position_guess, ax.name)
+        except ValueError as e:
+            raise RigError(str(e)) from None
+    circuit.components = [c for c in circuit.components if c.name != ax.controller]
+    return circuit.network(list(commands) + hold_other_axes(rig, circuit.axes, ax.name))
+
+
 def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
                    position_guess: float | None = None, friction_force: float | None = None,
                    axis: str | None = None) -> Network:
@@ -252,17 +282,9 @@ def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
     if supply not in SUPPLIES:
         raise ValueError(f"supply must be one of {', '.join(SUPPLIES)}; got {supply!r}")
     ax = select_axis(rig, axis)
-    first = next(iter(build_circuit(rig).axes))
-    circuit = build_circuit(rig, position_guess if ax.name == first else None)
-    if ax.name != first:
-        try:
-            circuit.place(position_guess, ax.name)
-        except ValueError as e:
-            raise RigError(str(e)) from None
     cmd = comp.StepCommand(name="command", quantity="current", initial=valve_current,
                            final=valve_current, time=0.0, connections={"command": ax.current})
-    circuit.components = [c for c in circuit.components if c.name != ax.controller]
-    net = circuit.network([cmd] + hold_other_axes(rig, circuit.axes, ax.name))
+    net = axis_network(rig, [cmd], ax.name, position_guess)
     if supply == "lines" and friction_force is None:
         return net
     parts = list(net.components)

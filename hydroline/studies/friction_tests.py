@@ -8,16 +8,20 @@ was given (M24). CLI: ``hydroline friction-id --virtual``.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
 from .. import components as comp
 from ..analysis.fit import Measurements
-from ..analysis.linearize import OperatingPoint, solve_operating_point, transfer_state
+from ..analysis.friction_id import axis_mechanics
+from ..analysis.linearize import (OperatingPoint, axis_network, axis_signal, select_axis,
+                                  solve_operating_point, transfer_state)
 from ..rigs import Rig, load_rig
-from ..scenarios import simulate
+from ..scenarios import experiment, simulate
 from ..simulation import integrate
-from ..system import build_network
+from ..system import build_circuit
 
 __all__ = ["virtual_friction_tests", "RECORD_COLUMNS"]
 
@@ -26,28 +30,32 @@ RECORD_COLUMNS = ("valve_current", "supply_port_pressure", "return_port_pressure
                   "bottom_chamber_pressure", "top_chamber_pressure", "piston_position")
 
 
-def _record(res, columns=RECORD_COLUMNS, load_cell=False):
+def _record(res, axis, columns=RECORD_COLUMNS, load_cell=False, load_force=None):
+    """The record of a run as the axis's data acquisition writes it (generic column names)."""
     data = {"time": res.t}
-    data.update({c: res[c] for c in columns if c in res.data})
+    data.update({c: res[axis_signal(axis, c)] for c in columns
+                 if axis_signal(axis, c) in res.data})
     if load_cell:   # the load force as a load cell on the rod measures it (positive down)
-        data["external_force"] = res["load_force"]
+        data["external_force"] = res[load_force]
     return pd.DataFrame(data)
 
 
-def _open_loop_run(rig, di, t_run, dt, label, load_cell=False):
+def _open_loop_run(rig, axis, di, t_run, dt, label, load_cell=False):
     """Piston held at -+40 mm, then the current steps by di at 5 ms (one steady run)."""
     x0 = -0.04 if di > 0 else 0.04
-    hold = solve_operating_point(rig, OperatingPoint(piston_position=x0))
-    half = hold.axis.stroke / 2
+    hold = solve_operating_point(rig, OperatingPoint(piston_position=x0), axis=axis)
+    ax = hold.axis
+    half = ax.stroke / 2
     i0 = hold.valve_current
     cmd = comp.StepCommand(name="command", initial=i0, final=i0 + di, time=5e-3,
-                           connections={"command": hold.axis.current})
-    net = build_network(rig, [cmd], x0)
+                           connections={"command": ax.current})
+    net = axis_network(rig, [cmd], ax.name, x0)
     x, p = transfer_state(hold, net)
     p[net.parameter_names.index("command.initial")] = i0
     p[net.parameter_names.index("command.final")] = i0 + di
     res = integrate(net, x, t_run, dt_out=dt, p=p)
-    df = _record(res, load_cell=load_cell)
+    df = _record(res, ax, load_cell=load_cell,
+                 load_force=net.component(ax.actuator).signal("load_force"))
     near = np.flatnonzero(np.abs(df["piston_position"].to_numpy()) > half - 2e-3)
     if near.size:
         df = df.iloc[:max(int(near[0]), 10)]
@@ -56,7 +64,7 @@ def _open_loop_run(rig, di, t_run, dt, label, load_cell=False):
 
 def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: float = 0.12,
                            sine: bool = True, dt: float = 1e-4, slow_currents=None,
-                           damper: float = 1e4):
+                           damper: float = 1e4, axis: str | None = None):
     """The paper's friction experiments run on the model itself (to check the identification).
 
     Open-loop runs: the piston held at -40 mm (up runs) or +40 mm (down runs) by its holding
@@ -84,27 +92,36 @@ def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: f
                              +-(0.1, 0.14, 0.2, 0.3, 0.4) % of rated when None (about 2-9 mm/s
                              on the default rig); () for none
     damper : float           Damping of the slow runs' specimen, [N s/m]
+    axis : str               The axis tested (None: the first); the others hold. Its load
+                             takes the damper; the sine is the rig's ``closed-loop-sine`` on it
 
     Returns
     -------
     (steady, sine) : lists of Measurements
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
-    i_r = rig["servovalve.rated_current"]
+    ax = select_axis(rig, axis)
+    i_r = build_circuit(rig).component(ax.valve).rated_current
     if currents is None:
         currents = [s * f * i_r for f in (0.01, 0.03, 0.1, 0.25) for s in (1, -1)]
     if slow_currents is None:
         slow_currents = [s * f * i_r for f in (0.001, 0.0014, 0.002, 0.003, 0.004) for s in (1, -1)]
-    steady = [_open_loop_run(rig, di, t_run, dt, f"virtual open-loop run, {di * 1e3:+.3g} mA")
-              for di in currents]
+    steady = [_open_loop_run(rig, ax.name, di, t_run, dt,
+                             f"virtual open-loop run, {di * 1e3:+.3g} mA") for di in currents]
     if len(slow_currents):
+        load = axis_mechanics(rig, ax.name).load
+        if load is None:
+            raise ValueError(f"axis '{ax.name}': no load component to add the slow runs' "
+                             f"damper to (slow_currents=() runs none)")
+        path = (f"circuit.{load.name}.damping" if f"circuit.{load.name}.type" in rig.raw
+                else "load.damping")
         damped = rig.copy()
-        damped.set("load.damping", f"{rig.get('load.damping', 0.0) + damper!r} N*s/m")
-        steady += [_open_loop_run(damped, di, t_run, dt, f"virtual slow run against a "
+        damped.set(path, f"{load.damping + damper!r} N*s/m")
+        steady += [_open_loop_run(damped, ax.name, di, t_run, dt, f"virtual slow run against a "
                                   f"{damper:g} N s/m damper, {di * 1e3:+.3g} mA", load_cell=True)
                    for di in slow_currents]
     sines = []
     if sine:
-        res = simulate(rig, "closed-loop-sine", dt_out=dt)
-        sines.append(Measurements(_record(res), "virtual closed-loop sine"))
+        res = simulate(rig, replace(experiment(rig, "closed-loop-sine"), axis=ax.name), dt_out=dt)
+        sines.append(Measurements(_record(res, ax), "virtual closed-loop sine"))
     return steady, sines
