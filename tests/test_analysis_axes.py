@@ -88,3 +88,46 @@ def test_bode_axis1_shows_supply_hose_quarter_wave(rig):
     f_peak = f[int(np.argmax(g))]
     assert f_peak == pytest.approx(quarter_wave_hz(rig, "axis1.supply_hose"), rel=0.05)
     assert b.operating_points["hoses, modal lines"].axis.name == "axis1"
+
+
+def test_friction_identified_on_axis2(rig):
+    """Axis 2's friction, set apart from axis 1's, comes back from virtual steady-velocity
+    runs on axis 2 (Newton's law, M23, with axis 2's areas, mass and load; M24 fitted)."""
+    from hydroline.analysis.friction_id import friction_table, identify_friction
+    from hydroline.studies.friction_tests import virtual_friction_tests
+
+    r = rig.copy()
+    truth = {"viscous_up": 1200.0, "viscous_down": 1000.0, "coulomb_up": 70.0, "coulomb_down": 40.0}
+    for k, v in truth.items():
+        r.set(f"circuit.axis2.friction.{k}", f"{v} {'N*s/m' if k.startswith('viscous') else 'N'}")
+    i_r = r["circuit.axis2.servovalve.rated_current"]
+    steady, _ = virtual_friction_tests(r, currents=[s * f * i_r for f in (0.1, 0.25)
+                                                    for s in (1, -1)],
+                                       t_run=0.05, slow_currents=(), sine=False, axis="axis2")
+    fit = identify_friction(r, steady, window=1e-3, axis="axis2").fit
+    for k, v in truth.items():
+        assert getattr(fit, k) == pytest.approx(v, rel=0.02), k
+    assert friction_table(r, "axis2") == "circuit.axis2.friction"
+    assert fit.apply(r, "circuit.axis2.friction")["circuit.axis2.friction.viscous_up"] == \
+        pytest.approx(fit.viscous_up)
+
+
+def test_fit_a_hose_of_axis2(rig):
+    """A record of axis 2's supply port pressure after a valve step, made with a stiffer axis-2
+    supply hose, gives that hose's bulk modulus back (the line's wave speed sets the ringing)."""
+    import pandas as pd
+
+    from hydroline.analysis.fit import Measurements, fit_parameters, parameter_unit, simulate_record
+
+    path = "circuit.axis2.supply_hose.bulk_modulus"
+    assert parameter_unit(rig, path) == "Pa"
+    t = np.arange(0.0, 0.03, 2e-4)
+    df = pd.DataFrame({"time": t, "valve_current": np.where(t >= 5e-3, 10e-3, 0.0),
+                       "supply_port_pressure": np.zeros_like(t)})
+    true = rig.copy()
+    true.set(path, "215 MPa")
+    df["supply_port_pressure"] = simulate_record(true, Measurements(df, "model"),
+                                                 start="rest", axis="axis2")["supply_port_pressure"]
+    res = fit_parameters(rig, Measurements(df, "model"), [path], start="rest", axis="axis2",
+                         max_evaluations=6)
+    assert res.estimate[0] == pytest.approx(215e6, rel=1e-3)

@@ -47,7 +47,8 @@ from .fit import DataError, Measurements, noise_level
 from .linearize import select_axis
 
 __all__ = ["newton_friction", "steady_velocity_point", "StribeckFit", "fit_stribeck",
-           "FrictionIdentification", "identify_friction", "axis_mechanics",
+           "FrictionIdentification", "identify_friction", "axis_mechanics", "friction_table",
+           "FRICTION_UNITS",
            "FRICTION_COLUMNS"]
 
 #: Columns friction identification needs.
@@ -274,23 +275,56 @@ class StribeckFit:
         e = np.exp(-(np.abs(v) / self.stribeck_velocity) ** self.stribeck_exponent)
         return fv * v + np.sign(v) * (fc + (fs - fc) * e)
 
-    def rig_values(self) -> dict:
-        """Rig paths -> values [SI] (``friction.*``); static terms only when identified."""
-        out = {f"friction.{k}": getattr(self, k) for k in (
+    def rig_values(self, prefix: str = "friction") -> dict:
+        """Rig paths -> values [SI] (``<prefix>.*``); static terms only when identified.
+
+        Parameters
+        ----------
+        prefix : str   The friction's table: "friction" (template rig) or
+                       ``circuit.<component>`` (:func:`friction_table`)
+        """
+        out = {f"{prefix}.{k}": getattr(self, k) for k in (
             "viscous_up", "viscous_down", "coulomb_up", "coulomb_down")}
         if self.static_identified:
-            out.update({"friction.static_up": self.static_up, "friction.static_down": self.static_down,
-                        "friction.stribeck_velocity": self.stribeck_velocity})
+            out.update({f"{prefix}.static_up": self.static_up,
+                        f"{prefix}.static_down": self.static_down,
+                        f"{prefix}.stribeck_velocity": self.stribeck_velocity})
         return out
 
-    def apply(self, rig: Rig) -> Rig:
-        """A copy of the rig with the fitted coefficients (units written out)."""
-        from ..rigs import SCHEMA
+    def apply(self, rig: Rig, prefix: str = "friction") -> Rig:
+        """A copy of the rig with the fitted coefficients (units written out).
 
+        Parameters
+        ----------
+        rig : Rig      The rig
+        prefix : str   The friction's table (:func:`friction_table`)
+        """
         out = rig.copy()
-        for path, v in self.rig_values().items():
-            out.set(path, f"{float(v)!r} {SCHEMA['friction'][path.split('.')[1]]}")
+        for path, v in self.rig_values(prefix).items():
+            key = path.rsplit(".", 1)[1]
+            out.set(path, f"{float(v)!r} {FRICTION_UNITS[key]}")
         return out
+
+
+#: Units of the identified (M24) coefficients, [SI].
+FRICTION_UNITS = {"viscous_up": "N*s/m", "viscous_down": "N*s/m", "coulomb_up": "N",
+                  "coulomb_down": "N", "static_up": "N", "static_down": "N",
+                  "stribeck_velocity": "m/s"}
+
+
+def friction_table(rig: Rig, axis: str | None = None) -> str:
+    """The rig table of an axis's friction: "friction" on the template rig, else
+    ``circuit.<component>``.
+
+    Parameters
+    ----------
+    rig : Rig    The rig
+    axis : str   The axis (None: the first)
+    """
+    ax = select_axis(rig, axis)
+    if ax.friction and f"circuit.{ax.friction}.type" in rig.raw:
+        return f"circuit.{ax.friction}"
+    return "friction"
 
 
 def _basis(v, cs, delta, sign):
