@@ -45,8 +45,12 @@ def default_scenario(rig: Rig) -> str:
 #: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
 #: no longer holds, [Pa].
 CAVITATION_PRESSURE = ATMOSPHERIC_PRESSURE
+#: Shared nodes watched besides every axis's ports and chambers (from its handles), where the
+#: circuit has them: the HSM nodes of the template rig and of ``two_axis``.
+WATCHED_NODES = ("supply.manifold_pressure", "return.manifold_pressure")
+#: What is watched in a result without axis handles (the template rig's signals).
 WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
-                     "top_chamber_pressure", "supply.manifold_pressure", "return.manifold_pressure")
+                     "top_chamber_pressure") + WATCHED_NODES
 
 
 @dataclass
@@ -836,13 +840,22 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
 
 
 def watched_pressures(res: SimulationResult) -> list[str]:
-    """Pressure signals watched for cavitation: the paper rig's and every axis's ports and
-    chambers (from the handles in ``res.metadata["axes"]``)."""
-    out = list(WATCHED_PRESSURES)
-    for ax in res.metadata.get("axes", {}).values():
+    """Pressure signals watched for cavitation: every axis's ports and chambers (from the
+    handles in ``res.metadata["axes"]``) and the shared nodes (:data:`WATCHED_NODES`); the
+    template's signals (:data:`WATCHED_PRESSURES`) for a result without handles.
+
+    Parameters
+    ----------
+    res : SimulationResult  A run
+    """
+    axes = res.metadata.get("axes") or {}
+    if not axes:
+        return list(WATCHED_PRESSURES)
+    out = []
+    for ax in axes.values():
         out += [s for s in (ax.supply_pressure, ax.return_pressure, ax.bottom_pressure,
                             ax.top_pressure) if s not in out]
-    return out
+    return out + [s for s in WATCHED_NODES if s not in out]
 
 
 #: Recent (scenario, t_end, rig values) -> (circuit, scenario, network, steady state): a
