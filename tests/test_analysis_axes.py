@@ -7,7 +7,7 @@ from scipy.linalg import expm
 from hydroline.analysis.frequency import bode_analysis, rated_velocity
 from hydroline.analysis.linearize import linearize, select_axis
 from hydroline.rigs import load_rig
-from hydroline.simulation import integrate
+from hydroline.engine import integrate
 from hydroline.traces.metrics import oscillation_frequency
 
 

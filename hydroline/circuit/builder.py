@@ -32,7 +32,8 @@ import numpy as np
 from .. import components as comp
 from ..fluid import Fluid
 from ..lines import Line, ModalLine
-from ..network import Network, NetworkError
+from ..engine import Network, NetworkError
+from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
 
 __all__ = ["Axis", "Circuit", "axes_of", "circuit_components", "circuit_names", "has_circuit",
@@ -272,21 +273,7 @@ class Circuit:
         -------
         list of dict  keys signal, producer (None: from the experiment), consumers, quantity, unit
         """
-        parts = list(self.components) + list(commands)
-        rows, by_signal = [], {}
-        for c in parts:
-            for port, spec in c.outputs.items():
-                by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
-                                                      "quantity": spec.quantity, "unit": spec.unit})
-                by_signal[c.signal(port)]["producer"] = f"{c.name}.{port}"
-        for c in parts:
-            for port, spec in c.inputs.items():
-                row = by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
-                                                            "quantity": spec.quantity, "unit": spec.unit})
-                row["consumers"].append(f"{c.name}.{port}")
-        for sig, row in by_signal.items():
-            rows.append({"signal": sig, **row})
-        return rows
+        return connection_table(list(self.components) + list(commands))
 
 
 def rewire(parts: list, overrides: dict, allow_unknown: bool = False):

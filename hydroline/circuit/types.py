@@ -1,7 +1,7 @@
 """The component types a circuit file may use, with their parameters declared once.
 
 Each type names a component class of :mod:`hydroline.components` (whose dataclass fields
-declare unit, bounds, description and default, see :class:`hydroline.network.Parameter`) or a
+declare unit, bounds, description and default, see :class:`hydroline.engine.Parameter`) or a
 small factory over one (a hose from its length and bore, an accumulator from its connection
 passage). Rig schemas, rig validation, circuit-file parsing and ``hydroline circuit`` read
 these tables; nothing else repeats a unit or a bound.
@@ -12,7 +12,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from .. import components as comp
-from ..network.component import Parameter
+from ..engine.component import Parameter
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
            "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT",

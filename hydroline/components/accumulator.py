@@ -4,8 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..lines.modal import StateSpaceLine
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["PistonAccumulator"]
 

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["Actuator"]
 

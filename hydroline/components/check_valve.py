@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network import ops
-from ..network.component import parameter
+from ..engine import ops
+from ..engine.component import parameter
 from .resistance import OrientedResistance
 
 __all__ = ["CheckValve"]

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["Servovalve", "valve_coefficient"]
 
@@ -31,7 +31,7 @@ class Servovalve(Component):
     saturated at +-rated_current and ``G_v = max_opening/rated_current``; the opening used in
     (M20) is clipped to +-max_opening. Each orifice: ``K_v sg(+-x_v + u_k) phi(dp)`` with
     ``phi(dp) = dp/(dp^2 + p_lam^2)^(1/4)``, the square-root law with a laminar region
-    below ``laminar_pressure`` (:func:`hydroline.network.ops.smooth_sqrt`).
+    below ``laminar_pressure`` (:func:`hydroline.engine.ops.smooth_sqrt`).
 
     Parameters
     ----------

@@ -20,7 +20,7 @@ from ..analysis.linearize import (OperatingPoint, axis_network, axis_signal, sel
                                   solve_operating_point, transfer_state)
 from ..rigs import Rig, load_rig
 from ..scenarios import experiment, simulate
-from ..simulation import integrate
+from ..engine import integrate
 from ..system import build_circuit
 
 __all__ = ["virtual_friction_tests", "RECORD_COLUMNS"]

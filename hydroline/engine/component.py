@@ -9,9 +9,16 @@ A component declares
 * ``derivatives(t, x, u, p)``: the time derivatives of the states.
 
 Both receive numbers (reference path) or CasADi symbols (compiled path) and must only use
-:mod:`hydroline.network.ops` and arithmetic. A component whose outputs do not depend on its
+:mod:`hydroline.engine.ops` and arithmetic. A component whose outputs do not depend on its
 inputs sets ``feedthrough = False``; the network uses it to order the evaluation and to find
 algebraic loops.
+
+Optional parts of the contract: ``runtime_parameters()`` (values that may change between runs
+without recompiling), ``initial_guess()`` and ``settle()`` (the steady-state solve),
+``breakpoints()`` (times where an input jumps), and for a *sampled* component (a digital
+controller) ``sample_time`` [s] with ``sample(x, u)``: at every multiple of the sample time the
+integrator stops, calls ``sample`` with the states and inputs there, and holds the runtime
+parameters it returns until the next instant (zero-order hold).
 """
 from __future__ import annotations
 
@@ -183,6 +190,8 @@ class Component:
     inputs = {}
     outputs = {}
     feedthrough = True
+    #: Zero-order-hold period of a sampled component, [s]; None for a continuous one
+    sample_time = None
 
     # ---- parameters ----------------------------------------------------------------------
     @classmethod
@@ -255,6 +264,17 @@ class Component:
         p : dict   Runtime parameters, name -> value [SI]
         """
         return None
+
+    def sample(self, x: dict, u: dict) -> dict:
+        """At a sampling instant (components with a ``sample_time``): the runtime parameters
+        to hold until the next one, name -> value [SI] (numbers, not symbols).
+
+        Parameters
+        ----------
+        x : dict   States at the instant, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        """
+        return {}
 
     def breakpoints(self, t_end: float) -> list[float]:
         """Times in (0, t_end) where the component's inputs to the ODE jump, [s].
