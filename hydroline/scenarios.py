@@ -134,8 +134,9 @@ def template_controller(rig: Rig, axis) -> comp.PositionController:
     PositionController
     """
     if rig is None or rig.get("controller.proportional_gain") is None:
-        raise RigError(f"axis '{axis.name}': no position controller in the circuit and no "
-                       f"[controller] proportional_gain [A/m] in the rig to close its loop")
+        raise RigError(f"controller.proportional_gain: not set in rig "
+                       f"{'' if rig is None else rig.source} [A/m] (axis '{axis.name}' has no "
+                       f"position controller in the circuit; this closes its loop)")
     return comp.PositionController(
         name="controller", proportional_gain=rig["controller.proportional_gain"],
         integral_gain=rig.get("controller.integral_gain", 0.0),
