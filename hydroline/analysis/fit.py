@@ -59,7 +59,7 @@ from .. import components as comp
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..engine import integrate, solve_steady_state
 from ..units import csv_column, split_header
-from .linearize import (OperatingPoint, axis_network, axis_signal, select_axis,
+from .linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal, select_axis,
                         solve_operating_point, transfer_state)
 
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
@@ -275,12 +275,12 @@ def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto", ax
     if start_mode(rig, meas, start, ax.name) == "hold":
         hold = solve_operating_point(rig, OperatingPoint(piston_position=float(x0)), axis=ax.name)
         values = current - current[0] + hold.valve_current
-        cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=values,
+        cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times - t0, values=values,
                                 connections={"command": ax.current})
         net = axis_network(rig, [cmd], ax.name, float(x0))
         x, p = transfer_state(hold, net)
         return _Start(net, x, p)
-    cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=current,
+    cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times - t0, values=current,
                             connections={"command": ax.current})
     # on a stop: the measured position may lie a hair beyond it (the stop's compliance, M23)
     guess = float(np.clip(x0, -half, half)) if x0 is not None and abs(x0) >= half - 1e-3 else None

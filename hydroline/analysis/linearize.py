@@ -66,8 +66,12 @@ from ..system import build_circuit
 
 __all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
            "solve_operating_point", "linearize", "linear_network", "jacobians", "SUPPLIES",
-           "AXIS_SIGNALS", "select_axis", "axis_network", "axis_signal", "input_parameter", "check_names",
+           "AXIS_SIGNALS", "VALVE_COMMAND", "select_axis", "axis_network", "axis_signal", "input_parameter", "check_names",
            "transfer_state", "friction_slope"]
+
+#: Name of the command component that drives the analysed axis's valve current (its runtime
+#: parameters ``command.initial``/``command.final`` are the current, [A]).
+VALVE_COMMAND = "command"
 
 #: Inputs of the linear model: name -> (runtime parameter of the network, SI unit, meaning).
 INPUTS = {
@@ -144,7 +148,7 @@ def input_parameter(network: Network, axis, name: str) -> str:
     str  Runtime parameter name
     """
     if name == "valve_current":
-        return "command.final"
+        return f"{VALVE_COMMAND}.final"
     if name == "external_force":
         act = network.component(axis.actuator)
         for c in network.components:
@@ -282,7 +286,7 @@ def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
     if supply not in SUPPLIES:
         raise ValueError(f"supply must be one of {', '.join(SUPPLIES)}; got {supply!r}")
     ax = select_axis(rig, axis)
-    cmd = comp.StepCommand(name="command", quantity="current", initial=valve_current,
+    cmd = comp.StepCommand(name=VALVE_COMMAND, quantity="current", initial=valve_current,
                            final=valve_current, time=0.0, connections={"command": ax.current})
     net = axis_network(rig, [cmd], ax.name, position_guess)
     if supply == "lines" and friction_force is None:
@@ -297,7 +301,7 @@ def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
             sig = net.signals_at(0.0, ss.x, ss.p)
             p_supply, p_return = sig[ax.supply_pressure], sig[ax.return_pressure]
         on_piston = {act.signal(k) for k in ("position", "velocity", "load_force", "friction_force")}
-        keep = {ax.valve, ax.actuator, "command"} | {
+        keep = {ax.valve, ax.actuator, VALVE_COMMAND} | {
             c.name for c in parts if isinstance(c, (comp.Load, comp.StribeckFriction))
             and set(c.outputs) and any(c.signal(k) in on_piston for k in c.outputs)}
         parts = [c for c in parts if c.name in keep]
@@ -324,7 +328,7 @@ class _HoldingCurrentProblem:
         self.model = network.compile()
         names = network.state_names
         self.ip, self.iv = names.index(f"{actuator}.position"), names.index(f"{actuator}.velocity")
-        self.jc = [network.parameter_names.index(k) for k in ("command.initial", "command.final")]
+        self.jc = [network.parameter_names.index(f"{VALVE_COMMAND}.{k}") for k in ("initial", "final")]
         self.position, self.velocity, self.k = position, velocity, velocity_gain
         self.jac_p = ca.Function("jac_p", [self.model.t, self.model.x, self.model.p],
                                  [ca.jacobian(self.model.dx, self.model.p)])

@@ -16,7 +16,7 @@ import pandas as pd
 from .. import components as comp
 from ..analysis.fit import Measurements
 from ..analysis.friction_id import axis_mechanics
-from ..analysis.linearize import (OperatingPoint, axis_network, axis_signal, select_axis,
+from ..analysis.linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal, select_axis,
                                   solve_operating_point, transfer_state)
 from ..rigs import Rig, load_rig
 from ..scenarios import experiment, simulate
@@ -47,12 +47,12 @@ def _open_loop_run(rig, axis, di, t_run, dt, label, load_cell=False):
     ax = hold.axis
     half = ax.stroke / 2
     i0 = hold.valve_current
-    cmd = comp.StepCommand(name="command", initial=i0, final=i0 + di, time=5e-3,
+    cmd = comp.StepCommand(name=VALVE_COMMAND, initial=i0, final=i0 + di, time=5e-3,
                            connections={"command": ax.current})
     net = axis_network(rig, [cmd], ax.name, x0)
     x, p = transfer_state(hold, net)
-    p[net.parameter_names.index("command.initial")] = i0
-    p[net.parameter_names.index("command.final")] = i0 + di
+    p[net.parameter_names.index(f"{VALVE_COMMAND}.initial")] = i0
+    p[net.parameter_names.index(f"{VALVE_COMMAND}.final")] = i0 + di
     res = integrate(net, x, t_run, dt_out=dt, p=p)
     df = _record(res, ax, load_cell=load_cell,
                  load_force=net.component(ax.actuator).signal("load_force"))
