@@ -131,3 +131,27 @@ def test_fit_a_hose_of_axis2(rig):
     res = fit_parameters(rig, Measurements(df, "model"), [path], start="rest", axis="axis2",
                          max_evaluations=6)
     assert res.estimate[0] == pytest.approx(215e6, rel=1e-3)
+
+
+def test_bode_cli_on_axis2_constant_supply_is_the_hydraulic_resonance(rig, tmp_path, capsys):
+    """With ideal constant port pressures axis 2 is valve + actuator alone: its one resonance
+    is w_h^2 = beta (A_b^2 / V_b + A_t^2 / V_t) / m at mid-stroke (M22, M23)."""
+    import json
+
+    from hydroline.cli import main
+
+    rc = main(["bode", "two_axis", "--axis", "axis2", "--velocity", "0 m/s", "--no-exact",
+               "--f-min", "20 Hz", "--f-max", "250 Hz", "--points", "200", "--json",
+               "--out", str(tmp_path)])
+    assert rc == 0
+    d = json.loads(capsys.readouterr().out)
+    a = "circuit.axis2.actuator."
+    wh = np.sqrt(rig[a + "bulk_modulus"] * (rig[a + "bottom_area"] ** 2 / rig[a + "bottom_volume"]
+                                            + rig[a + "top_area"] ** 2 / rig[a + "top_volume"])
+                 / rig[a + "moving_mass"])
+    ideal = d["resonances"]["constant supply and return"]
+    assert len(ideal) == 1
+    assert ideal[0]["frequency_hz"] == pytest.approx(wh / (2 * np.pi), rel=0.01)
+    assert main(["bode", "two_axis", "--axis", "axis9", "--json", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "axis9" in err[0] and "axis1, axis2" in err[0]

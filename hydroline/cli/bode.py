@@ -82,8 +82,8 @@ def summary_dict(res, op) -> dict:
             "external_force_n": solved.signals.get(
                 solved.network.component(solved.axis.actuator).signal("load_force")),
             "valve_current_a": {k: v.valve_current for k, v in res.operating_points.items()},
-            "supply_port_pressure_pa": solved.signals["supply_port_pressure"],
-            "return_port_pressure_pa": solved.signals["return_port_pressure"]},
+            "supply_port_pressure_pa": solved.signals[solved.axis.supply_pressure],
+            "return_port_pressure_pa": solved.signals[solved.axis.return_pressure]},
         "frequency_range_hz": [float(res.f[0]), float(res.f[-1])],
         "bandwidth_hz": res.bandwidths, "bandwidth_notes": res.notes,
         "highest_retained_mode_hz": res.highest_mode_hz,
