@@ -351,5 +351,5 @@ def test_parameter_reference_derives_from_declarations(capsys):
         assert f"### `{name}`" in out
         for key in t.declarations():
             assert f"| `{key}` |" in out
-    assert "| `rated_current` | A | > 0 | 0.05 |" in out
-    assert "| `polytropic_exponent` | - | within [1, 1.66667] | 1.4 |" in out
+    assert "| `rated_current` | A | > 0 | 0.0001 ... 5 | 0.05 |" in out
+    assert "| `polytropic_exponent` | - | within [1, 1.66667] | 1 ... 1.66667 | 1.4 |" in out

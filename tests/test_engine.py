@@ -2,6 +2,7 @@
 the connection table names every signal's producer and readers, and the three solver
 backends give the same run (the SciPy path is the per-component Python reference)."""
 import ast
+import re
 import pathlib
 import warnings
 
@@ -128,3 +129,48 @@ def test_cli_says_lost_flow_once_in_one_line(tmp_path, capsys):
     err = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
     assert len(err) == 1
     assert "'axis2.supply_hose_inflow' (axis2.supply_hose.upstream_flow)" in err[0]
+
+
+# ---- parameters declared once (issue 12 item 2) ------------------------------------------------
+def test_template_table_repeats_no_component_declaration():
+    """A template-rig parameter that a component declares takes unit, description and
+    plausible range from that declaration: the table holds no second copy."""
+    from hydroline.rigs.parameters import PARAMETERS, Declared
+
+    from hydroline.rigs import declarations
+    for path, entry in PARAMETERS.entries.items():
+        section, key = path.rsplit(".", 1)
+        decl = declarations(section).get(key)
+        if decl is not None:
+            assert isinstance(entry, Declared), f"{path}: unit/range repeated in the rig table"
+            assert PARAMETERS[path].unit == decl.unit.replace("list:", "")
+            assert (PARAMETERS[path].low, PARAMETERS[path].high) == decl.plausible
+
+
+def test_circuit_value_outside_plausible_range_refused_and_overridable(tmp_path):
+    from hydroline.rigs import load_rig, shipped_rig
+    from hydroline.system import build_circuit
+
+    text = (PACKAGE / "rigs" / shipped_rig("two_axis")).read_text()
+    written = 'stroke = "102 mm"                    # [paper]'
+    assert text.count(written) == 2
+    bad = text.replace(written, 'stroke = "100 m"   # a slip of unit', 1)   # axis 1's
+    rig_file = tmp_path / "slip.toml"
+    rig_file.write_text(bad)
+    with pytest.raises(ValueError, match=r"^circuit\.axis1\.actuator\.stroke: '100 m' is outside "
+                                         r"its plausible range, within 0\.001 \.\.\. 10 \[m\].*"
+                                         r"allow_implausible"):
+        build_circuit(load_rig(str(rig_file)))
+    allowed = bad.replace("[rig]\n", '[rig]\nallow_implausible = ["circuit.axis1.actuator.stroke"]\n', 1)
+    rig_file.write_text(allowed)
+    circuit = build_circuit(load_rig(str(rig_file)))
+    assert circuit.component("axis1.actuator").stroke == pytest.approx(100.0)
+
+
+def test_engine_page_example_runs():
+    """docs/engine.md's worked example (a component written once, wired, solved, integrated)
+    runs, and its hand values hold (two equal orifices split the drop evenly)."""
+    text = (PACKAGE.parent / "docs" / "engine.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert len(blocks) == 1
+    exec(compile(blocks[0], "docs/engine.md", "exec"), {"__name__": "engine_page"})

@@ -331,6 +331,7 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     if not names:
         raise CircuitError(f"rig {rig.source}: no [circuit.<name>] table with a type")
     specs = {}
+    allowed = set(rig.get("rig.allow_implausible") or [])
     for name in names:
         ctype = COMPONENT_TYPES[values[f"{PREFIX}{name}.type"]]
         head = f"{PREFIX}{name}."
@@ -343,6 +344,12 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
                 unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
                 raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
                                    f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
+            implausible = decls[key].implausible(v) if key in decls else None
+            if implausible is not None and f"{head}{key}" not in allowed:
+                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
+                raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
+                                   f"plausible range, {implausible}{unit} ({decls[key].description}); "
+                                   f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
         specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
     # the load mass rides on the actuator whose position it reads (Load's docstring)
     for name, (ctype, params, ports, _) in specs.items():
