@@ -9,8 +9,8 @@ import numpy as np
 
 from ..rigs import load_rig
 from ..rigs.parameters import defaults_used
-from ..scenarios import (SCENARIOS, SineSummaryStream, build_scenario, default_scenario, simulate,
-                         summarize)
+from ..scenarios import (SCENARIOS, ClosedLoopSine, SineSummaryStream, build_scenario,
+                         default_scenario, experiment, scenario_names, simulate, summarize)
 from ..system import build_circuit
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
@@ -27,8 +27,10 @@ def register(sub):
                        "summary.json and pressures.png to --out and prints a summary.")
     p.add_argument("rig", nargs="?", help="rig TOML file or the name of a shipped rig, e.g. "
                    "two_axis (default: the embedded Ayalew & Kulakowski 2005 rig)")
-    p.add_argument("--scenario", default=None, choices=SCENARIOS,
-                   help="experiment (default: the rig's rig.scenario, else open-loop-step)")
+    p.add_argument("--scenario", default=None, metavar="NAME",
+                   help=f"experiment: {', '.join(SCENARIOS)} or one the rig defines "
+                   f"([scenario.NAME] type = \"axis-commands\") (default: the rig's "
+                   f"rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--out", help="output folder (default: hydroline-out; with --json no files "
                    "are written unless --out is given)")
@@ -132,6 +134,9 @@ def run(args) -> int:
         raise ValueError(f"--dt-out must be > 0 s, got {args.dt_out!r}")
     write = args.out is not None or not args.json
     scenario = args.scenario or default_scenario(rig)
+    if scenario not in scenario_names(rig):
+        raise ValueError(f"{'--scenario' if args.scenario else 'rig.scenario'}: unknown "
+                         f"experiment {scenario!r} (known: {', '.join(scenario_names(rig))})")
     duration = t_end or rig.get(f"scenario.{scenario}.t_end") or build_scenario(rig, scenario).t_end
     h, every, rows = output_grid(duration, dt_out)
     long_run = round(duration / h) + 1 > LONG_ROWS and len(build_circuit(rig).axes) == 1
@@ -184,10 +189,10 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         stream = None
         if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
             keep = list(SUMMARY_COLUMNS)
-            if scenario == "closed-loop-sine":
-                keep.append("position_reference")
+            stream = _sine_summary_stream(rig, scenario, t_end)
+            if stream is not None:
+                keep.append(stream.names[3])   # the position reference
                 # constant memory: the summary computed chunk by chunk as the rows arrive
-                stream = _sine_summary_stream(rig, scenario, t_end)
                 options = dict(observe=stream.update, keep_columns=[])
             else:
                 options = dict(keep_columns=keep)
@@ -264,15 +269,16 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     return 0
 
 
-def _sine_summary_stream(rig, scenario, t_end) -> SineSummaryStream:
-    """The closed-loop sine's summary accumulator for a long run of a single-axis rig (t_end
-    [s], None: the scenario's)."""
-    circuit = build_circuit(rig)
-    sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
-    ax = next(iter(circuit.axes.values()))
-    return SineSummaryStream(sc.t_disturbance, ax.stroke, float(sc.commands[0].frequency),
+def _sine_summary_stream(rig, scenario, t_end) -> SineSummaryStream | None:
+    """The summary accumulator of a long closed-loop sine on a single-axis rig (t_end [s],
+    None: the experiment's own); None for any other experiment."""
+    exp = experiment(rig, scenario, t_end)
+    if not isinstance(exp, ClosedLoopSine):
+        return None
+    ax = next(iter(build_circuit(rig).axes.values()))
+    return SineSummaryStream(exp.t_disturbance, ax.stroke, float(exp.frequency),
                              ax.supply_pressure, ax.return_pressure, ax.position,
-                             ax.reference_signal)
+                             ax.reference_signal, window_start=exp.window_start)
 
 
 def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
