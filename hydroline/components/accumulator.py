@@ -77,7 +77,18 @@ class PistonAccumulator(Component):
         return {"reference_pressure": self.nominal_pressure}
 
     def gas_pressure(self, gas_volume, reference_pressure):
-        """Gas pressure from (M16), with the piston's stops, [Pa] (oil-side pressure)."""
+        """Gas pressure from (M16), with the piston's stops, [Pa] (oil-side pressure).
+
+        Parameters
+        ----------
+        gas_volume : float           Gas volume (number or CasADi symbol), [m^3]
+        reference_pressure : float   Pressure at the end of the isothermal charge (section 3),
+                                     [Pa]
+
+        Returns
+        -------
+        float  Gas pressure minus the stop's push beyond the capacity, [Pa]
+        """
         m, V0, p0 = self.polytropic_exponent, self.capacity, self.precharge_pressure
         K = reference_pressure * (V0 * p0 / reference_pressure) ** m
         V = ops.fmax(ops.fmin(gas_volume, V0), 1e-3 * V0)
@@ -119,7 +130,19 @@ class PistonAccumulator(Component):
         return g
 
     def settle(self, x, u, p):
-        """Adopt the steady node pressure as the end of the isothermal charge (section 3)."""
+        """Adopt the steady node pressure as the end of the isothermal charge (section 3).
+
+        Parameters
+        ----------
+        x : dict   States at the steady state, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        p : dict   Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        tuple or None  ``(new_x, new_p)``: the gas volume [m^3] and the reference pressure [Pa]
+                       to adopt; None when the accumulator is empty (piston on its stop)
+        """
         p_g = float(self.gas_pressure(x["gas_volume"], p["reference_pressure"]))
         if p_g <= self.precharge_pressure:       # empty: piston on its stop, nothing to adopt
             return None

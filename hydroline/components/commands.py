@@ -123,7 +123,21 @@ class TableCommand(_Command):
     @classmethod
     def from_csv(cls, path, name="command", quantity="current", time_column=0, value_column=1,
                  value_scale=1.0, **kw):
-        """Read a two-column CSV (header allowed); values multiplied by ``value_scale`` to SI."""
+        """Read a two-column CSV (header allowed); values multiplied by ``value_scale`` to SI.
+
+        Parameters
+        ----------
+        path : str or Path    CSV file with a header row, times in seconds
+        name : str            Component name
+        quantity : str        What the command is ("current", "position", "pressure", ...)
+        time_column : int     Column of the times [s] (index from 0)
+        value_column : int    Column of the values (index from 0)
+        value_scale : float   Factor from the file's values to SI, [SI unit/file unit]
+
+        Returns
+        -------
+        TableCommand
+        """
         import pandas as pd
 
         df = pd.read_csv(path)
@@ -139,7 +153,7 @@ class TableCommand(_Command):
         path : str or Path   CSV file, one header row, then (time, value) rows
         unit : str           SI unit of the values, e.g. "Pa"; the header may give any unit of
                              that dimension ("MPa", "bar", "psi"), [-]
-        name, quantity       As for the component
+        name, quantity : str As for the component: its name and what the command is
 
         Raises
         ------
