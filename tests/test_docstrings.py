@@ -70,6 +70,8 @@ def _public_functions():
                   and getattr(o, "__module__", None) == modname]
         for name in names:
             obj = getattr(mod, name)
+            if _excluded(getattr(obj, "__module__", None) or ""):
+                continue                    # a re-export of an excluded module's name
             if inspect.isfunction(obj):
                 yield f"{modname}.{name}", obj, obj.__doc__
             elif inspect.isclass(obj):

@@ -233,7 +233,7 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     ----------
     network : Network   The assembled model
     t0 : float          Time at which the inputs are taken (before the disturbance), [s]
-    x_guess : array     Start for the solver; the components' guesses when None
+    x_guess : array     Start for the solver, [SI]; the components' guesses when None
     tol : float         Required scaled residual, [1/s]
     max_rounds : int    Solve-and-settle rounds at most (components adopting the rest state)
 
