@@ -114,3 +114,55 @@ def test_every_declared_parameter_has_unit_and_description(tname):
         assert decl.unit and decl.description, f"{tname}.{key}"
         if decl.default is not None and decl.default is not dataclasses.MISSING:
             assert decl.violation(decl.default) is None, f"{tname}.{key} default {decl.default!r}"
+
+
+def test_the_walk_covers_the_package():
+    """Every module found except the excluded ones; each exclusion names a real module."""
+    assert {"hydroline.units", "hydroline.rigs.parameters", "hydroline.traces.peaks",
+            "hydroline.fmu.plant", "hydroline.lines.modal", "hydroline.system"} <= set(MODULES)
+    assert not any(_excluded(m) for m in MODULES)
+    found = {m.name for m in pkgutil.walk_packages(hydroline.__path__, "hydroline.")}
+    for e in EXCLUDED:
+        assert e in found, f"EXCLUDED names {e}, which is no module of the package"
+    assert len(CASES) > 200
+
+
+def test_meta_test_catches_a_missing_parameter_or_unit():
+    """The check fails on an undocumented parameter and on a numeric one without a unit, and
+    accepts both docstring layouts (unit at the end of the line or on a continuation line,
+    ``a, b : float`` for two)."""
+    def orifice(coefficient, opening, pressure_drop):
+        """Flow through one metering edge.
+
+        Parameters
+        ----------
+        coefficient : float   Valve coefficient, [m^2/(s sqrt(Pa))]
+        opening : float       Spool opening beyond the lap, [m]
+        """
+
+    with pytest.raises(AssertionError, match="'pressure_drop' not documented"):
+        test_every_parameter_documented_with_its_unit("orifice", orifice, orifice.__doc__)
+    orifice.__doc__ = orifice.__doc__.replace(
+        "[m]\n", "[m]\n        pressure_drop : float Drop across the edge, [Pa]\n")
+    test_every_parameter_documented_with_its_unit("orifice", orifice, orifice.__doc__)
+    orifice.__doc__ = orifice.__doc__.replace(", [m^2/(s sqrt(Pa))]", "")
+    with pytest.raises(AssertionError, match="'coefficient' gives no unit"):
+        test_every_parameter_documented_with_its_unit("orifice", orifice, orifice.__doc__)
+
+    def edge(alpha, beta, drop):
+        """Two layouts.
+
+        Parameters
+        ----------
+        alpha, beta : float
+            Correction factors of the mode, [-]
+        drop : float   Pressure drop across the edge, measured between the two
+                       tappings upstream and downstream, [Pa]
+
+        Returns
+        -------
+        float  Flow, [m^3/s]
+        """
+
+    test_every_parameter_documented_with_its_unit("edge", edge, edge.__doc__)
+    assert set(_documented(edge.__doc__)) == {"alpha", "beta", "drop"}
