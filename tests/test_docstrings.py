@@ -1,7 +1,8 @@
 """Docstrings in the manner of python-control's meta-tests: every public function and method
-of the package (the names in each module's ``__all__``, walked over all modules) documents
-every parameter, with its unit where it is a quantity, and every declared component parameter
-has a unit and a description."""
+of the package (the names in each module's ``__all__``, walked over all modules), and every
+public class's constructor, documents every parameter, with its unit where it is a quantity
+(a float, complex or array parameter needs a ``[unit]``, ``[-]`` when dimensionless), and
+every declared component parameter has a unit and a description."""
 import dataclasses
 import importlib
 import inspect
@@ -48,7 +49,7 @@ def _documented(doc: str) -> dict:
                          re.S | re.M):
         names = []
         for line in m.group(1).splitlines():
-            head = re.match(r"(\*{0,2}[A-Za-z_][\w, *]*?)\s*:\s*(.*)", line)
+            head = re.match(r"(\*{0,2}\w+(?:\s*,\s*\*{0,2}\w+)*)\s*:(?:\s|$)", line)
             if head and not line[:1].isspace():
                 names = [n.strip().lstrip("*") for n in head.group(1).split(",")]
                 for name in names:
@@ -59,6 +60,19 @@ def _documented(doc: str) -> dict:
                 for name in names:
                     out[name] += "\n" + line
     return out
+
+
+def _class_doc(cls) -> str | None:
+    """The docstrings of a class and its bases in the package, each Attributes section read
+    as Parameters: a constructor argument is documented where the class (or the base that
+    declares it, e.g. a component's ``name``) lists it."""
+    own = cls.__doc__
+    if not own:
+        return None
+    docs = [inspect.cleandoc(b.__doc__) for b in cls.__mro__
+            if b.__module__.startswith("hydroline") and b.__doc__]
+    return "\n\n".join(re.sub(r"^Attributes\n(?=-+\n)", "Parameters\n", d, flags=re.M)
+                       for d in docs)
 
 
 def _public_functions():
@@ -75,6 +89,8 @@ def _public_functions():
             if inspect.isfunction(obj):
                 yield f"{modname}.{name}", obj, obj.__doc__
             elif inspect.isclass(obj):
+                if inspect.isfunction(obj.__init__):            # a constructor of its own
+                    yield f"{modname}.{name}", obj, _class_doc(obj)
                 for mname, meth in vars(obj).items():
                     if inspect.isfunction(meth) and not mname.startswith("_"):
                         # an override of the component protocol is documented on the base

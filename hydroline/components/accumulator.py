@@ -34,6 +34,8 @@ class PistonAccumulator(Component):
     inertance : float             I_a of the connection (version II), [kg/m^4]
     connection_model : StateSpaceLine  PP line model replacing (R_a, I_a); None for version II
     nominal_pressure : float      Guess of the node pressure for the steady-state solver, [Pa]
+    stop_stiffness : float        Stiffness of the oil side once it is empty (piston on its
+                                  stop, V_g > V_0), None: that of a 1 % oil film, [Pa/m^3]
 
     Ports: input ``pressure`` (node) [Pa]; output ``flow`` into the accumulator branch [m^3/s];
     signal ``gas_pressure`` is not a port (see :meth:`gas_pressure`).

@@ -29,8 +29,10 @@ class Actuator(Component):
     internal_leakage : float           C_i, [m^3/s/Pa]
     external_leakage : float           C_e (each chamber), [m^3/s/Pa]
     gravity : float                    g along the axis (0 for a horizontal actuator), [m/s^2]
-    stop_stiffness : float             [N/m]
-    stop_damping : float               [N s/m]
+    stop_stiffness : float             End-stop contact stiffness, [N/m]
+    stop_damping : float               End-stop contact damping (None: critical), [N s/m]
+    min_volume_fraction : float        Floor of the chamber volumes, a fraction of their
+                                       centre values, [-]
     initial_position : float           Guess of x_p for the steady-state solver, [m]
     nominal_pressure : float           Guess of the chamber pressures, [Pa]
 

@@ -22,6 +22,10 @@ __all__ = ["SteadyState", "SteadyStateError", "solve_steady_state", "pseudo_tran
 class SteadyStateError(RuntimeError):
     """The steady-state solver did not converge; the message says how far it got.
 
+    Parameters
+    ----------
+    message : str      One line: what did not settle and which parameters to look at
+
     Attributes
     ----------
     state : str        The state with the largest scaled residual (None when unknown)

@@ -99,7 +99,12 @@ class Declared:
 
     Attributes
     ----------
-    default, scope, zero_allowed, integer, inherited   As for :class:`Parameter`
+    default : object      As for :class:`Parameter`: a number [unit], a dotted path, None or
+                          :data:`REQUIRED`
+    scope : str           As for :class:`Parameter`: when the parameter changes a run
+    zero_allowed : bool   As for :class:`Parameter`: 0 is accepted below the range
+    integer : bool        As for :class:`Parameter`: the value must be a whole number
+    inherited : bool      As for :class:`Parameter`: a rig-wide default by design
     """
 
     default: object = REQUIRED
