@@ -237,12 +237,15 @@ class Component:
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
         (with its default filled in)."""
-        out = {}
-        for f in dataclasses.fields(cls):
-            decl = f.metadata.get("parameter")
-            if decl is not None:
-                out[f.name] = dataclasses.replace(decl, default=f.default)
-        return out
+        known = cls.__dict__.get("_declared_parameters")   # per class (not inherited)
+        if known is None:
+            known = {}
+            for f in dataclasses.fields(cls):
+                decl = f.metadata.get("parameter")
+                if decl is not None:
+                    known[f.name] = dataclasses.replace(decl, default=f.default)
+            cls._declared_parameters = known
+        return dict(known)
 
     def check_parameters(self):
         """Raise ValueError ``"<name>: <parameter> must be <rule> [unit], got <value>"`` for
