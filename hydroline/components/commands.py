@@ -208,7 +208,12 @@ class TableCommand(_Command):
 
     def breakpoints(self, t_end):
         """Times where the table's slope changes (integration restarts there, so a steep
-        edge is not stepped over), for tables of up to ``RAMP_ROWS`` rows, [s]."""
+        edge is not stepped over), for tables of up to ``RAMP_ROWS`` rows, [s].
+
+        Parameters
+        ----------
+        t_end : float   End of the run, [s]
+        """
         if len(self.times) > self.RAMP_ROWS:
             return []
         slopes = np.diff(self.values) / np.diff(self.times)
