@@ -194,6 +194,8 @@ class OutputSink:
     preview : list[str]    Columns of the preview (for a figure); None: no preview
     preview_rows : int     Rows of the preview at most, [-]
     units : dict           Column -> SI unit, written into the CSV header (``name [unit]``)
+    observe : callable     Called with ``(t [s], table [SI], columns)`` for every block of
+                           rows written (statistics of a long run chunk by chunk); None: none
     """
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
