@@ -166,6 +166,10 @@ def parameter(default, unit: str, description: str = "", *, minimum=None, maximu
     return field(default=default, metadata={"parameter": decl})
 
 
+#: Component class -> its declared parameters (:meth:`Component.parameters`).
+_DECLARED: dict = {}
+
+
 @dataclass
 class Component:
     """Base class. Subclasses set ``inputs``, ``outputs``, ``states`` and the equations.
@@ -188,13 +192,17 @@ class Component:
     @classmethod
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
-        (with its default filled in)."""
-        out = {}
-        for f in dataclasses.fields(cls):
-            decl = f.metadata.get("parameter")
-            if decl is not None:
-                out[f.name] = dataclasses.replace(decl, default=f.default)
-        return out
+        (with its default filled in); made once per class (a sweep builds thousands of
+        components)."""
+        made = _DECLARED.get(cls)
+        if made is None:
+            made = {}
+            for f in dataclasses.fields(cls):
+                decl = f.metadata.get("parameter")
+                if decl is not None:
+                    made[f.name] = dataclasses.replace(decl, default=f.default)
+            _DECLARED[cls] = made
+        return dict(made)       # Parameters are frozen; the dict is the caller's
 
     def check_parameters(self):
         """Raise ValueError ``"<name>: <parameter> must be <rule> [unit], got <value>"`` for
