@@ -635,3 +635,57 @@ def test_layout_on_circuit_rig_without_sections_is_one_line_naming_the_rig(capsy
     assert main(["layout", "two_axis", "--sections", "axis1.hose"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no hose section 'axis1.hose'" in err
+
+
+# --------------------------------------------------------------------------- shared models
+
+def test_variants_of_one_structure_share_one_model_and_give_simulates_rows():
+    """Hose variants (length, bulk modulus) run on one shared model with their own p give
+    the rows of simulate() + summarize() within the integrator's accuracy (5.5e-3 % of the
+    excursion at the defaults: differences come from the graph's constants now being p)."""
+    from hydroline.studies.sweep import VariantRunner
+
+    rig = load_rig()
+    shared, plain = VariantRunner(rig), VariantRunner(rig, share_models=False)
+    variants = [{"supply.section2.length": 1.5, "return.section2.length": 1.5},
+                {"supply.section2.length": 0.9, "return.section2.length": 0.9},
+                {"supply.section2.length": 0.9, "return.section2.length": 0.9,
+                 "supply.section2.bulk_modulus": 1.6e8}]
+    for i, values in enumerate(variants):
+        a, b = shared(i, values), plain(i, values)
+        assert a["error"] is None and b["error"] is None
+        for k in METRIC_COLUMNS:
+            if k == "wall_time_s":
+                continue
+            if k.endswith("settling_time_s"):
+                assert (a[k] is None) == (b[k] is None), k
+                if a[k] is not None:
+                    assert a[k] == pytest.approx(b[k], abs=1e-3), k
+            else:
+                assert a[k] == pytest.approx(b[k], rel=2e-4, abs=1e-4), k
+    assert shared.shared_runs == 2          # the 2nd and 3rd ran on the 1st's model
+
+
+def test_graph_signature_tells_structures_apart():
+    from hydroline.components.hose import coefficients_as_parameters
+    from hydroline.scenarios import build_scenario
+    from hydroline.studies.sweep import graph_signature
+    from hydroline.system import build_circuit
+
+    def signature(**lengths):
+        rig = load_rig()
+        for path, value in lengths.items():
+            rig.set(path.replace("__", "."), value)
+        with coefficients_as_parameters():
+            circuit = build_circuit(rig)
+            net = circuit.network(build_scenario(rig, axes=circuit.axes).commands)
+        return graph_signature(net), net
+
+    base, net = signature()
+    assert any(k.startswith("supply.section2.A") for k in net.parameter_names)
+    assert signature(supply__section2__length="1 m")[0] == base          # numbers only: in p
+    assert signature(supply__section2__length="0 m")[0] != base          # section removed
+    assert signature(supply__accumulator__precharge_pressure="8 MPa")[0] != base  # a constant
+    circuit = build_circuit(load_rig())                                  # outside: constants
+    assert not any(".A" in k for k in circuit.network(
+        build_scenario(load_rig(), axes=circuit.axes).commands).parameter_names)

@@ -51,12 +51,14 @@ parent breaks the pool for the other variants in flight.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import time as _time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
@@ -71,7 +73,8 @@ from .settling import port_summary
 __all__ = ["sweep", "run_variant", "VariantRunner", "SweepResult", "SweepFileError",
            "METRIC_COLUMNS", "TRACKING_COLUMNS", "SETTLING_COLUMNS", "PORT_METRICS",
            "JOURNAL_NAME", "FORMAT_VERSION", "MAX_ATTEMPTS", "MAX_WORKERS", "read_journal",
-           "metric_columns", "settling_columns", "failed_row", "row_columns"]
+           "metric_columns", "settling_columns", "failed_row", "row_columns", "graph_signature",
+           "simulate_shared"]
 
 #: Metric columns of every row of a single-axis rig (then ``warnings`` and ``error``); the
 #: closed-loop scenario adds ``tracking_error_rms_mm`` and ``tracking_error_max_mm``.
@@ -212,9 +215,16 @@ class VariantRunner:
     """Runs the variants of one sweep: the base rig, scenario and solver, kept where it runs.
 
     Called as ``runner(index, values) -> row``; picklable, so the process pool sends it once
-    per worker and Dask scatters it once (:mod:`hydroline.studies.executors`). Every variant
-    of one structure reuses the model cache of :func:`hydroline.scenarios.simulate` in that
-    process (the compiled library of the structure, loaded once).
+    per worker and Dask scatters it once (:mod:`hydroline.studies.executors`).
+
+    Variants of one structure share one model: each variant's network is built (cheap: the
+    components and their wiring), with its hoses' matrix entries as runtime parameters
+    (:func:`hydroline.components.hose.coefficients_as_parameters`); where everything but its
+    runtime parameters p equals a network this runner has run before
+    (:func:`graph_signature`), that network's CasADi functions and compiled library are used
+    with the variant's p -- no graph, code generation or library lookup per variant. The
+    steady state, integration and summary are those of :func:`hydroline.scenarios.simulate`
+    (a test checks the rows equal its rows within the solver tolerance).
 
     Parameters
     ----------
@@ -224,13 +234,31 @@ class VariantRunner:
     solver : str         See :func:`hydroline.simulation.integrate`
     units : dict         Rig path -> SI unit (looked up in the rig when None)
     axes : sequence      The rig's servo axes (names), for the row's columns
+    share_models : bool  Share one model among variants of one structure (False: every
+                         variant through :func:`hydroline.scenarios.simulate`)
+
+    Attributes
+    ----------
+    shared_runs : int    Variants run here on a model shared with an earlier variant, [-]
     """
 
+    #: Structures kept per runner (their networks and compiled libraries), [-].
+    MODELS_KEPT = 4
+
     def __init__(self, rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None,
-                 solver: str = "auto", units: dict | None = None, axes=()):
+                 solver: str = "auto", units: dict | None = None, axes=(),
+                 share_models: bool = True):
         self.rig, self.scenario, self.t_end, self.solver = rig, scenario, t_end, solver
         self.units = dict(units or {})
         self.axes = tuple(axes)
+        self.share_models = share_models
+        self._models: dict = {}
+        self.shared_runs = 0
+
+    def __getstate__(self):     # the models stay where they were built
+        state = dict(self.__dict__)
+        state["_models"], state["shared_runs"] = {}, 0
+        return state
 
     def __call__(self, index: int, values: dict) -> dict:
         """One variant's row; never raises for a bad variant (see :func:`run_variant`)."""
@@ -240,17 +268,162 @@ class VariantRunner:
             r = self.rig.copy()
             for path, v in values.items():
                 _set_si(r, path, v, self.units.get(path) or parameter_unit(path, self.rig))
-            res = simulate(r, self.scenario, self.t_end, solver=self.solver)
+            res = self.simulate(r)
             _fill_metrics(row, port_summary(res))
         except Exception as e:   # a failed variant is recorded, never sinks the sweep
             row["error"] = failure_reason(e)
         row["wall_time_s"] = _time.perf_counter() - tic
         return row
 
+    def simulate(self, rig: Rig):
+        """:func:`hydroline.scenarios.simulate` of one variant, on a shared model where one of
+        its structure was run before (see the class).
+
+        Parameters
+        ----------
+        rig : Rig   The variant
+
+        Returns
+        -------
+        SimulationResult
+        """
+        if not self.share_models or self.solver not in ("auto", "compiled") or \
+                any(k.endswith(".file") for k in rig.values):     # a table file may change
+            return simulate(rig, self.scenario, self.t_end, solver=self.solver)
+        return simulate_shared(rig, self.scenario, self.t_end, self.solver, self._models, self)
+
+
+def graph_signature(network) -> tuple:
+    """What a network's CasADi graph is made from, but its runtime parameters p: per
+    component its type and every attribute by value (a hose whose matrix entries are runtime
+    parameters: their pattern, not their values). Two networks of equal signature have the
+    same graph as a function of (t, x, p), so one's compiled model serves the other with its
+    own p. An attribute that cannot be compared by value (a function) makes the signature
+    unique to this network.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Returns
+    -------
+    tuple  hashable
+    """
+    from ..components.hose import HoseSection
+
+    parts = []
+    for c in network.components:
+        attrs = dict(vars(c))
+        if isinstance(c, HoseSection) and c.coefficient_pattern is not None:
+            m = attrs.pop("model")
+            attrs["model"] = (type(m).__qualname__, m.form, tuple(m.input_names),
+                              tuple(m.output_names), tuple(m.state_names))
+        parts.append((type(c).__module__, type(c).__qualname__, _value_signature(attrs)))
+    return tuple(parts)
+
+
+def _value_signature(v, depth: int = 0):
+    """A hashable value of an attribute (numbers, text, arrays, containers, objects by their
+    attributes); ("opaque", id) where there is none."""
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    if depth > 8:
+        return ("opaque", id(v))
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return ("array", v.shape, v.dtype.str, v.tobytes())
+    if isinstance(v, (list, tuple)):
+        return (type(v).__name__, tuple(_value_signature(x, depth + 1) for x in v))
+    if isinstance(v, dict):
+        return ("dict", tuple((str(k), _value_signature(x, depth + 1)) for k, x in v.items()))
+    if isinstance(v, type) or callable(v):
+        return ("opaque", id(v))
+    if hasattr(v, "__dict__"):
+        return (type(v).__qualname__, _value_signature(vars(v), depth + 1))
+    if dataclasses.is_dataclass(v):
+        return (type(v).__qualname__, tuple(_value_signature(getattr(v, f.name), depth + 1)
+                                            for f in dataclasses.fields(v)))
+    return ("opaque", id(v))
+
+
+def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None):
+    """:func:`hydroline.scenarios.simulate` (default output step and tolerances), the model
+    shared with earlier runs of the same :func:`graph_signature` in ``models``.
+
+    Parameters
+    ----------
+    rig : Rig          The variant
+    scenario : str     Scenario name
+    t_end : float      Simulated time, [s] (the scenario's when None)
+    solver : str       "auto" or "compiled"
+    models : dict      signature -> network, kept between calls (bounded by the caller)
+    counter : object   Its ``shared_runs`` is counted up when a model is shared
+
+    Returns
+    -------
+    SimulationResult  with the metadata and warnings ``simulate`` gives
+    """
+    from ..components.hose import coefficients_as_parameters
+    from ..limits import check_output_size
+    from ..rigs.parameters import steady_state_hint
+    from ..scenarios import (CAVITATION_PRESSURE, build_scenario, check_cavitation,
+                             metrics_window)
+    from ..simulation import SteadyStateError, integrate, solve_steady_state
+    from ..system import build_circuit
+
+    tic = _time.perf_counter()
+    dt_out = 1e-4                                   # simulate()'s default
+    with coefficients_as_parameters():
+        circuit = build_circuit(rig)
+        sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+        if sc.position_guess is not None:
+            circuit = build_circuit(rig, sc.position_guess)
+        net = circuit.network(sc.commands)
+    check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
+                      name="t_end" if t_end is not None else f"scenario.{scenario}.t_end")
+    key = graph_signature(net)
+    shared = models.get(key)
+    if shared is None:
+        if len(models) >= VariantRunner.MODELS_KEPT:
+            models.pop(next(iter(models)))
+        models[key] = shared = net
+    elif counter is not None:
+        counter.shared_runs += 1
+    shared.parameter_values = net.parameter_values.copy()     # this variant's p
+    try:
+        ss = solve_steady_state(shared, t0=0.0, x_guess=net.guess())
+    except SteadyStateError as e:   # say it in terms of the rig's parameters (as simulate)
+        if getattr(e, "state", None) is None:
+            raise
+        raise SteadyStateError(f"steady state not found before the run: "
+                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
+                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
+                               e.state, e.residual) from None
+    res = integrate(shared, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver)
+    res.steady_state = ss
+    first = next(iter(circuit.axes.values()))
+    act = net.component(first.actuator)
+    if sc.name == "closed-loop-sine":
+        res.metadata["command_frequency_hz"] = float(sc.commands[0].frequency)
+    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
+                        stroke=act.stroke, axes=circuit.axes,
+                        stepped_axis=rig.get("scenario.position-step.axis", first.name),
+                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
+                        axis_natural_frequency_hz={
+                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
+                            for n, a in circuit.axes.items()},
+                        steady_state_residual=ss.residual, n_states=len(net.state_names))
+    res.warnings.extend(check_cavitation(res, rig.get("fluid.gas_release_pressure",
+                                                      CAVITATION_PRESSURE)))
+    res.metadata["metrics_window"] = metrics_window(res)
+    res.metadata["total_wall_time"] = _time.perf_counter() - tic
+    return res
+
 
 def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-step",
                 t_end: float | None = None, solver: str = "auto", units: dict | None = None,
-                axes=()) -> dict:
+                axes=(), share_models: bool = False) -> dict:
     """Run one variant and return its row; never raises for a bad variant.
 
     Parameters
@@ -263,6 +436,8 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
     solver : str       See :func:`hydroline.simulation.integrate`
     units : dict       Rig path -> SI unit (looked up in the rig when None)
     axes : sequence    The rig's servo axes (names); several give per-axis columns
+    share_models : bool  Run on a model shared with earlier variants of this process's
+                       :class:`VariantRunner` (False: :func:`hydroline.scenarios.simulate`)
 
     Returns
     -------
@@ -273,7 +448,7 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
           study: :func:`hydroline.studies.settling.port_settling`), ``warnings`` (text, ""
           when none) and ``error`` (None, or "Type: reason").
     """
-    return VariantRunner(rig, scenario, t_end, solver, units, axes)(index, values)
+    return VariantRunner(rig, scenario, t_end, solver, units, axes, share_models)(index, values)
 
 
 def _finite_or_none(v):
