@@ -10,10 +10,12 @@ rows kept in memory) on 1 and 2 worker processes. Every variant has the same net
 structure: one compiled C library serves them all.
 
 Prints one table of wall times, then the cost of one variant split into its stages (measured
-in this process on ``--stages`` variants): rig copy and set, network build (components and
-wiring), CasADi graph, compiled-model lookup (fingerprint, structure key, constants), steady
-state, integration (C), metrics (``summarize``), row formatting, pickling the row, journal
-line. ``--before TREE`` runs the same measurement on another source tree (e.g. a
+in this process on ``--stages`` variants): with the model built anew (what ``simulate()``
+does) rig copy and set, network build (components and wiring), CasADi graph,
+compiled-model lookup (fingerprint, structure key, constants), steady state, integration
+(C), metrics (``summarize``); the whole ``run_variant()``; pickling the row and writing its
+journal line; and on the sweep's shared model (``VariantRunner``: network built with the
+hoses' matrix entries in p, graph signature, steady state, integration, metrics, whole). ``--before TREE`` runs the same measurement on another source tree (e.g. a
 ``git archive`` of main) in a subprocess, alternately with this one, and prints the ratios
 (the machine is shared and noisy: only ratios from one run mean much).
 
@@ -69,12 +71,14 @@ def sweep(lengths, workers: int):
 
 
 def stages(lengths) -> dict:
-    """Mean time of each stage of one variant, [s], measured here on these lengths."""
+    """Mean time of each stage of one variant, [s], measured here on these lengths: the
+    model built anew per variant (what ``simulate()`` does), and -- where the tree has it --
+    the sweep's shared model (``VariantRunner``: the network built with the hoses' matrix
+    entries in p, compared with the shared one, p swapped)."""
     from hydroline import compiled
     from hydroline.rigs import load_rig
     from hydroline.scenarios import build_scenario, summarize, simulate
     from hydroline.simulation import integrate, solve_steady_state
-    from hydroline.studies import sweep as sweep_module  # noqa: F401  (the package)
     from hydroline.studies.sweep import run_variant
     from hydroline.system import build_circuit
 
@@ -82,19 +86,33 @@ def stages(lengths) -> dict:
         from hydroline.studies.journal import json_line
     except ImportError:      # before the split: the sweep module's private helper
         from hydroline.studies.sweep import _json_line as json_line
+    try:
+        from hydroline.components.hose import coefficients_as_parameters
+        from hydroline.studies.sweep import VariantRunner, graph_signature
+    except ImportError:      # no shared models in this tree
+        VariantRunner = None
     rig = load_rig(None)
     simulate(rig)
-    names = ["rig copy + set", "network build", "CasADi graph", "compiled-model lookup",
-             "steady state", "integration (C)", "integrate() beyond the C",
-             "metrics (summarize)", "row formatting", "pickling the row", "journal line",
-             "run_variant() whole"]
-    acc = dict.fromkeys(names, 0.0)
+    acc: dict = {}
+
+    def add(name, dt):
+        acc[name] = acc.get(name, 0.0) + dt
+
+    def finish(res, sc, circuit, net):
+        res.metadata.update(scenario="open-loop-step", t_disturbance=sc.t_disturbance,
+                            axes=circuit.axes, stroke=net.component(
+                                next(iter(circuit.axes.values())).actuator).stroke,
+                            actuator_natural_frequency_hz=0.0)
+        summarize(res)
+
+    runner = VariantRunner(rig) if VariantRunner else None
+    shared = None
     with tempfile.TemporaryFile("w") as journal:
-        for k, x in enumerate(lengths):
+        for k, x in enumerate(map(float, lengths)):
             t0 = time.perf_counter()
             r = rig.copy()
-            r.set("supply.section2.length", f"{float(x)!r} m")
-            r.set("return.section2.length", f"{float(x)!r} m")
+            r.set("supply.section2.length", f"{x!r} m")
+            r.set("return.section2.length", f"{x!r} m")
             t1 = time.perf_counter()
             circuit = build_circuit(r)
             sc = build_scenario(r, "open-loop-step", None, axes=circuit.axes)
@@ -108,33 +126,72 @@ def stages(lengths) -> dict:
             t5 = time.perf_counter()
             res = integrate(net, ss.x, sc.t_end, p=ss.p)
             t6 = time.perf_counter()
-            res.metadata.update(scenario="open-loop-step", t_disturbance=sc.t_disturbance,
-                                axes=circuit.axes, stroke=net.component(
-                                    next(iter(circuit.axes.values())).actuator).stroke,
-                                actuator_natural_frequency_hz=0.0)
-            summarize(res)
+            finish(res, sc, circuit, net)
             t7 = time.perf_counter()
-            # the whole variant as the sweep runs it (new numbers: nudged by 1e-7 m)
-            x2 = float(x) + 1e-7
-            row = run_variant(rig, k, {"supply.section2.length": x2, "return.section2.length": x2},
-                              "open-loop-step")
+            for name, dt in (("rig copy + set", t1 - t0), ("network build", t2 - t1),
+                             ("CasADi graph", t3 - t2), ("compiled-model lookup", t4 - t3),
+                             ("steady state", t5 - t4), ("integration (C)", res.wall_time),
+                             ("integrate() beyond the C", (t6 - t5) - res.wall_time),
+                             ("metrics (summarize)", t7 - t6)):
+                add(name, dt)
+            x2 = x + 1e-7           # new numbers: no model of this variant in any cache
+            values = {"supply.section2.length": x2, "return.section2.length": x2}
             t8 = time.perf_counter()
+            row = run_variant(rig, k, values, "open-loop-step")
+            t9 = time.perf_counter()
+            add("run_variant(), model built anew", t9 - t8)
             blob = pickle.dumps(row)
             pickle.loads(blob)
-            t9 = time.perf_counter()
+            t10 = time.perf_counter()
             journal.write(json_line(row) + "\n")
             journal.flush()
-            t10 = time.perf_counter()
-            for name, dt in zip(names, (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4,
-                                        res.wall_time, (t6 - t5) - res.wall_time, t7 - t6,
-                                        None, t9 - t8, t10 - t9, t8 - t7)):
-                if dt is not None:
-                    acc[name] += dt
+            t11 = time.perf_counter()
+            add("pickling the row", t10 - t9)
+            add("journal line", t11 - t10)
+            if runner is None:
+                continue
+            # the shared model, stage by stage (as simulate_shared does it)
+            x3 = x + 2e-7
+            r = rig.copy()
+            r.set("supply.section2.length", f"{x3!r} m")
+            r.set("return.section2.length", f"{x3!r} m")
+            s0 = time.perf_counter()
+            with coefficients_as_parameters():
+                circuit = build_circuit(r)
+                sc = build_scenario(r, "open-loop-step", None, axes=circuit.axes)
+                net = circuit.network(sc.commands)
+            s1 = time.perf_counter()
+            key = graph_signature(net)
+            s2 = time.perf_counter()
+            if shared is None or shared[0] != key:
+                shared = (key, net)
+                net.compile()
+                compiled.native_model(net)
+            base = shared[1]
+            base.parameter_values = net.parameter_values.copy()
+            s3 = time.perf_counter()
+            ss = solve_steady_state(base, t0=0.0, x_guess=net.guess())
+            s4 = time.perf_counter()
+            res = integrate(base, ss.x, sc.t_end, p=ss.p)
+            s5 = time.perf_counter()
+            finish(res, sc, circuit, net)
+            s6 = time.perf_counter()
+            x4 = x + 3e-7
+            runner(k, {"supply.section2.length": x4, "return.section2.length": x4})
+            s7 = time.perf_counter()
+            if k:               # the first builds the shared model
+                for name, dt in (("shared: network build (hoses' entries in p)", s1 - s0),
+                                 ("shared: graph signature", s2 - s1),
+                                 ("shared: steady state", s4 - s3),
+                                 ("shared: integration (C)", res.wall_time),
+                                 ("shared: integrate() beyond the C", (s5 - s4) - res.wall_time),
+                                 ("shared: metrics (summarize)", s6 - s5),
+                                 ("sweep's runner, shared model: whole", s7 - s6)):
+                    add(name, dt)
     n = len(lengths)
-    out = {k: v / n for k, v in acc.items()}
-    known = sum(v for k, v in out.items() if k not in ("row formatting", "run_variant() whole",
-                                                        "pickling the row", "journal line"))
-    out["row formatting"] = max(out["run_variant() whole"] - known, 0.0)
+    out = {}
+    for name, v in acc.items():
+        out[name] = v / (n - 1 if name.startswith(("shared", "sweep's")) else n)
     return out
 
 
@@ -210,15 +267,20 @@ def main(argv=None):
     print("failed variants: " + "; ".join(f"{n}: {f}" for n, f in failed.items()))
     if args.stages:
         names = list(results["this"][-1]["stages"])
+        for runs in results.values():       # stages only one tree has
+            for r in runs:
+                for s in names:
+                    r["stages"].setdefault(s, float("nan"))
         head = ["stage of one variant", *[f"{n} [ms]" for n in trees]]
         if args.before:
             head.append("before / this")
         rows = []
         for s in names:
             vals = {n: min(r["stages"][s] for r in runs) * 1e3 for n, runs in results.items()}
-            row = [s, *[f"{vals[n]:.2f}" for n in trees]]
+            row = [s, *[f"{vals[n]:.2f}" if vals[n] == vals[n] else "-" for n in trees]]
             if args.before:
-                row.append(f"{vals['before'] / vals['this']:.2f}" if vals["this"] > 0 else "-")
+                ok = vals["this"] > 0 and vals["before"] == vals["before"]
+                row.append(f"{vals['before'] / vals['this']:.2f}" if ok else "-")
             rows.append(row)
         print(f"\nwhere one variant's time goes (in-process, mean over {args.stages} variants, "
               f"best run):")
