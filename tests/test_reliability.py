@@ -28,7 +28,7 @@ from hydroline.rigs import SCHEMA, RigError, load_rig
 from hydroline.rigs.parameters import (ATMOSPHERIC_PRESSURE, PARAMETERS, check_consistency,
                                        check_ranges, defaults_used, steady_state_hint)
 from hydroline.scenarios import build_scenario, check_cavitation
-from hydroline.simulation import SimulationResult, solve_steady_state
+from hydroline.engine import SimulationResult, solve_steady_state
 from hydroline.system import build_network, validate_rig
 
 SHORT = "0.02 s"

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import functools
 import importlib
 import os
 import signal
@@ -94,8 +95,11 @@ def main(argv=None) -> int:
         return 2
     from ..compiled import CompilerUnavailable
     from ..compiled.codegen import UnsupportedOperation
-    from ..simulation import SteadyStateError
+    from ..engine import SteadyStateError
 
+    import warnings
+
+    warnings.showwarning = functools.partial(_show_warning, args.command)
     try:
         old_term = signal.signal(signal.SIGTERM, _terminate)
     except ValueError:          # not the main thread (e.g. called from a worker thread)
@@ -133,6 +137,17 @@ def main(argv=None) -> int:
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+
+
+def _show_warning(command, message, category, filename, lineno, file=None, line=None):
+    """A Python warning as one line: ``hydroline <command>: warning: <message>`` (each once)."""
+    text = f"hydroline {command}: warning: {str(message).strip().splitlines()[0]}"
+    if text not in _WARNED:
+        _WARNED.add(text)
+        _say(text)
+
+
+_WARNED: set = set()
 
 
 def _say(text):

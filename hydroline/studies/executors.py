@@ -46,7 +46,12 @@ def failure_reason(e: BaseException) -> str:
 
     Parameters
     ----------
-    e : BaseException   What the variant raised
+    e : BaseException
+        What the variant raised
+
+    Returns
+    -------
+    str
     """
     msg = str(e).strip().splitlines()[0] if str(e).strip() else ""
     return f"{type(e).__name__}: {msg}" if msg else type(e).__name__
@@ -59,9 +64,12 @@ def run_serial(tasks, runner, record) -> None:
 
     Parameters
     ----------
-    tasks : iterable      ``(index, values)`` pairs
-    runner : callable     ``runner(index, values) -> row``
-    record : callable     ``record(row)``
+    tasks : iterable
+        ``(index, values)`` pairs
+    runner : callable
+        ``runner(index, values) -> row``
+    record : callable
+        ``record(row)``
     """
     for index, values in tasks:
         record(runner(index, values))
@@ -85,7 +93,8 @@ def die_with_parent(parent_pid: int) -> None:
 
     Parameters
     ----------
-    parent_pid : int   Process id of the sweep's process, [-]
+    parent_pid : int
+        Process id of the sweep's process, [-]
     """
     if os.name != "posix":
         return
@@ -116,7 +125,12 @@ def process_alive(pid: int) -> bool:
 
     Parameters
     ----------
-    pid : int   Process id, [-]
+    pid : int
+        Process id, [-]
+
+    Returns
+    -------
+    bool
     """
     try:
         os.kill(pid, 0)
@@ -188,11 +202,16 @@ def run_processes(tasks, workers: int, runner, record, failed_row) -> None:
 
     Parameters
     ----------
-    tasks : iterable      ``(index, values)`` pairs
-    workers : int         Worker processes, [-]
-    runner : callable     Picklable ``runner(index, values) -> row``, sent once per worker
-    record : callable     ``record(row)``, in this process
-    failed_row : callable ``failed_row(index, values, reason) -> row``
+    tasks : iterable
+        ``(index, values)`` pairs
+    workers : int
+        Worker processes, [-]
+    runner : callable
+        Picklable ``runner(index, values) -> row``, sent once per worker
+    record : callable
+        ``record(row)``, in this process
+    failed_row : callable
+        ``failed_row(index, values, reason) -> row``
     """
     with _main_module_hidden():
         _run_process_pool(tasks, workers, runner, record, failed_row)
@@ -267,8 +286,10 @@ def record_all(record, rows) -> None:
 
     Parameters
     ----------
-    record : callable   ``record(row)``
-    rows : iterable     Rows to record
+    record : callable
+        ``record(row)``
+    rows : iterable
+        Rows to record
     """
     for row in rows:
         try:
@@ -284,10 +305,12 @@ def dask_client(scheduler, workers: int):
 
     Parameters
     ----------
-    scheduler : str or Client   "local" (a local cluster of ``workers`` single-threaded
-                                processes on 127.0.0.1), "tcp://host:port", or a
-                                ``distributed.Client`` used as is
-    workers : int               Workers of a "local" cluster, [-]
+    scheduler : str or Client
+        "local" (a local cluster of ``workers`` single-threaded
+        processes on 127.0.0.1), "tcp://host:port", or a
+        ``distributed.Client`` used as is
+    workers : int
+        Workers of a "local" cluster, [-]
 
     Returns
     -------
@@ -321,9 +344,17 @@ def call_runner(runner, index, values):
 
     Parameters
     ----------
-    runner : callable   The sweep's variant runner
-    index : int         Variant number, [-]
-    values : dict       Rig path -> SI value
+    runner : callable
+        The sweep's variant runner
+    index : int
+        Variant number, [-]
+    values : dict
+        Rig path -> SI value
+
+    Returns
+    -------
+    dict
+        The variant's row
     """
     return runner(index, values)
 
@@ -335,11 +366,16 @@ def run_dask(tasks, client, runner, record, failed_row) -> None:
 
     Parameters
     ----------
-    tasks : iterable      ``(index, values)`` pairs
-    client : Client       A ``distributed.Client`` (:func:`dask_client`)
-    runner : callable     Picklable ``runner(index, values) -> row``
-    record : callable     ``record(row)``, in this process
-    failed_row : callable ``failed_row(index, values, reason) -> row``
+    tasks : iterable
+        ``(index, values)`` pairs
+    client : Client
+        A ``distributed.Client`` (:func:`dask_client`)
+    runner : callable
+        Picklable ``runner(index, values) -> row``
+    record : callable
+        ``record(row)``, in this process
+    failed_row : callable
+        ``failed_row(index, values, reason) -> row``
     """
     from distributed import as_completed
 

@@ -26,7 +26,15 @@ FORMAT_VERSION = 1
 
 
 class SweepFileError(ValueError):
-    """A results file that cannot be used (another sweep's, or one that exists without resume)."""
+    """A results file that cannot be used (another sweep's, or one that exists without resume).
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the file and what is wrong with it
+    **kwargs : dict
+        None taken (as ``ValueError``)
+    """
 
 
 def rig_hash(rig) -> str:
@@ -34,7 +42,13 @@ def rig_hash(rig) -> str:
 
     Parameters
     ----------
-    rig : Rig   The base rig of the sweep
+    rig : Rig
+        The base rig of the sweep
+
+    Returns
+    -------
+    str
+        16 hex digits
     """
     text = json.dumps(sorted((k, repr(v)) for k, v in rig.values.items()))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -45,11 +59,16 @@ def journal_header(rig, design, scenario: str, t_end, solver: str) -> dict:
 
     Parameters
     ----------
-    rig : Rig          The base rig
-    design : Design    The variants (:meth:`hydroline.studies.Design.header`)
-    scenario : str     Scenario name
-    t_end : float      Simulated time per variant, [s] (None: the scenario's)
-    solver : str       Solver name
+    rig : Rig
+        The base rig
+    design : Design
+        The variants (:meth:`hydroline.studies.Design.header`)
+    scenario : str
+        Scenario name
+    t_end : float
+        Simulated time per variant, [s] (None: the scenario's)
+    solver : str
+        Solver name
 
     Returns
     -------
@@ -67,7 +86,13 @@ def read_journal(path) -> tuple[dict | None, dict]:
 
     Parameters
     ----------
-    path : path   The ``sweep.jsonl`` file
+    path : path
+        The ``sweep.jsonl`` file
+
+    Returns
+    -------
+    (dict or None, dict)
+        The header, and variant -> row
 
     Raises
     ------
@@ -104,7 +129,8 @@ def trim_partial_line(path) -> None:
 
     Parameters
     ----------
-    path : path   The ``sweep.jsonl`` file
+    path : path
+        The ``sweep.jsonl`` file
     """
     path = Path(path)
     data = path.read_bytes()
@@ -117,7 +143,13 @@ def json_line(row: dict) -> str:
 
     Parameters
     ----------
-    row : dict   Column -> value (SI units)
+    row : dict
+        Column -> value (SI units)
+
+    Returns
+    -------
+    str
+        One line of strict JSON (no newline)
     """
     return json.dumps({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                        for k, v in row.items()}, allow_nan=False)
@@ -128,7 +160,12 @@ def same_value(a, b) -> bool:
 
     Parameters
     ----------
-    a, b : object   Two input values (SI numbers or text)
+    a, b : object
+        Two input values (SI numbers or text)
+
+    Returns
+    -------
+    bool
     """
     if isinstance(a, float) and isinstance(b, (int, float)):
         return a == b or (math.isnan(a) and math.isnan(b))
@@ -140,9 +177,12 @@ def check_same_sweep(path, old: dict, new: dict) -> None:
 
     Parameters
     ----------
-    path : path   The journal (named in the message)
-    old : dict    Its header (:func:`read_journal`)
-    new : dict    This sweep's header (:func:`journal_header`)
+    path : path
+        The journal (named in the message)
+    old : dict
+        Its header (:func:`read_journal`)
+    new : dict
+        This sweep's header (:func:`journal_header`)
 
     Raises
     ------
@@ -167,9 +207,12 @@ def check_same_inputs(path, rows: dict, design) -> None:
 
     Parameters
     ----------
-    path : path       The journal (named in the message)
-    rows : dict       variant -> row read back from it
-    design : Design   This sweep's variants
+    path : path
+        The journal (named in the message)
+    rows : dict
+        variant -> row read back from it
+    design : Design
+        This sweep's variants
     """
     for i, row in rows.items():
         if i < len(design):
@@ -184,8 +227,10 @@ class Journal:
 
     Parameters
     ----------
-    path : path      The ``sweep.jsonl`` file
-    header : dict    The header to write when the file is new (None: resume, append)
+    path : path
+        The ``sweep.jsonl`` file
+    header : dict
+        The header to write when the file is new (None: resume, append)
     """
 
     def __init__(self, path, header: dict | None = None):
@@ -199,9 +244,16 @@ class Journal:
             self.file.flush()
 
     def append(self, row: dict) -> None:
-        """Write one row as a line and flush it (it survives a kill of this process)."""
+        """Write one row as a line and flush it (it survives a kill of this process).
+
+        Parameters
+        ----------
+        row : dict
+            Column -> value (SI units)
+        """
         self.file.write(json_line(row) + "\n")
         self.file.flush()
 
     def close(self) -> None:
+        """Close the file (every row written so far is on disk)."""
         self.file.close()

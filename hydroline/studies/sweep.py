@@ -231,7 +231,7 @@ class VariantRunner:
     rig : Rig            The base rig (not modified)
     scenario : str       Scenario name (:data:`hydroline.scenarios.SCENARIOS`)
     t_end : float        Simulated time, [s]; the scenario's default when None
-    solver : str         See :func:`hydroline.simulation.integrate`
+    solver : str         See :func:`hydroline.engine.integrate`
     units : dict         Rig path -> SI unit (looked up in the rig when None)
     axes : sequence      The rig's servo axes (names), for the row's columns
     share_models : bool  Share one model among variants of one structure (False: every
@@ -369,7 +369,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     from ..rigs.parameters import steady_state_hint
     from ..scenarios import (CAVITATION_PRESSURE, build_scenario, check_cavitation,
                              metrics_window)
-    from ..simulation import SteadyStateError, integrate, solve_steady_state
+    from ..engine import SteadyStateError, integrate, solve_steady_state
     from ..system import build_circuit
 
     tic = _time.perf_counter()
@@ -433,7 +433,7 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
     values : dict      Rig path -> value in SI units (text for text parameters)
     scenario : str     Scenario name, e.g. "open-loop-step", "closed-loop-sine", "position-step"
     t_end : float      Simulated time, [s]; the scenario's default when None
-    solver : str       See :func:`hydroline.simulation.integrate`
+    solver : str       See :func:`hydroline.engine.integrate`
     units : dict       Rig path -> SI unit (looked up in the rig when None)
     axes : sequence    The rig's servo axes (names); several give per-axis columns
     share_models : bool  Run on a model shared with earlier variants of this process's
@@ -561,7 +561,7 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     scenario : str              One of :data:`hydroline.scenarios.SCENARIOS`; None: the
                                 rig's ``rig.scenario``, else "open-loop-step"
     t_end : float               Simulated time per variant, [s]; the scenario's when None
-    solver : str                See :func:`hydroline.simulation.integrate`
+    solver : str                See :func:`hydroline.engine.integrate`
     workers : int               Local worker processes (default: the CPU count), or the
                                 number of workers of a ``scheduler="local"`` Dask cluster
     scheduler : str or Client   None: local processes; "local": a local Dask cluster;
