@@ -162,6 +162,15 @@ class TableCommand(_Command):
             return {"command": self._interp(tc)}
         return {"command": float(np.interp(t, self.times, self.values))}
 
+    def breakpoints(self, t_end):
+        """Times where the table's slope changes (integration restarts there, so a steep
+        edge is not stepped over), for tables of up to ``RAMP_ROWS`` rows, [s]."""
+        if len(self.times) > self.RAMP_ROWS:
+            return []
+        slopes = np.diff(self.values) / np.diff(self.times)
+        kinks = np.flatnonzero(np.diff(slopes) != 0.0) + 1
+        return [float(self.times[k]) for k in kinks]
+
     def value_range(self):
         """Smallest and largest value of the table, [unit]."""
         return float(np.min(self.values)), float(np.max(self.values))

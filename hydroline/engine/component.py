@@ -204,10 +204,6 @@ def parameter(default, unit: str, description: str = "", *, minimum=None, maximu
     return field(default=default, metadata={"parameter": decl})
 
 
-#: Component class -> its declared parameters (:meth:`Component.parameters`).
-_DECLARED: dict = {}
-
-
 @dataclass
 class Component:
     """Base class. Subclasses set ``inputs``, ``outputs``, ``states`` and the equations.
@@ -232,17 +228,16 @@ class Component:
     @classmethod
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
-        (with its default filled in); made once per class (a sweep builds thousands of
-        components)."""
-        made = _DECLARED.get(cls)
-        if made is None:
-            made = {}
+        (with its default filled in)."""
+        known = cls.__dict__.get("_declared_parameters")   # per class (not inherited)
+        if known is None:
+            known = {}
             for f in dataclasses.fields(cls):
                 decl = f.metadata.get("parameter")
                 if decl is not None:
-                    made[f.name] = dataclasses.replace(decl, default=f.default)
-            _DECLARED[cls] = made
-        return dict(made)       # Parameters are frozen; the dict is the caller's
+                    known[f.name] = dataclasses.replace(decl, default=f.default)
+            cls._declared_parameters = known
+        return dict(known)
 
     def check_parameters(self):
         """Raise ValueError ``"<name>: <parameter> must be <rule> [unit], got <value>"`` for

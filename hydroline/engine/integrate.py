@@ -50,8 +50,7 @@ def apply_samples(network: Network, sampled: list, t: float, x, p) -> None:
     """
     sig = network.signals_at(t, x, p)
     for c in sampled:
-        sl = network.state_slice(c.name)
-        xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
+        xs, _ = network.component_values(c, x, p)
         u = {port: sig[c.signal(port)] for port in c.inputs}
         for k, v in c.sample(xs, u).items():
             p[network.parameter_names.index(f"{c.name}.{k}")] = v

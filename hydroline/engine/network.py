@@ -82,6 +82,7 @@ class Network:
                 self.parameter_names.append(f"{c.name}.{k}")
                 self.parameter_values.append(float(v))
         self.parameter_values = np.array(self.parameter_values, dtype=float)
+        self._parameter_index = {k: i for i, k in enumerate(self.parameter_names)}
         self.signal_names = [c.signal(o) for c in self._order for o in c.outputs]
         self._compiled = None
         lost = self.lost_flows() if warn_lost_flows else []
@@ -216,12 +217,22 @@ class Network:
         """
         return self._state_slices[name]
 
-    def _split(self, c, x, p):
+    def component_values(self, c: Component, x, p) -> tuple[dict, dict]:
+        """A component's states and runtime parameters, keyed by their local names.
+
+        Parameters
+        ----------
+        c : Component   One of the network's components
+        x : sequence    All states, [SI] (numbers or symbols)
+        p : sequence    All runtime parameters, [SI]
+
+        Returns
+        -------
+        (dict, dict)  states name -> value, parameters name -> value [SI]
+        """
         sl = self._state_slices[c.name]
         xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
-        ps = {}
-        for k in c.runtime_parameters():
-            ps[k] = p[self.parameter_names.index(f"{c.name}.{k}")]
+        ps = {k: p[self._parameter_index[f"{c.name}.{k}"]] for k in c.runtime_parameters()}
         return xs, ps
 
     def evaluate(self, t, x, p=None):
@@ -241,7 +252,7 @@ class Network:
         signals = {}
         split = {}
         for c in self._order:
-            xs, ps = self._split(c, x, p)
+            xs, ps = self.component_values(c, x, p)
             split[c.name] = (xs, ps)
             u = {port: signals[c.signal(port)] for port in c.inputs} if c.feedthrough else {}
             y = c.outputs_of(t, xs, u, ps)

@@ -140,13 +140,16 @@ def column_units(network: Network) -> dict:
     ----------
     network : Network   The model
     """
-    units = {}
-    for c in network.components:
-        for port, spec in c.outputs.items():
-            units[c.signal(port)] = spec.unit
-        for st in c.states:
-            units[f"{c.name}.{st.name}"] = st.unit or "-"
-    return units
+    units = network.__dict__.get("_column_units")   # made once per network
+    if units is None:
+        units = {}
+        for c in network.components:
+            for port, spec in c.outputs.items():
+                units[c.signal(port)] = spec.unit
+            for st in c.states:
+                units[f"{c.name}.{st.name}"] = st.unit or "-"
+        network.__dict__["_column_units"] = units
+    return dict(units)
 
 
 def column_indices(what, names, columns):

@@ -284,8 +284,7 @@ def settle_components(network: Network, components, x, p, signals: dict) -> bool
     scales = network.state_scales
     for c in components:
         sl = network.state_slice(c.name)
-        xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
-        ps = {k: p[network.parameter_names.index(f"{c.name}.{k}")] for k in c.runtime_parameters()}
+        xs, ps = network.component_values(c, x, p)
         res = c.settle(xs, {port: signals[c.signal(port)] for port in c.inputs}, ps)
         if res is None:
             continue

@@ -167,6 +167,14 @@ def _parse(path: str, raw, context: dict | None = None):
             raise RigError(f"{path}: a connection names a signal, e.g. \"pump_pressure\"; got {raw!r}")
         return raw
     section, _, key = path.rpartition(".")
+    if section not in SCHEMA and path.startswith("scenario."):
+        # [scenario.<name>] type = "axis-commands": an experiment the rig defines itself
+        from ..scenario_schema import is_own_scenario, parse_scenario_value
+        if is_own_scenario(path, context or {}):
+            try:
+                return parse_scenario_value(path, raw, context or {}, _parse_as)
+            except ValueError as e:
+                raise RigError(str(e)) from None
     if section not in SCHEMA:
         known = ", ".join(sorted(SCHEMA))
         raise RigError(f"{path}: unknown component/section '{section or key}' (known: {known})")
