@@ -4,7 +4,6 @@ from __future__ import annotations
 import math
 
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS
 from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
@@ -41,9 +40,10 @@ def register(sub):
                    "default: the rig's supply.section2 and return.section2")
     p.add_argument("--axis", help="a multi-axis rig: the axis whose port pressures are reported "
                    "(default: the axis the first section belongs to, else the stepped axis)")
-    p.add_argument("--scenario", choices=SCENARIOS,
-                   help="the experiment per length (default: the rig's rig.scenario, else "
-                   "open-loop-step, the paper's)")
+    p.add_argument("--scenario", metavar="NAME",
+                   help="the experiment run per length: open-loop-step, closed-loop-sine, "
+                   "position-step or the rig's own [scenario.NAME] (default: the rig's "
+                   "rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")

@@ -9,7 +9,6 @@ import time
 import numpy as np
 
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS
 from ..scenarios import default_scenario
 from ..studies.sweep import sweep
 from .common import dump_json, print_table, quantity
@@ -68,9 +67,10 @@ def register(sub):
                    help="a parameter and its values with units (repeat for more; syntax below)")
     p.add_argument("--samples", type=int, metavar="N", help="random design of N variants (default: full factorial)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the random design (default 0)")
-    p.add_argument("--scenario", choices=SCENARIOS,
-                   help="the experiment each variant runs (default: the rig's rig.scenario, "
-                   "else open-loop-step)")
+    p.add_argument("--scenario", metavar="NAME",
+                   help="the experiment each variant runs: open-loop-step, closed-loop-sine, "
+                   "position-step or the rig's own [scenario.NAME] (default: the rig's "
+                   "rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time per variant with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--workers", type=int, metavar="W",

@@ -47,7 +47,7 @@ import numpy as np
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import SCENARIOS, simulate
+from ..scenarios import scenario_names, simulate
 from ..engine import SteadyStateError
 from ..lines import Line
 from ..system import make_fluid
@@ -487,7 +487,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
                              "axis1.supply_hose,axis1.return_hose"; None: the sections II
     axis : str               Multi-axis rig: the axis whose port pressures are reported (None:
                              the axis the first section belongs to by name, else the stepped)
-    scenario : str           One of :data:`hydroline.scenarios.SCENARIOS`; None: the rig's
+    scenario : str           One of :func:`hydroline.scenarios.scenario_names`; None: the rig's
                              ``rig.scenario``, else "open-loop-step" (the paper's)
     t_end : float            Simulated time, [s]; the scenario's default when None
     solver : str             See :func:`hydroline.engine.integrate`
@@ -504,8 +504,9 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
     scenario = scenario or default_scenario(rig)
-    if scenario not in SCENARIOS:
-        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+    if scenario not in scenario_names(rig):
+        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: "
+                       f"{', '.join(scenario_names(rig))})")
     sides = (sides,) if isinstance(sides, str) else tuple(sides)
     if not sides or any(s not in SIDES for s in sides):
         raise RigError(f"--side: expected 'supply', 'return' or both, got {sides!r}")

@@ -62,7 +62,7 @@ import numpy as np
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import SCENARIOS, default_scenario, simulate
+from ..scenarios import default_scenario, scenario_names, simulate
 from .design import Design, parameter_unit, parse_parameters
 from .executors import (MAX_ATTEMPTS, MAX_WORKERS, dask_client, failure_reason, run_dask,
                         run_processes, run_serial)
@@ -229,7 +229,7 @@ class VariantRunner:
     Parameters
     ----------
     rig : Rig            The base rig (not modified)
-    scenario : str       Scenario name (:data:`hydroline.scenarios.SCENARIOS`)
+    scenario : str       Scenario name (:func:`hydroline.scenarios.scenario_names`)
     t_end : float        Simulated time, [s]; the scenario's default when None
     solver : str         See :func:`hydroline.engine.integrate`
     units : dict         Rig path -> SI unit (looked up in the rig when None)
@@ -367,8 +367,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     from ..components.hose import coefficients_as_parameters
     from ..limits import check_output_size
     from ..rigs.parameters import steady_state_hint
-    from ..scenarios import (CAVITATION_PRESSURE, build_scenario, check_cavitation,
-                             metrics_window)
+    from ..scenarios import build_scenario, describe_run
     from ..engine import SteadyStateError, integrate, solve_steady_state
     from ..system import build_circuit
 
@@ -381,7 +380,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
             circuit = build_circuit(rig, sc.position_guess)
         net = circuit.network(sc.commands)
     check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
-                      name="t_end" if t_end is not None else f"scenario.{scenario}.t_end")
+                      name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
     key = graph_signature(net)
     shared = models.get(key)
     if shared is None:
@@ -401,23 +400,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
                                f"residual of {e.residual:.3g} 1/s at '{e.state}'",
                                e.state, e.residual) from None
     res = integrate(shared, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver)
-    res.steady_state = ss
-    first = next(iter(circuit.axes.values()))
-    act = net.component(first.actuator)
-    if sc.name == "closed-loop-sine":
-        res.metadata["command_frequency_hz"] = float(sc.commands[0].frequency)
-    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
-                        stroke=act.stroke, axes=circuit.axes,
-                        stepped_axis=rig.get("scenario.position-step.axis", first.name),
-                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
-                        axis_natural_frequency_hz={
-                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
-                            for n, a in circuit.axes.items()},
-                        steady_state_residual=ss.residual, n_states=len(net.state_names))
-    res.warnings.extend(check_cavitation(res, rig.get("fluid.gas_release_pressure",
-                                                      CAVITATION_PRESSURE)))
-    res.metadata["metrics_window"] = metrics_window(res)
-    res.metadata["total_wall_time"] = _time.perf_counter() - tic
+    describe_run(res, rig, circuit, net, sc, ss, tic)    # as simulate() (net: this variant's)
     return res
 
 
@@ -558,7 +541,7 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
                                 rig may be named, "two_axis")
     samples : int               Random design of this many variants; None: full factorial
     seed : int                  Seed of the random design, [-]
-    scenario : str              One of :data:`hydroline.scenarios.SCENARIOS`; None: the
+    scenario : str              One of :func:`hydroline.scenarios.scenario_names`; None: the
                                 rig's ``rig.scenario``, else "open-loop-step"
     t_end : float               Simulated time per variant, [s]; the scenario's when None
     solver : str                See :func:`hydroline.engine.integrate`
@@ -586,8 +569,9 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
     scenario = scenario or default_scenario(rig)
-    if scenario not in SCENARIOS:
-        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+    if scenario not in scenario_names(rig):
+        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: "
+                       f"{', '.join(scenario_names(rig))})")
     if t_end is not None and not t_end > 0:
         raise RigError(f"--t-end must be > 0 s, got {t_end!r}")
     params = parse_parameters(parameters, rig)
