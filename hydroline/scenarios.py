@@ -722,15 +722,22 @@ def experiment(rig: Rig, scenario: "str | Experiment", t_end: float | None = Non
     Experiment
     """
     if isinstance(scenario, Experiment):
-        return replace(scenario, t_end=t_end) if t_end is not None else scenario
-    if scenario in EXPERIMENTS:
+        exp = replace(scenario, t_end=t_end) if t_end is not None else scenario
+    elif scenario in EXPERIMENTS:
         _check_scenario(rig, scenario, t_end)
         check_consistency(rig, scenario)
-        return EXPERIMENTS[scenario].from_rig(rig, scenario, t_end)
-    kind = rig.get(f"scenario.{scenario}.type")
-    if kind in OWN_EXPERIMENTS:
-        return OWN_EXPERIMENTS[kind].from_rig(rig, scenario, t_end)
-    raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(scenario_names(rig))})")
+        exp = EXPERIMENTS[scenario].from_rig(rig, scenario, t_end)
+    elif rig.get(f"scenario.{scenario}.type") in OWN_EXPERIMENTS:
+        exp = OWN_EXPERIMENTS[rig.get(f"scenario.{scenario}.type")].from_rig(rig, scenario, t_end)
+    else:
+        raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(scenario_names(rig))})")
+    if exp.t_disturbance > 0 and not exp.t_end > exp.t_disturbance:
+        key = "time" if exp.name in EXPERIMENTS else "disturbance_time"
+        raise RigError(f"t_end: the run would end at {exp.t_end * 1e3:g} ms, before the disturbance "
+                       f"of scenario {exp.name} at {exp.t_disturbance * 1e3:g} ms (scenario."
+                       f"{exp.name}.{key}) [s]: nothing but the rest state to show; give a t_end "
+                       f"beyond it (e.g. --t-end)")
+    return exp
 
 
 def build_scenario(rig: Rig, scenario: "str | Experiment" = "open-loop-step",

@@ -152,3 +152,17 @@ def test_cli_runs_own_scenario_and_refuses_unknown(tmp_path, capsys):
 def test_closed_loop_sine_object_validates():
     with pytest.raises(RigError, match=r"frequency: must be > 0 \[Hz\]"):
         ClosedLoopSine(amplitude=0.01, frequency=0.0)
+
+
+@pytest.mark.parametrize("rig_name", [None, "two_axis"])
+def test_run_ending_before_the_disturbance_is_refused_naming_both_times(rig_name, capsys):
+    """--t-end 5 ms against a step at 10 ms: one line naming t_end, the step's key and both
+    times (the metrics used to fail on a time span without the step)."""
+    from hydroline.cli import main
+
+    args = ["simulate"] + ([rig_name] if rig_name else []) + ["--json", "--t-end", "5 ms"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    assert "t_end: the run would end at 5 ms, before the disturbance" in err[0]
+    assert "at 10 ms (scenario." in err[0] and ".time) [s]" in err[0]
