@@ -33,7 +33,7 @@ def quantity(text, unit, name):
     text : str   The option's value as typed, e.g. ``"3000 psi"`` or ``"12.7mm"``
     unit : str   The SI unit wanted, e.g. ``"Pa"``, ``"m"`` (see
                  :func:`hydroline.units.parse_quantity`)
-    name : str   The option's name, for the message, e.g. ``"--pressure"``
+    name : str   The option's name, for the message, e.g. ``"--position"``
 
     Returns
     -------
@@ -208,7 +208,7 @@ def progress_printer(label, enabled=True):
     Parameters
     ----------
     label : str      Text before the bar
-    enabled : bool   False: no bar (e.g. under ``--quiet`` or ``--json``)
+    enabled : bool   False: no bar (e.g. under ``--json``)
 
     Returns
     -------
