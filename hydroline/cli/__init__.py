@@ -44,7 +44,14 @@ class Terminated(KeyboardInterrupt):
     files removed, finished sweep variants recorded); the command exits with 143."""
 
 
-def _terminate(signum, frame):
+def raise_terminated(signum, frame):
+    """SIGTERM handler: raise :class:`Terminated` (a command then stops as on Ctrl-C).
+
+    Parameters
+    ----------
+    signum : int     The signal number
+    frame : frame    The interrupted stack frame (unused)
+    """
     raise Terminated
 
 
@@ -138,7 +145,7 @@ def main(argv=None) -> int:
 
     warnings.showwarning = functools.partial(_show_warning, args.command)
     try:
-        old_term = signal.signal(signal.SIGTERM, _terminate)
+        old_term = signal.signal(signal.SIGTERM, raise_terminated)
     except ValueError:          # not the main thread (e.g. called from a worker thread)
         old_term = None
     try:
