@@ -37,7 +37,16 @@ SCENARIOS = ("open-loop-step", "closed-loop-sine", "position-step")
 
 
 def default_scenario(rig: Rig) -> str:
-    """The rig's ``rig.scenario``, else "open-loop-step"."""
+    """The rig's ``rig.scenario``, else "open-loop-step".
+
+    Parameters
+    ----------
+    rig : Rig  The parsed rig
+
+    Returns
+    -------
+    str  The scenario's name
+    """
     return rig.get("rig.scenario", "open-loop-step")
 
 #: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
@@ -525,7 +534,17 @@ class AxisCommand:
         return comp.TableCommand(name=name, quantity=q, times=self.times, values=self.table)
 
     def position_range(self, start: float) -> tuple[float, float]:
-        """Lowest and highest value the command reaches, [A] or [m]."""
+        """Lowest and highest value the command reaches, [A] or [m].
+
+        Parameters
+        ----------
+        start : float  Where the axis starts (the level a waveform without its own initial
+                       value or offset holds), [A] or [m]
+
+        Returns
+        -------
+        tuple of float  (lowest, highest), [A] or [m]
+        """
         v = self.values
         if self.waveform == "step":
             lo = [v.get("initial", start), v["final"]]
@@ -817,8 +836,9 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
     progress : callable      Called with the fraction done
     rtol : float             Relative tolerance of the integrator (default 1e-6: the default
                              scenario's port pressures and piston velocity then lie within
-                             6e-3 % of their excursion from a 1e-10 reference, benchmarks/)
-    atol_scale : float       Absolute tolerance as a fraction of each state's typical magnitude
+                             6e-3 % of their excursion from a 1e-10 reference, benchmarks/), [-]
+    atol_scale : float       Absolute tolerance as a fraction of each state's typical
+                             magnitude, [-]
     stream_to : path         Stream the time series to this CSV file in constant memory (long
                              runs); ``data`` then holds the last row only and
                              ``metadata["stream_stats"]`` per-column min/max/mean/rms

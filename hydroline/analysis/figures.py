@@ -52,7 +52,8 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     path : str            PNG to write
     title : str           Figure title
     highest_mode_hz : float  Highest retained mode of the modal lines (the frequency up to
-                          which they follow the exact lines), drawn as a grey vertical line
+                          which they follow the exact lines), drawn as a grey vertical
+                          line, [Hz]
 
     Returns
     -------
@@ -152,6 +153,7 @@ def plot_friction(points: dict, fit, path=None, title=None):
     points : dict    Label -> (velocity [m/s], friction force [N]) arrays
     fit : StribeckFit  The fitted model (None to show the points only)
     path : str       PNG to write
+    title : str      Figure title
 
     Returns
     -------

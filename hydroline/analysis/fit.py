@@ -112,7 +112,12 @@ class Measurements:
         return [c for c in MEASURABLE if c in self.data]
 
     def to_csv(self, path):
-        """Write with ``name [SI unit]`` headers."""
+        """Write with ``name [SI unit]`` headers.
+
+        Parameters
+        ----------
+        path : str or Path  CSV file to write
+        """
         self.data.rename(columns={c: f"{c} [{COLUMNS[c]}]" for c in self.data}).to_csv(path, index=False)
 
 
@@ -179,6 +184,14 @@ def noise_level(y) -> float:
 
     For white noise of sigma s, the second difference has sigma ``sqrt(6) s``; a smooth
     signal sampled densely adds little to it. Returns 0 for a noise-free trace.
+
+    Parameters
+    ----------
+    y : array_like  The measured trace, uniformly sampled, [unit of y]
+
+    Returns
+    -------
+    float  Noise standard deviation, [unit of y]
     """
     y = np.asarray(y, dtype=float)
     if len(y) < 5:
@@ -298,7 +311,7 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     rig : Rig
     meas : Measurements   The record (its ``valve_current`` drives the model)
     signals : list[str]   Signals to return (the record's measured ones when None)
-    rtol : float          Integrator tolerance
+    rtol : float          Relative tolerance of the integrator, [-]
     start : str           "auto" (module docstring), "rest" (steady state at the first
                           current) or "hold" (the measured initial position held)
     axis : str            The axis the record is of (None: the first): its valve current is
@@ -372,6 +385,13 @@ class FitResult:
             self.names, self.units, self.start, self.estimate, self.ci_low, self.ci_high, self.std_log)]
 
     def to_dict(self) -> dict:
+        """The fit as plain JSON-ready data: each parameter's unit, start, estimate, confidence
+        interval and relative standard error, the correlation matrix, noise and residuals.
+
+        Returns
+        -------
+        dict  Numbers in the parameters' own (SI) units
+        """
         return {
             "parameters": {n: {"unit": u, "start": float(s), "estimate": float(e),
                                "ci_low": float(lo), "ci_high": float(hi),
@@ -385,7 +405,17 @@ class FitResult:
         }
 
     def calibrated_toml(self, data_source: str = "") -> str:
-        """The calibrated rig as TOML, with the fit summarised in a header comment."""
+        """The calibrated rig as TOML, with the fit summarised in a header comment.
+
+        Parameters
+        ----------
+        data_source : str  Where the measured data came from, named in the header
+                           ("measured data" when empty)
+
+        Returns
+        -------
+        str  The rig file's text
+        """
         head = [f"# Calibrated by 'hydroline fit' from {data_source or 'measured data'} "
                 f"({self.n_data} residuals, {100 * self.confidence:g} % confidence intervals):"]
         for n, u, s, e, lo, hi, sd in self.table():

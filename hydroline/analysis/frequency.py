@@ -270,11 +270,30 @@ class LineCoupledModel:
         return L
 
     def rest_response(self, s):
-        """``G(s)`` of the rest, ``(len(s), ny + nr, nu + nw)``."""
+        """``G(s)`` of the rest (the network without its hoses).
+
+        Parameters
+        ----------
+        s : array_like complex   Laplace variable, [1/s]
+
+        Returns
+        -------
+        complex ndarray ``(len(s), ny + nr, nu + nw)``, [SI]
+        """
         return _response(self.A, self.B, self.C, self.D, s, self.scales)
 
     def response_s(self, s, lines: str = "exact"):
-        """Closed-loop response ``y/u`` at complex s, ``(len(s), ny, nu)``."""
+        """Closed-loop response ``y/u`` at complex s.
+
+        Parameters
+        ----------
+        s : array_like complex   Laplace variable, [1/s]
+        lines : str              "exact" (dissipative, M6) or "modal" (the network's models)
+
+        Returns
+        -------
+        complex ndarray ``(len(s), ny, nu)``, [output unit / input unit]
+        """
         G = self.rest_response(s)
         L = self.line_matrix(s, lines)
         nu, ny = self._nu, self._ny
@@ -300,7 +319,17 @@ class LineCoupledModel:
         return self.response_s(2j * np.pi * f, lines)
 
     def characteristic(self, s, lines: str = "exact"):
-        """``det(I - G_rw(s) L(s))``, whose zeros are the coupled system's poles [-]."""
+        """``det(I - G_rw(s) L(s))``, whose zeros are the coupled system's poles [-].
+
+        Parameters
+        ----------
+        s : array_like complex   Laplace variable, [1/s]
+        lines : str              "exact" (dissipative, M6) or "modal" (the network's models)
+
+        Returns
+        -------
+        complex ndarray ``(len(s),)``, [-]
+        """
         G = self.rest_response(s)
         L = self.line_matrix(s, lines)
         Grw = G[:, self._ny:, self._nu:]
@@ -374,6 +403,14 @@ def highest_retained_mode(model: LineCoupledModel) -> float:
     """Lowest, over the hoses, of the undamped frequency of the highest modal-model mode, [Hz].
 
     PQ/QP modes sit at ``(i - 1/2) c/(2L)`` (M9), PP/QQ at ``i c/(2L)``.
+
+    Parameters
+    ----------
+    model : LineCoupledModel  The model whose hoses are read (:func:`line_coupled_model`)
+
+    Returns
+    -------
+    float  Frequency, [Hz] (inf when no hose has a modal model)
     """
     out = np.inf
     for h in model.hoses:

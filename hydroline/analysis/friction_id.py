@@ -197,9 +197,9 @@ def steady_velocity_point(nf: pd.DataFrame, tolerance: float = 0.02, min_samples
     tolerance : float     Relative velocity band of the steady part, [-]
     min_samples : int     Fewest samples for a point
     min_fraction : float  The steady part must be at least this fraction of the record (a
-                          stick-slip run passes through v_ss only briefly)
+                          stick-slip run passes through v_ss only briefly), [-]
     max_spread : float    No point when 4 sigma exceeds this fraction of |v_ss|: the noise
-                          would hide a stick-slip run (use a longer derivative window)
+                          would hide a stick-slip run (use a longer derivative window), [-]
 
     Returns
     -------
@@ -266,7 +266,16 @@ class StribeckFit:
     static_note: str = ""
 
     def force(self, v):
-        """Friction force of the fitted (M24) at velocity v [m/s] (sgn, not regularised), [N]."""
+        """Friction force of the fitted (M24) at velocity v (sgn, not regularised), [N].
+
+        Parameters
+        ----------
+        v : array_like  Piston velocity, [m/s]
+
+        Returns
+        -------
+        ndarray  Friction force, opposing +v when > 0, [N]
+        """
         v = np.asarray(v, dtype=float)
         up = v > 0
         fv = np.where(up, self.viscous_up, self.viscous_down)
@@ -369,11 +378,13 @@ def fit_stribeck(v, F, stribeck_exponent: float = 2.0, stribeck_velocity: float 
     stribeck_velocity : float      C_s [m/s]; fitted (common to both directions) when None
     min_speed : float              Points slower than this are dropped (stick), [m/s]
     weights : array_like           Relative weight of each point (a steady-velocity point that
-                                   averages n samples: n; a single sample: 1); all 1 when None
-    steady : array_like of bool    Which points come from steady-velocity runs (only these
+                                   averages n samples: n; a single sample: 1); all 1 when
+                                   None, [-]
+    steady : sequence of bool      Which points come from steady-velocity runs (only these
                                    count as evidence near C_s); all when None
-    hump_sigmas : float            The hump F_s - F_c must exceed this many standard errors of F_s
-    slow_factor : float            "Slow" means |v| < slow_factor * C_s
+    hump_sigmas : float            The hump F_s - F_c must exceed this many standard errors
+                                   of F_s, [-]
+    slow_factor : float            "Slow" means |v| < slow_factor * C_s, [-]
     min_slow : int                 Slow steady points needed per direction
 
     Returns

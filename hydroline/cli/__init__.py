@@ -44,7 +44,14 @@ class Terminated(KeyboardInterrupt):
     files removed, finished sweep variants recorded); the command exits with 143."""
 
 
-def _terminate(signum, frame):
+def raise_terminated(signum, frame):
+    """SIGTERM handler: raise :class:`Terminated` (a command then stops as on Ctrl-C).
+
+    Parameters
+    ----------
+    signum : int     The signal number
+    frame : frame    The interrupted stack frame (unused)
+    """
     raise Terminated
 
 
@@ -76,7 +83,17 @@ class _VersionAction(argparse.Action):
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The argument parser; with ``only`` (a module name of ``SUBCOMMANDS``) just that
-    subcommand is registered, so a command imports only its own module and what it uses."""
+    subcommand is registered, so a command imports only its own module and what it uses.
+
+    Parameters
+    ----------
+    only : str or None  Module name of the one subcommand to register (``"line_response"``
+                        for ``line-response``); None registers all of them
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
     parser = argparse.ArgumentParser(
         prog="hydroline",
         description="Electrohydraulic servo systems with supply and return hose dynamics.",
@@ -100,6 +117,20 @@ def _requested_subcommand(argv) -> str | None:
 
 
 def main(argv=None) -> int:
+    """Run the ``hydroline`` command: parse the arguments and call the subcommand.
+
+    A mistake the user can make (a bad unit, a missing file, a rig that does not solve) is
+    printed as one line on stderr, without a traceback.
+
+    Parameters
+    ----------
+    argv : list of str or None  The arguments after ``hydroline`` (``sys.argv[1:]`` when None)
+
+    Returns
+    -------
+    int  Exit code: 0 success, 2 bad input (or no subcommand), 130 interrupted, 141 closed
+         stdout, 143 terminated, or the subcommand's own
+    """
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(_requested_subcommand(argv))
     args = parser.parse_args(argv)
@@ -114,7 +145,7 @@ def main(argv=None) -> int:
 
     warnings.showwarning = functools.partial(_show_warning, args.command)
     try:
-        old_term = signal.signal(signal.SIGTERM, _terminate)
+        old_term = signal.signal(signal.SIGTERM, raise_terminated)
     except ValueError:          # not the main thread (e.g. called from a worker thread)
         old_term = None
     try:

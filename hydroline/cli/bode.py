@@ -13,6 +13,14 @@ DEFAULT_OUTPUTS = "piston_velocity,supply_port_pressure,return_port_pressure"
 
 
 def register(sub):
+    """Add the ``hydroline bode`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser(
         "bode", help="frequency response of the linearised system: with the hoses and with an "
         "ideal constant supply",
@@ -73,7 +81,18 @@ def _frequencies(args):
 
 
 def summary_dict(res, op) -> dict:
-    """The JSON summary of a :class:`~hydroline.analysis.frequency.BodeResult`."""
+    """The JSON summary of a :class:`~hydroline.analysis.frequency.BodeResult`.
+
+    Parameters
+    ----------
+    res : BodeResult      The frequency responses, bandwidths and resonances of the variants
+    op : OperatingPoint   Where the model was linearised (piston position [m] and velocity
+                          [m/s], :class:`~hydroline.analysis.linearize.OperatingPoint`)
+
+    Returns
+    -------
+    dict  Keys name their unit (``_hz``, ``_pa``, ``_m``, ...); ready for :func:`dump_json`
+    """
     solved = res.operating_points[MODAL]
     out = {
         "input": res.input, "outputs": res.outputs,
@@ -102,6 +121,19 @@ def summary_dict(res, op) -> dict:
 
 
 def run(args) -> int:
+    """Run ``hydroline bode``: the frequency response of the linearised test system, with the hoses and with an ideal supply: a Bode plot, bandwidths and resonances.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     rig = load_rig(args.rig)
     out = out_dir(args.out)       # checked before the analysis, not after it
     outputs = [o.strip() for o in args.output.split(",") if o.strip()]

@@ -11,6 +11,14 @@ from .common import print_table
 
 
 def register(sub):
+    """Add the ``hydroline circuit`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser("circuit", help="print a rig's circuit: components, connections, causality",
                        description="Print the components of a rig's circuit with the signal on "
                        "each port (inputs <- and outputs ->), the connections (each signal, the "
@@ -26,6 +34,19 @@ def register(sub):
 
 
 def run(args) -> int:
+    """Run ``hydroline circuit``: print a rig's circuit (components, connections, causality), optionally as JSON or drawn to a PNG.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     if args.types:
         print(parameter_reference())
         return 0

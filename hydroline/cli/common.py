@@ -26,7 +26,19 @@ class OutputError(ValueError):
 
 
 def quantity(text, unit, name):
-    """A command-line quantity with units -> SI float (UnitError, one line, on misuse)."""
+    """A command-line quantity with units -> SI float (UnitError, one line, on misuse).
+
+    Parameters
+    ----------
+    text : str   The option's value as typed, e.g. ``"3000 psi"`` or ``"12.7mm"``
+    unit : str   The SI unit wanted, e.g. ``"Pa"``, ``"m"`` (see
+                 :func:`hydroline.units.parse_quantity`)
+    name : str   The option's name, for the message, e.g. ``"--position"``
+
+    Returns
+    -------
+    float  The value in ``unit``, [unit]
+    """
     return parse_quantity(text, unit, name)
 
 
@@ -87,6 +99,15 @@ def atomic_outputs(folder):
     extension still work); when the block ends without an exception every temporary file is
     renamed (``os.replace``, atomic on one file system) to its name, otherwise all of them are
     removed. A full disk gives one line (:class:`OutputError`) naming the file.
+
+    Parameters
+    ----------
+    folder : str or Path  The output folder (checked by :func:`out_dir`); the temporary
+                          files are made there, on the same file system as their targets
+
+    Yields
+    ------
+    callable  ``temp(name) -> Path``: the temporary path to write for the file ``name``
     """
     folder = Path(folder)
     pending = {}
@@ -130,7 +151,15 @@ def _os_message(e: OSError, folder) -> str:
 
 
 def print_table(headers, rows, file=None):
-    """Plain aligned text table."""
+    """Plain aligned text table.
+
+    Parameters
+    ----------
+    headers : sequence of str  Column headings
+    rows : iterable            Rows, each a sequence of cells (a float is printed with four
+                               significant digits, None as "-")
+    file : file-like           Where to print (stdout when None)
+    """
     file = file or sys.stdout
     cells = [[str(h) for h in headers]] + [[_fmt(c) for c in r] for r in rows]
     widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
@@ -150,7 +179,14 @@ def _fmt(c):
 
 def dump_json(obj, file=None):
     """Strict JSON (RFC 8259) on stdout or ``file``: NaN and +-inf, which JSON has no word
-    for, are written as null (a metric that does not exist)."""
+    for, are written as null (a metric that does not exist).
+
+    Parameters
+    ----------
+    obj : dict, list or scalar  The data (nested dicts, lists and tuples of numbers, strings,
+                                booleans and None)
+    file : file-like            Where to write (stdout when None)
+    """
     import math
 
     def clean(v):
@@ -167,7 +203,18 @@ def dump_json(obj, file=None):
 
 
 def progress_printer(label, enabled=True):
-    """A callable(fraction) drawing a one-line progress bar on stderr (when it is a TTY)."""
+    """A callable(fraction) drawing a one-line progress bar on stderr (when it is a TTY).
+
+    Parameters
+    ----------
+    label : str      Text before the bar
+    enabled : bool   False: no bar (e.g. under ``--json``)
+
+    Returns
+    -------
+    callable or None  ``show(fraction)``, fraction done in 0..1 [-]; None when disabled or
+                      stderr is no terminal
+    """
     if not enabled or not sys.stderr.isatty():
         return None
 
@@ -183,7 +230,17 @@ def progress_printer(label, enabled=True):
 
 def settling_cell(metrics: dict):
     """A port's settling time for a table: [ms], "~..." when estimated, None when there is
-    none (``metrics`` holds ``settling_time_s`` [s] and ``settling_method``)."""
+    none.
+
+    Parameters
+    ----------
+    metrics : dict  A port's metrics, holding ``settling_time_s`` [s] (or None) and
+                    ``settling_method``
+
+    Returns
+    -------
+    float, str or None  Settling time, [ms]
+    """
     v = metrics["settling_time_s"]
     if v is None:
         return None

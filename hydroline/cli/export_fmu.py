@@ -6,6 +6,14 @@ from ..scenarios import SCENARIOS
 
 
 def register(sub):
+    """Add the ``hydroline export-fmu`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser(
         "export-fmu", help="export the rig's plant as an FMU (FMI 2.0 or 3.0, co-simulation or model "
         "exchange)",
@@ -32,6 +40,19 @@ def register(sub):
 
 
 def run(args) -> int:
+    """Run ``hydroline export-fmu``: write the rig's plant as an FMI 2.0 or 3.0 FMU.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     from ..fmu import FMI_VERSIONS, KINDS, export_fmu
 
     fmi = {"2": 2, "2.0": 2, "3": 3, "3.0": 3}.get(str(args.fmi).strip())

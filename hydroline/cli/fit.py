@@ -10,6 +10,14 @@ _COLUMN_HELP = ", ".join(f"'{k} [{u}]'" for k, u in COLUMNS.items())
 
 
 def register(sub):
+    """Add the ``hydroline fit`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser(
         "fit", help="estimate rig parameters from measured time series",
         description="Fit chosen rig parameters (e.g. hose bulk moduli, manifold resistance, "
@@ -51,6 +59,19 @@ def _files(files):
 
 
 def run(args) -> int:
+    """Run ``hydroline fit``: calibrate rig parameters to a measured record (nonlinear least squares).
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     rig_path, data_path = _files(args.files)
     if not 0 < args.confidence < 1:
         raise ValueError(f"--confidence must lie in (0, 1), got {args.confidence!r}")

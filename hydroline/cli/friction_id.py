@@ -12,6 +12,14 @@ from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 
 
 def register(sub):
+    """Add the ``hydroline friction-id`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser(
         "friction-id", help="identify piston friction (M24) from open-loop runs and a closed-loop sine",
         description="Friction force by Newton's law (M23) from measured chamber pressures and "
@@ -44,6 +52,19 @@ def register(sub):
 
 
 def run(args) -> int:
+    """Run ``hydroline friction-id``: identify friction by Newton's law and fit (M24) up and down separately.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     rig = load_rig(args.rig)
     out = out_dir(args.out)       # checked before the identification, not after it
     window = quantity(args.window, "s", "--window")

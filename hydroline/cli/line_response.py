@@ -36,6 +36,14 @@ STEP_SETTLE_PERIODS = 2
 
 
 def register(sub):
+    """Add the ``hydroline line-response`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser("line-response", help="frequency response of one line: exact vs modal",
                        description="Magnitude and phase of every entry of a causal form, exact "
                        "(dissipative, M6) against the modal model(s); table of resonances; "
@@ -65,6 +73,11 @@ def smooth_step_filter(line: Line, n_modes: int):
 
     ``a_k = (4/T) (0.8, 0.93, 1.07, 1.2)``, ``T = 20/omega_n``, ``omega_n = (n - 1/2) pi c/L``
     (M9): rise time ~0.6 L/c for n = 10, ``|W| < 1e-3`` at the first dropped mode, W(0) = 1.
+
+    Parameters
+    ----------
+    line : Line     The line (its wave time L/c sets the filter's corners)
+    n_modes : int   Modes of the models the step is for, [-]
 
     Returns
     -------
@@ -141,7 +154,17 @@ def blocked_step_errors(line: Line, models: dict, periods: int = 20,
 
 
 def plot_step(line, t, exact, responses, path):
-    """Two panels: P_d/P_u step of the blocked line, and model minus exact in % of the step."""
+    """Two panels: P_d/P_u step of the blocked line, and model minus exact in % of the step.
+
+    Parameters
+    ----------
+    line : Line         The line (length, diameter, dissipation number in the title)
+    t : ndarray         Time samples, [s]
+    exact : ndarray     Exact P_d/P_u step response at ``t`` (as
+                        :func:`blocked_step_errors` returns it), [-]
+    responses : dict    label -> model's P_d/P_u step response at ``t``, [-]
+    path : str or Path  PNG to write
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -180,6 +203,19 @@ def _models(line, n, form, methods, strict):
 
 
 def run(args) -> int:
+    """Run ``hydroline line-response``: one hose's exact vs modal frequency response, resonances and blocked-end pressure step.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     fluid = Fluid(quantity(args.density, "kg/m^3", "--density"),
                   quantity(args.viscosity, "m^2/s", "--viscosity"),
                   quantity(args.oil_bulk_modulus, "Pa", "--oil-bulk-modulus"))

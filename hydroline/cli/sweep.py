@@ -137,9 +137,9 @@ def run(args) -> int:
     def count(row):
         done["rows"] += 1
 
-    from . import Terminated, _terminate
+    from . import Terminated, raise_terminated
 
-    old = signal.signal(signal.SIGTERM, _terminate)    # a kill finishes cleanly, like Ctrl-C
+    old = signal.signal(signal.SIGTERM, raise_terminated)    # a kill finishes cleanly, like Ctrl-C
     try:
         result = sweep(args.sets, rig, samples=args.samples, seed=args.seed,
                        scenario=scenario, t_end=t_end, solver=args.solver,
