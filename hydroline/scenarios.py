@@ -1138,7 +1138,14 @@ class SineSummaryStream:
         self.err_max = 0.0
 
     def update(self, t, table, columns):
-        """One block of output rows (ascending times t [s], ``table`` rows x ``columns``)."""
+        """Take in one block of output rows (pass as ``observe`` to :func:`simulate`).
+
+        Parameters
+        ----------
+        t : ndarray         Ascending output times, [s]
+        table : ndarray     One row per time: signals and states side by side, [SI]
+        columns : list[str] Names of the table's columns
+        """
         if self.arrived or len(t) == 0:
             return
         if self.index is None:
@@ -1182,7 +1189,16 @@ class SineSummaryStream:
 
     def summary(self, res: SimulationResult) -> dict:
         """The summary dict of :func:`summarize` (closed-loop sine), from the rows seen and the
-        run's metadata and warnings (``res`` need not hold the trace)."""
+        run's metadata and warnings.
+
+        Parameters
+        ----------
+        res : SimulationResult  The run (need not hold the trace: its metadata and warnings)
+
+        Returns
+        -------
+        dict
+        """
         t0, t1 = self.t0, self.t_end
         reason = "stop" if self.arrived else "end"
         out = {}
