@@ -219,8 +219,12 @@ class LayoutStudy:
     def plot(self, path=None, title=None):
         """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
         return right; dotted: step and piston stop, green dashed: a measured 2 % settling
-        time) above
-        frequency and amplitude against length.
+        time) above frequency and amplitude against length.
+
+        Parameters
+        ----------
+        path : str or Path   Write the figure there (PNG) when given
+        title : str          Figure title
 
         Returns
         -------
@@ -348,7 +352,16 @@ def conclusion(study: "LayoutStudy") -> str:
     """The design conclusion in one sentence, written from the study's own numbers.
 
     Compares the port oscillation amplitude at the longest section II with the shortest
-    non-zero one and, where the study has it, the close-coupled manifold (0 m)."""
+    non-zero one and, where the study has it, the close-coupled manifold (0 m).
+
+    Parameters
+    ----------
+    study : LayoutStudy   A finished layout study
+
+    Returns
+    -------
+    str  One sentence
+    """
     recs = {r["section2_length_m"]: r for r in study.records()}
     hoses = sorted(L for L in recs if L > 0)
     parts = []
