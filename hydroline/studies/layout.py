@@ -230,13 +230,10 @@ class LayoutStudy:
         -------
         matplotlib.figure.Figure (written as PNG to ``path`` when given)
         """
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+        from ..plotting import new_figure
 
         n = len(self.lengths)
-        fig = plt.figure(figsize=(11, 1.7 * n + 4.0))
+        fig = new_figure((11, 1.7 * n + 4.0))
         outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
         gs = outer[0].subgridspec(n, 2, hspace=0.12)
         first, lims = {}, {}
