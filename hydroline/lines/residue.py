@@ -50,10 +50,17 @@
     least-squares fit of the exact remainder in the band and of the reflection-free mean
     above it, with the DC gain and first moment of every entry exact (equality
     constraints) and ``|H| <= TAIL_BOUND * envelope`` above the band (re-weighting).
-    PP, QQ (:func:`_single_tail_blocks`): one light pseudo-mode per output
-    (``zeta = TAIL_DAMPING``), numerators from the exact DC gain and first moment; it keeps
-    the port admittance/impedance passive but peaks above the band at 2-9 times the exact
-    envelope (a passive, i.e. positive-real constrained, version of the fit is not done).
+    PP, QQ (:func:`_passive_remainder_blocks`): the same groups, one pair per group and
+    *port channel* (``H00 + H01`` and ``H00 - H01``, the eigenvalues of the port admittance
+    (PP) or impedance (QQ): common and differential mode, :func:`_port_channels`), the
+    same objective and equalities, plus passivity: ``Re >= 0`` of both channels of the
+    whole model on a frequency grid (in the band ``>= PASSIVE_MARGIN`` times the exact
+    line's real part), refined where a dense check finds less, and the common mode's
+    second moment at most half the exact one (PP, near DC); the envelope bound as tangent
+    half-planes (cutting planes). A quadratic programme in 16 numerators, solved exactly
+    (:func:`_inequality_lsq`). Should it ever fail (not seen on ~100 lines, Dn 3e-5 ...
+    0.05), the old single light pseudo-mode per output (:func:`_single_tail_blocks`,
+    passive, but 2-9 times the envelope above the band) is used instead.
 
   The DC gain of every entry is therefore exact: PQ/QP the laminar steady state (M12),
   PP ``1/R``, QQ ``1/(s C)`` plus the offsets ``R/3`` (coth) and ``-R/6`` (csch).
@@ -72,7 +79,10 @@ after the dot gives the unit):
   to the output at ``end`` ("upstream"/"downstream") of quantity q ("pressure"/"flow"),
   e.g. PQ ``viscous_downstream2.pressure``: part of P_d driven by Q_d;
 * PQ/QP: ``tail{g}_{end}.{q}1``, ``tail{g}_{end}.{q}2`` -- group g's contribution to that
-  output and its quadrature component (same unit); PP/QQ: ``tail_{end}.{q}1``, ``...2``.
+  output and its quadrature component (same unit); PP/QQ: ``tail{g}_{mode}.{q}1``,
+  ``...2``, mode "common" or "differential" (port channel driven by ``u1 + u2`` or
+  ``u1 - u2``; the outputs get half of it, with the channel's signs), q "flow" (PP) or
+  "pressure" (QQ); fallback: ``tail_{end}.{q}1``, ``...2``.
 
 Inputs and outputs are in the order of the form's table (:data:`FORM_PORTS`).
 """
@@ -87,11 +97,20 @@ from .line import FORM_PORTS, Line, check_form
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
            "viscous_poles", "exact_moments", "column_branches", "tail_groups"]
 
-#: PP and QQ forms: damping ratio of the single pseudo-mode per output that stands for the
-#: dropped modes (the grouped, fitted remainder of PQ/QP is not yet constrained to keep the
-#: port admittance/impedance passive), [-]. Light: its in-band part must stay reactive.
+#: PP and QQ forms, fallback only (:func:`_single_tail_blocks`, used if the passive fit
+#: fails): damping ratio of the single pseudo-mode per output that stands for the dropped
+#: modes, [-]. Light: its in-band part must stay reactive.
 TAIL_DAMPING = 0.05
+
+#: PP and QQ: the envelope bound enters the fit as tangent half-planes
+#: ``Re(H e^{-j arg H}) <= TAIL_CUT * TAIL_BOUND * envelope`` at the points above the bound
+#: (cutting planes, added per round), [-].
 TAIL_CUT = 0.99
+
+#: PP and QQ: in the band (from a quarter of a mode spacing), the real part of each port
+#: channel of the model must be at least this fraction of the exact line's (a margin
+#: that keeps it positive between the grid points, where the exact one is small for
+#: low-loss lines), [-].
 PASSIVE_MARGIN = 0.5
 
 #: PQ and QP forms: the dropped modes k > n are lumped in groups ``[a_g, a_{g+1})`` with
@@ -662,22 +681,35 @@ def _passive_remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1,
     The dropped modes are grouped as for PQ/QP (:func:`tail_groups`); every group gets one
     damped pair ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` per port channel (plus,
     minus: :func:`_port_channels`), driven by ``u1 + u2`` or ``u1 - u2``. The numerators
-    solve a quadratic programme (SLSQP, 4 per group):
+    (4 per group) solve a quadratic programme (:func:`_inequality_lsq`):
 
     * minimise the same least-squares objective as :func:`_remainder_blocks` (exact
       remainder in the band, reflection-free mean above it), per channel;
     * equality: DC gain ``rem0`` and first moment ``rem1`` of every entry exact;
     * passivity: ``Re(channel) >= 0`` of the whole model (modes, column, V and these pairs)
-      on a frequency grid (linear in the numerators), refined where a dense check finds a
-      violation; near DC, where the common-mode admittance (PP) is ``-H2 omega^2``, its
-      second moment must be at most half the exact one (``moment2``, negative);
+      on a frequency grid (linear in the numerators; in the band ``>= PASSIVE_MARGIN``
+      times the exact real part), refined where a check on a 64-per-spacing grid finds
+      less than half of that; near DC, where the common-mode admittance (PP) is
+      ``-H2 omega^2``, its second moment at most half the exact one (``moment2`` [Pa^-1
+      m^3 s], negative);
     * envelope: ``|H| <= TAIL_BOUND * envelope`` above the band for entries 00 and 01 (10,
-      11 are their negatives), as 8 linear half-planes (an inscribed octagon) at the points
-      that violate it, added in rounds.
+      11 are their negatives), as tangent half-planes at the points that exceed it
+      (``TAIL_CUT``), added in rounds (at most ``TAIL_ITERATIONS``).
+
+    Parameters
+    ----------
+    line : Line          The line
+    n : int              Retained modes, [-]
+    form : str           "PP" or "QQ"
+    blocks : list        (A, B, C, names) blocks realised so far (column, modes, V)
+    rem0, rem1 : ndarray (2, 2) DC gain and first moment the remainder must supply, [output
+                         unit per input unit], [same * s]
+    moment2 : float, optional  Exact second moment of the common-mode admittance (PP)
 
     Returns
     -------
-    list of (A, B, C, names) blocks
+    list of (A, B, C, names) blocks, or None if no passive fit was found (the caller then
+    uses :func:`_single_tail_blocks`)
     """
     tau = line.wave_time
     groups = tail_groups(n, form)
@@ -867,7 +899,7 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     -------
     (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
     form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
-    2 n modal + 4 viscous + tail (PQ/QP: 4 per group of :func:`tail_groups`, 16; PP/QQ: 4),
+    2 n modal + 4 viscous + tail (4 per group of :func:`tail_groups`, 16),
     plus 6 column states (PP) or 1 (QQ).
     """
     if not isinstance(line, Line):
