@@ -20,7 +20,7 @@ instructions (no component is rewritten by hand):
 
 All integrate 0.25 s at rtol 1e-6, atol 1e-7 of each state's scale (``simulate()``'s
 defaults), output every 0.1 ms, restarting at the network's breakpoints (the 10 ms step) as
-:func:`hydroline.simulation.integrate` does, from the solved steady state. Error: largest
+:func:`hydroline.engine.integrate` does, from the solved steady state. Error: largest
 deviation of the valve port pressures and piston velocity from a CVODES run at rtol 1e-10, in
 % of the signal's excursion (as in bench_simulate). Per-evaluation costs of f and J are timed
 inside compiled loops (C: a harness compiled with the core's flags; numba: an njit loop;
@@ -50,7 +50,7 @@ import numpy as np  # noqa: E402
 from hydroline import compiled  # noqa: E402
 from hydroline.rigs import load_rig  # noqa: E402
 from hydroline.scenarios import build_scenario  # noqa: E402
-from hydroline.simulation import integrate, solve_steady_state  # noqa: E402
+from hydroline.engine import integrate, solve_steady_state  # noqa: E402
 from hydroline.compiled.codegen import assignments, scaled_functions  # noqa: E402
 from hydroline.system import build_network  # noqa: E402
 

@@ -43,8 +43,8 @@ from hydroline.lines.compare import compare_resonances
 from hydroline.lines.characteristics import CharacteristicsLine
 from hydroline.lines.inverse_laplace import exact_step_response
 from hydroline.lines.lumped import LumpedLine
-from hydroline.network import Network
-from hydroline.simulation import integrate
+from hydroline.engine import Network
+from hydroline.engine import integrate
 from hydroline.system import hose_lines
 
 STEP = 1e6   # [Pa]

@@ -26,7 +26,7 @@ import numpy as np
 from hydroline import compiled
 from hydroline.rigs import load_rig
 from hydroline.scenarios import build_scenario, simulate
-from hydroline.simulation import integrate, solve_steady_state
+from hydroline.engine import integrate, solve_steady_state
 from hydroline.system import build_network
 
 KEYS = ("supply_port_pressure", "return_port_pressure", "piston_velocity")

@@ -2,7 +2,7 @@
 
 ``simulate(rig, scenario, t_end)`` builds the network of the rig with the scenario's command
 components, solves its steady state before the disturbance, integrates, checks validity
-(pressures below zero absolute) and returns a :class:`~hydroline.simulation.SimulationResult`
+(pressures below zero absolute) and returns a :class:`~hydroline.engine.SimulationResult`
 whose ``metadata`` holds what the summary needs.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ from .traces.metrics import pressure_metrics
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency, steady_state_hint
-from .simulation import SimulationResult, SteadyStateError, integrate, solve_steady_state
+from .engine import SimulationResult, SteadyStateError, integrate, solve_steady_state
 from .system import build_circuit
 
 __all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario", "default_scenario"]
@@ -222,7 +222,7 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
     dt_out : float           Output sampling interval, [s]
     solver : str             "auto" (the compiled C core where a C compiler exists, else
                              "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
-                             (reference Python path); see :func:`hydroline.simulation.integrate`
+                             (reference Python path); see :func:`hydroline.engine.integrate`
     progress : callable      Called with the fraction done
     rtol : float             Relative tolerance of the integrator (default 1e-6: the default
                              scenario's port pressures and piston velocity then lie within
@@ -232,7 +232,7 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
                              runs); ``data`` then holds the last row only and
                              ``metadata["stream_stats"]`` per-column min/max/mean/rms
     stream_columns : list    Columns to stream (all when None)
-    options                  Further keywords of :func:`hydroline.simulation.integrate`
+    options                  Further keywords of :func:`hydroline.engine.integrate`
                              (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
 
     Returns

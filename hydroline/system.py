@@ -36,7 +36,7 @@ from . import components as comp
 from .fluid import Fluid
 from .lines import Line, ModalLine
 from .circuit import Circuit, CircuitError, axes_of, circuit_components, has_circuit, rewire
-from .network import Network
+from .engine import Network
 from .rigs import SCHEMA, Rig, RigError, declarations
 from .rigs.parameters import check_consistency, check_ranges
 

@@ -20,7 +20,7 @@ from hydroline.analysis.linearize import DEFAULT_OUTPUTS, _transfer_state
 from hydroline.cli import main
 from hydroline.lines.compare import compare_resonances, find_resonances
 from hydroline.rigs import load_rig
-from hydroline.simulation import integrate
+from hydroline.engine import integrate
 from hydroline.system import build_network
 
 OUTS = ["supply_port_pressure", "return_port_pressure", "piston_velocity", "bottom_chamber_pressure"]

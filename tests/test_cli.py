@@ -55,7 +55,7 @@ def test_simulate_model_failures_are_one_line(tmp_path, capsys, monkeypatch, err
     """Failures of the model itself (no steady state, no C compiler, integrator gave up)."""
     from hydroline.cli import simulate as cli_simulate
     from hydroline.compiled import CompilerUnavailable
-    from hydroline.simulation import SteadyStateError
+    from hydroline.engine import SteadyStateError
 
     exc = {"steady": SteadyStateError("steady state not found: scaled residual 0.05 1/s\nmore"),
            "compiler": CompilerUnavailable("no C compiler found (set CC, or install gcc)"),

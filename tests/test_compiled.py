@@ -13,11 +13,11 @@ import pytest
 
 from hydroline import compiled
 from hydroline.compiled.codegen import generate, lu_plan
-from hydroline.network import Network, ops
-from hydroline.network.component import Component, Port, State
+from hydroline.engine import Network, ops
+from hydroline.engine.component import Component, Port, State
 from hydroline.rigs import load_rig
 from hydroline.scenarios import build_scenario
-from hydroline.simulation import integrate, solve_steady_state
+from hydroline.engine import integrate, solve_steady_state
 from hydroline.system import build_network
 
 #: Tests that build a library; the fallback, code-generation and lumped-line tests need no compiler.
@@ -302,7 +302,7 @@ def test_truncated_cached_library_does_not_crash_a_new_process(tmp_path):
         f"sys.path.insert(0, {str(Path(__file__).parent)!r})\n"
         "from test_compiled import oscillator_network, _oscillator_peak\n"
         "from hydroline import compiled\n"
-        "from hydroline.simulation import integrate\n"
+        "from hydroline.engine import integrate\n"
         "res = integrate(oscillator_network(omega=215.0), np.zeros(2), 0.05, solver='compiled')\n"
         "assert abs(res['osc.x'].max() / _oscillator_peak() - 1) < 2e-3\n"
         "print(compiled.native_model(oscillator_network(omega=215.0)).library_path)\n")

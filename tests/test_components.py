@@ -6,8 +6,8 @@ from hydroline import components as comp
 from hydroline.components.servovalve import valve_coefficient
 from hydroline.lines import Line, ModalLine
 from hydroline.fluid import MINERAL_OIL
-from hydroline.network import Network, NetworkError
-from hydroline.simulation import integrate, solve_steady_state
+from hydroline.engine import Network, NetworkError
+from hydroline.engine import integrate, solve_steady_state
 
 # A 5 gpm valve rated at 1000 psi (docs/model.md 7)
 Q_N = 19e-3 / 60          # 19 L/min, [m^3/s]

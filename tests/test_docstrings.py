@@ -11,8 +11,10 @@ import pytest
 from hydroline.circuit.types import COMPONENT_TYPES
 
 MODULES = ["hydroline.circuit.builder", "hydroline.circuit.types", "hydroline.circuit.drawing",
-           "hydroline.network.component", "hydroline.components.pump",
-           "hydroline.components.relief_valve"]
+           "hydroline.engine.component", "hydroline.components.pump",
+           "hydroline.components.relief_valve", "hydroline.engine.network",
+           "hydroline.engine.steady_state", "hydroline.engine.backends",
+           "hydroline.engine.integrate", "hydroline.engine.result", "hydroline.traces.metrics"]
 
 
 def _documented(doc: str) -> dict:

@@ -28,7 +28,7 @@ from hydroline.rigs import SCHEMA, RigError, load_rig
 from hydroline.rigs.parameters import (ATMOSPHERIC_PRESSURE, PARAMETERS, check_consistency,
                                        check_ranges, defaults_used, steady_state_hint)
 from hydroline.scenarios import build_scenario, check_cavitation
-from hydroline.simulation import SimulationResult, solve_steady_state
+from hydroline.engine import SimulationResult, solve_steady_state
 from hydroline.system import build_network, validate_rig
 
 SHORT = "0.02 s"
@@ -257,14 +257,21 @@ def test_failed_write_keeps_the_previous_results(tmp_path, capsys, monkeypatch):
     capsys.readouterr()
     before = {f: (out / f).read_bytes() for f in ("results.csv", "summary.json", "pressures.png")}
 
-    def disk_full(self, *a, **k):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    # the figure, the last of the three files, fails: drawn in the figure process (its error
+    # raised in the parent) and, with that process off, in the command's own
+    monkeypatch.setattr("hydroline.plotting.plot_result", figure_on_a_full_disk)
+    for process in ("1", "0"):
+        monkeypatch.setenv("HYDROLINE_FIGURE_PROCESS", process)
+        rc = main(["simulate", "--json", "--t-end", "0.03 s", "--out", str(out)])
+        _one_error(capsys, rc, "no space left on the device")
+        assert {f: (out / f).read_bytes() for f in before} == before
+        assert sorted(os.listdir(out)) == sorted(before)            # no temporary file left
 
-    monkeypatch.setattr(SimulationResult, "plot", disk_full)     # the last of the three files
-    rc = main(["simulate", "--json", "--t-end", "0.03 s", "--out", str(out)])
-    _one_error(capsys, rc, "no space left on the device")
-    assert {f: (out / f).read_bytes() for f in before} == before
-    assert sorted(os.listdir(out)) == sorted(before)            # no temporary file left
+
+def figure_on_a_full_disk(*args, **kwargs):
+    """Stands in for hydroline.plotting.plot_result (module level: the figure process
+    receives it by name)."""
+    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
 
 def test_full_stdout_is_one_line(tmp_path, capsys, monkeypatch):

@@ -29,9 +29,9 @@ from hydroline import components as comp
 from hydroline.analysis import oscillation_frequency
 from hydroline.cli import main
 from hydroline.lines import ModalLine
-from hydroline.network import Network
+from hydroline.engine import Network
 from hydroline.rigs import RigError, load_rig
-from hydroline.simulation import integrate, solve_steady_state
+from hydroline.engine import integrate, solve_steady_state
 from hydroline.studies import (DEFAULT_LENGTHS, Design, LayoutStudy, SweepFileError, layout,
                                parse_lengths, parse_parameters, read_journal, sweep)
 from hydroline.system import make_fluid, make_line

@@ -10,10 +10,10 @@ from hydroline import components as comp
 from hydroline.cli import main
 from hydroline.lines import Line
 from hydroline.fluid import MINERAL_OIL
-from hydroline.network import Network
+from hydroline.engine import Network
 from hydroline.rigs import load_rig
 from hydroline.scenarios import build_scenario, simulate, summarize
-from hydroline.simulation import integrate, solve_steady_state
+from hydroline.engine import integrate, solve_steady_state
 from hydroline.system import build_network, hose_lines
 
 

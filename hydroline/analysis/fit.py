@@ -57,7 +57,7 @@ import pandas as pd
 
 from .. import components as comp
 from ..rigs import SCHEMA, Rig, RigError, load_rig
-from ..simulation import integrate, solve_steady_state
+from ..engine import integrate, solve_steady_state
 from ..system import build_network
 from ..units import csv_column, split_header
 from .linearize import OperatingPoint, _transfer_state, solve_operating_point

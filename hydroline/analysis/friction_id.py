@@ -42,7 +42,7 @@ import pandas as pd
 
 from .. import components as comp
 from ..rigs import Rig, load_rig
-from ..simulation import integrate
+from ..engine import integrate
 from ..system import build_network
 from .fit import DataError, Measurements, noise_level
 from .linearize import OperatingPoint, _transfer_state, solve_operating_point

@@ -58,9 +58,10 @@ import casadi as ca
 import numpy as np
 
 from .. import components as comp
-from ..network import Network
+from ..engine import Network
 from ..rigs import Rig, load_rig
-from ..simulation import SteadyStateError, _pseudo_transient, solve_steady_state
+from ..engine import SteadyStateError, solve_steady_state
+from ..engine.steady_state import pseudo_transient, settle_components
 from ..system import build_network
 
 __all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
@@ -233,24 +234,7 @@ class _HoldingCurrentProblem:
 
 def _settle(network, x, p, t0=0.0):
     """Let components adopt the solved state (accumulator charge); True if anything changed."""
-    changed = False
-    sig = network.signals_at(t0, x, p)
-    for c in network.components:
-        sl = network.state_slice(c.name)
-        xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
-        ps = {k: p[network.parameter_names.index(f"{c.name}.{k}")] for k in c.runtime_parameters()}
-        res = c.settle(xs, {port: sig[c.signal(port)] for port in c.inputs}, ps)
-        if res is None:
-            continue
-        new_x, new_p = res
-        for i, s in enumerate(c.states):
-            if s.name in new_x:
-                j = sl.start + i
-                changed |= abs(new_x[s.name] - x[j]) > 1e-12 * network.state_scales[j]
-                x[j] = new_x[s.name]
-        for k, v in new_p.items():
-            p[network.parameter_names.index(f"{c.name}.{k}")] = v
-    return changed
+    return settle_components(network, network.components, x, p, network.signals_at(t0, x, p))
 
 
 def solve_operating_point(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
@@ -295,7 +279,7 @@ def solve_operating_point(rig: Rig | str | None = None, operating_point: Operati
     prob = _HoldingCurrentProblem(net, x0, 0.0, i_rated, 10.0 * i_rated / v_rated)
     p = net.parameter_values.copy()
     # 1. at rest: pseudo-transient continuation from the components' guesses
-    z = _pseudo_transient(prob, 0.0, net.guess(), p, prob.scales, tol)
+    z = pseudo_transient(prob, 0.0, net.guess(), p, prob.scales, tol)
     # 2. steady motion: Newton continuation in the velocity from rest to v0
     v, step = 0.0, v0
     ix = net.state_names.index("servovalve.spool_position")

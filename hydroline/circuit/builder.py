@@ -32,7 +32,8 @@ import numpy as np
 from .. import components as comp
 from ..fluid import Fluid
 from ..lines import Line, ModalLine
-from ..network import Network, NetworkError
+from ..engine import Network, NetworkError
+from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
 
 __all__ = ["Axis", "Circuit", "axes_of", "circuit_components", "circuit_names", "has_circuit",
@@ -272,21 +273,7 @@ class Circuit:
         -------
         list of dict  keys signal, producer (None: from the experiment), consumers, quantity, unit
         """
-        parts = list(self.components) + list(commands)
-        rows, by_signal = [], {}
-        for c in parts:
-            for port, spec in c.outputs.items():
-                by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
-                                                      "quantity": spec.quantity, "unit": spec.unit})
-                by_signal[c.signal(port)]["producer"] = f"{c.name}.{port}"
-        for c in parts:
-            for port, spec in c.inputs.items():
-                row = by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
-                                                            "quantity": spec.quantity, "unit": spec.unit})
-                row["consumers"].append(f"{c.name}.{port}")
-        for sig, row in by_signal.items():
-            rows.append({"signal": sig, **row})
-        return rows
+        return connection_table(list(self.components) + list(commands))
 
 
 def rewire(parts: list, overrides: dict, allow_unknown: bool = False):
@@ -344,6 +331,7 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     if not names:
         raise CircuitError(f"rig {rig.source}: no [circuit.<name>] table with a type")
     specs = {}
+    allowed = set(rig.get("rig.allow_implausible") or [])
     for name in names:
         ctype = COMPONENT_TYPES[values[f"{PREFIX}{name}.type"]]
         head = f"{PREFIX}{name}."
@@ -356,6 +344,12 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
                 unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
                 raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
                                    f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
+            implausible = decls[key].implausible(v) if key in decls else None
+            if implausible is not None and f"{head}{key}" not in allowed:
+                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
+                raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
+                                   f"plausible range, {implausible}{unit} ({decls[key].description}); "
+                                   f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
         specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
     # the load mass rides on the actuator whose position it reads (Load's docstring)
     for name, (ctype, params, ports, _) in specs.items():

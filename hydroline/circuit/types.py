@@ -1,7 +1,7 @@
 """The component types a circuit file may use, with their parameters declared once.
 
 Each type names a component class of :mod:`hydroline.components` (whose dataclass fields
-declare unit, bounds, description and default, see :class:`hydroline.network.Parameter`) or a
+declare unit, bounds, description and default, see :class:`hydroline.engine.Parameter`) or a
 small factory over one (a hose from its length and bore, an accumulator from its connection
 passage). Rig schemas, rig validation, circuit-file parsing and ``hydroline circuit`` read
 these tables; nothing else repeats a unit or a bound.
@@ -12,7 +12,7 @@ import dataclasses
 from dataclasses import dataclass, field
 
 from .. import components as comp
-from ..network.component import Parameter
+from ..engine.component import Parameter
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
            "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT",
@@ -29,19 +29,23 @@ QUANTITY_UNIT = {"current": "A", "position": "m", "pressure": "Pa", "velocity": 
 
 #: The rig's oil (``[fluid]``), used by every hose, volume default and accumulator passage.
 FLUID_PARAMETERS = {
-    "density": Parameter("kg/m^3", "rho of the oil (M2)", 0.0, exclusive_minimum=True),
-    "kinematic_viscosity": Parameter("m^2/s", "nu of the oil (M2)", 0.0, exclusive_minimum=True),
-    "bulk_modulus": Parameter("Pa", "beta of the oil (M2)", 0.0, exclusive_minimum=True),
+    "density": Parameter("kg/m^3", "rho of the oil (M2)", 0.0, exclusive_minimum=True,
+                         plausible=(600.0, 1300.0)),
+    "kinematic_viscosity": Parameter("m^2/s", "nu of the oil (M2)", 0.0, exclusive_minimum=True,
+                                     plausible=(3e-7, 1e-2)),
+    "bulk_modulus": Parameter("Pa", "beta of the oil (M2)", 0.0, exclusive_minimum=True,
+                              plausible=(1e8, 5e9)),
 }
 
 #: A hose section (docs/model.md 2): the line (M2-M4) and its modal model (M8-M15).
 HOSE_PARAMETERS = {
-    "length": Parameter("m", "L of the section (M2)", 0.0, exclusive_minimum=True),
-    "diameter": Parameter("m", "bore (M2)", 0.0, exclusive_minimum=True),
+    "length": Parameter("m", "L of the section (M2)", 0.0, exclusive_minimum=True,
+                        plausible=(1e-2, 1e3)),
+    "diameter": Parameter("m", "bore (M2)", 0.0, exclusive_minimum=True, plausible=(1e-3, 0.2)),
     "bulk_modulus": Parameter("Pa", "effective beta of oil + wall (M3); the fluid's when absent",
-                              0.0, exclusive_minimum=True, optional=True),
+                              0.0, exclusive_minimum=True, optional=True, plausible=(1e7, 5e9)),
     "modes": Parameter("-", "modes of the modal line (M8); the rig's modes_per_section when absent",
-                       1.0, optional=True),
+                       1.0, optional=True, plausible=(1, 40)),
     "method": Parameter("str", "modal line: Yang-Tobler corrections or exact residues",
                         choices=("yang-tobler", "residue"), optional=True),
     "form": Parameter("str", "causal form: inputs upstream/downstream (M8)",
@@ -53,11 +57,13 @@ HOSE_PARAMETERS = {
 #: The accumulator's connection passage (M18): a short line from the node to the oil side.
 ACCUMULATOR_CONNECTION_PARAMETERS = {
     "connection_length": Parameter("m", "length of the passage node -> accumulator (M18)", 0.0,
-                                   exclusive_minimum=True),
-    "connection_diameter": Parameter("m", "bore of that passage (M18)", 0.0, exclusive_minimum=True),
+                                   exclusive_minimum=True, plausible=(1e-3, 10.0)),
+    "connection_diameter": Parameter("m", "bore of that passage (M18)", 0.0, exclusive_minimum=True,
+                                     plausible=(1e-3, 0.1)),
     "model": Parameter("str", "version-II (R_a, I_a, M18) or a modal PP line",
                        choices=("version-II", "modal"), default="version-II"),
-    "modes": Parameter("-", "modes of the modal connection line", 1.0, optional=True),
+    "modes": Parameter("-", "modes of the modal connection line", 1.0, optional=True,
+                       plausible=(1, 40)),
 }
 
 _COMMAND_KEYS = {"step_command": ("initial", "final"), "sine_command": ("offset", "amplitude"),
@@ -152,8 +158,9 @@ def parameter_reference() -> str:
 
     Returns
     -------
-    str  One section per type: description, ports, then a table of parameter, unit, bounds,
-         default and description
+    str  One section per type: description, ports, then a table of parameter, unit, bounds
+         (physical, never overridable), plausible range (overridable with ``[rig]
+         allow_implausible``), default and description
     """
     lines = []
     for name, t in COMPONENT_TYPES.items():
@@ -164,12 +171,16 @@ def parameter_reference() -> str:
         if ins or outs:   # static ports (others depend on form, causality or terms)
             lines += ["Ports: in " + (", ".join(ins) or "-") + "; out " + (", ".join(outs) or "-")
                       + ".", ""]
-        lines += ["| parameter | unit | bounds | default | description |", "|---|---|---|---|---|"]
+        lines += ["| parameter | unit | bounds | plausible | default | description |",
+                  "|---|---|---|---|---|---|"]
         for key, d in t.declarations().items():
             unit = {"-": "-", "str": "text"}.get(d.unit, d.unit)
             if d.unit == "-" and name.endswith("_command") and key in ("initial", "final", "offset",
                                                                        "amplitude", "slope"):
                 unit = "of quantity"
-            lines.append(f"| `{key}` | {unit} | {d.rule()} | {_fmt_default(d)} | {d.description} |")
+            plausible = "-" if d.plausible is None else " ... ".join(
+                "" if v is None else f"{v:g}" for v in d.plausible)
+            lines.append(f"| `{key}` | {unit} | {d.rule()} | {plausible} | {_fmt_default(d)} "
+                         f"| {d.description} |")
         lines.append("")
     return "\n".join(lines)

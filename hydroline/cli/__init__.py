@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import errno
+import functools
 import importlib
 import os
 import signal
@@ -60,6 +61,19 @@ def version() -> str:
         return __version__
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: the version looked up only when asked (importlib.metadata costs ~50 ms
+    of every command's start-up otherwise)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help="show program's version number and exit"):
+        super().__init__(option_strings, dest, nargs=0, default=default, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"hydroline {version()}")
+        parser.exit()
+
+
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The argument parser; with ``only`` (a module name of ``SUBCOMMANDS``) just that
     subcommand is registered, so a command imports only its own module and what it uses."""
@@ -67,7 +81,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         prog="hydroline",
         description="Electrohydraulic servo systems with supply and return hose dynamics.",
         epilog="Equations cited as (M#) are in the model reference, docs/model.md.")
-    parser.add_argument("--version", action="version", version=f"hydroline {version()}")
+    parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMANDS if only is None else [only]:
         importlib.import_module(f"{__name__}.{name}").register(sub)
@@ -94,8 +108,11 @@ def main(argv=None) -> int:
         return 2
     from ..compiled import CompilerUnavailable
     from ..compiled.codegen import UnsupportedOperation
-    from ..simulation import SteadyStateError
+    from ..engine import SteadyStateError
 
+    import warnings
+
+    warnings.showwarning = functools.partial(_show_warning, args.command)
     try:
         old_term = signal.signal(signal.SIGTERM, _terminate)
     except ValueError:          # not the main thread (e.g. called from a worker thread)
@@ -133,6 +150,17 @@ def main(argv=None) -> int:
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+
+
+def _show_warning(command, message, category, filename, lineno, file=None, line=None):
+    """A Python warning as one line: ``hydroline <command>: warning: <message>`` (each once)."""
+    text = f"hydroline {command}: warning: {str(message).strip().splitlines()[0]}"
+    if text not in _WARNED:
+        _WARNED.add(text)
+        _say(text)
+
+
+_WARNED: set = set()
 
 
 def _say(text):

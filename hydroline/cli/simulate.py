@@ -13,6 +13,7 @@ from ..scenarios import SCENARIOS, build_scenario, default_scenario, simulate, s
 from ..system import build_circuit
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
+from .figure_process import FigureProcess
 
 #: The files written to --out.
 OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
@@ -142,6 +143,38 @@ def run(args) -> int:
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
               + "; ".join(f"{path} = {value}" for path, value in defaults), file=sys.stderr)
+    # Matplotlib imports in a second process while this one simulates (two cores: the figure
+    # costs what the longer branch costs, not the sum)
+    figures = FigureProcess() if write else None
+    try:
+        return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures)
+    finally:
+        if figures is not None:
+            figures.cancel()
+
+
+def figure_result(res):
+    """The columns and metadata :func:`hydroline.plotting.plot_result` reads, as a small
+    SimulationResult (what is sent to the figure process).
+
+    Parameters
+    ----------
+    res : SimulationResult   The run (or its preview)
+    """
+    from ..engine import SimulationResult
+
+    columns = [c for c in FIGURE_COLUMNS + ("position_reference", "piston_position")
+               if c in res]
+    columns = list(dict.fromkeys(columns))
+    meta = {k: res.metadata[k] for k in ("metrics_window", "t_disturbance", "scenario")
+            if k in res.metadata}
+    return SimulationResult(times=res.t, table=np.column_stack([res[c] for c in columns]),
+                            columns=columns, metadata=meta)
+
+
+def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) -> int:
+    from ..plotting import plot_result
+
     with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp:
         options = {}
         if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
@@ -165,10 +198,10 @@ def run(args) -> int:
                 figure = res
             temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
             if "axes" not in summary:       # (a multi-axis figure is drawn by _report_axes)
-                figure.plot(path=temp("pressures.png"),
-                            title=f"{scenario} on {rig.get('rig.name', rig.source)}")
+                figures.draw(plot_result, figure_result(figure), path=str(temp("pressures.png")),
+                             title=f"{scenario} on {rig.get('rig.name', rig.source)}")
     if "axes" in summary:
-        return _report_axes(args, rig, res, summary, scenario)
+        return _report_axes(args, rig, res, summary, scenario, figures)
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
@@ -253,12 +286,12 @@ def plot_axes(res, summary, path, title=""):
     path : str or Path       PNG to write
     title : str              Figure title
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from ..plotting import new_figure
+
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
-    fig, ax = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    fig = new_figure((9, 9))
+    ax = fig.subplots(3, 1, sharex=True)
     t = res.t * 1e3
     i0 = int(np.searchsorted(res.t, t0))
     for name, a in axes.items():
@@ -276,15 +309,19 @@ def plot_axes(res, summary, path, title=""):
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
-def _report_axes(args, rig, res, summary, scenario) -> int:
+def _report_axes(args, rig, res, summary, scenario, figures=None) -> int:
     """Print a multi-axis run: per axis the port metrics and the position disturbance."""
     if args.out is not None or not args.json:
         out = out_dir(args.out if args.out is not None else "hydroline-out")
-        plot_axes(res, summary, out / "pressures.png",
-                  f"{scenario} on {rig.get('rig.name', rig.source)}")
+        columns = [c for a in res.metadata["axes"].values()
+                   for c in (a.supply_pressure, a.return_pressure, a.position)]
+        small = type(res)(times=res.t, table=np.column_stack([res[c] for c in columns]),
+                          columns=columns, metadata={"axes": res.metadata["axes"]})
+        draw = figures.draw if figures is not None else (lambda f, *a, **k: f(*a, **k))
+        draw(plot_axes, small, summary, str(out / "pressures.png"),
+             f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)

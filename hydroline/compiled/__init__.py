@@ -1,6 +1,6 @@
 """The compiled simulation core: a network as C code, built once per machine, run in C.
 
-:func:`native_model` turns an assembled :class:`~hydroline.network.Network` into a
+:func:`native_model` turns an assembled :class:`~hydroline.engine.Network` into a
 :class:`NativeModel`: C source for its right-hand side, sparse Jacobian, signals and sparse LU
 (:mod:`.codegen`) compiled together with a BDF integrator (``bdf.c``) by the system C
 compiler into a shared library. The source holds only the network's structure (its numbers
@@ -11,7 +11,7 @@ process or per parameter variant.
 Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.
 Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
-:func:`hydroline.simulation.integrate` falls back to CasADi's CVODES.
+:func:`hydroline.engine.integrate` falls back to CasADi's CVODES.
 """
 from __future__ import annotations
 

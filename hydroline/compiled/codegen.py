@@ -1,6 +1,6 @@
 """C code for an assembled network: right-hand side, sparse Jacobian, signals, sparse LU.
 
-The network's CasADi SX graph (:class:`~hydroline.network.CompiledModel`) is walked
+The network's CasADi SX graph (:class:`~hydroline.engine.CompiledModel`) is walked
 instruction by instruction and written out as straight-line C. Every numeric constant of the
 graph (areas, lengths, modal matrices, state scales, ...) is read from a runtime array ``c``
 instead of being written into the code, so the C source depends only on the network's
@@ -308,7 +308,7 @@ def constants_at(functions, positions) -> np.ndarray:
 
 
 def generate(model, functions=None) -> GeneratedModel:
-    """C source and constants of a :class:`~hydroline.network.CompiledModel` (scaled states).
+    """C source and constants of a :class:`~hydroline.engine.CompiledModel` (scaled states).
 
     Parameters
     ----------

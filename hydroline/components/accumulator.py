@@ -4,8 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..lines.modal import StateSpaceLine
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["PistonAccumulator"]
 
@@ -39,10 +39,12 @@ class PistonAccumulator(Component):
     signal ``gas_pressure`` is not a port (see :meth:`gas_pressure`).
     """
 
-    capacity: float = parameter(1e-3, "m^3", "V_0, gas volume at pre-charge (M16)", positive=True)
-    precharge_pressure: float = parameter(1e7, "Pa", "p_0, absolute (M16)", positive=True)
+    capacity: float = parameter(1e-3, "m^3", "V_0, gas volume at pre-charge (M16)", positive=True,
+                                plausible=(1e-05, 0.1))
+    precharge_pressure: float = parameter(1e7, "Pa", "p_0, absolute (M16)", positive=True,
+                                          plausible=(1e4, 1e8))
     polytropic_exponent: float = parameter(1.4, "-", "m: 1 isothermal ... 5/3 adiabatic (M16)",
-                                           minimum=1.0, maximum=5.0 / 3.0)
+                                           minimum=1.0, maximum=5.0 / 3.0, plausible=(1.0, 5 / 3))
     resistance: float = parameter(0.0, "Pa*s/m^3", "R_a of the connection, version II (M18)", minimum=0.0)
     inertance: float = parameter(1.0, "kg/m^4", "I_a of the connection, version II (M18)", positive=True)
     connection_model: StateSpaceLine | None = None

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["Actuator"]
 
@@ -40,22 +40,31 @@ class Actuator(Component):
     ``position`` [m], ``velocity`` [m/s].
     """
 
-    bottom_area: float = parameter(1e-3, "m^2", "A_b, bottom piston area (M22)", positive=True)
-    top_area: float = parameter(1e-3, "m^2", "A_t, top (rod-side) piston area (M22)", positive=True)
+    bottom_area: float = parameter(1e-3, "m^2", "A_b, bottom piston area (M22)", positive=True,
+                                   plausible=(1e-06, 1.0))
+    top_area: float = parameter(1e-3, "m^2", "A_t, top (rod-side) piston area (M22)", positive=True,
+                                plausible=(1e-06, 1.0))
     bottom_volume: float = parameter(1e-4, "m^3", "V_b at mid-stroke incl. passages (M22)", positive=True)
     top_volume: float = parameter(1e-4, "m^3", "V_t at mid-stroke incl. passages (M22)", positive=True)
-    bulk_modulus: float = parameter(1.4e9, "Pa", "beta_c of the oil in the chambers (M22)", positive=True)
-    moving_mass: float = parameter(10.0, "kg", "piston, rod and attached load (M23)", positive=True)
-    stroke: float = parameter(0.1, "m", "full stroke; stops at +-stroke/2 (M23)", positive=True)
-    internal_leakage: float = parameter(0.0, "m^3/s/Pa", "C_i across the piston (M22)", minimum=0.0)
-    external_leakage: float = parameter(0.0, "m^3/s/Pa", "C_e of each chamber (M22)", minimum=0.0)
-    gravity: float = parameter(9.81, "m/s^2", "g along the axis, 0 horizontal (M23)")
+    bulk_modulus: float = parameter(1.4e9, "Pa", "beta_c of the oil in the chambers (M22)", positive=True,
+                                    plausible=(1e8, 5e9))
+    moving_mass: float = parameter(10.0, "kg", "piston, rod and attached load (M23)", positive=True,
+                                   plausible=(0.01, 1e5))
+    stroke: float = parameter(0.1, "m", "full stroke; stops at +-stroke/2 (M23)", positive=True,
+                              plausible=(0.001, 10.0))
+    internal_leakage: float = parameter(0.0, "m^3/s/Pa", "C_i across the piston (M22)", minimum=0.0,
+                                        plausible=(0.0, 1e-10))
+    external_leakage: float = parameter(0.0, "m^3/s/Pa", "C_e of each chamber (M22)", minimum=0.0,
+                                        plausible=(0.0, 1e-10))
+    gravity: float = parameter(9.81, "m/s^2", "g along the axis, 0 horizontal (M23)",
+                               plausible=(-15.0, 15.0))
     stop_stiffness: float = parameter(1e9, "N/m", "end-stop contact stiffness", positive=True)
     stop_damping: float | None = parameter(None, "N*s/m", "end-stop contact damping (None: critical)",
                                            minimum=0.0, optional=True)
     min_volume_fraction: float = parameter(0.02, "-", "floor of the chamber volumes", positive=True,
                                            maximum=1.0)
-    initial_position: float = parameter(0.0, "m", "guess of x_p for the steady state")
+    initial_position: float = parameter(0.0, "m", "guess of x_p for the steady state",
+                                        plausible=(-5.0, 5.0))
     nominal_pressure: float = parameter(1e7, "Pa", "chamber pressure scale and guess", positive=True)
 
     inputs = {"bottom_flow": Port("flow", "q_b into the bottom chamber"),

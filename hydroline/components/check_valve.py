@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network import ops
-from ..network.component import parameter
+from ..engine import ops
+from ..engine.component import parameter
 from .resistance import OrientedResistance
 
 __all__ = ["CheckValve"]
@@ -26,8 +26,10 @@ class CheckValve(OrientedResistance):
     transition_flow : float      q_t, width of the switch, [m^3/s]
     """
 
-    forward_resistance: float = parameter(0.0, "Pa*s/m^3", "R_f in the free direction", minimum=0.0)
-    reverse_resistance: float = parameter(1e13, "Pa*s/m^3", "R_r against it (large)", positive=True)
+    forward_resistance: float = parameter(0.0, "Pa*s/m^3", "R_f in the free direction", minimum=0.0,
+                                          plausible=(0.0, 1e13))
+    reverse_resistance: float = parameter(1e13, "Pa*s/m^3", "R_r against it (large)", positive=True,
+                                          plausible=(1e6, 1e16))
     transition_flow: float = parameter(1e-7, "m^3/s", "q_t, width of the switch", positive=True)
 
     def __post_init__(self):

@@ -6,8 +6,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..network import ops
-from ..network.component import Component, Port, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, parameter
 
 #: Unit of a command value: that of its ``quantity`` (see hydroline.circuit.types).
 _VALUE = "-"

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["PositionController"]
 
@@ -30,12 +30,14 @@ class PositionController(Component):
     States: ``error_integral`` [m s] when Ki != 0.
     """
 
-    proportional_gain: float = parameter(0.0, "A/m", "Kp", minimum=0.0)
-    integral_gain: float = parameter(0.0, "A/m/s", "Ki", minimum=0.0)
-    derivative_gain: float = parameter(0.0, "A*s/m", "Kd, on the measured velocity", minimum=0.0)
-    current_limit: float = parameter(0.05, "A", "+- limit of the current (the valve's rated)", positive=True)
+    proportional_gain: float = parameter(0.0, "A/m", "Kp", minimum=0.0, plausible=(0.0, 1000.0))
+    integral_gain: float = parameter(0.0, "A/m/s", "Ki", minimum=0.0, plausible=(0.0, 1e5))
+    derivative_gain: float = parameter(0.0, "A*s/m", "Kd, on the measured velocity", minimum=0.0,
+                                       plausible=(0.0, 10.0))
+    current_limit: float = parameter(0.05, "A", "+- limit of the current (the valve's rated)", positive=True,
+                                     plausible=(0.0001, 5.0))
     sample_time: float | None = parameter(None, "s", "zero-order-hold period (None: continuous)",
-                                          positive=True, optional=True)
+                                          positive=True, optional=True, plausible=(1e-06, 1.0))
 
     inputs = {"reference": Port("position", "position command"),
               "position": Port("position", "measured piston position"),

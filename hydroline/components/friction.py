@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["StribeckFriction"]
 
@@ -37,19 +37,23 @@ class StribeckFriction(Component):
     Ports: input ``velocity`` [m/s]; output ``friction_force`` [N], opposing +v when > 0.
     """
 
-    viscous_up: float = parameter(0.0, "N*s/m", "F_v+ (M24)", minimum=0.0)
-    viscous_down: float = parameter(0.0, "N*s/m", "F_v- (M24)", minimum=0.0)
-    coulomb_up: float = parameter(0.0, "N", "F_c+ (M24)", minimum=0.0)
-    coulomb_down: float = parameter(0.0, "N", "F_c- (M24)", minimum=0.0)
-    static_up: float = parameter(0.0, "N", "F_s+ (M24)", minimum=0.0)
-    static_down: float = parameter(0.0, "N", "F_s- (M24)", minimum=0.0)
-    stribeck_velocity: float = parameter(0.01, "m/s", "C_s (M24)", positive=True)
-    stribeck_exponent: float = parameter(2.0, "-", "delta (M24)", minimum=0.0)
-    regularization_velocity: float = parameter(1e-4, "m/s", "v_reg of tanh(v/v_reg)", positive=True)
+    viscous_up: float = parameter(0.0, "N*s/m", "F_v+ (M24)", minimum=0.0, plausible=(0.0, 1e6))
+    viscous_down: float = parameter(0.0, "N*s/m", "F_v- (M24)", minimum=0.0, plausible=(0.0, 1e6))
+    coulomb_up: float = parameter(0.0, "N", "F_c+ (M24)", minimum=0.0, plausible=(0.0, 1e6))
+    coulomb_down: float = parameter(0.0, "N", "F_c- (M24)", minimum=0.0, plausible=(0.0, 1e6))
+    static_up: float = parameter(0.0, "N", "F_s+ (M24)", minimum=0.0, plausible=(0.0, 1e6))
+    static_down: float = parameter(0.0, "N", "F_s- (M24)", minimum=0.0, plausible=(0.0, 1e6))
+    stribeck_velocity: float = parameter(0.01, "m/s", "C_s (M24)", positive=True,
+                                         plausible=(1e-06, 1.0))
+    stribeck_exponent: float = parameter(2.0, "-", "delta (M24)", minimum=0.0, plausible=(0.1, 5.0))
+    regularization_velocity: float = parameter(1e-4, "m/s", "v_reg of tanh(v/v_reg)", positive=True,
+                                               plausible=(1e-08, 0.1))
     model: str = parameter("stribeck", "str", "memory-less Stribeck or LuGre stick-slip",
                            choices=("stribeck", "lugre"))
-    bristle_stiffness: float = parameter(1e7, "N/m", "sigma0 (LuGre)", positive=True)
-    bristle_damping: float = parameter(1e3, "N*s/m", "sigma1 (LuGre)", minimum=0.0)
+    bristle_stiffness: float = parameter(1e7, "N/m", "sigma0 (LuGre)", positive=True,
+                                         plausible=(100.0, 1e12))
+    bristle_damping: float = parameter(1e3, "N*s/m", "sigma1 (LuGre)", minimum=0.0,
+                                       plausible=(0.0, 1e8))
 
     inputs = {"velocity": Port("velocity", "piston velocity, up +")}
     outputs = {"friction_force": Port("force", "friction force opposing +v when > 0")}

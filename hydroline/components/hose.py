@@ -6,8 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..lines.modal import StateSpaceLine
-from ..network import ops
-from ..network.component import Component, Port, State
+from ..engine import ops
+from ..engine.component import Component, Port, State
 
 __all__ = ["HoseSection"]
 

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network import ops
-from ..network.component import Component, Port, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, parameter
 
 __all__ = ["Load"]
 
@@ -29,11 +29,16 @@ class Load(Component):
     Ports: inputs ``position`` [m], ``velocity`` [m/s]; output ``load_force`` [N].
     """
 
-    mass: float = parameter(0.0, "kg", "load mass, added to the actuator's moving mass", minimum=0.0)
-    stiffness: float = parameter(0.0, "N/m", "specimen stiffness k", minimum=0.0)
-    damping: float = parameter(0.0, "N*s/m", "specimen damping b", minimum=0.0)
-    free_position: float = parameter(0.0, "m", "x at which the specimen is unloaded")
-    applied_force: float = parameter(0.0, "N", "constant external force, positive down")
+    mass: float = parameter(0.0, "kg", "load mass, added to the actuator's moving mass", minimum=0.0,
+                            plausible=(0.0, 1e5))
+    stiffness: float = parameter(0.0, "N/m", "specimen stiffness k", minimum=0.0,
+                                 plausible=(0.0, 1e10))
+    damping: float = parameter(0.0, "N*s/m", "specimen damping b", minimum=0.0,
+                               plausible=(0.0, 1e8))
+    free_position: float = parameter(0.0, "m", "x at which the specimen is unloaded",
+                                     plausible=(-10.0, 10.0))
+    applied_force: float = parameter(0.0, "N", "constant external force, positive down",
+                                     plausible=(-1e7, 1e7))
     step_time: float | None = parameter(None, "s", "time of a step of the external force",
                                         minimum=0.0, optional=True)
     step_force: float = parameter(0.0, "N", "the force step, positive down")

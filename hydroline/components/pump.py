@@ -4,8 +4,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..network import ops
-from ..network.component import Component, Port, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, parameter
 
 __all__ = ["Pump"]
 

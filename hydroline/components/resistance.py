@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network.component import Component, Port, parameter
+from ..engine.component import Component, Port, parameter
 
 __all__ = ["LinearResistance", "OrientedResistance"]
 
@@ -63,7 +63,8 @@ class LinearResistance(OrientedResistance):
     resistance : float   R, [Pa s/m^3]
     """
 
-    resistance: float = parameter(0.0, "Pa*s/m^3", "R of dp = R q (M1)", minimum=0.0)
+    resistance: float = parameter(0.0, "Pa*s/m^3", "R of dp = R q (M1)", minimum=0.0,
+                                  plausible=(0.0, 1e13))
 
     def __post_init__(self):
         super().__post_init__()

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..network import ops
-from ..network.component import Component, Port, State, parameter
+from ..engine import ops
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["Servovalve", "valve_coefficient"]
 
@@ -31,7 +31,7 @@ class Servovalve(Component):
     saturated at +-rated_current and ``G_v = max_opening/rated_current``; the opening used in
     (M20) is clipped to +-max_opening. Each orifice: ``K_v sg(+-x_v + u_k) phi(dp)`` with
     ``phi(dp) = dp/(dp^2 + p_lam^2)^(1/4)``, the square-root law with a laminar region
-    below ``laminar_pressure`` (:func:`hydroline.network.ops.smooth_sqrt`).
+    below ``laminar_pressure`` (:func:`hydroline.engine.ops.smooth_sqrt`).
 
     Parameters
     ----------
@@ -51,15 +51,23 @@ class Servovalve(Component):
     States ``spool_position`` [m], ``spool_velocity`` [m/s].
     """
 
-    rated_current: float = parameter(0.05, "A", "rated coil current (saturation)", positive=True)
-    rated_flow: float = parameter(3.15e-4, "m^3/s", "Q_N at the rated drop (M21)", positive=True)
-    rated_pressure_drop: float = parameter(6.895e6, "Pa", "dp_N over two orifices (M21)", positive=True)
-    max_opening: float = parameter(4e-4, "m", "spool opening at rated current (M19)", positive=True)
-    natural_frequency: float = parameter(140.0, "Hz", "w_v/2pi of the spool (M19)", positive=True)
-    damping_ratio: float = parameter(1.0, "-", "zeta_v of the spool (M19)", positive=True)
+    rated_current: float = parameter(0.05, "A", "rated coil current (saturation)", positive=True,
+                                     plausible=(0.0001, 5.0))
+    rated_flow: float = parameter(3.15e-4, "m^3/s", "Q_N at the rated drop (M21)", positive=True,
+                                  plausible=(1e-06, 0.1))
+    rated_pressure_drop: float = parameter(6.895e6, "Pa", "dp_N over two orifices (M21)", positive=True,
+                                           plausible=(1e5, 5e7))
+    max_opening: float = parameter(4e-4, "m", "spool opening at rated current (M19)", positive=True,
+                                   plausible=(1e-05, 0.01))
+    natural_frequency: float = parameter(140.0, "Hz", "w_v/2pi of the spool (M19)", positive=True,
+                                         plausible=(1.0, 2000.0))
+    damping_ratio: float = parameter(1.0, "-", "zeta_v of the spool (M19)", positive=True,
+                                     plausible=(0.05, 5.0))
     laps: tuple = parameter((0.0, 0.0, 0.0, 0.0), "list:m",
-                            "u1..u4: negative overlap, positive underlap (M20)")
-    laminar_pressure: float = parameter(1e5, "Pa", "p_lam, laminar region of (M20)", positive=True)
+                            "u1..u4: negative overlap, positive underlap (M20)",
+                                plausible=(-0.001, 0.001))
+    laminar_pressure: float = parameter(1e5, "Pa", "p_lam, laminar region of (M20)", positive=True,
+                                        plausible=(100.0, 1e7))
 
     inputs = {
         "current": Port("current", "coil current"),

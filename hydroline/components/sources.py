@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..network.component import Component, Port, parameter
+from ..engine.component import Component, Port, parameter
 from .commands import StepCommand
 
 __all__ = ["PressureSource"]

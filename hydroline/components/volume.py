@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..network.component import Component, Port, State, parameter
+from ..engine.component import Component, Port, State, parameter
 
 __all__ = ["HydraulicVolume"]
 

@@ -25,7 +25,7 @@ from ..analysis.linearize import linear_network
 from ..components import CheckValve, LinearResistance
 from ..rigs import Rig, RigError
 from ..scenarios import SCENARIOS, build_scenario
-from ..simulation import SteadyStateError, solve_steady_state
+from ..engine import SteadyStateError, solve_steady_state
 from ..system import build_network
 
 __all__ = ["Tunable", "TUNABLES", "INPUTS", "OUTPUTS", "Plant", "rest_state", "symbolic_model"]

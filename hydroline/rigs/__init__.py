@@ -67,7 +67,7 @@ COMPONENT_SECTIONS = {
 
 
 def declarations(section: str) -> dict:
-    """The declared parameters (:class:`hydroline.network.Parameter`) of a template-rig section
+    """The declared parameters (:class:`hydroline.engine.Parameter`) of a template-rig section
     that maps onto a component type or the fluid, key -> Parameter; {} for other sections."""
     from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
     if section == "fluid":

@@ -20,15 +20,19 @@ can violate (pressures absolute and positive, pre-charge below the line pressure
 inside the cylinder) are checked by :func:`hydroline.system.validate_rig` and cannot be
 overridden.
 
-The table is meant to move onto the components when each declares its own parameters; the
-checks here only read it.
+Units, descriptions and plausible ranges of parameters that belong to a component live on the
+component's declaration (``parameter(..., plausible=(low, high))``, :class:`hydroline.engine.
+Parameter`); this table only adds how the template rig uses them (default, scope) and declares
+the template's own parameters (supply and tank pressure, dead volume, scenarios). Circuit files
+are checked against the same declarations (:func:`hydroline.circuit.builder`).
 """
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
-__all__ = ["Parameter", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
+__all__ = ["Parameter", "Declared", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
            "check_ranges", "check_consistency", "defaults_used", "allowed_implausible",
            "steady_state_hint", "MIN_GAS_FRACTION"]
 
@@ -86,115 +90,154 @@ def _sides(template: dict) -> dict:
 
 _STEP, _SINE = "open-loop-step", "closed-loop-sine"
 
+@dataclass(frozen=True)
+class Declared:
+    """A parameter of the template rig that a component (or the hose, fluid, accumulator
+    passage tables of :mod:`hydroline.circuit.types`) declares: its unit, description and
+    plausible range are read from that declaration (:class:`hydroline.engine.Parameter`);
+    only how the template uses it is said here.
+
+    Attributes
+    ----------
+    default, scope, zero_allowed, integer, inherited   As for :class:`Parameter`
+    """
+
+    default: object = REQUIRED
+    scope: str = "always"
+    zero_allowed: bool = False
+    integer: bool = False
+    inherited: bool = False
+
+
+def _declaration(path: str):
+    """The component-side declaration behind a template path (None: template-only)."""
+    from ..circuit.types import HOSE_PARAMETERS
+    from . import declarations   # the package imports this module; declarations lives there
+
+    section, key = path.rsplit(".", 1)
+    if section.endswith((".section1", ".section2")):
+        return HOSE_PARAMETERS.get(key)
+    return declarations(section).get(key)
+
+
+def _resolve(path: str, entry) -> Parameter:
+    if isinstance(entry, Parameter):
+        return entry
+    decl = _declaration(path)
+    if decl is None or decl.plausible is None:
+        raise AssertionError(f"{path}: no declaration with a plausible range on its component")
+    low, high = decl.plausible
+    return Parameter(decl.unit.replace("list:", ""), low, high, decl.description,
+                     entry.default, entry.scope, entry.zero_allowed, entry.integer, entry.inherited)
+
+
+class _Parameters(Mapping):
+    """:data:`PARAMETERS`, resolved on first use (the declarations live on the components,
+    whose import this module does not pay for until a rig is checked)."""
+
+    def __init__(self, entries):
+        self.entries, self._table = entries, None   # path -> Parameter or Declared
+
+    def _build(self):
+        if self._table is None:
+            self._table = {path: _resolve(path, e) for path, e in self.entries.items()}
+        return self._table
+
+    def __getitem__(self, key):
+        return self._build()[key]
+
+    def __iter__(self):
+        return iter(self.entries)
+
+    def __len__(self):
+        return len(self.entries)
+
+    def __contains__(self, key):
+        return key in self.entries
+
+
 #: path -> Parameter, for every numeric parameter of a rig (text parameters and the optional
-#: pressure profiles are checked where they are read, hydroline.system).
-PARAMETERS: dict[str, Parameter] = {
+#: pressure profiles are checked where they are read, hydroline.system). Entries marked
+#: :class:`Declared` take unit, description and plausible range from the component's own
+#: declaration; the others exist only in the template rig (pressures, dead volume, scenarios).
+PARAMETERS: Mapping = _Parameters({
     "rig.allow_implausible": Parameter("str", None, None, "parameters allowed outside their "
                                        "plausible range", None),
     "rig.modes_per_section": Parameter("-", 1, 40, "modes per hose section (M8)", 6, integer=True),
-    "fluid.density": Parameter("kg/m^3", 600, 1300, "oil density"),
-    "fluid.kinematic_viscosity": Parameter("m^2/s", 3e-7, 1e-2, "oil kinematic viscosity"),
-    "fluid.bulk_modulus": Parameter("Pa", 1e8, 5e9, "oil bulk modulus"),
+    "fluid.density": Declared(),
+    "fluid.kinematic_viscosity": Declared(),
+    "fluid.bulk_modulus": Declared(),
     "fluid.gas_release_pressure": Parameter(
         "Pa", 0.0, 1e6, "absolute pressure below which dissolved air leaves the oil (the line "
         "model no longer holds)", ATMOSPHERIC_PRESSURE),
     "supply.pressure": Parameter("Pa", 1e5, 1e8, "supply (pump) pressure, absolute"),
     "return.pressure": Parameter("Pa", 1e4, 5e7, "tank (return) pressure, absolute"),
     **_sides({
-        "{side}.section1.length": Parameter("m", 1e-2, 1e3, "hose section I length"),
-        "{side}.section2.length": Parameter("m", 1e-2, 1e3, "hose section II length (0 removes "
-                                            "it)", zero_allowed=True),
-        "{side}.section1.diameter": Parameter("m", 1e-3, 0.2, "hose section I bore"),
-        "{side}.section2.diameter": Parameter("m", 1e-3, 0.2, "hose section II bore"),
-        "{side}.section1.bulk_modulus": Parameter("Pa", 1e7, 5e9, "effective bulk modulus of "
-                                                  "hose section I", "fluid.bulk_modulus"),
-        "{side}.section2.bulk_modulus": Parameter("Pa", 1e7, 5e9, "effective bulk modulus of "
-                                                  "hose section II", "fluid.bulk_modulus"),
-        "{side}.section1.modes": Parameter("-", 1, 40, "modes of hose section I",
-                                           "rig.modes_per_section", integer=True,
-                                           inherited=True),
-        "{side}.section2.modes": Parameter("-", 1, 40, "modes of hose section II",
-                                           "rig.modes_per_section", integer=True,
-                                           inherited=True),
-        "{side}.manifold.resistance": Parameter("Pa*s/m^3", 0.0, 1e13, "manifold (HSM) "
-                                                "linear flow resistance (M1)"),
+        "{side}.section1.length": Declared(),
+        "{side}.section2.length": Declared(zero_allowed=True),
+        "{side}.section1.diameter": Declared(),
+        "{side}.section2.diameter": Declared(),
+        "{side}.section1.bulk_modulus": Declared(default="fluid.bulk_modulus"),
+        "{side}.section2.bulk_modulus": Declared(default="fluid.bulk_modulus"),
+        "{side}.section1.modes": Declared(default="rig.modes_per_section", integer=True,
+                                          inherited=True),
+        "{side}.section2.modes": Declared(default="rig.modes_per_section", integer=True,
+                                          inherited=True),
+        "{side}.manifold.resistance": Declared(),
         "{side}.manifold.volume": Parameter("m^3", 1e-7, 1e-2, "manifold block oil volume, the "
                                             "node when section II is removed", 50e-6,
                                             scope="close-coupled"),
-        "{side}.accumulator.capacity": Parameter("m^3", 1e-5, 0.1, "accumulator gas volume at "
-                                                 "pre-charge"),
-        "{side}.accumulator.precharge_pressure": Parameter("Pa", 1e4, 1e8, "accumulator gas "
-                                                           "pre-charge, absolute"),
-        "{side}.accumulator.polytropic_exponent": Parameter("-", 1.0, 5 / 3, "polytropic "
-                                                            "exponent of the gas (M16)"),
-        "{side}.accumulator.connection_length": Parameter("m", 1e-3, 10.0, "accumulator "
-                                                          "connection length"),
-        "{side}.accumulator.connection_diameter": Parameter("m", 1e-3, 0.1, "accumulator "
-                                                            "connection bore"),
-        "{side}.accumulator.modes": Parameter("-", 1, 40, "modes of the accumulator connection",
-                                              "rig.modes_per_section",
-                                              scope="modal-accumulator", integer=True,
-                                              inherited=True),
+        "{side}.accumulator.capacity": Declared(),
+        "{side}.accumulator.precharge_pressure": Declared(),
+        "{side}.accumulator.polytropic_exponent": Declared(),
+        "{side}.accumulator.connection_length": Declared(),
+        "{side}.accumulator.connection_diameter": Declared(),
+        "{side}.accumulator.modes": Declared(default="rig.modes_per_section",
+                                             scope="modal-accumulator", integer=True,
+                                             inherited=True),
     }),
-    "return.check_valve.reverse_resistance": Parameter("Pa*s/m^3", 1e6, 1e16, "check valve "
-                                                       "back-flow resistance", 1e13),
-    "return.check_valve.forward_resistance": Parameter("Pa*s/m^3", 0.0, 1e13, "check valve "
-                                                       "forward resistance", 0.0),
-    "servovalve.rated_current": Parameter("A", 1e-4, 5.0, "servovalve rated current"),
-    "servovalve.rated_flow": Parameter("m^3/s", 1e-6, 0.1, "servovalve rated flow"),
-    "servovalve.rated_pressure_drop": Parameter("Pa", 1e5, 5e7, "servovalve rated pressure "
-                                                "drop"),
-    "servovalve.max_opening": Parameter("m", 1e-5, 1e-2, "spool opening at rated current"),
-    "servovalve.natural_frequency": Parameter("Hz", 1.0, 2000.0, "servovalve natural "
-                                              "frequency"),
-    "servovalve.damping_ratio": Parameter("-", 0.05, 5.0, "servovalve damping ratio"),
-    "servovalve.laps": Parameter("m", -1e-3, 1e-3, "spool laps u1..u4 (+ underlap)",
-                                 [0.0, 0.0, 0.0, 0.0]),
-    "servovalve.laminar_pressure": Parameter("Pa", 1e2, 1e7, "laminar region of the orifice "
-                                             "law", 1e5),
+    "return.check_valve.reverse_resistance": Declared(default=1e13),
+    "return.check_valve.forward_resistance": Declared(default=0.0),
+    "servovalve.rated_current": Declared(),
+    "servovalve.rated_flow": Declared(),
+    "servovalve.rated_pressure_drop": Declared(),
+    "servovalve.max_opening": Declared(),
+    "servovalve.natural_frequency": Declared(),
+    "servovalve.damping_ratio": Declared(),
+    "servovalve.laps": Declared(default=[0.0, 0.0, 0.0, 0.0]),
+    "servovalve.laminar_pressure": Declared(default=1e5),
     "actuator.area": Parameter("m^2", 1e-6, 1.0, "piston area, both sides", None),
-    "actuator.bottom_area": Parameter("m^2", 1e-6, 1.0, "piston area, bottom side", None),
-    "actuator.top_area": Parameter("m^2", 1e-6, 1.0, "piston area, top side", None),
-    "actuator.stroke": Parameter("m", 1e-3, 10.0, "actuator stroke"),
+    "actuator.bottom_area": Declared(default=None),
+    "actuator.top_area": Declared(default=None),
+    "actuator.stroke": Declared(),
     "actuator.dead_volume": Parameter("m^3", 1e-8, 1e-2, "dead volume per chamber"),
-    "actuator.bulk_modulus": Parameter("Pa", 1e8, 5e9, "oil bulk modulus in the chambers"),
-    "actuator.moving_mass": Parameter("kg", 1e-2, 1e5, "piston, rod and attached mass"),
-    "actuator.initial_position": Parameter("m", -5.0, 5.0, "initial piston position", 0.0),
-    "actuator.gravity": Parameter("m/s^2", -15.0, 15.0, "gravity along the rod (up +)", 9.81),
-    "actuator.internal_leakage": Parameter("m^3/s/Pa", 0.0, 1e-10, "leakage across the piston",
-                                           0.0),
-    "actuator.external_leakage": Parameter("m^3/s/Pa", 0.0, 1e-10, "leakage out of the "
-                                           "chambers", 0.0),
-    "friction.viscous_up": Parameter("N*s/m", 0.0, 1e6, "viscous friction, up (M24)", 0.0),
-    "friction.viscous_down": Parameter("N*s/m", 0.0, 1e6, "viscous friction, down (M24)", 0.0),
-    "friction.coulomb_up": Parameter("N", 0.0, 1e6, "Coulomb friction, up (M24)", 0.0),
-    "friction.coulomb_down": Parameter("N", 0.0, 1e6, "Coulomb friction, down (M24)", 0.0),
-    "friction.static_up": Parameter("N", 0.0, 1e6, "static friction, up (M24)", 0.0),
-    "friction.static_down": Parameter("N", 0.0, 1e6, "static friction, down (M24)", 0.0),
-    "friction.stribeck_velocity": Parameter("m/s", 1e-6, 1.0, "Stribeck velocity (M24)", 0.01),
-    "friction.stribeck_exponent": Parameter("-", 0.1, 5.0, "Stribeck exponent (M24)", 2.0),
-    "friction.regularization_velocity": Parameter("m/s", 1e-8, 0.1, "friction regularisation "
-                                                  "velocity", 1e-4),
-    "friction.bristle_stiffness": Parameter("N/m", 1e2, 1e12, "LuGre bristle stiffness", 1e7,
-                                            scope="lugre"),
-    "friction.bristle_damping": Parameter("N*s/m", 0.0, 1e8, "LuGre bristle damping", 1e3,
-                                          scope="lugre"),
-    "load.mass": Parameter("kg", 0.0, 1e5, "load mass", 0.0),
-    "load.stiffness": Parameter("N/m", 0.0, 1e10, "load stiffness", 0.0),
-    "load.damping": Parameter("N*s/m", 0.0, 1e8, "load damping", 0.0),
-    "load.applied_force": Parameter("N", -1e7, 1e7, "constant force on the rod (up +)", 0.0),
-    "load.free_position": Parameter("m", -10.0, 10.0, "load spring's free position", 0.0,
-                                    scope="load-spring"),
-    "controller.proportional_gain": Parameter("A/m", 0.0, 1e3, "position loop P gain",
-                                              scope=_SINE),
-    "controller.integral_gain": Parameter("A/m/s", 0.0, 1e5, "position loop I gain", 0.0,
-                                          scope=_SINE),
-    "controller.derivative_gain": Parameter("A*s/m", 0.0, 10.0, "position loop D gain", 0.0,
-                                            scope=_SINE),
-    "controller.current_limit": Parameter("A", 1e-4, 5.0, "controller output limit",
-                                          "servovalve.rated_current", scope=_SINE),
-    "controller.sample_time": Parameter("s", 1e-6, 1.0, "controller sample time (None: "
-                                        "continuous)", None, scope=_SINE),
+    "actuator.bulk_modulus": Declared(),
+    "actuator.moving_mass": Declared(),
+    "actuator.initial_position": Declared(default=0.0),
+    "actuator.gravity": Declared(default=9.81),
+    "actuator.internal_leakage": Declared(default=0.0),
+    "actuator.external_leakage": Declared(default=0.0),
+    "friction.viscous_up": Declared(default=0.0),
+    "friction.viscous_down": Declared(default=0.0),
+    "friction.coulomb_up": Declared(default=0.0),
+    "friction.coulomb_down": Declared(default=0.0),
+    "friction.static_up": Declared(default=0.0),
+    "friction.static_down": Declared(default=0.0),
+    "friction.stribeck_velocity": Declared(default=0.01),
+    "friction.stribeck_exponent": Declared(default=2.0),
+    "friction.regularization_velocity": Declared(default=1e-4),
+    "friction.bristle_stiffness": Declared(default=1e7, scope="lugre"),
+    "friction.bristle_damping": Declared(default=1e3, scope="lugre"),
+    "load.mass": Declared(default=0.0),
+    "load.stiffness": Declared(default=0.0),
+    "load.damping": Declared(default=0.0),
+    "load.applied_force": Declared(default=0.0),
+    "load.free_position": Declared(default=0.0, scope="load-spring"),
+    "controller.proportional_gain": Declared(scope=_SINE),
+    "controller.integral_gain": Declared(default=0.0, scope=_SINE),
+    "controller.derivative_gain": Declared(default=0.0, scope=_SINE),
+    "controller.current_limit": Declared(default="servovalve.rated_current", scope=_SINE),
+    "controller.sample_time": Declared(default=None, scope=_SINE),
     f"scenario.{_STEP}.current": Parameter("A", -5.0, 5.0, "step current",
                                            "servovalve.rated_current", scope=_STEP),
     f"scenario.{_STEP}.initial_current": Parameter("A", -5.0, 5.0, "current before the step",
@@ -216,7 +259,7 @@ PARAMETERS: dict[str, Parameter] = {
     f"scenario.{_SINE}.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 1.0, scope=_SINE),
     f"scenario.{_SINE}.initial_position": Parameter("m", -5.0, 5.0, "initial piston position",
                                                     0.0, scope=_SINE),
-}
+})
 
 
 def _error(message):
@@ -229,6 +272,8 @@ def allowed_implausible(rig) -> set:
     """The paths a rig lists in ``rig.allow_implausible`` (checked: each one a parameter)."""
     listed = rig.get("rig.allow_implausible") or []
     for path in listed:
+        if path.startswith("circuit."):   # a circuit component's parameter: checked where the
+            continue                      # circuit is built (hydroline.circuit.builder)
         if path not in PARAMETERS:
             raise _error(f"rig.allow_implausible: {path!r} is not a rig parameter with a "
                          f"plausible range (e.g. 'actuator.moving_mass')")
@@ -282,8 +327,8 @@ def check_ranges(rig):
             else:
                 rule = f"within {_fmt(p.low)} ... {_fmt(p.high)}"
             zero = " (or 0)" if p.zero_allowed else ""
-            raise _error(f"{path}: {_shown(rig, path, v)} is outside the plausible range of the "
-                         f"{p.description}: {rule}{zero}{unit}; if it is meant, add "
+            raise _error(f"{path}: {_shown(rig, path, v)} is outside its plausible range, "
+                         f"{rule}{zero}{unit} ({p.description}); if it is meant, add "
                          f"\"{path}\" to [rig] allow_implausible")
 
 

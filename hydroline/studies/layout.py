@@ -48,7 +48,7 @@ import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios import SCENARIOS, simulate
-from ..simulation import SteadyStateError
+from ..engine import SteadyStateError
 from ..lines import Line
 from ..system import make_fluid
 from ..units import parse_quantity
@@ -117,7 +117,7 @@ class LayoutStudy:
     lengths : list[float]      Section II lengths, [m]
     summaries : list[dict]     :func:`hydroline.studies.settling.port_summary` of each run
                                (``summarize`` with ``settling_method``/``settling_note``)
-    results : list             The :class:`~hydroline.simulation.SimulationResult` of each run
+    results : list             The :class:`~hydroline.engine.SimulationResult` of each run
     sides : tuple              Which sections II were set ("supply", "return")
     scenario : str
     rig_name : str
@@ -379,7 +379,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "o
     sides : sequence         Which sections II take the length: "supply", "return" or both
     scenario : str           "open-loop-step" (default, the paper's) or "closed-loop-sine"
     t_end : float            Simulated time, [s]; the scenario's default when None
-    solver : str             See :func:`hydroline.simulation.integrate`
+    solver : str             See :func:`hydroline.engine.integrate`
     progress : callable      ``progress(done, total)`` after each length
 
     Returns

@@ -109,7 +109,7 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
     values : dict      Rig path -> value in SI units (text for text parameters)
     scenario : str     "open-loop-step" or "closed-loop-sine"
     t_end : float      Simulated time, [s]; the scenario's default when None
-    solver : str       See :func:`hydroline.simulation.integrate`
+    solver : str       See :func:`hydroline.engine.integrate`
     units : dict       Rig path -> SI unit (looked up in the rig schema when None)
 
     Returns
@@ -582,7 +582,7 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     seed : int                  Seed of the random design, [-]
     scenario : str              "open-loop-step" or "closed-loop-sine"
     t_end : float               Simulated time per variant, [s]; the scenario's when None
-    solver : str                See :func:`hydroline.simulation.integrate`
+    solver : str                See :func:`hydroline.engine.integrate`
     workers : int               Local worker processes (default: the CPU count), or the
                                 number of workers of a ``scheduler="local"`` Dask cluster
     scheduler : str or Client   None: local processes; "local": a local Dask cluster;

@@ -247,8 +247,8 @@ def settling_time(t, p, t_step, band=0.02):
     t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
     p : array_like       Response at ``t``, [any unit]
     t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
-    band : float         Half-width of the band relative to the net change, 0 < band < 1,
-                         [-]; 0.02 is the usual 2 % settling time
+    band : float         Half-width of the band relative to the net change, [-]
+                         (0 < band < 1; 0.02 is the usual 2 % settling time)
 
     Returns
     -------
@@ -518,9 +518,9 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
     t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
     p : array_like       Response at ``t``, [any unit]
     t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
-    min_cycles : float   Fewest periods, after ``t_step``, for which the fundamental must
-                         exceed 1 % of the largest deviation from the final value for the
-                         response to count as oscillating, > 0, [-]
+    min_cycles : float   Fewest periods [-] (> 0), after ``t_step``, for which the
+                         fundamental must exceed 1 % of the largest deviation from the final
+                         value for the response to count as oscillating
 
     Returns
     -------
@@ -737,7 +737,10 @@ def first_excursion(t, p, t_step, t_end=None):
 
     Parameters
     ----------
-    t, p, t_step, t_end  As for :func:`oscillation_amplitude`, [s], [any unit], [s], [s]
+    t : array_like     Sample times, increasing, [s]
+    p : array_like     Signal at ``t``, [any unit]
+    t_step : float     Time of the disturbance, [s]
+    t_end : float      End of the window, [s] (None: the record's end)
 
     Returns
     -------
@@ -749,7 +752,15 @@ def first_excursion(t, p, t_step, t_end=None):
 
 
 def peak_to_peak(t, p, t_step, t_end=None):
-    """``max p - min p`` over ``[t_step, t_end]``, [unit of p] (what a scope's cursors show)."""
+    """``max p - min p`` over ``[t_step, t_end]``, [unit of p] (what a scope's cursors show).
+
+    Parameters
+    ----------
+    t : array_like     Sample times, increasing, [s]
+    p : array_like     Signal at ``t``, [any unit]
+    t_step : float     Time of the disturbance, [s]
+    t_end : float      End of the window, [s] (None: the record's end)
+    """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     ts, ps = _post_step(t, p, t_step)
     return max(0.0, _refined_max(ts, ps) + _refined_max(ts, -ps))

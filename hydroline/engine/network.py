@@ -7,6 +7,7 @@ can change between runs without recompiling.
 from __future__ import annotations
 
 import functools
+import warnings
 from dataclasses import dataclass
 
 import casadi as ca
@@ -14,11 +15,42 @@ import numpy as np
 
 from .component import Component
 
-__all__ = ["Network", "NetworkError", "CompiledModel"]
+__all__ = ["Network", "NetworkError", "CompiledModel", "UnusedSignalWarning", "connection_table"]
 
 
 class NetworkError(ValueError):
     """A network that cannot be assembled: the message names components and signals."""
+
+
+class UnusedSignalWarning(UserWarning):
+    """A flow that no component reads: the fluid leaves the circuit there (a wiring mistake,
+    unless it flows into a prescribed-pressure boundary, which absorbs it)."""
+
+
+def connection_table(components) -> list[dict]:
+    """One row per signal: who outputs it and who reads it.
+
+    Parameters
+    ----------
+    components : list[Component]   The components (commands of an experiment included or not)
+
+    Returns
+    -------
+    list of dict  keys ``signal``; ``producer`` ("component.port", None when no component
+        outputs it); ``consumers`` (list of "component.port"); ``quantity``; ``unit``
+    """
+    by_signal = {}
+    for c in components:
+        for port, spec in c.outputs.items():
+            row = by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
+                                                        "quantity": spec.quantity, "unit": spec.unit})
+            row["producer"] = f"{c.name}.{port}"
+    for c in components:
+        for port, spec in c.inputs.items():
+            row = by_signal.setdefault(c.signal(port), {"producer": None, "consumers": [],
+                                                        "quantity": spec.quantity, "unit": spec.unit})
+            row["consumers"].append(f"{c.name}.{port}")
+    return [{"signal": sig, **row} for sig, row in by_signal.items()]
 
 
 class Network:
@@ -27,11 +59,12 @@ class Network:
     Parameters
     ----------
     components : list[Component]   The components; names must be unique
-    external : dict                Optional signals supplied from outside as constants,
-                                   signal name -> (quantity, value [SI])
+    warn_lost_flows : bool         Warn (:class:`UnusedSignalWarning`) of flows no component
+                                   reads (:meth:`lost_flows`); False for a network cut open on
+                                   purpose (e.g. the line-free part of a linearisation)
     """
 
-    def __init__(self, components: list[Component]):
+    def __init__(self, components: list[Component], warn_lost_flows: bool = True):
         self.components = list(components)
         self._check()
         self._order = self._evaluation_order()
@@ -49,8 +82,14 @@ class Network:
                 self.parameter_names.append(f"{c.name}.{k}")
                 self.parameter_values.append(float(v))
         self.parameter_values = np.array(self.parameter_values, dtype=float)
+        self._parameter_index = {k: i for i, k in enumerate(self.parameter_names)}
         self.signal_names = [c.signal(o) for c in self._order for o in c.outputs]
         self._compiled = None
+        lost = self.lost_flows() if warn_lost_flows else []
+        if lost:
+            warnings.warn("flow read by no component (the fluid leaves the circuit there; connect "
+                          "it to a node or a pressure boundary): " + "; ".join(lost),
+                          UnusedSignalWarning, stacklevel=2)
 
     # ---- checks ----------------------------------------------------------------------
     def _check(self):
@@ -122,26 +161,88 @@ class Network:
                  for p in c.inputs if self.producer[c.signal(p)][0].name == source]
         return ", ".join(ports)
 
+    # ---- connections -------------------------------------------------------------------
+    def connection_table(self) -> list[dict]:
+        """One row per signal: producer, consumers, quantity, unit (see :func:`connection_table`)."""
+        return connection_table(self.components)
+
+    def unused_signals(self) -> list[str]:
+        """Signals that some component outputs and no component reads (most are observations:
+        a port pressure, a chamber pressure; see :meth:`lost_flows` for the ones that matter)."""
+        read = {c.signal(p) for c in self.components for p in c.inputs}
+        return [s for s in self.producer if s not in read]
+
+    def lost_flows(self) -> list[str]:
+        """Unread flow outputs that do not go into a prescribed-pressure boundary, as
+        ``"signal (component.port)"``.
+
+        A component that outputs the flow at one of its ends (port ``<end>flow``) reads the
+        pressure there (port ``<end>pressure``); a through-flow (an orifice computing ``flow``)
+        reads the pressures of both ends. When every such pressure comes from a boundary (a
+        component with no inputs, e.g. a pressure source or the tank) the boundaries absorb
+        the flow. Any other unread flow leaves the circuit: mass is not conserved.
+        """
+        out = []
+        for sig in self.unused_signals():
+            c, port = self.producer[sig]
+            if c.outputs[port].quantity != "flow":
+                continue
+            partner = port[:-len("flow")] + "pressure" if port.endswith("flow") else None
+            ends = [partner] if partner in c.inputs else \
+                [q for q, spec in c.inputs.items() if spec.quantity == "pressure"]
+            if ends and all(not self.producer[c.signal(q)][0].inputs for q in ends):
+                continue   # every end it flows to is a prescribed-pressure boundary
+            out.append(f"'{sig}' ({c.name}.{port})")
+        return out
+
     # ---- evaluation ------------------------------------------------------------------
     def component(self, name: str) -> Component:
+        """The component called ``name`` (KeyError if none).
+
+        Parameters
+        ----------
+        name : str   Component name
+        """
         for c in self.components:
             if c.name == name:
                 return c
         raise KeyError(name)
 
     def state_slice(self, name: str) -> slice:
+        """Where a component's states sit in the state vector.
+
+        Parameters
+        ----------
+        name : str   Component name
+        """
         return self._state_slices[name]
 
-    def _split(self, c, x, p):
+    def component_values(self, c: Component, x, p) -> tuple[dict, dict]:
+        """A component's states and runtime parameters, keyed by their local names.
+
+        Parameters
+        ----------
+        c : Component   One of the network's components
+        x : sequence    All states, [SI] (numbers or symbols)
+        p : sequence    All runtime parameters, [SI]
+
+        Returns
+        -------
+        (dict, dict)  states name -> value, parameters name -> value [SI]
+        """
         sl = self._state_slices[c.name]
         xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
-        ps = {}
-        for k in c.runtime_parameters():
-            ps[k] = p[self.parameter_names.index(f"{c.name}.{k}")]
+        ps = {k: p[self._parameter_index[f"{c.name}.{k}"]] for k in c.runtime_parameters()}
         return xs, ps
 
     def evaluate(self, t, x, p=None):
         """Derivatives and all signals at (t, x), with numbers or CasADi symbols.
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : sequence  States, [SI] (numbers or symbols)
+        p : sequence  Runtime parameters, [SI]; the network's values when None
 
         Returns
         -------
@@ -151,7 +252,7 @@ class Network:
         signals = {}
         split = {}
         for c in self._order:
-            xs, ps = self._split(c, x, p)
+            xs, ps = self.component_values(c, x, p)
             split[c.name] = (xs, ps)
             u = {port: signals[c.signal(port)] for port in c.inputs} if c.feedthrough else {}
             y = c.outputs_of(t, xs, u, ps)
@@ -170,12 +271,26 @@ class Network:
         return dx, signals
 
     def rhs(self, t, x, p=None):
-        """Reference (NumPy, per-component Python) right-hand side, [state units/s]."""
+        """Reference (NumPy, per-component Python) right-hand side, [state units/s].
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : ndarray   States, [SI]
+        p : ndarray   Runtime parameters, [SI]; the network's values when None
+        """
         dx, _ = self.evaluate(t, np.asarray(x, dtype=float), p)
         return np.array([float(v) for v in dx])
 
     def signals_at(self, t, x, p=None) -> dict:
-        """All signals at one (t, x), floats."""
+        """All signals at one (t, x), name -> value [SI].
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : ndarray   States, [SI]
+        p : ndarray   Runtime parameters, [SI]; the network's values when None
+        """
         _, sig = self.evaluate(t, np.asarray(x, dtype=float), p)
         return {k: float(v) for k, v in sig.items()}
 
@@ -196,6 +311,12 @@ class Network:
         return x
 
     def breakpoints(self, t_end: float) -> list[float]:
+        """Times in (0, t_end) where some component's input jumps, sorted, [s].
+
+        Parameters
+        ----------
+        t_end : float   End of the run, [s]
+        """
         pts = set()
         for c in self.components:
             pts.update(b for b in c.breakpoints(t_end) if 0 < b < t_end)
@@ -232,7 +353,23 @@ class CompiledModel:
                            ["t", "x", "p"], ["J"])
 
     def rhs(self, t, x, p):
+        """dx/dt from the CasADi graph, [state units/s].
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : ndarray   States, [SI]
+        p : ndarray   Runtime parameters, [SI]
+        """
         return np.asarray(self.f(t, x, p)).ravel()
 
     def jacobian(self, t, x, p):
+        """d(dx/dt)/dx, dense, [1/s in state units].
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : ndarray   States, [SI]
+        p : ndarray   Runtime parameters, [SI]
+        """
         return np.asarray(ca.densify(self.jac(t, x, p)))

@@ -9,9 +9,16 @@ A component declares
 * ``derivatives(t, x, u, p)``: the time derivatives of the states.
 
 Both receive numbers (reference path) or CasADi symbols (compiled path) and must only use
-:mod:`hydroline.network.ops` and arithmetic. A component whose outputs do not depend on its
+:mod:`hydroline.engine.ops` and arithmetic. A component whose outputs do not depend on its
 inputs sets ``feedthrough = False``; the network uses it to order the evaluation and to find
 algebraic loops.
+
+Optional parts of the contract: ``runtime_parameters()`` (values that may change between runs
+without recompiling), ``initial_guess()`` and ``settle()`` (the steady-state solve),
+``breakpoints()`` (times where an input jumps), and for a *sampled* component (a digital
+controller) ``sample_time`` [s] with ``sample(x, u)``: at every multiple of the sample time the
+integrator stops, calls ``sample`` with the states and inputs there, and holds the runtime
+parameters it returns until the next instant (zero-order hold).
 """
 from __future__ import annotations
 
@@ -81,6 +88,12 @@ class Parameter:
     optional : bool        True: None is allowed (the parameter is then not used)
     choices : tuple        Allowed texts of a "str" parameter (empty: any text)
     default : object       Default value [unit] (filled in from the component's field)
+    plausible : tuple      (low, high), [unit]: where a real rig's value lies (either None:
+                           open on that side). Wider than typical: it catches slips of unit or
+                           exponent (an area of 1e-30 m^2), not unusual designs. A value
+                           outside is refused unless the rig names the parameter in
+                           ``[rig] allow_implausible``; ``minimum``/``maximum`` are physical
+                           and cannot be overridden. None: no plausible range.
     """
 
     unit: str
@@ -91,6 +104,7 @@ class Parameter:
     optional: bool = False
     choices: tuple = ()
     default: object = None
+    plausible: tuple | None = None
 
     def rule(self) -> str:
         """The bound as text, e.g. "> 0" or "within [1, 1.66667]"."""
@@ -135,6 +149,26 @@ class Parameter:
                 return self.rule() if self.rule() != "finite" else "finite"
         return None
 
+    def implausible(self, value) -> str | None:
+        """None when ``value`` (a number or a list for "list:" units) lies in the plausible
+        range, else the range as text ("within 1e-06 ... 1").
+
+        Parameters
+        ----------
+        value : object   The value, [unit]
+        """
+        if self.plausible is None or value is None or self.unit == "str":
+            return None
+        low, high = self.plausible
+        for v in (value if isinstance(value, (list, tuple)) else [value]):
+            if (low is not None and v < low) or (high is not None and v > high):
+                if low is None:
+                    return f"at most {high:g}"
+                if high is None:
+                    return f"at least {low:g}"
+                return f"within {low:g} ... {high:g}"
+        return None
+
     @property
     def unit_text(self) -> str:
         """The unit as shown in messages: "" for dimensionless and text."""
@@ -142,7 +176,8 @@ class Parameter:
 
 
 def parameter(default, unit: str, description: str = "", *, minimum=None, maximum=None,
-              positive: bool = False, optional: bool = False, choices: tuple = ()):
+              positive: bool = False, optional: bool = False, choices: tuple = (),
+              plausible: tuple | None = None):
     """A dataclass field declaring a component parameter (see :class:`Parameter`).
 
     Parameters
@@ -155,6 +190,8 @@ def parameter(default, unit: str, description: str = "", *, minimum=None, maximu
     positive : bool        Shorthand for "> 0" (``minimum`` 0, exclusive)
     optional : bool        None allowed
     choices : tuple        Allowed texts of a "str" parameter
+    plausible : tuple      (low, high) where a real rig's value lies, [unit] (see
+                           :class:`Parameter`); None: none
 
     Returns
     -------
@@ -162,7 +199,8 @@ def parameter(default, unit: str, description: str = "", *, minimum=None, maximu
     """
     if positive:
         minimum = 0.0 if minimum is None else minimum
-    decl = Parameter(unit, description, minimum, maximum, bool(positive), optional, tuple(choices))
+    decl = Parameter(unit, description, minimum, maximum, bool(positive), optional, tuple(choices),
+                     plausible=None if plausible is None else tuple(plausible))
     return field(default=default, metadata={"parameter": decl})
 
 
@@ -183,18 +221,23 @@ class Component:
     inputs = {}
     outputs = {}
     feedthrough = True
+    #: Zero-order-hold period of a sampled component, [s]; None for a continuous one
+    sample_time = None
 
     # ---- parameters ----------------------------------------------------------------------
     @classmethod
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
         (with its default filled in)."""
-        out = {}
-        for f in dataclasses.fields(cls):
-            decl = f.metadata.get("parameter")
-            if decl is not None:
-                out[f.name] = dataclasses.replace(decl, default=f.default)
-        return out
+        known = cls.__dict__.get("_declared_parameters")   # per class (not inherited)
+        if known is None:
+            known = {}
+            for f in dataclasses.fields(cls):
+                decl = f.metadata.get("parameter")
+                if decl is not None:
+                    known[f.name] = dataclasses.replace(decl, default=f.default)
+            cls._declared_parameters = known
+        return dict(known)
 
     def check_parameters(self):
         """Raise ValueError ``"<name>: <parameter> must be <rule> [unit], got <value>"`` for
@@ -255,6 +298,17 @@ class Component:
         p : dict   Runtime parameters, name -> value [SI]
         """
         return None
+
+    def sample(self, x: dict, u: dict) -> dict:
+        """At a sampling instant (components with a ``sample_time``): the runtime parameters
+        to hold until the next one, name -> value [SI] (numbers, not symbols).
+
+        Parameters
+        ----------
+        x : dict   States at the instant, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        """
+        return {}
 
     def breakpoints(self, t_end: float) -> list[float]:
         """Times in (0, t_end) where the component's inputs to the ODE jump, [s].

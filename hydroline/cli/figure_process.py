@@ -1,0 +1,126 @@
+"""Draw a command's figure in a second process while the first one simulates.
+
+Matplotlib's import and one figure's drawing take about as long as the rest of a
+``hydroline simulate`` run. A forked child imports Matplotlib while the parent builds the model,
+simulates and writes the CSV; the parent then hands it the columns the figure needs and waits
+for the PNG. On a machine with two cores the whole process ends when the longer of the two
+branches does, not after their sum. Where ``os.fork`` does not exist (Windows), or with
+``HYDROLINE_FIGURE_PROCESS=0``, the figure is drawn in the parent as before.
+"""
+from __future__ import annotations
+
+import os
+import pickle
+import signal
+
+__all__ = ["FigureProcess"]
+
+
+def _read_all(fd: int) -> bytes:
+    chunks = []
+    while True:
+        b = os.read(fd, 1 << 20)
+        if not b:
+            return b"".join(chunks)
+        chunks.append(b)
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
+class FigureProcess:
+    """A forked process that imports Matplotlib now and draws one figure later.
+
+    Use :meth:`draw` once with a module-level drawing function and its arguments (all
+    picklable: arrays, not open files), or :meth:`cancel`. :meth:`draw` returns when the
+    figure is written; an error in the child is raised again in the parent (the same exception
+    where it can be pickled, else ``RuntimeError`` with its text).
+    """
+
+    def __init__(self):
+        self.pid = None
+        if not hasattr(os, "fork") or os.environ.get("HYDROLINE_FIGURE_PROCESS", "1") == "0":
+            return
+        job_r, self._job_w = os.pipe()
+        self._done_r, done_w = os.pipe()
+        pid = os.fork()
+        if pid == 0:   # the child: never returns
+            os.close(self._job_w)
+            os.close(self._done_r)
+            self._child(job_r, done_w)
+        os.close(job_r)
+        os.close(done_w)
+        self.pid = pid
+
+    @staticmethod
+    def _child(job_r: int, done_w: int):
+        status = 1
+        try:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            signal.signal(signal.SIGINT, signal.SIG_DFL)
+            import matplotlib.backends.backend_agg  # noqa: F401  (the import being overlapped)
+            import matplotlib.figure  # noqa: F401
+
+            job = _read_all(job_r)
+            if job:
+                function, args, kwargs = pickle.loads(job)
+                function(*args, **kwargs)
+            _write_all(done_w, b"ok")
+            status = 0
+        except BaseException as e:   # reported to the parent, which raises it
+            try:
+                try:
+                    report = b"E" + pickle.dumps(e)
+                    pickle.loads(report[1:])
+                except Exception:   # an exception that does not travel: its text
+                    report = b"T" + f"{type(e).__name__}: {e}".encode(errors="replace")
+                _write_all(done_w, report)
+            except OSError:
+                pass
+        finally:
+            os._exit(status)
+
+    def draw(self, function, *args, **kwargs) -> None:
+        """Draw ``function(*args, **kwargs)`` in the child (in this process where there is
+        none) and wait for it.
+
+        Parameters
+        ----------
+        function : callable   A module-level function that writes the figure
+        args, kwargs          Its arguments (picklable)
+        """
+        if self.pid is None:
+            function(*args, **kwargs)
+            return
+        try:
+            _write_all(self._job_w, pickle.dumps((function, args, kwargs), protocol=5))
+        finally:
+            os.close(self._job_w)
+        answer = _read_all(self._done_r)
+        os.close(self._done_r)
+        os.waitpid(self.pid, 0)
+        self.pid = None
+        if answer == b"ok":
+            return
+        if answer.startswith(b"E"):   # the child's exception, raised here (a full disk: OSError)
+            raise pickle.loads(answer[1:])
+        text = answer[1:].decode(errors="replace") if answer else "the process died"
+        raise RuntimeError(f"drawing the figure failed: {text}")
+
+    def cancel(self) -> None:
+        """Let the child go without drawing (an error in the parent, nothing to draw)."""
+        if self.pid is None:
+            return
+        for fd in (self._job_w, self._done_r):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+        try:
+            os.waitpid(self.pid, 0)
+        except ChildProcessError:
+            pass
+        self.pid = None

@@ -1,0 +1,242 @@
+"""Solver backends: one class per way of integrating ``dx/dt = f(t, x, p)`` between two
+breakpoints (docs/model.md section 6).
+
+Every backend has the same small interface, which :func:`hydroline.engine.integrate` drives:
+
+* ``start(a, x, b, p)``: begin a segment at time ``a`` [s] from states ``x`` [SI], to end at
+  ``b`` [s] (a breakpoint or a sampling instant), with runtime parameters ``p`` [SI];
+* ``advance(grid)``: the states at the output times ``grid`` [s] (increasing, within the
+  segment), as ``(X, table)``: ``X`` the states, one row per time; ``table`` the signals and
+  states side by side when the backend computes them (else None: the sink evaluates the
+  signals from the states);
+* ``stats()``: solver statistics (function and Jacobian evaluations, steps);
+* ``chunked``: True when output in chunks costs nothing (the compiled core keeps its history
+  across ``advance`` calls); the others restart at every call, so they are given a whole
+  segment unless memory must stay bounded.
+
+:class:`CompiledBackend` runs the network compiled to C with its sparse-Jacobian BDF
+(:mod:`hydroline.compiled`); :class:`CvodesBackend` runs SUNDIALS CVODES through CasADi with
+the exact sparse Jacobian; :class:`ScipyBackend` is the plain reference path (SciPy's BDF on
+the per-component Python right-hand side).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .network import Network
+
+__all__ = ["CompiledBackend", "CvodesBackend", "ScipyBackend", "make_backend", "SOLVERS"]
+
+#: Names accepted by ``solver=``; "auto" is "compiled" where a C compiler exists, else "cvodes".
+SOLVERS = ("auto", "compiled", "cvodes", "scipy")
+
+
+class CompiledBackend:
+    """The network as C code with a sparse-Jacobian BDF integrator (:mod:`hydroline.compiled`).
+
+    Parameters
+    ----------
+    network : Network      The model
+    native : object        Its :class:`hydroline.compiled.NativeModel`
+    p : ndarray            Runtime parameters, [SI]
+    rtol : float           Relative tolerance, [-]
+    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    """
+
+    name = "compiled"
+    chunked = True
+
+    def __init__(self, network: Network, native, p, rtol: float, atol_scale: float):
+        self.n_signals = len(network.signal_names)
+        self.solver = native.solver(p, rtol=rtol, atol=atol_scale)
+        self.p_bytes = np.asarray(p, dtype=float).tobytes()
+
+    def start(self, a: float, x, b: float, p) -> None:
+        """Begin a segment.
+
+        Parameters
+        ----------
+        a : float     Segment start, [s]
+        x : ndarray   States at ``a``, [SI]
+        b : float     Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray   Runtime parameters over the segment, [SI]
+        """
+        b_p = np.asarray(p, dtype=float).tobytes()
+        if b_p != self.p_bytes:   # a sampled component changed a parameter
+            self.solver.set_parameters(p)
+            self.p_bytes = b_p
+        self.solver.start(a, x, b)
+
+    def advance(self, grid):
+        """States (and, the compiled core computing them, the signals) at the output times.
+
+        Parameters
+        ----------
+        grid : ndarray   Output times within the segment, increasing, [s]
+
+        Returns
+        -------
+        (X, table) : states, one row per time [SI]; signals and states side by side [SI]
+        """
+        table = self.solver.advance(grid, table=True)   # signals and states in one table
+        return table[:, self.n_signals:], table
+
+    def stats(self) -> dict:
+        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        return self.solver.stats()
+
+
+class CvodesBackend:
+    """SUNDIALS CVODES through CasADi, exact sparse Jacobian, on the scaled states z = x/scale
+    (one absolute tolerance then fits every state).
+
+    Parameters
+    ----------
+    network : Network      The model
+    rtol : float           Relative tolerance, [-]
+    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    """
+
+    name = "cvodes"
+    chunked = False
+
+    def __init__(self, network: Network, rtol: float, atol_scale: float):
+        import casadi as ca
+
+        model = network.compile()
+        self.scales = network.state_scales
+        z = ca.SX.sym("z", model.x.shape[0])
+        ode = ca.substitute(model.dx, model.x, z * ca.DM(self.scales)) / ca.DM(self.scales)
+        self.dae = {"t": model.t, "x": z, "p": model.p, "ode": ode}
+        self.rtol, self.atol_scale = rtol, atol_scale
+        self.counts = {"nfevals": 0, "njevals": 0, "nsteps": 0}
+
+    def start(self, a: float, x, b: float, p) -> None:
+        """Begin a segment.
+
+        Parameters
+        ----------
+        a : float     Segment start, [s]
+        x : ndarray   States at ``a``, [SI]
+        b : float     Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray   Runtime parameters over the segment, [SI]
+        """
+        self.t, self.x, self.p = a, np.asarray(x, dtype=float), np.asarray(p, dtype=float)
+
+    def advance(self, grid):
+        """States (and, CVODES restarting at the segment's last time) at the output times.
+
+        Parameters
+        ----------
+        grid : ndarray   Output times within the segment, increasing, [s]
+
+        Returns
+        -------
+        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        """
+        import casadi as ca
+
+        F = ca.integrator("F", "cvodes", self.dae, self.t, list(grid),
+                          {"reltol": self.rtol, "abstol": self.atol_scale, "max_num_steps": 200000})
+        out = F(x0=self.x / self.scales, p=self.p)
+        X = np.asarray(out["xf"]).T * self.scales
+        st = F.stats()
+        self.counts["nfevals"] += int(st.get("nfevals", 0))
+        self.counts["njevals"] += int(st.get("njevals", 0) or st.get("nlinsetups", 0))
+        self.counts["nsteps"] += int(st.get("nsteps", 0))
+        return self._accept(grid, X), None
+
+    def _accept(self, grid, X):
+        if not np.all(np.isfinite(X)):
+            raise RuntimeError(f"integration produced non-finite states in "
+                               f"[{self.t:.6g}, {grid[-1]:.6g}] s")
+        self.t, self.x = grid[-1], X[-1].copy()
+        return X
+
+    def stats(self) -> dict:
+        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        return dict(self.counts)
+
+
+class ScipyBackend(CvodesBackend):
+    """The reference path: SciPy's BDF on the per-component Python right-hand side
+    (:meth:`Network.rhs`), per-state absolute tolerance ``atol_scale * scale``.
+
+    Parameters
+    ----------
+    network : Network      The model
+    rtol : float           Relative tolerance, [-]
+    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    """
+
+    name = "scipy"
+
+    def __init__(self, network: Network, rtol: float, atol_scale: float):
+        self.network = network
+        self.rtol, self.atol = rtol, atol_scale * network.state_scales
+        self.counts = {"nfevals": 0, "njevals": 0, "nsteps": 0}
+
+    def advance(self, grid):
+        """States (and, SciPy's BDF restarting at the segment's last time) at the output times.
+
+        Parameters
+        ----------
+        grid : ndarray   Output times within the segment, increasing, [s]
+
+        Returns
+        -------
+        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        """
+        from scipy.integrate import solve_ivp
+
+        p = self.p
+        sol = solve_ivp(lambda t, y: self.network.rhs(t, y, p), (self.t, grid[-1]), self.x,
+                        method="BDF", t_eval=grid, rtol=self.rtol, atol=self.atol)
+        if not sol.success:
+            raise RuntimeError(f"integration failed at t = {sol.t[-1]:.6g} s: {sol.message}")
+        self.counts["nfevals"] += sol.nfev
+        self.counts["njevals"] += sol.njev
+        return self._accept(grid, sol.y.T), None
+
+
+def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: float):
+    """The backend for ``solver`` (one of :data:`SOLVERS`), and a note when "auto" fell back.
+
+    Parameters
+    ----------
+    network : Network      The model
+    solver : str           "auto", "compiled", "cvodes" or "scipy"
+    p : ndarray            Runtime parameters, [SI]
+    rtol : float           Relative tolerance, [-]
+    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+
+    Returns
+    -------
+    (backend, note, build_time) : the backend object; None or the reason "auto" did not get
+        the compiled core; seconds spent building or loading the compiled library [s]
+    """
+    import time
+    import warnings
+
+    note = None
+    build_time = 0.0
+    if solver in ("auto", "compiled"):
+        from .. import compiled
+
+        tic = time.perf_counter()
+        try:
+            native = compiled.native_model(network)
+        except (compiled.CompilerUnavailable, compiled.UnsupportedOperation) as e:
+            if solver == "compiled":
+                raise
+            note = f"compiled core unavailable ({e}); used CVODES"
+            if isinstance(e, compiled.CompilerUnavailable):   # a machine problem: say it once
+                warnings.warn(note, RuntimeWarning, stacklevel=3)
+            # (an operation the C writer lacks, e.g. a long interpolation table, is by design)
+        else:
+            build_time = time.perf_counter() - tic
+            return CompiledBackend(network, native, p, rtol, atol_scale), None, build_time
+        build_time = time.perf_counter() - tic
+    if solver == "scipy":
+        return ScipyBackend(network, rtol, atol_scale), note, build_time
+    return CvodesBackend(network, rtol, atol_scale), note, build_time

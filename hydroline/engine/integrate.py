@@ -1,0 +1,174 @@
+"""Time integration of an assembled network (docs/model.md section 6).
+
+:func:`integrate` splits ``[0, t_end]`` at the components' breakpoints (a step command's jump)
+and sampling instants (a sampled controller's zero-order hold), runs a solver backend
+(:mod:`hydroline.engine.backends`) over each segment, and writes the output rows into an
+:class:`~hydroline.engine.result.OutputSink` (in memory, or streamed to CSV in constant memory).
+"""
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from .backends import SOLVERS, make_backend
+from .network import Network
+from .result import OutputSink, SimulationResult, column_units
+
+__all__ = ["integrate", "segments", "apply_samples"]
+
+
+def segments(t_end: float, breakpoints, sample_time: float | None = None) -> list[float]:
+    """Segment edges of a run: 0, the breakpoints inside (0, t_end), the sampling instants
+    k * sample_time, and t_end, sorted, [s].
+
+    Parameters
+    ----------
+    t_end : float          End of the run, [s]
+    breakpoints : list     Times where inputs jump, [s]
+    sample_time : float    Zero-order-hold period of a sampled component, [s] (None: none)
+    """
+    edges = {0.0, float(t_end)}
+    edges.update(b for b in breakpoints if 0 < b < t_end)
+    if sample_time:
+        n = int(np.floor(t_end / sample_time + 1e-9))
+        edges.update(k * sample_time for k in range(1, n + 1) if k * sample_time < t_end)
+    return sorted(edges)
+
+
+def apply_samples(network: Network, sampled: list, t: float, x, p) -> None:
+    """At a sampling instant, let each sampled component (:meth:`Component.sample`) set its
+    held runtime parameters from the signals at (t, x); ``p`` is changed in place.
+
+    Parameters
+    ----------
+    network : Network   The model
+    sampled : list      Components with a ``sample_time``
+    t : float           Sampling instant, [s]
+    x : ndarray         States there, [SI]
+    p : ndarray         Runtime parameters, [SI]; changed in place
+    """
+    sig = network.signals_at(t, x, p)
+    for c in sampled:
+        xs, _ = network.component_values(c, x, p)
+        u = {port: sig[c.signal(port)] for port in c.inputs}
+        for k, v in c.sample(xs, u).items():
+            p[network.parameter_names.index(f"{c.name}.{k}")] = v
+
+
+def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
+              solver: str = "auto", rtol: float = 1e-7, atol_scale: float = 1e-8,
+              progress=None, stream_to=None, chunk_rows: int = 20000,
+              stream_columns=None, stream_every: int = 1, keep_columns=None,
+              preview_columns=None, preview_rows: int = 50_000) -> SimulationResult:
+    """Integrate the network from x0 over [0, t_end], sampled every dt_out.
+
+    Parameters
+    ----------
+    network : Network   The model
+    x0 : array          Initial state (e.g. ``solve_steady_state(...).x``), [SI]
+    t_end : float       End time, [s]
+    dt_out : float      Output interval, [s]
+    p : array           Runtime parameters (network defaults when None)
+    solver : str        "auto" (default: "compiled" where a C compiler is available, else
+                        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
+                        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
+                        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
+                        (reference: per-component Python right-hand side, SciPy BDF)
+    rtol : float        Relative tolerance, [-]
+    atol_scale : float  Absolute tolerance as a fraction of each state's typical magnitude, [-]
+    progress : callable Called with the fraction done (0..1) after each segment or chunk
+    stream_to : path    Write the time series to this CSV file chunk by chunk as the run
+                        goes, keeping only per-column summary statistics in memory (constant
+                        memory for long runs); ``data`` then holds the last row only and
+                        ``metadata["stream_stats"]`` the min/max/mean/rms of every column
+    chunk_rows : int    Output rows per chunk (streaming and the compiled path)
+    stream_columns : list  Columns to write when streaming (all signals and states if None)
+    stream_every : int  Write every n-th output row to ``stream_to`` (decimation; the last row
+                        always), [-]
+    keep_columns : list Keep only these columns in memory (every output row): ``data`` then
+                        holds them, and ``metadata["stream_stats"]`` has the statistics of
+                        every column (bounded memory for long runs without a file)
+    preview_columns : list  Also keep these columns at every k-th row, at most
+                        ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
+                        a figure of a long run)
+    preview_rows : int  Most rows of the preview, [-]
+
+    Returns
+    -------
+    SimulationResult
+    """
+    if not t_end > 0:
+        raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
+    if not (rtol > 0 and atol_scale > 0):
+        raise ValueError(f"rtol and atol_scale must be > 0 [-], got {rtol!r} and {atol_scale!r}")
+    p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
+    model = network.compile()
+    n_out = int(round(t_end / dt_out))
+    t_last = n_out * dt_out
+    h_out = t_last / n_out
+
+    def t_out(i0, i1):   # output times i0..i1-1 (made per chunk: constant memory)
+        return np.arange(i0, i1) * h_out
+
+    sampled = [c for c in network.components if c.sample_time]
+    sample_time = sampled[0].sample_time if sampled else None
+    edges = segments(t_last, network.breakpoints(t_last), sample_time)
+    x = np.asarray(x0, dtype=float).copy()
+    backend, solver_note, build_time = make_backend(network, solver, p, rtol, atol_scale)
+    columns = list(network.signal_names) + list(network.state_names)
+    sink = OutputSink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
+                      preview_columns, preview_rows, column_units(network) if stream_to else None)
+    sink.write(t_out(0, 1), x[None, :], None, model, p)
+    chunk_rows = max(int(chunk_rows), 1)
+    bounded = stream_to is not None or keep_columns is not None
+    tic = _time.perf_counter()
+    for a, b in zip(edges[:-1], edges[1:]):
+        if sampled:
+            apply_samples(network, sampled, a, x, p)
+        # output indices i0..i1-1 lie in (a, b]
+        i0 = int(np.floor((a + 1e-12) / h_out)) + 1
+        i1 = min(int(np.floor((b + 1e-12) / h_out)) + 1, n_out + 1)
+        n_in = max(i1 - i0, 0)
+        ends_on_grid = n_in > 0 and abs(t_out(i1 - 1, i1)[0] - b) <= 1e-12
+        n_grid = n_in if ends_on_grid else n_in + 1   # the segment end b is always reached
+        step = chunk_rows if (backend.chunked or bounded) else n_grid
+        backend.start(a, x, b, p)
+        for k in range(0, n_grid, step):
+            g = t_out(i0 + k, i0 + min(k + step, n_in))
+            if k + step >= n_grid and not ends_on_grid:
+                g = np.append(g, b)
+            X, table = backend.advance(g)
+            m = min(n_in - k, len(g))
+            if m > 0:
+                if table is not None:
+                    sink.write(g[:m], None, table[:m], model, p)
+                else:
+                    sink.write(g[:m], X[:m], None, model, p)
+            x = X[-1].copy()
+            if progress and n_grid > step:
+                progress(g[-1] / t_last)
+        if progress:
+            progress(b / t_last)
+    wall = _time.perf_counter() - tic
+    stats = backend.stats()
+    stats["build_time"] = build_time
+    t_rows, table, kept = sink.result()
+    res = SimulationResult(times=t_rows, table=table, columns=kept, wall_time=wall,
+                           stats=stats, warnings=[])
+    res.metadata.update(solver=backend.name, rtol=rtol, atol_scale=atol_scale,
+                        units=column_units(network))
+    if solver_note:
+        res.metadata["solver_note"] = solver_note
+    if stream_to is not None:
+        res.metadata.update(stream_to=str(stream_to), stream_rows=sink.written,
+                            stream_stats=sink.stats_frame(sink.keep_file))
+    elif keep_columns is not None:
+        res.metadata.update(stream_stats=sink.stats_frame())
+    preview = sink.preview_result()
+    if preview is not None:
+        res.metadata["preview"] = SimulationResult(times=preview[0], table=preview[1],
+                                                   columns=preview[2])
+    return res

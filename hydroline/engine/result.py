@@ -1,0 +1,302 @@
+"""What a run returns: :class:`SimulationResult` (every signal and state against time), the
+:class:`OutputSink` the integrator writes rows into (kept in memory, streamed to CSV with
+per-column statistics, decimated preview), and the CSV writers.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .network import Network
+from .steady_state import SteadyState
+
+__all__ = ["SimulationResult", "OutputSink", "column_units", "column_indices", "write_csv_rows"]
+
+
+class SimulationResult:
+    """Time series of every named signal and state.
+
+    Attributes
+    ----------
+    data : pandas.DataFrame   Index ``time`` [s]; one column per signal and per state
+                              (``<component>.<state>``), SI units (made on first access;
+                              ``res[name]``, ``res.t`` and ``name in res`` need no pandas)
+    columns : list[str]       Column names of ``data``, signals first
+    steady_state : SteadyState
+    wall_time : float         Integration wall time, [s]
+    stats : dict              Solver statistics (function/Jacobian evaluations, steps)
+    warnings : list[str]      Validity warnings (e.g. pressure below zero absolute)
+    """
+
+    def __init__(self, data=None, steady_state: SteadyState | None = None, wall_time: float = 0.0,
+                 stats: dict | None = None, warnings: list | None = None,
+                 metadata: dict | None = None, *, times=None, table=None, columns=None):
+        if data is not None:   # a DataFrame given: its index is the time
+            times, table, columns = data.index.to_numpy(), data.to_numpy(), list(data.columns)
+        self._times = np.asarray(times, dtype=float)
+        self._table = np.asarray(table, dtype=float).reshape(len(self._times), -1)
+        self.columns = list(columns)
+        self._column_index = {c: k for k, c in enumerate(self.columns)}
+        self._data = data
+        self.steady_state = steady_state
+        self.wall_time = wall_time
+        self.stats = {} if stats is None else stats
+        self.warnings = [] if warnings is None else warnings
+        self.metadata = {} if metadata is None else metadata
+
+    @property
+    def data(self):
+        if self._data is None:
+            import pandas as pd
+
+            self._data = pd.DataFrame(self._table, index=pd.Index(self._times, name="time"),
+                                      columns=self.columns, copy=False)
+        return self._data
+
+    @property
+    def t(self) -> np.ndarray:
+        return self._times
+
+    def __getitem__(self, key) -> np.ndarray:
+        if self._data is not None:
+            return self._data[key].to_numpy()
+        try:
+            return self._table[:, self._column_index[key]]
+        except KeyError:
+            raise KeyError(key) from None
+
+    def __contains__(self, key) -> bool:
+        return key in self._column_index if self._data is None else key in self._data
+
+    def csv_header(self) -> list[str]:
+        """``time [s]``, then every column with its SI unit (``supply_port_pressure [Pa]``), as
+        ``hydroline fit`` reads it."""
+        units = self.metadata.get("units", {})
+        return ["time [s]"] + [f"{c} [{units[c]}]" if c in units else c for c in self.columns]
+
+    def to_csv(self, path, every: int = 1):
+        """Write all series to CSV: ``time [s]`` first, then every column with its SI unit in
+        the header (``supply_port_pressure [Pa]``), as ``hydroline fit`` reads it; with
+        ``every`` > 1 only every n-th row and the last.
+
+        Parameters
+        ----------
+        path : str or Path   The CSV file to write
+        every : int          Keep every n-th row (and the last), [-]
+        """
+        rows = slice(None)
+        if every > 1:
+            rows = np.unique(np.r_[np.arange(0, len(self._times), every), len(self._times) - 1])
+        if self._data is not None:
+            self._times, self._table = self._data.index.to_numpy(), self._data.to_numpy()
+            self.columns = list(self._data.columns)
+        with open(path, "w", buffering=1 << 20) as f:
+            f.write(",".join(self.csv_header()) + "\n")
+            write_csv_rows(f, self._times[rows], self._table[rows])
+
+    def plot(self, signals=None, path=None, title=None):
+        """Plot signals (default: the paper's Figs. 10-12 set when present); the figure is
+        drawn by :func:`hydroline.plotting.plot_result`, which this calls. Returns the figure.
+
+        Parameters
+        ----------
+        signals : list   Columns to plot (default: port and chamber pressures, velocity)
+        path : str       Write the figure there (PNG) when given
+        title : str      Figure title
+        """
+        import importlib
+
+        # the figure lives above the engine; loaded by name so the engine imports nothing above it
+        return importlib.import_module("hydroline.plotting").plot_result(
+            self, signals=signals, path=path, title=title)
+
+
+def write_csv_rows(file, t, block):
+    """Rows ``t, block[i, :]`` as CSV text, each number in Python's shortest round-trip form
+    (what pandas writes; NaN as an empty field).
+
+    Parameters
+    ----------
+    file : file object   Open text file to append to
+    t : ndarray          Times, [s]
+    block : ndarray      One row per time, [SI]
+    """
+    data = np.column_stack([np.asarray(t, dtype=float), np.asarray(block, dtype=float)])
+    step = max(1, 100_000 // max(data.shape[1], 1))
+    for k in range(0, len(data), step):
+        part = data[k:k + step]
+        rows = part.tolist()
+        if np.isnan(part).any():
+            text = "\n".join(",".join("" if v != v else repr(v) for v in r) for r in rows)
+        else:
+            text = "\n".join(",".join(map(repr, r)) for r in rows)
+        file.write(text + "\n")
+
+
+def column_units(network: Network) -> dict:
+    """Signal or state name -> its SI unit (``"-"`` for a pure number), from the ports and
+    states the components declare.
+
+    Parameters
+    ----------
+    network : Network   The model
+    """
+    units = {}
+    for c in network.components:
+        for port, spec in c.outputs.items():
+            units[c.signal(port)] = spec.unit
+        for st in c.states:
+            units[f"{c.name}.{st.name}"] = st.unit or "-"
+    return units
+
+
+def column_indices(what, names, columns):
+    """(names, their indices in ``columns``); ValueError naming ``what`` and unknown names.
+
+    Parameters
+    ----------
+    what : str        The option being checked (for the message)
+    names : list      Requested column names
+    columns : list    The available columns
+    """
+    names = list(names)
+    unknown = [k for k in names if k not in columns]
+    if unknown:
+        raise ValueError(f"{what}: unknown signal(s)/state(s) {', '.join(unknown)}")
+    return names, np.array([columns.index(k) for k in names], dtype=int)
+
+
+class OutputSink:
+    """Where output rows go: kept in memory (all columns, or only ``keep``), streamed to CSV
+    (every ``every``-th row of ``stream`` columns, the last row always) with per-column
+    statistics, and a preview (``preview`` columns at most ``preview_rows`` rows, for a
+    figure). Memory stays bounded by what is kept, whatever the run's length."""
+
+    def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
+                 preview=None, preview_rows=50_000, units=None):
+        self.columns = columns
+        self.path = path
+        self.rows = 0
+        self.parts = []
+        self.last = None
+        self.every = max(int(every), 1)
+        self.n_total = n_total
+        self.stats_index = None
+        if path is not None:
+            self.keep_file, self.index = column_indices(
+                "stream_columns", columns if stream is None else stream, columns)
+            self.file = open(path, "w", buffering=1 << 20)
+            units = units or {}
+            self.file.write(",".join(["time [s]"] + [f"{c} [{units[c]}]" if c in units else c
+                                                    for c in self.keep_file]) + "\n")
+            self.written = 0
+        if path is not None or keep is not None:   # statistics of every column
+            self.stats_names = list(columns)
+            n = len(columns)
+            self.mn, self.mx = np.full(n, np.inf), np.full(n, -np.inf)
+            self.sum, self.sumsq = np.zeros(n), np.zeros(n)
+            self.stats_index = True
+        self.keep = self.kept = None
+        if keep is not None:
+            self.keep, self.keep_index = column_indices("keep_columns", keep, columns)
+            if n_total is not None:   # preallocated: no copy at the end
+                self.kept_t = np.empty(n_total)
+                self.kept = np.empty((n_total, len(self.keep)))
+        self.preview = None
+        if preview is not None:
+            self.preview, self.preview_index = column_indices("preview_columns", preview, columns)
+            self.preview_every = max(1, -(-int(n_total or 1) // max(int(preview_rows), 1)))
+            self.preview_parts = []
+
+    def write(self, t, X, Y, model, p):
+        """Rows at times t: states X and signals Y (None: computed here), or with X None the
+        table Y of signals and states side by side.
+
+        Parameters
+        ----------
+        t : ndarray       Output times, [s]
+        X : ndarray       States, one row per time, [SI] (None: ``Y`` is the whole table)
+        Y : ndarray       Signals, one row per time, [SI] (None: evaluated from ``X``)
+        model : CompiledModel   Evaluates the signals when ``Y`` is None
+        p : ndarray       Runtime parameters, [SI]
+        """
+        if X is None:
+            block = Y
+        else:
+            if Y is None:
+                Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
+            block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
+        t = np.asarray(t, dtype=float)
+        i0 = self.rows
+        self.rows += len(t)
+        if self.preview is not None:
+            k = np.arange(i0, self.rows)
+            sel = (k % self.preview_every == 0) | (k == (self.n_total or 0) - 1)
+            if sel.any():
+                self.preview_parts.append((t[sel], block[np.ix_(sel, self.preview_index)]))
+        if self.stats_index is not None:
+            self.mn = np.minimum(self.mn, block.min(axis=0))
+            self.mx = np.maximum(self.mx, block.max(axis=0))
+            self.sum += block.sum(axis=0)
+            self.sumsq += (block * block).sum(axis=0)
+        if self.keep is not None:
+            if self.kept is not None and self.rows <= len(self.kept_t):
+                self.kept_t[i0:self.rows] = t
+                self.kept[i0:self.rows] = block[:, self.keep_index]
+            else:   # more rows than foreseen: go on in parts
+                if self.kept is not None:
+                    self.parts.append((self.kept_t[:i0], self.kept[:i0]))
+                    self.kept = None
+                self.parts.append((t.copy(), block[:, self.keep_index]))
+        elif self.path is None:
+            self.parts.append((t, block))
+        if self.path is not None:
+            rows = np.arange(i0, self.rows)
+            sel = (rows % self.every == 0)
+            if self.n_total is not None:
+                sel |= rows == self.n_total - 1   # the run's end is always written
+            if sel.all():
+                out_t, out = t, block[:, self.index]
+            else:
+                out_t, out = t[sel], block[np.ix_(sel, self.index)]
+            if len(out_t):
+                np.savetxt(self.file, np.column_stack([out_t, out]), fmt="%.9g", delimiter=",")
+                self.written += len(out_t)
+        self.last = (t[-1:].copy(), block[-1:].copy())
+
+    def result(self):
+        """(times, table, columns): the rows kept (all columns, or the ``keep`` columns), or the
+        last row of every column when streaming without ``keep``."""
+        if self.path is not None:
+            self.file.close()
+        if self.keep is not None:
+            if self.kept is not None:
+                return self.kept_t[:self.rows], self.kept[:self.rows], self.keep
+            t = np.concatenate([q[0] for q in self.parts])
+            return t, np.vstack([q[1] for q in self.parts]), self.keep
+        if self.path is not None:
+            return self.last[0], self.last[1], self.columns
+        if len(self.parts) == 1:
+            return self.parts[0][0], self.parts[0][1], self.columns
+        return (np.concatenate([q[0] for q in self.parts]),
+                np.vstack([q[1] for q in self.parts]), self.columns)
+
+    def preview_result(self):
+        """(times, table, columns) of the preview, or None."""
+        if self.preview is None or not self.preview_parts:
+            return None
+        return (np.concatenate([q[0] for q in self.preview_parts]),
+                np.vstack([q[1] for q in self.preview_parts]), self.preview)
+
+    def stats_frame(self, names=None):
+        """min, max, mean and rms of every column (rows: column names) as a DataFrame.
+
+        Parameters
+        ----------
+        names : list   Only these columns (all when None)
+        """
+        import pandas as pd
+
+        n = max(self.rows, 1)
+        frame = pd.DataFrame({"min": self.mn, "max": self.mx, "mean": self.sum / n,
+                              "rms": np.sqrt(self.sumsq / n)}, index=self.stats_names)
+        return frame if names is None else frame.loc[list(names)]

@@ -1,0 +1,305 @@
+"""The rest state before the disturbance (docs/model.md section 6).
+
+:func:`solve_steady_state` solves ``f(t0, x) = 0`` for the whole network: Newton's method with
+the exact Jacobian of the compiled model (in C where a compiler exists), on states scaled by
+their typical magnitudes; pseudo-transient continuation where Newton stalls on the kinks of
+check valves, stops and orifices; then the components settle (:func:`settle_components`) and
+the solve repeats until nothing changes.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .component import Component
+from .network import Network
+
+__all__ = ["SteadyState", "SteadyStateError", "solve_steady_state", "pseudo_transient",
+           "settle_components"]
+
+
+class SteadyStateError(RuntimeError):
+    """The steady-state solver did not converge; the message says how far it got.
+
+    Attributes
+    ----------
+    state : str        The state with the largest scaled residual (None when unknown)
+    residual : float   Its scaled residual, [1/s]
+    """
+
+    def __init__(self, message, state=None, residual=None):
+        super().__init__(message)
+        self.state, self.residual = state, residual
+
+
+@dataclass
+class SteadyState:
+    """A solved rest state.
+
+    Attributes
+    ----------
+    x : ndarray          States, [SI]
+    p : ndarray          Runtime parameters after settling, [SI]
+    residual : float     max_i |dx_i/dt| / scale_i at x, [1/s] (0 for an exact rest state)
+    worst_state : str    Name of the state with the largest scaled residual
+    """
+
+    x: np.ndarray
+    p: np.ndarray
+    residual: float
+    worst_state: str
+
+
+def _scaled_residual(model, t, x, p, scales):
+    r = model.rhs(t, x, p) / scales
+    k = int(np.argmax(np.abs(r)))
+    return float(abs(r[k])), k
+
+
+class _CompiledRest:
+    """f(t, x, p) and its Jacobian from the network's compiled C library, with the interface
+    of :class:`~hydroline.engine.CompiledModel` (``rhs``, ``jacobian``, ``signals``): the
+    steady-state iterations then cost microseconds each instead of CasADi's call overhead."""
+
+    def __init__(self, model, native):
+        self.model = model
+        self.solver = native.solver(model.network.parameter_values)
+        self.p_bytes = np.asarray(model.network.parameter_values, dtype=float).tobytes()
+        self.scales = np.asarray(model.network.state_scales, dtype=float)
+        g = native.generated
+        self.rows = np.asarray(g.jac_row, dtype=np.intp)
+        self.cols = np.repeat(np.arange(g.n_states), np.diff(g.jac_colind))
+        self.jnz = np.empty(max(g.jac_nnz, 1))
+        self.signals = model.signals
+
+    def _use(self, p):
+        b = np.asarray(p, dtype=float).tobytes()
+        if b != self.p_bytes:   # the components' settling changed a parameter
+            self.solver.set_parameters(p)
+            self.p_bytes = b
+
+    def rhs(self, t, x, p):
+        self._use(p)
+        return self.solver.rhs(t, x)
+
+    def scaled_jacobian(self, t, x, p):
+        """d(dz/dt)/dz, dense, in the scaled states z = x/scale."""
+        self._use(p)
+        J = np.zeros((len(self.scales), len(self.scales)))
+        self.solver.scaled_jacobian_nonzeros(t, x, self.jnz)
+        J[self.rows, self.cols] = self.jnz[:len(self.rows)]
+        return J
+
+    def jacobian(self, t, x, p):
+        return self.scaled_jacobian(t, x, p) * self.scales[:, None] / self.scales[None, :]
+
+
+def _rest_functions(network):
+    """The model's f and Jacobian for the steady-state solve: compiled C where a library can
+    be built (it is the one the integration uses), else the CasADi functions."""
+    model = network.compile()
+    try:
+        from .. import compiled
+
+        return _CompiledRest(model, compiled.native_model(network))
+    except Exception:   # no compiler, an operation the C writer lacks, an unusable cache
+        return model
+
+
+def _scaled_jacobian(model, t, x, p, scales):
+    if hasattr(model, "scaled_jacobian"):
+        return model.scaled_jacobian(t, x, p)
+    return model.jacobian(t, x, p) * scales[None, :] / scales[:, None]
+
+
+def _newton(model, t0, x, p, scales, tol, max_iter=30):
+    """Newton's method with the exact Jacobian and a backtracking line search on the scaled
+    states, from x. Returns (x, converged): quick where it converges; where it does not (the
+    kinks of check valves, stops and orifices), pseudo-transient continuation takes over."""
+    z = x / scales
+
+    def resid(z):
+        return model.rhs(t0, z * scales, p) / scales
+
+    r = resid(z)
+    norm = np.linalg.norm(r)
+    for _ in range(max_iter):
+        if not np.isfinite(norm):
+            return x, False
+        if np.max(np.abs(r)) < tol:
+            return z * scales, True
+        J = _scaled_jacobian(model, t0, z * scales, p, scales)
+        try:
+            dz = np.linalg.solve(J, -r)
+        except np.linalg.LinAlgError:
+            return x, False
+        lam = 1.0
+        while True:
+            z_new = z + lam * dz
+            r_new = resid(z_new)
+            norm_new = np.linalg.norm(r_new)
+            if np.isfinite(norm_new) and norm_new <= (1.0 - 1e-4 * lam) * norm:
+                break
+            lam *= 0.5
+            if lam < 0.05:   # far from the root's basin: leave it to the continuation
+                return x, False
+        z, r, norm = z_new, r_new, norm_new
+    return (z * scales, True) if np.max(np.abs(r)) < tol else (x, False)
+
+
+def pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
+    """Pseudo-transient continuation (Kelley & Keyes, SIAM J. Numer. Anal. 35 (1998) 508):
+    implicit-Euler steps ``(I/dt - J) dz = f`` in scaled states with dt growing as the residual
+    falls (switched evolution relaxation), ending in plain Newton steps. Robust where Newton
+    alone stalls on the kinks of check valves, stops and orifices.
+
+    Parameters
+    ----------
+    model : object     ``rhs(t, x, p)`` [state units/s] and ``jacobian(t, x, p)`` (or
+                       ``scaled_jacobian``) of the equations to bring to rest
+    t0 : float         Time at which the inputs are taken, [s]
+    x : ndarray        Start, [SI]
+    p : ndarray        Runtime parameters, [SI]
+    scales : ndarray   Typical magnitude of each state, [SI]
+    tol : float        Required scaled residual max|f_i/scale_i|, [1/s]
+    dt0 : float        First pseudo time step (in scaled time), [s]
+    max_iter : int     Steps of the first attempt (later, shorter-start attempts get more)
+
+    Returns
+    -------
+    ndarray  The best state reached, [SI] (check its residual: it may not meet ``tol``)
+    """
+    z0 = x / scales
+    best, best_res = z0, np.inf
+    for attempt in range(3):   # a first step too long can land in a far basin: shorter ones
+        z = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt,
+                                  max_iter * (1 + 3 * attempt))
+        r = np.max(np.abs(model.rhs(t0, z * scales, p) / scales)) if np.all(np.isfinite(z)) else np.inf
+        if r < best_res:   # keep the best attempt (a later, shorter start may end worse)
+            best, best_res = z, r
+        if r < tol:
+            break
+    return best * scales
+
+
+def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
+    """One pseudo-transient run from scaled states ``z``; returns the scaled states reached."""
+    z = z.copy()
+    n = len(z)
+
+    def resid(z):
+        return model.rhs(t0, z * scales, p) / scales
+
+    r = resid(z)
+    norm = np.linalg.norm(r)
+    dt = dt0
+    for _ in range(max_iter):
+        if np.max(np.abs(r)) < tol:
+            break
+        J = _scaled_jacobian(model, t0, z * scales, p, scales)
+        M = np.eye(n) / dt - J
+        try:
+            dz = np.linalg.solve(M, r)
+        except np.linalg.LinAlgError:
+            dz = np.linalg.lstsq(M, r, rcond=1e-14)[0]
+        z_new = z + dz
+        r_new = resid(z_new)
+        norm_new = np.linalg.norm(r_new)
+        if not np.isfinite(norm_new) or norm_new > 10 * norm:
+            dt *= 0.1
+            continue
+        z, r = z_new, r_new
+        # grow dt by the residual ratio, and by at least 1.5x per accepted step: a slow
+        # transient (an accumulator filling through a 2 mm hose, a return side behind a
+        # closed check valve) would otherwise creep for thousands of steps; a step that
+        # overshoots is still refused above and dt cut
+        dt = min(dt * max(norm / max(norm_new, 1e-300), 1.5), 1e12)
+        norm = norm_new
+    return z
+
+
+def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,
+                       max_rounds: int = 3) -> SteadyState:
+    """Solve ``f(t0, x) = 0`` for the whole network (docs/model.md 6), then let components settle.
+
+    Newton's method with the compiled model's exact Jacobian (in C where a compiler exists),
+    on the states scaled by their typical magnitudes, starting from the components' guesses;
+    where Newton does not converge, pseudo-transient continuation from the same start.
+    Components then settle (e.g. accumulators adopt the steady pressure as their charge
+    state) and the solve repeats until nothing changes.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+    t0 : float          Time at which the inputs are taken (before the disturbance), [s]
+    x_guess : array     Start for the solver; the components' guesses when None
+    tol : float         Required scaled residual, [1/s]
+    max_rounds : int    Solve-and-settle rounds at most (components adopting the rest state)
+
+    Returns
+    -------
+    SteadyState
+    """
+    model = _rest_functions(network)
+    scales = network.state_scales
+    p = network.parameter_values.copy()
+    x = network.guess() if x_guess is None else np.asarray(x_guess, dtype=float).copy()
+    # only components that define settle() can change anything after a solve
+    settling = [c for c in network.components if type(c).settle is not Component.settle]
+    for _ in range(max_rounds):
+        x_newton, converged = _newton(model, t0, x, p, scales, tol)
+        x = x_newton if converged else pseudo_transient(model, t0, x, p, scales, tol)
+        changed = settle_components(network, settling, x, p,
+                                    _signals(model, network, t0, x, p))
+        res, k = _scaled_residual(model, t0, x, p, scales)
+        if res < tol and not changed:
+            break
+    res, k = _scaled_residual(model, t0, x, p, scales)
+    if not np.all(np.isfinite(x)) or res > 1e-4:
+        raise SteadyStateError(
+            f"steady state not found: scaled residual {res:.3g} 1/s at state "
+            f"'{network.state_names[k]}' (check pressures, laps and initial position)",
+            state=network.state_names[k], residual=res)
+    return SteadyState(x, p, res, network.state_names[k])
+
+
+def settle_components(network: Network, components, x, p, signals: dict) -> bool:
+    """Let components adopt a solved rest state (:meth:`Component.settle`: e.g. an accumulator
+    takes the steady pressure as its charge state); updates ``x`` and ``p`` in place.
+
+    Parameters
+    ----------
+    network : Network      The model
+    components : list      The components to ask (those that define ``settle``)
+    x : ndarray            Solved states, [SI]; changed in place
+    p : ndarray            Runtime parameters, [SI]; changed in place
+    signals : dict         Every signal at (x, p), name -> value [SI]
+
+    Returns
+    -------
+    bool  True when a state moved by more than 1e-12 of its scale (solve again)
+    """
+    changed = False
+    scales = network.state_scales
+    for c in components:
+        sl = network.state_slice(c.name)
+        xs, ps = network.component_values(c, x, p)
+        res = c.settle(xs, {port: signals[c.signal(port)] for port in c.inputs}, ps)
+        if res is None:
+            continue
+        new_x, new_p = res
+        for i, s in enumerate(c.states):
+            if s.name in new_x:
+                j = sl.start + i
+                changed |= abs(new_x[s.name] - x[j]) > 1e-12 * scales[j]
+                x[j] = new_x[s.name]
+        for k, v in new_p.items():
+            p[network.parameter_names.index(f"{c.name}.{k}")] = v
+    return changed
+
+
+def _signals(model, network, t, x, p) -> dict:   # model: CompiledModel or _CompiledRest
+    """Every signal at (t, x, p) from the compiled graph (as ``network.signals_at``, whose
+    per-component Python evaluation costs about a hundred times more)."""
+    return dict(zip(network.signal_names, np.asarray(model.signals(t, x, p), dtype=float).ravel()))
