@@ -19,12 +19,13 @@ _LAZY = {
     "load_rig": ("hydroline.rigs", "load_rig"),
     "simulate": ("hydroline.scenarios", "simulate"),
     "summarize": ("hydroline.scenarios", "summarize"),
+    "scenarios": ("hydroline.scenarios", None),  # experiments: hydroline.scenarios.OpenLoopStep
     "analysis": ("hydroline.analysis", None),   # hydroline.analysis.linearize(...)
     "studies": ("hydroline.studies", None),     # hydroline.studies.layout(...)
 }
 
 __all__ = ["Fluid", "MINERAL_OIL", "effective_bulk_modulus", "Rig", "load_rig", "simulate",
-           "summarize", "analysis", "studies", "__version__"]
+           "summarize", "scenarios", "analysis", "studies", "__version__"]
 
 
 def __getattr__(name):

@@ -38,7 +38,17 @@ def _table_path(kind: str, key: str) -> Path:
 
 def load_table(kind: str, key: str):
     """The JSON value stored under ``key`` (a string naming every input), or None when absent
-    or unreadable (a damaged entry is treated as a miss)."""
+    or unreadable (a damaged entry is treated as a miss).
+
+    Parameters
+    ----------
+    kind : str   Sub-directory of the cache naming the table, e.g. ``"correction_factors"``
+    key : str    Everything the value depends on (inputs, :func:`source_tag` of the code)
+
+    Returns
+    -------
+    object or None  The stored JSON value (lists, dicts, numbers, strings)
+    """
     try:
         with open(_table_path(kind, key)) as f:
             entry = json.load(f)
@@ -49,7 +59,14 @@ def load_table(kind: str, key: str):
 
 def store_table(kind: str, key: str, value) -> None:
     """Store a JSON-serialisable value under ``key`` (atomic rename; errors ignored: the cache
-    only saves time)."""
+    only saves time).
+
+    Parameters
+    ----------
+    kind : str      Sub-directory of the cache naming the table, e.g. ``"correction_factors"``
+    key : str       Everything the value depends on (inputs, :func:`source_tag` of the code)
+    value : object  JSON-serialisable value (lists, dicts, numbers, strings)
+    """
     path = _table_path(kind, key)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

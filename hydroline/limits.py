@@ -43,6 +43,12 @@ class OutputEstimate:
     csv_bytes: int
 
     def describe(self) -> str:
+        """One line for messages, e.g. ``"1e+06 rows x 40 columns = 320 MB in memory, ..."``.
+
+        Returns
+        -------
+        str  Rows, columns, the size in memory and as CSV (B, kB, MB, ...)
+        """
         return (f"{self.rows:.3g} rows x {self.columns} columns = {_size(self.memory_bytes)} in "
                 f"memory, {_size(self.csv_bytes)} as CSV")
 
@@ -57,7 +63,18 @@ def _size(n: float) -> str:
 
 def output_estimate(t_end: float, dt_out: float, n_columns: int) -> OutputEstimate:
     """Rows and bytes of a run of ``t_end`` [s] sampled every ``dt_out`` [s] with
-    ``n_columns`` signals and states (time added)."""
+    ``n_columns`` signals and states (time added).
+
+    Parameters
+    ----------
+    t_end : float     Simulated time, [s]
+    dt_out : float    Output step, [s] (<= 0: unbounded rows)
+    n_columns : int   Signals and states, without time, [-]
+
+    Returns
+    -------
+    OutputEstimate  Rows, columns and bytes in memory [B] and as CSV [B]
+    """
     rows = t_end / dt_out + 1 if dt_out > 0 else math.inf
     rows = int(rows) if rows < 1e15 else rows      # huge: a float, for the message
     cols = int(n_columns) + 1

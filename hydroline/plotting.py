@@ -124,10 +124,17 @@ def plot_line_response(line, models, f, form, path=None, title=None):
 
     Parameters
     ----------
-    line : Line
+    line : Line       The hose section, its exact (dissipative) transfer matrix the reference
     models : dict     label -> model with ``transfer(s)``
     f : array         Frequencies, [Hz]
-    form : str
+    form : str        Causality form of the two-port (a key of ``FORM_PORTS``)
+    path : str        File to save the figure to (PNG, ...); None: not saved
+    title : str       Figure title; None: the line's length, diameter and dissipation number
+
+    Returns
+    -------
+    matplotlib.figure.Figure  Magnitude [SI] and phase [deg] of the four entries against
+                              frequency [Hz]
     """
     from .lines.line import FORM_PORTS
 

@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import math
 import time as _time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -17,11 +19,16 @@ from . import components as comp
 from .traces.metrics import pressure_metrics
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
+from .components.commands import read_table_csv
 from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency, steady_state_hint
 from .engine import SimulationResult, SteadyStateError, integrate, solve_steady_state
+from .scenario_schema import QUANTITY_UNITS, WAVEFORM_KEYS
 from .system import build_circuit
 
-__all__ = ["SCENARIOS", "simulate", "summarize", "build_scenario", "Scenario", "default_scenario"]
+__all__ = ["SCENARIOS", "EXPERIMENTS", "OWN_EXPERIMENTS", "Experiment", "OpenLoopStep",
+           "ClosedLoopSine", "PositionStep", "AxisCommand", "AxisCommands", "experiment",
+           "scenario_names", "simulate", "summarize", "build_scenario", "Scenario",
+           "default_scenario", "hold_other_axes", "template_controller"]
 
 #: "position-step": the axis named by ``scenario.position-step.axis`` (the first by default)
 #: steps its position reference by ``step`` at ``time`` while every other axis holds its
@@ -38,13 +45,17 @@ def default_scenario(rig: Rig) -> str:
 #: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
 #: no longer holds, [Pa].
 CAVITATION_PRESSURE = ATMOSPHERIC_PRESSURE
+#: Shared nodes watched besides every axis's ports and chambers (from its handles), where the
+#: circuit has them: the HSM nodes of the template rig and of ``two_axis``.
+WATCHED_NODES = ("supply.manifold_pressure", "return.manifold_pressure")
+#: What is watched in a result without axis handles (the template rig's signals).
 WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
-                     "top_chamber_pressure", "supply.manifold_pressure", "return.manifold_pressure")
+                     "top_chamber_pressure") + WATCHED_NODES
 
 
 @dataclass
 class Scenario:
-    """An experiment: command components, its duration and the disturbance time.
+    """An experiment built for one rig: its command components and times.
 
     Attributes
     ----------
@@ -54,6 +65,7 @@ class Scenario:
     t_end : float            Simulated time, [s]
     t_disturbance : float    Time of the step (metrics start there), [s]
     position_guess : float   Initial piston position, [m]
+    experiment : Experiment  The experiment it was built from
     """
 
     name: str
@@ -61,6 +73,7 @@ class Scenario:
     t_end: float
     t_disturbance: float
     position_guess: float | None = None
+    experiment: "Experiment | None" = None
 
 
 def _scenario_value(rig, scenario, key, default=None):
@@ -92,17 +105,605 @@ def _check_scenario(rig, scenario, t_end):
             bad("initial_position", f"within +-stroke/2 = +-{half * 1e3:g} mm (piston inside the cylinder)")
 
 
-def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None,
-                   axes: dict | None = None) -> Scenario:
-    """The command components and times of a named scenario, from the rig's [scenario.*].
+def _initial_position(rig, axis) -> float:
+    """Where the axis's piston starts (``circuit.<actuator>.initial_position``, else 0), [m]."""
+    return 0.0 if rig is None else rig.get(f"circuit.{axis.actuator}.initial_position", 0.0)
+
+
+def _pick_axis(axes: dict, name: str | None, key: str):
+    """The axis called ``name`` (the first when None); RigError naming ``key`` if none."""
+    if name is None:
+        return next(iter(axes.values()))
+    if name not in axes:
+        raise RigError(f"{key}: no axis {name!r} in the rig (axes: {', '.join(axes)})")
+    return axes[name]
+
+
+def template_controller(rig: Rig, axis) -> comp.PositionController:
+    """The template rig's position loop from its ``[controller]`` table, closed on ``axis``.
 
     Parameters
     ----------
-    rig : Rig         Parameters (SI)
-    scenario : str    One of :data:`SCENARIOS`
-    t_end : float     Simulated time, [s] (the scenario's default when None)
-    axes : dict       The rig's axis handles (:attr:`hydroline.circuit.Circuit.axes`); built
-                      from the rig when None
+    rig : Rig    Parameters (SI): ``controller.proportional_gain`` [A/m] and optionally
+                 ``integral_gain`` [A/(m s)], ``derivative_gain`` [A s/m], ``current_limit`` [A],
+                 ``sample_time`` [s]
+    axis : Axis  The axis whose valve current the controller drives
+
+    Returns
+    -------
+    PositionController
+    """
+    if rig is None or rig.get("controller.proportional_gain") is None:
+        raise RigError(f"controller.proportional_gain: not set in rig "
+                       f"{'' if rig is None else rig.source} [A/m] (axis '{axis.name}' has no "
+                       f"position controller in the circuit; this closes its loop)")
+    return comp.PositionController(
+        name="controller", proportional_gain=rig["controller.proportional_gain"],
+        integral_gain=rig.get("controller.integral_gain", 0.0),
+        derivative_gain=rig.get("controller.derivative_gain", 0.0),
+        current_limit=rig.get("controller.current_limit", rig.get("servovalve.rated_current", 0.05)),
+        sample_time=rig.get("controller.sample_time"),
+        connections={"reference": axis.reference_signal, "position": axis.position,
+                     "velocity": axis.velocity, "current": axis.current})
+
+
+def _drive(rig, axis, quantity: str, component, key: str) -> list:
+    """``component`` (a command) connected to the axis's valve current or position reference;
+    with the template's controller where a position reference has none in the circuit."""
+    component.connections = {"command": axis.current if quantity == "current"
+                             else axis.reference_signal}
+    if quantity == "position" and not axis.controller:
+        return [component, template_controller(rig, axis)]
+    if quantity == "current" and axis.controller:
+        raise RigError(f"{key}: the valve current of axis '{axis.name}' is driven by "
+                       f"'{axis.controller}' in the circuit; command its position instead")
+    return [component]
+
+
+@dataclass(kw_only=True)
+class Experiment:
+    """An experiment: what drives which axis, for how long, where its disturbance is and what
+    its summary holds. Subclasses register under a ``kind`` (:data:`EXPERIMENTS`); a rig
+    selects one by name (``[scenario.NAME]``, ``--scenario NAME``).
+
+    Attributes
+    ----------
+    name : str          The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float       Simulated time, [s]
+    """
+
+    #: Registry name of the experiment type.
+    kind: ClassVar[str] = ""
+    #: How the metrics window's start is named in the summary note.
+    window_start: ClassVar[str] = "the start of the command"
+
+    name: str = ""
+    t_end: float = 1.0
+
+    def __post_init__(self):
+        self.name = self.name or self.kind
+        if not (np.isfinite(self.t_end) and self.t_end > 0):
+            raise RigError(f"scenario.{self.name}.t_end: must be > 0 [s], got {self.t_end!r}")
+
+    @property
+    def t_disturbance(self) -> float:
+        """Time of the disturbance (the metrics start there), [s]."""
+        return 0.0
+
+    @property
+    def position_guess(self) -> float | None:
+        """Initial piston position of a template rig's actuator, [m] (None: mid-stroke)."""
+        return None
+
+    def commands(self, axes: dict, rig: Rig | None = None) -> list:
+        """The command components that drive (and hold) the rig's axes.
+
+        Parameters
+        ----------
+        axes : dict   Axis name -> :class:`hydroline.circuit.Axis` (signal handles)
+        rig : Rig     Parameters (SI): where pistons start, the template's ``[controller]``
+
+        Returns
+        -------
+        list  Components
+        """
+        raise NotImplementedError
+
+    def driven_axes(self, axes: dict) -> list[str]:
+        """Names of the axes the experiment moves on purpose (the others hold).
+
+        Parameters
+        ----------
+        axes : dict   Axis name -> Axis
+        """
+        return [next(iter(axes))]
+
+    def metadata(self) -> dict:
+        """What the experiment adds to a result's ``metadata``."""
+        return {}
+
+    def summary(self, result: SimulationResult) -> dict:
+        """The summary of a run of this experiment (see :func:`summarize`).
+
+        Parameters
+        ----------
+        result : SimulationResult  A run of this experiment (:func:`simulate`)
+
+        Returns
+        -------
+        dict
+        """
+        return _summary(result, self.window_start, sine=False)
+
+
+def _commands_with_holds(rig, axes, driven: str, commands: list) -> list:
+    return commands + hold_other_axes(rig, axes, driven)
+
+
+@dataclass(kw_only=True)
+class OpenLoopStep(Experiment):
+    """A step of valve current into one axis (the paper's open-loop test, Figs. 10-12).
+
+    Attributes
+    ----------
+    current : float           Current after the step, [A] (None: ``servovalve.rated_current``)
+    initial_current : float   Current before the step, [A]
+    time : float              Time of the step, [s]
+    axis : str                The stepped axis (None: the first)
+    """
+
+    kind: ClassVar[str] = "open-loop-step"
+    window_start: ClassVar[str] = "the valve step"
+
+    current: float | None = None
+    initial_current: float = 0.0
+    time: float = 0.01
+    axis: str | None = None
+    t_end: float = 0.25
+
+    @classmethod
+    def from_rig(cls, rig: Rig, name: str = "open-loop-step", t_end: float | None = None):
+        """The experiment from the rig's ``[scenario.open-loop-step]`` table (SI values).
+
+        Parameters
+        ----------
+        rig : Rig       Parameters (SI)
+        name : str      Its table's name
+        t_end : float   Simulated time, [s] (the table's, else 0.25 s, when None)
+        """
+        return cls(name=name, current=_scenario_value(rig, name, "current",
+                                                      rig.get("servovalve.rated_current", 0.05)),
+                   initial_current=rig.get(f"scenario.{name}.initial_current", 0.0),
+                   time=_scenario_value(rig, name, "time", 0.01),
+                   t_end=t_end or _scenario_value(rig, name, "t_end", 0.25))
+
+    @property
+    def t_disturbance(self) -> float:
+        return self.time
+
+    def driven_axes(self, axes):
+        return [_pick_axis(axes, self.axis, f"scenario.{self.name}.axis").name]
+
+    def commands(self, axes, rig=None):
+        axis = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
+        if axis.controller:
+            raise RigError(f"scenario {self.name}: the valve current of axis '{axis.name}' is "
+                           f"driven by '{axis.controller}' in the circuit; use position-step")
+        final = self.current if self.current is not None else \
+            (0.05 if rig is None else rig.get("servovalve.rated_current", 0.05))
+        cmd = comp.StepCommand(name="command", quantity="current", initial=self.initial_current,
+                               final=final, time=self.time, connections={"command": axis.current})
+        return _commands_with_holds(rig, axes, axis.name, [cmd])
+
+
+@dataclass(kw_only=True)
+class ClosedLoopSine(Experiment):
+    """A sine position reference tracked by one axis's position loop (the paper's 2 Hz test).
+
+    Attributes
+    ----------
+    amplitude : float          Reference amplitude, [m]
+    frequency : float          Reference frequency, [Hz]
+    offset : float             Reference mean, [m]
+    initial_position : float   Piston position at the start (template rigs), [m]
+    axis : str                 The tracking axis (None: the first)
+    """
+
+    kind: ClassVar[str] = "closed-loop-sine"
+
+    amplitude: float = 0.0
+    frequency: float = 1.0
+    offset: float = 0.0
+    initial_position: float = 0.0
+    axis: str | None = None
+    t_end: float = 1.0
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not (np.isfinite(self.frequency) and self.frequency > 0):
+            raise RigError(f"scenario.{self.name}.frequency: must be > 0 [Hz], got "
+                           f"{self.frequency!r}")
+
+    @classmethod
+    def from_rig(cls, rig: Rig, name: str = "closed-loop-sine", t_end: float | None = None):
+        """The experiment from the rig's ``[scenario.closed-loop-sine]`` table (SI values).
+
+        Parameters
+        ----------
+        rig : Rig       Parameters (SI)
+        name : str      Its table's name
+        t_end : float   Simulated time, [s] (the table's, else 1 s, when None)
+        """
+        return cls(name=name, offset=_scenario_value(rig, name, "offset", 0.0),
+                   amplitude=_scenario_value(rig, name, "amplitude"),
+                   frequency=_scenario_value(rig, name, "frequency"),
+                   initial_position=_scenario_value(rig, name, "initial_position", 0.0),
+                   t_end=t_end or _scenario_value(rig, name, "t_end", 1.0))
+
+    @property
+    def position_guess(self):
+        return self.initial_position
+
+    def driven_axes(self, axes):
+        return [_pick_axis(axes, self.axis, f"scenario.{self.name}.axis").name]
+
+    def metadata(self):
+        return {"command_frequency_hz": float(self.frequency)}
+
+    def commands(self, axes, rig=None):
+        axis = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
+        ref = comp.SineCommand(name="command", quantity="position", offset=self.offset,
+                               amplitude=self.amplitude, frequency=self.frequency, start=0.0,
+                               connections={"command": axis.reference_signal})
+        cmds = [ref] if axis.controller else [ref, template_controller(rig, axis)]
+        return _commands_with_holds(rig, axes, axis.name, cmds)
+
+    def summary(self, result):
+        return _summary(result, self.window_start, sine=True)
+
+
+@dataclass(kw_only=True)
+class PositionStep(Experiment):
+    """A step of one axis's position reference; every other axis holds (multi-axis rigs).
+
+    Attributes
+    ----------
+    step : float   Reference step from where the piston starts, [m]
+    time : float   Time of the step, > 0 (the steady state is solved before it), [s]
+    axis : str     The stepped axis (None: the first)
+    """
+
+    kind: ClassVar[str] = "position-step"
+
+    step: float = 0.0
+    time: float = 0.01
+    axis: str | None = None
+    t_end: float = 0.15
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not self.time > 0:
+            raise RigError(f"scenario.{self.name}.time: must be > 0 [s] (the steady state is "
+                           f"solved before the step), got {self.time!r}")
+
+    @classmethod
+    def from_rig(cls, rig: Rig, name: str = "position-step", t_end: float | None = None):
+        """The experiment from the rig's ``[scenario.position-step]`` table (SI values).
+
+        Parameters
+        ----------
+        rig : Rig       Parameters (SI)
+        name : str      Its table's name
+        t_end : float   Simulated time, [s] (the table's, else 0.15 s, when None)
+        """
+        key = f"scenario.{name}"
+        t_step = rig.get(f"{key}.time", 0.01)
+        if not t_step > 0:
+            raise RigError(f"{key}.time: must be > 0 [s] (the steady state is solved before the "
+                           f"step), got {rig.raw.get(f'{key}.time', t_step)!r}")
+        return cls(name=name, axis=rig.get(f"{key}.axis"), time=t_step,
+                   step=_scenario_value(rig, name, "step"),
+                   t_end=t_end or _scenario_value(rig, name, "t_end", 0.15))
+
+    @property
+    def t_disturbance(self):
+        return self.time
+
+    def driven_axes(self, axes):
+        return [_pick_axis(axes, self.axis, f"scenario.{self.name}.axis").name]
+
+    def commands(self, axes, rig=None):
+        ax = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
+        if ax.controller is None:
+            raise RigError(f"scenario.{self.name}: axis '{ax.name}' has no position controller "
+                           f"in the circuit (a position_controller whose current drives "
+                           f"'{ax.valve}')")
+        x0 = _initial_position(rig, ax)
+        cmd = comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
+                               final=x0 + self.step, time=self.time,
+                               connections={"command": ax.reference_signal})
+        return _commands_with_holds(rig, axes, ax.name, [cmd])
+
+
+@dataclass
+class AxisCommand:
+    """One axis's command in a user's own experiment: a waveform or a table.
+
+    Attributes
+    ----------
+    quantity : str     "current" (valve current, [A]) or "position" (position reference, [m])
+    waveform : str     "step", "ramp", "sine" or "table"
+    values : dict      The waveform's parameters (:data:`hydroline.scenario_schema.WAVEFORM_KEYS`),
+                       SI: [A] or [m] for levels, [A/s] or [m/s] for slopes, [s], [Hz]; a level
+                       left out (``initial``, ``offset``) is where the axis starts
+    times : ndarray    Table times, [s] (``waveform = "table"``)
+    table : ndarray    Table values, [A] or [m]
+    """
+
+    quantity: str
+    waveform: str
+    values: dict = field(default_factory=dict)
+    times: np.ndarray | None = None
+    table: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.quantity not in QUANTITY_UNITS:
+            raise RigError(f"quantity: must be one of {', '.join(QUANTITY_UNITS)}, got "
+                           f"{self.quantity!r}")
+        if self.waveform == "table":
+            probe = comp.TableCommand(name="probe", quantity=self.quantity, times=self.times,
+                                      values=self.table)
+            self.times, self.table = probe.times, probe.values
+        elif self.waveform not in WAVEFORM_KEYS or self.waveform == "csv":
+            raise RigError(f"waveform: must be step, ramp, sine or table, got {self.waveform!r}")
+
+    @classmethod
+    def from_csv(cls, quantity: str, path) -> "AxisCommand":
+        """A table command from a two-column CSV whose header carries units
+        (``time [ms], current [mA]``).
+
+        Parameters
+        ----------
+        quantity : str      "current" [A] or "position" [m]
+        path : str or Path  The file
+
+        Raises
+        ------
+        ValueError  one line naming the file and what is wrong
+        """
+        t, v = read_table_csv(path, QUANTITY_UNITS[quantity])
+        return cls(quantity, "table", times=t, table=v)
+
+    def change_time(self) -> float:
+        """When the command first changes (its disturbance), [s]."""
+        v = self.values
+        if self.waveform == "step":
+            return float(v["time"])
+        if self.waveform in ("ramp", "sine"):
+            return float(v.get("start", 0.0))
+        moving = np.flatnonzero(np.diff(self.table) != 0.0)
+        return float(self.times[moving[0]]) if moving.size else 0.0
+
+    def component(self, name: str, start: float, key: str):
+        """The command component (its output not yet connected).
+
+        Parameters
+        ----------
+        name : str     Component name
+        start : float  Where the axis starts (level default), [A] or [m]
+        key : str      Rig path of the axis's table, for messages
+        """
+        v, unit = self.values, QUANTITY_UNITS[self.quantity]
+
+        def need(k):
+            if k not in v:
+                raise RigError(f"{key}.{k}: required for waveform = {self.waveform!r} "
+                               f"[{WAVEFORM_KEYS[self.waveform][k][0].replace('q', unit)}]")
+            return float(v[k])
+
+        q = self.quantity
+        if self.waveform == "step":
+            if not need("time") > 0:
+                raise RigError(f"{key}.time: must be > 0 [s] (the steady state is solved before "
+                               f"the step), got {v['time']!r}")
+            return comp.StepCommand(name=name, quantity=q, initial=v.get("initial", start),
+                                    final=need("final"), time=v["time"])
+        if self.waveform == "ramp":
+            if not need("end") > need("start") >= 0:
+                raise RigError(f"{key}.end: must be > start >= 0 [s], got start {v['start']!r}, "
+                               f"end {v['end']!r}")
+            return comp.RampCommand(name=name, quantity=q, initial=v.get("initial", start),
+                                    slope=need("slope"), start=v["start"], end=v["end"])
+        if self.waveform == "sine":
+            if not need("frequency") > 0:
+                raise RigError(f"{key}.frequency: must be > 0 [Hz], got {v['frequency']!r}")
+            if not v.get("start", 0.0) >= 0:
+                raise RigError(f"{key}.start: must be >= 0 [s], got {v['start']!r}")
+            return comp.SineCommand(name=name, quantity=q, offset=v.get("offset", start),
+                                    amplitude=need("amplitude"), frequency=v["frequency"],
+                                    start=v.get("start", 0.0))
+        return comp.TableCommand(name=name, quantity=q, times=self.times, values=self.table)
+
+    def position_range(self, start: float) -> tuple[float, float]:
+        """Lowest and highest value the command reaches, [A] or [m]."""
+        v = self.values
+        if self.waveform == "step":
+            lo = [v.get("initial", start), v["final"]]
+        elif self.waveform == "ramp":
+            a = v.get("initial", start)
+            lo = [a, a + v["slope"] * (v["end"] - v["start"])]
+        elif self.waveform == "sine":
+            o = v.get("offset", start)
+            lo = [o - abs(v["amplitude"]), o + abs(v["amplitude"])]
+        else:
+            lo = [float(np.min(self.table)), float(np.max(self.table))]
+        return min(lo), max(lo)
+
+
+@dataclass(kw_only=True)
+class AxisCommands(Experiment):
+    """A user's own experiment: a command per axis (waveform or CSV table); axes not listed
+    hold. From a rig: ``[scenario.NAME] type = "axis-commands"`` (schema:
+    :mod:`hydroline.scenario_schema`).
+
+    Attributes
+    ----------
+    axes : dict                 Axis name -> :class:`AxisCommand`
+    disturbance_time : float    Where the metrics start, [s] (None: the first time a command
+                                changes)
+    """
+
+    kind: ClassVar[str] = "axis-commands"
+
+    axes: dict = field(default_factory=dict)
+    disturbance_time: float | None = None
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not self.axes:
+            raise RigError(f"scenario.{self.name}: no axis commanded (give a "
+                           f"[scenario.{self.name}.<axis>] table with quantity and waveform)")
+        if self.disturbance_time is not None and not 0 <= self.disturbance_time < self.t_end:
+            raise RigError(f"scenario.{self.name}.disturbance_time: must be within 0 ... t_end "
+                           f"[s], got {self.disturbance_time!r}")
+
+    @classmethod
+    def from_rig(cls, rig: Rig, name: str, t_end: float | None = None):
+        """The experiment from the rig's ``[scenario.NAME]`` table and its axis tables.
+
+        Parameters
+        ----------
+        rig : Rig       Parameters (SI), read with :mod:`hydroline.scenario_schema`
+        name : str      The table's name
+        t_end : float   Simulated time, [s] (the table's when None)
+        """
+        base = f"scenario.{name}"
+        t_end = t_end or rig.get(f"{base}.t_end")
+        if t_end is None:
+            raise RigError(f"{base}.t_end: required [s] (simulated time), not set in rig {rig.source}")
+        tables: dict = {}
+        for path, value in rig.values.items():
+            parts = path.split(".")
+            if len(parts) == 4 and path.startswith(base + "."):
+                tables.setdefault(parts[2], {})[parts[3]] = value
+        axes = {}
+        for axis, keys in tables.items():
+            key = f"{base}.{axis}"
+            for k in ("quantity", "waveform"):
+                if k not in keys:
+                    raise RigError(f"{key}.{k}: required ({' or '.join(QUANTITY_UNITS) if k == 'quantity' else ', '.join(WAVEFORM_KEYS)})")
+            quantity, waveform = keys.pop("quantity"), keys.pop("waveform")
+            if waveform == "csv":
+                path = Path(keys["file"]) if "file" in keys else None
+                if path is None:
+                    raise RigError(f"{key}.file: required for waveform = 'csv' (a CSV with header "
+                                   f"'time [s], {quantity} [{QUANTITY_UNITS[quantity]}]', any units)")
+                if not path.is_absolute() and not rig.source.startswith("embedded:"):
+                    path = Path(rig.source).parent / path
+                try:
+                    axes[axis] = AxisCommand.from_csv(quantity, path)
+                except ValueError as e:
+                    raise RigError(f"{key}.file: {e}") from None
+            else:
+                for k, (unit, required) in WAVEFORM_KEYS[waveform].items():
+                    if required and k not in keys:
+                        raise RigError(f"{key}.{k}: required for waveform = {waveform!r} "
+                                       f"[{unit.replace('q', QUANTITY_UNITS[quantity])}]")
+                axes[axis] = AxisCommand(quantity, waveform, dict(keys))
+        return cls(name=name, axes=axes, t_end=t_end,
+                   disturbance_time=rig.get(f"{base}.disturbance_time"))
+
+    @property
+    def t_disturbance(self):
+        if self.disturbance_time is not None:
+            return float(self.disturbance_time)
+        return min(c.change_time() for c in self.axes.values())
+
+    def driven_axes(self, axes):
+        return [a for a in axes if a in self.axes]
+
+    def commands(self, axes, rig=None):
+        out = []
+        for axis_name, command in self.axes.items():
+            key = f"scenario.{self.name}.{axis_name}"
+            ax = _pick_axis(axes, axis_name, key)
+            start = _initial_position(rig, ax) if command.quantity == "position" else 0.0
+            c = command.component(f"{ax.name}.command", start, key)
+            if command.quantity == "position":
+                lo, hi = command.position_range(start)
+                if max(abs(lo), abs(hi)) > ax.stroke / 2:
+                    raise RigError(f"{key}: the position command reaches {lo * 1e3:g} ... "
+                                   f"{hi * 1e3:g} mm, beyond the stroke +-{ax.stroke / 2e-3:g} "
+                                   f"mm [m]")
+            out += _drive(rig, ax, command.quantity, c, key)
+        for ax in axes.values():
+            if ax.name not in self.axes:
+                out += hold_other_axes(rig, {ax.name: ax}, None)
+        return out
+
+
+#: Built-in experiments by name (``--scenario NAME``, ``[scenario.NAME]``).
+EXPERIMENTS = {cls.kind: cls for cls in (OpenLoopStep, ClosedLoopSine, PositionStep)}
+#: Experiment types a rig may define itself (``[scenario.NAME] type = "..."``).
+OWN_EXPERIMENTS = {cls.kind: cls for cls in (AxisCommands,)}
+
+
+def scenario_names(rig: Rig) -> list[str]:
+    """Every experiment a rig can run by name: the built-in ones and the rig's own.
+
+    Parameters
+    ----------
+    rig : Rig
+    """
+    own = [k.split(".")[1] for k in rig.values
+           if k.startswith("scenario.") and k.endswith(".type") and k.count(".") == 2]
+    return list(EXPERIMENTS) + [n for n in own if n not in EXPERIMENTS]
+
+
+def experiment(rig: Rig, scenario: "str | Experiment", t_end: float | None = None) -> Experiment:
+    """The experiment called ``scenario`` on the rig (or ``scenario`` itself, an object).
+
+    Parameters
+    ----------
+    rig : Rig                   Parameters (SI)
+    scenario : str or Experiment  A name (:func:`scenario_names`) or an experiment object
+    t_end : float               Simulated time, [s] (the experiment's own when None)
+
+    Returns
+    -------
+    Experiment
+    """
+    if isinstance(scenario, Experiment):
+        exp = replace(scenario, t_end=t_end) if t_end is not None else scenario
+    elif scenario in EXPERIMENTS:
+        _check_scenario(rig, scenario, t_end)
+        check_consistency(rig, scenario)
+        exp = EXPERIMENTS[scenario].from_rig(rig, scenario, t_end)
+    elif rig.get(f"scenario.{scenario}.type") in OWN_EXPERIMENTS:
+        exp = OWN_EXPERIMENTS[rig.get(f"scenario.{scenario}.type")].from_rig(rig, scenario, t_end)
+    else:
+        raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(scenario_names(rig))})")
+    if exp.t_disturbance > 0 and not exp.t_end > exp.t_disturbance:
+        key = "time" if exp.name in EXPERIMENTS else "disturbance_time"
+        raise RigError(f"t_end: the run would end at {exp.t_end * 1e3:g} ms, before the disturbance "
+                       f"of scenario {exp.name} at {exp.t_disturbance * 1e3:g} ms (scenario."
+                       f"{exp.name}.{key}) [s]: nothing but the rest state to show; give a t_end "
+                       f"beyond it (e.g. --t-end)")
+    return exp
+
+
+def build_scenario(rig: Rig, scenario: "str | Experiment" = "open-loop-step",
+                   t_end: float | None = None, axes: dict | None = None) -> Scenario:
+    """The command components and times of an experiment on a rig.
+
+    Parameters
+    ----------
+    rig : Rig                     Parameters (SI)
+    scenario : str or Experiment  A name (built-in, :data:`SCENARIOS`, or the rig's own) or an
+                                  experiment object
+    t_end : float                 Simulated time, [s] (the experiment's default when None)
+    axes : dict                   The rig's axis handles (:attr:`hydroline.circuit.Circuit.axes`);
+                                  built from the rig when None
 
     Returns
     -------
@@ -112,47 +713,12 @@ def build_scenario(rig: Rig, scenario: str = "open-loop-step", t_end: float | No
         axes = build_circuit(rig).axes
     if not axes:
         raise RigError(f"rig {rig.source}: no servo axis (an actuator driven by a servovalve)")
-    if scenario in SCENARIOS:
-        _check_scenario(rig, scenario, t_end)
-        check_consistency(rig, scenario)
-    if scenario == "position-step":
-        return _position_step(rig, axes, t_end)
-    axis = next(iter(axes.values()))
-    rated = rig.get("servovalve.rated_current", 0.05)
-    others = hold_other_axes(rig, axes, axis.name)
-    if scenario == "open-loop-step":
-        if axis.controller:
-            raise RigError(f"scenario open-loop-step: the valve current of axis '{axis.name}' is "
-                           f"driven by '{axis.controller}' in the circuit; use position-step")
-        t_step = _scenario_value(rig, scenario, "time", 0.01)
-        cmd = comp.StepCommand(name="command", quantity="current",
-                               initial=rig.get(f"scenario.{scenario}.initial_current", 0.0),
-                               final=_scenario_value(rig, scenario, "current", rated),
-                               time=t_step, connections={"command": axis.current})
-        return Scenario(scenario, [cmd] + others,
-                        t_end or _scenario_value(rig, scenario, "t_end", 0.25), t_step)
-    if scenario == "closed-loop-sine":
-        ref = comp.SineCommand(name="command", quantity="position",
-                               offset=_scenario_value(rig, scenario, "offset", 0.0),
-                               amplitude=_scenario_value(rig, scenario, "amplitude"),
-                               frequency=_scenario_value(rig, scenario, "frequency"),
-                               start=0.0, connections={"command": axis.reference_signal})
-        cmds = [ref]
-        if not axis.controller:   # the template's P loop, from [controller]
-            cmds.append(comp.PositionController(
-                name="controller", proportional_gain=rig["controller.proportional_gain"],
-                integral_gain=rig.get("controller.integral_gain", 0.0),
-                derivative_gain=rig.get("controller.derivative_gain", 0.0),
-                current_limit=rig.get("controller.current_limit", rated),
-                sample_time=rig.get("controller.sample_time"),
-                connections={"reference": axis.reference_signal, "position": axis.position,
-                             "velocity": axis.velocity, "current": axis.current}))
-        return Scenario(scenario, cmds + others, t_end or _scenario_value(rig, scenario, "t_end", 1.0), 0.0,
-                        position_guess=_scenario_value(rig, scenario, "initial_position", 0.0))
-    raise RigError(f"unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+    exp = experiment(rig, scenario, t_end)
+    return Scenario(exp.name, exp.commands(axes, rig), exp.t_end, exp.t_disturbance,
+                    exp.position_guess, exp)
 
 
-def hold_other_axes(rig: Rig, axes: dict, driven: str) -> list:
+def hold_other_axes(rig: Rig, axes: dict, driven: str | None) -> list:
     """Commands that hold every axis but ``driven``: a constant position reference where the
     circuit has the axis's controller (it holds where its actuator starts), else zero valve
     current.
@@ -161,7 +727,7 @@ def hold_other_axes(rig: Rig, axes: dict, driven: str) -> list:
     ----------
     rig : Rig      Parameters (SI)
     axes : dict    Axis handles, name -> :class:`hydroline.circuit.Axis`
-    driven : str   The axis the experiment drives
+    driven : str   The axis the experiment drives (None: hold them all)
 
     Returns
     -------
@@ -172,7 +738,7 @@ def hold_other_axes(rig: Rig, axes: dict, driven: str) -> list:
         if ax.name == driven:
             continue
         if ax.controller:
-            x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
+            x0 = _initial_position(rig, ax)
             out.append(comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
                                         final=x0, time=0.0,
                                         connections={"command": ax.reference_signal}))
@@ -182,31 +748,7 @@ def hold_other_axes(rig: Rig, axes: dict, driven: str) -> list:
     return out
 
 
-def _position_step(rig, axes, t_end):
-    """Step one axis's position reference; hold every other axis where it starts."""
-    key = "scenario.position-step"
-    name = rig.get(f"{key}.axis", next(iter(axes)))
-    if name not in axes:
-        raise RigError(f"{key}.axis: no axis {name!r} in the rig (axes: {', '.join(axes)})")
-    t_step = rig.get(f"{key}.time", 0.01)
-    if not t_step > 0:
-        raise RigError(f"{key}.time: must be > 0 [s] (the steady state is solved before the "
-                       f"step), got {rig.raw.get(f'{key}.time', t_step)!r}")
-    step = _scenario_value(rig, "position-step", "step")
-    ax = axes[name]
-    if ax.controller is None:
-        raise RigError(f"{key}: axis '{ax.name}' has no position controller in the circuit "
-                       f"(a position_controller whose current drives '{ax.valve}')")
-    x0 = rig.get(f"circuit.{ax.actuator}.initial_position", 0.0)
-    cmds = [comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
-                             final=x0 + step, time=t_step,
-                             connections={"command": ax.reference_signal})]
-    cmds += hold_other_axes(rig, axes, name)
-    return Scenario("position-step", cmds, t_end or _scenario_value(rig, "position-step", "t_end", 0.15),
-                    t_step)
-
-
-def simulate(rig: Rig | str | None = None, scenario: str | None = None,
+def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
              stream_columns=None, **options) -> SimulationResult:
@@ -216,8 +758,9 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
     ----------
     rig : Rig, str or None   A parsed rig, a path to a rig TOML file, or None for the
                              embedded default (the 2005 paper's rig)
-    scenario : str           One of :data:`SCENARIOS`; None: the rig's ``rig.scenario``, else
-                             "open-loop-step"
+    scenario : str or Experiment  A name (one of :data:`SCENARIOS` or the rig's own
+                             ``[scenario.NAME]``) or an experiment object (:class:`Experiment`);
+                             None: the rig's ``rig.scenario``, else "open-loop-step"
     t_end : float            Simulated time, [s] (the scenario's default when None)
     dt_out : float           Output sampling interval, [s]
     solver : str             "auto" (the compiled C core where a C compiler exists, else
@@ -257,7 +800,7 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
     check_output_size(sc.t_end, dt_out, len(kept) if kept is not None and stream_to is None
                       else len(net.signal_names) + len(net.state_names),
                       stream_to=stream_to if kept is None or stream_to is not None else None,
-                      name="t_end" if t_end is not None else f"scenario.{scenario}.t_end")
+                      name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
     if key not in _MODELS:
         try:
             ss = solve_steady_state(net, t0=0.0)
@@ -276,11 +819,12 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
     res.steady_state = ss
     first = next(iter(circuit.axes.values()))
     act = net.component(first.actuator)
-    if sc.name == "closed-loop-sine":
-        res.metadata["command_frequency_hz"] = float(sc.commands[0].frequency)
+    exp = sc.experiment
+    driven = exp.driven_axes(circuit.axes)
+    res.metadata.update(exp.metadata())
     res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
-                        stroke=act.stroke, axes=circuit.axes,
-                        stepped_axis=rig.get("scenario.position-step.axis", first.name),
+                        stroke=act.stroke, axes=circuit.axes, experiment=exp,
+                        driven_axes=driven, stepped_axis=driven[0] if driven else first.name,
                         actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
                         axis_natural_frequency_hz={
                             n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
@@ -304,13 +848,22 @@ def simulate(rig: Rig | str | None = None, scenario: str | None = None,
 
 
 def watched_pressures(res: SimulationResult) -> list[str]:
-    """Pressure signals watched for cavitation: the paper rig's and every axis's ports and
-    chambers (from the handles in ``res.metadata["axes"]``)."""
-    out = list(WATCHED_PRESSURES)
-    for ax in res.metadata.get("axes", {}).values():
+    """Pressure signals watched for cavitation: every axis's ports and chambers (from the
+    handles in ``res.metadata["axes"]``) and the shared nodes (:data:`WATCHED_NODES`); the
+    template's signals (:data:`WATCHED_PRESSURES`) for a result without handles.
+
+    Parameters
+    ----------
+    res : SimulationResult  A run
+    """
+    axes = res.metadata.get("axes") or {}
+    if not axes:
+        return list(WATCHED_PRESSURES)
+    out = []
+    for ax in axes.values():
         out += [s for s in (ax.supply_pressure, ax.return_pressure, ax.bottom_pressure,
                             ax.top_pressure) if s not in out]
-    return out
+    return out + [s for s in WATCHED_NODES if s not in out]
 
 
 #: Recent (scenario, t_end, rig values) -> (circuit, scenario, network, steady state): a
@@ -320,9 +873,10 @@ _MODELS: dict = {}
 _MODELS_KEPT = 8
 
 
-def _model_key(rig: Rig, scenario: str, t_end):
-    """Key of a run's model in :data:`_MODELS` (None: not cached, a table file may change)."""
-    if any(k.endswith(".file") for k in rig.values):
+def _model_key(rig: Rig, scenario, t_end):
+    """Key of a run's model in :data:`_MODELS` (None: not cached: a table file may change, or
+    an experiment object)."""
+    if not isinstance(scenario, str) or any(k.endswith(".file") for k in rig.values):
         return None
     return (scenario, t_end, repr(sorted(rig.values.items())))
 
@@ -406,8 +960,7 @@ def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, 
     return t0, end, reason
 
 
-def _window_note(t0, t1, reason, scenario):
-    start = "the valve step" if scenario == "open-loop-step" else "the start of the command"
+def _window_note(t0, t1, reason, start):
     if reason == "stop":
         return (f"metrics from {start} at {t0 * 1e3:.0f} ms to {t1 * 1e3:.0f} ms, when the piston "
                 f"reaches the stop it moves toward")
@@ -429,13 +982,14 @@ def _cycle_ripple(t, p, t0, t1, frequency):
 
 
 def summarize(res: SimulationResult) -> dict:
-    """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds).
+    """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds):
+    its experiment's :meth:`Experiment.summary`.
 
-    Open-loop step: per port (``"supply"``, ``"return"``) the metrics of
-    :func:`hydroline.analysis.pressure_metrics` over :func:`metrics_window`: frequency [Hz],
-    two-sided oscillation amplitude [MPa], first excursion [MPa], steady change [MPa],
-    peak-to-peak [MPa], 2 % settling time [s] (measured or estimated, with its method and
-    note), and a note where an amplitude cannot be given.
+    Open-loop step (and a user's own experiment): per port (``"supply"``, ``"return"``) the
+    metrics of :func:`hydroline.traces.metrics.pressure_metrics` over :func:`metrics_window`:
+    frequency [Hz], two-sided oscillation amplitude [MPa], first excursion [MPa], steady
+    change [MPa], peak-to-peak [MPa], 2 % settling time [s] (measured or estimated, with its
+    method and note), and a note where an amplitude cannot be given.
 
     Closed-loop sine (no step, a forced response): per port the peak-to-peak ripple in each
     full command cycle (``ripple_pp_mpa_per_cycle``, its maximum ``ripple_pp_mpa``);
@@ -443,21 +997,40 @@ def summarize(res: SimulationResult) -> dict:
     the tracking error (reference minus position) as rms and max [mm].
 
     Also: ``actuator_natural_frequency_hz``, ``wall_time_s``, ``metrics_window_s``,
-    ``metrics_window_note``, ``warnings``. The result is not modified.
+    ``metrics_window_note``, ``warnings``. A multi-axis rig gives these per axis under
+    ``"axes"``. The result is not modified.
+
+    Parameters
+    ----------
+    res : SimulationResult  A run of :func:`simulate`
+
+    Returns
+    -------
+    dict
     """
-    t0, t1, reason = metrics_window(res)
+    exp = res.metadata.get("experiment")
+    if exp is not None:
+        return exp.summary(res)
     scenario = res.metadata.get("scenario")
+    return _summary(res, "the valve step" if scenario == "open-loop-step"
+                    else "the start of the command", sine=scenario == "closed-loop-sine")
+
+
+def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
+    """Summary of a run (:func:`summarize`); ``sine``: ripple per command cycle and tracking
+    error instead of step metrics (single-axis rigs)."""
+    t0, t1, reason = metrics_window(res)
     m = res.t <= t1
     t = res.t[m]
     axes = res.metadata.get("axes") or {}
     if len(axes) > 1:
-        return _summarize_axes(res, axes, t0, t1, m, reason)
+        return _summarize_axes(res, axes, t0, t1, m, reason, window_start)
     ax = next(iter(axes.values()), None)
     out = {}
     for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
                       ("return", ax.return_pressure if ax else "return_port_pressure")):
         p = res[key][m]
-        if scenario == "closed-loop-sine":
+        if sine:
             ripple = _cycle_ripple(t, p, t0, t1, res.metadata["command_frequency_hz"])
             top = max(ripple) if ripple else None
             out[side] = {"frequency_hz": None,
@@ -471,18 +1044,18 @@ def summarize(res: SimulationResult) -> dict:
             out[side] = pressure_metrics(t, p, t0, t1)
     out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
-    if scenario == "closed-loop-sine":
+    if sine:
         err = (res[ax.reference_signal if ax else "position_reference"]
                - res[ax.position if ax else "piston_position"])[m]
         out["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
         out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
     out["metrics_window_s"] = [t0, t1]
-    out["metrics_window_note"] = _window_note(t0, t1, reason, scenario)
+    out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
     out["warnings"] = list(res.warnings)
     return out
 
 
-def _summarize_axes(res, axes, t0, t1, m, reason):
+def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
     """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
 
     ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
@@ -491,21 +1064,21 @@ def _summarize_axes(res, axes, t0, t1, m, reason):
     """
     t = res.t[m]
     i0 = int(np.searchsorted(res.t, t0))
-    stepped = res.metadata.get("stepped_axis")
+    driven = res.metadata.get("driven_axes", [res.metadata.get("stepped_axis")])
     out = {"axes": {}}
     for name, ax in axes.items():
         x = res[ax.position][m]
         dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
         entry = {side: pressure_metrics(t, res[key][m], t0, t1)
                  for side, key in (("supply", ax.supply_pressure), ("return", ax.return_pressure))}
-        entry["position_disturbance_mm"] = None if name == stepped else dev
-        if name == stepped:
+        entry["position_disturbance_mm"] = None if name in driven else dev
+        if name in driven:
             entry["position_change_mm"] = float((x[-1] - x[i0]) * 1e3)
         entry["actuator_natural_frequency_hz"] = float(
             res.metadata["axis_natural_frequency_hz"][name])
         out["axes"][name] = entry
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
     out["metrics_window_s"] = [t0, t1]
-    out["metrics_window_note"] = _window_note(t0, t1, reason, res.metadata.get("scenario"))
+    out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
     out["warnings"] = list(res.warnings)
     return out

@@ -58,6 +58,20 @@ def _section_present(rig: Rig, section: str) -> bool:
 
 
 def make_fluid(rig: Rig) -> Fluid:
+    """The rig's fluid (``[fluid]``: density, kinematic viscosity, bulk modulus).
+
+    Parameters
+    ----------
+    rig : Rig   Parameters (SI)
+
+    Returns
+    -------
+    Fluid
+
+    Raises
+    ------
+    RigError  One line naming the fluid parameter at fault
+    """
     try:
         return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"])
     except ValueError as e:
@@ -65,7 +79,23 @@ def make_fluid(rig: Rig) -> Fluid:
 
 
 def make_line(rig: Rig, section: str, fluid: Fluid) -> Line:
-    """The Line of a hose section, e.g. ``section="supply.section2"``."""
+    """The Line of a hose section, e.g. ``section="supply.section2"``.
+
+    Parameters
+    ----------
+    rig : Rig        Parameters (SI)
+    section : str    Hose section, ``"<side>.section<n>"``
+    fluid : Fluid    The fluid in it (the section's own bulk modulus, if set, overrides its
+                     effective one)
+
+    Returns
+    -------
+    Line  Length [m], diameter [m] and fluid of the section
+
+    Raises
+    ------
+    RigError  One line naming the section's parameter at fault
+    """
     try:
         return Line(rig[f"{section}.length"], rig[f"{section}.diameter"], fluid,
                     rig.get(f"{section}.bulk_modulus"))
@@ -74,7 +104,16 @@ def make_line(rig: Rig, section: str, fluid: Fluid) -> Line:
 
 
 def hose_lines(rig: Rig) -> dict:
-    """All hose sections of the rig with a positive length, name -> Line."""
+    """All hose sections of the rig with a positive length, name -> Line.
+
+    Parameters
+    ----------
+    rig : Rig   Parameters (SI)
+
+    Returns
+    -------
+    dict  ``"supply.section1"``, ... -> :class:`Line`
+    """
     fluid = make_fluid(rig)
     out = {}
     for side in ("supply", "return"):
@@ -479,7 +518,23 @@ def make_actuator(rig: Rig, position_guess=None, nominal_pressure=None) -> comp.
     """The actuator component of a rig (load mass added to the moving mass).
 
     ``nominal_pressure`` [Pa] scales the chamber-pressure states; the mean of the supply and
-    return pressures at t = 0 when None."""
+    return pressures at t = 0 when None.
+
+    Parameters
+    ----------
+    rig : Rig                  Parameters (SI)
+    position_guess : float     Piston position to start the steady-state solve from, [m];
+                               ``actuator.initial_position`` when None
+    nominal_pressure : float   Scale of the chamber-pressure states, [Pa]
+
+    Returns
+    -------
+    Actuator
+
+    Raises
+    ------
+    RigError  One line when neither ``actuator.area`` nor both side areas are given [m^2]
+    """
     area = rig.get("actuator.area")
     Ab = rig.get("actuator.bottom_area", area)
     At = rig.get("actuator.top_area", area)

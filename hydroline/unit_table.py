@@ -71,7 +71,17 @@ _CACHE: dict[str, tuple[float, tuple] | None] = {}
 def unit_factor(text: str) -> tuple[float, tuple] | None:
     """``(factor to SI, dimension exponents of (m, kg, s, A))`` of a unit expression such as
     ``"Pa*s/m^3"`` (factors joined by ``*`` and ``/``, left to right, one integer exponent
-    each), or None when a name is not in :data:`UNITS`."""
+    each), or None when a name is not in :data:`UNITS`.
+
+    Parameters
+    ----------
+    text : str   The unit expression, e.g. ``"MPa"``, ``"L/min"``, ``"Pa*s/m^3"``
+
+    Returns
+    -------
+    tuple or None  ``(factor, (m, kg, s, A))``: multiply a value in ``text`` by ``factor`` for
+                   SI; the exponents of metre, kilogram, second and ampere
+    """
     text = text.strip()
     if text in _CACHE:
         return _CACHE[text]

@@ -315,7 +315,17 @@ def format_quantity(value_si: float, unit: str, display_unit: str | None = None,
 
 
 def split_header(col) -> tuple[str, str | None]:
-    """``"pressure [MPa]"`` -> ``("pressure", "MPa")``; ``(name, None)`` without brackets."""
+    """``"pressure [MPa]"`` -> ``("pressure", "MPa")``; ``(name, None)`` without brackets.
+
+    Parameters
+    ----------
+    col : str   A column header (anything ``str()`` accepts), e.g. ``"time [ms]"``
+
+    Returns
+    -------
+    tuple  ``(name, unit)``: the header's name and the unit text between the brackets, or
+           None when it has none
+    """
     text = str(col).strip()
     if "[" not in text or not text.endswith("]"):
         return text, None

@@ -16,7 +16,7 @@ from hydroline.analysis.figures import plot_bode
 from hydroline.analysis.frequency import (CONSTANT, EXACT, MODAL, exact_resonances,
                                           highest_retained_mode, rated_velocity,
                                           state_space_response)
-from hydroline.analysis.linearize import DEFAULT_OUTPUTS, _transfer_state
+from hydroline.analysis.linearize import DEFAULT_OUTPUTS, transfer_state
 from hydroline.cli import main
 from hydroline.lines.compare import compare_resonances, find_resonances
 from hydroline.rigs import load_rig
@@ -47,7 +47,7 @@ def _nonlinear_step(rig, sys, di, t_end, t_step=5e-3):
     cmd = comp.StepCommand(name="command", initial=op.valve_current, final=op.valve_current + di,
                            time=t_step, connections={"command": "valve_current"})
     net = build_network(rig, [cmd], x0)
-    x, p = _transfer_state(op, net)
+    x, p = transfer_state(op, net)
     p[net.parameter_names.index("command.initial")] = op.valve_current
     p[net.parameter_names.index("command.final")] = op.valve_current + di
     return integrate(net, x, t_end, dt_out=1e-4, p=p)

@@ -14,7 +14,8 @@ import pytest
 
 from hydroline.analysis import DataError, fit_parameters, fit_stribeck, identify_friction, read_measurements
 from hydroline.analysis.fit import Measurements, noise_level, simulate_record
-from hydroline.analysis.friction_id import newton_friction, virtual_friction_tests
+from hydroline.analysis.friction_id import newton_friction
+from hydroline.studies.friction_tests import virtual_friction_tests
 from hydroline.cli import main
 from hydroline.rigs import load_rig
 from hydroline.scenarios import simulate

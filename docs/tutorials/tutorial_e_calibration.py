@@ -66,10 +66,10 @@ print(f"noise levels estimated from the data: "
 # ----------------------------------
 # The paper's procedure: hold the piston, step the current, and once the velocity is steady
 # Newton's law (M23) gives the friction force from the chamber pressures. Here
-# :func:`~hydroline.analysis.friction_id.virtual_friction_tests` runs those experiments on the
+# :func:`~hydroline.studies.friction_tests.virtual_friction_tests` runs those experiments on the
 # model (a few current steps up and down, no closed-loop sine, to stay quick), and the fit
 # is compared with the rig's own (M24) coefficients.
-from hydroline.analysis.friction_id import virtual_friction_tests
+from hydroline.studies.friction_tests import virtual_friction_tests
 
 rig = load_rig()
 steady, sine = virtual_friction_tests(rig, currents=[0.5e-3, 1.5e-3, 5e-3, 12.5e-3,

@@ -58,9 +58,9 @@ import pandas as pd
 from .. import components as comp
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..engine import integrate, solve_steady_state
-from ..system import build_network
 from ..units import csv_column, split_header
-from .linearize import OperatingPoint, _transfer_state, solve_operating_point
+from .linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal, select_axis,
+                        solve_operating_point, transfer_state)
 
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
            "FitResult", "fit_parameters", "simulate_record", "parameter_unit", "noise_level",
@@ -188,9 +188,21 @@ def noise_level(y) -> float:
 
 
 def parameter_unit(rig: Rig, path: str) -> str:
-    """SI unit of a numeric rig parameter that can be fitted, or RigError naming it."""
+    """SI unit of a numeric rig parameter that can be fitted, or RigError naming it.
+
+    Parameters
+    ----------
+    rig : Rig    The rig
+    path : str   Rig path: a template parameter (``supply.section2.bulk_modulus``) or a circuit
+                 component's (``circuit.axis2.supply_hose.bulk_modulus``)
+    """
     section, _, key = path.rpartition(".")
     unit = SCHEMA.get(section, {}).get(key)
+    if path.startswith("circuit.") and f"{section}.type" in rig.raw:
+        from ..circuit.types import COMPONENT_TYPES
+
+        own = {k[len(section) + 1:]: v for k, v in rig.raw.items() if k.startswith(section + ".")}
+        unit = COMPONENT_TYPES[rig.raw[f"{section}.type"]].unit_of(key, own)
     if unit is None:
         raise RigError(f"--params: unknown rig parameter '{path}' (e.g. supply.section2.bulk_modulus, "
                        f"supply.manifold.resistance, friction.viscous_up)")
@@ -233,43 +245,52 @@ def _initial_value(meas: Measurements, column: str) -> float:
 STARTS = ("auto", "rest", "hold")
 
 
-def start_mode(rig: Rig, meas: Measurements, start: str = "auto") -> str:
-    """"hold" or "rest": how a record's model starts (module docstring)."""
+def start_mode(rig: Rig, meas: Measurements, start: str = "auto", axis: str | None = None) -> str:
+    """"hold" or "rest": how a record's model starts (module docstring).
+
+    Parameters
+    ----------
+    rig : Rig              The rig
+    meas : Measurements    The record
+    start : str            "auto", "rest" or "hold"
+    axis : str             The axis the record is of (None: the first)
+    """
     if start not in STARTS:
         raise ValueError(f"start must be one of {', '.join(STARTS)}; got {start!r}")
     x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.data else None
     if start == "hold" and x0 is None:
         raise DataError(f"{meas.source}: start 'hold' needs a 'piston_position [m]' column")
     if start == "auto":
-        half = rig["actuator.stroke"] / 2
+        half = select_axis(rig, axis).stroke / 2
         return "hold" if x0 is not None and abs(x0) < half - 1e-3 else "rest"
     return start
 
 
-def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto"):
+def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto", axis=None):
     """Network and initial state of the record's model (module docstring)."""
     t0 = meas.t[0]
-    half = rig["actuator.stroke"] / 2
+    ax = select_axis(rig, axis)
+    half = ax.stroke / 2
     x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.data else None
-    if start_mode(rig, meas, start) == "hold":
-        hold = solve_operating_point(rig, OperatingPoint(piston_position=float(x0)))
+    if start_mode(rig, meas, start, ax.name) == "hold":
+        hold = solve_operating_point(rig, OperatingPoint(piston_position=float(x0)), axis=ax.name)
         values = current - current[0] + hold.valve_current
-        cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=values,
-                                connections={"command": "valve_current"})
-        net = build_network(rig, [cmd], float(x0))
-        x, p = _transfer_state(hold, net)
+        cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times - t0, values=values,
+                                connections={"command": ax.current})
+        net = axis_network(rig, [cmd], ax.name, float(x0))
+        x, p = transfer_state(hold, net)
         return _Start(net, x, p)
-    cmd = comp.TableCommand(name="command", quantity="current", times=times - t0, values=current,
-                            connections={"command": "valve_current"})
+    cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times - t0, values=current,
+                            connections={"command": ax.current})
     # on a stop: the measured position may lie a hair beyond it (the stop's compliance, M23)
     guess = float(np.clip(x0, -half, half)) if x0 is not None and abs(x0) >= half - 1e-3 else None
-    net = build_network(rig, [cmd], guess)
+    net = axis_network(rig, [cmd], ax.name, guess)
     ss = solve_steady_state(net, t0=0.0)
     return _Start(net, ss.x, ss.p)
 
 
 def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e-8,
-                    start: str = "auto") -> dict:
+                    start: str = "auto", axis: str | None = None) -> dict:
     """The model's response to a record's valve current, at the record's sample times.
 
     Parameters
@@ -280,6 +301,8 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     rtol : float          Integrator tolerance
     start : str           "auto" (module docstring), "rest" (steady state at the first
                           current) or "hold" (the measured initial position held)
+    axis : str            The axis the record is of (None: the first): its valve current is
+                          driven, the record's columns are its signals, the others hold
 
     Returns
     -------
@@ -287,12 +310,13 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     """
     signals = meas.signals if signals is None else list(signals)
     t = meas.t
-    st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start)
+    ax = select_axis(rig, axis)
+    st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start, ax.name)
     span = t[-1] - t[0]
     dt = float(np.median(np.diff(t)))
     n = int(np.ceil(span / dt - 1e-9))
     res = integrate(st.network, st.x, n * dt, dt_out=dt, p=st.p, rtol=rtol)
-    return {k: np.interp(t - t[0], res.t, res[k]) for k in signals}
+    return {k: np.interp(t - t[0], res.t, res[axis_signal(ax, k)]) for k in signals}
 
 
 @dataclass
@@ -372,7 +396,7 @@ class FitResult:
 def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=None,
                    confidence: float = 0.95, max_evaluations: int = 60, bound_factor: float = 10.0,
                    sigma: dict | None = None, start: str = "auto", offsets=None,
-                   progress=None) -> FitResult:
+                   progress=None, axis: str | None = None) -> FitResult:
     """Fit rig parameters to a measured record (see the module docstring).
 
     Parameters
@@ -393,6 +417,8 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                                  position (its noisy initial value would otherwise bias the
                                  fit), none otherwise
     progress : callable          Called with (evaluations, cost) after each model run
+    axis : str                   The axis the record is of (None: the first); the record's
+                                 columns (``piston_position``, ...) are its signals
 
     Returns
     -------
@@ -416,7 +442,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         raise DataError(f"{meas.source}: no measured signal to fit")
     y = {s: meas.data[s].to_numpy() for s in signals}
     if offsets is None:
-        hold = start_mode(rig, meas, start) == "hold"
+        hold = start_mode(rig, meas, start, axis) == "hold"
         offsets = ["piston_position"] if hold and "piston_position" in signals else []
     offsets = [s for s in offsets if s in signals]
     if sigma is None:
@@ -438,7 +464,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         for k, v in zip(params, np.exp(theta)):
             _set(r, k, v)
         try:
-            out = simulate_record(r, meas, signals, start=start)
+            out = simulate_record(r, meas, signals, start=start, axis=axis)
         except (RuntimeError, ArithmeticError):      # SteadyStateError, integration failure
             out = None
         count["n"] += 1

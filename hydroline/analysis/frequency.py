@@ -37,8 +37,8 @@ from .. import components as comp
 from ..components import HoseSection
 from ..engine import Network
 from ..rigs import Rig, load_rig
-from .linearize import (INPUTS, OperatingPoint, SolvedOperatingPoint, _check_names,
-                        _friction_slope, _transfer_state, _VELOCITY, jacobians, linear_network,
+from .linearize import (OperatingPoint, SolvedOperatingPoint, axis_signal, check_names,
+                        friction_slope, input_parameter, jacobians, linear_network, transfer_state,
                         solve_operating_point)
 
 __all__ = ["state_space_response", "bandwidth", "Resonance", "resonances", "LineCoupledModel",
@@ -309,8 +309,8 @@ class LineCoupledModel:
 
 def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
                        inputs=("valve_current",), outputs=("piston_velocity",),
-                       friction: str = "viscous", solved: SolvedOperatingPoint | None = None
-                       ) -> LineCoupledModel:
+                       friction: str = "viscous", solved: SolvedOperatingPoint | None = None,
+                       axis: str | None = None) -> LineCoupledModel:
     """Cut the hoses out of the linearised network (see the module docstring).
 
     Parameters
@@ -320,7 +320,8 @@ def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingP
     inputs, outputs : sequence of str Channels (names as for ``linearize``)
     friction : str                    "viscous" or "model" (as for ``linearize``)
     solved : SolvedOperatingPoint     A solved operating point to reuse (then
-                                      ``operating_point`` is ignored)
+                                      ``operating_point`` and ``axis`` are ignored)
+    axis : str                        The axis (None: the first), as for ``linearize``
 
     Returns
     -------
@@ -328,15 +329,17 @@ def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingP
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     inputs, outputs = list(inputs), list(outputs)
-    _check_names(inputs, outputs)
+    check_names(inputs, outputs)
     if friction not in ("viscous", "model"):
         raise ValueError(f"friction must be 'viscous' or 'model'; got {friction!r}")
     if solved is None:
-        solved = solve_operating_point(rig, operating_point, "lines")
+        solved = solve_operating_point(rig, operating_point, "lines", axis=axis)
+    ax = solved.axis
     sig = solved.signals
-    f0 = sig[solved.network.component("friction").signal("friction_force")] \
-        if friction == "viscous" else None
-    full = linear_network(rig, "lines", solved.valve_current, friction_force=f0)
+    viscous = friction == "viscous" and ax.friction is not None
+    fr = solved.network.component(ax.friction) if ax.friction else None
+    f0 = sig[fr.signal("friction_force")] if viscous else None
+    full = linear_network(rig, "lines", solved.valve_current, friction_force=f0, axis=ax.name)
     hoses = [c for c in full.components if isinstance(c, HoseSection)]
     parts = [c for c in full.components if not isinstance(c, HoseSection)]
     w_params, r_signals = [], []
@@ -350,17 +353,17 @@ def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingP
             w_params.append(f"{name}.final")
         r_signals += [h.signal(port) for port in h.model.input_names]
     rest = Network(parts, warn_lost_flows=False)   # the hoses' ends are cut open on purpose
-    x, p = _transfer_state(solved, rest)
+    x, p = transfer_state(solved, rest)
     for h in hoses:
         for port in h.model.output_names:
             p[rest.parameter_names.index(f"{h.name}:{port}.final")] = sig[h.signal(port)]
-    params = [INPUTS[u][0] for u in inputs] + w_params
-    if friction == "viscous":
-        params.append("friction.final")
-    A, B, C, D = jacobians(rest, x, p, params, outputs + r_signals)
-    if friction == "viscous":
-        slope = _friction_slope(rig, sig["piston_velocity"])
-        iv = rest.state_names.index(_VELOCITY)
+    params = [input_parameter(rest, ax, u) for u in inputs] + w_params
+    if viscous:
+        params.append(f"{ax.friction}.final")
+    A, B, C, D = jacobians(rest, x, p, params, [axis_signal(ax, y) for y in outputs] + r_signals)
+    if viscous:
+        slope = friction_slope(fr, sig[ax.velocity])
+        iv = rest.state_names.index(f"{ax.actuator}.velocity")
         A[:, iv] += slope * B[:, -1]
         C[:, iv] += slope * D[:, -1]
         B, D = B[:, :-1], D[:, :-1]
@@ -442,10 +445,20 @@ def exact_resonances(model: LineCoupledModel, modal: list, f_max: float | None =
 MODAL, EXACT, CONSTANT = "hoses, modal lines", "hoses, exact lines (M6)", "constant supply and return"
 
 
-def rated_velocity(rig: Rig) -> float:
-    """Piston velocity at the valve's rated flow, ``Q_N / A_b``, [m/s] (upward)."""
-    area = rig.get("actuator.bottom_area", rig.get("actuator.area"))
-    return float(rig["servovalve.rated_flow"] / area)
+def rated_velocity(rig: Rig, axis: str | None = None) -> float:
+    """Piston velocity at the valve's rated flow, ``Q_N / A_b``, [m/s] (upward).
+
+    Parameters
+    ----------
+    rig : Rig    Parameters (SI)
+    axis : str   The axis (None: the first)
+    """
+    from ..system import build_circuit
+    from .linearize import select_axis
+
+    ax = select_axis(rig, axis)
+    circuit = build_circuit(rig)
+    return float(circuit.component(ax.valve).rated_flow / circuit.component(ax.actuator).bottom_area)
 
 
 def _low_frequency_gain(f_low, H_low):
@@ -493,7 +506,8 @@ class BodeResult:
 
 def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
                   input_name: str = "valve_current", outputs=("piston_velocity",), f=None,
-                  compare: bool = True, exact: bool = True, friction: str = "viscous") -> BodeResult:
+                  compare: bool = True, exact: bool = True, friction: str = "viscous",
+                  axis: str | None = None) -> BodeResult:
     """Bode data with modal lines, exact lines and (optionally) ideal constant supply.
 
     The -3 dB bandwidth of a channel is measured against its low-frequency gain and only for
@@ -512,6 +526,8 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
     compare : bool                     Add the constant-supply variant
     exact : bool                       Add the exact-line variant
     friction : str                     "viscous" or "model"
+    axis : str                         The axis whose valve drives (None: the first); its
+                                       position loop open, the other axes hold
 
     Returns
     -------
@@ -526,7 +542,7 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
         raise ValueError("frequencies must increase and be > 0 Hz")
     f_low = f[0] * np.array([1e-3, 1e-2])          # quasi-DC, for the reference gain
     fa = np.concatenate([f_low, f])
-    sys = linearize(rig, operating_point, [input_name], outputs, "lines", friction)
+    sys = linearize(rig, operating_point, [input_name], outputs, "lines", friction, axis=axis)
     curves = {MODAL: state_space_response(sys.A, sys.B, sys.C, sys.D, fa, sys.state_scales)[:, :, 0]}
     ops = {MODAL: sys.operating_point}
     res = {MODAL: resonances(sys, input_name, outputs, f_max=f[-1])}
@@ -539,7 +555,8 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
         exact_poles = exact_resonances(model, res[MODAL])
         f_top = highest_retained_mode(model)
     if compare:
-        ideal = linearize(rig, operating_point, [input_name], outputs, "constant", friction)
+        ideal = linearize(rig, operating_point, [input_name], outputs, "constant", friction,
+                          axis=axis)
         curves[CONSTANT] = state_space_response(ideal.A, ideal.B, ideal.C, ideal.D, fa,
                                                 ideal.state_scales)[:, :, 0]
         ops[CONSTANT] = ideal.operating_point

@@ -26,12 +26,12 @@
    term and the valve's pressure-flow slope damp, and an open-loop run stick-slips instead of
    settling (the default rig does at 0.1-0.2 mA). A viscous damper specimen, its
    force measured (``external_force``), restores a steady velocity there;
-   :func:`virtual_friction_tests` does so.
+   :func:`hydroline.studies.friction_tests.virtual_friction_tests` does so.
 
 Data come as :class:`~hydroline.analysis.fit.Measurements` (CSV columns of
 :mod:`hydroline.analysis.fit`): ``time``, ``piston_position``, ``bottom_chamber_pressure``,
 ``top_chamber_pressure``; optional ``piston_velocity``, ``external_force``, ``valve_current``.
-:func:`virtual_friction_tests` makes such records with the model itself (for checking).
+:func:`hydroline.studies.friction_tests.virtual_friction_tests` makes such records with the model itself (for checking).
 """
 from __future__ import annotations
 
@@ -42,26 +42,81 @@ import pandas as pd
 
 from .. import components as comp
 from ..rigs import Rig, load_rig
-from ..engine import integrate
-from ..system import build_network
+from ..system import build_circuit
 from .fit import DataError, Measurements, noise_level
-from .linearize import OperatingPoint, _transfer_state, solve_operating_point
+from .linearize import select_axis
 
 __all__ = ["newton_friction", "steady_velocity_point", "StribeckFit", "fit_stribeck",
-           "FrictionIdentification", "identify_friction", "virtual_friction_tests",
+           "FrictionIdentification", "identify_friction", "axis_mechanics", "friction_table",
+           "FRICTION_UNITS",
            "FRICTION_COLUMNS"]
 
 #: Columns friction identification needs.
 FRICTION_COLUMNS = ("time", "piston_position", "bottom_chamber_pressure", "top_chamber_pressure")
 
 
-def _areas(rig):
-    area = rig.get("actuator.area")
-    return rig.get("actuator.bottom_area", area), rig.get("actuator.top_area", area)
+@dataclass
+class AxisMechanics:
+    """What Newton's law (M23) on one axis's piston needs, from its components.
+
+    Attributes
+    ----------
+    bottom_area, top_area : float   A_b, A_t, [m^2]
+    mass : float                    Moving mass, actuator and load, [kg]
+    gravity : float                 g along the axis (0: horizontal), [m/s^2]
+    stroke : float                  Full stroke, [m]
+    load : Load or None             The load on the piston (stiffness, damping, applied force)
+    stribeck_exponent : float       delta of (M24) of the axis's friction, [-]
+    """
+
+    bottom_area: float
+    top_area: float
+    mass: float
+    gravity: float
+    stroke: float
+    load: object
+    stribeck_exponent: float
+
+    def load_force(self, x, v):
+        """The load's force on the piston, positive down, [N] (M23).
+
+        Parameters
+        ----------
+        x : array   Piston position, [m]
+        v : array   Piston velocity, [m/s]
+        """
+        ld = self.load
+        if ld is None:
+            return np.zeros_like(x)
+        return ld.stiffness * (x - ld.free_position) + ld.damping * v + ld.applied_force
+
+
+def axis_mechanics(rig: Rig, axis: str | None = None) -> AxisMechanics:
+    """The piston mechanics of one servo axis of a rig (its actuator, load and friction).
+
+    Parameters
+    ----------
+    rig : Rig    Parameters (SI)
+    axis : str   The axis (None: the first)
+
+    Returns
+    -------
+    AxisMechanics
+    """
+    ax = select_axis(rig, axis)
+    circuit = build_circuit(rig)
+    act = circuit.component(ax.actuator)
+    load = next((c for c in circuit.components if isinstance(c, comp.Load)
+                 and c.signal("load_force") == act.signal("load_force")), None)
+    fr = circuit.component(ax.friction) if ax.friction else None
+    return AxisMechanics(act.bottom_area, act.top_area,
+                         act.moving_mass + (load.mass if load is not None else 0.0), act.gravity,
+                         act.stroke, load, fr.stribeck_exponent if fr is not None else 2.0)
 
 
 def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
-                    stop_margin: float = 1e-3) -> pd.DataFrame:
+                    stop_margin: float = 1e-3, axis: str | None = None,
+                    mechanics: AxisMechanics | None = None) -> pd.DataFrame:
     """Friction force on the piston from Newton's law (M23), sample by sample.
 
     Parameters
@@ -72,6 +127,8 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
                           follow the actuator's resonance after a friction reversal (1-2 ms
                           at 172 Hz), long enough to tame the noise of a measured position
     stop_margin : float   Samples closer than this to an end stop are dropped, [m]
+    axis : str            The axis the record is of (None: the first)
+    mechanics : AxisMechanics  The axis's mechanics (from ``rig`` and ``axis`` when None)
 
     Returns
     -------
@@ -107,16 +164,11 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
         v = savgol_filter(x, n_win, 3, deriv=1, delta=dt)
         a = savgol_filter(x, n_win, 3, deriv=2, delta=dt)
         noise, h = noise_level(x), savgol_coeffs(n_win, 3, deriv=1, delta=dt)
-    Ab, At = _areas(rig)
-    m = rig["actuator.moving_mass"] + rig.get("load.mass", 0.0)
-    g = rig.get("actuator.gravity", 9.81)
-    if "external_force" in meas.data:
-        f_load = col("external_force")
-    else:
-        f_load = (rig.get("load.stiffness", 0.0) * (x - rig.get("load.free_position", 0.0))
-                  + rig.get("load.damping", 0.0) * v + rig.get("load.applied_force", 0.0))
+    mech = mechanics or axis_mechanics(rig, axis)
+    Ab, At, m, g = mech.bottom_area, mech.top_area, mech.mass, mech.gravity
+    f_load = col("external_force") if "external_force" in meas.data else mech.load_force(x, v)
     F = Ab * col("bottom_chamber_pressure") - At * col("top_chamber_pressure") - f_load - m * g - m * a
-    half = rig["actuator.stroke"] / 2
+    half = mech.stroke / 2
     keep = np.abs(x) < half - stop_margin
     keep[: n_win // 2] = False
     keep[len(keep) - n_win // 2:] = False
@@ -223,23 +275,56 @@ class StribeckFit:
         e = np.exp(-(np.abs(v) / self.stribeck_velocity) ** self.stribeck_exponent)
         return fv * v + np.sign(v) * (fc + (fs - fc) * e)
 
-    def rig_values(self) -> dict:
-        """Rig paths -> values [SI] (``friction.*``); static terms only when identified."""
-        out = {f"friction.{k}": getattr(self, k) for k in (
+    def rig_values(self, prefix: str = "friction") -> dict:
+        """Rig paths -> values [SI] (``<prefix>.*``); static terms only when identified.
+
+        Parameters
+        ----------
+        prefix : str   The friction's table: "friction" (template rig) or
+                       ``circuit.<component>`` (:func:`friction_table`)
+        """
+        out = {f"{prefix}.{k}": getattr(self, k) for k in (
             "viscous_up", "viscous_down", "coulomb_up", "coulomb_down")}
         if self.static_identified:
-            out.update({"friction.static_up": self.static_up, "friction.static_down": self.static_down,
-                        "friction.stribeck_velocity": self.stribeck_velocity})
+            out.update({f"{prefix}.static_up": self.static_up,
+                        f"{prefix}.static_down": self.static_down,
+                        f"{prefix}.stribeck_velocity": self.stribeck_velocity})
         return out
 
-    def apply(self, rig: Rig) -> Rig:
-        """A copy of the rig with the fitted coefficients (units written out)."""
-        from ..rigs import SCHEMA
+    def apply(self, rig: Rig, prefix: str = "friction") -> Rig:
+        """A copy of the rig with the fitted coefficients (units written out).
 
+        Parameters
+        ----------
+        rig : Rig      The rig
+        prefix : str   The friction's table (:func:`friction_table`)
+        """
         out = rig.copy()
-        for path, v in self.rig_values().items():
-            out.set(path, f"{float(v)!r} {SCHEMA['friction'][path.split('.')[1]]}")
+        for path, v in self.rig_values(prefix).items():
+            key = path.rsplit(".", 1)[1]
+            out.set(path, f"{float(v)!r} {FRICTION_UNITS[key]}")
         return out
+
+
+#: Units of the identified (M24) coefficients, [SI].
+FRICTION_UNITS = {"viscous_up": "N*s/m", "viscous_down": "N*s/m", "coulomb_up": "N",
+                  "coulomb_down": "N", "static_up": "N", "static_down": "N",
+                  "stribeck_velocity": "m/s"}
+
+
+def friction_table(rig: Rig, axis: str | None = None) -> str:
+    """The rig table of an axis's friction: "friction" on the template rig, else
+    ``circuit.<component>``.
+
+    Parameters
+    ----------
+    rig : Rig    The rig
+    axis : str   The axis (None: the first)
+    """
+    ax = select_axis(rig, axis)
+    if ax.friction and f"circuit.{ax.friction}.type" in rig.raw:
+        return f"circuit.{ax.friction}"
+    return "friction"
 
 
 def _basis(v, cs, delta, sign):
@@ -421,7 +506,7 @@ class FrictionIdentification:
 
 def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float = 2e-3,
                       min_speed: float = 2e-4, stribeck_exponent: float | None = None,
-                      sine_min_speed: float = 0.02) -> FrictionIdentification:
+                      sine_min_speed: float = 0.02, axis: str | None = None) -> FrictionIdentification:
     """Friction from steady-velocity open-loop runs and closed-loop sine records.
 
     Parameters
@@ -434,6 +519,8 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     stribeck_exponent : float         delta [-]; the rig's when None
     sine_min_speed : float            Slowest sine sample used: near reversal the piston
                                       sticks and Newton's law gives the applied force, [m/s]
+    axis : str                        The axis the records are of (None: the first); its
+                                      actuator, load and friction give the mechanics
 
     Each steady run's point is weighted by the samples it averages, each sine sample by 1;
     only steady points count as evidence for F_s and C_s (:func:`fit_stribeck`): a sine's
@@ -444,10 +531,11 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     FrictionIdentification
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
+    mech = axis_mechanics(rig, axis)
     points = {}
     vs, Fs, ns = [], [], []
     for meas in steady:
-        pt = steady_velocity_point(newton_friction(meas, rig, window))
+        pt = steady_velocity_point(newton_friction(meas, rig, window, mechanics=mech))
         if pt is not None:
             vs.append(pt[0])
             Fs.append(pt[1])
@@ -456,7 +544,7 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
         points["steady-velocity open-loop runs"] = (np.array(vs), np.array(Fs))
     sv, sF = [], []
     for meas in sine:
-        nf = newton_friction(meas, rig, window)
+        nf = newton_friction(meas, rig, window, mechanics=mech)
         moving = np.abs(nf["velocity"].to_numpy()) >= sine_min_speed
         sv.append(nf["velocity"].to_numpy()[moving])
         sF.append(nf["friction_force"].to_numpy()[moving])
@@ -471,94 +559,6 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
     # a steady point averages n samples: weight n against a sine sample's 1
     weights = np.concatenate([np.asarray(ns, dtype=float), np.ones(n_sine)])
     is_steady = np.concatenate([np.ones(len(vs), dtype=bool), np.zeros(n_sine, dtype=bool)])
-    delta = rig.get("friction.stribeck_exponent", 2.0) if stribeck_exponent is None else stribeck_exponent
+    delta = mech.stribeck_exponent if stribeck_exponent is None else stribeck_exponent
     return FrictionIdentification(points, fit_stribeck(v, F, delta, None, min_speed,
                                                        weights=weights, steady=is_steady))
-
-
-def _record(res, columns=("valve_current", "supply_port_pressure", "return_port_pressure",
-                          "bottom_chamber_pressure", "top_chamber_pressure", "piston_position"),
-            load_cell=False):
-    data = {"time": res.t}
-    data.update({c: res[c] for c in columns if c in res.data})
-    if load_cell:   # the load force as a load cell on the rod measures it (positive down)
-        data["external_force"] = res["load_force"]
-    return pd.DataFrame(data)
-
-
-def _open_loop_run(rig, di, t_run, dt, label, load_cell=False):
-    """Piston held at -+40 mm, then the current steps by di at 5 ms (one steady run)."""
-    half = rig["actuator.stroke"] / 2
-    x0 = -0.04 if di > 0 else 0.04
-    hold = solve_operating_point(rig, OperatingPoint(piston_position=x0))
-    i0 = hold.valve_current
-    cmd = comp.StepCommand(name="command", initial=i0, final=i0 + di, time=5e-3,
-                           connections={"command": "valve_current"})
-    net = build_network(rig, [cmd], x0)
-    x, p = _transfer_state(hold, net)
-    p[net.parameter_names.index("command.initial")] = i0
-    p[net.parameter_names.index("command.final")] = i0 + di
-    res = integrate(net, x, t_run, dt_out=dt, p=p)
-    df = _record(res, load_cell=load_cell)
-    near = np.flatnonzero(np.abs(df["piston_position"].to_numpy()) > half - 2e-3)
-    if near.size:
-        df = df.iloc[:max(int(near[0]), 10)]
-    return Measurements(df, label)
-
-
-def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: float = 0.12,
-                           sine: bool = True, dt: float = 1e-4, slow_currents=None,
-                           damper: float = 1e4):
-    """The paper's friction experiments run on the model itself (to check the identification).
-
-    Open-loop runs: the piston held at -40 mm (up runs) or +40 mm (down runs) by its holding
-    current, then the current steps by each value of ``currents`` at 5 ms and the run lasts
-    ``t_run`` or until the piston nears its stop. Closed-loop sine: the rig's
-    ``closed-loop-sine`` scenario (the paper's 2 Hz, 35 mm under P control).
-
-    Slow runs (``slow_currents``, a few mm/s, around the Stribeck velocity): there the friction
-    force falls with speed (M24) -- for the default rig by up to ~5 kN s/m, more than the
-    viscous term and the valve's pressure-flow slope damp -- so an open-loop run (and a P
-    position loop) at these speeds stick-slips instead of reaching a steady velocity (the
-    default rig hunts with a ~0.2 s period at 0.1-0.2 mA). These runs are therefore made against
-    a viscous damper specimen of ``damper`` N s/m added to the rig's load, which makes the
-    steady motion stable; its force is recorded as the ``external_force`` column (a load
-    cell), so Newton's law (M23) removes it exactly and the friction point is unbiased.
-
-    Parameters
-    ----------
-    rig : Rig, str or None
-    currents : list[float]   Current steps [A]; +-(1, 3, 10, 25) % of rated when None
-    t_run : float            Longest run, [s]
-    sine : bool              Also run the closed-loop sine
-    dt : float               Sampling interval, [s]
-    slow_currents : list     Current steps of the slow runs against the damper [A];
-                             +-(0.1, 0.14, 0.2, 0.3, 0.4) % of rated when None (about 2-9 mm/s
-                             on the default rig); () for none
-    damper : float           Damping of the slow runs' specimen, [N s/m]
-
-    Returns
-    -------
-    (steady, sine) : lists of Measurements
-    """
-    from ..scenarios import simulate
-
-    rig = rig if isinstance(rig, Rig) else load_rig(rig)
-    i_r = rig["servovalve.rated_current"]
-    if currents is None:
-        currents = [s * f * i_r for f in (0.01, 0.03, 0.1, 0.25) for s in (1, -1)]
-    if slow_currents is None:
-        slow_currents = [s * f * i_r for f in (0.001, 0.0014, 0.002, 0.003, 0.004) for s in (1, -1)]
-    steady = [_open_loop_run(rig, di, t_run, dt, f"virtual open-loop run, {di * 1e3:+.3g} mA")
-              for di in currents]
-    if len(slow_currents):
-        damped = rig.copy()
-        damped.set("load.damping", f"{rig.get('load.damping', 0.0) + damper!r} N*s/m")
-        steady += [_open_loop_run(damped, di, t_run, dt, f"virtual slow run against a "
-                                  f"{damper:g} N s/m damper, {di * 1e3:+.3g} mA", load_cell=True)
-                   for di in slow_currents]
-    sines = []
-    if sine:
-        res = simulate(rig, "closed-loop-sine", dt_out=dt)
-        sines.append(Measurements(_record(res), "virtual closed-loop sine"))
-    return steady, sines

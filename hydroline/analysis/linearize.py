@@ -58,14 +58,20 @@ import casadi as ca
 import numpy as np
 
 from .. import components as comp
-from ..engine import Network
-from ..rigs import Rig, load_rig
-from ..engine import SteadyStateError, solve_steady_state
+from ..engine import Network, SteadyStateError, solve_steady_state
 from ..engine.steady_state import pseudo_transient, settle_components
-from ..system import build_network
+from ..rigs import Rig, RigError, load_rig
+from ..scenarios import hold_other_axes
+from ..system import build_circuit
 
 __all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
-           "solve_operating_point", "linearize", "linear_network", "jacobians", "SUPPLIES"]
+           "solve_operating_point", "linearize", "linear_network", "jacobians", "SUPPLIES",
+           "AXIS_SIGNALS", "VALVE_COMMAND", "select_axis", "axis_network", "axis_signal", "input_parameter", "check_names",
+           "transfer_state", "friction_slope"]
+
+#: Name of the command component that drives the analysed axis's valve current (its runtime
+#: parameters ``command.initial``/``command.final`` are the current, [A]).
+VALVE_COMMAND = "command"
 
 #: Inputs of the linear model: name -> (runtime parameter of the network, SI unit, meaning).
 INPUTS = {
@@ -80,7 +86,81 @@ DEFAULT_OUTPUTS = ("supply_port_pressure", "return_port_pressure", "bottom_chamb
 #: Supply variants: the rig's hoses, HSM and accumulators, or ideal constant port pressures.
 SUPPLIES = ("lines", "constant")
 
-_POSITION, _VELOCITY = "actuator.position", "actuator.velocity"
+#: Generic channel names -> the :class:`hydroline.circuit.Axis` handle that names the signal on
+#: any axis (``piston_velocity`` is ``axis2.piston_velocity`` on axis 2 of ``two_axis``).
+AXIS_SIGNALS = {"supply_port_pressure": "supply_pressure", "return_port_pressure": "return_pressure",
+                "bottom_chamber_pressure": "bottom_pressure", "top_chamber_pressure": "top_pressure",
+                "piston_position": "position", "piston_velocity": "velocity",
+                "valve_current": "current"}
+
+
+def select_axis(rig: Rig, axis: str | None = None):
+    """The handles of one servo axis of a rig (the first when ``axis`` is None).
+
+    Parameters
+    ----------
+    rig : Rig    Parameters (SI)
+    axis : str   Axis name (``hydroline circuit RIG`` lists them)
+
+    Returns
+    -------
+    hydroline.circuit.Axis
+
+    Raises
+    ------
+    ValueError  one line naming the axis and the rig's axes
+    """
+    axes = build_circuit(rig).axes
+    if not axes:
+        raise ValueError(f"rig {rig.source}: no servo axis (an actuator driven by a servovalve)")
+    if axis is None:
+        return next(iter(axes.values()))
+    if axis not in axes:
+        raise ValueError(f"--axis: no axis {axis!r} in rig {rig.source} (axes: {', '.join(axes)})")
+    return axes[axis]
+
+
+def axis_signal(axis, name: str) -> str:
+    """The network signal of a channel on an axis: generic names (:data:`AXIS_SIGNALS`, e.g.
+    ``piston_velocity``) through the axis's handles, any other name as given.
+
+    Parameters
+    ----------
+    axis : hydroline.circuit.Axis   The axis handles
+    name : str                      Channel name
+    """
+    return getattr(axis, AXIS_SIGNALS[name]) if name in AXIS_SIGNALS else name
+
+
+def input_parameter(network: Network, axis, name: str) -> str:
+    """The runtime parameter of ``network`` that is the input ``name`` (:data:`INPUTS`) of an
+    axis: the valve current of its command, the applied force of the load on its piston, the
+    pressure of the source of ``pump_pressure``/``tank_pressure``.
+
+    Parameters
+    ----------
+    network : Network               A network of :func:`linear_network`
+    axis : hydroline.circuit.Axis   The axis
+    name : str                      Input name
+
+    Returns
+    -------
+    str  Runtime parameter name
+    """
+    if name == "valve_current":
+        return f"{VALVE_COMMAND}.final"
+    if name == "external_force":
+        act = network.component(axis.actuator)
+        for c in network.components:
+            if isinstance(c, comp.Load) and c.signal("load_force") == act.signal("load_force"):
+                return f"{c.name}.applied_force"
+    if name in ("pump_pressure", "tank_pressure"):
+        for c in network.components:
+            if isinstance(c, comp.PressureSource) and c.signal("pressure") == name:
+                return f"{c.name}.pressure"
+    raise ValueError(f"input {name!r}: no such input on axis '{axis.name}' of this rig "
+                     f"(inputs: {', '.join(INPUTS)})")
+
 
 
 class OperatingPointError(ValueError):
@@ -137,6 +217,7 @@ class SolvedOperatingPoint:
     residual : float          max scaled |dx/dt| over the states at rest, [1/s]
     supply : str              "lines" or "constant"
     point : OperatingPoint    What was asked for
+    axis : hydroline.circuit.Axis  The axis linearised (its handles name the signals)
     """
 
     network: Network
@@ -147,10 +228,42 @@ class SolvedOperatingPoint:
     residual: float
     supply: str
     point: OperatingPoint = field(default_factory=OperatingPoint)
+    axis: object = None
+
+
+def axis_network(rig: Rig, commands: list, axis: str | None = None,
+                 position_guess: float | None = None) -> Network:
+    """The rig's network with one axis driven open loop by ``commands`` (its valve current):
+    that axis's position controller, if the circuit has one, is left out; every other axis
+    holds (:func:`hydroline.scenarios.hold_other_axes`).
+
+    Parameters
+    ----------
+    rig : Rig               Parameters (SI)
+    commands : list         Components driving the axis's valve current signal
+                            (``select_axis(rig, axis).current``)
+    axis : str              The axis (None: the first)
+    position_guess : float  Its piston position for the steady-state solver's guess, [m]
+
+    Returns
+    -------
+    Network
+    """
+    ax = select_axis(rig, axis)
+    first = next(iter(build_circuit(rig).axes))
+    circuit = build_circuit(rig, position_guess if ax.name == first else None)
+    if ax.name != first:
+        try:
+            circuit.place(position_guess, ax.name)
+        except ValueError as e:
+            raise RigError(str(e)) from None
+    circuit.components = [c for c in circuit.components if c.name != ax.controller]
+    return circuit.network(list(commands) + hold_other_axes(rig, circuit.axes, ax.name))
 
 
 def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
-                   position_guess: float | None = None, friction_force: float | None = None) -> Network:
+                   position_guess: float | None = None, friction_force: float | None = None,
+                   axis: str | None = None) -> Network:
     """The open-loop network used for operating points and linearisation.
 
     Parameters
@@ -160,8 +273,11 @@ def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
                               valve ports held at ``supply.pressure``/``return.pressure``)
     valve_current : float     Constant valve current, runtime parameter ``command.final``, [A]
     position_guess : float    Piston position for the solver's guess, [m]
-    friction_force : float    When given, the friction component is replaced by this constant
-                              force (runtime parameter ``friction.final``), [N]
+    friction_force : float    When given, the axis's friction component is replaced by this
+                              constant force (runtime parameter ``<friction>.final``), [N]
+    axis : str                The axis driven by the valve current (None: the first); its
+                              position controller is left out, every other axis holds
+                              (:func:`hydroline.scenarios.hold_other_axes`)
 
     Returns
     -------
@@ -169,24 +285,34 @@ def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
     """
     if supply not in SUPPLIES:
         raise ValueError(f"supply must be one of {', '.join(SUPPLIES)}; got {supply!r}")
-    cmd = comp.StepCommand(name="command", quantity="current", initial=valve_current,
-                           final=valve_current, time=0.0, connections={"command": "valve_current"})
-    net = build_network(rig, [cmd], position_guess)
+    ax = select_axis(rig, axis)
+    cmd = comp.StepCommand(name=VALVE_COMMAND, quantity="current", initial=valve_current,
+                           final=valve_current, time=0.0, connections={"command": ax.current})
+    net = axis_network(rig, [cmd], ax.name, position_guess)
     if supply == "lines" and friction_force is None:
         return net
     parts = list(net.components)
     if supply == "constant":
-        valve = net.component("servovalve")
-        keep = {"servovalve", "actuator", "friction", "load", "command"}
+        valve, act = net.component(ax.valve), net.component(ax.actuator)
+        if rig.get("supply.pressure") is not None and rig.get("return.pressure") is not None:
+            p_supply, p_return = rig["supply.pressure"], rig["return.pressure"]
+        else:   # a circuit: the valve's port pressures at rest with the valve closed
+            ss = solve_steady_state(net)
+            sig = net.signals_at(0.0, ss.x, ss.p)
+            p_supply, p_return = sig[ax.supply_pressure], sig[ax.return_pressure]
+        on_piston = {act.signal(k) for k in ("position", "velocity", "load_force", "friction_force")}
+        keep = {ax.valve, ax.actuator, VALVE_COMMAND} | {
+            c.name for c in parts if isinstance(c, (comp.Load, comp.StribeckFriction))
+            and set(c.outputs) and any(c.signal(k) in on_piston for k in c.outputs)}
         parts = [c for c in parts if c.name in keep]
-        parts += [comp.PressureSource(name="supply.pump", pressure=rig["supply.pressure"],
+        parts += [comp.PressureSource(name="supply.pump", pressure=p_supply,
                                       connections={"pressure": valve.signal("supply_pressure")}),
-                  comp.PressureSource(name="return.tank", pressure=rig["return.pressure"],
+                  comp.PressureSource(name="return.tank", pressure=p_return,
                                       connections={"pressure": valve.signal("return_pressure")})]
     if friction_force is not None:
-        fr = net.component("friction")
-        parts = [c for c in parts if c.name != "friction"]
-        parts.append(comp.StepCommand(name="friction", quantity="force", initial=friction_force,
+        fr = net.component(ax.friction)
+        parts = [c for c in parts if c.name != ax.friction]
+        parts.append(comp.StepCommand(name=ax.friction, quantity="force", initial=friction_force,
                                       final=friction_force, time=0.0,
                                       connections={"command": fr.signal("friction_force")}))
     return Network(parts)
@@ -198,11 +324,11 @@ class _HoldingCurrentProblem:
     ``dx_p/dt = v_p`` is replaced by ``v_p = v_0`` (as a relaxation ``di/dt = k (v_0 - v_p)``,
     an integral velocity loop, so the pseudo-transient solver sees stable dynamics)."""
 
-    def __init__(self, network, position, velocity, current_scale, velocity_gain):
+    def __init__(self, network, position, velocity, current_scale, velocity_gain, actuator):
         self.model = network.compile()
         names = network.state_names
-        self.ip, self.iv = names.index(_POSITION), names.index(_VELOCITY)
-        self.jc = [network.parameter_names.index(k) for k in ("command.initial", "command.final")]
+        self.ip, self.iv = names.index(f"{actuator}.position"), names.index(f"{actuator}.velocity")
+        self.jc = [network.parameter_names.index(f"{VALVE_COMMAND}.{k}") for k in ("initial", "final")]
         self.position, self.velocity, self.k = position, velocity, velocity_gain
         self.jac_p = ca.Function("jac_p", [self.model.t, self.model.x, self.model.p],
                                  [ca.jacobian(self.model.dx, self.model.p)])
@@ -238,7 +364,8 @@ def _settle(network, x, p, t0=0.0):
 
 
 def solve_operating_point(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
-                          supply: str = "lines", tol: float = 1e-9) -> SolvedOperatingPoint:
+                          supply: str = "lines", tol: float = 1e-9,
+                          axis: str | None = None) -> SolvedOperatingPoint:
     """Solve the network's state at an operating point (see the module docstring).
 
     Parameters
@@ -247,6 +374,7 @@ def solve_operating_point(rig: Rig | str | None = None, operating_point: Operati
     operating_point : OperatingPoint  Mid-stroke piston at rest under the rig's load when None
     supply : str                    "lines" or "constant"
     tol : float                     Required scaled residual, [1/s]
+    axis : str                      The axis (None: the first); the others hold
 
     Returns
     -------
@@ -254,35 +382,39 @@ def solve_operating_point(rig: Rig | str | None = None, operating_point: Operati
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     op = operating_point or OperatingPoint()
-    if op.external_force is not None:
-        rig = rig.copy()
-        rig.values["load.applied_force"] = float(op.external_force)
-        rig.raw["load.applied_force"] = f"{float(op.external_force)!r} N"
+    ax = select_axis(rig, axis)
+    if op.valve_current is None:
+        half = ax.stroke / 2
+        x0, v0 = float(op.piston_position), float(op.piston_velocity)
+        if not abs(x0) < half:
+            raise ValueError(f"operating point: piston_position must lie inside the stroke, |x_p| < "
+                             f"{half * 1e3:g} mm, got {x0 * 1e3:g} mm (for a piston on its stop give "
+                             f"valve_current instead)")
+    net = linear_network(rig, supply, 0.0 if op.valve_current is None else op.valve_current,
+                         position_guess=op.piston_position, axis=ax.name)
+    if op.external_force is not None:   # the load's applied force, a runtime parameter
+        name = input_parameter(net, ax, "external_force")
+        net.component(name.rsplit(".", 1)[0]).applied_force = float(op.external_force)
+        net.parameter_values[net.parameter_names.index(name)] = float(op.external_force)
+    p = net.parameter_values.copy()
     if op.valve_current is not None:
-        net = linear_network(rig, supply, op.valve_current)
         ss = solve_steady_state(net, tol=tol)
         return SolvedOperatingPoint(net, ss.x, ss.p, float(op.valve_current),
-                                    net.signals_at(0.0, ss.x, ss.p), ss.residual, supply, op)
-    half = rig["actuator.stroke"] / 2
-    x0, v0 = float(op.piston_position), float(op.piston_velocity)
-    if not abs(x0) < half:
-        raise ValueError(f"operating point: piston_position must lie inside the stroke, |x_p| < "
-                         f"{half * 1e3:g} mm, got {x0 * 1e3:g} mm (for a piston on its stop give "
-                         f"valve_current instead)")
-    i_rated = rig["servovalve.rated_current"]
-    area = rig.get("actuator.bottom_area", rig.get("actuator.area"))
-    # no-load velocity at rated current (M20, M21): scale of the velocity loop below
-    v_rated = rig["servovalve.rated_flow"] / area * np.sqrt(
-        max(rig["supply.pressure"] - rig["return.pressure"], 1.0) / rig["servovalve.rated_pressure_drop"])
-    net = linear_network(rig, supply, 0.0, position_guess=x0)
+                                    net.signals_at(0.0, ss.x, ss.p), ss.residual, supply, op, ax)
+    valve, act = net.component(ax.valve), net.component(ax.actuator)
+    i_rated = valve.rated_current
+    area = act.bottom_area
+    # no-load velocity at rated current (M20, M21): scale of the velocity loop below (the
+    # template's supply-to-return difference, else the valve's rated drop)
+    dp = rig.get("supply.pressure", valve.rated_pressure_drop) - rig.get("return.pressure", 0.0)
+    v_rated = valve.rated_flow / area * np.sqrt(max(dp, 1.0) / valve.rated_pressure_drop)
     # velocity loop of the relaxation: crossover about 10 rad/s (slow against the hydraulics)
-    prob = _HoldingCurrentProblem(net, x0, 0.0, i_rated, 10.0 * i_rated / v_rated)
-    p = net.parameter_values.copy()
+    prob = _HoldingCurrentProblem(net, x0, 0.0, i_rated, 10.0 * i_rated / v_rated, ax.actuator)
     # 1. at rest: pseudo-transient continuation from the components' guesses
     z = pseudo_transient(prob, 0.0, net.guess(), p, prob.scales, tol)
     # 2. steady motion: Newton continuation in the velocity from rest to v0
     v, step = 0.0, v0
-    ix = net.state_names.index("servovalve.spool_position")
+    ix = net.state_names.index(f"{ax.valve}.spool_position")
     while v != v0:
         prob.velocity = v + step
         # the velocity is known exactly (v_p = v0 is one of the equations); the current and
@@ -290,7 +422,7 @@ def solve_operating_point(rig: Rig | str | None = None, operating_point: Operati
         guess = z.copy()
         guess[prob.iv] = v + step
         guess[prob.ip] = z[prob.ip] + i_rated * step / v_rated
-        guess[ix] = z[ix] + rig["servovalve.max_opening"] * step / v_rated
+        guess[ix] = z[ix] + valve.max_opening * step / v_rated
         z_new = _newton(prob, guess, p, tol)
         if z_new is not None:
             z, v = z_new, v + step
@@ -328,7 +460,7 @@ def solve_operating_point(rig: Rig | str | None = None, operating_point: Operati
         raise OperatingPointError(f"operating point: holding the piston at {x0 * 1e3:g} mm, {v0:g} m/s needs "
                          f"{current * 1e3:.3g} mA, beyond the rated +-{i_rated * 1e3:g} mA")
     return SolvedOperatingPoint(net, x, p, current, net.signals_at(0.0, x, p), float(abs(r[k])),
-                                supply, op)
+                                supply, op, ax)
 
 
 def _newton(prob, z, p, tol, max_iter=50):
@@ -397,9 +529,17 @@ def jacobians(network: Network, x, p, parameters, signals, t: float = 0.0):
     return A, Bp[:, jp], C, Dp[:, jp]
 
 
-def _friction_slope(rig: Rig, velocity: float) -> float:
-    """Viscous slope of (M24) for the direction of motion (mean of up/down at rest), [N s/m]."""
-    up, down = rig.get("friction.viscous_up", 0.0), rig.get("friction.viscous_down", 0.0)
+def friction_slope(friction, velocity: float) -> float:
+    """Viscous slope of (M24) for the direction of motion (mean of up/down at rest), [N s/m].
+
+    Parameters
+    ----------
+    friction : StribeckFriction or None   The axis's friction component (None: no friction)
+    velocity : float                      Piston velocity, [m/s]
+    """
+    if friction is None:
+        return 0.0
+    up, down = friction.viscous_up, friction.viscous_down
     if velocity > 0:
         return up
     if velocity < 0:
@@ -407,7 +547,14 @@ def _friction_slope(rig: Rig, velocity: float) -> float:
     return 0.5 * (up + down)
 
 
-def _check_names(inputs, outputs):
+def check_names(inputs, outputs):
+    """Refuse an unknown input (:data:`INPUTS`) or an empty channel list (ValueError, one line).
+
+    Parameters
+    ----------
+    inputs : sequence of str    Input names
+    outputs : sequence of str   Output names
+    """
     for u in inputs:
         if u not in INPUTS:
             raise ValueError(f"unknown input {u!r} (inputs: {', '.join(INPUTS)})")
@@ -419,26 +566,42 @@ def _linear_parts(rig, solved: SolvedOperatingPoint, inputs, outputs, friction):
     """(network, x, p, A, B, C, D) of the linearisation, friction handled as documented."""
     if friction not in ("viscous", "model"):
         raise ValueError(f"friction must be 'viscous' or 'model'; got {friction!r}")
-    params = [INPUTS[u][0] for u in inputs]
-    if friction == "model":
+    ax = solved.axis
+    signals = [axis_signal(ax, y) for y in outputs]
+    if friction == "model" or ax.friction is None:
         net, x, p = solved.network, solved.x, solved.p
-        A, B, C, D = jacobians(net, x, p, params, outputs)
+        params = [input_parameter(net, ax, u) for u in inputs]
+        A, B, C, D = jacobians(net, x, p, params, signals)
         return net, x, p, A, B, C, D
     sig = solved.signals
-    f0 = sig[solved.network.component("friction").signal("friction_force")]
-    net = linear_network(rig, solved.supply, solved.valve_current, friction_force=f0)
-    x, p = _transfer_state(solved, net)
-    A, B, C, D = jacobians(net, x, p, params + ["friction.final"], outputs)
+    fr = solved.network.component(ax.friction)
+    net = linear_network(rig, solved.supply, solved.valve_current,
+                         friction_force=sig[fr.signal("friction_force")], axis=ax.name)
+    x, p = transfer_state(solved, net)
+    params = [input_parameter(net, ax, u) for u in inputs]
+    A, B, C, D = jacobians(net, x, p, params + [f"{ax.friction}.final"], signals)
     # chain rule: the friction force follows the velocity with the viscous slope
-    slope = _friction_slope(rig, sig["piston_velocity"])
-    iv = net.state_names.index(_VELOCITY)
+    slope = friction_slope(fr, sig[ax.velocity])
+    iv = net.state_names.index(f"{ax.actuator}.velocity")
     A[:, iv] += slope * B[:, -1]
     C[:, iv] += slope * D[:, -1]
     return net, x, p, A, B[:, :-1], C, D[:, :-1]
 
 
-def _transfer_state(solved: SolvedOperatingPoint, net: Network):
-    """States and parameters of ``solved`` carried over to ``net`` by name."""
+def transfer_state(solved: SolvedOperatingPoint, net: Network):
+    """States and runtime parameters of a solved operating point carried over, by name, to
+    another network of the same rig (one with a component replaced or cut out).
+
+    Parameters
+    ----------
+    solved : SolvedOperatingPoint   The solved point
+    net : Network                   The other network; its states must all be in the
+                                    solved network
+
+    Returns
+    -------
+    (x, p) : ndarrays  States and runtime parameters of ``net``, [SI]
+    """
     src = solved.network
     x = np.array([solved.x[src.state_names.index(n)] for n in net.state_names])
     p = net.parameter_values.copy()
@@ -450,7 +613,7 @@ def _transfer_state(solved: SolvedOperatingPoint, net: Network):
 
 def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
               inputs=DEFAULT_INPUTS, outputs=DEFAULT_OUTPUTS, supply: str = "lines",
-              friction: str = "viscous"):
+              friction: str = "viscous", axis: str | None = None):
     """Linear state-space model of the test system about an operating point.
 
     Parameters
@@ -459,10 +622,13 @@ def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | No
     operating_point : OperatingPoint  Default: piston at rest at mid-stroke, holding current
                                       solved for (see the module docstring)
     inputs : sequence of str          Names from :data:`INPUTS` ([A], [N], [Pa])
-    outputs : sequence of str         Signal names (e.g. ``piston_velocity`` [m/s]) or states
+    outputs : sequence of str         Signal names (e.g. ``piston_velocity`` [m/s]; the generic
+                                      names of :data:`AXIS_SIGNALS` are the axis's) or states
     supply : str                      "lines" (the rig's hoses) or "constant" (ideal supply
                                       and return pressures at the valve ports)
     friction : str                    "viscous" (default) or "model" (literal Jacobian of M24)
+    axis : str                        The axis (None: the first); its valve current is the
+                                      input, its position loop open, the other axes hold
 
     Returns
     -------
@@ -476,8 +642,8 @@ def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | No
 
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     inputs, outputs = list(inputs), list(outputs)
-    _check_names(inputs, outputs)
-    solved = solve_operating_point(rig, operating_point, supply)
+    check_names(inputs, outputs)
+    solved = solve_operating_point(rig, operating_point, supply, axis=axis)
     net, x, p, A, B, C, D = _linear_parts(rig, solved, inputs, outputs, friction)
     sys = control.ss(A, B, C, D, states=list(net.state_names), inputs=inputs, outputs=outputs,
                      name=f"hydroline linearised ({supply} supply)")

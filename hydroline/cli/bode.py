@@ -23,6 +23,9 @@ def register(sub):
         "pressures. Prints the -3 dB bandwidths and the resonances (frequency, damping); writes "
         "bode.png, bode.json and bode.csv to --out.")
     p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
+    p.add_argument("--axis", default=None, help="servo axis whose valve drives (default: the "
+                   "first; `hydroline circuit RIG` lists them); generic outputs such as "
+                   "piston_velocity are that axis's, its position loop is opened, other axes hold")
     p.add_argument("--input", default="valve_current", choices=tuple(INPUTS),
                    help="input channel (default valve_current)")
     p.add_argument("--output", default=DEFAULT_OUTPUTS,
@@ -51,7 +54,7 @@ def register(sub):
 def _operating_point(args, rig):
     x = quantity(args.position, "m", "--position")
     if str(args.velocity).strip().lower() == "rated":
-        v = rated_velocity(rig)
+        v = rated_velocity(rig, args.axis)
     else:
         v = quantity(args.velocity, "m/s", "--velocity")
     force = quantity(args.force, "N", "--force") if args.force else None
@@ -76,10 +79,11 @@ def summary_dict(res, op) -> dict:
         "input": res.input, "outputs": res.outputs,
         "operating_point": {
             "piston_position_m": op.piston_position, "piston_velocity_m_s": op.piston_velocity,
-            "external_force_n": solved.signals.get("load_force"),
+            "external_force_n": solved.signals.get(
+                solved.network.component(solved.axis.actuator).signal("load_force")),
             "valve_current_a": {k: v.valve_current for k, v in res.operating_points.items()},
-            "supply_port_pressure_pa": solved.signals["supply_port_pressure"],
-            "return_port_pressure_pa": solved.signals["return_port_pressure"]},
+            "supply_port_pressure_pa": solved.signals[solved.axis.supply_pressure],
+            "return_port_pressure_pa": solved.signals[solved.axis.return_pressure]},
         "frequency_range_hz": [float(res.f[0]), float(res.f[-1])],
         "bandwidth_hz": res.bandwidths, "bandwidth_notes": res.notes,
         "highest_retained_mode_hz": res.highest_mode_hz,
@@ -105,7 +109,7 @@ def run(args) -> int:
         raise ValueError("--output: give at least one signal, e.g. piston_velocity")
     op = _operating_point(args, rig)
     f = _frequencies(args)
-    res = bode_analysis(rig, op, args.input, outputs, f, compare=args.compare != "none",
+    res = bode_analysis(rig, op, args.input, outputs, f, compare=args.compare != "none", axis=args.axis,
                         exact=not args.no_exact, friction=args.friction)
     summary = summary_dict(res, op)
     cols = {"frequency [Hz]": res.f}

@@ -34,6 +34,9 @@ def register(sub):
     p.add_argument("--offsets", help="comma-separated signals with a free constant sensor offset, "
                    "or 'none' (default: piston_position when the model holds the measured initial "
                    "position, none otherwise)")
+    p.add_argument("--axis", default=None, help="servo axis the record is of (default: the first; "
+                   "`hydroline circuit RIG` lists them): the record's valve_current drives it, "
+                   "its columns are that axis's signals, the other axes hold")
     p.add_argument("--out", default="hydroline-out", help="output folder (default hydroline-out)")
     p.add_argument("--json", action="store_true", help="print the result as JSON on stdout only")
     p.set_defaults(func=run)
@@ -66,7 +69,8 @@ def run(args) -> int:
             if s not in meas.data:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
     res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
-                         max_evaluations=args.max_evals, start=args.start, offsets=offsets)
+                         max_evaluations=args.max_evals, start=args.start, offsets=offsets,
+                         axis=args.axis)
     rig_file = out / "calibrated_rig.toml"
     summary = res.to_dict()
     summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),

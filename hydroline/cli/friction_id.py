@@ -5,7 +5,8 @@ import numpy as np
 
 from ..analysis.figures import plot_friction
 from ..analysis.fit import read_measurements
-from ..analysis.friction_id import FRICTION_COLUMNS, identify_friction, virtual_friction_tests
+from ..analysis.friction_id import FRICTION_COLUMNS, friction_table, identify_friction
+from ..studies.friction_tests import virtual_friction_tests
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 
@@ -31,6 +32,8 @@ def register(sub):
                    "(checks the identification against the rig's own coefficients); adds slow "
                    "runs (a few mm/s) against a damper specimen whose force is recorded, so that "
                    "static friction and the Stribeck velocity are identifiable")
+    p.add_argument("--axis", default=None, help="servo axis the records are of (default: the "
+                   "first; `hydroline circuit RIG` lists them): its actuator, load and friction")
     p.add_argument("--window", default="2 ms", help="derivative window (default '2 ms'; longer for noisy data)")
     p.add_argument("--min-speed", default="0.2 mm/s", help="slowest point used in the fit")
     p.add_argument("--sine-min-speed", default="20 mm/s",
@@ -51,7 +54,7 @@ def run(args) -> int:
     if args.virtual:
         if args.steady or args.sine:
             raise ValueError("--virtual runs the model's own experiments: give no --steady/--sine files")
-        steady, sine = virtual_friction_tests(rig)
+        steady, sine = virtual_friction_tests(rig, axis=args.axis)
         source = "virtual experiments on the model"
     else:
         if not args.steady and not args.sine:
@@ -61,9 +64,10 @@ def run(args) -> int:
         sine = [read_measurements(f, required=need, need_signal=False) for f in args.sine]
         source = ", ".join(args.steady + args.sine)
     ident = identify_friction(rig, steady, sine, window=window, min_speed=min_speed,
-                              sine_min_speed=sine_min)
+                              sine_min_speed=sine_min, axis=args.axis)
     fit = ident.fit
-    calibrated = fit.apply(rig)
+    table = friction_table(rig, args.axis)
+    calibrated = fit.apply(rig, table)
     rig_file = out / "friction_rig.toml"
     static_keys = ("static_up", "static_down", "stribeck_velocity")
     rows = []
@@ -71,13 +75,13 @@ def run(args) -> int:
         unit = "N*s/m" if k == "viscous" else "N"
         for d in ("up", "down"):
             name = f"{k}_{d}"
-            rows.append([f"friction.{name}", unit, rig.get(f"friction.{name}"), getattr(fit, name),
+            rows.append([f"{table}.{name}", unit, rig.get(f"{table}.{name}"), getattr(fit, name),
                          fit.std.get(name)])
-    rows.append(["friction.stribeck_velocity", "m/s", rig.get("friction.stribeck_velocity"),
+    rows.append([f"{table}.stribeck_velocity", "m/s", rig.get(f"{table}.stribeck_velocity"),
                  fit.stribeck_velocity, fit.std.get("stribeck_velocity")])
     coefficients = {}
     for path, unit, rig_value, value, se in rows:
-        held = path.split(".")[1] in static_keys and not fit.static_identified
+        held = path.rsplit(".", 1)[1] in static_keys and not fit.static_identified
         coefficients[path] = {"unit": unit, "rig": rig_value,
                               "identified": None if held else float(value),
                               "fitted": float(value), "std_error": se,

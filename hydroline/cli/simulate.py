@@ -9,7 +9,7 @@ import numpy as np
 
 from ..rigs import load_rig
 from ..rigs.parameters import defaults_used
-from ..scenarios import SCENARIOS, build_scenario, default_scenario, simulate, summarize
+from ..scenarios import SCENARIOS, build_scenario, default_scenario, scenario_names, simulate, summarize
 from ..system import build_circuit
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
@@ -26,8 +26,10 @@ def register(sub):
                        "summary.json and pressures.png to --out and prints a summary.")
     p.add_argument("rig", nargs="?", help="rig TOML file or the name of a shipped rig, e.g. "
                    "two_axis (default: the embedded Ayalew & Kulakowski 2005 rig)")
-    p.add_argument("--scenario", default=None, choices=SCENARIOS,
-                   help="experiment (default: the rig's rig.scenario, else open-loop-step)")
+    p.add_argument("--scenario", default=None, metavar="NAME",
+                   help=f"experiment: {', '.join(SCENARIOS)} or one the rig defines "
+                   f"([scenario.NAME] type = \"axis-commands\") (default: the rig's "
+                   f"rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--out", help="output folder (default: hydroline-out; with --json no files "
                    "are written unless --out is given)")
@@ -128,6 +130,9 @@ def run(args) -> int:
         raise ValueError(f"--dt-out must be > 0 s, got {args.dt_out!r}")
     write = args.out is not None or not args.json
     scenario = args.scenario or default_scenario(rig)
+    if scenario not in scenario_names(rig):
+        raise ValueError(f"{'--scenario' if args.scenario else 'rig.scenario'}: unknown "
+                         f"experiment {scenario!r} (known: {', '.join(scenario_names(rig))})")
     duration = t_end or rig.get(f"scenario.{scenario}.t_end") or build_scenario(rig, scenario).t_end
     h, every, rows = output_grid(duration, dt_out)
     long_run = round(duration / h) + 1 > LONG_ROWS and len(build_circuit(rig).axes) == 1

@@ -34,6 +34,8 @@ class PistonAccumulator(Component):
     inertance : float             I_a of the connection (version II), [kg/m^4]
     connection_model : StateSpaceLine  PP line model replacing (R_a, I_a); None for version II
     nominal_pressure : float      Guess of the node pressure for the steady-state solver, [Pa]
+    stop_stiffness : float        Stiffness of the oil side once it is empty (piston on its
+                                  stop, V_g > V_0), None: that of a 1 % oil film, [Pa/m^3]
 
     Ports: input ``pressure`` (node) [Pa]; output ``flow`` into the accumulator branch [m^3/s];
     signal ``gas_pressure`` is not a port (see :meth:`gas_pressure`).
@@ -77,7 +79,18 @@ class PistonAccumulator(Component):
         return {"reference_pressure": self.nominal_pressure}
 
     def gas_pressure(self, gas_volume, reference_pressure):
-        """Gas pressure from (M16), with the piston's stops, [Pa] (oil-side pressure)."""
+        """Gas pressure from (M16), with the piston's stops, [Pa] (oil-side pressure).
+
+        Parameters
+        ----------
+        gas_volume : float           Gas volume (number or CasADi symbol), [m^3]
+        reference_pressure : float   Pressure at the end of the isothermal charge (section 3),
+                                     [Pa]
+
+        Returns
+        -------
+        float  Gas pressure minus the stop's push beyond the capacity, [Pa]
+        """
         m, V0, p0 = self.polytropic_exponent, self.capacity, self.precharge_pressure
         K = reference_pressure * (V0 * p0 / reference_pressure) ** m
         V = ops.fmax(ops.fmin(gas_volume, V0), 1e-3 * V0)
@@ -119,7 +132,19 @@ class PistonAccumulator(Component):
         return g
 
     def settle(self, x, u, p):
-        """Adopt the steady node pressure as the end of the isothermal charge (section 3)."""
+        """Adopt the steady node pressure as the end of the isothermal charge (section 3).
+
+        Parameters
+        ----------
+        x : dict   States at the steady state, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        p : dict   Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        tuple or None  ``(new_x, new_p)``: the gas volume [m^3] and the reference pressure [Pa]
+                       to adopt; None when the accumulator is empty (piston on its stop)
+        """
         p_g = float(self.gas_pressure(x["gas_volume"], p["reference_pressure"]))
         if p_g <= self.precharge_pressure:       # empty: piston on its stop, nothing to adopt
             return None

@@ -29,8 +29,10 @@ class Actuator(Component):
     internal_leakage : float           C_i, [m^3/s/Pa]
     external_leakage : float           C_e (each chamber), [m^3/s/Pa]
     gravity : float                    g along the axis (0 for a horizontal actuator), [m/s^2]
-    stop_stiffness : float             [N/m]
-    stop_damping : float               [N s/m]
+    stop_stiffness : float             End-stop contact stiffness, [N/m]
+    stop_damping : float               End-stop contact damping (None: critical), [N s/m]
+    min_volume_fraction : float        Floor of the chamber volumes, a fraction of their
+                                       centre values, [-]
     initial_position : float           Guess of x_p for the steady-state solver, [m]
     nominal_pressure : float           Guess of the chamber pressures, [Pa]
 
@@ -90,7 +92,16 @@ class Actuator(Component):
                 State("velocity", "m/s", 1.0)]
 
     def hydraulic_natural_frequency(self, position: float = 0.0) -> float:
-        """``w_h = sqrt(beta_c (A_b^2/V_b + A_t^2/V_t)/m)`` at a position, [Hz]."""
+        """``w_h = sqrt(beta_c (A_b^2/V_b + A_t^2/V_t)/m)`` at a position, [Hz].
+
+        Parameters
+        ----------
+        position : float   Piston position from mid-stroke, positive up, [m]
+
+        Returns
+        -------
+        float  Hydraulic natural frequency ``w_h / (2 pi)``, [Hz]
+        """
         Vb = self.bottom_volume + self.bottom_area * position
         Vt = self.top_volume - self.top_area * position
         w2 = self.bulk_modulus * (self.bottom_area**2 / Vb + self.top_area**2 / Vt) / self.moving_mass
@@ -100,7 +111,17 @@ class Actuator(Component):
         return {k: x[k] for k in ("bottom_pressure", "top_pressure", "position", "velocity")}
 
     def stop_force(self, x, v):
-        """Force of the end stops on the piston, positive up, [N]."""
+        """Force of the end stops on the piston, positive up, [N].
+
+        Parameters
+        ----------
+        x : float   Piston position from mid-stroke, positive up (number or CasADi symbol), [m]
+        v : float   Piston velocity, positive up, [m/s]
+
+        Returns
+        -------
+        float  Stop force (stiffness beyond +-stroke/2, damping while in contact), [N]
+        """
         half = self.stroke / 2
         over_top = ops.fmax(x - half, 0.0)
         over_bottom = ops.fmax(-half - x, 0.0)

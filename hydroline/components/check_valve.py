@@ -40,12 +40,32 @@ class CheckValve(OrientedResistance):
 
     def flow(self, dp):
         """Inverse law, ``q = dp+/R_f + (dp - dp+)/R_r`` with dp+ the softplus of dp over
-        ``p_t = R_f q_t``; monotone, exact a few p_t away from zero drop, [m^3/s]."""
+        ``p_t = R_f q_t``; monotone, exact a few p_t away from zero drop, [m^3/s].
+
+        Parameters
+        ----------
+        dp : float   Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
+
+        Returns
+        -------
+        float  Flow from inlet to outlet, [m^3/s]
+        """
         pt = self.forward_resistance * self.transition_flow
         dp_pos = ops.fmax(dp, 0.0) + pt * ops.log(1.0 + ops.exp(-ops.fabs(dp) / pt))
         return dp_pos / self.forward_resistance + (dp - dp_pos) / self.reverse_resistance
 
     def pressure_drop(self, q):
+        """Pressure drop ``dp = R_f q+ + R_r (q - q+)``, q+ the softplus of q over the
+        transition flow ``q_t``, [Pa].
+
+        Parameters
+        ----------
+        q : float   Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
+
+        Returns
+        -------
+        float  Pressure drop, inlet minus outlet, [Pa]
+        """
         qt = self.transition_flow
         q_pos = ops.fmax(q, 0.0) + qt * ops.log(1.0 + ops.exp(-ops.fabs(q) / qt))
         return self.forward_resistance * q_pos + self.reverse_resistance * (q - q_pos)

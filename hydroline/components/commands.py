@@ -17,6 +17,14 @@ __all__ = ["StepCommand", "SineCommand", "RampCommand", "TableCommand", "read_ta
 
 @dataclass(kw_only=True)
 class _Command(Component):
+    """Base of the command sources: one output ``command`` in the SI unit of ``quantity``.
+
+    Parameters
+    ----------
+    quantity : str   What the command drives: "current", "position", "pressure", "velocity",
+                     "force" or "flow" (its value then in [A], [m], [Pa], [m/s], [N], [m^3/s])
+    """
+
     quantity: str = parameter("current", "str", "what the command drives",
                               choices=("current", "position", "pressure", "velocity", "force", "flow"))
 
@@ -28,7 +36,14 @@ class _Command(Component):
 
 @dataclass(kw_only=True)
 class StepCommand(_Command):
-    """``initial`` before ``time``, ``final`` after, [SI unit of ``quantity``; s]."""
+    """``initial`` before ``time``, ``final`` after, [SI unit of ``quantity``; s].
+
+    Parameters
+    ----------
+    initial : float   Value before the step, [SI unit of ``quantity``]
+    final : float     Value after the step, [SI unit of ``quantity``]
+    time : float      Time of the step, [s]
+    """
 
     initial: float = parameter(0.0, _VALUE, "value before the step, [unit of quantity]")
     final: float = parameter(0.0, _VALUE, "value after the step, [unit of quantity]")
@@ -48,7 +63,12 @@ class StepCommand(_Command):
 class SineCommand(_Command):
     """``offset + amplitude sin(2 pi frequency (t - start))`` for t >= start, offset before.
 
-    Parameters: offset, amplitude [SI unit of ``quantity``], frequency [Hz], start [s].
+    Parameters
+    ----------
+    offset : float      Mean value, [SI unit of ``quantity``]
+    amplitude : float   Amplitude, [SI unit of ``quantity``]
+    frequency : float   Frequency of the sine, [Hz]
+    start : float       Time the sine starts, [s]
     """
 
     offset: float = parameter(0.0, _VALUE, "mean value, [unit of quantity]")
@@ -76,7 +96,12 @@ def _sin(x):
 class RampCommand(_Command):
     """``initial`` until ``start``, then rising at ``slope`` until ``end``, then held.
 
-    Parameters: initial [unit], slope [unit/s], start, end [s].
+    Parameters
+    ----------
+    initial : float   Value before the ramp, [SI unit of ``quantity``]
+    slope : float     Rate of the ramp, [SI unit of ``quantity``/s]
+    start : float     Time the ramp starts, [s]
+    end : float       Time the ramp ends (held after), [s]
     """
 
     initial: float = parameter(0.0, _VALUE, "value before the ramp, [unit of quantity]")
@@ -99,6 +124,11 @@ class TableCommand(_Command):
     In the compiled model a table of up to ``RAMP_ROWS`` rows is the exact sum of clipped
     ramps ``v_0 + sum_k s_k min(max(t - t_k, 0), t_(k+1) - t_k)`` (slopes ``s_k``), which the
     C core compiles; a longer table is a CasADi interpolant (the integrator then uses CVODES).
+
+    Parameters
+    ----------
+    times : array_like    Times of the rows, strictly increasing, [s]
+    values : array_like   Values at those times, [SI unit of ``quantity``]
     """
 
     #: Longest table written as a sum of ramps, [rows].
@@ -123,7 +153,21 @@ class TableCommand(_Command):
     @classmethod
     def from_csv(cls, path, name="command", quantity="current", time_column=0, value_column=1,
                  value_scale=1.0, **kw):
-        """Read a two-column CSV (header allowed); values multiplied by ``value_scale`` to SI."""
+        """Read a two-column CSV (header allowed); values multiplied by ``value_scale`` to SI.
+
+        Parameters
+        ----------
+        path : str or Path    CSV file with a header row, times in seconds
+        name : str            Component name
+        quantity : str        What the command is ("current", "position", "pressure", ...)
+        time_column : int     Column of the times [s] (index from 0)
+        value_column : int    Column of the values (index from 0)
+        value_scale : float   Factor from the file's values to SI, [SI unit/file unit]
+
+        Returns
+        -------
+        TableCommand
+        """
         import pandas as pd
 
         df = pd.read_csv(path)
@@ -139,7 +183,7 @@ class TableCommand(_Command):
         path : str or Path   CSV file, one header row, then (time, value) rows
         unit : str           SI unit of the values, e.g. "Pa"; the header may give any unit of
                              that dimension ("MPa", "bar", "psi"), [-]
-        name, quantity       As for the component
+        name, quantity : str As for the component: its name and what the command is
 
         Raises
         ------
@@ -161,6 +205,20 @@ class TableCommand(_Command):
             tc = ca.fmin(ca.fmax(t, self.times[0]), self.times[-1])
             return {"command": self._interp(tc)}
         return {"command": float(np.interp(t, self.times, self.values))}
+
+    def breakpoints(self, t_end):
+        """Times where the table's slope changes (integration restarts there, so a steep
+        edge is not stepped over), for tables of up to ``RAMP_ROWS`` rows, [s].
+
+        Parameters
+        ----------
+        t_end : float   End of the run, [s]
+        """
+        if len(self.times) > self.RAMP_ROWS:
+            return []
+        slopes = np.diff(self.values) / np.diff(self.times)
+        kinks = np.flatnonzero(np.diff(slopes) != 0.0) + 1
+        return [float(self.times[k]) for k in kinks]
 
     def value_range(self):
         """Smallest and largest value of the table, [unit]."""

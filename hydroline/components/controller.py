@@ -57,7 +57,17 @@ class PositionController(Component):
         return {"held_current": 0.0, "sampled": 0.0} if self.sample_time else {}
 
     def law(self, x, u):
-        """Unclipped control law, [A]."""
+        """Unclipped control law, [A].
+
+        Parameters
+        ----------
+        x : dict   States, local name -> value [SI] (``error_integral`` [m s] when Ki != 0)
+        u : dict   Inputs ``reference``, ``position`` [m] and ``velocity`` [m/s]
+
+        Returns
+        -------
+        float  Coil current before the limit, [A]
+        """
         e = u["reference"] - u["position"]
         i = self.proportional_gain * e - self.derivative_gain * u["velocity"]
         if self.integral_gain:
@@ -65,6 +75,16 @@ class PositionController(Component):
         return i
 
     def clip(self, i):
+        """The current limited to +-``current_limit``, [A].
+
+        Parameters
+        ----------
+        i : float   Coil current (number or CasADi symbol), [A]
+
+        Returns
+        -------
+        float  The current within +-``current_limit``, [A]
+        """
         return ops.fmin(ops.fmax(i, -self.current_limit), self.current_limit)
 
     def outputs_of(self, t, x, u, p):
@@ -79,11 +99,32 @@ class PositionController(Component):
         return {"error_integral": u["reference"] - u["position"]}
 
     def settle(self, x, u, p):
-        """At the steady state the held current is the law's output there."""
+        """At the steady state the held current is the law's output there.
+
+        Parameters
+        ----------
+        x : dict   States at the steady state, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+        p : dict   Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        tuple or None  ``({}, {"held_current": [A], "sampled": 1.0})``; None when continuous
+        """
         if not self.sample_time:
             return None
         return {}, {"held_current": float(self.clip(self.law(x, u))), "sampled": 1.0}
 
     def sample(self, x, u):
-        """New held current at a sampling instant (numbers), [A]."""
+        """New held current at a sampling instant (numbers), [A].
+
+        Parameters
+        ----------
+        x : dict   States at the instant, local name -> value [SI]
+        u : dict   Inputs there, local port name -> value [SI]
+
+        Returns
+        -------
+        dict  ``{"held_current": current}``, [A]
+        """
         return {"held_current": float(self.clip(self.law(x, u)))}

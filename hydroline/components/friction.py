@@ -77,7 +77,17 @@ class StribeckFriction(Component):
         return ops.if_else(v >= 0, up_value, down_value)
 
     def force(self, v, z=None):
-        """Friction force at velocity v [m/s] (M24), [N]."""
+        """Friction force at velocity v [m/s] (M24), [N].
+
+        Parameters
+        ----------
+        v : float   Piston velocity, positive up (number or CasADi symbol), [m/s]
+        z : float   Bristle deflection (LuGre only; unused by "stribeck"), [m]
+
+        Returns
+        -------
+        float  Friction force on the piston, opposing v, [N]
+        """
         fv = self._pick(v, self.viscous_up, self.viscous_down)
         g = self._pick(v, self._curve(v, True), self._curve(v, False))
         if self.model == "stribeck":

@@ -24,7 +24,8 @@ class Load(Component):
     damping : float         Specimen damping b, [N s/m]
     free_position : float   x at which the specimen is unloaded, [m]
     applied_force : float   Constant external force, positive down, [N]
-    step_time, step_force   Optional step of the external force, [s], [N]
+    step_time : float       Time of an optional step of the external force (None: none), [s]
+    step_force : float      The force step, positive down, [N]
 
     Ports: inputs ``position`` [m], ``velocity`` [m/s]; output ``load_force`` [N].
     """

@@ -38,11 +38,29 @@ class OrientedResistance(Component):
         self.outputs = {f"{self.compute}_pressure": Port("pressure", f"pressure at the {self.compute}")}
 
     def pressure_drop(self, q):
-        """Pressure drop [Pa] at flow q [m^3/s]."""
+        """Pressure drop [Pa] at flow q [m^3/s].
+
+        Parameters
+        ----------
+        q : float   Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
+
+        Returns
+        -------
+        float  Pressure drop, inlet minus outlet, [Pa]
+        """
         raise NotImplementedError
 
     def flow(self, dp):
-        """Flow [m^3/s] at pressure drop dp [Pa] (inverse of :meth:`pressure_drop`)."""
+        """Flow [m^3/s] at pressure drop dp [Pa] (inverse of :meth:`pressure_drop`).
+
+        Parameters
+        ----------
+        dp : float   Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
+
+        Returns
+        -------
+        float  Flow from inlet to outlet, [m^3/s]
+        """
         raise NotImplementedError
 
     def outputs_of(self, t, x, u, p):
@@ -73,7 +91,27 @@ class LinearResistance(OrientedResistance):
             raise ValueError(f"{self.name}: resistance must be > 0 [Pa s/m^3], got {self.resistance!r}")
 
     def pressure_drop(self, q):
+        """Pressure drop ``dp = R q`` (M1), [Pa].
+
+        Parameters
+        ----------
+        q : float   Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
+
+        Returns
+        -------
+        float  Pressure drop, inlet minus outlet, [Pa]
+        """
         return self.resistance * q                      # (M1)
 
     def flow(self, dp):
+        """Flow ``q = dp / R`` (M1), [m^3/s].
+
+        Parameters
+        ----------
+        dp : float   Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
+
+        Returns
+        -------
+        float  Flow from inlet to outlet, [m^3/s]
+        """
         return dp / self.resistance

@@ -102,7 +102,17 @@ class Servovalve(Component):
                 State("spool_velocity", "m/s", self.max_opening * self.natural_frequency * 6.3)]
 
     def orifice(self, opening, dp):
-        """Flow through one metering edge (M20), [m^3/s]; opening >= 0 [m], dp [Pa]."""
+        """Flow through one metering edge (M20), [m^3/s]; opening >= 0 [m], dp [Pa].
+
+        Parameters
+        ----------
+        opening : float   Spool opening beyond the lap, >= 0 (number or CasADi symbol), [m]
+        dp : float        Pressure drop across the edge, [Pa]
+
+        Returns
+        -------
+        float  Flow through the edge, with the sign of dp, [m^3/s]
+        """
         return self.coefficient * opening * ops.smooth_sqrt(dp, self.laminar_pressure)
 
     def outputs_of(self, t, x, u, p):

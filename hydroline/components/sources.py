@@ -73,7 +73,16 @@ class PressureSource(Component):
                              f"waveform's value at t = 0 ({start:g} Pa), or be omitted")
 
     def waveform_value(self, t: float) -> float:
-        """The waveform's pressure at time t (numbers; default parameters), [Pa]."""
+        """The waveform's pressure at time t (numbers; default parameters), [Pa].
+
+        Parameters
+        ----------
+        t : float   Time, [s]
+
+        Returns
+        -------
+        float  Source pressure, [Pa]
+        """
         if self.waveform is None:
             return float(self.pressure)
         return float(self.waveform.outputs_of(t, {}, {}, self.waveform.runtime_parameters())["command"])

@@ -62,7 +62,15 @@ class Port:
 
 @dataclass(frozen=True)
 class State:
-    """One state of a component: local name, SI unit, typical magnitude (for tolerances)."""
+    """One state of a component: local name, SI unit, typical magnitude (for tolerances).
+
+    Parameters
+    ----------
+    name : str          Local name, e.g. ``"gas_volume"`` (the network prefixes the component)
+    unit : str          Its SI unit, e.g. ``"m^3"``
+    scale : float       Typical magnitude (absolute tolerance and steady-state scaling), [unit]
+    description : str   What it is
+    """
 
     name: str
     unit: str

@@ -69,7 +69,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     x0 : array          Initial state (e.g. ``solve_steady_state(...).x``), [SI]
     t_end : float       End time, [s]
     dt_out : float      Output interval, [s]
-    p : array           Runtime parameters (network defaults when None)
+    p : array           Runtime parameters, [SI] (network defaults when None)
     solver : str        "auto" (default: "compiled" where a C compiler is available, else
                         "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
                         BDF integrator, :mod:`hydroline.compiled`; library cached on disk),

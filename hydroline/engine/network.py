@@ -325,7 +325,12 @@ class Network:
 
 @dataclass
 class CompiledModel:
-    """One CasADi graph of the whole network: f(t, x, p), its Jacobian, all signals."""
+    """One CasADi graph of the whole network: f(t, x, p), its Jacobian, all signals.
+
+    Parameters
+    ----------
+    network : Network   The assembled network (states, parameters and signals in its order)
+    """
 
     network: Network
 

@@ -15,6 +15,15 @@ __all__ = ["SimulationResult", "OutputSink", "column_units", "column_indices", "
 class SimulationResult:
     """Time series of every named signal and state.
 
+    Built from a DataFrame ``data`` (its index the time), or from ``times``, ``table`` and
+    ``columns`` (no pandas needed).
+
+    Parameters
+    ----------
+    metadata : dict           Run description (rig, scenario, ``units``: column -> SI unit)
+    times : array_like        Output times, [s] (when ``data`` is None)
+    table : array_like        One row per time, one column per name in ``columns``, [SI]
+
     Attributes
     ----------
     data : pandas.DataFrame   Index ``time`` [s]; one column per signal and per state
@@ -140,13 +149,16 @@ def column_units(network: Network) -> dict:
     ----------
     network : Network   The model
     """
-    units = {}
-    for c in network.components:
-        for port, spec in c.outputs.items():
-            units[c.signal(port)] = spec.unit
-        for st in c.states:
-            units[f"{c.name}.{st.name}"] = st.unit or "-"
-    return units
+    units = network.__dict__.get("_column_units")   # made once per network
+    if units is None:
+        units = {}
+        for c in network.components:
+            for port, spec in c.outputs.items():
+                units[c.signal(port)] = spec.unit
+            for st in c.states:
+                units[f"{c.name}.{st.name}"] = st.unit or "-"
+        network.__dict__["_column_units"] = units
+    return dict(units)
 
 
 def column_indices(what, names, columns):
@@ -169,7 +181,20 @@ class OutputSink:
     """Where output rows go: kept in memory (all columns, or only ``keep``), streamed to CSV
     (every ``every``-th row of ``stream`` columns, the last row always) with per-column
     statistics, and a preview (``preview`` columns at most ``preview_rows`` rows, for a
-    figure). Memory stays bounded by what is kept, whatever the run's length."""
+    figure). Memory stays bounded by what is kept, whatever the run's length.
+
+    Parameters
+    ----------
+    columns : list[str]    Names of all output columns (signals, then states), in row order
+    path : str             CSV file to stream to; None: nothing written
+    stream : list[str]     Columns written to the CSV; None: all
+    every : int            Write every ``every``-th row (the last row always), [-]
+    keep : list[str]       Columns kept in memory; None: none kept
+    n_total : int          Rows the run will give, when known (preallocates what is kept), [-]
+    preview : list[str]    Columns of the preview (for a figure); None: no preview
+    preview_rows : int     Rows of the preview at most, [-]
+    units : dict           Column -> SI unit, written into the CSV header (``name [unit]``)
+    """
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
                  preview=None, preview_rows=50_000, units=None):

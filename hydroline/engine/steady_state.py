@@ -22,6 +22,10 @@ __all__ = ["SteadyState", "SteadyStateError", "solve_steady_state", "pseudo_tran
 class SteadyStateError(RuntimeError):
     """The steady-state solver did not converge; the message says how far it got.
 
+    Parameters
+    ----------
+    message : str      One line: what did not settle and which parameters to look at
+
     Attributes
     ----------
     state : str        The state with the largest scaled residual (None when unknown)
@@ -233,7 +237,7 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     ----------
     network : Network   The assembled model
     t0 : float          Time at which the inputs are taken (before the disturbance), [s]
-    x_guess : array     Start for the solver; the components' guesses when None
+    x_guess : array     Start for the solver, [SI]; the components' guesses when None
     tol : float         Required scaled residual, [1/s]
     max_rounds : int    Solve-and-settle rounds at most (components adopting the rest state)
 

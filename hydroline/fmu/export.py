@@ -56,7 +56,16 @@ _INPUT_NOMINAL = {"valve_current": 0.05, "external_force": 1e3, "pump_pressure":
 
 def platform_folder(fmi: int = 2) -> str:
     """Binaries folder of this platform: FMI 2.0 ``linux64``, ``darwin64``, ``win64``, ...;
-    FMI 3.0 ``x86_64-linux``, ``aarch64-darwin``, ``x86_64-windows``, ..."""
+    FMI 3.0 ``x86_64-linux``, ``aarch64-darwin``, ``x86_64-windows``, ...
+
+    Parameters
+    ----------
+    fmi : int   FMI version, 2 or 3
+
+    Returns
+    -------
+    str  Folder name under ``binaries/`` in the FMU
+    """
     if fmi == 3:
         arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64",
                 "i386": "x86", "i686": "x86", "x86": "x86"}.get(platform.machine().lower(),
@@ -100,7 +109,17 @@ def _c_string(s: str) -> str:
 
 
 def model_identifier(name: str) -> str:
-    """A C identifier from a file stem: letters, digits and '_' (FMI 2.0 modelIdentifier)."""
+    """A C identifier from a file stem: letters, digits and '_' (FMI 2.0 modelIdentifier).
+
+    Parameters
+    ----------
+    name : str   File stem, e.g. ``"servo-rig"``
+
+    Returns
+    -------
+    str  The stem with every other character replaced by '_' (``hl_`` prefixed when it would
+         not start with a letter or '_')
+    """
     ident = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
     if not ident or not (ident[0].isalpha() or ident[0] == "_"):
         ident = "hl_" + ident

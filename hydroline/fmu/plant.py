@@ -222,6 +222,14 @@ def symbolic_model(plant: Plant):
     (``network`` with ``state_names``, ``state_scales``, ``parameter_names``; ``t``, ``x``,
     ``p``, ``dx``, ``y``). The runtime parameter vector is then ``[network parameters...,
     tunable values...]``.
+
+    Parameters
+    ----------
+    plant : Plant   The plant to export (network, inputs, outputs, tunable parameters)
+
+    Returns
+    -------
+    object  The symbolic model (CasADi SX expressions and the network's names and scales)
     """
     net = plant.network
     n, m, k = len(net.state_names), len(net.parameter_names), len(plant.tunables)

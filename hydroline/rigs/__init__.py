@@ -68,7 +68,16 @@ COMPONENT_SECTIONS = {
 
 def declarations(section: str) -> dict:
     """The declared parameters (:class:`hydroline.engine.Parameter`) of a template-rig section
-    that maps onto a component type or the fluid, key -> Parameter; {} for other sections."""
+    that maps onto a component type or the fluid, key -> Parameter; {} for other sections.
+
+    Parameters
+    ----------
+    section : str   Section of the template rig, e.g. ``"fluid"``, ``"actuator"``
+
+    Returns
+    -------
+    dict  Parameter key -> :class:`hydroline.engine.Parameter` (unit, range, description)
+    """
     from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
     if section == "fluid":
         return dict(FLUID_PARAMETERS)
@@ -167,6 +176,14 @@ def _parse(path: str, raw, context: dict | None = None):
             raise RigError(f"{path}: a connection names a signal, e.g. \"pump_pressure\"; got {raw!r}")
         return raw
     section, _, key = path.rpartition(".")
+    if section not in SCHEMA and path.startswith("scenario."):
+        # [scenario.<name>] type = "axis-commands": an experiment the rig defines itself
+        from ..scenario_schema import is_own_scenario, parse_scenario_value
+        if is_own_scenario(path, context or {}):
+            try:
+                return parse_scenario_value(path, raw, context or {}, _parse_as)
+            except ValueError as e:
+                raise RigError(str(e)) from None
     if section not in SCHEMA:
         known = ", ".join(sorted(SCHEMA))
         raise RigError(f"{path}: unknown component/section '{section or key}' (known: {known})")
@@ -220,6 +237,17 @@ class Rig:
             raise RigError(f"{path}: not set in rig {self.source}") from None
 
     def get(self, path: str, default=None):
+        """The value at ``path`` (SI), or ``default`` when the rig does not set it.
+
+        Parameters
+        ----------
+        path : str         Dotted parameter path, e.g. ``"actuator.moving_mass"``
+        default : object   What to return when ``path`` is not set
+
+        Returns
+        -------
+        object  SI value (float), text or list; ``default`` when not set
+        """
         return self.values.get(path, default)
 
     def __contains__(self, path):
@@ -227,12 +255,33 @@ class Rig:
 
     def set(self, path: str, value) -> "Rig":
         """Set one parameter from a quantity with units (``"1.5 m"``) or, for text and
-        dimensionless ones, a plain value. Returns self."""
+        dimensionless ones, a plain value. Returns self.
+
+        Parameters
+        ----------
+        path : str       Dotted parameter path, e.g. ``"supply.section1.length"``
+        value : object   Quantity as text with its unit (``"1.5 m"``, ``"3000 psi"``), or text,
+                         number or list as the rig file would hold it
+
+        Returns
+        -------
+        Rig  self, for chaining
+
+        Raises
+        ------
+        RigError  One line naming the path and the unit expected
+        """
         self.values[path] = _parse(path, value, {**self.raw, path: value})
         self.raw[path] = value
         return self
 
     def copy(self) -> "Rig":
+        """An independent copy (values and raw values copied deeply).
+
+        Returns
+        -------
+        Rig
+        """
         return Rig(copy.deepcopy(self.values), copy.deepcopy(self.raw), self.source)
 
     def to_toml(self) -> str:
@@ -262,7 +311,16 @@ def _toml_value(v):
 
 def shipped_rig(name: str) -> str | None:
     """The file of a rig shipped with the package named ``name`` ("two_axis" or
-    "two_axis.toml"), or None."""
+    "two_axis.toml"), or None.
+
+    Parameters
+    ----------
+    name : str   Rig name, with or without ``.toml``; a path (with a slash) is never a shipped rig
+
+    Returns
+    -------
+    str or None  File name inside :mod:`hydroline.rigs`, or None when no such rig is shipped
+    """
     if "/" in name or "\\" in name:
         return None
     fname = name if name.endswith(".toml") else f"{name}.toml"
@@ -301,6 +359,19 @@ def load_rig(path=None) -> Rig:
 
     A file with ``[rig] base = "default"`` starts from the embedded rig and overrides only
     what it lists.
+
+    Parameters
+    ----------
+    path : str or Path   Rig file, or the name of a shipped rig; None for the default
+                         (``ayalew2005.toml``)
+
+    Returns
+    -------
+    Rig  Parameters in SI, with the raw values as written
+
+    Raises
+    ------
+    RigError  One line: file missing or unreadable, bad TOML, or a parameter's bad value/unit
     """
     tree, source = _read_toml(path)
     raw = _flatten(tree)

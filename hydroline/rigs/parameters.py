@@ -99,7 +99,12 @@ class Declared:
 
     Attributes
     ----------
-    default, scope, zero_allowed, integer, inherited   As for :class:`Parameter`
+    default : object      As for :class:`Parameter`: a number [unit], a dotted path, None or
+                          :data:`REQUIRED`
+    scope : str           As for :class:`Parameter`: when the parameter changes a run
+    zero_allowed : bool   As for :class:`Parameter`: 0 is accepted below the range
+    integer : bool        As for :class:`Parameter`: the value must be a whole number
+    inherited : bool      As for :class:`Parameter`: a rig-wide default by design
     """
 
     default: object = REQUIRED
@@ -269,7 +274,20 @@ def _error(message):
 
 
 def allowed_implausible(rig) -> set:
-    """The paths a rig lists in ``rig.allow_implausible`` (checked: each one a parameter)."""
+    """The paths a rig lists in ``rig.allow_implausible`` (checked: each one a parameter).
+
+    Parameters
+    ----------
+    rig : Rig   Parameters (SI)
+
+    Returns
+    -------
+    set  Dotted parameter paths whose plausible range (or consistency check) is overridden
+
+    Raises
+    ------
+    RigError  One line naming a listed path that is not a rig parameter with a range
+    """
     listed = rig.get("rig.allow_implausible") or []
     for path in listed:
         if path.startswith("circuit."):   # a circuit component's parameter: checked where the
@@ -291,6 +309,10 @@ def _fmt(x):
 
 def check_ranges(rig):
     """Refuse a value outside its plausible range (:data:`PARAMETERS`) or a fractional count.
+
+    Parameters
+    ----------
+    rig : Rig   Parameters (SI)
 
     Raises
     ------
@@ -437,6 +459,11 @@ def _in_scope(rig, p: Parameter, path: str, scenario: str | None) -> bool:
 def defaults_used(rig, scenario: str | None = None) -> list[tuple[str, str]]:
     """The parameters a run of ``scenario`` takes from a default, not from the rig.
 
+    Parameters
+    ----------
+    rig : Rig          Parameters (SI)
+    scenario : str     The scenario run (only the parameters it uses); None: every parameter
+
     Returns
     -------
     list of (path, what is used) -- e.g. ``("supply.section1.bulk_modulus",
@@ -492,7 +519,16 @@ _STATE_HINTS = (
 def steady_state_hint(state: str) -> str:
     """The balance behind a state that keeps a steady-state solve from converging and the rig
     parameters to look at, e.g. ``"the flow along return.section2 does not settle (look at
-    return.section2.diameter, ...)"``."""
+    return.section2.diameter, ...)"``.
+
+    Parameters
+    ----------
+    state : str   Dotted state name, e.g. ``"return.section2.mode1.flow"``
+
+    Returns
+    -------
+    str  One phrase for an error message
+    """
     parts = state.split(".")
     side = parts[0] if parts[0] in ("supply", "return") else "supply"
     section = ".".join(parts[:2]) if len(parts) > 1 else state

@@ -84,21 +84,54 @@ def _running_extreme(x, size, accumulate):
 
 def maximum_filter1d(x, size: int, mode: str = "nearest") -> np.ndarray:
     """Largest sample in the window of ``size`` samples about each sample (edges repeated:
-    SciPy's ``mode="nearest"``), [unit of x]."""
+    SciPy's ``mode="nearest"``), [unit of x].
+
+    Parameters
+    ----------
+    x : array_like   Evenly sampled signal, [any unit]
+    size : int       Window length, >= 1, [samples]
+    mode : str       Edge treatment; only ``"nearest"`` (edges repeated)
+
+    Returns
+    -------
+    ndarray  Filtered signal, as long as x, [unit of x]
+    """
     _check_mode(mode, "nearest")
     return _running_extreme(x, size, np.maximum)
 
 
 def minimum_filter1d(x, size: int, mode: str = "nearest") -> np.ndarray:
     """Smallest sample in the window of ``size`` samples about each sample (edges repeated:
-    SciPy's ``mode="nearest"``), [unit of x]."""
+    SciPy's ``mode="nearest"``), [unit of x].
+
+    Parameters
+    ----------
+    x : array_like   Evenly sampled signal, [any unit]
+    size : int       Window length, >= 1, [samples]
+    mode : str       Edge treatment; only ``"nearest"`` (edges repeated)
+
+    Returns
+    -------
+    ndarray  Filtered signal, as long as x, [unit of x]
+    """
     _check_mode(mode, "nearest")
     return _running_extreme(x, size, np.minimum)
 
 
 def uniform_filter1d(x, size: int, mode: str = "nearest") -> np.ndarray:
     """Mean of the window of ``size`` samples about each sample (edges repeated: SciPy's
-    ``mode="nearest"``), [unit of x]."""
+    ``mode="nearest"``), [unit of x].
+
+    Parameters
+    ----------
+    x : array_like   Evenly sampled signal, [any unit]
+    size : int       Window length, >= 1, [samples]
+    mode : str       Edge treatment; only ``"nearest"`` (edges repeated)
+
+    Returns
+    -------
+    ndarray  Filtered signal, as long as x, [unit of x]
+    """
     _check_mode(mode, "nearest")
     size = int(size)
     padded = _nearest_windows(x, size)

@@ -18,7 +18,16 @@ def local_maxima(x) -> np.ndarray:
     """Indices of the local maxima of ``x``: samples higher than both neighbours, or flat
     tops (a run of equal samples higher than the samples on either side), given by their
     middle sample (the lower of the two middle ones for an even run). The first and last
-    samples are never maxima."""
+    samples are never maxima.
+
+    Parameters
+    ----------
+    x : array_like   Evenly sampled signal, [any unit]
+
+    Returns
+    -------
+    ndarray  Indices of the maxima, increasing, [samples]
+    """
     x = np.asarray(x, dtype=float)
     n = len(x)
     if n < 3:
