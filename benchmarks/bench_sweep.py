@@ -1,101 +1,295 @@
-"""Benchmark: 1000 variants of the layout study (sections II lengths), wall time on this machine.
+"""Benchmark: 1000 variants of the layout study through ``hydroline.studies.sweep``, wall time
+on this machine, and where one variant's time goes.
 
 The layout study of the 2005 paper (issue 4): the supply and return hoses between manifold and
 servovalve (sections II) set to one length, the 50 mA open-loop step run from the solved
-steady state, and the supply/return port oscillation frequency, amplitude and settling time
-taken (``hydroline.summarize``). Here 1000 lengths from 0.05 m to 3.048 m, spread over worker
-processes; every variant has the same network structure, so the compiled core builds one C
-library (cached on disk) and each variant only passes its numbers. Prints one table: the
-per-variant cost split (network build, steady state, integration, metrics), the wall time of
-the whole sweep per worker count, and a few of the results.
+steady state, and the port metrics taken (``hydroline.summarize``). Here N lengths from
+0.05 m to 3.048 m (nudged by < 1 um per run, so that no variant's model is already on disk
+from an earlier run), run by the sweep itself (its runner, executors and row formatting;
+rows kept in memory) on 1 and 2 worker processes. Every variant has the same network
+structure: one compiled C library serves them all.
 
-Usage: python benchmarks/bench_sweep.py [--variants N] [--workers W ...]
+Prints one table of wall times, then the cost of one variant split into its stages (measured
+in this process on ``--stages`` variants): with the model built anew (what ``simulate()``
+does) rig copy and set, network build (components and wiring), CasADi graph,
+compiled-model lookup (fingerprint, structure key, constants), steady state, integration
+(C), metrics (``summarize``); the whole ``run_variant()``; pickling the row and writing its
+journal line; and on the sweep's shared model (``VariantRunner``: network built with the
+hoses' matrix entries in p, graph signature, steady state, integration, metrics, whole). ``--before TREE`` runs the same measurement on another source tree (e.g. a
+``git archive`` of main) in a subprocess, alternately with this one, and prints the ratios
+(the machine is shared and noisy: only ratios from one run mean much).
+
+Usage: python benchmarks/bench_sweep.py [--variants N] [--workers W ...] [--stages N]
+                                        [--before TREE] [--repeat R]
 """
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
+import json
 import os
+import pickle
+import subprocess
+import sys
+import tempfile
 import time
 
 import numpy as np
 
-from hydroline.rigs import load_rig
-from hydroline.scenarios import simulate, summarize
-
-_RIG = None
+PARAMETER = "supply.section2.length+return.section2.length"
 
 
-def _init():
-    global _RIG
-    _RIG = load_rig(None)
-
-
-def run_variant(length: float) -> dict:
-    """One layout variant: sections II of ``length`` [m] -> metrics and timings."""
-    rig = _RIG.copy()
-    rig.set("supply.section2.length", f"{length} m")
-    rig.set("return.section2.length", f"{length} m")
-    tic = time.perf_counter()
-    try:
-        res = simulate(rig)
-        mid = time.perf_counter()
-        s = summarize(res)
-    except Exception as e:   # a failed variant is recorded, never sinks the sweep
-        return {"length_m": length, "error": str(e)}
-    end = time.perf_counter()
-    return {"length_m": length, "supply_hz": s["supply"]["frequency_hz"],
-            "supply_mpa": s["supply"]["amplitude_mpa"], "return_hz": s["return"]["frequency_hz"],
-            "return_mpa": s["return"]["amplitude_mpa"], "simulate_s": mid - tic,
-            "integrate_s": res.wall_time, "metrics_s": end - mid, "solver": res.metadata["solver"]}
+def lengths_of(n: int, seed: int | None = None) -> np.ndarray:
+    """n section II lengths from 0.05 to 3.048 m, each nudged by < 1 um (new numbers per
+    run: no model of an earlier run is found on disk by its fingerprint), [m]."""
+    rng = np.random.default_rng(seed)
+    return np.linspace(0.05, 3.048, n) + rng.uniform(0, 1e-6, n)
 
 
 def sweep(lengths, workers: int):
+    """The layout-like sweep through :func:`hydroline.studies.sweep`.
+
+    Returns
+    -------
+    (rows, wall)  rows: one dict per variant (``length_m``, the supply/return frequency and
+                  amplitude, ``error`` only where it failed); wall time [s]
+    """
+    from hydroline.studies import sweep as run_sweep
+
     tic = time.perf_counter()
-    if workers == 1:
-        _init()
-        out = [run_variant(x) for x in lengths]
-    else:
-        with mp.get_context("fork").Pool(workers, initializer=_init) as pool:
-            out = pool.map(run_variant, lengths, chunksize=max(1, len(lengths) // (8 * workers)))
-    return out, time.perf_counter() - tic
+    res = run_sweep({PARAMETER: [f"{float(x)!r} m" for x in lengths]}, None, workers=workers,
+                    scenario="open-loop-step")
+    wall = time.perf_counter() - tic
+    rows = []
+    for r in res.table.to_dict("records"):
+        row = {"length_m": r["supply.section2.length"], "supply_hz": r["supply_frequency_hz"],
+               "supply_mpa": r["supply_amplitude_mpa"], "return_hz": r["return_frequency_hz"],
+               "return_mpa": r["return_amplitude_mpa"], "wall_s": r["wall_time_s"]}
+        if r["error"]:
+            row["error"] = r["error"]
+        rows.append(row)
+    return rows, wall
+
+
+def stages(lengths) -> dict:
+    """Mean time of each stage of one variant, [s], measured here on these lengths: the
+    model built anew per variant (what ``simulate()`` does), and -- where the tree has it --
+    the sweep's shared model (``VariantRunner``: the network built with the hoses' matrix
+    entries in p, compared with the shared one, p swapped)."""
+    from hydroline import compiled
+    from hydroline.rigs import load_rig
+    from hydroline.scenarios import build_scenario, summarize, simulate
+    from hydroline.simulation import integrate, solve_steady_state
+    from hydroline.studies.sweep import run_variant
+    from hydroline.system import build_circuit
+
+    try:
+        from hydroline.studies.journal import json_line
+    except ImportError:      # before the split: the sweep module's private helper
+        from hydroline.studies.sweep import _json_line as json_line
+    try:
+        from hydroline.components.hose import coefficients_as_parameters
+        from hydroline.studies.sweep import VariantRunner, graph_signature
+    except ImportError:      # no shared models in this tree
+        VariantRunner = None
+    rig = load_rig(None)
+    simulate(rig)
+    acc: dict = {}
+
+    def add(name, dt):
+        acc[name] = acc.get(name, 0.0) + dt
+
+    def finish(res, sc, circuit, net):
+        res.metadata.update(scenario="open-loop-step", t_disturbance=sc.t_disturbance,
+                            axes=circuit.axes, stroke=net.component(
+                                next(iter(circuit.axes.values())).actuator).stroke,
+                            actuator_natural_frequency_hz=0.0)
+        summarize(res)
+
+    runner = VariantRunner(rig) if VariantRunner else None
+    shared = None
+    with tempfile.TemporaryFile("w") as journal:
+        for k, x in enumerate(map(float, lengths)):
+            t0 = time.perf_counter()
+            r = rig.copy()
+            r.set("supply.section2.length", f"{x!r} m")
+            r.set("return.section2.length", f"{x!r} m")
+            t1 = time.perf_counter()
+            circuit = build_circuit(r)
+            sc = build_scenario(r, "open-loop-step", None, axes=circuit.axes)
+            net = circuit.network(sc.commands)
+            t2 = time.perf_counter()
+            net.compile()
+            t3 = time.perf_counter()
+            compiled.native_model(net)
+            t4 = time.perf_counter()
+            ss = solve_steady_state(net, t0=0.0)
+            t5 = time.perf_counter()
+            res = integrate(net, ss.x, sc.t_end, p=ss.p)
+            t6 = time.perf_counter()
+            finish(res, sc, circuit, net)
+            t7 = time.perf_counter()
+            for name, dt in (("rig copy + set", t1 - t0), ("network build", t2 - t1),
+                             ("CasADi graph", t3 - t2), ("compiled-model lookup", t4 - t3),
+                             ("steady state", t5 - t4), ("integration (C)", res.wall_time),
+                             ("integrate() beyond the C", (t6 - t5) - res.wall_time),
+                             ("metrics (summarize)", t7 - t6)):
+                add(name, dt)
+            x2 = x + 1e-7           # new numbers: no model of this variant in any cache
+            values = {"supply.section2.length": x2, "return.section2.length": x2}
+            t8 = time.perf_counter()
+            row = run_variant(rig, k, values, "open-loop-step")
+            t9 = time.perf_counter()
+            add("run_variant(), model built anew", t9 - t8)
+            blob = pickle.dumps(row)
+            pickle.loads(blob)
+            t10 = time.perf_counter()
+            journal.write(json_line(row) + "\n")
+            journal.flush()
+            t11 = time.perf_counter()
+            add("pickling the row", t10 - t9)
+            add("journal line", t11 - t10)
+            if runner is None:
+                continue
+            # the shared model, stage by stage (as simulate_shared does it)
+            x3 = x + 2e-7
+            r = rig.copy()
+            r.set("supply.section2.length", f"{x3!r} m")
+            r.set("return.section2.length", f"{x3!r} m")
+            s0 = time.perf_counter()
+            with coefficients_as_parameters():
+                circuit = build_circuit(r)
+                sc = build_scenario(r, "open-loop-step", None, axes=circuit.axes)
+                net = circuit.network(sc.commands)
+            s1 = time.perf_counter()
+            key = graph_signature(net)
+            s2 = time.perf_counter()
+            if shared is None or shared[0] != key:
+                shared = (key, net)
+                net.compile()
+                compiled.native_model(net)
+            base = shared[1]
+            base.parameter_values = net.parameter_values.copy()
+            s3 = time.perf_counter()
+            ss = solve_steady_state(base, t0=0.0, x_guess=net.guess())
+            s4 = time.perf_counter()
+            res = integrate(base, ss.x, sc.t_end, p=ss.p)
+            s5 = time.perf_counter()
+            finish(res, sc, circuit, net)
+            s6 = time.perf_counter()
+            x4 = x + 3e-7
+            runner(k, {"supply.section2.length": x4, "return.section2.length": x4})
+            s7 = time.perf_counter()
+            if k:               # the first builds the shared model
+                for name, dt in (("shared: network build (hoses' entries in p)", s1 - s0),
+                                 ("shared: graph signature", s2 - s1),
+                                 ("shared: steady state", s4 - s3),
+                                 ("shared: integration (C)", res.wall_time),
+                                 ("shared: integrate() beyond the C", (s5 - s4) - res.wall_time),
+                                 ("shared: metrics (summarize)", s6 - s5),
+                                 ("sweep's runner, shared model: whole", s7 - s6)):
+                    add(name, dt)
+    n = len(lengths)
+    out = {}
+    for name, v in acc.items():
+        out[name] = v / (n - 1 if name.startswith(("shared", "sweep's")) else n)
+    return out
+
+
+def measure(args) -> dict:
+    """Everything for one tree: wall per worker count, stages, a few results."""
+    seed = int(time.time() * 1e6) % (2**32)
+    out = {"walls": {}, "failed": {}, "python": sys.executable}
+    sweep(lengths_of(4, seed), max(args.workers))        # warm-up: the library built/cached
+    for w in dict.fromkeys(args.workers):
+        rows, wall = sweep(lengths_of(args.variants, seed + w), w)
+        out["walls"][w] = wall
+        out["failed"][w] = sum("error" in r for r in rows)
+        out["rows"] = rows[:: max(1, len(rows) // 5)]
+    if args.stages:
+        out["stages"] = stages(lengths_of(args.stages, seed + 99))
+    return out
+
+
+def _table(head, rows):
+    widths = [max(len(str(r[i])) for r in rows + [head]) for i in range(len(head))]
+    lines = ["  ".join(str(h).rjust(w) for h, w in zip(head, widths)),
+             "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(str(c).rjust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(lines)
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variants", type=int, default=1000)
-    ap.add_argument("--workers", type=int, nargs="+", default=[1, os.cpu_count() or 1])
+    ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--stages", type=int, default=30, help="variants timed stage by stage (0: skip)")
+    ap.add_argument("--before", metavar="TREE", help="source tree to compare with (PYTHONPATH)")
+    ap.add_argument("--repeat", type=int, default=1, help="alternate runs per tree (--before)")
+    ap.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
-    lengths = np.linspace(0.05, 3.048, args.variants)
-    _init()
-    run_variant(float(lengths[0]))           # warm-up: the compiled library is built/cached here
-    rows, results = [], None
-    for w in dict.fromkeys(args.workers):
-        results, wall = sweep(lengths, w)
-        ok = [r for r in results if "error" not in r]
-        rows.append([w, len(results), len(results) - len(ok), f"{wall:.1f}",
-                     f"{wall / len(results) * 1e3:.1f}", f"{1000 * wall / len(results):.1f}"])
-    ok = [r for r in results if "error" not in r]
-    sim = np.mean([r["simulate_s"] for r in ok]) * 1e3
-    integ = np.mean([r["integrate_s"] for r in ok]) * 1e3
-    met = np.mean([r["metrics_s"] for r in ok]) * 1e3
-    head = ["workers", "variants", "failed", "wall [s]", "per variant [ms]", "1000 variants [s]"]
-    widths = [max(len(str(r[i])) for r in rows + [head]) for i in range(len(head))]
-    print(f"Layout study sweep: sections II from {lengths[0]:g} to {lengths[-1]:g} m, open-loop step "
-          f"0.25 s each, solver {ok[0]['solver'] if ok else '-'}, {os.cpu_count()} CPU cores")
-    print("  ".join(h.rjust(w) for h, w in zip(head, widths)))
-    print("  ".join("-" * w for w in widths))
-    for r in rows:
-        print("  ".join(str(c).rjust(w) for c, w in zip(r, widths)))
-    print(f"per variant (mean, last sweep): simulate() {sim:.1f} ms, of which integration "
-          f"{integ:.1f} ms; metrics {met:.1f} ms")
-    for r in ok[:: max(1, len(ok) // 5)]:
-        print(f"  L = {r['length_m']:.3f} m: supply {r['supply_hz'] or float('nan'):.1f} Hz "
-              f"{r['supply_mpa']:.2f} MPa, return {r['return_hz'] or float('nan'):.1f} Hz "
-              f"{r['return_mpa']:.2f} MPa")
-    for r in results:
-        if "error" in r:
-            print(f"  failed: L = {r['length_m']:.3f} m: {r['error']}")
+    if args.json:
+        print(json.dumps(measure(args)))
+        return
+    trees = {"this": None}
+    if args.before:
+        trees = {"before": os.path.abspath(args.before), "this": None}
+    results = {name: [] for name in trees}
+    for _ in range(args.repeat if args.before else 1):
+        for name, tree in trees.items():
+            env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1")
+            if tree:
+                env["PYTHONPATH"] = tree
+            cmd = [sys.executable, os.path.abspath(__file__), "--json", "--variants",
+                   str(args.variants), "--stages", str(args.stages), "--workers",
+                   *map(str, args.workers)]
+            cwd = tree or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+            done = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True)
+            if done.returncode:
+                sys.exit(f"bench_sweep: the {name} run failed:\n{done.stderr[-2000:]}")
+            results[name].append(json.loads(done.stdout.strip().splitlines()[-1]))
+    best = {name: {w: min(r["walls"][str(w)] for r in runs) for w in args.workers}
+            for name, runs in results.items()}
+    print(f"Layout-like sweep through hydroline.studies.sweep: {PARAMETER} from 0.05 to "
+          f"3.048 m, open-loop step 0.25 s each, {os.cpu_count()} CPU cores, load average "
+          f"{os.getloadavg()[0]:.1f}; best of {len(next(iter(results.values())))} run(s)")
+    head = ["workers", *[f"{n}: wall [s]" for n in trees], *[f"{n}: 1000 variants [s]" for n in trees]]
+    if args.before:
+        head.append("before / this")
+    rows = []
+    for w in args.workers:
+        row = [w, *[f"{best[n][w]:.1f}" for n in trees],
+               *[f"{best[n][w] * 1000 / args.variants:.1f}" for n in trees]]
+        if args.before:
+            row.append(f"{best['before'][w] / best['this'][w]:.2f}")
+        rows.append(row)
+    print(_table(head, rows))
+    failed = {n: runs[-1]["failed"] for n, runs in results.items()}
+    print("failed variants: " + "; ".join(f"{n}: {f}" for n, f in failed.items()))
+    if args.stages:
+        names = list(results["this"][-1]["stages"])
+        for runs in results.values():       # stages only one tree has
+            for r in runs:
+                for s in names:
+                    r["stages"].setdefault(s, float("nan"))
+        head = ["stage of one variant", *[f"{n} [ms]" for n in trees]]
+        if args.before:
+            head.append("before / this")
+        rows = []
+        for s in names:
+            vals = {n: min(r["stages"][s] for r in runs) * 1e3 for n, runs in results.items()}
+            row = [s, *[f"{vals[n]:.2f}" if vals[n] == vals[n] else "-" for n in trees]]
+            if args.before:
+                ok = vals["this"] > 0 and vals["before"] == vals["before"]
+                row.append(f"{vals['before'] / vals['this']:.2f}" if ok else "-")
+            rows.append(row)
+        print(f"\nwhere one variant's time goes (in-process, mean over {args.stages} variants, "
+              f"best run):")
+        print(_table(head, rows))
+    for r in results["this"][-1]["rows"]:
+        hz = lambda v: float("nan") if v is None else v  # noqa: E731
+        print(f"  L = {r['length_m']:.3f} m: supply {hz(r['supply_hz']):.1f} Hz "
+              f"{hz(r['supply_mpa']):.2f} MPa, return {hz(r['return_hz']):.1f} Hz "
+              f"{hz(r['return_mpa']):.2f} MPa")
 
 
 if __name__ == "__main__":

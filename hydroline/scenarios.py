@@ -648,6 +648,54 @@ EXPERIMENTS = {cls.kind: cls for cls in (OpenLoopStep, ClosedLoopSine, PositionS
 OWN_EXPERIMENTS = {cls.kind: cls for cls in (AxisCommands,)}
 
 
+def describe_run(res: SimulationResult, rig: Rig, circuit, net, sc: "Scenario", ss, tic: float,
+                 window: bool = True) -> None:
+    """Fill a finished run's metadata and warnings as :func:`simulate` gives them (the
+    experiment, its axes, natural frequencies, gas-release warnings, metrics window); also
+    used by :func:`hydroline.studies.sweep.simulate_shared`, whose variants run on a model
+    shared among them.
+
+    Parameters
+    ----------
+    res : SimulationResult   The run (modified)
+    rig : Rig                Parameters (SI)
+    circuit : Circuit        The rig's circuit (axis handles)
+    net : Network            The run's network (its components give stroke and w_h)
+    sc : Scenario            The experiment's commands and times
+    ss : SteadyState         The rest state the run started from
+    tic : float              ``time.perf_counter()`` at the run's start, [s]
+    window : bool            Take the metrics window (False for a streamed run)
+    """
+    res.steady_state = ss
+    first = next(iter(circuit.axes.values()))
+    act = net.component(first.actuator)
+    exp = sc.experiment
+    driven = exp.driven_axes(circuit.axes)
+    res.metadata.update(exp.metadata())
+    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
+                        stroke=act.stroke, axes=circuit.axes, experiment=exp,
+                        driven_axes=driven, stepped_axis=driven[0] if driven else first.name,
+                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
+                        axis_natural_frequency_hz={
+                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
+                            for n, a in circuit.axes.items()},
+                        total_wall_time=_time.perf_counter() - tic,
+                        steady_state_residual=ss.residual, n_states=len(net.state_names))
+    threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
+    if "stream_stats" not in res.metadata:
+        res.warnings.extend(check_cavitation(res, threshold))
+    else:   # streamed or kept in part: the column statistics have every column
+        lows = res.metadata["stream_stats"]["min"]
+        res.warnings.extend(f"{k} falls below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                            f"absolute (fluid.gas_release_pressure; lowest {lows[k] / 1e6:.3g} "
+                            f"MPa): the line model is not valid there"
+                            for k in watched_pressures(res)
+                            if k in lows.index and lows[k] < threshold)
+    if window:
+        res.metadata["metrics_window"] = metrics_window(res)
+    res.metadata["total_wall_time"] = _time.perf_counter() - tic
+
+
 def scenario_names(rig: Rig) -> list[str]:
     """Every experiment a rig can run by name: the built-in ones and the rig's own.
 
@@ -816,34 +864,8 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
                     rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                     stream_columns=stream_columns, **options)
-    res.steady_state = ss
-    first = next(iter(circuit.axes.values()))
-    act = net.component(first.actuator)
-    exp = sc.experiment
-    driven = exp.driven_axes(circuit.axes)
-    res.metadata.update(exp.metadata())
-    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
-                        stroke=act.stroke, axes=circuit.axes, experiment=exp,
-                        driven_axes=driven, stepped_axis=driven[0] if driven else first.name,
-                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
-                        axis_natural_frequency_hz={
-                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
-                            for n, a in circuit.axes.items()},
-                        total_wall_time=_time.perf_counter() - tic,
-                        steady_state_residual=ss.residual, n_states=len(net.state_names))
-    threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
-    if "stream_stats" not in res.metadata:
-        res.warnings.extend(check_cavitation(res, threshold))
-    else:   # streamed or kept in part: the column statistics have every column
-        lows = res.metadata["stream_stats"]["min"]
-        res.warnings.extend(f"{k} falls below the gas-release pressure {threshold / 1e6:.3g} MPa "
-                            f"absolute (fluid.gas_release_pressure; lowest {lows[k] / 1e6:.3g} "
-                            f"MPa): the line model is not valid there"
-                            for k in watched_pressures(res)
-                            if k in lows.index and lows[k] < threshold)
-    if stream_to is None or options.get("keep_columns") is not None:
-        res.metadata["metrics_window"] = metrics_window(res)
-    res.metadata["total_wall_time"] = _time.perf_counter() - tic
+    describe_run(res, rig, circuit, net, sc, ss, tic,
+                 window=stream_to is None or options.get("keep_columns") is not None)
     return res
 
 

@@ -33,7 +33,10 @@ from hydroline.engine import Network
 from hydroline.rigs import RigError, load_rig
 from hydroline.engine import integrate, solve_steady_state
 from hydroline.studies import (DEFAULT_LENGTHS, Design, LayoutStudy, SweepFileError, layout,
-                               parse_lengths, parse_parameters, read_journal, sweep)
+                               parse_lengths, parse_parameter, parse_parameters, read_journal,
+                               sweep)
+from hydroline.studies.design import parameter_unit
+from hydroline.studies.sweep import METRIC_COLUMNS
 from hydroline.system import make_fluid, make_line
 
 T_END = 0.12      # [s]: the metrics window of the open-loop step ends at the piston stop, ~0.11 s
@@ -548,3 +551,141 @@ def test_studies_reachable_from_import_hydroline():
             "callable(hydroline.studies.sweep); print('ok')")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0 and done.stdout.strip() == "ok", done.stderr
+
+
+# --------------------------------------------------------------------------- circuit rigs
+
+CIRCUIT_RIG = Path(__file__).parent / "data" / "ayalew2005_circuit.toml"
+
+
+def _quarter_wave_hz(rig, hose, length):
+    """c / (4 L) of a circuit hose, c = sqrt(K / rho) from its effective bulk modulus (M2),
+    by hand: the lossless quarter-wave resonance of a section between a stiff manifold and a
+    nearly blocked valve port."""
+    c = math.sqrt(rig[f"circuit.{hose}.bulk_modulus"] / rig["fluid.density"])
+    return c / (4 * length)
+
+
+def test_circuit_parameter_unit_from_the_component_declaration():
+    rig = load_rig("two_axis")
+    assert parameter_unit("circuit.axis2.supply_hose.length", rig) == "m"
+    assert parameter_unit("circuit.supply.accumulator.precharge_pressure", rig) == "Pa"
+    p = parse_parameter("circuit.axis2.supply_hose.length", "10 ft, 5 ft", rig)
+    assert p.levels == pytest.approx((3.048, 1.524))          # ft = 0.3048 m by definition
+    for path, match in (("circuit.axis2.supply_hose.ports.upstream_pressure", "structure"),
+                        ("circuit.axis9.hose.length", "no component"),
+                        ("circuit.axis2.supply_hose.colour", "no parameter 'colour'")):
+        with pytest.raises(ValueError, match=match) as e:
+            parameter_unit(path, rig)
+        assert len(str(e.value).splitlines()) == 1
+    with pytest.raises(ValueError, match="10 psi"):            # the declared unit is a length
+        parse_parameter("circuit.axis2.supply_hose.length", "10 psi", rig)
+
+
+def test_sweep_on_two_axis_rig_has_per_axis_columns_and_quarter_wave():
+    rig = load_rig("two_axis")
+    res = sweep({"circuit.axis1.supply_hose.length": "10 ft"}, rig, workers=1)
+    row = res.table.iloc[0]
+    assert row["error"] is None
+    assert res.axes == ["axis1", "axis2"] and res.scenario == "position-step"
+    for col in ("axis1.supply.amplitude_mpa", "axis2.return.frequency_hz",
+                "axis2.position_disturbance_mm", "axis1.position_change_mm",
+                "axis1.supply.settling_method"):
+        assert col in res.table.columns
+    assert "supply_amplitude_mpa" not in res.table.columns
+    f = _quarter_wave_hz(rig, "axis1.supply_hose", 3.048)
+    assert row["axis1.supply.frequency_hz"] == pytest.approx(f, rel=0.05)
+    assert np.isnan(row["axis1.position_disturbance_mm"])     # the stepped axis moves on purpose
+    assert row["axis1.position_change_mm"] == pytest.approx(40, rel=0.05)   # the 40 mm step
+    assert 0 < row["axis2.position_disturbance_mm"] < 1
+
+
+def test_circuit_written_out_by_hand_gives_the_template_sweep_row():
+    """The paper's rig as a circuit file and as the template: one sweep row each, the same
+    numbers within the solver tolerance."""
+    template = sweep({"supply.section2.length+return.section2.length": "1.524 m"}, None,
+                     workers=1, scenario="open-loop-step").table.iloc[0]
+    circuit = sweep({"circuit.supply.section2.length+circuit.return.section2.length": "1.524 m"},
+                    str(CIRCUIT_RIG), workers=1, scenario="open-loop-step").table.iloc[0]
+    assert template["error"] is None and circuit["error"] is None
+    for col in METRIC_COLUMNS:
+        if col == "wall_time_s" or col.endswith("settling_time_s"):
+            continue
+        assert circuit[col] == pytest.approx(template[col], rel=1e-3, abs=1e-4), col
+
+
+def test_layout_on_circuit_rig_varies_the_named_hoses():
+    rig = load_rig("two_axis")
+    study = layout(rig, [1.524], sections="axis1.supply_hose,circuit.axis1.return_hose")
+    assert study.sections == ("axis1.supply_hose", "axis1.return_hose") and study.axis == "axis1"
+    rec = study.records()[0]
+    assert rec["supply"]["frequency_hz"] == pytest.approx(
+        _quarter_wave_hz(rig, "axis1.supply_hose", 1.524), rel=0.05)
+    assert rec["return"]["frequency_hz"] == pytest.approx(
+        _quarter_wave_hz(rig, "axis1.return_hose", 1.524), rel=0.08)
+    c = math.sqrt(rig["circuit.axis1.supply_hose.bulk_modulus"] / rig["fluid.density"])
+    assert study.table()["supply_round_trip_ms"][0] == pytest.approx(2 * 1.524 / c * 1e3, rel=0.02)
+
+
+def test_layout_on_circuit_rig_without_sections_is_one_line_naming_the_rig(capsys):
+    assert main(["layout", "two_axis"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "two_axis" in err and "--sections" in err and "axis1.supply_hose" in err
+    assert main(["layout", "two_axis", "--sections", "axis1.hose"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "no hose section 'axis1.hose'" in err
+
+
+# --------------------------------------------------------------------------- shared models
+
+def test_variants_of_one_structure_share_one_model_and_give_simulates_rows():
+    """Hose variants (length, bulk modulus) run on one shared model with their own p give
+    the rows of simulate() + summarize() within the integrator's accuracy (5.5e-3 % of the
+    excursion at the defaults: differences come from the graph's constants now being p)."""
+    from hydroline.studies.sweep import VariantRunner
+
+    rig = load_rig()
+    shared, plain = VariantRunner(rig), VariantRunner(rig, share_models=False)
+    variants = [{"supply.section2.length": 1.5, "return.section2.length": 1.5},
+                {"supply.section2.length": 0.9, "return.section2.length": 0.9},
+                {"supply.section2.length": 0.9, "return.section2.length": 0.9,
+                 "supply.section2.bulk_modulus": 1.6e8}]
+    for i, values in enumerate(variants):
+        a, b = shared(i, values), plain(i, values)
+        assert a["error"] is None and b["error"] is None
+        for k in METRIC_COLUMNS:
+            if k == "wall_time_s":
+                continue
+            if k.endswith("settling_time_s"):
+                assert (a[k] is None) == (b[k] is None), k
+                if a[k] is not None:
+                    assert a[k] == pytest.approx(b[k], abs=1e-3), k
+            else:
+                assert a[k] == pytest.approx(b[k], rel=2e-4, abs=1e-4), k
+    assert shared.shared_runs == 2          # the 2nd and 3rd ran on the 1st's model
+
+
+def test_graph_signature_tells_structures_apart():
+    from hydroline.components.hose import coefficients_as_parameters
+    from hydroline.scenarios import build_scenario
+    from hydroline.studies.sweep import graph_signature
+    from hydroline.system import build_circuit
+
+    def signature(**lengths):
+        rig = load_rig()
+        for path, value in lengths.items():
+            rig.set(path.replace("__", "."), value)
+        with coefficients_as_parameters():
+            circuit = build_circuit(rig)
+            net = circuit.network(build_scenario(rig, axes=circuit.axes).commands)
+        return graph_signature(net), net
+
+    base, net = signature()
+    assert any(k.startswith("supply.section2.A") for k in net.parameter_names)
+    assert signature(supply__section2__length="1 m")[0] == base          # numbers only: in p
+    assert signature(supply__section2__length="0 m")[0] != base          # section removed
+    assert signature(supply__accumulator__precharge_pressure="8 MPa")[0] != base  # a constant
+    circuit = build_circuit(load_rig())                                  # outside: constants
+    assert not any(".A" in k for k in circuit.network(
+        build_scenario(load_rig(), axes=circuit.axes).commands).parameter_names)

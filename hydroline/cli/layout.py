@@ -1,9 +1,10 @@
 """``hydroline layout``: the section II hose-layout study (the 2005 paper's Figs. 13-14)."""
 from __future__ import annotations
 
+import math
+
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS
-from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout
+from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
 
@@ -32,7 +33,17 @@ def register(sub):
                    f"section (default: {_DEFAULT}, the paper's 10, 7.5, 5, 2.46 ft and 0)")
     p.add_argument("--side", default="both", choices=("both", "supply", "return"),
                    help="which sections II take the lengths (default: both)")
-    p.add_argument("--scenario", default="open-loop-step", choices=SCENARIOS)
+    p.add_argument("--sections", metavar="NAME,NAME",
+                   help="the hose sections that take the lengths instead of the sections II: "
+                   "on a circuit rig its hose components, e.g. "
+                   "'axis1.supply_hose,axis1.return_hose' ('hydroline circuit RIG' lists them); "
+                   "default: the rig's supply.section2 and return.section2")
+    p.add_argument("--axis", help="a multi-axis rig: the axis whose port pressures are reported "
+                   "(default: the axis the first section belongs to, else the stepped axis)")
+    p.add_argument("--scenario", metavar="NAME",
+                   help="the experiment run per length: open-loop-step, closed-loop-sine, "
+                   "position-step or the rig's own [scenario.NAME] (default: the rig's "
+                   "rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")
@@ -55,8 +66,10 @@ def run(args) -> int:
     sides = ("supply", "return") if args.side == "both" else (args.side,)
     # the folder is checked before the study runs, not after it
     out = out_dir(args.out, tuple(LayoutStudy.FILES.values())) if args.out else None
-    study = layout(rig, args.lengths, sides=sides, scenario=args.scenario, t_end=t_end,
-                   solver=args.solver, progress=_progress(not args.json))
+    sections = layout_sections(rig, args.sections, sides)   # refused before any run
+    study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
+                   scenario=args.scenario, t_end=t_end, solver=args.solver,
+                   progress=_progress(not args.json))
     files = {}
     if args.out:   # all three files replaced together, or none (a failed write keeps the old)
         with atomic_outputs(out) as temp:
@@ -64,8 +77,13 @@ def run(args) -> int:
     if args.json:
         dump_json(study.records())
         return 0
-    print(f"hydroline layout: {args.scenario} on {study.rig_name}, sections II of "
-          f"{' and '.join(sides)} set to each length ({study.wall_time:.1f} s)")
+    if args.sections:
+        what = f"{', '.join(study.sections)} set to each length" + \
+            (f", ports of {study.axis}" if study.axis else "")
+    else:
+        what = f"sections II of {' and '.join(sides)} set to each length"
+    print(f"hydroline layout: {study.scenario} on {study.rig_name}, {what} "
+          f"({study.wall_time:.1f} s)")
     for side in ("supply", "return"):
         rows = []
         for rec, s in zip(study.records(), study.summaries):
@@ -77,10 +95,11 @@ def run(args) -> int:
         print_table(["length [m]", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                      "steady change [MPa]", "settling [ms]"], rows)
     print(f"  {conclusion(study)}")
-    rise = [s["flow"]["flow_rise_time_ms"] for s in study.summaries]
+    rise = [s["flow"]["flow_rise_time_ms"] for s in study.summaries
+            if math.isfinite(s["flow"]["flow_rise_time_ms"])]
     trips = [(L, s["flow"]["supply_round_trip_ms"]) for L, s in zip(study.lengths, study.summaries)
-             if L > 0]
-    if trips:
+             if L > 0 and math.isfinite(s["flow"]["supply_round_trip_ms"])]
+    if trips and rise:
         print(f"  The valve's flow rises (10-90 %) in {min(rise):.1f}-{max(rise):.1f} ms; the supply "
               f"section II's round trip 2L/c is " + ", ".join(f"{t:.1f} ms at {L:g} m" for L, t in trips)
               + ": where the round trip is shorter than the rise, the reflection returns before the "

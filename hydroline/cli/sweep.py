@@ -9,8 +9,8 @@ import time
 import numpy as np
 
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS
-from ..studies.sweep import METRIC_COLUMNS, sweep
+from ..scenarios import default_scenario
+from ..studies.sweep import sweep
 from .common import dump_json, print_table, quantity
 
 EPILOG = """\
@@ -26,6 +26,11 @@ with --samples N (random design; variant i drawn from numpy default_rng([seed, i
   choice(V1, V2, ...)              a list of levels is a choice too; one value a constant
 PATH1+PATH2=VALUES sets both paths to the same value, e.g.
   --set 'supply.section2.diameter+return.section2.diameter=12.7 mm,15.9 mm,19.05 mm'
+On a circuit rig PATH is circuit.<component>.<parameter>, read in the unit the component
+declares ('hydroline circuit --types'), e.g.
+  hydroline sweep two_axis --set 'circuit.axis2.supply_hose.length=1.5 m,3.048 m'
+and a rig with several servo axes gets its metrics per axis (<axis>.supply.amplitude_mpa,
+<axis>.position_disturbance_mm, ...).
 
 examples:
   hydroline sweep --set 'supply.section2.bulk_modulus=150 MPa,178 MPa,220 MPa' \\
@@ -62,7 +67,10 @@ def register(sub):
                    help="a parameter and its values with units (repeat for more; syntax below)")
     p.add_argument("--samples", type=int, metavar="N", help="random design of N variants (default: full factorial)")
     p.add_argument("--seed", type=int, default=0, metavar="S", help="seed of the random design (default 0)")
-    p.add_argument("--scenario", default="open-loop-step", choices=SCENARIOS)
+    p.add_argument("--scenario", metavar="NAME",
+                   help="the experiment each variant runs: open-loop-step, closed-loop-sine, "
+                   "position-step or the rig's own [scenario.NAME] (default: the rig's "
+                   "rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time per variant with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--workers", type=int, metavar="W",
@@ -116,6 +124,7 @@ class _Progress:
 
 def run(args) -> int:
     rig = load_rig(args.rig)
+    scenario = args.scenario or default_scenario(rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
@@ -133,7 +142,7 @@ def run(args) -> int:
     old = signal.signal(signal.SIGTERM, _terminate)    # a kill finishes cleanly, like Ctrl-C
     try:
         result = sweep(args.sets, rig, samples=args.samples, seed=args.seed,
-                       scenario=args.scenario, t_end=t_end, solver=args.solver,
+                       scenario=scenario, t_end=t_end, solver=args.solver,
                        workers=args.workers, scheduler=args.scheduler, out=args.out,
                        resume=args.resume, progress=progress, callback=count)
     except KeyboardInterrupt as e:
@@ -157,23 +166,29 @@ def run(args) -> int:
         where = f"the Dask scheduler at {args.scheduler}"
     else:
         where = f"{args.workers or 'CPU-count'} local worker processes"
-    print(f"hydroline sweep: {d.describe()}, {args.scenario} on {rig.get('rig.name', rig.source)}, "
+    print(f"hydroline sweep: {d.describe()}, {scenario} on {rig.get('rig.name', rig.source)}, "
           f"{where}")
     print("  parameters: " + "; ".join(f"{p.name} = {p.describe()}" for p in d.parameters))
     print(f"  {result.n_computed} variants run now, {len(table) - result.n_computed} from the "
           f"results file; {result.n_failed} failed; {result.wall_time:.1f} s")
     inputs = d.columns
     if len(table) <= 20:
-        heads = ["variant", *inputs, "supply [Hz]", "supply [MPa]", "return [Hz]", "return [MPa]",
-                 "wall [s]", "error"]
-        rows = [[r["variant"], *[r[c] for c in inputs],
-                 *[_opt(r[c]) for c in ("supply_frequency_hz", "supply_amplitude_mpa",
-                                        "return_frequency_hz", "return_amplitude_mpa", "wall_time_s")],
+        if len(result.axes) > 1:    # per axis: port amplitudes and the position disturbance
+            shown = [(f"{a}.{side}.amplitude_mpa", f"{a} {side} [MPa]") for a in result.axes
+                     for side in ("supply", "return")]
+            shown += [(f"{a}.position_disturbance_mm", f"{a} disturbance [mm]")
+                      for a in result.axes]
+        else:
+            shown = [("supply_frequency_hz", "supply [Hz]"), ("supply_amplitude_mpa", "supply [MPa]"),
+                     ("return_frequency_hz", "return [Hz]"), ("return_amplitude_mpa", "return [MPa]")]
+        shown.append(("wall_time_s", "wall [s]"))
+        heads = ["variant", *inputs, *[h for _, h in shown], "error"]
+        rows = [[r["variant"], *[r[c] for c in inputs], *[_opt(r[c]) for c, _ in shown],
                  _short(r["error"])] for r in table.to_dict("records")]
         print_table(heads, rows)
     else:
         rows = []
-        for c in METRIC_COLUMNS:
+        for c in result.metrics:
             v = table[c].to_numpy(dtype=float)
             ok = v[np.isfinite(v)]
             rows.append([c, len(ok), *(np.percentile(ok, [0, 5, 50, 95, 100]) if len(ok) else [None] * 5)])

@@ -13,6 +13,29 @@ __all__ = ["HoseSection"]
 
 _QUANTITY = {"pressure": "pressure", "flow": "flow"}
 
+#: Hose sections made while this is True read their line's matrix entries (the nonzeros of A,
+#: B, C, D, M8-M14) from the runtime parameters ``p`` instead of the graph's constants, so
+#: that variants that differ only in hose numbers (length, bore, bulk modulus: the layout
+#: study) share one model and swap ``p`` (:func:`coefficients_as_parameters`; the sweep's
+#: worker processes set it). Off by default: a single run's graph folds them as constants.
+COEFFICIENTS_AS_PARAMETERS = False
+_MATRICES = ("A", "B", "C", "D")
+
+
+class coefficients_as_parameters:
+    """Context manager: hose sections made inside it carry their line's matrix entries in
+    the runtime parameters (see :data:`COEFFICIENTS_AS_PARAMETERS`)."""
+
+    def __enter__(self):
+        global COEFFICIENTS_AS_PARAMETERS
+        self._saved, COEFFICIENTS_AS_PARAMETERS = COEFFICIENTS_AS_PARAMETERS, True
+        return self
+
+    def __exit__(self, *exc):
+        global COEFFICIENTS_AS_PARAMETERS
+        COEFFICIENTS_AS_PARAMETERS = self._saved
+        return False
+
 
 @dataclass(kw_only=True)
 class HoseSection(Component):
@@ -39,6 +62,12 @@ class HoseSection(Component):
         self.outputs = {n: Port(n.split("_")[1], f"{n.replace('_', ' ')} of the line")
                         for n in m.output_names}
         self.feedthrough = bool(np.any(m.D != 0))
+        #: (matrix, row, column) of each nonzero entry, when they are runtime parameters
+        self.coefficient_pattern = None
+        if COEFFICIENTS_AS_PARAMETERS:
+            self.coefficient_pattern = tuple(
+                (name, int(i), int(j)) for name in _MATRICES
+                for i, j in zip(*np.nonzero(np.asarray(getattr(m, name), dtype=float))))
         scale_p, scale_q = max(self.nominal_pressure, 1e5), 1e-4
         self._states = []
         for name in m.state_names:
@@ -56,16 +85,36 @@ class HoseSection(Component):
         uv = ops.vertcat([u[n] for n in self.model.input_names]) if u else None
         return xv, uv
 
+    def runtime_parameters(self):
+        """The line's matrix entries ``"<M><row>_<col>"`` where they are runtime parameters
+        (:data:`COEFFICIENTS_AS_PARAMETERS`), [SI units of the state-space model]; else none."""
+        if self.coefficient_pattern is None:
+            return {}
+        return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
+                for name, i, j in self.coefficient_pattern}
+
+    def _product(self, name, v, p, rows):
+        """Matrix ``name`` (from p where its entries are parameters) times vector v."""
+        if self.coefficient_pattern is None:
+            return ops.matvec(getattr(self.model, name), v)
+        out = [0.0] * rows
+        for m, i, j in self.coefficient_pattern:
+            if m == name:
+                out[i] = out[i] + p[f"{m}{i}_{j}"] * v[j]
+        return ops.vertcat(out)
+
     def outputs_of(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
-        y = ops.matvec(self.model.C, xv)
+        rows = len(self.model.output_names)
+        y = self._product("C", xv, p, rows)
         if self.feedthrough:
-            y = y + ops.matvec(self.model.D, uv)
+            y = y + self._product("D", uv, p, rows)
         return {n: y[i] for i, n in enumerate(self.model.output_names)}
 
     def derivatives(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
-        dx = ops.matvec(self.model.A, xv) + ops.matvec(self.model.B, uv)
+        rows = len(self._states)
+        dx = self._product("A", xv, p, rows) + self._product("B", uv, p, rows)
         return {s.name: dx[i] for i, s in enumerate(self._states)}
 
     def initial_guess(self):

@@ -6,16 +6,19 @@
 * :func:`sweep` -- any rig parameters by their path in the rig file, a full factorial or
   random samples from distributions, in parallel over local processes or a Dask cluster,
   every row appended to a results file as it finishes so that an interrupted sweep resumes.
-  CLI: ``hydroline sweep``. Value and distribution syntax: :mod:`hydroline.studies.design`.
+  CLI: ``hydroline sweep``. Value and distribution syntax: :mod:`hydroline.studies.design`;
+  the results file: :mod:`.journal`; where variants run: :mod:`.executors`.
 * :func:`port_settling` -- the studies' 2 % settling time of a port pressure: measured on the
   metrics window, or estimated from the decay of its oscillation (:mod:`.settling`).
 """
 from .design import DISTRIBUTIONS, Design, Distribution, Parameter, parse_parameter, parse_parameters
 from .layout import DEFAULT_LENGTHS, LayoutStudy, layout, parse_lengths
 from .settling import port_settling, port_summary
-from .sweep import METRIC_COLUMNS, SweepFileError, SweepResult, read_journal, run_variant, sweep
+from .sweep import (METRIC_COLUMNS, SweepFileError, SweepResult, VariantRunner, metric_columns,
+                    read_journal, run_variant, sweep)
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths",
-           "sweep", "SweepResult", "SweepFileError", "run_variant", "read_journal", "METRIC_COLUMNS",
+           "sweep", "SweepResult", "SweepFileError", "run_variant", "VariantRunner", "read_journal",
+           "METRIC_COLUMNS", "metric_columns",
            "Design", "Parameter", "Distribution", "DISTRIBUTIONS", "parse_parameter",
            "parse_parameters", "port_settling", "port_summary"]

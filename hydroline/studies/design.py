@@ -43,12 +43,26 @@ __all__ = ["Parameter", "Design", "Distribution", "parse_parameter", "parse_para
 _CALL = re.compile(r"^\s*([A-Za-z_]\w*)\s*\((.*)\)\s*$", re.S)
 
 
-def parameter_unit(path: str) -> str:
-    """SI unit of a rig path from :data:`hydroline.rigs.SCHEMA` ("-" dimensionless, "str" text).
+def parameter_unit(path: str, rig: Rig | None = None) -> str:
+    """SI unit of a rig path ("-" dimensionless, "str" text).
 
-    Raises RigError (one line) for a path the rig file does not know.
+    Template paths (``supply.section2.length``) take it from :data:`hydroline.rigs.SCHEMA`;
+    circuit paths (``circuit.<component>.<parameter>``) from the declaration of the
+    component's type in ``rig`` (:mod:`hydroline.circuit.types`).
+
+    Parameters
+    ----------
+    path : str   Dotted rig path
+    rig : Rig    The rig the path belongs to (needed for circuit paths)
+
+    Raises
+    ------
+    RigError  (one line) for a path the rig does not know or that cannot be swept.
     """
-    section, _, key = path.strip().rpartition(".")
+    path = path.strip()
+    if path.startswith("circuit."):
+        return _circuit_unit(path, rig)
+    section, _, key = path.rpartition(".")
     if section not in SCHEMA:
         raise RigError(f"{path}: unknown component/section '{section or key}' "
                        f"(known: {', '.join(sorted(SCHEMA))})")
@@ -61,9 +75,38 @@ def parameter_unit(path: str) -> str:
     return unit
 
 
-def _read_value(path: str, text, unit: str):
+def _circuit_unit(path: str, rig: Rig | None) -> str:
+    """The declared SI unit of a circuit component's parameter in ``rig``."""
+    from ..circuit import CircuitError, parse_circuit_value
+
+    if rig is None:
+        raise RigError(f"{path}: a circuit parameter needs its rig (the component's type "
+                       f"declares the unit)")
+    parts = path.split(".")
+    if parts[-1] == "type" or any(p in ("ports", "terms") for p in parts[2:]):
+        raise RigError(f"{path}: a component's type, ports and flow terms are its structure "
+                       f"and cannot be swept; sweep a numeric parameter")
+    found = []
+
+    def capture(p, raw_value, unit):    # parse_circuit_value's reader: keep the unit
+        found.append(unit)
+        return raw_value
+
+    try:
+        parse_circuit_value(path, None, rig.raw, capture)
+    except CircuitError as e:
+        raise RigError(f"{str(e)} (rig {rig.source})") from None
+    if not found:
+        raise RigError(f"{path}: not a parameter of a circuit component of rig {rig.source}")
+    unit = found[0]
+    if unit.startswith("list:"):
+        raise RigError(f"{path}: a list parameter cannot be swept; sweep a scalar parameter")
+    return unit
+
+
+def _read_value(path: str, text, unit: str, rig: Rig | None = None):
     """One value of a parameter, read exactly as :meth:`Rig.set` reads it -> SI float or text."""
-    probe = Rig({}, {}, "--set")
+    probe = Rig({}, dict(rig.raw) if rig is not None else {}, "--set")
     probe.set(path, text.strip() if isinstance(text, str) else text)
     return probe.values[path]
 
@@ -150,18 +193,18 @@ class Parameter:
         return ", ".join(shown)
 
 
-def _parse_paths(text: str) -> tuple:
+def _parse_paths(text: str, rig: Rig | None = None) -> tuple:
     paths = tuple(p.strip() for p in text.split("+"))
     if not all(paths):
         raise RigError(f"--set {text}=...: empty parameter path")
-    units = {parameter_unit(p) for p in paths}
+    units = {parameter_unit(p, rig) for p in paths}
     if len(units) > 1:
         raise RigError(f"--set {text}: paths set together must share one unit, "
                        f"got {', '.join(sorted(units))}")
     return paths
 
 
-def parse_parameter(path, values) -> Parameter:
+def parse_parameter(path, values, rig: Rig | None = None) -> Parameter:
     """A :class:`Parameter` from a path (``"a.b.c"`` or ``"a.b.c+d.e.f"``) and its values.
 
     Parameters
@@ -172,6 +215,8 @@ def parse_parameter(path, values) -> Parameter:
                    ``"uniform(150 MPa, 220 MPa)"``), a list of quantities (strings with
                    units, pint Quantities, plain numbers for dimensionless parameters), or a
                    :class:`Distribution` already in SI units
+    rig : Rig      The rig swept (needed for ``circuit.<component>.<parameter>`` paths, whose
+                   unit the component's type declares)
 
     Returns
     -------
@@ -181,8 +226,8 @@ def parse_parameter(path, values) -> Parameter:
     ------
     RigError / UnitError (ValueError), one line naming the path and its unit.
     """
-    paths = _parse_paths(path)
-    unit = parameter_unit(paths[0])
+    paths = _parse_paths(path, rig)
+    unit = parameter_unit(paths[0], rig)
     name = "+".join(paths)
     if isinstance(values, Distribution):
         _check_distribution(name, values, unit)
@@ -190,11 +235,11 @@ def parse_parameter(path, values) -> Parameter:
     if isinstance(values, (list, tuple)):
         if not values:
             raise RigError(f"{name}: no values given")
-        levels = tuple(_read_value(paths[0], v, unit) for v in values)
+        levels = tuple(_read_value(paths[0], v, unit, rig) for v in values)
         return Parameter(paths, unit, levels=levels, spec=",".join(map(str, values)))
     if not isinstance(values, str):
         values = [values]
-        return parse_parameter(path, values)
+        return parse_parameter(path, values, rig)
     text = values.strip()
     m = _CALL.match(text)
     if m and m.group(1).lower() in (*DISTRIBUTIONS, "linspace"):
@@ -202,20 +247,20 @@ def parse_parameter(path, values) -> Parameter:
         if kind == "linspace":
             if len(args) != 3:
                 raise RigError(f"{name}: linspace takes (FIRST, LAST, COUNT), got {text!r}")
-            a, b = (_read_value(paths[0], v, unit) for v in args[:2])
+            a, b = (_read_value(paths[0], v, unit, rig) for v in args[:2])
             n = _count(name, args[2])
             levels = tuple(float(v) for v in np.linspace(a, b, n))
             return Parameter(paths, unit, levels=levels, spec=text)
         if kind == "lognormal":
             if len(args) != 2:
                 raise RigError(f"{name}: lognormal takes (MEDIAN, SIGMA), got {text!r}")
-            parsed = (_read_value(paths[0], args[0], unit), _plain_number(name, args[1]))
+            parsed = (_read_value(paths[0], args[0], unit, rig), _plain_number(name, args[1]))
         else:
             n = DISTRIBUTIONS[kind]
             if (n is not None and len(args) != n) or not args:
                 raise RigError(f"{name}: {kind} takes {n or 'one or more'} values with units, "
                                f"got {text!r}")
-            parsed = tuple(_read_value(paths[0], v, unit) for v in args)
+            parsed = tuple(_read_value(paths[0], v, unit, rig) for v in args)
         dist = Distribution(kind, tuple(parsed))
         _check_distribution(name, dist, unit)
         return Parameter(paths, unit, distribution=dist, spec=text)
@@ -225,7 +270,7 @@ def parse_parameter(path, values) -> Parameter:
     args = _split_args(text)
     if not args:
         raise RigError(f"{name}: no values given")
-    return Parameter(paths, unit, levels=tuple(_read_value(paths[0], v, unit) for v in args),
+    return Parameter(paths, unit, levels=tuple(_read_value(paths[0], v, unit, rig) for v in args),
                      spec=text)
 
 
@@ -267,9 +312,15 @@ def _check_distribution(name, d: Distribution, unit):
         raise RigError(f"{name}: triangular(LOW, MODE, HIGH) needs LOW <= MODE <= HIGH, LOW < HIGH")
 
 
-def parse_parameters(parameters) -> list[Parameter]:
+def parse_parameters(parameters, rig: Rig | None = None) -> list[Parameter]:
     """Parameters from ``["PATH=SPEC", ...]`` (the CLI's ``--set``), a dict ``{PATH: values}``
-    or a list of :class:`Parameter`; a path may appear once."""
+    or a list of :class:`Parameter`; a path may appear once.
+
+    Parameters
+    ----------
+    parameters : list or dict   As :func:`hydroline.studies.sweep` takes them
+    rig : Rig                   The rig swept (units of circuit paths)
+    """
     out = []
     if isinstance(parameters, dict):
         items = list(parameters.items())
@@ -287,7 +338,7 @@ def parse_parameters(parameters) -> list[Parameter]:
             else:
                 items.append(tuple(p))
     for it in items:
-        out.append(it if isinstance(it, Parameter) else parse_parameter(*it))
+        out.append(it if isinstance(it, Parameter) else parse_parameter(*it, rig=rig))
     seen = set()
     for p in out:
         for path in p.paths:

@@ -47,14 +47,15 @@ import numpy as np
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import SCENARIOS, simulate
+from ..scenarios import scenario_names, simulate
 from ..engine import SteadyStateError
 from ..lines import Line
 from ..system import make_fluid
 from ..units import parse_quantity
 from .settling import port_summary
 
-__all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion"]
+__all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion",
+           "layout_sections"]
 
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
@@ -124,6 +125,10 @@ class LayoutStudy:
     wall_time : float          Wall time of the whole study, [s]
     wave_speeds : dict         side -> wave speed c of its section II (M2), [m/s]
     files : dict               What :meth:`save` wrote
+    sections : tuple           The hose sections whose length was set (template rig:
+                               ``supply.section2``, ...; circuit rig: component names)
+    axis : str                 The servo axis whose port pressures the study reports (a
+                               multi-axis rig; None on a single-axis rig)
     """
 
     lengths: list
@@ -135,6 +140,8 @@ class LayoutStudy:
     wall_time: float = 0.0
     wave_speeds: dict = field(default_factory=dict)
     files: dict = field(default_factory=dict)
+    sections: tuple = ()
+    axis: str | None = None
 
     def records(self) -> list[dict]:
         """The ``--json`` list: ``[{"section2_length_m", "supply": {frequency_hz,
@@ -303,22 +310,27 @@ class LayoutStudy:
         if flat:
             ax_f.text(0.02, 0.04, "no point at " + ", ".join(f"{L:g}" for L in flat) +
                       " m: no oscillation", transform=ax_f.transAxes, fontsize=8, color="0.4")
+        what = (f"sections II of {' and '.join(self.sides)} set" if not self.sections or
+                set(self.sections) == {f"{s}.section2" for s in self.sides} else
+                f"{', '.join(self.sections)} set" + (f"; ports of {self.axis}" if self.axis else ""))
         fig.suptitle(title or f"Section II layout study: {self.scenario} on {self.rig_name} "
-                     f"(sections II of {' and '.join(self.sides)} set)", fontsize=11, y=0.995)
+                     f"({what})", fontsize=11, y=0.995)
         fig.subplots_adjust(left=0.07, right=0.98, top=0.955, bottom=0.05)
         if path is not None:
             fig.savefig(path, dpi=110)
         return fig
 
 
-def _flow_rise_time(res) -> float:
+def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
     """10-90 % rise time [s] of the valve's supply-port flow after the step (NaN if none).
 
     The flow step at the valve starts the water hammer; it reaches the hose as the full
     Joukowsky swing ``Z0 * dQ`` only when it rises faster than the hose's round-trip wave time
     ``2 L / c``. The final flow is the mean over the last 20 % of the metrics window."""
     t0, t1, _ = res.metadata["metrics_window"]
-    t, q = res.t, res["supply_port_flow"]
+    if flow_signal not in res:
+        return float("nan")
+    t, q = res.t, res[flow_signal]
     w = (t >= t0) & (t <= t1)
     tw, qw = t[w], q[w]
     q0 = float(np.interp(t0, t, q))
@@ -367,17 +379,116 @@ def conclusion(study: "LayoutStudy") -> str:
     return text[0].upper() + text[1:] + "."
 
 
-def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "open-loop-step",
-           t_end: float | None = None, solver: str = "auto", progress=None) -> LayoutStudy:
+def layout_sections(rig: Rig, sections=None, sides=SIDES) -> tuple:
+    """The hose sections a layout study varies, checked against the rig.
+
+    Parameters
+    ----------
+    rig : Rig                 The rig
+    sections : str or sequence  Hose sections by name, comma-separated or a sequence: on a
+                              template rig ``supply.section2``, ``return.section1``, ...; on
+                              a circuit rig its hose components (``axis1.supply_hose``;
+                              a ``circuit.`` prefix is allowed). None: the sections II of
+                              ``sides`` (template rigs, and circuit rigs with hoses named
+                              ``supply.section2`` / ``return.section2``)
+    sides : sequence          "supply" and/or "return", for the default
+
+    Returns
+    -------
+    tuple[str]  Section names (circuit component names without ``circuit.``)
+
+    Raises
+    ------
+    RigError  One line naming the rig: a section it does not have, or a circuit rig whose
+              hoses the study cannot tell (name them with ``--sections``).
+    """
+    from ..circuit import has_circuit
+
+    circuit = has_circuit(rig.values)
+    hoses = layout_sections_available(rig)
+    if sections is None:
+        names = [f"{side}.section2" for side in sides]
+        if circuit and not all(n in hoses for n in names):
+            raise RigError(f"rig {rig.source}: cannot tell which hoses the layout study varies "
+                           f"(no hoses named {' and '.join(names)}); name them with --sections, "
+                           f"e.g. --sections {','.join(hoses[:2]) or 'NAME'} (its hoses: "
+                           f"{', '.join(hoses) or 'none'})")
+        return tuple(names)
+    items = [x.strip() for x in sections.split(",")] if isinstance(sections, str) else \
+        [str(x).strip() for x in sections]
+    items = [x[len("circuit."):] if x.startswith("circuit.") else x for x in items]
+    if not items or not all(items):
+        raise RigError(f"--sections: expected comma-separated hose sections of rig "
+                       f"{rig.source} (its hoses: {', '.join(hoses)}), got {sections!r}")
+    for name in items:
+        if name not in hoses:
+            raise RigError(f"--sections: rig {rig.source} has no hose section {name!r} "
+                           f"(its hoses: {', '.join(hoses)})")
+    if len(set(items)) != len(items):
+        raise RigError(f"--sections: a hose section is named twice in {sections!r}")
+    return tuple(items)
+
+
+def _length_path(rig: Rig, section: str) -> str:
+    from ..circuit import has_circuit
+
+    return f"circuit.{section}.length" if has_circuit(rig.values) else f"{section}.length"
+
+
+def _section_side(section: str) -> str | None:
+    """"supply" or "return" where the section's name says which, else None."""
+    for side in SIDES:
+        if side in section.split(".")[-1] or section.split(".")[0] == side:
+            return side
+    return None
+
+
+def _report_axis(res, sections, axis):
+    """The axis whose ports the study reports: the one given, else the one whose name
+    prefixes the first section's, else the experiment's stepped axis."""
+    axes = res.metadata.get("axes") or {}
+    if len(axes) <= 1:
+        return None
+    if axis is not None:
+        if axis not in axes:
+            raise RigError(f"--axis: no axis {axis!r} in the rig (axes: {', '.join(axes)})")
+        return axis
+    for name in axes:
+        if any(s.startswith(f"{name}.") for s in sections):
+            return name
+    stepped = res.metadata.get("stepped_axis")
+    return stepped if stepped in axes else next(iter(axes))
+
+
+def _wave_speed(rig: Rig, section: str, fluid) -> float:
+    """Wave speed c (M2) of a hose section of the rig, [m/s]."""
+    from ..circuit import has_circuit
+
+    base = f"circuit.{section}" if has_circuit(rig.values) else section
+    return Line(1.0, rig[f"{base}.diameter"], fluid, rig.get(f"{base}.bulk_modulus")).wave_speed
+
+
+def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axis=None,
+           scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
+           progress=None) -> LayoutStudy:
     """The section II layout study: the scenario run once per hose length.
 
     Parameters
     ----------
-    rig : Rig, str or None   The rig (None: the embedded 2005 paper's rig)
-    lengths : sequence or str  Section II lengths, [m] (numbers are metres; strings may carry
-                             units, "10 ft"); 0 removes the section (close-coupled manifold)
+    rig : Rig, str or None   The rig (None: the embedded 2005 paper's rig; a shipped rig may
+                             be named)
+    lengths : sequence or str  Section lengths, [m] (numbers are metres; strings may carry
+                             units, "10 ft"); 0 removes a template rig's section
+                             (close-coupled manifold)
     sides : sequence         Which sections II take the length: "supply", "return" or both
-    scenario : str           "open-loop-step" (default, the paper's) or "closed-loop-sine"
+                             (when ``sections`` is None)
+    sections : str or sequence  The hose sections that take the length (see
+                             :func:`layout_sections`): a circuit rig's hose components, e.g.
+                             "axis1.supply_hose,axis1.return_hose"; None: the sections II
+    axis : str               Multi-axis rig: the axis whose port pressures are reported (None:
+                             the axis the first section belongs to by name, else the stepped)
+    scenario : str           One of :func:`hydroline.scenarios.scenario_names`; None: the rig's
+                             ``rig.scenario``, else "open-loop-step" (the paper's)
     t_end : float            Simulated time, [s]; the scenario's default when None
     solver : str             See :func:`hydroline.engine.integrate`
     progress : callable      ``progress(done, total)`` after each length
@@ -387,36 +498,77 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, scenario: str = "o
     LayoutStudy  (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
     ``plot()``/``save(folder)`` the figure and CSV files)
     """
+    from ..scenarios import default_scenario
+
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
-    if scenario not in SCENARIOS:
-        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
+    scenario = scenario or default_scenario(rig)
+    if scenario not in scenario_names(rig):
+        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: "
+                       f"{', '.join(scenario_names(rig))})")
     sides = (sides,) if isinstance(sides, str) else tuple(sides)
     if not sides or any(s not in SIDES for s in sides):
         raise RigError(f"--side: expected 'supply', 'return' or both, got {sides!r}")
+    sections = layout_sections(rig, sections, sides)
+    if any(_section_side(s) is not None for s in sections):
+        sides = tuple(side for side in SIDES if any(_section_side(s) == side for s in sections))
+    else:
+        sides = SIDES
     lengths = parse_lengths(lengths)
     summaries, results = [], []
+    chosen = None
     for k, L in enumerate(lengths):
         variant = rig.copy()
-        for side in sides:
-            variant.set(f"{side}.section2.length", f"{L!r} m")
         try:
+            for section in sections:
+                variant.set(_length_path(rig, section), f"{L!r} m")
             res = simulate(variant, scenario, t_end, solver=solver)
         except (ValueError, SteadyStateError) as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
-            raise RigError(f"section II length {L:g} m: {msg}") from e
+            raise RigError(f"section length {L:g} m: {msg}") from e
         summary = port_summary(res)
-        summary["flow"] = {"flow_rise_time_ms": _flow_rise_time(res) * 1e3}
+        chosen = _report_axis(res, sections, axis)
+        flow = "supply_port_flow"
+        if chosen is not None:       # a multi-axis rig: that axis's ports
+            summary = {**summary, **summary["axes"][chosen]}
+            ax = res.metadata["axes"][chosen]
+            flow = rig.get(f"circuit.{ax.valve}.ports.supply_flow", flow)
+        rise = _flow_rise_time(res, flow) if res.metadata.get("scenario") != "position-step" \
+            else float("nan")       # a position step's flow returns to zero: no final flow
+        summary["flow"] = {"flow_rise_time_ms": rise * 1e3}
         summaries.append(summary)
         results.append(res)
         if progress is not None:
             progress(k + 1, len(lengths))
     fluid = make_fluid(rig)
-    speeds = {side: Line(1.0, rig[f"{side}.section2.diameter"], fluid,
-                         rig.get(f"{side}.section2.bulk_modulus")).wave_speed for side in SIDES}
+    speeds = {}
+    for side in SIDES:
+        mine = [s for s in sections if _section_side(s) == side]
+        default = f"{side}.section2"
+        if mine:
+            speeds[side] = _wave_speed(rig, mine[0], fluid)
+        elif default in layout_sections_available(rig):
+            speeds[side] = _wave_speed(rig, default, fluid)
     for L, summary in zip(lengths, summaries):
         for side in SIDES:
-            summary["flow"][f"{side}_round_trip_ms"] = 2 * L / speeds[side] * 1e3
+            summary["flow"][f"{side}_round_trip_ms"] = (2 * L / speeds[side] * 1e3
+                                                        if side in speeds else float("nan"))
     return LayoutStudy(lengths, summaries, results, sides, scenario,
-                       str(rig.get("rig.name", rig.source)), _time.perf_counter() - tic, speeds)
+                       str(rig.get("rig.name", rig.source)), _time.perf_counter() - tic, speeds,
+                       sections=sections, axis=chosen)
+
+
+def layout_sections_available(rig: Rig) -> list[str]:
+    """Every hose section of the rig by name (template: ``supply.section1`` ...; circuit: its
+    hose components).
+
+    Parameters
+    ----------
+    rig : Rig   The rig
+    """
+    from ..circuit import circuit_names, has_circuit
+
+    if has_circuit(rig.values):
+        return [n for n in circuit_names(rig.values) if rig.get(f"circuit.{n}.type") == "hose"]
+    return [f"{side}.section{k}" for side in SIDES for k in (1, 2)]

@@ -33,73 +33,380 @@ written to ``DIR/sweep.csv`` and, where pyarrow is installed, to ``DIR/sweep.par
 Worker processes end with the process that started the sweep, even when it is killed with
 SIGKILL (a thread in each worker watches it: a pidfd on Linux, else a poll every 0.5 s).
 
+Circuit rigs
+------------
+On a rig that describes its circuit (``[circuit.<name>]`` tables, e.g. the shipped
+``two_axis``) a parameter is ``circuit.<component>.<parameter>`` and its values are read in
+the unit the component type declares (:mod:`hydroline.circuit.types`). Where the rig has
+several servo axes, each row holds the metrics per axis, ``<axis>.<side>.<metric>``
+(:func:`metric_columns`), and each axis's position disturbance.
+
+Modules: this one is the study (design -> variants -> rows -> :class:`SweepResult`);
+:mod:`hydroline.studies.journal` the results file, :mod:`hydroline.studies.executors` where
+the variants run.
+
 Per-variant time limits are not offered: the compiled integrator runs a whole variant in one
 C call, which a Python-level timer cannot interrupt, and ending a worker process from the
 parent breaks the pool for the other variants in flight.
 """
 from __future__ import annotations
 
-import contextlib
-import hashlib
-import json
+import dataclasses
 import math
 import os
-import signal
-import sys
 import time as _time
-from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import SCENARIOS, simulate
-from .design import Design, parse_parameters
+from ..scenarios import default_scenario, scenario_names, simulate
+from .design import Design, parameter_unit, parse_parameters
+from .executors import (MAX_ATTEMPTS, MAX_WORKERS, dask_client, failure_reason, run_dask,
+                        run_processes, run_serial)
+from .journal import (FORMAT_VERSION, JOURNAL_NAME, Journal, SweepFileError, check_same_inputs,
+                      check_same_sweep, journal_header, read_journal)
 from .settling import port_summary
 
-__all__ = ["sweep", "run_variant", "SweepResult", "SweepFileError", "METRIC_COLUMNS",
-           "JOURNAL_NAME", "read_journal"]
+__all__ = ["sweep", "run_variant", "VariantRunner", "SweepResult", "SweepFileError",
+           "METRIC_COLUMNS", "TRACKING_COLUMNS", "SETTLING_COLUMNS", "PORT_METRICS",
+           "JOURNAL_NAME", "FORMAT_VERSION", "MAX_ATTEMPTS", "MAX_WORKERS", "read_journal",
+           "metric_columns", "settling_columns", "failed_row", "row_columns", "graph_signature",
+           "simulate_shared"]
 
-#: Metric columns of every row (then ``warnings`` and ``error``); the closed-loop scenario adds
-#: ``tracking_error_rms_mm`` and ``tracking_error_max_mm``.
+#: Metric columns of every row of a single-axis rig (then ``warnings`` and ``error``); the
+#: closed-loop scenario adds ``tracking_error_rms_mm`` and ``tracking_error_max_mm``.
 METRIC_COLUMNS = ["supply_frequency_hz", "supply_amplitude_mpa", "supply_settling_time_s",
                   "return_frequency_hz", "return_amplitude_mpa", "return_settling_time_s",
                   "supply_first_excursion_mpa", "supply_steady_change_mpa",
                   "supply_peak_to_peak_mpa", "return_first_excursion_mpa",
                   "return_steady_change_mpa", "return_peak_to_peak_mpa", "wall_time_s"]
 #: Port metrics taken from :func:`hydroline.scenarios.summarize` into each row (one definition
-#: for simulate, layout and sweep, :func:`hydroline.analysis.pressure_metrics`).
-_PORT_METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s", "first_excursion_mpa",
-                 "steady_change_mpa", "peak_to_peak_mpa")
+#: for simulate, layout and sweep, :func:`hydroline.traces.metrics.pressure_metrics`).
+PORT_METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s", "first_excursion_mpa",
+                "steady_change_mpa", "peak_to_peak_mpa")
 TRACKING_COLUMNS = ["tracking_error_rms_mm", "tracking_error_max_mm"]
 #: How each settling time was obtained: "measured", "estimated" or "" (none), see
 #: :func:`hydroline.studies.settling.port_settling`.
 SETTLING_COLUMNS = ["supply_settling_method", "return_settling_method"]
-JOURNAL_NAME = "sweep.jsonl"
-FORMAT_VERSION = 1
-#: Times a variant may be in flight when a worker process dies before it is recorded failed.
-MAX_ATTEMPTS = 2
-#: Most local worker processes (or local Dask workers) a sweep starts, [-].
-MAX_WORKERS = 512
+#: Per-axis columns of a multi-axis rig besides the port metrics: the piston's largest
+#: excursion from where it stood at the disturbance (axes held still; None for the stepped
+#: axis), and the stepped axis's travel, [mm].
+AXIS_COLUMNS = ("position_disturbance_mm", "position_change_mm")
+SIDES = ("supply", "return")
 
 
-class SweepFileError(ValueError):
-    """A results file that cannot be used (another sweep's, or one that exists without resume)."""
+def metric_columns(axes=(), scenario: str = "open-loop-step") -> list[str]:
+    """The numeric metric columns of a sweep's rows.
+
+    Parameters
+    ----------
+    axes : sequence of str   The rig's servo axes (:attr:`hydroline.circuit.Circuit.axes`);
+                             with one axis or none, the single-axis columns
+                             :data:`METRIC_COLUMNS`
+    scenario : str           Scenario name (closed-loop-sine adds :data:`TRACKING_COLUMNS`)
+
+    Returns
+    -------
+    list[str]  Single axis: :data:`METRIC_COLUMNS`; several: ``<axis>.<side>.<metric>`` for
+               each axis, side and :data:`PORT_METRICS` (frequencies [Hz], amplitudes,
+               excursions, changes, peak-to-peak [MPa], settling times [s]),
+               ``<axis>.position_disturbance_mm`` and ``<axis>.position_change_mm`` [mm],
+               then ``wall_time_s`` [s]
+    """
+    axes = list(axes)
+    if len(axes) <= 1:
+        cols = list(METRIC_COLUMNS)
+        return cols + TRACKING_COLUMNS if scenario == "closed-loop-sine" else cols
+    cols = [f"{a}.{side}.{k}" for a in axes for side in SIDES for k in PORT_METRICS]
+    cols += [f"{a}.{k}" for a in axes for k in AXIS_COLUMNS]
+    return cols + ["wall_time_s"]
 
 
-# --------------------------------------------------------------------------- one variant
+def settling_columns(axes=()) -> list[str]:
+    """The text columns that say how each settling time was obtained ("measured",
+    "estimated" or ""): :data:`SETTLING_COLUMNS`, or ``<axis>.<side>.settling_method`` per
+    axis of a multi-axis rig.
+
+    Parameters
+    ----------
+    axes : sequence of str   The rig's servo axes
+    """
+    axes = list(axes)
+    if len(axes) <= 1:
+        return list(SETTLING_COLUMNS)
+    return [f"{a}.{side}.settling_method" for a in axes for side in SIDES]
+
+
+def row_columns(design: Design, axes=(), scenario: str = "open-loop-step") -> list[str]:
+    """Every column of a sweep's table, in order: ``variant``, the inputs, the metrics, the
+    settling methods, ``warnings``, ``error``.
+
+    Parameters
+    ----------
+    design : Design          The variants
+    axes : sequence of str   The rig's servo axes
+    scenario : str           Scenario name
+    """
+    return ["variant", *design.columns, *metric_columns(axes, scenario), *settling_columns(axes),
+            "warnings", "error"]
+
 
 def _set_si(rig: Rig, path: str, value, unit: str):
     """Set a rig parameter from an SI value through :meth:`Rig.set` (so it is validated)."""
     if unit in ("-", "str"):
         rig.set(path, value)
     else:
-        rig.set(path, f"{value!r} {unit}")
+        rig.set(path, f"{float(value)!r} {unit}")
+
+
+def _empty_row(index, values, axes, scenario) -> dict:
+    row = {"variant": int(index), **values}
+    row.update({k: None for k in metric_columns(axes, scenario)})
+    row.update({k: "" for k in settling_columns(axes)})
+    row["warnings"], row["error"] = "", None
+    return row
+
+
+def failed_row(index: int, values: dict, reason: str, scenario: str = "open-loop-step",
+               axes=()) -> dict:
+    """The row of a variant that failed: inputs, no metrics, its reason in ``error``.
+
+    Parameters
+    ----------
+    index : int              Variant number, [-]
+    values : dict            Rig path -> SI value
+    reason : str             Why it failed ("Type: message")
+    scenario : str           Scenario name
+    axes : sequence of str   The rig's servo axes (for the per-axis columns)
+    """
+    row = _empty_row(index, values, axes, scenario)
+    row["error"] = reason
+    return row
+
+
+def _fill_metrics(row: dict, summary: dict) -> None:
+    """Copy a run's summary (:func:`hydroline.scenarios.summarize`) into a row."""
+    if "axes" in summary and len(summary["axes"]) > 1:
+        for name, entry in summary["axes"].items():
+            for side in SIDES:
+                for k in PORT_METRICS:
+                    row[f"{name}.{side}.{k}"] = _finite_or_none(entry[side].get(k))
+                row[f"{name}.{side}.settling_method"] = entry[side].get("settling_method") or ""
+            for k in AXIS_COLUMNS:
+                row[f"{name}.{k}"] = _finite_or_none(entry.get(k))
+    else:
+        if "axes" in summary:       # a multi-axis summary of one axis: its entry
+            entry = next(iter(summary["axes"].values()))
+            summary = {**summary, **entry}
+        for side in SIDES:
+            for k in PORT_METRICS:
+                row[f"{side}_{k}"] = _finite_or_none(summary[side].get(k))
+            row[f"{side}_settling_method"] = summary[side].get("settling_method") or ""
+        for k in TRACKING_COLUMNS:
+            if k in summary:
+                row[k] = _finite_or_none(summary[k])
+    row["warnings"] = "; ".join(summary["warnings"])
+
+
+class VariantRunner:
+    """Runs the variants of one sweep: the base rig, scenario and solver, kept where it runs.
+
+    Called as ``runner(index, values) -> row``; picklable, so the process pool sends it once
+    per worker and Dask scatters it once (:mod:`hydroline.studies.executors`).
+
+    Variants of one structure share one model: each variant's network is built (cheap: the
+    components and their wiring), with its hoses' matrix entries as runtime parameters
+    (:func:`hydroline.components.hose.coefficients_as_parameters`); where everything but its
+    runtime parameters p equals a network this runner has run before
+    (:func:`graph_signature`), that network's CasADi functions and compiled library are used
+    with the variant's p -- no graph, code generation or library lookup per variant. The
+    steady state, integration and summary are those of :func:`hydroline.scenarios.simulate`
+    (a test checks the rows equal its rows within the solver tolerance).
+
+    Parameters
+    ----------
+    rig : Rig            The base rig (not modified)
+    scenario : str       Scenario name (:func:`hydroline.scenarios.scenario_names`)
+    t_end : float        Simulated time, [s]; the scenario's default when None
+    solver : str         See :func:`hydroline.engine.integrate`
+    units : dict         Rig path -> SI unit (looked up in the rig when None)
+    axes : sequence      The rig's servo axes (names), for the row's columns
+    share_models : bool  Share one model among variants of one structure (False: every
+                         variant through :func:`hydroline.scenarios.simulate`)
+
+    Attributes
+    ----------
+    shared_runs : int    Variants run here on a model shared with an earlier variant, [-]
+    """
+
+    #: Structures kept per runner (their networks and compiled libraries), [-].
+    MODELS_KEPT = 4
+
+    def __init__(self, rig: Rig, scenario: str = "open-loop-step", t_end: float | None = None,
+                 solver: str = "auto", units: dict | None = None, axes=(),
+                 share_models: bool = True):
+        self.rig, self.scenario, self.t_end, self.solver = rig, scenario, t_end, solver
+        self.units = dict(units or {})
+        self.axes = tuple(axes)
+        self.share_models = share_models
+        self._models: dict = {}
+        self.shared_runs = 0
+
+    def __getstate__(self):     # the models stay where they were built
+        state = dict(self.__dict__)
+        state["_models"], state["shared_runs"] = {}, 0
+        return state
+
+    def __call__(self, index: int, values: dict) -> dict:
+        """One variant's row; never raises for a bad variant (see :func:`run_variant`)."""
+        tic = _time.perf_counter()
+        row = _empty_row(index, values, self.axes, self.scenario)
+        try:
+            r = self.rig.copy()
+            for path, v in values.items():
+                _set_si(r, path, v, self.units.get(path) or parameter_unit(path, self.rig))
+            res = self.simulate(r)
+            _fill_metrics(row, port_summary(res))
+        except Exception as e:   # a failed variant is recorded, never sinks the sweep
+            row["error"] = failure_reason(e)
+        row["wall_time_s"] = _time.perf_counter() - tic
+        return row
+
+    def simulate(self, rig: Rig):
+        """:func:`hydroline.scenarios.simulate` of one variant, on a shared model where one of
+        its structure was run before (see the class).
+
+        Parameters
+        ----------
+        rig : Rig   The variant
+
+        Returns
+        -------
+        SimulationResult
+        """
+        if not self.share_models or self.solver not in ("auto", "compiled") or \
+                any(k.endswith(".file") for k in rig.values):     # a table file may change
+            return simulate(rig, self.scenario, self.t_end, solver=self.solver)
+        return simulate_shared(rig, self.scenario, self.t_end, self.solver, self._models, self)
+
+
+def graph_signature(network) -> tuple:
+    """What a network's CasADi graph is made from, but its runtime parameters p: per
+    component its type and every attribute by value (a hose whose matrix entries are runtime
+    parameters: their pattern, not their values). Two networks of equal signature have the
+    same graph as a function of (t, x, p), so one's compiled model serves the other with its
+    own p. An attribute that cannot be compared by value (a function) makes the signature
+    unique to this network.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Returns
+    -------
+    tuple  hashable
+    """
+    from ..components.hose import HoseSection
+
+    parts = []
+    for c in network.components:
+        attrs = dict(vars(c))
+        if isinstance(c, HoseSection) and c.coefficient_pattern is not None:
+            m = attrs.pop("model")
+            attrs["model"] = (type(m).__qualname__, m.form, tuple(m.input_names),
+                              tuple(m.output_names), tuple(m.state_names))
+        parts.append((type(c).__module__, type(c).__qualname__, _value_signature(attrs)))
+    return tuple(parts)
+
+
+def _value_signature(v, depth: int = 0):
+    """A hashable value of an attribute (numbers, text, arrays, containers, objects by their
+    attributes); ("opaque", id) where there is none."""
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    if depth > 8:
+        return ("opaque", id(v))
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return ("array", v.shape, v.dtype.str, v.tobytes())
+    if isinstance(v, (list, tuple)):
+        return (type(v).__name__, tuple(_value_signature(x, depth + 1) for x in v))
+    if isinstance(v, dict):
+        return ("dict", tuple((str(k), _value_signature(x, depth + 1)) for k, x in v.items()))
+    if isinstance(v, type) or callable(v):
+        return ("opaque", id(v))
+    if hasattr(v, "__dict__"):
+        return (type(v).__qualname__, _value_signature(vars(v), depth + 1))
+    if dataclasses.is_dataclass(v):
+        return (type(v).__qualname__, tuple(_value_signature(getattr(v, f.name), depth + 1)
+                                            for f in dataclasses.fields(v)))
+    return ("opaque", id(v))
+
+
+def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None):
+    """:func:`hydroline.scenarios.simulate` (default output step and tolerances), the model
+    shared with earlier runs of the same :func:`graph_signature` in ``models``.
+
+    Parameters
+    ----------
+    rig : Rig          The variant
+    scenario : str     Scenario name
+    t_end : float      Simulated time, [s] (the scenario's when None)
+    solver : str       "auto" or "compiled"
+    models : dict      signature -> network, kept between calls (bounded by the caller)
+    counter : object   Its ``shared_runs`` is counted up when a model is shared
+
+    Returns
+    -------
+    SimulationResult  with the metadata and warnings ``simulate`` gives
+    """
+    from ..components.hose import coefficients_as_parameters
+    from ..limits import check_output_size
+    from ..rigs.parameters import steady_state_hint
+    from ..scenarios import build_scenario, describe_run
+    from ..engine import SteadyStateError, integrate, solve_steady_state
+    from ..system import build_circuit
+
+    tic = _time.perf_counter()
+    dt_out = 1e-4                                   # simulate()'s default
+    with coefficients_as_parameters():
+        circuit = build_circuit(rig)
+        sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+        if sc.position_guess is not None:
+            circuit = build_circuit(rig, sc.position_guess)
+        net = circuit.network(sc.commands)
+    check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
+                      name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
+    key = graph_signature(net)
+    shared = models.get(key)
+    if shared is None:
+        if len(models) >= VariantRunner.MODELS_KEPT:
+            models.pop(next(iter(models)))
+        models[key] = shared = net
+    elif counter is not None:
+        counter.shared_runs += 1
+    shared.parameter_values = net.parameter_values.copy()     # this variant's p
+    try:
+        ss = solve_steady_state(shared, t0=0.0, x_guess=net.guess())
+    except SteadyStateError as e:   # say it in terms of the rig's parameters (as simulate)
+        if getattr(e, "state", None) is None:
+            raise
+        raise SteadyStateError(f"steady state not found before the run: "
+                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
+                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
+                               e.state, e.residual) from None
+    res = integrate(shared, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver)
+    describe_run(res, rig, circuit, net, sc, ss, tic)    # as simulate() (net: this variant's)
+    return res
 
 
 def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-step",
-                t_end: float | None = None, solver: str = "auto", units: dict | None = None) -> dict:
+                t_end: float | None = None, solver: str = "auto", units: dict | None = None,
+                axes=(), share_models: bool = False) -> dict:
     """Run one variant and return its row; never raises for a bad variant.
 
     Parameters
@@ -107,50 +414,24 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
     rig : Rig          The base rig (not modified)
     index : int        Variant number, [-]
     values : dict      Rig path -> value in SI units (text for text parameters)
-    scenario : str     "open-loop-step" or "closed-loop-sine"
+    scenario : str     Scenario name, e.g. "open-loop-step", "closed-loop-sine", "position-step"
     t_end : float      Simulated time, [s]; the scenario's default when None
     solver : str       See :func:`hydroline.engine.integrate`
-    units : dict       Rig path -> SI unit (looked up in the rig schema when None)
+    units : dict       Rig path -> SI unit (looked up in the rig when None)
+    axes : sequence    The rig's servo axes (names); several give per-axis columns
+    share_models : bool  Run on a model shared with earlier variants of this process's
+                       :class:`VariantRunner` (False: :func:`hydroline.scenarios.simulate`)
 
     Returns
     -------
-    dict  ``variant``, the inputs, :data:`METRIC_COLUMNS` (frequencies [Hz], amplitudes,
+    dict  ``variant``, the inputs, :func:`metric_columns` (frequencies [Hz], amplitudes,
           first excursions, steady changes and peak-to-peak [MPa], settling times [s], wall
           time [s]; None where a metric does not exist),
-          :data:`SETTLING_COLUMNS` (how each settling time was obtained, as in the layout
+          :func:`settling_columns` (how each settling time was obtained, as in the layout
           study: :func:`hydroline.studies.settling.port_settling`), ``warnings`` (text, ""
           when none) and ``error`` (None, or "Type: reason").
     """
-    from .design import parameter_unit
-
-    tic = _time.perf_counter()
-    row = {"variant": int(index), **values}
-    for k in METRIC_COLUMNS:
-        row[k] = None
-    if scenario == "closed-loop-sine":
-        for k in TRACKING_COLUMNS:
-            row[k] = None
-    for k in SETTLING_COLUMNS:
-        row[k] = ""
-    row["warnings"], row["error"] = "", None
-    try:
-        r = rig.copy()
-        for path, v in values.items():
-            _set_si(r, path, v, (units or {}).get(path) or parameter_unit(path))
-        res = simulate(r, scenario, t_end, solver=solver)
-        s = port_summary(res)
-        for side in ("supply", "return"):
-            for k in _PORT_METRICS:
-                row[f"{side}_{k}"] = _finite_or_none(s[side].get(k))
-            row[f"{side}_settling_method"] = s[side].get("settling_method") or ""
-        for k in TRACKING_COLUMNS:
-            if k in s:
-                row[k] = _finite_or_none(s[k])
-        row["warnings"] = "; ".join(s["warnings"])
-    except Exception as e:   # a failed variant is recorded, never sinks the sweep
-        row["error"] = _reason(e)
-    row["wall_time_s"] = _time.perf_counter() - tic
-    return row
+    return VariantRunner(rig, scenario, t_end, solver, units, axes, share_models)(index, values)
 
 
 def _finite_or_none(v):
@@ -161,80 +442,6 @@ def _finite_or_none(v):
     return v if math.isfinite(v) else None
 
 
-def _json_line(row: dict) -> str:
-    """One results-file line; NaN/inf (never valid JSON) become null."""
-    return json.dumps({k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                       for k, v in row.items()}, allow_nan=False)
-
-
-def _reason(e: BaseException) -> str:
-    msg = str(e).strip().splitlines()[0] if str(e).strip() else ""
-    return f"{type(e).__name__}: {msg}" if msg else type(e).__name__
-
-
-def _failed_row(index, values, reason, scenario) -> dict:
-    row = {"variant": int(index), **values, **{k: None for k in METRIC_COLUMNS}}
-    if scenario == "closed-loop-sine":
-        row.update({k: None for k in TRACKING_COLUMNS})
-    row.update({k: "" for k in SETTLING_COLUMNS})
-    row["warnings"], row["error"] = "", reason
-    return row
-
-
-# --------------------------------------------------------------------------- results file
-
-def _rig_hash(rig: Rig) -> str:
-    text = json.dumps(sorted((k, repr(v)) for k, v in rig.values.items()))
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def _header(rig, design, scenario, t_end, solver) -> dict:
-    head = {"hydroline_sweep": FORMAT_VERSION, "rig": rig.source, "rig_sha256": _rig_hash(rig),
-            "scenario": scenario, "t_end_s": t_end, "solver": solver, "design": design.header()}
-    return json.loads(json.dumps(head))     # as it reads back from the file
-
-
-def read_journal(path) -> tuple[dict | None, dict]:
-    """The header and rows (variant -> row) of a results file; a last line cut short by a
-    kill is ignored. Returns (None, {}) for a missing or empty file."""
-    path = Path(path)
-    if not path.exists():
-        return None, {}
-    header, rows = None, {}
-    with open(path, encoding="utf-8") as f:
-        lines = f.read().split("\n")
-    for k, line in enumerate(lines):
-        if not line.strip():
-            continue
-        try:
-            obj = json.loads(line)
-        except json.JSONDecodeError:
-            if k >= len(lines) - 2:      # the last line, cut short by a kill
-                continue
-            raise SweepFileError(f"{path}: line {k + 1} is not valid JSON; "
-                                 f"the file is damaged (start a new --out)") from None
-        if header is None:
-            if obj.get("hydroline_sweep") != FORMAT_VERSION:
-                raise SweepFileError(f"{path}: not a hydroline sweep results file")
-            header = obj
-        else:
-            rows[int(obj["variant"])] = obj
-    return header, rows
-
-
-def _trim_partial_line(path: Path):
-    """Cut a last line left half-written by a kill, so appends start on a fresh line."""
-    data = path.read_bytes()
-    if data and not data.endswith(b"\n"):
-        path.write_bytes(data[: data.rfind(b"\n") + 1])
-
-
-def _same(a, b) -> bool:
-    if isinstance(a, float) and isinstance(b, (int, float)):
-        return a == b or (math.isnan(a) and math.isnan(b))
-    return a == b
-
-
 @dataclass
 class SweepResult:
     """The outcome of :func:`sweep`.
@@ -243,7 +450,8 @@ class SweepResult:
     ----------
     table : pandas.DataFrame  One row per finished variant, in variant order: ``variant``,
                               the inputs (one column per rig path, SI units), the metrics
-                              (:data:`METRIC_COLUMNS`), ``warnings`` and ``error``
+                              (:attr:`metrics`), the settling methods, ``warnings`` and
+                              ``error``
     design : Design           The variants
     n_computed : int          Variants run by this call (the rest came from the results file)
     wall_time : float         Wall time of this call, [s]
@@ -252,6 +460,10 @@ class SweepResult:
     notes : list[str]         What the user should know about the files: sweep.parquet not
                               written (pyarrow missing), rows of the results file beyond
                               this design left out of the table (a larger --samples earlier)
+    metrics : list[str]       The numeric metric columns (:func:`metric_columns`: per axis
+                              ``<axis>.<side>.<metric>`` on a multi-axis rig)
+    axes : list[str]          The rig's servo axes
+    scenario : str            The scenario every variant ran
     """
 
     table: pd.DataFrame
@@ -261,6 +473,9 @@ class SweepResult:
     files: dict = field(default_factory=dict)
     complete: bool = True
     notes: list = field(default_factory=list)
+    metrics: list = field(default_factory=lambda: list(METRIC_COLUMNS))
+    axes: list = field(default_factory=list)
+    scenario: str = "open-loop-step"
 
     @property
     def failed(self) -> pd.DataFrame:
@@ -272,18 +487,14 @@ class SweepResult:
         return int(self.table["error"].notna().sum())
 
 
-def _table(rows: dict, design: Design, scenario: str) -> pd.DataFrame:
-    cols = ["variant", *design.columns, *METRIC_COLUMNS]
-    if scenario == "closed-loop-sine":
-        cols += TRACKING_COLUMNS
-    cols += [*SETTLING_COLUMNS, "warnings", "error"]
+def _table(rows: dict, design: Design, scenario: str, axes=()) -> pd.DataFrame:
+    cols = row_columns(design, axes, scenario)
     data = [rows[i] for i in sorted(rows) if i < len(design)]
     df = pd.DataFrame(data, columns=cols)
-    for c in cols:
-        if c in METRIC_COLUMNS or c in TRACKING_COLUMNS:
-            df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
+    for c in metric_columns(axes, scenario):
+        df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
     df["variant"] = df["variant"].astype(int)
-    for c in SETTLING_COLUMNS:          # rows of an older results file lack them
+    for c in settling_columns(axes):    # rows of an older results file lack them
         df[c] = df[c].fillna("").astype(str)
     df["error"] = df["error"].astype(object).where(df["error"].notna(), None)
     return df.reset_index(drop=True)
@@ -302,269 +513,16 @@ def _write_tables(df: pd.DataFrame, out: Path, files: dict, notes: list):
     try:
         df.to_parquet(out / "sweep.parquet", index=False)
     except Exception as e:      # e.g. a column pyarrow cannot type; the CSV stands
-        notes.append(f"sweep.parquet not written: {_reason(e)} (sweep.csv holds the table)")
+        notes.append(f"sweep.parquet not written: {failure_reason(e)} (sweep.csv holds the "
+                     f"table)")
         return
     files["parquet"] = out / "sweep.parquet"
-
-
-# --------------------------------------------------------------------------- backends
-
-_WORKER: dict = {}
-
-
-def _die_with_parent(parent_pid: int):
-    """End this worker as soon as the process that started the sweep is gone, even when it
-    was killed with SIGKILL and could not stop its pool.
-
-    A daemon thread waits on a pidfd of that process (Linux >= 5.3: readable when it exits,
-    immune to pid reuse) or, where there is none, checks once every 0.5 s that it is still
-    alive; then it ends the worker with ``os._exit``. (``prctl(PR_SET_PDEATHSIG)`` would not
-    do: the workers' parent is the forkserver, which itself stays up while any worker holds
-    its "alive" pipe.) No-op on Windows, where the pool's own pipes end the workers."""
-    if os.name != "posix":
-        return
-    import threading
-
-    try:
-        fd = os.pidfd_open(parent_pid)
-    except ProcessLookupError:      # gone already
-        os._exit(1)
-    except (AttributeError, OSError):   # no pidfd (not Linux, old kernel, seccomp): poll
-        fd = None
-
-    def watch():
-        if fd is not None:
-            import select
-
-            select.select([fd], [], [])
-        else:
-            while _alive(parent_pid):
-                _time.sleep(0.5)
-        os._exit(1)
-
-    threading.Thread(target=watch, name="hydroline-parent-watch", daemon=True).start()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:             # exists, owned by someone else
-        return True
-    return True
-
-
-def _init_worker(rig, scenario, t_end, solver, units, parent_pid=None):
-    signal.signal(signal.SIGINT, signal.SIG_IGN)    # the parent decides when to stop
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if parent_pid is not None:
-        _die_with_parent(parent_pid)
-    _WORKER.update(rig=rig, scenario=scenario, t_end=t_end, solver=solver, units=units)
-
-
-def _pool_task(index, values):
-    w = _WORKER
-    return run_variant(w["rig"], index, values, w["scenario"], w["t_end"], w["solver"], w["units"])
-
-
-def _mp_context():
-    import multiprocessing as mp
-
-    methods = mp.get_all_start_methods()
-    if "forkserver" in methods:      # fresh, thread-free parent for workers; fast after the first
-        ctx = mp.get_context("forkserver")
-        ctx.set_forkserver_preload(["hydroline.studies.sweep"])
-        return ctx
-    return mp.get_context("spawn")
-
-
-def _run_serial(tasks, run, record):
-    for index, values in tasks:
-        record(run(index, values))
-
-
-@contextlib.contextmanager
-def _main_module_hidden():
-    """Keep worker processes from re-running the caller's script.
-
-    The spawn and forkserver start methods import the parent's ``__main__`` (by path or by
-    module name) in every new worker, as ``__mp_main__``; a script that calls
-    :func:`sweep` at its top level without an ``if __name__ == "__main__":`` guard would then
-    start the sweep again inside each worker. The workers need nothing from ``__main__``
-    (the task, the rig and the results are hydroline objects), so while the pool starts
-    workers ``__main__`` shows neither its ``__spec__`` nor its ``__file__``."""
-    main = sys.modules.get("__main__")
-    saved = {}
-    if main is not None:
-        for attr in ("__spec__", "__file__"):
-            if attr in vars(main):
-                saved[attr] = vars(main)[attr]
-        if "__spec__" in saved:
-            main.__spec__ = None
-        if "__file__" in saved:
-            del main.__file__
-    try:
-        yield
-    finally:
-        for attr, value in saved.items():
-            setattr(main, attr, value)
-
-
-def _run_processes(tasks, workers, init_args, record, scenario):
-    with _main_module_hidden():
-        _run_process_pool(tasks, workers, init_args, record, scenario)
-
-
-def _run_process_pool(tasks, workers, init_args, record, scenario):
-    """Local worker processes; a pool broken by a dying worker is restarted and the variants
-    in flight retried, up to :data:`MAX_ATTEMPTS` times each. On an interruption (Ctrl-C,
-    SIGTERM, an exception from ``record``) the variants already running are waited for and
-    every one that finished is recorded before the exception goes on."""
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-    from concurrent.futures.process import BrokenProcessPool
-
-    pending = deque(tasks)
-    attempts: dict = {}
-    window = 4 * workers
-    ctx = _mp_context()
-    init_args = (*init_args, os.getpid())
-    while pending:
-        inflight = {}
-        pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
-                                   initargs=init_args)
-        try:
-            while pending or inflight:
-                while pending and len(inflight) < window:
-                    index, values = pending.popleft()
-                    inflight[pool.submit(_pool_task, index, values)] = (index, values)
-                done, _ = wait(inflight, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    index, values = inflight[fut]
-                    try:
-                        row = fut.result()
-                    except BrokenProcessPool:
-                        raise
-                    except Exception as e:      # e.g. a result that could not be sent back
-                        row = _failed_row(index, values, _reason(e), scenario)
-                    try:
-                        record(row)
-                    finally:                    # until recorded, an interruption leaves it
-                        inflight.pop(fut, None)  # to the handler below
-        except BaseException as e:
-            if not isinstance(e, BrokenProcessPool):    # interrupted: let the running ones
-                _finish_interrupted(pool, inflight, record)   # finish, keep what they computed
-                raise
-            # a worker died: keep what finished, retry the rest
-            for fut, (index, values) in inflight.items():
-                if fut.done() and not fut.cancelled() and fut.exception() is None:
-                    record(fut.result())
-                    continue
-                attempts[index] = attempts.get(index, 0) + 1
-                if attempts[index] >= MAX_ATTEMPTS:
-                    record(_failed_row(index, values, "WorkerDied: the worker process died while "
-                                       "running this variant (crash or out of memory)", scenario))
-                else:
-                    pending.appendleft((index, values))
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
-
-
-def _finish_interrupted(pool, inflight: dict, record):
-    """After an interruption: cancel the variants not started, wait for the running ones
-    and record every one that finished without an exception (in variant order)."""
-    try:
-        pool.shutdown(wait=True, cancel_futures=True)
-    except BaseException:       # a second Ctrl-C: record what is done now, then stop
-        pass
-    finished = [(index, fut) for fut, (index, _) in inflight.items()
-                if fut.done() and not fut.cancelled() and fut.exception() is None]
-    inflight.clear()
-    _record_all(record, [fut.result() for _, fut in sorted(finished, key=lambda item: item[0])])
-
-
-def _record_all(record, rows):
-    """Record rows while an interruption is being handled: an exception from the user's
-    callback (raised after the row is written) does not keep the others from the file."""
-    for row in rows:
-        try:
-            record(row)
-        except Exception:
-            pass
-
-
-def _dask_client(scheduler, workers):
-    """(client, cluster-or-None) for "local", an address, or a Client passed as is."""
-    try:
-        from distributed import Client, LocalCluster
-    except ImportError:    # pragma: no cover - dask[distributed] is a dependency
-        raise RigError("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from None
-    if isinstance(scheduler, Client):
-        return scheduler, None, False
-    if scheduler == "local":
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               host="127.0.0.1", dashboard_address=None)
-        return Client(cluster), cluster, True
-    if not isinstance(scheduler, str) or "://" not in scheduler:
-        raise RigError(f"--scheduler: expected 'local' or an address like tcp://host:8786, "
-                       f"got {scheduler!r}")
-    try:
-        return Client(scheduler, timeout="30s"), None, True
-    except (OSError, TimeoutError) as e:
-        raise RigError(f"--scheduler {scheduler}: cannot reach the Dask scheduler ({e})") from None
-
-
-def _run_dask(tasks, client, init_args, record, scenario):
-    from distributed import as_completed
-
-    rig, scen, t_end, solver, units = init_args
-    rig_f = client.scatter(rig, broadcast=True)
-    threads = sum(client.nthreads().values()) or 1
-    window = max(8, 4 * threads)
-    pending = deque(tasks)
-    meta = {}
-    ac = as_completed()
-
-    def submit():
-        index, values = pending.popleft()
-        fut = client.submit(run_variant, rig_f, index, values, scen, t_end, solver, units,
-                            pure=False, key=f"hydroline-variant-{index}-{os.urandom(4).hex()}")
-        meta[fut.key] = (index, values, fut)
-        ac.add(fut)
-
-    while pending and len(meta) < window:
-        submit()
-    try:
-        for fut in ac:
-            index, values, _ = meta[fut.key]
-            try:
-                row = fut.result()
-            except Exception as e:      # KilledWorker and the like: recorded, sweep goes on
-                row = _failed_row(index, values, _reason(e), scenario)
-            try:
-                record(row)
-            finally:                    # until recorded, an interruption leaves it to the
-                meta.pop(fut.key, None)  # clean-up below
-                fut.release()
-            while pending and len(meta) < window:
-                submit()
-    finally:
-        if meta:        # interrupted: keep what finished, drop what is still queued
-            done = sorted((i, f) for i, _, f in meta.values() if f.status == "finished")
-            rows = []
-            for _, f in done:
-                try:
-                    rows.append(f.result(timeout=10))
-                except Exception:
-                    pass
-            client.cancel([f for _, _, f in meta.values()])
-            _record_all(record, rows)
 
 
 # --------------------------------------------------------------------------- the sweep
 
 def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
-          scenario: str = "open-loop-step", t_end: float | None = None, solver: str = "auto",
+          scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
           workers: int | None = None, scheduler=None, out=None, resume: bool = False,
           progress=None, callback=None) -> SweepResult:
     """Run a parameter study of a rig: a full factorial or random samples, in parallel.
@@ -572,15 +530,19 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     Parameters
     ----------
     parameters : list or dict   What varies: ``["PATH=VALUES", ...]`` as on the command line
-                                (``"supply.section2.bulk_modulus=150 MPa,220 MPa"``), or
-                                ``{PATH: VALUES}`` with VALUES text, a list of quantities or a
+                                (``"supply.section2.bulk_modulus=150 MPa,220 MPa"``; on a
+                                circuit rig ``"circuit.<component>.<parameter>=..."``, the
+                                unit the component declares), or ``{PATH: VALUES}`` with
+                                VALUES text, a list of quantities or a
                                 :class:`~hydroline.studies.Distribution`; the syntax (levels,
                                 ``linspace``, ``uniform``, ``normal``, ...) is in
                                 :mod:`hydroline.studies.design`
-    rig : Rig, str or None      The base rig (None: the embedded 2005 paper's rig)
+    rig : Rig, str or None      The base rig (None: the embedded 2005 paper's rig; a shipped
+                                rig may be named, "two_axis")
     samples : int               Random design of this many variants; None: full factorial
     seed : int                  Seed of the random design, [-]
-    scenario : str              "open-loop-step" or "closed-loop-sine"
+    scenario : str              One of :func:`hydroline.scenarios.scenario_names`; None: the
+                                rig's ``rig.scenario``, else "open-loop-step"
     t_end : float               Simulated time per variant, [s]; the scenario's when None
     solver : str                See :func:`hydroline.engine.integrate`
     workers : int               Local worker processes (default: the CPU count), or the
@@ -597,35 +559,39 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
 
     Returns
     -------
-    SweepResult
+    SweepResult  (a multi-axis rig's rows have per-axis columns, :func:`metric_columns`)
 
     Raises
     ------
     ValueError (RigError, UnitError, SweepFileError) on bad input, one line naming it.
     """
     tic = _time.perf_counter()
-    if scenario not in SCENARIOS:
-        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: {', '.join(SCENARIOS)})")
-    if t_end is not None and not t_end > 0:
-        raise RigError(f"--t-end must be > 0 s, got {t_end!r}")
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
-    params = parse_parameters(parameters)
+    scenario = scenario or default_scenario(rig)
+    if scenario not in scenario_names(rig):
+        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: "
+                       f"{', '.join(scenario_names(rig))})")
+    if t_end is not None and not t_end > 0:
+        raise RigError(f"--t-end must be > 0 s, got {t_end!r}")
+    params = parse_parameters(parameters, rig)
     design = Design(params, samples, seed)
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
     if not 1 <= workers <= MAX_WORKERS:
         raise RigError(f"--workers must be within 1 ... {MAX_WORKERS} [-] (processes on this "
                        f"machine or Dask workers), got {workers}")
     units = {path: p.unit for p in params for path in p.paths}
-    header = _header(rig, design, scenario, t_end, solver)
+    axes = _axis_names(rig)
+    header = journal_header(rig, design, scenario, t_end, solver)
+    runner = VariantRunner(rig, scenario, t_end, solver, units, axes)
 
     client = cluster = None
     owned = False
     if scheduler is not None:      # connect first: an unreachable cluster leaves no files
-        client, cluster, owned = _dask_client(scheduler, workers)
+        client, cluster, owned = dask_client(scheduler, workers)
     try:
-        return _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, resume,
-                      progress, callback, units, tic)
+        return _sweep(runner, design, header, workers, client, out, resume, progress, callback,
+                      tic)
     finally:
         if owned:
             client.close()
@@ -633,8 +599,20 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
             cluster.close()
 
 
-def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, resume,
-           progress, callback, units, tic) -> SweepResult:
+def _axis_names(rig: Rig) -> list[str]:
+    """The rig's servo axes (names); [] where the rig cannot be built (every variant then
+    fails with its own reason, in the single-axis columns)."""
+    from ..system import build_circuit
+
+    try:
+        return list(build_circuit(rig).axes)
+    except Exception:
+        return []
+
+
+def _sweep(runner, design, header, workers, client, out, resume, progress, callback,
+           tic) -> SweepResult:
+    scenario, axes = runner.scenario, runner.axes
     rows: dict = {}
     files: dict = {}
     journal = None
@@ -648,20 +626,12 @@ def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, r
             raise SweepFileError(f"{jpath} exists: pass --resume to continue that sweep, or "
                                  f"choose another --out")
         if old_header is not None:
-            _check_same_sweep(jpath, old_header, header)
-            for i, row in old_rows.items():
-                if i < len(design):
-                    want = design.variant(i)
-                    if any(not _same(row.get(k), v) for k, v in want.items()):
-                        raise SweepFileError(f"{jpath}: variant {i} has other inputs than this "
-                                             f"sweep's; it belongs to another sweep (start a new --out)")
-                rows[i] = row
-            _trim_partial_line(jpath)
-            journal = open(jpath, "a", encoding="utf-8")
+            check_same_sweep(jpath, old_header, header)
+            check_same_inputs(jpath, old_rows, design)
+            rows.update(old_rows)
+            journal = Journal(jpath)
         else:
-            journal = open(jpath, "w", encoding="utf-8")
-            journal.write(json.dumps(header) + "\n")
-            journal.flush()
+            journal = Journal(jpath, header)
     elif resume:
         raise RigError("--resume needs --out DIR (the folder of the sweep to continue)")
 
@@ -675,8 +645,7 @@ def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, r
         i = row["variant"]
         rows[i] = row
         if journal is not None:
-            journal.write(_json_line(row) + "\n")
-            journal.flush()
+            journal.append(row)
         computed[0] += 1
         done[0] += 1
         failed[0] += bool(row.get("error"))
@@ -685,23 +654,24 @@ def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, r
         if callback is not None:
             callback(row)
 
+    def failed_variant(index, values, reason):
+        return failed_row(index, values, reason, scenario, axes)
+
     if progress is not None:
         progress(done[0], total, failed[0])
-    init_args = (rig, scenario, t_end, solver, units)
     try:
         if not tasks:
             pass
         elif client is not None:
-            _run_dask(tasks, client, init_args, record, scenario)
+            run_dask(tasks, client, runner, record, failed_variant)
         elif workers == 1 or len(tasks) == 1:
-            _run_serial(tasks, lambda i, v: run_variant(rig, i, v, scenario, t_end, solver, units),
-                        record)
+            run_serial(tasks, runner, record)
         else:
-            _run_processes(tasks, min(workers, len(tasks)), init_args, record, scenario)
+            run_processes(tasks, min(workers, len(tasks)), runner, record, failed_variant)
     finally:
         if journal is not None:
             journal.close()
-        table = _table(rows, design, scenario)
+        table = _table(rows, design, scenario, axes)
         notes = []
         extra = sorted(i for i in rows if i >= total)
         if extra:           # a random design resumed with a smaller --samples: kept in the file
@@ -712,18 +682,5 @@ def _sweep(rig, design, header, scenario, t_end, solver, workers, client, out, r
         if out is not None:
             _write_tables(table, out, files, notes)
     return SweepResult(table, design, computed[0], _time.perf_counter() - tic, files,
-                       complete=len(table) == total, notes=notes)
-
-
-def _check_same_sweep(path, old: dict, new: dict):
-    for key, what in (("rig_sha256", "rig"), ("scenario", "scenario"), ("t_end_s", "--t-end"),
-                      ("solver", "--solver")):
-        if old.get(key) != new.get(key):
-            raise SweepFileError(f"{path}: written by a sweep with another {what} "
-                                 f"({old.get(key)!r}, now {new.get(key)!r}); start a new --out")
-    if old.get("design") != new.get("design"):
-        o, n = old.get("design") or {}, new["design"]
-        what = ("design kind" if o.get("kind") != n["kind"] else
-                "--seed" if o.get("seed") != n["seed"] else "parameters")
-        raise SweepFileError(f"{path}: written by a sweep with other {what}; resume with the "
-                             f"same --set/--samples/--seed, or start a new --out")
+                       complete=len(table) == total, notes=notes,
+                       metrics=metric_columns(axes, scenario), axes=list(axes), scenario=scenario)
