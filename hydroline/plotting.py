@@ -138,6 +138,10 @@ def plot_line_response(line, models, f, form, path=None, title=None):
     """
     from .lines.line import FORM_PORTS
 
+    ins, outs = FORM_PORTS[form]
+    s = 2j * np.pi * f
+    exact = line.transfer(s, form)
+    resp = {k: m.transfer(s) for k, m in models.items()}
     fig = new_figure((11, 11))
     axes = fig.subplots(4, 2, sharex=True)
     for i in range(2):
