@@ -18,7 +18,6 @@ from hydroline.circuit.types import COMPONENT_TYPES
 EXCLUDED = (
     "hydroline.__main__",            # the ``python -m hydroline`` entry point, no API
     "hydroline.compiled",            # faster integrator (issue 13 item 4)
-    "hydroline.lines.residue",       # residue line remainder (issue 11 item 6)
     "hydroline.cli.simulate",        # streaming path (issue 13 item 4), edited by others
 )
 

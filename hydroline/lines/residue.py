@@ -91,7 +91,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import special
 
-from .corrections import _check_modes, dissipative_root, modal_angles
+from .corrections import check_modes, dissipative_root, modal_angles
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
@@ -198,6 +198,12 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
 
     Roots of ``Gamma(s) = j theta_k`` (M6), ``theta_k = (k - 1/2) pi`` (PQ, QP: cosh Gamma = 0)
     or ``k pi`` (PP, QQ: sinh Gamma = 0), continued from mode to mode as in (M15).
+
+    Parameters
+    ----------
+    line : Line      The line, SI
+    n_modes : int    Modes, [-]
+    form : str       Causal form: "PQ", "QP", "PP" or "QQ"
     """
     thetas = modal_angles(n_modes, form)
     roots = []
@@ -258,6 +264,14 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     Solved by bisection for the modes 1..n_roots of the form and the clusters m whose
     rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the first cluster).
 
+    Parameters
+    ----------
+    line : Line          The line, SI
+    form : str           Causal form: "PQ", "QP", "PP" or "QQ"
+    rate_limit : float   Largest cluster rate kept, [1/s] (None: the first cluster only)
+    n_roots : int        Roots per cluster (modes of the form), [-]
+    max_clusters : int   Clusters at most, [-]
+
     Returns
     -------
     ndarray (clusters, n_roots) of real poles s < 0, [1/s]
@@ -297,6 +311,11 @@ def exact_moments(line: Line, form: str = "PQ"):
     ``sech = 1 - g/2``, ``G tanh G = g - g^2/3``, ``tanh G/G = 1 - g/3``,
     ``G coth G = 1 + g/3 - g^2/45``, ``G csch G = 1 - g/6 + 7 g^2/360``. For QQ the pole
     ``1/(s C)`` of every entry (sign as in the table) is removed first.
+
+    Parameters
+    ----------
+    line : Line    The line, SI
+    form : str     Causal form: "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
@@ -350,6 +369,12 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
     Returns
     -------
     list of (inertance [kg/m^4], resistance [Pa s/m^3]) pairs, the exact branches first
+    
+    Parameters
+    ----------
+    line : Line        The line (bore, fluid), SI
+    n_exact : int      Branches kept one by one, [-]
+    n_octaves : int    Octave groups after them (the last takes every further branch), [-]
     """
     I, R = line.inertance, line.resistance
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -490,7 +515,7 @@ def tail_groups(n_modes: int, form: str = "PQ"):
     -------
     list of (Omega tau [-], zeta [-]), one per group, in rising frequency
     """
-    n = _check_modes(n_modes)
+    n = check_modes(n_modes)
     edges = [n + 1]
     for g in range(1, TAIL_GROUPS):
         edges.append(max(edges[-1] + 1, int(round((n + 1) * TAIL_GROUP_RATIO**g))))
@@ -904,7 +929,7 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     """
     if not isinstance(line, Line):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
-    n = _check_modes(n_modes)
+    n = check_modes(n_modes)
     form = check_form(form)
     ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
     tau = line.wave_time
