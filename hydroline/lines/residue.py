@@ -366,15 +366,15 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
     would appear there multiplied by that factor. Max error against ``1/(Zc Gamma)``,
     defaults: 0.61 % at any frequency.
 
-    Returns
-    -------
-    list of (inertance [kg/m^4], resistance [Pa s/m^3]) pairs, the exact branches first
-    
     Parameters
     ----------
     line : Line        The line (bore, fluid), SI
     n_exact : int      Branches kept one by one, [-]
     n_octaves : int    Octave groups after them (the last takes every further branch), [-]
+
+    Returns
+    -------
+    list of (inertance [kg/m^4], resistance [Pa s/m^3]) pairs, the exact branches first
     """
     I, R = line.inertance, line.resistance
     nu, r = line.fluid.kinematic_viscosity, line.radius
