@@ -138,16 +138,12 @@ def plot_line_response(line, models, f, form, path=None, title=None):
     """
     from .lines.line import FORM_PORTS
 
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
     ins, outs = FORM_PORTS[form]
     s = 2j * np.pi * f
     exact = line.transfer(s, form)
     resp = {k: m.transfer(s) for k, m in models.items()}
-    fig, axes = plt.subplots(4, 2, figsize=(11, 11), sharex=True)
+    fig = new_figure((11, 11))
+    axes = fig.subplots(4, 2, sharex=True)
     for i in range(2):
         for j in range(2):
             am, ap = axes[2 * i, j], axes[2 * i + 1, j]

@@ -17,12 +17,8 @@ from hydroline.circuit.types import COMPONENT_TYPES
 #: Modules other developers are editing right now (the lead includes them after merging).
 EXCLUDED = (
     "hydroline.__main__",            # the ``python -m hydroline`` entry point, no API
-    "hydroline.studies",             # sweep split into executors/journal (issues 12, 13)
     "hydroline.compiled",            # faster integrator (issue 13 item 4)
-    "hydroline.lines.residue",       # residue line remainder (issue 11 item 6)
     "hydroline.cli.simulate",        # streaming path (issue 13 item 4), edited by others
-    "hydroline.cli.sweep",           # sweep on circuit rigs (issues 12, 13), edited by others
-    "hydroline.cli.layout",          # layout on circuit rigs (issue 12), edited by others
 )
 
 

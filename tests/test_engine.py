@@ -51,6 +51,17 @@ def test_room_imports_nothing_above_it(room, allowed):
                 assert not module.startswith("hydroline"), f"{path.name} imports {module}"
 
 
+def test_no_private_name_imported_across_modules():
+    """No module imports another's private (``_x``) name; dunder names (``__version__``) are
+    public by convention."""
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+                private = [a.name for a in node.names
+                           if a.name.startswith("_") and not a.name.startswith("__")]
+                assert not private, f"{path.relative_to(PACKAGE)} imports {private} from {node.module}"
+
+
 def _vessel(outlet_read: bool):
     """Source -> orifice -> vessel (-> orifice -> tank when ``outlet_read``, else the second
     orifice's flow is read by nobody: fluid lost from the vessel)."""

@@ -277,6 +277,45 @@ def test_blocked_line_pressure_step(Dn):
     assert late20["yang-tobler"] > 10.0 * late20["residue"]
 
 
+def test_blocked_line_step_after_the_fronts():
+    """Issue 11 item 6: "a blocked line under a pressure step (10 modes, Dn 0.01) should stay
+    within 1.5 % of the exact response from half a wave time after the first front on
+    (today 2.1 %)" -- what that measure is, and why 10 modes cannot meet it.
+
+    Measure (the one that reproduces "2.1 %" on the code before the remainder change,
+    18dbb77, and on today's): Dn = 0.01, PQ entry (0, 0) (P_d of the blocked line for a unit
+    step of P_u), the largest |P_d,model - P_d,exact| in % of the step height over
+    t >= 6 L/c (1.5 wave periods of 4 L/c; the largest error sits at the front that
+    arrives at 7 L/c), on a grid of 0.01 L/c: 2.05 % (2.11 % on a 0.005 L/c grid).
+    Literally from half a wave time after the first front's arrival (t >= 1.5 L/c) the
+    same error is 16.1 % on the 2001-point grid of test_blocked_line_pressure_step (19.0 %
+    resolved; still 4.8 % with 32 modes), and 2.11 % at Dn = 0.05 (that test's grid; 1.47 %
+    with 12 modes): the Gibbs error at the reflected front (3 L/c).
+
+    Why 10 modes cannot: with exact poles and residues, the error at t >= 6 L/c is minus the
+    dropped modes' own step terms ``sum_{k>n} 2 Re(R_k e^{p_k t}/p_k)`` (1.99 % at most)
+    to within 0.08 % (the lumped viscous poles); the remainder T decays within L/c and is
+    gone by then. So the bound needs the modes themselves: 13 modes give 1.23 % (12: 1.45 %,
+    too close to the grid's resolution of the front). Both asserted here.
+    """
+    line = _line_with_dn(0.01)
+    tau = line.wave_time
+    t = np.arange(6.0, 24.0, 0.01) * tau
+    exact = exact_step_response(line, t, "PQ", (0, 0))
+    poles = modal_poles(line, 120, "PQ")
+    res = modal_residues(line, poles, "PQ")[:, 0, 0]
+    err = {}
+    for n in (10, 13):
+        y = residue_line(line, n).step_response(t, 0)[:, 0]
+        dropped = 2.0 * (res[n:, None] / poles[n:, None] * np.exp(poles[n:, None] * t)).real.sum(0)
+        err[n] = np.abs(y - exact).max()
+        print(f"\nblocked line Dn = 0.01, {n} modes, t >= 6 L/c: max error {100 * err[n]:.2f} % of "
+              f"the step; dropped modes' terms {100 * np.abs(dropped).max():.2f} %")
+        assert np.abs(y - exact + dropped).max() < 0.001       # the error is the truncation
+    assert np.abs(dropped).max() > 0.01                         # still > 1 % at n = 13
+    assert err[13] < 0.015                                      # the issue's 1.5 %
+
+
 # ---------------------------------------------------------------------------------------
 # resonance peaks
 # ---------------------------------------------------------------------------------------
@@ -328,10 +367,10 @@ def test_all_forms_range_of_lines(form, n):
     Lines spanning the range (bores 6, 12.7, 25 mm x lengths 0.5, 3.048, 10 m, mineral
     oil; Dn 1e-4 ... 0.033), n = 6 and 10 modes, every entry of every form: the first n
     resonances within 1 % in frequency and 10 % in peak magnitude of the exact dissipative
-    model (M6). Measured worst: frequency 0.31 %; peaks 1 .. n-1 <= 1.08 % (PP/QQ, and PQ/QP
-    with n = 6: <= 0.91 %), peak n 3.4 % (n = 6) / 6.4 % (n = 10; d = 6 mm, L = 10 m), the
-    n-th peak being next to the first dropped mode; PQ/QP n = 10 on d = 6 mm, L = 10 m:
-    peaks n-2, n-1 2.2 % and 4.0 % (see the assertion). (Yang-Tobler: tests/test_lines.py.)
+    model (M6). Measured worst: frequency 0.13 %; n = 6: peaks 1 .. n-1 <= 0.89 %, peak n
+    1.8 %; n = 10: peaks 1 .. 7 <= 1.4 %, peak n 7.6 % (QQ; PQ/QP 6.4 %, PP 4.7 %; d = 6 mm,
+    L = 10 m), the n-th peak being next to the first dropped mode; on that line peaks n-2,
+    n-1 up to 2.5 % and 4.6 % (see the assertion). (Yang-Tobler: tests/test_lines.py.)
     """
     worst = np.zeros(n)
     worst_f = 0.0
@@ -347,13 +386,14 @@ def test_all_forms_range_of_lines(form, n):
           f"{np.round(worst, 2).tolist()}, frequency {worst_f:.3f} %")
     assert worst_f < 1.0                   # the issue's limits, every mode and entry
     assert worst.max() < 10.0
-    # modes 1 .. n-1 converge much further; PQ/QP with n = 10 on the lossiest line
-    # (6 mm x 10 m, Dn = 0.033): modes n-2, n-1 2.2 % and 4.0 %, the price of a remainder that
-    # stays under the exact envelope above the band (there the exact response is within
-    # ~1.5 Zc of Zc, and the dropped modes' in-band reactance must hand over to it within
-    # about one mode spacing); all other lines <= 1.0 %
+    # modes 1 .. n-1 converge much further; with n = 10 on the lossiest line (6 mm x 10 m,
+    # Dn = 0.033): modes n-2, n-1 up to 2.5 % and 4.6 % (QQ; PQ/QP 2.2 / 4.0 %, PP 1.0 /
+    # 2.3 %), the price of a remainder that stays under the exact envelope above the band
+    # (there the exact response is within ~1.5 Zc of Zc, and the dropped modes' in-band
+    # reactance must hand over to it within about one mode spacing); PP/QQ before, with the
+    # light pseudo-mode that peaked at 2-9 times the envelope above the band: <= 1.08 %
     assert worst[:-3].max() < 1.5
-    assert worst[:-1].max() < (4.5 if (form in ("PQ", "QP") and n == 10) else 1.5)
+    assert worst[:-1].max() < (5.0 if n == 10 else 1.5)
 
 
 # ---------------------------------------------------------------------------------------
@@ -419,8 +459,8 @@ def test_state_names_and_sizes():
     line = Line(3.048, 0.0127, OIL, 1.0e9)
     for form, extra in (("PQ", 0), ("QP", 0), ("PP", 6), ("QQ", 1)):
         A, B, C, D, names = residue_realisation(line, 4, form)
-        # PQ/QP: a pair per tail group and output; PP/QQ: one pair per output
-        n_tail = 4 * len(tail_groups(4, form)) if form in ("PQ", "QP") else 4
+        # a pair per tail group and output (PQ/QP) or port channel (PP/QQ)
+        n_tail = 4 * len(tail_groups(4, form))
         assert A.shape == (8 + 4 + n_tail + extra,) * 2 and B.shape == (A.shape[0], 2)
         assert C.shape == (2, A.shape[0]) and len(names) == A.shape[0] == len(set(names))
         kinds = {nm.split(".")[1].rstrip("0123456789") for nm in names}
@@ -479,30 +519,50 @@ def exact_envelope_ratio(line, model, top=8.0, per_spacing=40):
     return ratio.max(axis=0).reshape(2, 2), f[sel][k].reshape(2, 2)
 
 
+def _port_passivity_margin(model, line, per_spacing=16, top=4.0):
+    """Smallest eigenvalue of the Hermitian part of the port admittance (PP:
+    ``diag(1, -1) Y``) or impedance (QQ: ``Z diag(1, -1)``), relative to the larger one, on
+    a dense grid: 200 log-spaced points from 1e-4 of the first mode to the band edge and
+    ``per_spacing`` points per mode spacing from there to ``top`` times the band edge, [-].
+    >= 0 (to round-off) for a passive port; the exact line's is > 0."""
+    S = np.diag([1.0, -1.0])
+    fb = resonance_f_max(line, model.form, model.n_modes)
+    df = 1.0 / (2.0 * line.wave_time)
+    f = np.concatenate([np.geomspace(1e-4 * df, fb, 200), np.arange(0.5 * df / per_spacing,
+                                                                    top * fb, df / per_spacing)])
+    H = model.transfer(2j * np.pi * f)
+    P = S @ H if model.form == "PP" else H @ S
+    eig = np.linalg.eigvalsh(0.5 * (P + np.conj(np.swapaxes(P, -1, -2))))
+    return (eig[:, 0] / np.abs(eig[:, 1])).min()
+
+
 @pytest.mark.parametrize("n", [6, 10])
 def test_nothing_above_the_band_exceeds_the_exact_envelope(n):
-    """Above mode n no entry of the PQ and QP forms rises above 1.1 times the exact envelope.
+    """Above mode n no entry of any causal form rises above 1.1 times the exact envelope.
 
     Envelope as in :func:`exact_envelope_ratio` (running maximum of |H_exact| from above),
     checked from half a spacing above mode n to 8 times that frequency. On the nine lines of
     :func:`test_all_forms_range_of_lines` (n = 6; n = 10: the three 10 m lines, the
-    lossiest, to keep the suite's time) and the default rig's hoses, forms PQ and QP (PP and
-    QQ keep the single light pseudo-mode, which keeps their port admittance/impedance
-    passive; not yet done for them: they still peak at 2-9 times the envelope). The
-    earlier remainder (one pseudo-mode per output, zeta = 0.05, at ~1.75 f_b) peaked at
-    2-3 times the envelope (Dn ~ 0.003: the default supply hose, 777 Hz), up to 9.6 times
-    (Dn = 0.033). Measured now: <= 1.08 (n = 6 and 10; the construction bounds it at 1.08
-    on a coarser grid).
+    lossiest, to keep the suite's time) and the default rig's hoses, forms PQ, QP, PP, QQ.
+    PP and QQ also keep their port passive (the fit's constraint, checked here on a
+    denser grid than the fit's: :func:`_port_passivity_margin` >= -1e-9). The earlier
+    remainder (one pseudo-mode per output, zeta = 0.05, at ~1.75 f_b) peaked at 2-3 times
+    the envelope (Dn ~ 0.003: the default supply hose, 777 Hz), up to 9.6 times (Dn = 0.033).
+    Measured now: <= 1.075 (n = 6 and 10; the construction bounds it at 1.08 on a coarser
+    grid).
     """
     worst = (0.0, None)
     lines = _nine_lines() if n == 6 else [_nine_lines()[k] for k in (2, 5, 8)]
     for line in lines + _default_rig_hoses():
-        for form in ("PQ", "QP"):
-            ratio, where = exact_envelope_ratio(line, residue_line(line, n, form))
+        for form in FORMS:
+            model = residue_line(line, n, form)
+            ratio, where = exact_envelope_ratio(line, model)
             i, j = np.unravel_index(ratio.argmax(), ratio.shape)
             assert ratio[i, j] <= 1.1, (form, line, (i, j), where[i, j], ratio[i, j])
             if ratio[i, j] > worst[0]:
                 worst = (ratio[i, j], (form, line.length, line.diameter, (i, j)))
+            if form in ("PP", "QQ"):
+                assert _port_passivity_margin(model, line) >= -1e-9, (form, line)
     print(f"\nn = {n}: largest |H_model|/envelope above the band {worst[0]:.3f} at {worst[1]}")
 
 
@@ -525,7 +585,7 @@ def test_default_supply_hose_has_no_pseudo_resonance():
         assert np.all(mod <= exact)
 
 
-@pytest.mark.parametrize("form", ["PQ", "QP"])
+@pytest.mark.parametrize("form", FORMS)
 def test_remainder_well_damped(form):
     """The remainder's poles decay within one wave time L/c and faster than any kept mode.
 

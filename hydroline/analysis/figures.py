@@ -24,13 +24,19 @@ SIGNAL_DISPLAY = {
 }
 
 
+class _Figures:
+    """``subplots`` as pyplot has it, on a figure made without pyplot (Agg canvas)."""
+
+    @staticmethod
+    def subplots(nrows=1, ncols=1, figsize=None, **kw):
+        from ..plotting import new_figure
+
+        fig = new_figure(figsize)
+        return fig, fig.subplots(nrows, ncols, **kw)
+
+
 def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
+    return _Figures
 
 
 def _display(name):

@@ -51,10 +51,9 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
     path : str or Path  PNG file to write
     title : str         Figure title
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     import networkx as nx
+
+    from ..plotting import new_figure
 
     g = nx.DiGraph()
     for c in circuit.components:
@@ -71,7 +70,8 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
                 labels.setdefault((src, dst), []).append(row["quantity"][0])
     pos = nx.kamada_kawai_layout(g) if len(g) > 1 else {n: (0.0, 0.0) for n in g}
     n = len(g)
-    fig, ax = plt.subplots(figsize=(max(8, 0.9 * n), max(6, 0.6 * n)))
+    fig = new_figure((max(8, 0.9 * n), max(6, 0.6 * n)))
+    ax = fig.subplots()
     colors = {"hose": "#9ecae1", "servovalve": "#fdae6b", "actuator": "#a1d99b",
               "accumulator": "#dadaeb", "pressure_source": "#fc9272", "pump": "#fc9272"}
     nx.draw_networkx_edges(g, pos, ax=ax, arrows=True, arrowstyle="-|>", arrowsize=12,
@@ -87,4 +87,3 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
     ax.axis("off")
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)

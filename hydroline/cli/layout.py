@@ -12,6 +12,14 @@ _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
 
 def register(sub):
+    """Add the ``hydroline layout`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser(
         "layout", help="hose-layout study: port pressure oscillations against the length of "
         "the sections II (manifold to servovalve), 0 = close-coupled manifold",
@@ -59,6 +67,19 @@ def _progress(enabled):
 
 
 def run(args) -> int:
+    """Run ``hydroline layout``: the hose-layout study (port pressure oscillations against the length of the varied sections), its table, figure and conclusion.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:

@@ -165,12 +165,10 @@ def plot_step(line, t, exact, responses, path):
     responses : dict    label -> model's P_d/P_u step response at ``t``, [-]
     path : str or Path  PNG to write
     """
-    import matplotlib
+    from ..plotting import new_figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    fig, (ay, ae) = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    fig = new_figure((9, 6.5))
+    ay, ae = fig.subplots(2, 1, sharex=True)
     x = t / (4 * line.wave_time)
     ay.plot(x, exact, "k", lw=1.4, label="exact (dissipative, inverse Laplace)")
     for label, y in responses.items():
@@ -188,7 +186,6 @@ def plot_step(line, t, exact, responses, path):
                  f"Dn = {line.dissipation_number:.3g}")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def _models(line, n, form, methods, strict):

@@ -54,6 +54,14 @@ sweep.jsonl, not in the table (a note says so).
 
 
 def register(sub):
+    """Add the ``hydroline sweep`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser(
         "sweep", help="parameter study: full factorial or random samples over rig parameters, "
         "in parallel, resumable, on local processes or a Dask cluster",
@@ -123,6 +131,19 @@ class _Progress:
 
 
 def run(args) -> int:
+    """Run ``hydroline sweep``: the parameter study's variants, in parallel and resumable, into results.csv and a summary.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     rig = load_rig(args.rig)
     scenario = args.scenario or default_scenario(rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None

@@ -75,7 +75,6 @@ def check_modes(n_modes) -> int:
     return int(n_modes)
 
 
-_check_modes = check_modes       # the former private name (still imported by residue.py)
 
 
 def _gamma_squared(line: Line, s):
@@ -178,7 +177,7 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     >>> print(f"alpha_6 = {alpha[5]:.3f}, beta_6 = {beta[5]:.2f}")
     alpha_6 = 1.008, beta_6 = 15.87
     """
-    n_modes, form = _check_modes(n_modes), check_form(form)
+    n_modes, form = check_modes(n_modes), check_form(form)
     # a pure function of these numbers, kept on disk: a later build of the same line skips
     # the root finding (and the import of scipy.special)
     key = (f"{_SOURCE_TAG}|{form}|{n_modes}|{line.length!r}|{line.diameter!r}|"

@@ -50,10 +50,17 @@
     least-squares fit of the exact remainder in the band and of the reflection-free mean
     above it, with the DC gain and first moment of every entry exact (equality
     constraints) and ``|H| <= TAIL_BOUND * envelope`` above the band (re-weighting).
-    PP, QQ (:func:`_single_tail_blocks`): one light pseudo-mode per output
-    (``zeta = TAIL_DAMPING``), numerators from the exact DC gain and first moment; it keeps
-    the port admittance/impedance passive but peaks above the band at 2-9 times the exact
-    envelope (a passive, i.e. positive-real constrained, version of the fit is not done).
+    PP, QQ (:func:`_passive_remainder_blocks`): the same groups, one pair per group and
+    *port channel* (``H00 + H01`` and ``H00 - H01``, the eigenvalues of the port admittance
+    (PP) or impedance (QQ): common and differential mode, :func:`_port_channels`), the
+    same objective and equalities, plus passivity: ``Re >= 0`` of both channels of the
+    whole model on a frequency grid (in the band ``>= PASSIVE_MARGIN`` times the exact
+    line's real part), refined where a dense check finds less, and the common mode's
+    second moment at most half the exact one (PP, near DC); the envelope bound as tangent
+    half-planes (cutting planes). A quadratic programme in 16 numerators, solved exactly
+    (:func:`_inequality_lsq`). Should it ever fail (not seen on ~100 lines, Dn 3e-5 ...
+    0.05), the old single light pseudo-mode per output (:func:`_single_tail_blocks`,
+    passive, but 2-9 times the envelope above the band) is used instead.
 
   The DC gain of every entry is therefore exact: PQ/QP the laminar steady state (M12),
   PP ``1/R``, QQ ``1/(s C)`` plus the offsets ``R/3`` (coth) and ``-R/6`` (csch).
@@ -72,7 +79,10 @@ after the dot gives the unit):
   to the output at ``end`` ("upstream"/"downstream") of quantity q ("pressure"/"flow"),
   e.g. PQ ``viscous_downstream2.pressure``: part of P_d driven by Q_d;
 * PQ/QP: ``tail{g}_{end}.{q}1``, ``tail{g}_{end}.{q}2`` -- group g's contribution to that
-  output and its quadrature component (same unit); PP/QQ: ``tail_{end}.{q}1``, ``...2``.
+  output and its quadrature component (same unit); PP/QQ: ``tail{g}_{mode}.{q}1``,
+  ``...2``, mode "common" or "differential" (port channel driven by ``u1 + u2`` or
+  ``u1 - u2``; the outputs get half of it, with the channel's signs), q "flow" (PP) or
+  "pressure" (QQ); fallback: ``tail_{end}.{q}1``, ``...2``.
 
 Inputs and outputs are in the order of the form's table (:data:`FORM_PORTS`).
 """
@@ -81,16 +91,27 @@ from __future__ import annotations
 import numpy as np
 from scipy import special
 
-from .corrections import _check_modes, dissipative_root, modal_angles
+from .corrections import check_modes, dissipative_root, modal_angles
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
            "viscous_poles", "exact_moments", "column_branches", "tail_groups"]
 
-#: PP and QQ forms: damping ratio of the single pseudo-mode per output that stands for the
-#: dropped modes (the grouped, fitted remainder of PQ/QP is not yet constrained to keep the
-#: port admittance/impedance passive), [-]. Light: its in-band part must stay reactive.
+#: PP and QQ forms, fallback only (:func:`_single_tail_blocks`, used if the passive fit
+#: fails): damping ratio of the single pseudo-mode per output that stands for the dropped
+#: modes, [-]. Light: its in-band part must stay reactive.
 TAIL_DAMPING = 0.05
+
+#: PP and QQ: the envelope bound enters the fit as tangent half-planes
+#: ``Re(H e^{-j arg H}) <= TAIL_CUT * TAIL_BOUND * envelope`` at the points above the bound
+#: (cutting planes, added per round), [-].
+TAIL_CUT = 0.99
+
+#: PP and QQ: in the band (from a quarter of a mode spacing), the real part of each port
+#: channel of the model must be at least this fraction of the exact line's (a margin
+#: that keeps it positive between the grid points, where the exact one is small for
+#: low-loss lines), [-].
+PASSIVE_MARGIN = 0.5
 
 #: PQ and QP forms: the dropped modes k > n are lumped in groups ``[a_g, a_{g+1})`` with
 #: ``a_g = (n + 1) TAIL_GROUP_RATIO^g`` (the last group runs to infinity), one pseudo-mode per
@@ -177,6 +198,12 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
 
     Roots of ``Gamma(s) = j theta_k`` (M6), ``theta_k = (k - 1/2) pi`` (PQ, QP: cosh Gamma = 0)
     or ``k pi`` (PP, QQ: sinh Gamma = 0), continued from mode to mode as in (M15).
+
+    Parameters
+    ----------
+    line : Line      The line, SI
+    n_modes : int    Modes, [-]
+    form : str       Causal form: "PQ", "QP", "PP" or "QQ"
     """
     thetas = modal_angles(n_modes, form)
     roots = []
@@ -237,6 +264,14 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     Solved by bisection for the modes 1..n_roots of the form and the clusters m whose
     rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the first cluster).
 
+    Parameters
+    ----------
+    line : Line          The line, SI
+    form : str           Causal form: "PQ", "QP", "PP" or "QQ"
+    rate_limit : float   Largest cluster rate kept, [1/s] (None: the first cluster only)
+    n_roots : int        Roots per cluster (modes of the form), [-]
+    max_clusters : int   Clusters at most, [-]
+
     Returns
     -------
     ndarray (clusters, n_roots) of real poles s < 0, [1/s]
@@ -276,6 +311,11 @@ def exact_moments(line: Line, form: str = "PQ"):
     ``sech = 1 - g/2``, ``G tanh G = g - g^2/3``, ``tanh G/G = 1 - g/3``,
     ``G coth G = 1 + g/3 - g^2/45``, ``G csch G = 1 - g/6 + 7 g^2/360``. For QQ the pole
     ``1/(s C)`` of every entry (sign as in the table) is removed first.
+
+    Parameters
+    ----------
+    line : Line    The line, SI
+    form : str     Causal form: "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
@@ -325,6 +365,12 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
     admittance at the frequencies that matter, so any deficit left to the tail pseudo-mode
     would appear there multiplied by that factor. Max error against ``1/(Zc Gamma)``,
     defaults: 0.61 % at any frequency.
+
+    Parameters
+    ----------
+    line : Line        The line (bore, fluid), SI
+    n_exact : int      Branches kept one by one, [-]
+    n_octaves : int    Octave groups after them (the last takes every further branch), [-]
 
     Returns
     -------
@@ -469,7 +515,7 @@ def tail_groups(n_modes: int, form: str = "PQ"):
     -------
     list of (Omega tau [-], zeta [-]), one per group, in rising frequency
     """
-    n = _check_modes(n_modes)
+    n = check_modes(n_modes)
     edges = [n + 1]
     for g in range(1, TAIL_GROUPS):
         edges.append(max(edges[-1] + 1, int(round((n + 1) * TAIL_GROUP_RATIO**g))))
@@ -487,6 +533,40 @@ def _equality_lsq(Q, q, G, h):
     """min ``z'Q z - 2 q'z`` subject to ``G z = h`` exactly (KKT system)."""
     K = np.block([[Q, G.T], [G, np.zeros((len(h), len(h)))]])
     return np.linalg.solve(K, np.concatenate([q, h]))[:len(q)]
+
+
+def _inequality_lsq(Q, q, G, h, A, b):
+    """min ``z'Q z - 2 q'z`` subject to ``G z = h`` and ``A z >= b`` (Q positive definite).
+
+    Lawson and Hanson's route (Solving Least Squares Problems, ch. 23): the equalities are
+    eliminated on the null space of G, the quadratic is whitened by its Cholesky factor,
+    and the remaining least-distance problem ``min |u|, A' u >= b'`` is solved as the
+    non-negative least-squares problem ``min |[A'^T; b'^T] x - e|, x >= 0``
+    (:func:`scipy.optimize.nnls`), ``u = -r[:-1]/r[-1]`` from its residual r. Exact up to
+    round-off; returns None when the constraints are infeasible.
+    """
+    from scipy.linalg import null_space, solve_triangular
+    from scipy.optimize import nnls
+
+    zp = np.linalg.lstsq(G, h, rcond=None)[0]
+    N = null_space(G)
+    M = N.T @ Q @ N
+    Rc = np.linalg.cholesky(M).T                              # M = Rc' Rc
+    c = solve_triangular(Rc, N.T @ (q - Q @ zp), trans="T")  # v = Rc^-1 (u + c)
+    Gm = solve_triangular(Rc, (A @ N).T, trans="T").T         # A N Rc^-1
+    hm = b - A @ zp - Gm @ c
+    norm = np.linalg.norm(Gm, axis=1)
+    norm[norm == 0] = 1.0
+    Gm, hm = Gm / norm[:, None], hm / norm
+    E = np.vstack([Gm.T, hm])
+    f = np.zeros(E.shape[0])
+    f[-1] = 1.0
+    x, _ = nnls(E, f, maxiter=50 * E.shape[1])
+    r = E @ x - f
+    if abs(r[-1]) < 1e-12:
+        return None
+    u = -r[:-1] / r[-1]
+    return zp + N @ solve_triangular(Rc, u + c)
 
 
 def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
@@ -597,6 +677,222 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
     return out
 
 
+def _second_moment(blocks, skip=()):
+    """``H2`` of the blocks, ``H(s) = H0 + H1 s + H2 s^2 + ...``: ``-C A^-3 B``, [unit s^2]."""
+    H2 = np.zeros((2, 2))
+    for A, B, C, names in blocks:
+        if names not in skip:
+            X = np.linalg.solve(A, np.linalg.solve(A, np.linalg.solve(A, B)))
+            H2 -= C @ X
+    return H2
+
+
+def _port_channels(H):
+    """PP/QQ entries -> the two port channels ``H00 + H01`` ("plus") and ``H00 - H01``.
+
+    By the symmetry of (M6) (``H11 = -H00``, ``H10 = -H01``) the port admittance (PP,
+    ``diag(1, -1) H``) and impedance (QQ, ``H diag(1, -1)``) have the constant eigenvectors
+    [1, 1] and [1, -1]; their eigenvalues are these two channels (PP: plus = common mode
+    ``tanh(G/2)/Zc``, minus = differential ``coth(G/2)/Zc``; QQ: plus = differential
+    ``Zc tanh(G/2)``, minus = common ``Zc coth(G/2)``). The port is passive iff both have a
+    real part >= 0 on the imaginary axis.
+    """
+    return np.stack([H[..., 0, 0] + H[..., 0, 1], H[..., 0, 0] - H[..., 0, 1]], axis=-1)
+
+
+def _passive_remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, moment2=None):
+    """PP/QQ: grouped pseudo-modes per port channel, fitted under a passivity constraint.
+
+    The dropped modes are grouped as for PQ/QP (:func:`tail_groups`); every group gets one
+    damped pair ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` per port channel (plus,
+    minus: :func:`_port_channels`), driven by ``u1 + u2`` or ``u1 - u2``. The numerators
+    (4 per group) solve a quadratic programme (:func:`_inequality_lsq`):
+
+    * minimise the same least-squares objective as :func:`_remainder_blocks` (exact
+      remainder in the band, reflection-free mean above it), per channel;
+    * equality: DC gain ``rem0`` and first moment ``rem1`` of every entry exact;
+    * passivity: ``Re(channel) >= 0`` of the whole model (modes, column, V and these pairs)
+      on a frequency grid (linear in the numerators; in the band ``>= PASSIVE_MARGIN``
+      times the exact real part), refined where a check on a 64-per-spacing grid finds
+      less than half of that; near DC, where the common-mode admittance (PP) is
+      ``-H2 omega^2``, its second moment at most half the exact one (``moment2`` [Pa^-1
+      m^3 s], negative);
+    * envelope: ``|H| <= TAIL_BOUND * envelope`` above the band for entries 00 and 01 (10,
+      11 are their negatives), as tangent half-planes at the points that exceed it
+      (``TAIL_CUT``), added in rounds (at most ``TAIL_ITERATIONS``).
+
+    Parameters
+    ----------
+    line : Line          The line
+    n : int              Retained modes, [-]
+    form : str           "PP" or "QQ"
+    blocks : list        (A, B, C, names) blocks realised so far (column, modes, V)
+    rem0, rem1 : ndarray (2, 2) DC gain and first moment the remainder must supply, [output
+                         unit per input unit], [same * s]
+    moment2 : float, optional  Exact second moment of the common-mode admittance (PP)
+
+    Returns
+    -------
+    list of (A, B, C, names) blocks, or None if no passive fit was found (the caller then
+    uses :func:`_single_tail_blocks`)
+    """
+    tau = line.wave_time
+    groups = tail_groups(n, form)
+    m = len(groups)
+    Om = np.array([g[0] for g in groups])
+    ze = np.array([g[1] for g in groups])
+    theta_band = modal_angles(n + 1, form)[-1] - 0.5 * np.pi
+    kind = "flow" if form == "PP" else "pressure"
+    skip = (["column.volume"],)
+
+    def basis(x):                 # columns [sigma/D_i, 1/D_i] at sigma = j x = s tau
+        sig = 1j * np.asarray(x)[:, None]
+        D = sig**2 + 2.0 * ze * Om * sig + Om**2
+        return np.hstack([sig / D, 1.0 / D])
+
+    def known(x):                 # channels of the blocks so far
+        return _port_channels(_blocks_transfer(blocks, 1j * np.asarray(x) / tau))
+
+    k2 = 2 * m                    # unknowns per channel; z = [plus (k2), minus (k2)]
+    nz = 2 * k2
+    x_in = np.linspace(theta_band / TAIL_FIT_POINTS, theta_band, TAIL_FIT_POINTS)
+    x_up = theta_band * np.geomspace(1.0, Om[-1] / theta_band, TAIL_FIT_POINTS)[1:]
+    E_in = _port_channels(line.transfer(1j * x_in / tau, form)) - known(x_in)
+    E_up = _port_channels(_reflection_free(line, 1j * x_up / tau, form)) - known(x_up)
+    F_in, F_up = basis(x_in), basis(x_up)
+    Q = np.zeros((nz, nz))
+    q = np.zeros(nz)
+    scales = []
+    for c in range(2):
+        sl = slice(c * k2, (c + 1) * k2)
+        scale = max(np.abs(E_in[:, c]).max(), np.abs(E_up[:, c]).max(), 1e-300)
+        scales.append(scale)
+        for F, y, w in ((F_in, E_in[:, c], 1.0), (F_up, E_up[:, c], TAIL_MEAN_WEIGHT**2)):
+            Q[sl, sl] += w * (F.real.T @ F.real + F.imag.T @ F.imag) / scale**2
+            q[sl] += w * (F.real.T @ y.real + F.imag.T @ y.imag) / scale**2
+    S = max(scales)               # unknowns w = z/S, of order one
+    Q *= S**2 / len(x_in)
+    q *= S / len(x_in)
+    # equalities: DC gain and first moment of each channel
+    G1 = np.vstack([np.concatenate([np.zeros(m), Om**-2.0]),
+                    np.concatenate([Om**-2.0, -2.0 * ze * Om**-3.0])])
+    Geq = np.zeros((4, nz))
+    heq = np.zeros(4)
+    r0, r1 = _port_channels(rem0), _port_channels(rem1 / tau)
+    for c in range(2):
+        Geq[2 * c:2 * c + 2, c * k2:(c + 1) * k2] = G1
+        heq[2 * c:2 * c + 2] = np.array([r0[c], r1[c]]) / S
+    z0 = _equality_lsq(Q, q, Geq, heq)
+
+    # inequalities, rows a z >= b (scaled)
+    A_ub, b_ub = [], []
+    if moment2 is not None:       # second moment of the common-mode channel (PP plus)
+        h2_known = _port_channels(_second_moment(blocks, skip))[0]
+        row = np.zeros(nz)
+        # sigma^2 coefficient of (b1 sig + b0)/D: b0 (4 zeta^2 - 1)/Om^4 - 2 zeta b1/Om^3
+        row[:m] = 2.0 * ze * Om**-3.0
+        row[m:k2] = (1.0 - 4.0 * ze**2) * Om**-4.0
+        # h2_known/tau^2 - row z <= 0.5 moment2/tau^2 (both in sigma = s tau)
+        A_ub.append(row)
+        b_ub.append(np.array([(h2_known - 0.5 * moment2) / tau**2 / S]))
+
+    spacing = np.pi
+    x_lo = min(1e-3, 1e-2 * line.dissipation_number) * np.pi
+    top = 2.0 * Om[-1]
+    x_pass = np.unique(np.concatenate([
+        np.geomspace(x_lo, theta_band, 30),
+        np.arange(spacing / 4, theta_band, spacing / 4),
+        theta_band * np.geomspace(1.0, top / theta_band, 30)]))
+    x_fine = np.unique(np.concatenate([
+        np.geomspace(x_lo * 0.1, theta_band, 1000),
+        np.arange(spacing / 64, top, spacing / 64)]))
+    # envelope grid above the band (as _remainder_blocks)
+    x_c = np.arange(theta_band, top + 2.0 * np.pi, np.pi / TAIL_POINTS_PER_SPACING)
+    env = np.maximum.accumulate(np.abs(line.transfer(1j * x_c[::-1] / tau, form)), axis=0)[::-1]
+    keep = x_c <= top
+    x_c, bound = x_c[keep], TAIL_BOUND * env[keep][:, 0, :]       # entries 00, 01
+
+    F_fine, K_fine = basis(x_fine), known(x_fine)
+    F_c, K_c = basis(x_c), _blocks_transfer(blocks, 1j * x_c / tau)[:, 0, :]
+
+    def exact_real(x):
+        """Margin targets ``PASSIVE_MARGIN Re(exact)`` (in the band) and where Re(exact) is
+        resolved (> 1e-7 |exact|, above 0.01 of the first mode; near DC the common mode's
+        O(omega^2) real part is below the round-off of the blocks' sum, and there the
+        second-moment constraint stands for it)."""
+        x = np.asarray(x)
+        ex = _port_channels(line.transfer(1j * x / tau, form))
+        inside = ((x >= 0.25 * np.pi) & (x <= theta_band))[:, None]
+        return (np.where(inside, PASSIVE_MARGIN * np.maximum(ex.real, 0.0), 0.0),
+                (ex.real > 1e-7 * np.abs(ex)) & (x >= 0.02 * np.pi)[:, None])
+
+    def add_passive(x):
+        F, K, (X, ok) = basis(x), known(x), exact_real(x)
+        for c in range(2):
+            rows = np.zeros((len(x), nz))
+            rows[:, c * k2:(c + 1) * k2] = F.real
+            A_ub.append(rows[ok[:, c]])
+            b_ub.append(((X[:, c] - K[:, c].real) / S)[ok[:, c]])
+
+    def add_envelope(idx, entry, H):
+        # entry 00 = (plus + minus)/2, 01 = (plus - minus)/2: the tangent half-plane of
+        # |H| <= bound at the current phase, Re(H e^-j arg H) <= bound (cutting planes)
+        sgn = 1.0 if entry == 0 else -1.0
+        ph = np.exp(-1j * np.angle(H[idx]))[:, None]
+        F = F_c[idx] * ph
+        rows = np.zeros((len(idx), nz))
+        rows[:, :k2] = -0.5 * F.real
+        rows[:, k2:] = -0.5 * sgn * F.real
+        sc = bound[idx, entry] / S
+        A_ub.append(rows / sc[:, None])
+        b_ub.append(((K_c[idx, entry] * ph[:, 0]).real / S - TAIL_CUT * sc) / sc)
+
+    X_fine, ok_fine = exact_real(x_fine)
+    add_passive(x_pass)
+    z, passive = z0, None
+    for _ in range(TAIL_ITERATIONS):
+        Aub = np.vstack([np.atleast_2d(a) for a in A_ub])
+        bub = np.concatenate([np.atleast_1d(b) for b in b_ub])
+        z_new = _inequality_lsq(Q, q, Geq, heq, Aub, bub)
+        if z_new is None or (Aub @ z_new - bub).min() < -1e-6:
+            break                 # infeasible or inaccurate: keep the last passive one
+        z = z_new
+        added = False
+        for c in range(2):        # dense passivity check
+            re = K_fine[:, c].real + S * (F_fine.real @ z[c * k2:(c + 1) * k2])
+            bad = np.flatnonzero((re < 0.5 * X_fine[:, c]) & ok_fine[:, c])
+            if bad.size:
+                add_passive(x_fine[bad[:: max(1, bad.size // 20)]])
+                added = True
+        if not added:
+            passive = z
+        for e, sgn in ((0, 1.0), (1, -1.0)):
+            H = K_c[:, e] + 0.5 * S * (F_c @ (z[:k2] + sgn * z[k2:]))
+            over = np.flatnonzero(np.abs(H) > bound[:, e])
+            if over.size:
+                add_envelope(over[:: max(1, over.size // 20)], e, H)
+                added = True
+        if not added:
+            break
+    if passive is None:
+        return None
+    z = passive
+
+    out = []
+    for c, (vin, vout) in enumerate((([1.0, 1.0], [0.5, -0.5]), ([1.0, -1.0], [0.5, 0.5]))):
+        chan = ("common" if (form == "PP") == (c == 0) else "differential")
+        zc = S * z[c * k2:(c + 1) * k2]
+        for i in range(m):
+            W, a1 = Om[i] / tau, 2.0 * ze[i] * Om[i] / tau
+            b1, b0 = zc[i] / tau, zc[m + i] / tau**2
+            Bt = np.vstack([b1 * np.array(vin), b0 / W * np.array(vin)])
+            Ct = np.zeros((2, 2))
+            Ct[:, 0] = vout
+            out.append((np.array([[-a1, W], [-W, 0.0]]), Bt, Ct,
+                        [f"tail{i + 1}_{chan}.{kind}1", f"tail{i + 1}_{chan}.{kind}2"]))
+    return out
+
+
 def _single_tail_blocks(n, form, tau, rem0, rem1, ends):
     """PP/QQ: one pseudo-mode per output, ``Omega`` from the lossless tail's first and third
     moments (:func:`_tail_omega`), ``zeta = TAIL_DAMPING``, numerators from the exact DC gain
@@ -628,12 +924,12 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     -------
     (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
     form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
-    2 n modal + 4 viscous + tail (PQ/QP: 4 per group of :func:`tail_groups`, 16; PP/QQ: 4),
+    2 n modal + 4 viscous + tail (4 per group of :func:`tail_groups`, 16),
     plus 6 column states (PP) or 1 (QQ).
     """
     if not isinstance(line, Line):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
-    n = _check_modes(n_modes)
+    n = check_modes(n_modes)
     form = check_form(form)
     ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
     tau = line.wave_time
@@ -692,8 +988,13 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     # T: dropped modes; exact DC gain and first moment
     if form in ("PQ", "QP"):      # well-damped grouped pseudo-modes, fitted and bounded
         blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends)
-    else:                         # one light pseudo-mode per output (passive)
-        blocks += _single_tail_blocks(n, form, tau, rem0, rem1, ends)
+    else:                         # grouped pseudo-modes per port channel, kept passive
+        tail = _passive_remainder_blocks(
+            line, n, form, blocks, rem0, rem1,
+            -line.wave_time * 8.0 * line.dissipation_number * line.wave_time
+            / (12.0 * line.impedance) if form == "PP" else None)
+        blocks += tail if tail is not None else _single_tail_blocks(n, form, tau, rem0, rem1,
+                                                                    ends)
 
     N = sum(b[0].shape[0] for b in blocks)
     A, B, C = np.zeros((N, N)), np.zeros((N, 2)), np.zeros((2, N))

@@ -131,7 +131,12 @@ class Distribution:
     args: tuple
 
     def sample(self, rng: np.random.Generator):
-        """One draw, [unit of the parameter]."""
+        """One draw, [unit of the parameter].
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator   The sweep's random generator (seeded: reproducible)
+        """
         a = self.args
         if self.kind == "uniform":
             return float(rng.uniform(a[0], a[1]))
@@ -148,6 +153,12 @@ class Distribution:
         raise ValueError(f"unknown distribution {self.kind!r}")
 
     def describe(self, unit: str = "") -> str:
+        """The distribution as text, e.g. ``uniform(150 MPa, 210 MPa)``.
+
+        Parameters
+        ----------
+        unit : str   The parameter's SI unit, shown after each value ("-", "str": none)
+        """
         u = "" if unit in ("-", "str") else f" {unit}"
         if self.kind == "lognormal":
             return f"lognormal({self.args[0]:g}{u}, {self.args[1]:g})"
@@ -184,6 +195,7 @@ class Parameter:
         return "+".join(self.paths)
 
     def describe(self) -> str:
+        """The parameter's levels or distribution as text, with its unit."""
         if self.distribution is not None:
             return self.distribution.describe(self.unit)
         u = "" if self.unit in ("-", "str") else f" {self.unit}"
@@ -394,7 +406,12 @@ class Design:
         return [path for p in self.parameters for path in p.paths]
 
     def variant(self, i: int) -> dict:
-        """Rig path -> SI value of variant ``i`` (0-based)."""
+        """Rig path -> SI value of variant ``i`` (0-based).
+
+        Parameters
+        ----------
+        i : int   Variant number, 0 <= i < len(design)
+        """
         if not 0 <= i < len(self):
             raise IndexError(f"variant {i} out of range 0..{len(self) - 1}")
         chosen = []
@@ -420,6 +437,7 @@ class Design:
         return (self.variant(i) for i in range(len(self)))
 
     def describe(self) -> str:
+        """The design as text: full factorial (its sizes) or random samples (count, seed)."""
         if self.samples is None:
             if len(self._sizes) == 1:
                 return f"full factorial, {len(self)} variants"

@@ -219,20 +219,21 @@ class LayoutStudy:
     def plot(self, path=None, title=None):
         """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
         return right; dotted: step and piston stop, green dashed: a measured 2 % settling
-        time) above
-        frequency and amplitude against length.
+        time) above frequency and amplitude against length.
+
+        Parameters
+        ----------
+        path : str or Path   Write the figure there (PNG) when given
+        title : str          Figure title
 
         Returns
         -------
         matplotlib.figure.Figure (written as PNG to ``path`` when given)
         """
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+        from ..plotting import new_figure
 
         n = len(self.lengths)
-        fig = plt.figure(figsize=(11, 1.7 * n + 4.0))
+        fig = new_figure((11, 1.7 * n + 4.0))
         outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
         gs = outer[0].subgridspec(n, 2, hspace=0.12)
         first, lims = {}, {}
@@ -348,7 +349,16 @@ def conclusion(study: "LayoutStudy") -> str:
     """The design conclusion in one sentence, written from the study's own numbers.
 
     Compares the port oscillation amplitude at the longest section II with the shortest
-    non-zero one and, where the study has it, the close-coupled manifold (0 m)."""
+    non-zero one and, where the study has it, the close-coupled manifold (0 m).
+
+    Parameters
+    ----------
+    study : LayoutStudy   A finished layout study
+
+    Returns
+    -------
+    str  One sentence
+    """
     recs = {r["section2_length_m"]: r for r in study.records()}
     hoses = sorted(L for L in recs if L > 0)
     parts = []
