@@ -21,6 +21,14 @@ OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
 
 
 def register(sub):
+    """Add the ``hydroline simulate`` subcommand and its options to the command's parser.
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
+                                      (from ``add_subparsers``); ``run`` is set as the
+                                      subcommand's ``func``
+    """
     p = sub.add_parser("simulate", help="simulate the test system (default: the 2005 paper's rig, "
                        "50 mA open-loop step)",
                        description="Simulate a rig from its solved steady state. Writes results.csv, "
@@ -54,7 +62,12 @@ def json_summary(summary: dict) -> dict:
     """The ``--json`` document: exactly ``{"supply": {frequency_hz, amplitude_mpa,
     settling_time_s}, "return": {...}, "actuator_natural_frequency_hz", "wall_time_s"}``
     (floats, [Hz], [MPa], [s]; frequency and settling time null when there is none).
-    ``summary.json`` keeps the extras (metrics window, warnings, tracking error)."""
+    ``summary.json`` keeps the extras (metrics window, warnings, tracking error).
+
+    Parameters
+    ----------
+    summary : dict   :func:`hydroline.summarize` of a single-axis run
+    """
     out = {side: {k: _float_or_none(summary[side][k]) for k in PORT_KEYS}
            for side in ("supply", "return")}
     # amplitude_mpa is 0.0 where no oscillation was detected and null only where the window
@@ -67,7 +80,12 @@ def json_summary(summary: dict) -> dict:
 def json_axes_summary(summary: dict) -> dict:
     """The ``--json`` document of a multi-axis rig: ``{"axes": {"<axis>": {"supply": {...},
     "return": {...}, "position_disturbance_mm": float or null (the stepped axis), ...}},
-    "wall_time_s": float}`` ([Hz], [MPa], [s], [mm])."""
+    "wall_time_s": float}`` ([Hz], [MPa], [s], [mm]).
+
+    Parameters
+    ----------
+    summary : dict   :func:`hydroline.summarize` of a multi-axis run
+    """
     axes = {}
     for name, a in summary["axes"].items():
         entry = {side: {k: _float_or_none(a[side][k]) for k in PORT_KEYS} for side in ("supply", "return")}
@@ -101,7 +119,13 @@ CSV_RATE = 15e6
 
 
 def output_grid(t_end: float, dt_out: float | None):
-    """(integration output interval [s], write every n-th row, rows written) for --dt-out."""
+    """(integration output interval [s], write every n-th row, rows written) for --dt-out.
+
+    Parameters
+    ----------
+    t_end : float    Simulated time, [s]
+    dt_out : float   Interval of the rows written, [s] (None: every 0.1 ms row)
+    """
     if dt_out is None:
         return DT_OUT, 1, int(round(t_end / DT_OUT)) + 1
     every = max(1, int(-(-dt_out // DT_OUT)))   # ceil: the summary's rows no coarser than DT_OUT
@@ -125,6 +149,20 @@ def _check_size(rig, scenario, t_end, out, name):
 
 
 def run(args) -> int:
+    """Run ``hydroline simulate``: a scenario on a rig from its solved steady state; the
+    summary printed (or as JSON), results.csv, summary.json and pressures.png written.
+
+    Bad input raises a ``ValueError`` (or one of its kind) whose one-line message
+    :func:`hydroline.cli.main` prints.
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+
+    Returns
+    -------
+    int  Exit code, 0 on success
+    """
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:

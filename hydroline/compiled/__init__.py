@@ -227,6 +227,10 @@ class NativeModel:
     lib : ctypes.CDLL            The loaded library
     library_path : Path          Where the library is cached
     build_time : float           Seconds spent generating (and, on a cache miss, compiling)
+
+    Parameters
+    ----------
+    network : Network   The assembled model (:class:`hydroline.engine.Network`)
     """
 
     def __init__(self, network):
@@ -264,7 +268,18 @@ class NativeModel:
 
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
                fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1):
-        """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None)."""
+        """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None).
+
+        Parameters
+        ----------
+        p : ndarray           Runtime parameters, [SI] (the network's when None)
+        rtol : float          Relative tolerance, [-]
+        atol : float          Absolute tolerance on the scaled states, [-]
+        max_step : float      Largest step, [s] (0: none)
+        fixed_step : float    > 0: fixed-step BDF without error control, [s]
+        max_order : int       Highest BDF order (1-5)
+        newton_coef : float   Newton tolerance relative to the error-test tolerance, [-]
+        """
         return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef)
 
 
@@ -273,13 +288,15 @@ class NativeSolver:
 
     Parameters
     ----------
-    rtol : float        Relative tolerance
+    model : NativeModel The compiled library and its constants
+    p : ndarray         Runtime parameters, [SI]
+    rtol : float        Relative tolerance, [-]
     atol : float        Absolute tolerance on the scaled states (fraction of each state's
-                        typical magnitude)
+                        typical magnitude), [-]
     max_step : float    Largest step, [s] (0: none)
     fixed_step : float  > 0: fixed-step BDF of order max_order without error control, [s]
     max_order : int     Highest BDF order (1-5)
-    newton_coef : float Newton convergence tolerance relative to the error-test tolerance
+    newton_coef : float Newton convergence tolerance relative to the error-test tolerance, [-]
     """
 
     #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
@@ -318,11 +335,24 @@ class NativeSolver:
             self._lib.hl_free(h)
 
     def set_parameters(self, p):
+        """Use other runtime parameters from the next step on (a sampled controller's hold).
+
+        Parameters
+        ----------
+        p : ndarray   Runtime parameters, [SI]
+        """
         self.p = self._checked_parameters(p)
         self._lib.hl_set_parameters(self._h, _ptr(self.p))
 
     def start(self, t0: float, x0, t_bound: float):
-        """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0)."""
+        """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0).
+
+        Parameters
+        ----------
+        t0 : float        Segment start, [s]
+        x0 : ndarray      States there, [SI]
+        t_bound : float   Segment end, [s]
+        """
         x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
         if x0.shape != (self.model.n,):
             raise ValueError(f"initial state x0 must have {self.model.n} entries, got {x0.size}")
@@ -333,6 +363,12 @@ class NativeSolver:
 
     def advance(self, t_out, signals: bool = True, table: bool = False):
         """Integrate through the output times (ascending, within the segment).
+
+        Parameters
+        ----------
+        t_out : ndarray   Output times, [s]
+        signals : bool    Also return every signal at those times
+        table : bool      One array, signals then states, instead of a pair
 
         Returns
         -------
@@ -387,11 +423,19 @@ class NativeSolver:
         return {k: int(v) for k, v in zip(keys, s)}
 
     def reset_stats(self):
+        """Set the counters of :meth:`stats` to zero."""
         self._lib.hl_reset_stats(self._h)
 
     def scaled_jacobian_nonzeros(self, t: float, x, out=None) -> np.ndarray:
         """d(dz/dt)/dz at (t, x) in the scaled states z = x/scale: the nonzeros in the
-        compressed-column order of ``model.generated.jac_colind`` / ``jac_row``, [1/s]."""
+        compressed-column order of ``model.generated.jac_colind`` / ``jac_row``, [1/s].
+
+        Parameters
+        ----------
+        t : float         Time, [s]
+        x : ndarray       States, [SI]
+        out : ndarray     Array to fill, [1/s] (made when None)
+        """
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
         if x.shape != (self.model.n,):
             raise ValueError(f"state x must have {self.model.n} entries, got {x.size}")
@@ -402,7 +446,13 @@ class NativeSolver:
         return out[:g.jac_nnz]
 
     def rhs(self, t: float, x) -> np.ndarray:
-        """dx/dt at (t, x) from the compiled code, [SI/s]."""
+        """dx/dt at (t, x) from the compiled code, [SI/s].
+
+        Parameters
+        ----------
+        t : float       Time, [s]
+        x : ndarray     States, [SI]
+        """
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
         if x.shape != (self.model.n,):
             raise ValueError(f"state x must have {self.model.n} entries, got {x.size}")
@@ -419,7 +469,12 @@ _MODELS: dict = {}
 def model_fingerprint(model) -> str:
     """SHA-256 of a compiled model's CasADi graph (structure and numbers), its state scales
     and this machine's build settings: the same fingerprint means the same C code and the
-    same constants, so the code generation can be skipped."""
+    same constants, so the code generation can be skipped.
+
+    Parameters
+    ----------
+    model : CompiledModel   The network's CasADi functions (:class:`hydroline.engine.CompiledModel`)
+    """
     h = hashlib.sha256()
     for part in (model.f.serialize(), model.signals.serialize(), _CODE_TAG,
                  " ".join(CFLAGS + NATIVE_FLAGS), sys.platform, _cpu_id()):
@@ -500,6 +555,10 @@ def _remember_model(fingerprint: str, gen, library_path: Path) -> None:
 
 def native_model(network) -> NativeModel:
     """The network's :class:`NativeModel`, built once per network object.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
 
     Raises
     ------

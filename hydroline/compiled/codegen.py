@@ -123,6 +123,10 @@ def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
 def scaled_functions(model):
     """f, its sparse Jacobian and the signals of a compiled model in scaled states z = x/scale.
 
+    Parameters
+    ----------
+    model : CompiledModel   The network's CasADi graph
+
     Returns
     -------
     (f, jac, signals) : casadi.Function of (t, z, p): dz/dt, d(dz/dt)/dz, every signal [SI]
@@ -139,7 +143,13 @@ def scaled_functions(model):
 
 # ---- sparse LU with a fixed order ----------------------------------------------------------
 def minimum_degree_order(n: int, pattern) -> list[int]:
-    """Greedy minimum-degree elimination order of the symmetrised pattern (ties: lowest index)."""
+    """Greedy minimum-degree elimination order of the symmetrised pattern (ties: lowest index).
+
+    Parameters
+    ----------
+    n : int            Matrix size (states), [-]
+    pattern : iterable (row, column) pairs of the nonzeros
+    """
     adj = [set() for _ in range(n)]
     for i, j in pattern:
         if i != j:
@@ -161,7 +171,16 @@ def minimum_degree_order(n: int, pattern) -> list[int]:
 
 @dataclass
 class LUPlan:
-    """Symbolic LU of ``W = I - g J`` in a fixed pivot order (diagonal pivots)."""
+    """Symbolic LU of ``W = I - g J`` in a fixed pivot order (diagonal pivots).
+
+    Parameters
+    ----------
+    order : list    Pivot k is state ``order[k]``
+    slots : dict    (i, j) in pivot coordinates -> index in the factor array
+    lower : list    ``lower[k]``: rows i > k with L[i, k] != 0
+    upper : list    ``upper[k]``: columns j > k with U[k, j] != 0
+    flops : int     Multiply-adds of one factorisation, [-]
+    """
 
     order: list          # pivot k is state order[k]
     slots: dict          # (i, j) in pivot coordinates -> index in the factor array
@@ -171,6 +190,14 @@ class LUPlan:
 
 
 def lu_plan(n: int, rows, cols) -> LUPlan:
+    """The symbolic LU of ``I - g J`` for the Jacobian's pattern, in minimum-degree order.
+
+    Parameters
+    ----------
+    n : int        Matrix size (states), [-]
+    rows : list    Row index of each Jacobian nonzero
+    cols : list    Column index of each Jacobian nonzero
+    """
     pattern = set(zip(rows, cols)) | {(i, i) for i in range(n)}
     order = minimum_degree_order(n, pattern)
     pos = {s: k for k, s in enumerate(order)}
@@ -261,8 +288,8 @@ class GeneratedModel:
     source : str            C code (structure only)
     key : str               SHA-256 of the source, the cache key
     constants : ndarray     Values read by the code as ``c[k]``, [SI]
-    n_states, n_parameters, n_signals, jac_nnz, lu_slots, lu_flops : int
-    jac_colind, jac_row : ndarray  Compressed-column pattern of the Jacobian
+    n_states, n_parameters, n_signals, jac_nnz, lu_slots, lu_flops : int   Sizes, [-]
+    jac_colind, jac_row : ndarray  Compressed-column pattern of the Jacobian (indices), [-]
     """
 
     source: str
@@ -280,7 +307,12 @@ class GeneratedModel:
 
 def structure_key(functions) -> str:
     """SHA-256 of the straight-line programs of ``(f, jac, signals)`` with every constant's
-    value masked: equal keys mean the same C source (:func:`generate`), whatever the numbers."""
+    value masked: equal keys mean the same C source (:func:`generate`), whatever the numbers.
+
+    Parameters
+    ----------
+    functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
+    """
     h = hashlib.sha256()
     for fun in functions:
         h.update(_CONSTANT_LINE.sub(r"\1 = c;", fun.str(True)).encode())
@@ -295,14 +327,25 @@ _CONSTANT_LINE = re.compile(r"^(@\d+) = [^;@\[\]()]*;$", re.M)
 
 def constant_positions(functions) -> list[list[int]]:
     """Per function, the indices of its constant instructions, in the order :func:`generate`
-    numbers the constants ``c[k]``."""
+    numbers the constants ``c[k]``.
+
+    Parameters
+    ----------
+    functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
+    """
     return [[k for k in range(fun.n_instructions()) if fun.instruction_id(k) == ca.OP_CONST]
             for fun in functions]
 
 
 def constants_at(functions, positions) -> np.ndarray:
     """The constants ``c`` of a model whose structure is known (its :func:`constant_positions`):
-    what :func:`generate` would return as ``constants``, without writing the C."""
+    what :func:`generate` would return as ``constants``, without writing the C.
+
+    Parameters
+    ----------
+    functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
+    positions : list    Per function, the indices of its constant instructions
+    """
     return np.array([fun.instruction_constant(k) for fun, ks in zip(functions, positions)
                      for k in ks], dtype=float)
 
