@@ -53,7 +53,6 @@ def test_simulate_bad_scenario_initial_position(tmp_path, capsys):
 @pytest.mark.parametrize("error", ["steady", "compiler", "integrator"])
 def test_simulate_model_failures_are_one_line(tmp_path, capsys, monkeypatch, error):
     """Failures of the model itself (no steady state, no C compiler, integrator gave up)."""
-    from hydroline.cli import simulate as cli_simulate
     from hydroline.compiled import CompilerUnavailable
     from hydroline.engine import SteadyStateError
 
@@ -64,7 +63,7 @@ def test_simulate_model_failures_are_one_line(tmp_path, capsys, monkeypatch, err
     def fail(*a, **k):
         raise exc
 
-    monkeypatch.setattr(cli_simulate, "simulate", fail)
+    monkeypatch.setattr("hydroline.scenarios.simulate", fail)   # what the command runs
     rc = main(["simulate", "--out", str(tmp_path)])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1

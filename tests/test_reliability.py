@@ -237,7 +237,7 @@ def test_output_estimate_and_refusal_before_the_run(tmp_path, capsys, monkeypatc
     ("csv_folder", "results.csv is a folder"),
 ])
 def test_output_path_checked_before_the_run(tmp_path, capsys, monkeypatch, setup, needle):
-    monkeypatch.setattr("hydroline.cli.simulate.simulate",
+    monkeypatch.setattr("hydroline.scenarios.simulate",
                         lambda *a, **k: pytest.fail("ran before checking --out"))
     target = tmp_path / "out"
     if setup == "file":

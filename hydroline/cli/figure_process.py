@@ -42,6 +42,7 @@ class FigureProcess:
 
     def __init__(self):
         self.pid = None
+        self._job_w = self._done_r = None
         if not hasattr(os, "fork") or os.environ.get("HYDROLINE_FIGURE_PROCESS", "1") == "0":
             return
         job_r, self._job_w = os.pipe()
@@ -83,24 +84,35 @@ class FigureProcess:
         finally:
             os._exit(status)
 
-    def draw(self, function, *args, **kwargs) -> None:
-        """Draw ``function(*args, **kwargs)`` in the child (in this process where there is
-        none) and wait for it.
+    def submit(self, function, *args, **kwargs) -> None:
+        """Hand the child ``function(*args, **kwargs)`` to draw now, and return at once (in
+        this process, where there is no child, it is drawn by :meth:`wait`).
 
         Parameters
         ----------
         function : callable   A module-level function that writes the figure
         args, kwargs          Its arguments (picklable)
         """
+        self._job = (function, args, kwargs)
         if self.pid is None:
-            function(*args, **kwargs)
             return
         try:
-            _write_all(self._job_w, pickle.dumps((function, args, kwargs), protocol=5))
+            _write_all(self._job_w, pickle.dumps(self._job, protocol=5))
         finally:
             os.close(self._job_w)
+            self._job_w = None   # (its number may be reused by a file opened later)
+
+    def wait(self) -> None:
+        """Wait for the figure handed over by :meth:`submit`; raise the child's error here."""
+        if self.pid is None:
+            job, self._job = getattr(self, "_job", None), None
+            if job is not None:
+                function, args, kwargs = job
+                function(*args, **kwargs)
+            return
         answer = _read_all(self._done_r)
         os.close(self._done_r)
+        self._done_r = None
         os.waitpid(self.pid, 0)
         self.pid = None
         if answer == b"ok":
@@ -110,15 +122,34 @@ class FigureProcess:
         text = answer[1:].decode(errors="replace") if answer else "the process died"
         raise RuntimeError(f"drawing the figure failed: {text}")
 
+    def draw(self, function, *args, **kwargs) -> None:
+        """:meth:`submit` then :meth:`wait`: draw and return when the figure is written.
+
+        Parameters
+        ----------
+        function : callable   A module-level function that writes the figure
+        args, kwargs          Its arguments (picklable)
+        """
+        self.submit(function, *args, **kwargs)
+        self.wait()
+
     def cancel(self) -> None:
-        """Let the child go without drawing (an error in the parent, nothing to draw)."""
+        """Let the child go without drawing (an error in the parent, nothing to draw): stopped
+        at once when it has no job yet (it may still be importing Matplotlib)."""
         if self.pid is None:
             return
-        for fd in (self._job_w, self._done_r):
+        if self._job_w is not None:   # nothing submitted: no figure is being written
             try:
-                os.close(fd)
-            except OSError:
+                os.kill(self.pid, signal.SIGKILL)
+            except ProcessLookupError:
                 pass
+        for fd in (self._job_w, self._done_r):
+            if fd is not None:
+                try:
+                    os.close(fd)
+                except OSError:
+                    pass
+        self._job_w = self._done_r = None
         try:
             os.waitpid(self.pid, 0)
         except ChildProcessError:

@@ -5,19 +5,16 @@ import contextlib
 import json
 import sys
 
-import numpy as np
-
-from ..rigs import load_rig
-from ..rigs.parameters import defaults_used
-from ..scenarios import (SCENARIOS, ClosedLoopSine, SineSummaryStream, build_scenario,
-                         default_scenario, experiment, scenario_names, simulate, summarize)
-from ..system import build_circuit
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
 from .figure_process import FigureProcess
 
 #: The files written to --out.
 OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
+
+#: The built-in experiments (:data:`hydroline.scenarios.SCENARIOS`, named here so that the
+#: parser is built without importing the model: the figure process forks before that import).
+BUILTIN_SCENARIOS = ("open-loop-step", "closed-loop-sine", "position-step")
 
 
 def register(sub):
@@ -36,7 +33,7 @@ def register(sub):
     p.add_argument("rig", nargs="?", help="rig TOML file or the name of a shipped rig, e.g. "
                    "two_axis (default: the embedded Ayalew & Kulakowski 2005 rig)")
     p.add_argument("--scenario", default=None, metavar="NAME",
-                   help=f"experiment: {', '.join(SCENARIOS)} or one the rig defines "
+                   help=f"experiment: {', '.join(BUILTIN_SCENARIOS)} or one the rig defines "
                    f"([scenario.NAME] type = \"axis-commands\") (default: the rig's "
                    f"rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
@@ -163,6 +160,23 @@ def run(args) -> int:
     -------
     int  Exit code, 0 on success
     """
+    write = args.out is not None or not args.json
+    # Matplotlib (and NumPy) import in a second process while this one imports the model and
+    # simulates: on two cores the figure costs what the longer branch costs, not the sum
+    figures = FigureProcess() if write else None
+    try:
+        return _prepare(args, write, figures)
+    finally:
+        if figures is not None:
+            figures.cancel()
+
+
+def _prepare(args, write, figures) -> int:
+    from ..rigs import load_rig
+    from ..rigs.parameters import defaults_used
+    from ..scenarios import build_scenario, default_scenario, scenario_names
+    from ..system import build_circuit
+
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
@@ -170,7 +184,6 @@ def run(args) -> int:
     dt_out = quantity(args.dt_out, "s", "--dt-out") if args.dt_out else None
     if dt_out is not None and not dt_out > 0:
         raise ValueError(f"--dt-out must be > 0 s, got {args.dt_out!r}")
-    write = args.out is not None or not args.json
     scenario = args.scenario or default_scenario(rig)
     if scenario not in scenario_names(rig):
         raise ValueError(f"{'--scenario' if args.scenario else 'rig.scenario'}: unknown "
@@ -190,14 +203,7 @@ def run(args) -> int:
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
               + "; ".join(f"{path} = {value}" for path, value in defaults), file=sys.stderr)
-    # Matplotlib imports in a second process while this one simulates (two cores: the figure
-    # costs what the longer branch costs, not the sum)
-    figures = FigureProcess() if write else None
-    try:
-        return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures)
-    finally:
-        if figures is not None:
-            figures.cancel()
+    return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures)
 
 
 def figure_result(res):
@@ -208,6 +214,8 @@ def figure_result(res):
     ----------
     res : SimulationResult   The run (or its preview)
     """
+    import numpy as np
+
     from ..engine import SimulationResult
 
     columns = [c for c in FIGURE_COLUMNS + ("position_reference", "piston_position")
@@ -220,6 +228,7 @@ def figure_result(res):
 
 
 def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) -> int:
+    from ..scenarios import simulate, summarize
     from ..plotting import plot_result
 
     with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp:
@@ -246,20 +255,22 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             summary = stream.summary(res)
             t0, t1 = summary["metrics_window_s"]
             res.metadata["metrics_window"] = (t0, t1, "stop" if stream.arrived else "end")
-        else:
-            summary = summarize(res)
         scenario = res.metadata["scenario"]
-        if write:   # replaced together, or none (previous results kept)
+        single = len(res.metadata.get("axes") or {}) <= 1   # (a multi-axis figure: _report_axes)
+        if write and single:   # drawn by the figure process while the summary and CSV are made
+            figure = res.metadata["preview"] if long_run else res
             if long_run:
-                figure = res.metadata["preview"]
                 figure.metadata.update({k: v for k, v in res.metadata.items() if k != "preview"})
-            else:
+            figures.submit(plot_result, figure_result(figure), path=str(temp("pressures.png")),
+                           title=f"{scenario} on {rig.get('rig.name', rig.source)}")
+        if stream is None:
+            summary = summarize(res)
+        if write:   # replaced together, or none (previous results kept)
+            if not long_run:
                 res.to_csv(temp("results.csv"), every=every)
-                figure = res
             temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-            if "axes" not in summary:       # (a multi-axis figure is drawn by _report_axes)
-                figures.draw(plot_result, figure_result(figure), path=str(temp("pressures.png")),
-                             title=f"{scenario} on {rig.get('rig.name', rig.source)}")
+            if single:
+                figures.wait()
     if "axes" in summary:
         return _report_axes(args, rig, res, summary, scenario, figures)
     if args.json:
@@ -307,9 +318,12 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     return 0
 
 
-def _sine_summary_stream(rig, scenario, t_end) -> SineSummaryStream | None:
+def _sine_summary_stream(rig, scenario, t_end):
     """The summary accumulator of a long closed-loop sine on a single-axis rig (t_end [s],
     None: the experiment's own); None for any other experiment."""
+    from ..scenarios import ClosedLoopSine, SineSummaryStream, experiment
+    from ..system import build_circuit
+
     exp = experiment(rig, scenario, t_end)
     if not isinstance(exp, ClosedLoopSine):
         return None
@@ -322,6 +336,8 @@ def _sine_summary_stream(rig, scenario, t_end) -> SineSummaryStream | None:
 def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
     """Refuse a streamed run whose CSV would not fit on the disk (one line, ValueError), and
     say on stderr what one that writes more than ~1 GB or takes minutes will cost."""
+    from ..scenarios import build_scenario
+    from ..system import build_circuit
     from ..limits import check_output_size
 
     circuit = build_circuit(rig)
@@ -358,6 +374,8 @@ def plot_axes(res, summary, path, title=""):
     path : str or Path       PNG to write
     title : str              Figure title
     """
+    import numpy as np
+
     from ..plotting import new_figure
 
     axes = res.metadata["axes"]
@@ -385,6 +403,8 @@ def plot_axes(res, summary, path, title=""):
 
 def _report_axes(args, rig, res, summary, scenario, figures=None) -> int:
     """Print a multi-axis run: per axis the port metrics and the position disturbance."""
+    import numpy as np
+
     if args.out is not None or not args.json:
         out = out_dir(args.out if args.out is not None else "hydroline-out")
         columns = [c for a in res.metadata["axes"].values()
