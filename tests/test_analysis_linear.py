@@ -392,3 +392,15 @@ def test_modal_vs_exact_lines_agree_up_to_highest_retained_mode(coupled):
             assert mm == pytest.approx(me, rel=tol), (out, fe, mm / me - 1, tol)
             judged += fe > f_top / 2
     assert judged >= 4                                # the upper half is checked too
+
+
+def test_constant_supply_takes_the_pump_pressure_input():
+    """With an ideal constant supply the pump pressure is the valve's supply-port pressure
+    itself: a pure feedthrough of 1 Pa/Pa and nothing to the return port (the default
+    inputs include pump_pressure; tutorial (d) linearises this way)."""
+    ss = linearize(load_rig(), supply="constant")
+    j = list(ss.input_labels).index("pump_pressure")
+    out = list(ss.output_labels)
+    D = np.asarray(ss.D)
+    assert D[out.index("supply_port_pressure"), j] == pytest.approx(1.0)
+    assert D[out.index("return_port_pressure"), j] == 0.0

@@ -155,8 +155,14 @@ def input_parameter(network: Network, axis, name: str) -> str:
             if isinstance(c, comp.Load) and c.signal("load_force") == act.signal("load_force"):
                 return f"{c.name}.applied_force"
     if name in ("pump_pressure", "tank_pressure"):
+        # the rig's source of that signal, or the ideal source that replaces the supply (or
+        # return) at the valve port in the constant-supply variant (:func:`linear_network`)
+        stand_in = {"pump_pressure": "supply.pump", "tank_pressure": "return.tank"}[name]
         for c in network.components:
             if isinstance(c, comp.PressureSource) and c.signal("pressure") == name:
+                return f"{c.name}.pressure"
+        for c in network.components:
+            if isinstance(c, comp.PressureSource) and c.name == stand_in:
                 return f"{c.name}.pressure"
     raise ValueError(f"input {name!r}: no such input on axis '{axis.name}' of this rig "
                      f"(inputs: {', '.join(INPUTS)})")
