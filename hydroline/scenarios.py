@@ -28,7 +28,7 @@ from .system import build_circuit
 __all__ = ["SCENARIOS", "EXPERIMENTS", "OWN_EXPERIMENTS", "Experiment", "OpenLoopStep",
            "ClosedLoopSine", "PositionStep", "AxisCommand", "AxisCommands", "experiment",
            "scenario_names", "simulate", "summarize", "SineSummaryStream", "build_scenario",
-           "Scenario", "default_scenario", "hold_other_axes", "template_controller"]
+           "Scenario", "default_scenario", "hold_other_axes", "template_controller", "rest_state"]
 
 #: "position-step": the axis named by ``scenario.position-step.axis`` (the first by default)
 #: steps its position reference by ``step`` at ``time`` while every other axis holds its
@@ -870,15 +870,7 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
                       stream_to=stream_to if kept is None or stream_to is not None else None,
                       name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
     if key not in _MODELS:
-        try:
-            ss = solve_steady_state(net, t0=0.0)
-        except SteadyStateError as e:   # say it in terms of the rig's parameters
-            if getattr(e, "state", None) is None:
-                raise
-            raise SteadyStateError(f"steady state not found before the run: "
-                                   f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
-                                   f"residual of {e.residual:.3g} 1/s at '{e.state}'",
-                                   e.state, e.residual) from None
+        ss = rest_state(net)
         _remember_model(key, (circuit, sc, net, ss))
     ss = replace(ss, x=ss.x.copy(), p=ss.p.copy())
     res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
@@ -887,6 +879,34 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
     describe_run(res, rig, circuit, net, sc, ss, tic,
                  window=stream_to is None or options.get("keep_columns") is not None)
     return res
+
+
+def rest_state(net, x_guess=None):
+    """The network's steady state before the run; a failure is said in terms of the rig's
+    parameters (:func:`hydroline.rigs.parameters.steady_state_hint`).
+
+    Parameters
+    ----------
+    net : Network     The rig's network with the experiment's commands
+    x_guess : array   Start for the solver, [SI]; the components' guesses when None
+
+    Returns
+    -------
+    SteadyState
+
+    Raises
+    ------
+    SteadyStateError  Naming the balance that does not close and the parameters to look at
+    """
+    try:
+        return solve_steady_state(net, t0=0.0, x_guess=x_guess)
+    except SteadyStateError as e:   # say it in terms of the rig's parameters
+        if getattr(e, "state", None) is None:
+            raise
+        raise SteadyStateError(f"steady state not found before the run: "
+                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
+                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
+                               e.state, e.residual) from None
 
 
 def watched_pressures(res: SimulationResult) -> list[str]:

@@ -206,23 +206,25 @@ def _prepare(args, write, figures) -> int:
     return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures)
 
 
-def figure_result(res):
-    """The columns and metadata :func:`hydroline.plotting.plot_result` reads, as a small
-    SimulationResult (what is sent to the figure process).
+def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance", "scenario")):
+    """The columns and metadata a figure reads, as a small SimulationResult (what is sent to
+    the figure process).
 
     Parameters
     ----------
     res : SimulationResult   The run (or its preview)
+    columns : list           Columns to keep (those of them ``res`` has); None: what
+                             :func:`hydroline.plotting.plot_result` draws
+    metadata : tuple         Metadata keys to keep (those ``res`` has)
     """
     import numpy as np
 
     from ..engine import SimulationResult
 
-    columns = [c for c in FIGURE_COLUMNS + ("position_reference", "piston_position")
-               if c in res]
-    columns = list(dict.fromkeys(columns))
-    meta = {k: res.metadata[k] for k in ("metrics_window", "t_disturbance", "scenario")
-            if k in res.metadata}
+    if columns is None:
+        columns = FIGURE_COLUMNS + ("position_reference", "piston_position")
+    columns = [c for c in dict.fromkeys(columns) if c in res]
+    meta = {k: res.metadata[k] for k in metadata if k in res.metadata}
     return SimulationResult(times=res.t, table=np.column_stack([res[c] for c in columns]),
                             columns=columns, metadata=meta)
 
@@ -401,19 +403,14 @@ def plot_axes(res, summary, path, title=""):
     fig.savefig(path, dpi=110)
 
 
-def _report_axes(args, rig, res, summary, scenario, figures=None) -> int:
+def _report_axes(args, rig, res, summary, scenario, figures) -> int:
     """Print a multi-axis run: per axis the port metrics and the position disturbance."""
-    import numpy as np
-
     if args.out is not None or not args.json:
         out = out_dir(args.out if args.out is not None else "hydroline-out")
         columns = [c for a in res.metadata["axes"].values()
                    for c in (a.supply_pressure, a.return_pressure, a.position)]
-        small = type(res)(times=res.t, table=np.column_stack([res[c] for c in columns]),
-                          columns=columns, metadata={"axes": res.metadata["axes"]})
-        draw = figures.draw if figures is not None else (lambda f, *a, **k: f(*a, **k))
-        draw(plot_axes, small, summary, str(out / "pressures.png"),
-             f"{scenario} on {rig.get('rig.name', rig.source)}")
+        figures.draw(plot_axes, figure_result(res, columns, ("axes",)), summary,
+                     str(out / "pressures.png"), f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)

@@ -51,7 +51,7 @@ class CheckValve(OrientedResistance):
         float  Flow from inlet to outlet, [m^3/s]
         """
         pt = self.forward_resistance * self.transition_flow
-        dp_pos = ops.fmax(dp, 0.0) + pt * ops.log(1.0 + ops.exp(-ops.fabs(dp) / pt))
+        dp_pos = ops.softplus(dp, pt)
         return dp_pos / self.forward_resistance + (dp - dp_pos) / self.reverse_resistance
 
     def pressure_drop(self, q):
@@ -67,5 +67,5 @@ class CheckValve(OrientedResistance):
         float  Pressure drop, inlet minus outlet, [Pa]
         """
         qt = self.transition_flow
-        q_pos = ops.fmax(q, 0.0) + qt * ops.log(1.0 + ops.exp(-ops.fabs(q) / qt))
+        q_pos = ops.softplus(q, qt)
         return self.forward_resistance * q_pos + self.reverse_resistance * (q - q_pos)

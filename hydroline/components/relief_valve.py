@@ -54,7 +54,7 @@ class ReliefValve(Component):
         """
         y = dp - self.cracking_pressure
         pw = self.transition_pressure
-        y_pos = ops.fmax(y, 0.0) + pw * ops.log(1.0 + ops.exp(-ops.fabs(y) / pw))
+        y_pos = ops.softplus(y, pw)
         return self.flow_gradient * y_pos + self.leakage * dp
 
     def outputs_of(self, t, x, u, p):

@@ -26,7 +26,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-__all__ = ["Port", "State", "Component", "QUANTITY_UNITS", "Parameter", "parameter"]
+__all__ = ["Port", "State", "Component", "QUANTITY_UNITS", "Parameter", "parameter", "range_text"]
 
 #: Physical quantity kinds of signals and their SI units.
 QUANTITY_UNITS = {
@@ -170,17 +170,29 @@ class Parameter:
         low, high = self.plausible
         for v in (value if isinstance(value, (list, tuple)) else [value]):
             if (low is not None and v < low) or (high is not None and v > high):
-                if low is None:
-                    return f"at most {high:g}"
-                if high is None:
-                    return f"at least {low:g}"
-                return f"within {low:g} ... {high:g}"
+                return range_text(low, high)
         return None
 
     @property
     def unit_text(self) -> str:
         """The unit as shown in messages: "" for dimensionless and text."""
         return {"-": "", "str": ""}.get(self.unit, self.unit.replace("list:", ""))
+
+
+def range_text(low, high) -> str:
+    """A plausible range as the messages say it: "within 1e-06 ... 1", "at least 1",
+    "at most 5".
+
+    Parameters
+    ----------
+    low : float    Lower end, [unit]; None: open
+    high : float   Upper end, [unit]; None: open
+    """
+    if low is None:
+        return f"at most {high:g}"
+    if high is None:
+        return f"at least {low:g}"
+    return f"within {low:g} ... {high:g}"
 
 
 def parameter(default, unit: str, description: str = "", *, minimum=None, maximum=None,

@@ -10,7 +10,7 @@ import casadi as ca
 import numpy as np
 
 __all__ = ["sqrt", "exp", "tanh", "fabs", "fmax", "fmin", "sign", "if_else", "matvec",
-           "smooth_sqrt", "is_symbolic", "log", "power", "vertcat"]
+           "smooth_sqrt", "softplus", "is_symbolic", "log", "power", "vertcat"]
 
 _SYM = (ca.SX, ca.MX, ca.DM)
 
@@ -275,3 +275,31 @@ def smooth_sqrt(dp, transition):
     0.01
     """
     return dp / sqrt(sqrt(dp * dp + transition * transition))
+
+
+def softplus(y, width):
+    """Smooth positive part ``max(y, 0) + w ln(1 + exp(-|y|/w))``: equals ``max(y, 0)`` to
+    ``w exp(-|y|/w)`` a few ``w`` away from zero, with no kink there (a valve that opens at a
+    cracking pressure, a check valve's forward branch).
+
+    Parameters
+    ----------
+    y : float, array_like or CasADi expression
+        Argument, in its own unit [any].
+    width : float or CasADi expression
+        Width ``w`` of the smooth region, > 0, [unit of y].
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        The smooth positive part, [unit of y].
+
+    Examples
+    --------
+    >>> round(float(softplus(5.0, 0.1)), 9), round(float(softplus(-5.0, 0.1)), 9)
+    (5.0, 0.0)
+    >>> round(float(softplus(0.0, 0.1)), 6)    # w ln 2
+    0.069315
+    """
+    return fmax(y, 0.0) + width * log(1.0 + exp(-fabs(y) / width))
+

@@ -254,8 +254,8 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     for _ in range(max_rounds):
         x_newton, converged = _newton(model, t0, x, p, scales, tol)
         x = x_newton if converged else pseudo_transient(model, t0, x, p, scales, tol)
-        changed = settle_components(network, settling, x, p,
-                                    _signals(model, network, t0, x, p))
+        changed = bool(settling) and settle_components(network, settling, x, p,
+                                                 _signals(model, network, t0, x, p))
         res, k = _scaled_residual(model, t0, x, p, scales)
         if res < tol and not changed:
             break

@@ -319,6 +319,8 @@ def check_ranges(rig):
     RigError  One line: the path, the value as written, the range with its SI unit, and how to
               override (``[rig] allow_implausible``)
     """
+    from ..engine.component import range_text   # the wording the circuit files use too
+
     allowed = allowed_implausible(rig)
     for path, p in PARAMETERS.items():
         value = rig.get(path)
@@ -342,12 +344,7 @@ def check_ranges(rig):
             high_ok = p.high is None or v <= p.high
             if low_ok and high_ok or path in allowed:
                 continue
-            if p.low is None:
-                rule = f"at most {_fmt(p.high)}"
-            elif p.high is None:
-                rule = f"at least {_fmt(p.low)}"
-            else:
-                rule = f"within {_fmt(p.low)} ... {_fmt(p.high)}"
+            rule = range_text(p.low, p.high)
             zero = " (or 0)" if p.zero_allowed else ""
             raise _error(f"{path}: {_shown(rig, path, v)} is outside its plausible range, "
                          f"{rule}{zero}{unit} ({p.description}); if it is meant, add "

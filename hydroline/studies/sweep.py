@@ -366,9 +366,8 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     """
     from ..components.hose import coefficients_as_parameters
     from ..limits import check_output_size
-    from ..rigs.parameters import steady_state_hint
-    from ..scenarios import build_scenario, describe_run
-    from ..engine import SteadyStateError, integrate, solve_steady_state
+    from ..engine import integrate
+    from ..scenarios import build_scenario, describe_run, rest_state
     from ..system import build_circuit
 
     tic = _time.perf_counter()
@@ -390,15 +389,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     elif counter is not None:
         counter.shared_runs += 1
     shared.parameter_values = net.parameter_values.copy()     # this variant's p
-    try:
-        ss = solve_steady_state(shared, t0=0.0, x_guess=net.guess())
-    except SteadyStateError as e:   # say it in terms of the rig's parameters (as simulate)
-        if getattr(e, "state", None) is None:
-            raise
-        raise SteadyStateError(f"steady state not found before the run: "
-                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
-                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
-                               e.state, e.residual) from None
+    ss = rest_state(shared, x_guess=net.guess())   # a failure said as simulate says it
     res = integrate(shared, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver)
     describe_run(res, rig, circuit, net, sc, ss, tic)    # as simulate() (net: this variant's)
     return res
