@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import copy
 import tomllib
-from collections.abc import Mapping
 from importlib import resources
 from pathlib import Path
 
 from ..units import UnitError, parse_quantity
+from .parameters import DerivedTable
 
 __all__ = ["Rig", "RigError", "load_rig", "SCHEMA", "DEFAULT_RIG"]
 
@@ -88,29 +88,9 @@ def declarations(section: str) -> dict:
     return {k: v for k, v in decl.items() if keys is None or k in keys}
 
 
-class _Schema(Mapping):
-    """SCHEMA, derived on first use from the components' declarations (keeps import light)."""
-
-    def __init__(self, fixed):
-        self._fixed, self._table = fixed, None
-
-    def _build(self):
-        if self._table is None:
-            table = {}
-            for section, units in self._fixed.items():
-                derived = {k: d.unit for k, d in declarations(section).items()}
-                table[section] = {**derived, **units}
-            self._table = table
-        return self._table
-
-    def __getitem__(self, key):
-        return self._build()[key]
-
-    def __iter__(self):
-        return iter(self._build())
-
-    def __len__(self):
-        return len(self._build())
+def _section_units(section: str, units: dict) -> dict:
+    """A section's keys -> SI unit: the components' declarations, then the template's own."""
+    return {**{k: d.unit for k, d in declarations(section).items()}, **units}
 
 
 #: Every parameter a rig file may hold: section -> key -> SI unit ("-" dimensionless,
@@ -120,7 +100,7 @@ class _Schema(Mapping):
 #: what the template rig adds (e.g. ``actuator.area``, ``actuator.dead_volume``). Circuit
 #: files (``[circuit.<name>]``) are read with :mod:`hydroline.circuit`. Plausible ranges,
 #: defaults and the ``allow_implausible`` override: :mod:`hydroline.rigs.parameters`.
-SCHEMA = _Schema({
+SCHEMA = DerivedTable({
     "rig": {"name": "str", "modes_per_section": "-", "base": "str", "line_method": "str",
             "scenario": "str", "allow_implausible": "list:str"},
     "fluid": {"density": "kg/m^3", "kinematic_viscosity": "m^2/s", "bulk_modulus": "Pa",
@@ -145,7 +125,7 @@ SCHEMA = _Schema({
     "scenario.closed-loop-sine": {"amplitude": "m", "frequency": "Hz", "offset": "m",
                                   "t_end": "s", "initial_position": "m"},
     "scenario.position-step": {"axis": "str", "step": "m", "time": "s", "t_end": "s"},
-})
+}, _section_units)
 
 
 def _flatten(tree, prefix="", depth=0):

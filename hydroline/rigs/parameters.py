@@ -32,7 +32,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-__all__ = ["Parameter", "Declared", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
+__all__ = ["Parameter", "Declared", "DerivedTable", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
            "check_ranges", "check_consistency", "defaults_used", "allowed_implausible",
            "steady_state_hint", "MIN_GAS_FRACTION"]
 
@@ -136,16 +136,23 @@ def _resolve(path: str, entry) -> Parameter:
                      entry.default, entry.scope, entry.zero_allowed, entry.integer, entry.inherited)
 
 
-class _Parameters(Mapping):
-    """:data:`PARAMETERS`, resolved on first use (the declarations live on the components,
-    whose import this module does not pay for until a rig is checked)."""
+class DerivedTable(Mapping):
+    """A table whose keys are known up front and whose values are derived on first use,
+    ``derive(key, entry)`` for every entry (the declarations behind them live on the
+    components, whose import a module that only names the table does not pay for).
 
-    def __init__(self, entries):
-        self.entries, self._table = entries, None   # path -> Parameter or Declared
+    Parameters
+    ----------
+    entries : dict      key -> what the value is derived from
+    derive : callable   ``(key, entry) -> value``
+    """
+
+    def __init__(self, entries, derive):
+        self.entries, self._derive, self._table = entries, derive, None
 
     def _build(self):
         if self._table is None:
-            self._table = {path: _resolve(path, e) for path, e in self.entries.items()}
+            self._table = {key: self._derive(key, e) for key, e in self.entries.items()}
         return self._table
 
     def __getitem__(self, key):
@@ -165,7 +172,7 @@ class _Parameters(Mapping):
 #: pressure profiles are checked where they are read, hydroline.system). Entries marked
 #: :class:`Declared` take unit, description and plausible range from the component's own
 #: declaration; the others exist only in the template rig (pressures, dead volume, scenarios).
-PARAMETERS: Mapping = _Parameters({
+PARAMETERS: Mapping = DerivedTable({
     "rig.allow_implausible": Parameter("str", None, None, "parameters allowed outside their "
                                        "plausible range", None),
     "rig.modes_per_section": Parameter("-", 1, 40, "modes per hose section (M8)", 6, integer=True),
@@ -264,7 +271,7 @@ PARAMETERS: Mapping = _Parameters({
     f"scenario.{_SINE}.t_end": Parameter("s", 1e-4, 100.0, "simulated time", 1.0, scope=_SINE),
     f"scenario.{_SINE}.initial_position": Parameter("m", -5.0, 5.0, "initial piston position",
                                                     0.0, scope=_SINE),
-})
+}, _resolve)
 
 
 def _error(message):
