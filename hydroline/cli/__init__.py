@@ -143,7 +143,8 @@ def main(argv=None) -> int:
 
     import warnings
 
-    warnings.showwarning = functools.partial(_show_warning, args.command)
+    shown_before = warnings.showwarning   # restored after the command (main() may run in-process)
+    warnings.showwarning = functools.partial(_show_warning, args.command, set())
     try:
         old_term = signal.signal(signal.SIGTERM, raise_terminated)
     except ValueError:          # not the main thread (e.g. called from a worker thread)
@@ -181,17 +182,15 @@ def main(argv=None) -> int:
     finally:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
+        warnings.showwarning = shown_before
 
 
-def _show_warning(command, message, category, filename, lineno, file=None, line=None):
+def _show_warning(command, said, message, category, filename, lineno, file=None, line=None):
     """A Python warning as one line: ``hydroline <command>: warning: <message>`` (each once)."""
     text = f"hydroline {command}: warning: {str(message).strip().splitlines()[0]}"
-    if text not in _WARNED:
-        _WARNED.add(text)
+    if text not in said:   # each warning once per command
+        said.add(text)
         _say(text)
-
-
-_WARNED: set = set()
 
 
 def _say(text):
