@@ -366,3 +366,30 @@ def test_sweep_script_without_main_guard(tmp_path):
     assert "failed 0 rows 2" in done.stdout
     table = pd.read_csv(tmp_path / "bore-sweep" / "sweep.csv")
     assert table["error"].isna().all()
+
+
+def write_checksum(data, path):
+    """Stands in for a figure: writes the SHA-256 of the array it received (module level: the
+    figure process receives it by name)."""
+    import hashlib
+
+    with open(path, "w") as f:
+        f.write(hashlib.sha256(data.tobytes()).hexdigest())
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="the figure process needs os.fork")
+def test_figure_process_takes_a_job_larger_than_a_pipe(tmp_path):
+    """The job (a figure's columns, ~0.1-1 MB) is larger than a pipe holds (64 kB): submit()
+    hands it over from a thread and returns, so the command writes its CSV meanwhile; the child
+    receives every byte."""
+    import hashlib
+
+    from hydroline.cli.figure_process import FigureProcess
+
+    data = np.random.default_rng(1).normal(size=500_000)     # 4 MB
+    figures = FigureProcess()
+    figures.submit(write_checksum, data, str(tmp_path / "sum.txt"))
+    (tmp_path / "meanwhile.txt").write_text("the parent went on")   # before the child is done
+    figures.wait()
+    assert (tmp_path / "sum.txt").read_text() == hashlib.sha256(data.tobytes()).hexdigest()
+    assert figures.pid is None

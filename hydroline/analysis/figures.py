@@ -35,6 +35,12 @@ class _Figures:
         return fig, fig.subplots(nrows, ncols, **kw)
 
 
+def _save_png(fig, path):
+    from ..plotting import save_png
+
+    save_png(fig, path, dpi=100)
+
+
 def _plt():
     return _Figures
 
@@ -111,7 +117,7 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     fig.suptitle(title or "hydroline bode", fontsize=10)
     fig.tight_layout()
     if path:
-        fig.savefig(path, dpi=100)
+        _save_png(fig, path)
     return fig
 
 
@@ -147,7 +153,7 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     fig.suptitle(title or "hydroline fit: measured vs fitted")
     fig.tight_layout()
     if path:
-        fig.savefig(path, dpi=100)
+        _save_png(fig, path)
     return fig
 
 
@@ -190,5 +196,5 @@ def plot_friction(points: dict, fit, path=None, title=None):
     ax.set_title(title or "friction identification")
     fig.tight_layout()
     if path:
-        fig.savefig(path, dpi=100)
+        _save_png(fig, path)
     return fig

@@ -53,7 +53,7 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
     """
     import networkx as nx
 
-    from ..plotting import new_figure
+    from ..plotting import new_figure, save_png
 
     g = nx.DiGraph()
     for c in circuit.components:
@@ -86,4 +86,4 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
                  "(p pressure, f flow/force, c current, v velocity)", fontsize=9)
     ax.axis("off")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_png(fig, path, dpi=120)

@@ -137,10 +137,6 @@ def main(argv=None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    from ..compiled import CompilerUnavailable
-    from ..compiled.codegen import UnsupportedOperation
-    from ..engine import SteadyStateError
-
     import warnings
 
     shown_before = warnings.showwarning   # restored after the command (main() may run in-process)
@@ -155,7 +151,7 @@ def main(argv=None) -> int:
         return rc
     except (ValueError, FileNotFoundError, KeyError) as e:   # UnitError, RigError, NetworkError
         return _one_line(args, e)
-    except (SteadyStateError, CompilerUnavailable, UnsupportedOperation) as e:
+    except _model_errors() as e:   # (evaluated only when an exception is being matched)
         return _one_line(args, e)
     except BrokenPipeError:
         _silence_stdout()
@@ -183,6 +179,17 @@ def main(argv=None) -> int:
         if old_term is not None:
             signal.signal(signal.SIGTERM, old_term)
         warnings.showwarning = shown_before
+
+
+def _model_errors() -> tuple:
+    """The model's own errors that are printed as one line: imported only when an exception is
+    being matched, so that a command's start-up (and the figure process it forks) does not
+    import the model."""
+    from ..compiled import CompilerUnavailable
+    from ..compiled.codegen import UnsupportedOperation
+    from ..engine import SteadyStateError
+
+    return SteadyStateError, CompilerUnavailable, UnsupportedOperation
 
 
 def _show_warning(command, said, message, category, filename, lineno, file=None, line=None):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import pickle
 import signal
+import threading
 
 __all__ = ["FigureProcess"]
 
@@ -96,11 +97,19 @@ class FigureProcess:
         self._job = (function, args, kwargs)
         if self.pid is None:
             return
-        try:
-            _write_all(self._job_w, pickle.dumps(self._job, protocol=5))
-        finally:
-            os.close(self._job_w)
-            self._job_w = None   # (its number may be reused by a file opened later)
+        data, fd = pickle.dumps(self._job, protocol=5), self._job_w
+        self._job_w = None   # (its number may be reused by a file opened later)
+
+        def send():   # the job is larger than a pipe holds: written while this process goes on
+            try:
+                _write_all(fd, data)
+            except OSError:   # the child is gone: wait() reports it
+                pass
+            finally:
+                os.close(fd)
+
+        self._sender = threading.Thread(target=send, name="figure-job", daemon=True)
+        self._sender.start()
 
     def wait(self) -> None:
         """Wait for the figure handed over by :meth:`submit`; raise the child's error here."""
@@ -111,6 +120,7 @@ class FigureProcess:
                 function(*args, **kwargs)
             return
         answer = _read_all(self._done_r)
+        self._join_sender()
         os.close(self._done_r)
         self._done_r = None
         os.waitpid(self.pid, 0)
@@ -121,6 +131,11 @@ class FigureProcess:
             raise pickle.loads(answer[1:])
         text = answer[1:].decode(errors="replace") if answer else "the process died"
         raise RuntimeError(f"drawing the figure failed: {text}")
+
+    def _join_sender(self) -> None:
+        sender, self._sender = getattr(self, "_sender", None), None
+        if sender is not None:
+            sender.join()
 
     def draw(self, function, *args, **kwargs) -> None:
         """:meth:`submit` then :meth:`wait`: draw and return when the figure is written.
@@ -154,4 +169,5 @@ class FigureProcess:
             os.waitpid(self.pid, 0)
         except ChildProcessError:
             pass
+        self._join_sender()
         self.pid = None

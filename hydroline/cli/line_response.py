@@ -165,7 +165,7 @@ def plot_step(line, t, exact, responses, path):
     responses : dict    label -> model's P_d/P_u step response at ``t``, [-]
     path : str or Path  PNG to write
     """
-    from ..plotting import new_figure
+    from ..plotting import new_figure, save_png
 
     fig = new_figure((9, 6.5))
     ay, ae = fig.subplots(2, 1, sharex=True)
@@ -185,7 +185,7 @@ def plot_step(line, t, exact, responses, path):
     fig.suptitle(f"blocked line, pressure step: L = {line.length:g} m, d = {line.diameter * 1e3:g} mm, "
                  f"Dn = {line.dissipation_number:.3g}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_png(fig, path, dpi=100)
 
 
 def _models(line, n, form, methods, strict):

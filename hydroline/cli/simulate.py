@@ -378,7 +378,7 @@ def plot_axes(res, summary, path, title=""):
     """
     import numpy as np
 
-    from ..plotting import new_figure
+    from ..plotting import new_figure, save_png
 
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
@@ -400,7 +400,7 @@ def plot_axes(res, summary, path, title=""):
     ax[2].set_xlabel("time [ms]")
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, dpi=110)
 
 
 def _report_axes(args, rig, res, summary, scenario, figures) -> int:

@@ -230,7 +230,7 @@ class LayoutStudy:
         -------
         matplotlib.figure.Figure (written as PNG to ``path`` when given)
         """
-        from ..plotting import new_figure
+        from ..plotting import new_figure, save_png
 
         n = len(self.lengths)
         fig = new_figure((11, 1.7 * n + 4.0))
@@ -318,7 +318,7 @@ class LayoutStudy:
                      f"({what})", fontsize=11, y=0.995)
         fig.subplots_adjust(left=0.07, right=0.98, top=0.955, bottom=0.05)
         if path is not None:
-            fig.savefig(path, dpi=110)
+            save_png(fig, path, dpi=110)
         return fig
 
 
