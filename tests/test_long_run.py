@@ -102,3 +102,61 @@ def test_long_cli_sine_run_summarizes_as_the_in_memory_run(tmp_path, monkeypatch
     assert main(args + ["--json"]) == 0     # long, no files: nothing kept but the times
     printed = json.loads(capsys.readouterr().out)
     assert printed["supply"]["amplitude_mpa"] == short["supply"]["amplitude_mpa"]
+
+
+def test_streamed_csv_text_is_savetxt_text():
+    # result.csv_rows formats a block in one operation: the same text as NumPy's row-by-row
+    # savetxt (the format the streamed results.csv always had), signs, exponents, inf and NaN
+    import io
+
+    from hydroline.engine.result import csv_rows
+    rng = np.random.default_rng(3)
+    rows = rng.normal(size=(57, 9)) * 10.0 ** rng.integers(-12, 12, size=(57, 9))
+    rows[3, 2], rows[5, 0], rows[7, 7] = np.nan, np.inf, -0.0
+    f = io.StringIO()
+    np.savetxt(f, rows, fmt="%.9g", delimiter=",")
+    assert csv_rows(rows) == f.getvalue()
+
+
+class _Sink:
+    """Records the blocks it is given; raises on the ``fail``-th."""
+
+    def __init__(self, fail=None):
+        self.seen, self.fail = [], fail
+
+    def write(self, t, X, Y, model, p):
+        if self.fail is not None and len(self.seen) + 1 == self.fail:
+            raise OSError("disk full")
+        self.seen.append((t[0], p[0]))
+
+
+def test_row_writer_keeps_the_order_and_the_parameters_of_each_block():
+    from hydroline.engine.integrate import RowWriter
+    sink = _Sink()
+    w = RowWriter(sink, depth=1)
+    p = np.zeros(1)
+    for k in range(50):
+        p[0] = k   # changed in place after each block, as a sampled controller does
+        w.write(np.array([float(k)]), None, np.zeros((1, 1)), None, p)
+    w.close()
+    assert sink.seen == [(float(k), float(k)) for k in range(50)]
+
+
+def test_row_writer_raises_a_sink_error_in_the_caller():
+    from hydroline.engine.integrate import RowWriter
+    w = RowWriter(_Sink(fail=3))
+    with pytest.raises(OSError, match="disk full"):
+        for k in range(100):
+            w.write(np.array([float(k)]), None, np.zeros((1, 1)), None, np.zeros(1))
+        w.close()
+    w.close()   # the error is raised once; closing again is harmless
+
+
+def test_an_observer_error_ends_a_streamed_run():
+    def observe(t, table, columns):
+        if t[-1] > 0.05:
+            raise ValueError("observer failed")
+
+    with pytest.raises(ValueError, match="observer failed"):
+        simulate(None, "closed-loop-sine", t_end=0.2, dt_out=1e-3, chunk_rows=10,
+                 keep_columns=[], observe=observe)

@@ -74,7 +74,8 @@ class RowWriter:
     def __init__(self, sink, depth: int = 2):
         self.sink = sink
         self.blocks = queue.Queue(maxsize=max(int(depth), 1))
-        self.error = None
+        self.error = None        # the sink's exception: no block is written after it
+        self.raised = False
         self.thread = threading.Thread(target=self._run, name="hydroline-rows", daemon=True)
         self.thread.start()
 
@@ -90,22 +91,29 @@ class RowWriter:
                     self.error = e
 
     def _raise(self):
-        if self.error is not None:
-            e, self.error = self.error, None
-            raise e
+        if self.error is not None and not self.raised:
+            self.raised = True
+            raise self.error
 
     def write(self, t, X, Y, model, p):
         """Queue one block (the arguments of :meth:`OutputSink.write`; ``p`` is copied, a
         sampled component changes it in place)."""
         self._raise()
-        self.blocks.put((t, X, Y, model, None if p is None else np.array(p)))
+        if self.error is None:
+            self.blocks.put((t, X, Y, model, None if p is None else np.array(p)))
 
-    def close(self):
-        """Wait until every queued block is written; raise a sink's error, if any."""
+    def close(self, raise_error: bool = True):
+        """Wait until every queued block is written; raise a sink's error, if any.
+
+        Parameters
+        ----------
+        raise_error : bool   Raise the sink's exception (False: only wait)
+        """
         if self.thread.is_alive():
             self.blocks.put(None)
             self.thread.join()
-        self._raise()
+        if raise_error:
+            self._raise()
 
 
 def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
@@ -188,9 +196,12 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     try:
         _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
                   backend, rows_in, model, x, p, progress)
-    finally:
+    except BaseException:
         if rows_in is not sink:
-            rows_in.close()
+            rows_in.close(raise_error=False)   # the integration's own error is the one to see
+        raise
+    if rows_in is not sink:
+        rows_in.close()
     wall = _time.perf_counter() - tic
     stats = backend.stats()
     stats["build_time"] = build_time
