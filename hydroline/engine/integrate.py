@@ -39,7 +39,7 @@ def segments(t_end: float, breakpoints, sample_time: float | None = None) -> lis
     return sorted(edges)
 
 
-def apply_samples(network: Network, sampled: list, t: float, x, p) -> None:
+def apply_samples(network: Network, sampled: list, t: float, x, p, signals=None) -> None:
     """At a sampling instant, let each sampled component (:meth:`Component.sample`) set its
     held runtime parameters from the signals at (t, x); ``p`` is changed in place.
 
@@ -50,8 +50,14 @@ def apply_samples(network: Network, sampled: list, t: float, x, p) -> None:
     t : float           Sampling instant, [s]
     x : ndarray         States there, [SI]
     p : ndarray         Runtime parameters, [SI]; changed in place
+    signals : ndarray   Every signal at (t, x) in ``network.signal_names`` order, [SI], where
+                        known (the compiled core's last output row of the segment before);
+                        None: evaluated here by the components' Python code (~1 ms)
     """
-    sig = network.signals_at(t, x, p)
+    if signals is None:
+        sig = network.signals_at(t, x, p)
+    else:
+        sig = dict(zip(network.signal_names, map(float, signals)))
     for c in sampled:
         xs, _ = network.component_values(c, x, p)
         u = {port: sig[c.signal(port)] for port in c.inputs}
@@ -237,9 +243,11 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
               backend, rows_in, model, x, p, progress) -> None:
     """The segment loop of :func:`integrate`: each segment between breakpoints and sampling
     instants started on the backend, its output rows handed to ``rows_in`` chunk by chunk."""
+    n_signals = len(network.signal_names)
+    at_edge = None   # the signals at the segment's start, where the backend gave them
     for a, b in zip(edges[:-1], edges[1:]):
         if sampled:
-            apply_samples(network, sampled, a, x, p)
+            apply_samples(network, sampled, a, x, p, at_edge)
         # output indices i0..i1-1 lie in (a, b]
         i0 = int(np.floor((a + 1e-12) / h_out)) + 1
         i1 = min(int(np.floor((b + 1e-12) / h_out)) + 1, n_out + 1)
@@ -260,6 +268,7 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
                 else:
                     rows_in.write(g[:m], X[:m], None, model, p)
             x = X[-1].copy()
+            at_edge = None if table is None else table[-1, :n_signals].copy()
             if progress and n_grid > step:
                 progress(g[-1] / t_last)
         if progress:
