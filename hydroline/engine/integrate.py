@@ -109,8 +109,17 @@ class RowWriter:
             raise self.error
 
     def write(self, t, X, Y, model, p):
-        """Queue one block (the arguments of :meth:`OutputSink.write`; ``p`` is copied, a
-        sampled component changes it in place)."""
+        """Queue one block of rows, as :meth:`OutputSink.write` takes it.
+
+        Parameters
+        ----------
+        t : ndarray       Output times, [s]
+        X : ndarray       States, one row per time, [SI] (None: ``Y`` is the whole table)
+        Y : ndarray       Signals (or the whole table), one row per time, [SI]
+        model : CompiledModel   Evaluates the signals when ``Y`` is None
+        p : ndarray       Runtime parameters, [SI] (copied: a sampled component changes
+                          them in place)
+        """
         self._raise()
         if self.error is None:
             self.blocks.put((t, X, Y, model, None if p is None else np.array(p)))
