@@ -214,16 +214,16 @@ static int hl_newton(hl_solver* S, double t_new, const double* y_predict, double
     double f[HL_N], dy[HL_N];
     double dy_norm_old = -1.;
     double gfac = 2. / (1. + c / S->c_lu);   /* CVODE's correction for a stale c in W */
-    memcpy(y, y_predict, sizeof(double) * HL_N);
-    memset(d, 0, sizeof(double) * HL_N);
-    for (int k = 0; k < HL_NEWTON_MAXITER; k++) {
+    for (int k = 0; k < HL_NEWTON_MAXITER; k++) {   /* y, d: set by the first iteration */
         *n_iter = k + 1;
-        hl_eval_f(S, t_new, y, f);
+        hl_eval_f(S, t_new, k ? y : y_predict, f);
         int finite = 1;
-        for (int i = 0; i < HL_N; i++) {
-            dy[i] = c * f[i] - psi[i] - d[i];
+        if (k == 0)
+            for (int i = 0; i < HL_N; i++) dy[i] = c * f[i] - psi[i];
+        else
+            for (int i = 0; i < HL_N; i++) dy[i] = c * f[i] - psi[i] - d[i];
+        for (int i = 0; i < HL_N; i++)
             if (!isfinite(dy[i])) { finite = 0; S->last_nonfinite = i; }
-        }
         if (!finite) return 0;
         hl_solve(S, dy);
         if (gfac != 1.) for (int i = 0; i < HL_N; i++) dy[i] *= gfac;
@@ -237,7 +237,10 @@ static int hl_newton(hl_solver* S, double t_new, const double* y_predict, double
                 return 0;
             S->crate = fmax(0.3 * S->crate, rate);
         }
-        for (int i = 0; i < HL_N; i++) { y[i] += dy[i]; d[i] += dy[i]; }
+        if (k == 0)
+            for (int i = 0; i < HL_N; i++) { y[i] = y_predict[i] + dy[i]; d[i] = dy[i]; }
+        else
+            for (int i = 0; i < HL_N; i++) { y[i] += dy[i]; d[i] += dy[i]; }
         if (dy_norm == 0.) return 1;
         if (rate < 0.) {
             if (dy_norm * fmin(1., S->crate) <= tol) return 1;
@@ -334,9 +337,14 @@ static int hl_step(hl_solver* S) {
         }
         double h = t_new - t;
         h_abs = h;
-        memcpy(y_predict, S->D[0], sizeof y_predict);
-        memset(psi, 0, sizeof psi);
-        for (int k = 1; k <= order; k++) {
+        {   /* predictor y = sum_k D[k], psi = sum_k gamma_k / alpha_q D[k] (order >= 1) */
+            double g1 = hl_gamma_[1] / hl_alpha_[order];
+            for (int i = 0; i < HL_N; i++) {
+                y_predict[i] = S->D[0][i] + S->D[1][i];
+                psi[i] = S->D[1][i] * g1;
+            }
+        }
+        for (int k = 2; k <= order; k++) {
             const double* Dk = S->D[k];
             double gk = hl_gamma_[k] / hl_alpha_[order];
             for (int i = 0; i < HL_N; i++) { y_predict[i] += Dk[i]; psi[i] += Dk[i] * gk; }
@@ -432,9 +440,9 @@ static int hl_step(hl_solver* S) {
  * differences for the current step size and order (change_D keeps the polynomial). */
 static void hl_dense_output(const hl_solver* S, double t, double* z) {
     int q = S->order;
-    double h = S->h_abs, prod = 1.;
-    memcpy(z, S->D[0], sizeof(double) * HL_N);
-    for (int j = 1; j <= q; j++) {
+    double h = S->h_abs, prod = (t - S->t) / h;   /* j = 1 (q >= 1) */
+    for (int i = 0; i < HL_N; i++) z[i] = S->D[0][i] + S->D[1][i] * prod;
+    for (int j = 2; j <= q; j++) {
         prod *= (t - (S->t - (j - 1) * h)) / (j * h);
         for (int i = 0; i < HL_N; i++) z[i] += S->D[j][i] * prod;
     }
