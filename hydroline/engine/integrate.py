@@ -180,7 +180,11 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     preview_rows : int  Most rows of the preview, [-]
     observe : callable  Called with ``(t, table, columns)`` for every block of output rows as
                         the run goes (times [s], rows of signals and states [SI], their names):
-                        statistics of a long run computed chunk by chunk, in constant memory
+                        statistics of a long run computed chunk by chunk, in constant memory.
+                        With ``stream_to`` or ``keep_columns`` on the compiled core it is
+                        called from a second thread (:class:`RowWriter`), block after block in
+                        order, while the next block is integrated; ``progress`` stays in the
+                        caller's thread
 
     Returns
     -------
