@@ -71,7 +71,9 @@ typedef struct {
 
 static const double hl_kappa[] = {0., -0.1850, -1. / 9., -0.0823, -0.0415, 0.};
 static double hl_gamma_[HL_MAX_ORDER + 2], hl_alpha_[HL_MAX_ORDER + 2], hl_errc_[HL_MAX_ORDER + 2];
+static double hl_U_[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1][HL_MAX_ORDER + 1];
 static int hl_coef_ready = 0;
+static void hl_R_matrix(int order, double f, double M[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1]);
 
 static void hl_coefficients(void) {
     if (hl_coef_ready) return;
@@ -80,6 +82,7 @@ static void hl_coefficients(void) {
     for (int k = 0; k <= HL_MAX_ORDER; k++) {
         hl_alpha_[k] = (1. - hl_kappa[k]) * hl_gamma_[k];
         hl_errc_[k] = hl_kappa[k] * hl_gamma_[k] + 1. / (k + 1);
+        hl_R_matrix(k, 1., hl_U_[k]);   /* change_D's U = R(1), per order */
     }
     hl_coef_ready = 1;
 }
@@ -117,16 +120,13 @@ static void hl_R_matrix(int order, double f, double M[HL_MAX_ORDER + 1][HL_MAX_O
 }
 
 static void hl_change_D(hl_solver* S, int order, double factor) {
-    /* U = R(1) depends on the order only: made once per order */
-    static double U[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1][HL_MAX_ORDER + 1];
-    static int U_ready[HL_MAX_ORDER + 1];
-    if (!U_ready[order]) { hl_R_matrix(order, 1., U[order]); U_ready[order] = 1; }
+    /* U = R(1) depends on the order only: hl_U_[order], made by hl_coefficients */
     double R[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1], RU[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1];
     hl_R_matrix(order, factor, R);
     for (int i = 0; i <= order; i++)
         for (int j = 0; j <= order; j++) {
             double s = 0.;
-            for (int k = 0; k <= order; k++) s += R[i][k] * U[order][k][j];
+            for (int k = 0; k <= order; k++) s += R[i][k] * hl_U_[order][k][j];
             RU[i][j] = s;
         }
     double tmp[HL_MAX_ORDER + 1][HL_N];
