@@ -5,6 +5,8 @@ Every expected value comes from the exact dissipative model (M5)-(M6) through
 from stored output of this code. Run with ``-s`` to see the error tables (Yang-Tobler beside
 the residue line).
 """
+import functools
+
 import numpy as np
 import pytest
 from scipy import special
@@ -20,7 +22,10 @@ from hydroline.lines.residue import (column_branches, exact_moments, modal_poles
 OIL = Fluid(870.0, 3.2e-5, 1.5e9)          # the rig's oil (docs/model.md 2.3 worked example)
 
 
+@functools.lru_cache(maxsize=None)
 def residue_line(line, n, form="PQ"):
+    """The residue line, built once per (line, n, form) for the whole module (Line is a
+    frozen dataclass, so equal lines share one build; no test modifies a model)."""
     return ModalLine(line, n, form, method="residue")
 
 
@@ -268,8 +273,9 @@ def test_blocked_line_pressure_step(Dn):
     assert res[1] < 0.01
     assert res[3] < 0.01
     # (c) 20 modes: the residue line converges, Yang-Tobler does not get below ~1 %
-    late20 = {name: np.abs(ModalLine(line, 20, "PQ", method=name).step_response(t, 0)[:, 0]
-                           - exact)[late].max() for name in ("residue", "yang-tobler")}
+    late20 = {name: np.abs(model.step_response(t, 0)[:, 0] - exact)[late].max()
+              for name, model in (("residue", residue_line(line, 20)),
+                                  ("yang-tobler", ModalLine(line, 20, "PQ")))}
     print(f"  after 2 periods, 20 modes: residue {100 * late20['residue']:.4f} %, "
           f"Yang-Tobler {100 * late20['yang-tobler']:.3f} %")
     assert late20["residue"] < 0.5 * res[1]

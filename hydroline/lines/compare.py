@@ -127,6 +127,23 @@ def resonance_f_max(line, form: str, n_peaks: int) -> float:
     return theta_top / line.wave_time / (2 * np.pi)
 
 
+def _same_grid_once(response):
+    """``response`` that keeps its last array result and returns it for the same ``s`` again
+    (the coarse scan of :func:`find_resonances` is the same grid for every entry)."""
+    last = {}
+
+    def remembered(s):
+        s = np.asarray(s)
+        if s.size < 2:
+            return response(s)
+        if "s" in last and last["s"].shape == s.shape and np.array_equal(last["s"], s):
+            return last["H"]
+        last["s"], last["H"] = s.copy(), response(s)
+        return last["H"]
+
+    return remembered
+
+
 def compare_resonances(line, model, n_peaks: int | None = None, f_max: float | None = None):
     """Resonances of every entry of ``model.transfer`` against ``line.transfer`` (dissipative).
 
@@ -172,11 +189,13 @@ def compare_resonances(line, model, n_peaks: int | None = None, f_max: float | N
     def exact(s):
         return line.transfer(s, form)
 
+    # the four entries scan the same grid: evaluate each response on it once
+    exact, modelled = _same_grid_once(exact), _same_grid_once(model.transfer)
     rows = []
     for i in range(2):
         for j in range(2):
             pe = find_resonances(exact, f_max, (i, j))
-            pm = find_resonances(model.transfer, f_max, (i, j))
+            pm = find_resonances(modelled, f_max, (i, j))
             for k, ((fe, me), (fm, mm)) in enumerate(zip(pe[:n], pm[:n])):
                 rows.append(Resonance((i, j), k + 1, fe, me, fm, mm))
     return rows
