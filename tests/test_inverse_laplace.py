@@ -190,6 +190,29 @@ def test_blocked_line_step_against_mpmath(Dn):
     assert np.max(np.abs(y - ref)) < 1e-9
 
 
+@pytest.mark.parametrize("form, entry", [("PQ", (0, 0)), ("PQ", (0, 1)), ("QQ", (1, 0)),
+                                          ("PP", (0, 0))])
+def test_grid_shares_bessel_evaluations_to_round_off(form, entry):
+    """On a uniform grid whose step divides L/c the shifted times t - m L/c recur from front
+    to front and share one evaluation of the Bessel functions; one time alone shares
+    nothing (each front evaluated on its own). Both agree to the documented round-off
+    (1e-10 of the response scale; measured <= 2.3e-12 on 2000 points over 80 L/c), with and
+    without an input filter, for the entries with the factors 1, Zc and 1/Zc."""
+    T = THIN.wave_time
+    t = np.arange(1, 401) * (T / 20.0)                     # 20 L/c, step L/(20 c)
+    a = 40.0 / T
+
+    def W(s):
+        return a / (s + a)
+
+    for filt in (None, W):
+        y = exact_step_response(THIN, t, form, entry, input_filter=filt)
+        pick = np.arange(3, 400, 23)
+        alone = [exact_step_response(THIN, t[k:k + 1], form, entry, input_filter=filt)[0]
+                 for k in pick]
+        assert np.abs(y[pick] - alone).max() < 1e-10 * np.abs(y).max()
+
+
 def test_speed():
     t = np.linspace(0.0, 40.0, 200) * RIG_HOSE.wave_time
     t0 = time.perf_counter()
