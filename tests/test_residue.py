@@ -283,7 +283,11 @@ def test_blocked_line_pressure_step(Dn):
         return np.prod(a / (s[..., None] + a), axis=-1)
 
     smooth = _blocked_line_response(line, t, W)
-    assert np.abs(_blocked_line_response(line, t[sub], lambda s: 1.0) - exact[sub]).max() < 1e-12
+    # the wave series here and the library's: 1.3e-12 apart (was < 1e-12 while the two ran
+    # the same operations on the same array shapes; the library now evaluates the Bessel
+    # functions of all fronts in one array, and the Talbot sum amplifies last-bit
+    # differences ~1e4 times: round-off, documented as ~1e-10 of the response scale)
+    assert np.abs(_blocked_line_response(line, t[sub], lambda s: 1.0) - exact[sub]).max() < 5e-12
     assert np.abs(_blocked_line_response(line, t[sub], W, 32) - smooth[sub]).max() < 1e-8
     assert np.abs(exact_step_response(line, t[sub], "PQ", (0, 0), input_filter=W)
                   - smooth[sub]).max() < 1e-10      # the library's filtered step (CLI table)

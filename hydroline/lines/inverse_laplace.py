@@ -426,16 +426,18 @@ def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
     r_u = 0.4 * M / tp_u
     s_u = r_u[:, None] * st[None, :]
     excess_u = excess(s_u)
-    base_u = 1.0 / s_u                               # H(s)/s without the wave factor
-    if input_filter is not None:
-        base_u = base_u * input_filter(s_u)
+    filter_u = None if input_filter is None else input_filter(s_u)
     if kfac != "1":
         _, zc = line.propagation(s_u, friction, alpha, beta)
-        base_u = base_u * (zc if kfac == "Zc" else 1.0 / zc)
+        factor_u = zc if kfac == "Zc" else 1.0 / zc
     start = 0
     for m, c, sel, tps in fronts:
         k = which[start:start + tps.size]
         start += tps.size
-        G = np.exp(-m * excess_u[k]) * base_u[k]
+        G = np.exp(-m * excess_u[k]) / s_u[k]           # same operations as one front alone
+        if filter_u is not None:
+            G = G * filter_u[k]
+        if kfac != "1":
+            G = G * factor_u[k]
         out[sel] += sign * c * r_u[k] / M * np.real(G @ w)
     return out.reshape(t.shape)
