@@ -88,6 +88,8 @@ Inputs and outputs are in the order of the form's table (:data:`FORM_PORTS`).
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from scipy import special
 
@@ -253,6 +255,17 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
     return R
 
 
+@functools.lru_cache(maxsize=32)
+def _remembered_bessel_zeros(order: int, count: int) -> np.ndarray:
+    return special.jn_zeros(order, count)
+
+
+def _bessel_zeros(order: int, count: int) -> np.ndarray:
+    """The first ``count`` positive zeros of J_order (scipy's ``jn_zeros``, remembered: every
+    residue-line build asks for the same ones), [-]."""
+    return _remembered_bessel_zeros(int(order), int(count)).copy()
+
+
 def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
                   n_roots: int = VISCOUS_ROOTS_PER_CLUSTER,
                   max_clusters: int = MAX_VISCOUS_CLUSTERS) -> np.ndarray:
@@ -279,12 +292,12 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     form = check_form(form)
     Dn = line.dissipation_number
     nu, r = line.fluid.kinematic_viscosity, line.radius
-    j2 = special.jn_zeros(2, max_clusters)
+    j2 = _bessel_zeros(2, max_clusters)
     if rate_limit is not None:
         keep = nu * j2**2 / r**2 <= rate_limit
         keep[0] = True
         j2 = j2[keep]
-    j0 = special.jn_zeros(0, len(j2) + 2)
+    j0 = _bessel_zeros(0, len(j2) + 2)
     lo = np.repeat(j2[:, None], n_roots, axis=1)
     hi = np.repeat(j0[np.searchsorted(j0, j2)][:, None], n_roots, axis=1)
     q = (modal_angles(n_roots, form)[None, :] / Dn) ** 2
@@ -380,7 +393,7 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
     I, R = line.inertance, line.resistance
     nu, r = line.fluid.kinematic_viscosity, line.radius
     edges = [n_exact * 2**g for g in range(n_octaves)]
-    j = special.jn_zeros(0, edges[-1])
+    j = _bessel_zeros(0, edges[-1])
     groups = [j[m:m + 1] for m in range(n_exact)]
     groups += [j[a:b] for a, b in zip(edges[:-1], edges[1:])]
     out = [[I / (4.0 * np.sum(g**-2.0)), I * nu / (4.0 * r**2 * np.sum(g**-4.0))]
