@@ -651,7 +651,7 @@ def test_variants_of_one_structure_share_one_model_and_give_simulates_rows():
                 {"supply.section2.length": 0.9, "return.section2.length": 0.9},
                 {"supply.section2.length": 0.9, "return.section2.length": 0.9,
                  "supply.section2.bulk_modulus": 1.6e8},
-                {"supply.section2.length": 0.3, "return.section2.length": 2.0,
+                {"supply.section2.length": 1.2, "return.section2.length": 2.0,
                  "return.section2.diameter": 0.02}]
     for i, values in enumerate(variants):
         a, b = shared(i, values), plain(i, values)
@@ -667,6 +667,30 @@ def test_variants_of_one_structure_share_one_model_and_give_simulates_rows():
                 assert a[k] == pytest.approx(b[k], rel=2e-4, abs=1e-4), k
     assert shared.shared_runs == 3          # the 2nd to 4th ran on the 1st's model,
     assert shared.hose_runs == 3            # with only their hoses' entries made anew
+
+
+def test_shared_model_trace_and_rest_state_equal_simulates():
+    """On a shared model (hose entries in p, rest state started from the previous variant's)
+    a variant's rest state is simulate()'s to 1e-12 of each state's scale, and its port
+    pressures stay within the integrator's accuracy of simulate()'s: each run is within
+    ~1e-4 of the excursion of a tight reference at simulate()'s tolerances (rtol 1e-6);
+    the short 0.3 m hose rings at ~330 Hz, the hardest case for the step control."""
+    from hydroline.scenarios import simulate
+    from hydroline.studies.sweep import VariantRunner
+
+    rig = load_rig()
+    runner = VariantRunner(rig)
+    for i, length in enumerate((0.9, 0.3)):
+        r = rig.copy()
+        r.set("supply.section2.length", f"{length} m")
+        r.set("return.section2.length", "2 m")
+        shared, plain = runner.simulate(r), simulate(r)
+        scales = runner.models[-1].network.state_scales
+        assert np.max(np.abs(shared.steady_state.x - plain.steady_state.x) / scales) < 1e-12
+        for k in ("supply_port_pressure", "return_port_pressure"):
+            excursion = np.ptp(plain[k])
+            assert np.max(np.abs(shared[k] - plain[k])) < 5e-4 * excursion, k
+    assert runner.hose_runs == 1
 
 
 def test_sweep_variants_write_no_cache_file_per_hose(monkeypatch):

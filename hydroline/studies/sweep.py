@@ -52,6 +52,7 @@ parent breaks the pool for the other variants in flight.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import time as _time
@@ -261,6 +262,11 @@ class VariantRunner:
         self.share_models = share_models
         self._models: dict = {}
         self.shared_runs = self.hose_runs = 0
+
+    @property
+    def models(self) -> tuple:
+        """The structures kept (:class:`SharedModel`), least recently used first."""
+        return tuple(self._models.values())
 
     def __getstate__(self):     # the models stay where they were built
         state = dict(self.__dict__)
@@ -495,9 +501,25 @@ def _run_shared(model: SharedModel, rig: Rig, p, guess, solver: str, tic: float)
                     return None
                 raise
     model.rest = ss.x.copy()
-    res = integrate(net, ss.x, sc.t_end, dt_out=1e-4, p=ss.p, solver=solver)   # simulate()'s
+    res = integrate(net, ss.x, sc.t_end, p=ss.p, solver=solver, **simulate_defaults())
     describe_run(res, rig, model.circuit, net, sc, ss, tic)     # as simulate()
     return res
+
+
+@functools.lru_cache(maxsize=1)
+def _simulate_parameters() -> tuple:
+    import inspect
+
+    params = inspect.signature(simulate).parameters
+    return tuple((k, params[k].default) for k in ("dt_out", "rtol", "atol_scale"))
+
+
+def simulate_defaults() -> dict:
+    """:func:`hydroline.scenarios.simulate`'s default output step [s], relative tolerance
+    [-] and absolute tolerance scale [-] (``dt_out``, ``rtol``, ``atol_scale``): a shared
+    model's run integrates as ``simulate()`` does (read from its signature, so that the two
+    cannot drift apart)."""
+    return dict(_simulate_parameters())
 
 
 def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None):
@@ -546,7 +568,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
                 counter.hose_runs = getattr(counter, "hose_runs", 0) + 1
             return res
         break
-    dt_out = 1e-4                                   # simulate()'s default
+    dt_out = simulate_defaults()["dt_out"]
     with coefficients_as_parameters():
         circuit = build_circuit(rig)
         sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
