@@ -34,7 +34,7 @@ STORE_ON_DISK = True
 
 class kept_in_memory:
     """Context manager: correction factors computed inside it are kept in this process's
-    table only, not written to the on-disk cache (:mod:`hydroline.cache`). A sweep's worker
+    table only, not written to the on-disk cache (which is still read) (:mod:`hydroline.cache`). A sweep's worker
     meets thousands of lines (one per hose length) that no later run asks for again; a file
     per line filled the cache directory (13 000 files after a few sweeps)."""
 
@@ -266,7 +266,7 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     if known is not None:
         _MEMORY.move_to_end(key)
         return known[0].copy(), known[1].copy()
-    stored = None if not STORE_ON_DISK else load_table("correction_factors", key)
+    stored = load_table("correction_factors", key)
     if stored is not None and len(stored) == 2 and all(len(v) == n_modes for v in stored):
         alphas, betas = np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
     else:
