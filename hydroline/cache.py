@@ -3,16 +3,17 @@
 Directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Everything in it can be deleted at any time; it is rebuilt on demand.
 
-The tables are bounded: each kind keeps about :data:`MAX_ENTRIES` files (at most that plus
-:data:`PRUNE_EVERY` per writing process), the least recently used removed first (:func:`prune_tables`, run by :func:`store_table` on a process's
-first write of a kind and every :data:`PRUNE_EVERY` writes after it; a read refreshes an
-entry's time at most once an hour).
+The tables are bounded: each kind keeps about :data:`MAX_ENTRIES` files, the least recently
+used removed first (:func:`prune_tables`, run by one :func:`store_table` in
+:data:`PRUNE_EVERY` at random, so that many short processes prune as often as one long one;
+a read refreshes an entry's time at most once an hour).
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import random
 import tempfile
 import time
 from pathlib import Path
@@ -23,11 +24,11 @@ __all__ = ["cache_dir", "load_table", "store_table", "source_tag", "prune_tables
 #: Most entries kept per table kind (a correction-factor entry is ~0.5 kB, a model record
 #: ~10 kB), [-]
 MAX_ENTRIES = 2000
-#: Writes of one kind by one process between two prunings, [-]
+#: One write in this many prunes its kind (at random; a pruning of 2000 entries costs ~15 ms),
+#: [-]
 PRUNE_EVERY = 100
 #: A read refreshes an entry's modification time when it is older than this, [s]
 _TOUCH_AFTER = 3600.0
-_WRITES: dict = {}     # kind -> writes by this process since its last pruning
 
 
 def cache_dir() -> Path:
@@ -105,11 +106,8 @@ def store_table(kind: str, key: str, value) -> None:
         except (OSError, UnboundLocalError):
             pass
         return
-    writes = _WRITES.get(kind)
-    if writes is None or writes >= PRUNE_EVERY:
+    if random.random() * PRUNE_EVERY < 1.0:
         prune_tables(kind)
-        writes = 0
-    _WRITES[kind] = writes + 1
 
 
 def prune_tables(kind: str, max_entries: int | None = None) -> int:

@@ -18,20 +18,19 @@ def _entries(tmp_path, kind):
 def test_tables_are_bounded_least_recently_used_first(monkeypatch, tmp_path):
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(cache, "MAX_ENTRIES", 20)
-    monkeypatch.setattr(cache, "PRUNE_EVERY", 5)
-    monkeypatch.setattr(cache, "_WRITES", {})
+    monkeypatch.setattr(cache, "PRUNE_EVERY", 1)        # every write prunes
     for i in range(20):
         cache.store_table("kind", f"key {i}", [i])
     # every entry old, key 0 read (used) recently: it outlives the never-read ones
     for i, path in enumerate(sorted((tmp_path / "kind").iterdir())):
         os.utime(path, (1e9 + i, 1e9 + i))
     assert cache.load_table("kind", "key 0") == [0]
-    for i in range(20, 40):
+    for i in range(20, 30):
         cache.store_table("kind", f"key {i}", [i])
     kept = _entries(tmp_path, "kind")
-    assert len(kept) <= 20 + 5         # pruned every 5 writes, down to 90 % of 20
+    assert len(kept) <= 20
     assert cache.load_table("kind", "key 0") == [0]        # recently used: kept
-    assert cache.load_table("kind", "key 39") == [39]      # just written: kept
+    assert cache.load_table("kind", "key 29") == [29]      # just written: kept
     assert sum(cache.load_table("kind", f"key {i}") is not None for i in range(1, 20)) < 19
 
 
