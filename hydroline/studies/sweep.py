@@ -60,7 +60,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios import default_scenario, scenario_names, simulate
@@ -652,7 +651,7 @@ class SweepResult:
     scenario : str            The scenario every variant ran
     """
 
-    table: pd.DataFrame
+    table: "pandas.DataFrame"
     design: Design
     n_computed: int = 0
     wall_time: float = 0.0
@@ -664,7 +663,7 @@ class SweepResult:
     scenario: str = "open-loop-step"
 
     @property
-    def failed(self) -> pd.DataFrame:
+    def failed(self) -> "pandas.DataFrame":
         """The rows of failed variants (``error`` set)."""
         return self.table[self.table["error"].notna()]
 
@@ -673,7 +672,9 @@ class SweepResult:
         return int(self.table["error"].notna().sum())
 
 
-def _table(rows: dict, design: Design, scenario: str, axes=()) -> pd.DataFrame:
+def _table(rows: dict, design: Design, scenario: str, axes=()):
+    import pandas as pd
+
     cols = row_columns(design, axes, scenario)
     data = [rows[i] for i in sorted(rows) if i < len(design)]
     df = pd.DataFrame(data, columns=cols)
@@ -686,7 +687,7 @@ def _table(rows: dict, design: Design, scenario: str, axes=()) -> pd.DataFrame:
     return df.reset_index(drop=True)
 
 
-def _write_tables(df: pd.DataFrame, out: Path, files: dict, notes: list):
+def _write_tables(df, out: Path, files: dict, notes: list):
     """sweep.csv, and sweep.parquet where pyarrow is installed (a note says why not)."""
     df.to_csv(out / "sweep.csv", index=False)
     files["csv"] = out / "sweep.csv"
