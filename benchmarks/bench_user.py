@@ -31,6 +31,11 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 BIN = Path(sys.executable).with_name("hydroline")
 
+#: The children run as a user's would: Python caches compiled bytecode. With
+#: PYTHONDONTWRITEBYTECODE set (as in some sandboxes and CI images) every process compiles
+#: hydroline's ~60 modules from source again, ~0.13 s of each command on the development machine.
+CHILD_ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
 
 def whole_process(cmd, repeat, cwd=None):
     """Median wall [s], CPU [s] and peak resident memory [MB] of a command run ``repeat``
@@ -40,7 +45,7 @@ def whole_process(cmd, repeat, cwd=None):
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         tic = time.perf_counter()
         proc = subprocess.run(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                              text=True)
+                              text=True, env=CHILD_ENV)
         wall = time.perf_counter() - tic
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         if proc.returncode != 0:
@@ -77,6 +82,19 @@ def sweep(variants):
     return wall * 1000 / variants, failed
 
 
+def yardstick() -> float:
+    """Seconds of a fixed pure-Python loop (best of 3): the machine's speed, to compare tables
+    taken in different sessions."""
+    best = float("inf")
+    for _ in range(3):
+        tic = time.perf_counter()
+        total = 0
+        for i in range(10_000_000):
+            total += i
+        best = min(best, time.perf_counter() - tic)
+    return best
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
@@ -111,7 +129,11 @@ def main():
                      f"{wall:.1f} s wall, {cpu:.1f} s CPU, {rss:.0f} MB", "<= 15 s, <= 400 MB"))
     print(f"hydroline {sys.version.split()[0]}, {os.cpu_count()} CPUs, median of {args.repeat} "
           f"after a warm-up; load average {os.getloadavg()[0]:.1f} (other jobs inflate every "
-          f"figure: compare runs at equal load)")
+          f"figure: compare runs at equal load); yardstick: a 10-million-step Python loop takes "
+          f"{yardstick():.2f} s on this machine now (the machine speed varies between sessions)")
+    if "PYTHONDONTWRITEBYTECODE" in os.environ:
+        print("PYTHONDONTWRITEBYTECODE is set here: the timed processes ran without it, as a "
+              "user's do (bytecode cached)")
     w0 = max(len(r[0]) for r in rows)
     w1 = max(len(r[1]) for r in rows)
     print(f"{'what':<{w0}}  {'measured':<{w1}}  target")

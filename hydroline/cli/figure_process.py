@@ -46,6 +46,8 @@ class FigureProcess:
         self._job_w = self._done_r = None
         if not hasattr(os, "fork") or os.environ.get("HYDROLINE_FIGURE_PROCESS", "1") == "0":
             return
+        import numpy  # noqa: F401  (both processes need it: imported once, before the fork)
+
         job_r, self._job_w = os.pipe()
         self._done_r, done_w = os.pipe()
         pid = os.fork()

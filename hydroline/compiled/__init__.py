@@ -505,7 +505,8 @@ def _known_model(fingerprint: str):
                              constants=np.asarray(rec["constants"], dtype=float),
                              jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
                              jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
-        return gen, str(rec["library"])
+        _MODELS[fingerprint] = (gen, str(rec["library"]))   # on disk already: not written again
+        return _MODELS[fingerprint]
     except (TypeError, KeyError, ValueError):   # none, or damaged: generate anew
         return None, None
 
