@@ -28,15 +28,16 @@ __all__ = ["correction_factors", "modal_angles", "dissipative_root", "dissipativ
 #: last; at most :data:`MEMORY_KEPT` of them.
 _MEMORY: OrderedDict = OrderedDict()
 MEMORY_KEPT = 512
-#: False inside :class:`kept_in_memory`: no on-disk cache entry is written.
+#: False inside :class:`kept_in_memory`: the on-disk cache is neither read nor written.
 STORE_ON_DISK = True
 
 
 class kept_in_memory:
     """Context manager: correction factors computed inside it are kept in this process's
-    table only, not written to the on-disk cache (which is still read) (:mod:`hydroline.cache`). A sweep's worker
-    meets thousands of lines (one per hose length) that no later run asks for again; a file
-    per line filled the cache directory (13 000 files after a few sweeps)."""
+    table only, neither looked up in nor written to the on-disk cache
+    (:mod:`hydroline.cache`). A sweep's worker meets thousands of lines (one per hose length)
+    that no later run asks for again: a file per line filled the cache directory (13 000
+    files after a few sweeps), and a look-up that misses costs about as much as a solve."""
 
     def __enter__(self):
         global STORE_ON_DISK
@@ -266,7 +267,7 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     if known is not None:
         _MEMORY.move_to_end(key)
         return known[0].copy(), known[1].copy()
-    stored = load_table("correction_factors", key)
+    stored = load_table("correction_factors", key) if STORE_ON_DISK else None
     if stored is not None and len(stored) == 2 and all(len(v) == n_modes for v in stored):
         alphas, betas = np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
     else:
