@@ -93,6 +93,7 @@ def stages(lengths) -> dict:
     except ImportError:      # no shared models in this tree
         VariantRunner = None
     try:                     # hose variants without a network build (issue 13, round 3)
+        from hydroline.lines.corrections import kept_in_memory
         from hydroline.scenarios import describe_run, rest_state
         from hydroline.studies.sweep import SharedModel, simulate_defaults
     except ImportError:
@@ -176,7 +177,8 @@ def stages(lengths) -> dict:
                     r.set("supply.section2.length", f"{x3 + 1e-7!r} m")
                     r.set("return.section2.length", f"{x3 + 1e-7!r} m")
                 s0 = time.perf_counter()
-                p = shared.hose_parameters(r)
+                with kept_in_memory():          # as in the sweep's runner: no cache file
+                    p = shared.hose_parameters(r)
                 s1 = time.perf_counter()
                 net = shared.network
                 net.parameter_values = p
