@@ -321,6 +321,8 @@ def main(argv=None):
     print("failed variants: " + "; ".join(f"{n}: {f}" for n, f in failed.items()))
     if args.stages:
         names = list(results["this"][-1]["stages"])
+        for runs in results.values():       # then the stages only another tree has
+            names += [s for s in runs[-1]["stages"] if s not in names]
         for runs in results.values():       # stages only one tree has
             for r in runs:
                 for s in names:
