@@ -776,3 +776,17 @@ def test_hose_variant_parameters_equal_a_full_build():
     rig.set("supply.section2.length", "-1 m")           # checked as a full build checks it
     with pytest.raises(RigError, match="supply.section2.length"):
         model.hose_parameters(rig)
+
+
+def test_metrics_equal_with_and_without_scipy_fft(monkeypatch):
+    """A sweep's workers load scipy.fft so that the metrics' spectra are computed by it; the
+    port metrics are the same numbers as with NumPy's FFT (a single run's path)."""
+    import scipy.fft  # noqa: F401
+    from hydroline.traces.metrics import pressure_metrics
+
+    t = np.linspace(0.0, 0.1, 1001)
+    p = 2e7 + 1e6 * np.exp(-30 * t) * np.sin(2 * np.pi * 95.0 * t) * (t > 0.01)
+    with_scipy = pressure_metrics(t, p, 0.01)
+    monkeypatch.delitem(sys.modules, "scipy.fft")
+    assert pressure_metrics(t, p, 0.01) == with_scipy
+    assert with_scipy["frequency_hz"] == pytest.approx(95.0, rel=3e-3)   # the sine's own
