@@ -77,6 +77,9 @@ def test_sine_stream_equals_the_in_memory_summary_of_a_run():
     out = s.summary(streamed)
     for k in ("wall_time_s",):
         out.pop(k), ref.pop(k)
+    # the squares are summed chunk by chunk there and in one pass here: equal to rounding
+    assert out.pop("tracking_error_rms_mm") == pytest.approx(ref.pop("tracking_error_rms_mm"),
+                                                             rel=1e-12)
     assert out == ref
 
 
@@ -95,6 +98,9 @@ def test_long_cli_sine_run_summarizes_as_the_in_memory_run(tmp_path, monkeypatch
     short = json.loads((tmp_path / "short" / "summary.json").read_text())
     long = json.loads((tmp_path / "long" / "summary.json").read_text())
     short.pop("wall_time_s"), long.pop("wall_time_s")
+    # (squares summed chunk by chunk in the long run: equal to rounding)
+    assert long.pop("tracking_error_rms_mm") == pytest.approx(short.pop("tracking_error_rms_mm"),
+                                                              rel=1e-12)
     assert long == short
     assert len(long["supply"]["ripple_pp_mpa_per_cycle"]) == 1
     assert (tmp_path / "long" / "pressures.png").stat().st_size > 0
@@ -102,3 +108,61 @@ def test_long_cli_sine_run_summarizes_as_the_in_memory_run(tmp_path, monkeypatch
     assert main(args + ["--json"]) == 0     # long, no files: nothing kept but the times
     printed = json.loads(capsys.readouterr().out)
     assert printed["supply"]["amplitude_mpa"] == short["supply"]["amplitude_mpa"]
+
+
+def test_streamed_csv_text_is_savetxt_text():
+    # result.csv_rows formats a block in one operation: the same text as NumPy's row-by-row
+    # savetxt (the format the streamed results.csv always had), signs, exponents, inf and NaN
+    import io
+
+    from hydroline.engine.result import csv_rows
+    rng = np.random.default_rng(3)
+    rows = rng.normal(size=(57, 9)) * 10.0 ** rng.integers(-12, 12, size=(57, 9))
+    rows[3, 2], rows[5, 0], rows[7, 7] = np.nan, np.inf, -0.0
+    f = io.StringIO()
+    np.savetxt(f, rows, fmt="%.9g", delimiter=",")
+    assert csv_rows(rows) == f.getvalue()
+
+
+class _Sink:
+    """Records the blocks it is given; raises on the ``fail``-th."""
+
+    def __init__(self, fail=None):
+        self.seen, self.fail = [], fail
+
+    def write(self, t, X, Y, model, p):
+        if self.fail is not None and len(self.seen) + 1 == self.fail:
+            raise OSError("disk full")
+        self.seen.append((t[0], p[0]))
+
+
+def test_row_writer_keeps_the_order_and_the_parameters_of_each_block():
+    from hydroline.engine.integrate import RowWriter
+    sink = _Sink()
+    w = RowWriter(sink, depth=1)
+    p = np.zeros(1)
+    for k in range(50):
+        p[0] = k   # changed in place after each block, as a sampled controller does
+        w.write(np.array([float(k)]), None, np.zeros((1, 1)), None, p)
+    w.close()
+    assert sink.seen == [(float(k), float(k)) for k in range(50)]
+
+
+def test_row_writer_raises_a_sink_error_in_the_caller():
+    from hydroline.engine.integrate import RowWriter
+    w = RowWriter(_Sink(fail=3))
+    with pytest.raises(OSError, match="disk full"):
+        for k in range(100):
+            w.write(np.array([float(k)]), None, np.zeros((1, 1)), None, np.zeros(1))
+        w.close()
+    w.close()   # the error is raised once; closing again is harmless
+
+
+def test_an_observer_error_ends_a_streamed_run():
+    def observe(t, table, columns):
+        if t[-1] > 0.05:
+            raise ValueError("observer failed")
+
+    with pytest.raises(ValueError, match="observer failed"):
+        simulate(None, "closed-loop-sine", t_end=0.2, dt_out=1e-3, chunk_rows=10,
+                 keep_columns=[], observe=observe)

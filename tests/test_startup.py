@@ -1,5 +1,6 @@
 """Start-up path: the pint-free unit table and the SciPy-free peak finder against the
 libraries they stand in for, and what ``import hydroline`` / a --json run load."""
+import os
 import subprocess
 import sys
 
@@ -182,3 +183,17 @@ def test_filters_equal_scipy():
                                            ssavgol(x, w, 3, mode="interp"), rtol=1e-12)
     with pytest.raises(ValueError):
         filters.savgol_filter(np.zeros(4), 5, 3)
+
+
+def test_the_command_asks_blas_for_one_thread_unless_the_user_chose():
+    """A fresh `hydroline` process sets the BLAS thread variables it finds unset to 1 (before
+    NumPy loads), and leaves a user's own setting alone."""
+    code = ("import io, os, contextlib\nfrom hydroline.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            "    try:\n        main(['--version'])\n    except SystemExit:\n        pass\n"
+            "print(os.environ['OPENBLAS_NUM_THREADS'], os.environ['OMP_NUM_THREADS'])")
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+    out = subprocess.run([sys.executable, "-c", code], env=dict(env, OMP_NUM_THREADS="3"),
+                         capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["1", "3"]

@@ -309,6 +309,24 @@ def test_sampled_controller_matches_continuous_at_fast_sampling():
     assert samp["tracking_error_rms_mm"] == pytest.approx(cont["tracking_error_rms_mm"], rel=0.05)
 
 
+def test_sampled_controller_holds_the_law_of_the_sampling_instant():
+    # zero-order hold by hand: over (t_k, t_k + 1 ms] the current is the P law applied to the
+    # reference and position at t_k, limited to +-current_limit (the sampled signals are the
+    # compiled core's output row at t_k, not a Python evaluation: same numbers)
+    rig = load_rig()
+    rig.set("controller.sample_time", "1 ms")
+    res = simulate(rig, "closed-loop-sine", t_end=0.03, dt_out=1e-4)
+    kp, limit = rig["controller.proportional_gain"], rig["controller.current_limit"]
+    t = res.t
+    for k in range(1, 30):
+        i_k = int(round(k * 10))                      # the row at t_k = k ms
+        law = kp * (res["position_reference"][i_k] - res["piston_position"][i_k])
+        held = min(max(law, -limit), limit)
+        rows = slice(i_k + 1, i_k + 11)               # (t_k, t_k + 1 ms]
+        assert t[i_k] == pytest.approx(k * 1e-3, abs=1e-12)
+        assert res["valve_current"][rows] == pytest.approx(held, rel=1e-9, abs=1e-15)
+
+
 def test_modal_accumulator_connection_option():
     rig = load_rig()
     rig.set("supply.accumulator.model", "modal")

@@ -110,8 +110,9 @@ PREVIEW_ROWS = 20_000
 FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
                   "top_chamber_pressure", "piston_velocity", "piston_position")
 #: Rough rates for the cost estimate of a long run: simulated seconds per wall second of the
-#: compiled integrator, and CSV bytes written per second.
-INTEGRATION_SPEED = 40.0
+#: compiled integrator (the 600 s closed-loop sine took 11-14 s at load 2-3 on the 2-core
+#: development machine, benchmarks/README.md), and CSV bytes written per second.
+INTEGRATION_SPEED = 45.0
 CSV_RATE = 15e6
 
 

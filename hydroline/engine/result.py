@@ -177,6 +177,24 @@ def column_indices(what, names, columns):
     return names, np.array([columns.index(k) for k in names], dtype=int)
 
 
+def csv_rows(rows) -> str:
+    """Rows of numbers as CSV text, ``%.9g`` each, ``,`` between, one line per row: the text
+    of ``np.savetxt(f, rows, fmt="%.9g", delimiter=",")``, formatted in one operation instead
+    of one per row (a quarter less time on a long run's output).
+
+    Parameters
+    ----------
+    rows : ndarray   2-D array of values, [SI]
+    """
+    rows = np.asarray(rows, dtype=float)
+    line = ",".join(["%.9g"] * rows.shape[1]) + "\n"
+    # in pieces of ~2000 numbers (~1 ms): one formatting operation holds Python's lock
+    # throughout, which a thread waiting for it (the integration, between chunks) would wait for
+    step = max(1, 2000 // max(rows.shape[1], 1))
+    return "".join((line * len(part)) % tuple(part.ravel().tolist())
+                   for part in (rows[k:k + step] for k in range(0, len(rows), step)))
+
+
 class OutputSink:
     """Where output rows go: kept in memory (all columns, or only ``keep``), streamed to CSV
     (every ``every``-th row of ``stream`` columns, the last row always) with per-column
@@ -289,7 +307,7 @@ class OutputSink:
             else:
                 out_t, out = t[sel], block[np.ix_(sel, self.index)]
             if len(out_t):
-                np.savetxt(self.file, np.column_stack([out_t, out]), fmt="%.9g", delimiter=",")
+                self.file.write(csv_rows(np.column_stack([out_t, out])))
                 self.written += len(out_t)
         self.last = (t[-1:].copy(), block[-1:].copy())
 
