@@ -274,9 +274,11 @@ class VariantRunner:
 
     def __call__(self, index: int, values: dict) -> dict:
         """One variant's row; never raises for a bad variant (see :func:`run_variant`)."""
+        # the metrics' spectra use scipy.fft where it is loaded: the same numbers 2.7x
+        # faster; ~30 ms to import, once per process
+        import scipy.fft  # noqa: F401
+
         from ..lines.corrections import kept_in_memory
-        import scipy.fft  # noqa: F401  (the metrics' spectra use it where it is loaded:
-        #                   the same numbers 2.7x faster; ~30 ms to import once per worker)
 
         tic = _time.perf_counter()
         row = _empty_row(index, values, self.axes, self.scenario)
