@@ -25,6 +25,7 @@ Usage: python benchmarks/bench_sweep.py [--variants N] [--workers W ...] [--stag
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import os
 import pickle
@@ -91,9 +92,17 @@ def stages(lengths) -> dict:
         from hydroline.studies.sweep import VariantRunner, graph_signature
     except ImportError:      # no shared models in this tree
         VariantRunner = None
+    try:                     # hose variants without a network build (issue 13, round 3)
+        from hydroline.lines.corrections import kept_in_memory
+        from hydroline.scenarios import describe_run, rest_state
+        from hydroline.studies.sweep import SharedModel, simulate_defaults
+    except ImportError:
+        SharedModel = None
     rig = load_rig(None)
     simulate(rig)
     acc: dict = {}
+    defaults = inspect.signature(simulate).parameters
+    tolerances = {k: defaults[k].default for k in ("rtol", "atol_scale") if k in defaults}
 
     def add(name, dt):
         acc[name] = acc.get(name, 0.0) + dt
@@ -124,7 +133,7 @@ def stages(lengths) -> dict:
             t4 = time.perf_counter()
             ss = solve_steady_state(net, t0=0.0)
             t5 = time.perf_counter()
-            res = integrate(net, ss.x, sc.t_end, p=ss.p)
+            res = integrate(net, ss.x, sc.t_end, p=ss.p, **tolerances)    # simulate()'s
             t6 = time.perf_counter()
             finish(res, sc, circuit, net)
             t7 = time.perf_counter()
@@ -150,7 +159,52 @@ def stages(lengths) -> dict:
             add("journal line", t11 - t10)
             if runner is None:
                 continue
-            # the shared model, stage by stage (as simulate_shared does it)
+            if SharedModel is not None:
+                # the shared model, stage by stage (as simulate_shared does it now)
+                x3 = x + 2e-7
+                r = rig.copy()
+                r.set("supply.section2.length", f"{x3!r} m")
+                r.set("return.section2.length", f"{x3!r} m")
+                if shared is None:
+                    with coefficients_as_parameters():
+                        circuit = build_circuit(r)
+                        sc = build_scenario(r, "open-loop-step", None, axes=circuit.axes)
+                        net = circuit.network(sc.commands)
+                    shared = SharedModel(net, circuit, sc, r.values)
+                    shared.rest = rest_state(net).x
+                    integrate(net, shared.rest, sc.t_end, p=net.parameter_values)
+                    r = rig.copy()
+                    r.set("supply.section2.length", f"{x3 + 1e-7!r} m")
+                    r.set("return.section2.length", f"{x3 + 1e-7!r} m")
+                s0 = time.perf_counter()
+                with kept_in_memory():          # as in the sweep's runner: no cache file
+                    p = shared.hose_parameters(r)
+                s1 = time.perf_counter()
+                net = shared.network
+                net.parameter_values = p
+                ss = rest_state(net, x_guess=shared.rest)
+                shared.rest = ss.x
+                s2 = time.perf_counter()
+                res = integrate(net, ss.x, shared.scenario.t_end, p=ss.p, **simulate_defaults())
+                s3 = time.perf_counter()
+                describe_run(res, r, shared.circuit, net, shared.scenario, ss, s0)
+                s4 = time.perf_counter()
+                summarize(res)
+                s5 = time.perf_counter()
+                x4 = x + 3e-7
+                runner(k, {"supply.section2.length": x4, "return.section2.length": x4})
+                s6 = time.perf_counter()
+                if k:
+                    for name, dt in (("shared: hose entries of p (no network build)", s1 - s0),
+                                     ("shared: steady state", s2 - s1),
+                                     ("shared: integration (C)", res.wall_time),
+                                     ("shared: integrate() beyond the C", (s3 - s2) - res.wall_time),
+                                     ("shared: metadata (describe_run)", s4 - s3),
+                                     ("shared: metrics (summarize)", s5 - s4),
+                                     ("sweep's runner, shared model: whole", s6 - s5)):
+                        add(name, dt)
+                continue
+            # the shared model, stage by stage (as simulate_shared did it before round 3)
             x3 = x + 2e-7
             r = rig.copy()
             r.set("supply.section2.length", f"{x3!r} m")
@@ -267,6 +321,8 @@ def main(argv=None):
     print("failed variants: " + "; ".join(f"{n}: {f}" for n, f in failed.items()))
     if args.stages:
         names = list(results["this"][-1]["stages"])
+        for runs in results.values():       # then the stages only another tree has
+            names += [s for s in runs[-1]["stages"] if s not in names]
         for runs in results.values():       # stages only one tree has
             for r in runs:
                 for s in names:

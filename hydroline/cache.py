@@ -2,16 +2,33 @@
 
 Directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Everything in it can be deleted at any time; it is rebuilt on demand.
+
+The tables are bounded: each kind keeps about :data:`MAX_ENTRIES` files, the least recently
+used removed first (:func:`prune_tables`, run by one :func:`store_table` in
+:data:`PRUNE_EVERY` at random, so that many short processes prune as often as one long one;
+a read refreshes an entry's time at most once an hour).
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
+import random
 import tempfile
+import time
 from pathlib import Path
 
-__all__ = ["cache_dir", "load_table", "store_table", "source_tag"]
+__all__ = ["cache_dir", "load_table", "store_table", "source_tag", "prune_tables",
+           "MAX_ENTRIES"]
+
+#: Most entries kept per table kind (a correction-factor entry is ~0.5 kB, a model record
+#: ~10 kB), [-]
+MAX_ENTRIES = 2000
+#: One write in this many prunes its kind (at random; a pruning of 2000 entries costs ~15 ms),
+#: [-]
+PRUNE_EVERY = 100
+#: A read refreshes an entry's modification time when it is older than this, [s]
+_TOUCH_AFTER = 3600.0
 
 
 def cache_dir() -> Path:
@@ -49,10 +66,19 @@ def load_table(kind: str, key: str):
     -------
     object or None  The stored JSON value (lists, dicts, numbers, strings)
     """
+    path = _table_path(kind, key)
     try:
-        with open(_table_path(kind, key)) as f:
+        with open(path) as f:
             entry = json.load(f)
-        return entry["value"] if entry.get("key") == key else None
+            age = time.time() - os.fstat(f.fileno()).st_mtime
+        if entry.get("key") != key:
+            return None
+        if age > _TOUCH_AFTER:      # recently used: kept by prune_tables
+            try:
+                os.utime(path)
+            except OSError:
+                pass
+        return entry["value"]
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
 
@@ -79,3 +105,51 @@ def store_table(kind: str, key: str, value) -> None:
             os.unlink(tmp)
         except (OSError, UnboundLocalError):
             pass
+        return
+    if random.random() * PRUNE_EVERY < 1.0:
+        prune_tables(kind)
+
+
+def prune_tables(kind: str, max_entries: int | None = None) -> int:
+    """Remove the least recently used entries of a table kind beyond ``max_entries`` (down to
+    90 % of it, so that pruning is not needed at every write), and temporary files of
+    interrupted writes older than an hour. Errors are ignored (another process may prune
+    the same directory at the same time).
+
+    Parameters
+    ----------
+    kind : str          Sub-directory of the cache naming the table
+    max_entries : int   Entries kept at most, [-] (:data:`MAX_ENTRIES` when None)
+
+    Returns
+    -------
+    int  Files removed, [-]
+    """
+    max_entries = MAX_ENTRIES if max_entries is None else int(max_entries)
+    entries, stale = [], []
+    now = time.time()
+    try:
+        with os.scandir(cache_dir() / kind) as it:
+            for e in it:
+                try:
+                    mtime = e.stat().st_mtime
+                except OSError:
+                    continue
+                if e.name.endswith(".json"):
+                    entries.append((mtime, e.path))
+                elif e.name.endswith(".tmp") and now - mtime > 3600:
+                    stale.append(e.path)
+    except OSError:
+        return 0
+    drop = stale
+    if len(entries) > max_entries:
+        entries.sort()
+        drop += [path for _, path in entries[:len(entries) - int(0.9 * max_entries)]]
+    removed = 0
+    for path in drop:
+        try:
+            os.unlink(path)
+            removed += 1
+        except OSError:
+            pass
+    return removed

@@ -273,9 +273,12 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
     -------
     dict  side -> its :func:`pressure_profile` (read once, for the network builder)
     """
+    declared = {}       # section -> its declarations, looked up once per section
     for path, v in rig.values.items():
         section, _, key = path.rpartition(".")
-        decl = declarations(section).get(key)
+        if section not in declared:
+            declared[section] = declarations(section)
+        decl = declared[section].get(key)
         if decl is not None:
             rule = decl.violation(v)
             if rule is not None:

@@ -650,7 +650,9 @@ def test_variants_of_one_structure_share_one_model_and_give_simulates_rows():
     variants = [{"supply.section2.length": 1.5, "return.section2.length": 1.5},
                 {"supply.section2.length": 0.9, "return.section2.length": 0.9},
                 {"supply.section2.length": 0.9, "return.section2.length": 0.9,
-                 "supply.section2.bulk_modulus": 1.6e8}]
+                 "supply.section2.bulk_modulus": 1.6e8},
+                {"supply.section2.length": 1.2, "return.section2.length": 2.0,
+                 "return.section2.diameter": 0.02}]
     for i, values in enumerate(variants):
         a, b = shared(i, values), plain(i, values)
         assert a["error"] is None and b["error"] is None
@@ -663,7 +665,52 @@ def test_variants_of_one_structure_share_one_model_and_give_simulates_rows():
                     assert a[k] == pytest.approx(b[k], abs=1e-3), k
             else:
                 assert a[k] == pytest.approx(b[k], rel=2e-4, abs=1e-4), k
-    assert shared.shared_runs == 2          # the 2nd and 3rd ran on the 1st's model
+    assert shared.shared_runs == 3          # the 2nd to 4th ran on the 1st's model,
+    assert shared.hose_runs == 3            # with only their hoses' entries made anew
+
+
+def test_shared_model_trace_and_rest_state_equal_simulates():
+    """On a shared model (hose entries in p, rest state started from the previous variant's)
+    a variant's rest state is simulate()'s to 1e-12 of each state's scale, and its port
+    pressures stay within the integrator's accuracy of simulate()'s: each run is within
+    ~1e-4 of the excursion of a tight reference at simulate()'s tolerances (rtol 1e-6);
+    the short 0.3 m hose rings at ~330 Hz, the hardest case for the step control."""
+    from hydroline.scenarios import simulate
+    from hydroline.studies.sweep import VariantRunner
+
+    rig = load_rig()
+    runner = VariantRunner(rig)
+    for i, length in enumerate((0.9, 0.3)):
+        r = rig.copy()
+        r.set("supply.section2.length", f"{length} m")
+        r.set("return.section2.length", "2 m")
+        shared, plain = runner.simulate(r), simulate(r)
+        scales = runner.models[-1].network.state_scales
+        assert np.max(np.abs(shared.steady_state.x - plain.steady_state.x) / scales) < 1e-12
+        for k in ("supply_port_pressure", "return_port_pressure"):
+            excursion = np.ptp(plain[k])
+            assert np.max(np.abs(shared[k] - plain[k])) < 5e-4 * excursion, k
+    assert runner.hose_runs == 1
+
+
+def test_sweep_variants_write_no_cache_file_per_hose(monkeypatch):
+    """A sweep's hoses are new lines in every variant: their correction factors stay in the
+    worker's memory instead of one cache file each (and a repeated line is not solved
+    again)."""
+    from hydroline.lines import corrections
+    from hydroline.studies.sweep import VariantRunner
+
+    written, solved = [], []
+    monkeypatch.setattr(corrections, "store_table", lambda kind, key, value: written.append(kind))
+    real_solve = corrections._solve_correction_factors
+    monkeypatch.setattr(corrections, "_solve_correction_factors",
+                        lambda *a: solved.append(a[0].length) or real_solve(*a))
+    runner = VariantRunner(load_rig())
+    for i, length in enumerate((1.234567, 2.345678, 1.234567)):
+        row = runner(i, {"supply.section2.length": length, "return.section2.length": length})
+        assert row["error"] is None
+    assert "correction_factors" not in written
+    assert solved.count(2.345678) == 2       # supply and return side, once: then remembered
 
 
 def test_graph_signature_tells_structures_apart():
@@ -689,3 +736,57 @@ def test_graph_signature_tells_structures_apart():
     circuit = build_circuit(load_rig())                                  # outside: constants
     assert not any(".A" in k for k in circuit.network(
         build_scenario(load_rig(), axes=circuit.axes).commands).parameter_names)
+
+
+def test_hose_variant_parameters_equal_a_full_build():
+    """A variant that differs only in hose length, bore or bulk modulus gets, without a
+    network build, exactly the p a full build of it gives (the hoses' matrix entries, M8-M14,
+    and every other parameter); anything else (a section removed, another pre-charge, a
+    fluid property) is left to the full build."""
+    from hydroline.components.hose import coefficients_as_parameters
+    from hydroline.scenarios import build_scenario
+    from hydroline.studies.sweep import SharedModel
+    from hydroline.system import build_circuit
+
+    def built(rig):
+        with coefficients_as_parameters():
+            circuit = build_circuit(rig)
+            sc = build_scenario(rig, axes=circuit.axes)
+            return circuit.network(sc.commands), circuit, sc
+
+    base = load_rig()
+    model = SharedModel(*built(base), base.values)
+    for changes in ({"supply.section2.length": "0.4 m", "return.section2.length": "2.5 m"},
+                    {"supply.section1.diameter": "20 mm", "return.section2.bulk_modulus": "300 MPa"},
+                    {"supply.section2.length": "1.7 m", "supply.section2.bulk_modulus": "150 MPa"}):
+        rig = base.copy()
+        for path, value in changes.items():
+            rig.set(path, value)
+        p = model.hose_parameters(rig)
+        full = built(rig)[0]
+        assert full.parameter_names == model.network.parameter_names
+        np.testing.assert_array_equal(p, full.parameter_values)
+    for path, value in (("supply.section2.length", "0 m"),
+                        ("supply.accumulator.precharge_pressure", "8 MPa"),
+                        ("fluid.kinematic_viscosity", "40 mm^2/s")):
+        rig = base.copy()
+        rig.set(path, value)
+        assert model.hose_parameters(rig) is None, path
+    rig = base.copy()
+    rig.set("supply.section2.length", "-1 m")           # checked as a full build checks it
+    with pytest.raises(RigError, match="supply.section2.length"):
+        model.hose_parameters(rig)
+
+
+def test_metrics_equal_with_and_without_scipy_fft(monkeypatch):
+    """A sweep's workers load scipy.fft so that the metrics' spectra are computed by it; the
+    port metrics are the same numbers as with NumPy's FFT (a single run's path)."""
+    import scipy.fft  # noqa: F401
+    from hydroline.traces.metrics import pressure_metrics
+
+    t = np.linspace(0.0, 0.1, 1001)
+    p = 2e7 + 1e6 * np.exp(-30 * t) * np.sin(2 * np.pi * 95.0 * t) * (t > 0.01)
+    with_scipy = pressure_metrics(t, p, 0.01)
+    monkeypatch.delitem(sys.modules, "scipy.fft")
+    assert pressure_metrics(t, p, 0.01) == with_scipy
+    assert with_scipy["frequency_hz"] == pytest.approx(95.0, rel=3e-3)   # the sine's own

@@ -91,9 +91,15 @@ def _bdf_source() -> str:
     return _BDF_SOURCE.read_text()
 
 
+def _build_settings() -> str:
+    """What a library's machine code depends on besides its source: the compiler flags, the
+    platform and this CPU."""
+    return " ".join(CFLAGS + NATIVE_FLAGS) + sys.platform + _cpu_id()
+
+
 def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
     full = gen.source + "\n" + _bdf_source()
-    ident = full + " ".join(CFLAGS + NATIVE_FLAGS) + sys.platform + _cpu_id()
+    ident = full + _build_settings()
     tag = hashlib.sha256(ident.encode()).hexdigest()[:32]
     return cache_dir() / f"hl_{tag}.so", full
 
@@ -510,11 +516,19 @@ def _known_model(fingerprint: str):
 _STRUCTURES: dict = {}
 
 
+def _structure_record_key(functions) -> str:
+    """Key of a structure's record: the graph's listing with constants masked, this module's
+    code and the build settings (compiler flags, platform, CPU: the record names a library
+    built with them)."""
+    settings = hashlib.sha256(_build_settings().encode()).hexdigest()[:16]
+    return structure_key(functions) + _CODE_TAG + settings
+
+
 def _known_structure(functions):
     """(GeneratedModel with this model's constants and no source, library tag) when a model
     of the same structure was generated before (this process or recorded on disk): only the
     constants are read from the graph; (None, None) otherwise."""
-    key = structure_key(functions) + _CODE_TAG
+    key = _structure_record_key(functions)
     rec = _STRUCTURES.get(key)
     if rec is None:
         rec = load_table("structures", key)
@@ -541,7 +555,7 @@ def _remember_structure(functions, gen, library_path: Path) -> None:
     rec.update(jac_colind=np.asarray(gen.jac_colind).tolist(),
                jac_row=np.asarray(gen.jac_row).tolist(), positions=positions,
                n_constants=len(gen.constants), library=library_path.stem[3:])
-    key = structure_key(functions) + _CODE_TAG
+    key = _structure_record_key(functions)
     _STRUCTURES[key] = rec
     store_table("structures", key, rec)
 

@@ -13,6 +13,7 @@ friction root with alpha = beta = 1 and continued from the previous mode.
 """
 from __future__ import annotations
 
+from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,33 @@ import numpy as np
 from ..cache import load_table, source_tag, store_table
 from .line import Line, bessel_ratio, check_form
 
-__all__ = ["correction_factors", "modal_angles", "dissipative_root", "check_modes"]
+__all__ = ["correction_factors", "modal_angles", "dissipative_root", "dissipative_roots",
+           "check_modes", "kept_in_memory"]
+
+#: Correction factors of the lines met in this process, key -> (alpha, beta), most recent
+#: last; at most :data:`MEMORY_KEPT` of them.
+_MEMORY: OrderedDict = OrderedDict()
+MEMORY_KEPT = 512
+#: False inside :class:`kept_in_memory`: the on-disk cache is neither read nor written.
+STORE_ON_DISK = True
+
+
+class kept_in_memory:
+    """Context manager: correction factors computed inside it are kept in this process's
+    table only, neither looked up in nor written to the on-disk cache
+    (:mod:`hydroline.cache`). A sweep's worker meets thousands of lines (one per hose length)
+    that no later run asks for again: a file per line filled the cache directory (13 000
+    files after a few sweeps), and a look-up that misses costs about as much as a solve."""
+
+    def __enter__(self):
+        global STORE_ON_DISK
+        self._saved, STORE_ON_DISK = STORE_ON_DISK, False
+        return self
+
+    def __exit__(self, *exc):
+        global STORE_ON_DISK
+        STORE_ON_DISK = self._saved
+        return False
 
 
 def modal_angles(n_modes: int, form: str = "PQ") -> np.ndarray:
@@ -144,6 +171,60 @@ def dissipative_root(line: Line, theta: float, guess: complex | None = None,
     return s
 
 
+def dissipative_roots(line: Line, thetas, tol: float = 1e-13, max_iter: int = 100):
+    """Roots s_i of ``Gamma_dissipative(s) = j theta_i`` (M6) of several modes at once.
+
+    The iteration of :func:`dissipative_root` (damped Newton on ``Gamma(s)^2 + theta^2 = 0``,
+    central-difference derivative, same stopping rule), run on every mode together from its
+    own linear-friction start (alpha = beta = 1): one Bessel evaluation of all modes per
+    step instead of three per mode and step.
+
+    Parameters
+    ----------
+    line : Line
+        The line.
+    thetas : array_like
+        Modal angles, [rad] (see :func:`modal_angles`).
+    tol : float
+        Relative step size at which a mode's iteration stops, [-].
+    max_iter : int
+        Largest number of Newton steps.
+
+    Returns
+    -------
+    complex ndarray or None
+        The roots, [1/s]; None where some mode did not converge within ``max_iter`` steps
+        or left the upper half plane (:func:`correction_factors` then solves mode by mode,
+        which says why).
+    """
+    thetas = np.asarray(thetas, dtype=float)
+    nu, d = line.fluid.kinematic_viscosity, line.diameter
+    omega = thetas / line.wave_time
+    a = 16.0 * nu / d**2
+    s = -a + 1j * np.sqrt(np.maximum(omega**2 - a**2, (0.1 * omega) ** 2))
+    target = -thetas**2
+    active = np.arange(s.size)
+    for _ in range(max_iter):
+        sa = s[active]
+        m = sa.size
+        h = 1e-7 * np.abs(sa)
+        g = _gamma_squared(line, np.concatenate((sa, sa + h, sa - h)))
+        step = (g[:m] - target[active]) / ((g[m:2 * m] - g[2 * m:]) / (2 * h))
+        limit = 0.5 * np.abs(sa)
+        long = np.abs(step) > limit
+        step[long] *= limit[long] / np.abs(step[long])
+        sa = sa - step
+        s[active] = sa
+        active = active[~(np.abs(step) < tol * np.abs(sa))]
+        if active.size == 0:
+            break
+    else:
+        return None
+    if np.any(s.imag <= 1e-9 * np.abs(s)) or np.any(s.real >= 0) or not np.all(np.isfinite(s)):
+        return None
+    return s
+
+
 def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     """Correction factors alpha_i, beta_i (M15) of modes 1..n_modes.
 
@@ -178,15 +259,24 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     alpha_6 = 1.008, beta_6 = 15.87
     """
     n_modes, form = check_modes(n_modes), check_form(form)
-    # a pure function of these numbers, kept on disk: a later build of the same line skips
-    # the root finding (and the import of scipy.special)
+    # a pure function of these numbers, kept in this process and on disk: a later build of
+    # the same line skips the root finding (and the import of scipy.special)
     key = (f"{_SOURCE_TAG}|{form}|{n_modes}|{line.length!r}|{line.diameter!r}|"
            f"{line.fluid.kinematic_viscosity!r}|{line.wave_time!r}")
-    stored = load_table("correction_factors", key)
+    known = _MEMORY.get(key)
+    if known is not None:
+        _MEMORY.move_to_end(key)
+        return known[0].copy(), known[1].copy()
+    stored = load_table("correction_factors", key) if STORE_ON_DISK else None
     if stored is not None and len(stored) == 2 and all(len(v) == n_modes for v in stored):
-        return np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
-    alphas, betas = _solve_correction_factors(line, n_modes, form)
-    store_table("correction_factors", key, [alphas.tolist(), betas.tolist()])
+        alphas, betas = np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
+    else:
+        alphas, betas = _solve_correction_factors(line, n_modes, form)
+        if STORE_ON_DISK:
+            store_table("correction_factors", key, [alphas.tolist(), betas.tolist()])
+    _MEMORY[key] = (alphas.copy(), betas.copy())
+    if len(_MEMORY) > MEMORY_KEPT:
+        _MEMORY.popitem(last=False)
     return alphas, betas
 
 
@@ -194,9 +284,14 @@ _SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"))
 
 
 def _solve_correction_factors(line: Line, n_modes: int, form: str):
-    """alpha_i, beta_i (M15) by root matching, modes 1..n_modes."""
+    """alpha_i, beta_i (M15) by root matching, modes 1..n_modes: every mode at once
+    (:func:`dissipative_roots`), else mode by mode, each continued from the previous root."""
     thetas = modal_angles(n_modes, form)
     nu, d = line.fluid.kinematic_viscosity, line.diameter
+    roots = dissipative_roots(line, thetas)
+    if roots is not None:
+        alphas = thetas / line.wave_time / np.abs(roots)
+        return alphas, -2.0 * roots.real * d**2 * alphas / (32.0 * nu)
     alphas, betas, roots = [], [], []
     guess = None
     for k, theta in enumerate(thetas):

@@ -365,21 +365,24 @@ class ModalLine(StateSpaceLine):
         n = self.n_modes
         nu, d, Z0, Dn = ln.fluid.kinematic_viscosity, ln.diameter, ln.impedance, ln.dissipation_number
         omega = modal_angles(n, "PQ") / ln.wave_time                  # (M9)
+        sg = (-1.0) ** np.arange(n)                                  # (-1)^(i+1), i from 1
+        al, be = self.alpha, self.beta
+        # mode i's blocks (M10): A_i = [[0, a], [b, c]], B_i = [[0, e], [f, 0]]
+        a = sg * Z0 * omega
+        b = -sg * omega / (Z0 * al**2)
+        c = -32.0 * nu * be / (d**2 * al)
+        e = -8.0 * nu * Z0 / (d**2 * Dn)
+        f = 8.0 * nu / (d**2 * Z0 * Dn * al**2)
         A = np.zeros((2 * n, 2 * n))
         Bm = np.zeros((2 * n, 2))
-        names = []
-        sum_AinvB = np.zeros((2, 2))
-        for i in range(n):
-            sg = (-1.0) ** i                                         # (-1)^(i+1), i from 1
-            al, be = self.alpha[i], self.beta[i]
-            Ai = np.array([[0.0, sg * Z0 * omega[i]],
-                           [-sg * omega[i] / (Z0 * al**2), -32.0 * nu * be / (d**2 * al)]])   # (M10)
-            Bi = np.array([[0.0, -8.0 * nu * Z0 / (d**2 * Dn)],
-                           [8.0 * nu / (d**2 * Z0 * Dn * al**2), 0.0]])
-            A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = Ai
-            Bm[2 * i:2 * i + 2] = Bi
-            sum_AinvB += np.linalg.solve(Ai, Bi)
-            names += [f"mode{i + 1}.pressure", f"mode{i + 1}.flow"]
+        rows = 2 * np.arange(n)
+        A[rows, rows + 1], A[rows + 1, rows], A[rows + 1, rows + 1] = a, b, c
+        Bm[rows, 1], Bm[rows + 1, 0] = e, f
+        names = [f"mode{i + 1}.{q}" for i in range(n) for q in ("pressure", "flow")]
+        # sum of A_i^-1 B_i, each [[-a f, c e], [0, -b e]] / det(A_i), det(A_i) = -a b
+        det = -a * b
+        sum_AinvB = np.array([[np.sum(-a * f / det), np.sum(c * e / det)],
+                              [0.0, np.sum(-b * e / det)]])
         G = -np.linalg.solve(sum_AinvB, np.array([[1.0, -8.0 * Z0 * Dn], [0.0, 1.0]]))  # (M13)
         C = np.tile(np.eye(2), (1, n))                                # (M11)
         return A, Bm @ G, C, np.zeros((2, 2)), names

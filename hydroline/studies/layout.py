@@ -44,7 +44,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios import scenario_names, simulate
@@ -151,13 +150,15 @@ class LayoutStudy:
                  **{side: {k: _finite_or_none(s[side][k]) for k in _METRICS} for side in SIDES}}
                 for L, s in zip(self.lengths, self.summaries)]
 
-    def table(self) -> pd.DataFrame:
+    def table(self) -> "pandas.DataFrame":
         """One row per length: section2_length_m, {supply,return}_{frequency_hz,
         amplitude_mpa, settling_time_s, first_excursion_mpa, steady_change_mpa,
         peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
         flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
         {supply,return}_round_trip_ms (2 L / c of that section II), wall_time_s, warnings
         (NaN where a metric does not exist)."""
+        import pandas as pd     # here: a sweep's worker imports this module, never a table
+
         rows = []
         for L, s in zip(self.lengths, self.summaries):
             row = {"section2_length_m": float(L)}
@@ -179,9 +180,11 @@ class LayoutStudy:
             rows.append(row)
         return pd.DataFrame(rows)
 
-    def traces(self) -> pd.DataFrame:
+    def traces(self) -> "pandas.DataFrame":
         """Port pressures of every run on the common output grid: ``time_s`` and
         ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa]."""
+        import pandas as pd
+
         t = self.results[0].t
         cols = {"time_s": t}
         for L, res in zip(self.lengths, self.results):

@@ -52,6 +52,7 @@ parent breaks the pool for the other variants in flight.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import os
 import time as _time
@@ -59,7 +60,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios import default_scenario, scenario_names, simulate
@@ -74,7 +74,7 @@ __all__ = ["sweep", "run_variant", "VariantRunner", "SweepResult", "SweepFileErr
            "METRIC_COLUMNS", "TRACKING_COLUMNS", "SETTLING_COLUMNS", "PORT_METRICS",
            "JOURNAL_NAME", "FORMAT_VERSION", "MAX_ATTEMPTS", "MAX_WORKERS", "read_journal",
            "metric_columns", "settling_columns", "failed_row", "row_columns", "graph_signature",
-           "simulate_shared"]
+           "simulate_shared", "SharedModel", "HOSE_KEYS"]
 
 #: Metric columns of every row of a single-axis rig (then ``warnings`` and ``error``); the
 #: closed-loop scenario adds ``tracking_error_rms_mm`` and ``tracking_error_max_mm``.
@@ -217,14 +217,19 @@ class VariantRunner:
     Called as ``runner(index, values) -> row``; picklable, so the process pool sends it once
     per worker and Dask scatters it once (:mod:`hydroline.studies.executors`).
 
-    Variants of one structure share one model: each variant's network is built (cheap: the
-    components and their wiring), with its hoses' matrix entries as runtime parameters
-    (:func:`hydroline.components.hose.coefficients_as_parameters`); where everything but its
-    runtime parameters p equals a network this runner has run before
-    (:func:`graph_signature`), that network's CasADi functions and compiled library are used
-    with the variant's p -- no graph, code generation or library lookup per variant. The
-    steady state, integration and summary are those of :func:`hydroline.scenarios.simulate`
-    (a test checks the rows equal its rows within the solver tolerance).
+    Variants of one structure share one model (:class:`SharedModel`), built with its
+    hoses' matrix entries as runtime parameters
+    (:func:`hydroline.components.hose.coefficients_as_parameters`). A variant that differs
+    from a kept model's rig only in hose lengths, bores or bulk moduli gets that model's p
+    with those hoses' entries (M8-M14) made anew: no network is built. Any other variant's
+    network is built (the components and their wiring) and, where everything but its p
+    equals a kept model's (:func:`graph_signature`), runs on that model's CasADi functions
+    and compiled library with its own p -- no graph, code generation or library lookup per
+    variant. The steady state starts from the previous variant's rest state on that model
+    (the components' guess where that fails); it, the integration and the summary are those
+    of :func:`hydroline.scenarios.simulate` (a test checks the rows equal its rows within
+    the solver tolerance). The hoses' correction factors are kept in memory, not written to
+    the disk cache (:class:`hydroline.lines.corrections.kept_in_memory`).
 
     Parameters
     ----------
@@ -240,6 +245,8 @@ class VariantRunner:
     Attributes
     ----------
     shared_runs : int    Variants run here on a model shared with an earlier variant, [-]
+    hose_runs : int      Of those, variants that differed only in hoses (no network built,
+                         :meth:`SharedModel.hose_parameters`), [-]
     """
 
     #: Structures kept per runner (their networks and compiled libraries), [-].
@@ -253,22 +260,34 @@ class VariantRunner:
         self.axes = tuple(axes)
         self.share_models = share_models
         self._models: dict = {}
-        self.shared_runs = 0
+        self.shared_runs = self.hose_runs = 0
+
+    @property
+    def models(self) -> tuple:
+        """The structures kept (:class:`SharedModel`), least recently used first."""
+        return tuple(self._models.values())
 
     def __getstate__(self):     # the models stay where they were built
         state = dict(self.__dict__)
-        state["_models"], state["shared_runs"] = {}, 0
+        state["_models"], state["shared_runs"], state["hose_runs"] = {}, 0, 0
         return state
 
     def __call__(self, index: int, values: dict) -> dict:
         """One variant's row; never raises for a bad variant (see :func:`run_variant`)."""
+        # the metrics' spectra use scipy.fft where it is loaded: the same numbers 2.7x
+        # faster; ~30 ms to import, once per process
+        import scipy.fft  # noqa: F401
+
+        from ..lines.corrections import kept_in_memory
+
         tic = _time.perf_counter()
         row = _empty_row(index, values, self.axes, self.scenario)
         try:
             r = self.rig.copy()
             for path, v in values.items():
                 _set_si(r, path, v, self.units.get(path) or parameter_unit(path, self.rig))
-            res = self.simulate(r)
+            with kept_in_memory():      # no cache file per variant's hose
+                res = self.simulate(r)
             _fill_metrics(row, port_summary(res))
         except Exception as e:   # a failed variant is recorded, never sinks the sweep
             row["error"] = failure_reason(e)
@@ -347,9 +366,174 @@ def _value_signature(v, depth: int = 0):
     return ("opaque", id(v))
 
 
+#: Rig keys of a hose section (``<side>.section<n>.<key>`` of the template rig) that change
+#: only its line's matrix entries (M8-M14), i.e. only p on a shared model.
+HOSE_KEYS = ("length", "diameter", "bulk_modulus")
+_MISSING = object()
+
+
+class SharedModel:
+    """One structure's model, shared by the variants of a :class:`VariantRunner`.
+
+    Parameters
+    ----------
+    network : Network   Built with the hoses' matrix entries in p (its p is swapped per
+                        variant)
+    circuit : Circuit   The rig's circuit (axis handles)
+    scenario : Scenario The experiment's commands and times
+    values : dict       Rig values (SI) of the variant it was built for
+
+    Attributes
+    ----------
+    p : ndarray         Runtime parameters of that variant, [SI]
+    hoses : dict        Hose section name -> its component (matrix entries in p)
+    hose_entries : dict Hose section name -> indices of its entries in p, in the order of
+                        its :meth:`~hydroline.components.HoseSection.runtime_parameters`
+    rest : ndarray      The last variant's solved rest state, [SI] (None before the first)
+    """
+
+    def __init__(self, network, circuit, scenario, values: dict):
+        from ..components.hose import HoseSection
+
+        self.network, self.circuit, self.scenario = network, circuit, scenario
+        self.values = dict(values)
+        self.p = network.parameter_values.copy()
+        self.hoses, self.hose_entries = {}, {}
+        for c in network.components:
+            if isinstance(c, HoseSection) and c.coefficient_pattern is not None:
+                self.hoses[c.name] = c
+                self.hose_entries[c.name] = np.array(
+                    [network.parameter_names.index(f"{c.name}.{k}")
+                     for k in c.runtime_parameters()], dtype=np.intp)
+        self.rest = None
+
+    def changed_hoses(self, rig: Rig):
+        """The hose sections whose length, bore or bulk modulus (:data:`HOSE_KEYS`) differ in
+        ``rig``; None when anything else differs (or the rig describes its circuit, whose
+        hoses are read otherwise).
+
+        Parameters
+        ----------
+        rig : Rig   A variant
+        """
+        from ..circuit import has_circuit
+
+        if has_circuit(rig.values):
+            return None
+        changed = set()
+        for k in self.values.keys() | rig.values.keys():
+            if _same_value(self.values.get(k, _MISSING), rig.values.get(k, _MISSING)):
+                continue
+            section, _, key = k.rpartition(".")
+            if key not in HOSE_KEYS or section not in self.hoses:
+                return None
+            changed.add(section)
+        return changed
+
+    def hose_parameters(self, rig: Rig):
+        """p of a variant that differs from this model's rig only in its hoses' length, bore
+        or bulk modulus: the model's p with those hoses' matrix entries (M8-M14) made anew;
+        None for any other variant (a structure change, e.g. a section removed). The rig is
+        checked as a full build checks it (:func:`hydroline.system.validate_rig`).
+
+        Parameters
+        ----------
+        rig : Rig   A variant
+
+        Returns
+        -------
+        ndarray or None  Runtime parameters, [SI]
+        """
+        from ..components.hose import HoseSection, coefficients_as_parameters
+        from ..lines import ModalLine
+        from ..system import hose_lines, validate_rig
+
+        changed = self.changed_hoses(rig)
+        if changed is None:
+            return None
+        validate_rig(rig)            # raises what a full build raises, before any line
+        lines = hose_lines(rig)      # sections of positive length
+        p = self.p.copy()
+        for name in sorted(changed):
+            old = self.hoses[name]
+            if name not in lines or type(old.model) is not ModalLine:
+                return None
+            m = old.model
+            with coefficients_as_parameters():
+                new = HoseSection(name=name, model=ModalLine(lines[name], m.n_modes, m.form,
+                                                             method=m.method),
+                                  nominal_pressure=old.nominal_pressure,
+                                  connections=dict(old.connections))
+            if new.coefficient_pattern != old.coefficient_pattern:
+                return None
+            p[self.hose_entries[name]] = list(new.runtime_parameters().values())
+        return p
+
+
+def _same_value(a, b) -> bool:
+    if a is b:
+        return True
+    try:
+        return type(a) is type(b) and bool(a == b)
+    except (TypeError, ValueError):     # e.g. arrays: compared as different
+        return False
+
+
+def _run_shared(model: SharedModel, rig: Rig, p, guess, solver: str, tic: float):
+    """Steady state, integration and metadata of a variant on a shared model with its p.
+
+    The steady state starts from the last variant's rest state (a neighbour in a sweep:
+    Newton converges in a few steps), else from ``guess``; a start that fails is followed by
+    the next. Returns None where every start failed and ``guess`` is None (the caller builds
+    the variant anew).
+    """
+    from ..engine import integrate
+    from ..engine.steady_state import SteadyStateError
+    from ..scenarios import describe_run, rest_state
+
+    net, sc = model.network, model.scenario
+    net.parameter_values = np.asarray(p, dtype=float).copy()       # this variant's p
+    starts = [x for x in (model.rest, guess) if x is not None]
+    for k, x0 in enumerate(starts):
+        try:
+            ss = rest_state(net, x_guess=x0)     # a failure said as simulate() says it
+            break
+        except SteadyStateError:
+            if k == len(starts) - 1:
+                if guess is None:
+                    return None
+                raise
+    model.rest = ss.x.copy()
+    res = integrate(net, ss.x, sc.t_end, p=ss.p, solver=solver, **simulate_defaults())
+    describe_run(res, rig, model.circuit, net, sc, ss, tic)     # as simulate()
+    return res
+
+
+@functools.lru_cache(maxsize=1)
+def _simulate_parameters() -> tuple:
+    import inspect
+
+    params = inspect.signature(simulate).parameters
+    return tuple((k, params[k].default) for k in ("dt_out", "rtol", "atol_scale"))
+
+
+def simulate_defaults() -> dict:
+    """:func:`hydroline.scenarios.simulate`'s default output step [s], relative tolerance
+    [-] and absolute tolerance scale [-] (``dt_out``, ``rtol``, ``atol_scale``): a shared
+    model's run integrates as ``simulate()`` does (read from its signature, so that the two
+    cannot drift apart)."""
+    return dict(_simulate_parameters())
+
+
 def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None):
     """:func:`hydroline.scenarios.simulate` (default output step and tolerances), the model
-    shared with earlier runs of the same :func:`graph_signature` in ``models``.
+    shared with earlier runs of the same structure in ``models``.
+
+    A variant that differs from a kept model's rig only in hose lengths, bores or bulk
+    moduli (:data:`HOSE_KEYS`, template rigs) gets that model's p with only those hoses'
+    matrix entries made anew (:meth:`SharedModel.hose_parameters`): no network is built.
+    Any other variant is built (components, wiring) and compared by :func:`graph_signature`
+    with the kept ones; a new structure becomes a new shared model.
 
     Parameters
     ----------
@@ -357,8 +541,10 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     scenario : str     Scenario name
     t_end : float      Simulated time, [s] (the scenario's when None)
     solver : str       "auto" or "compiled"
-    models : dict      signature -> network, kept between calls (bounded by the caller)
-    counter : object   Its ``shared_runs`` is counted up when a model is shared
+    models : dict      signature -> :class:`SharedModel`, kept between calls (bounded by
+                       the caller, most recently used last)
+    counter : object   Its ``shared_runs`` (and ``hose_runs``, variants that needed no
+                       network build) are counted up where a model is shared
 
     Returns
     -------
@@ -366,12 +552,26 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     """
     from ..components.hose import coefficients_as_parameters
     from ..limits import check_output_size
-    from ..engine import integrate
-    from ..scenarios import build_scenario, describe_run, rest_state
+    from ..scenarios import build_scenario
     from ..system import build_circuit
 
     tic = _time.perf_counter()
-    dt_out = 1e-4                                   # simulate()'s default
+    for key in reversed(list(models)):          # most recently used first
+        model = models[key]
+        if model.rest is None:
+            continue
+        p = model.hose_parameters(rig)
+        if p is None:
+            continue
+        res = _run_shared(model, rig, p, None, solver, tic)
+        if res is not None:
+            models[key] = models.pop(key)       # most recently used last
+            if counter is not None:
+                counter.shared_runs += 1
+                counter.hose_runs = getattr(counter, "hose_runs", 0) + 1
+            return res
+        break
+    dt_out = simulate_defaults()["dt_out"]
     with coefficients_as_parameters():
         circuit = build_circuit(rig)
         sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
@@ -381,18 +581,16 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     check_output_size(sc.t_end, dt_out, len(net.signal_names) + len(net.state_names),
                       name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
     key = graph_signature(net)
-    shared = models.get(key)
-    if shared is None:
+    model = models.pop(key, None)
+    if model is None:
         if len(models) >= VariantRunner.MODELS_KEPT:
-            models.pop(next(iter(models)))
-        models[key] = shared = net
+            models.pop(next(iter(models)))          # the least recently used
+        model = SharedModel(net, circuit, sc, rig.values)
     elif counter is not None:
         counter.shared_runs += 1
-    shared.parameter_values = net.parameter_values.copy()     # this variant's p
-    ss = rest_state(shared, x_guess=net.guess())   # a failure said as simulate says it
-    res = integrate(shared, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver)
-    describe_run(res, rig, circuit, net, sc, ss, tic)    # as simulate() (net: this variant's)
-    return res
+    models[key] = model
+    model.values, model.p = dict(rig.values), net.parameter_values.copy()
+    return _run_shared(model, rig, net.parameter_values, net.guess(), solver, tic)
 
 
 def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-step",
@@ -457,7 +655,7 @@ class SweepResult:
     scenario : str            The scenario every variant ran
     """
 
-    table: pd.DataFrame
+    table: "pandas.DataFrame"
     design: Design
     n_computed: int = 0
     wall_time: float = 0.0
@@ -469,7 +667,7 @@ class SweepResult:
     scenario: str = "open-loop-step"
 
     @property
-    def failed(self) -> pd.DataFrame:
+    def failed(self) -> "pandas.DataFrame":
         """The rows of failed variants (``error`` set)."""
         return self.table[self.table["error"].notna()]
 
@@ -478,7 +676,9 @@ class SweepResult:
         return int(self.table["error"].notna().sum())
 
 
-def _table(rows: dict, design: Design, scenario: str, axes=()) -> pd.DataFrame:
+def _table(rows: dict, design: Design, scenario: str, axes=()):
+    import pandas as pd
+
     cols = row_columns(design, axes, scenario)
     data = [rows[i] for i in sorted(rows) if i < len(design)]
     df = pd.DataFrame(data, columns=cols)
@@ -491,7 +691,7 @@ def _table(rows: dict, design: Design, scenario: str, axes=()) -> pd.DataFrame:
     return df.reset_index(drop=True)
 
 
-def _write_tables(df: pd.DataFrame, out: Path, files: dict, notes: list):
+def _write_tables(df, out: Path, files: dict, notes: list):
     """sweep.csv, and sweep.parquet where pyarrow is installed (a note says why not)."""
     df.to_csv(out / "sweep.csv", index=False)
     files["csv"] = out / "sweep.csv"
