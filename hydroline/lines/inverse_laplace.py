@@ -355,7 +355,10 @@ def exact_step_response(line: Line, t, form: str = "PQ", entry=(0, 0),
     -----
     "wavefront": the work grows with (time points) x (reflections before each time) x
     ``n_terms``; 200 points over ten wave periods (40 one-way travel times) of a line take
-    about 0.05 s.  At a wave-arrival instant ``t = m tau`` the left limit is returned.  Round-off
+    about 0.05 s. The Bessel functions are evaluated once per distinct shifted time
+    ``t - m tau``: on a uniform grid whose step divides tau they recur from front to front,
+    and 2000 points over 80 travel times take about 0.4 s (8-10 times less than front by
+    front).  At a wave-arrival instant ``t = m tau`` the left limit is returned.  Round-off
     limits the accuracy to about 1e-10 of the response scale; a reflection series of N terms
     adds N such errors.
 
