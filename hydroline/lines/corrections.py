@@ -144,31 +144,49 @@ def dissipative_root(line: Line, theta: float, guess: complex | None = None,
     RuntimeError
         If Newton's method does not converge in ``max_iter`` steps.
     """
-    nu, d = line.fluid.kinematic_viscosity, line.diameter
-    omega = theta / line.wave_time
-    if guess is None:
-        a = 16.0 * nu / d**2
-        guess = complex(-a, np.sqrt(max(omega**2 - a**2, (0.1 * omega) ** 2)))
-    s = complex(guess)
-    target = -theta**2
-    for _ in range(max_iter):
-        f = _gamma_squared(line, s) - target
-        h = 1e-7 * abs(s)
-        df = (_gamma_squared(line, s + h) - _gamma_squared(line, s - h)) / (2 * h)
-        step = f / df
-        # damped Newton: never jump more than half the distance to the origin
-        if abs(step) > 0.5 * abs(s):
-            step *= 0.5 * abs(s) / abs(step)
-        s = s - step
-        if abs(step) < tol * abs(s):
-            break
-    else:
+    start = _linear_friction_start(line, np.array([theta])) if guess is None else [guess]
+    roots, converged = _newton_roots(line, np.array([theta], dtype=float), start, tol, max_iter)
+    if not converged:
         raise RuntimeError(f"root of mode theta={theta:.4g} did not converge (line {line})")
+    s = complex(roots[0])
     if s.imag <= 1e-9 * abs(s) or s.real >= 0:
         raise ValueError(
             f"mode with theta={theta:.4g} of this line is overdamped or unresolved "
             f"(Dn = {line.dissipation_number:.3g}); modal corrections need Dn well below 1")
     return s
+
+
+def _linear_friction_start(line: Line, thetas: np.ndarray) -> np.ndarray:
+    """Newton's start for the roots of modal angles ``thetas``: the linear friction model's
+    (alpha = beta = 1), kept off the real axis, [1/s]."""
+    omega = thetas / line.wave_time
+    a = 16.0 * line.fluid.kinematic_viscosity / line.diameter**2
+    return -a + 1j * np.sqrt(np.maximum(omega**2 - a**2, (0.1 * omega) ** 2))
+
+
+def _newton_roots(line: Line, thetas: np.ndarray, start, tol: float, max_iter: int):
+    """Damped Newton on ``Gamma(s)^2 + theta^2 = 0`` (M6) for every modal angle at once:
+    central-difference derivative, no step longer than half the distance to the origin, a
+    mode done when its step is below ``tol`` of |s|. Returns (roots [1/s], whether every
+    mode converged within ``max_iter`` steps)."""
+    s = np.array(start, dtype=complex)
+    target = -thetas**2
+    active = np.arange(s.size)
+    for _ in range(max_iter):
+        sa = s[active]
+        m = sa.size
+        h = 1e-7 * np.abs(sa)
+        g = _gamma_squared(line, np.concatenate((sa, sa + h, sa - h)))
+        step = (g[:m] - target[active]) / ((g[m:2 * m] - g[2 * m:]) / (2 * h))
+        limit = 0.5 * np.abs(sa)
+        long = np.abs(step) > limit
+        step[long] *= limit[long] / np.abs(step[long])
+        sa = sa - step
+        s[active] = sa
+        active = active[~(np.abs(step) < tol * np.abs(sa))]
+        if active.size == 0:
+            return s, True
+    return s, False
 
 
 def dissipative_roots(line: Line, thetas, tol: float = 1e-13, max_iter: int = 100):
@@ -198,27 +216,9 @@ def dissipative_roots(line: Line, thetas, tol: float = 1e-13, max_iter: int = 10
         which says why).
     """
     thetas = np.asarray(thetas, dtype=float)
-    nu, d = line.fluid.kinematic_viscosity, line.diameter
-    omega = thetas / line.wave_time
-    a = 16.0 * nu / d**2
-    s = -a + 1j * np.sqrt(np.maximum(omega**2 - a**2, (0.1 * omega) ** 2))
-    target = -thetas**2
-    active = np.arange(s.size)
-    for _ in range(max_iter):
-        sa = s[active]
-        m = sa.size
-        h = 1e-7 * np.abs(sa)
-        g = _gamma_squared(line, np.concatenate((sa, sa + h, sa - h)))
-        step = (g[:m] - target[active]) / ((g[m:2 * m] - g[2 * m:]) / (2 * h))
-        limit = 0.5 * np.abs(sa)
-        long = np.abs(step) > limit
-        step[long] *= limit[long] / np.abs(step[long])
-        sa = sa - step
-        s[active] = sa
-        active = active[~(np.abs(step) < tol * np.abs(sa))]
-        if active.size == 0:
-            break
-    else:
+    s, converged = _newton_roots(line, thetas, _linear_friction_start(line, thetas), tol,
+                                 max_iter)
+    if not converged:
         return None
     if np.any(s.imag <= 1e-9 * np.abs(s)) or np.any(s.real >= 0) or not np.all(np.isfinite(s)):
         return None
