@@ -28,7 +28,8 @@ from .system import build_circuit
 __all__ = ["SCENARIOS", "EXPERIMENTS", "OWN_EXPERIMENTS", "Experiment", "OpenLoopStep",
            "ClosedLoopSine", "PositionStep", "AxisCommand", "AxisCommands", "experiment",
            "scenario_names", "simulate", "summarize", "SineSummaryStream", "build_scenario",
-           "Scenario", "default_scenario", "hold_other_axes", "template_controller", "rest_state"]
+           "Scenario", "default_scenario", "hold_other_axes", "template_controller", "rest_state",
+           "ripple_metrics"]
 
 #: "position-step": the axis named by ``scenario.position-step.axis`` (the first by default)
 #: steps its position reference by ``step`` at ``time`` while every other axis holds its
@@ -1046,6 +1047,29 @@ def _cycle_ripple(t, p, t0, t1, frequency):
     return out
 
 
+def ripple_metrics(ripple) -> dict:
+    """A port's summary entries under a sine command from its peak-to-peak pressure ripple
+    per full command cycle (the largest one as the amplitude; no oscillation frequency or
+    settling time).
+
+    Parameters
+    ----------
+    ripple : list of float   Peak-to-peak pressure of each full cycle in the window, [Pa]
+
+    Returns
+    -------
+    dict  ``frequency_hz``, ``amplitude_mpa``, ``ripple_pp_mpa``, ``ripple_pp_mpa_per_cycle``,
+          ``settling_time_s`` and ``amplitude_note`` (why there is no amplitude)
+    """
+    top = max(ripple) if ripple else None
+    return {"frequency_hz": None,
+            "amplitude_mpa": None if top is None else top / 2e6,
+            "ripple_pp_mpa": None if top is None else top / 1e6,
+            "ripple_pp_mpa_per_cycle": [r / 1e6 for r in ripple],
+            "settling_time_s": None,
+            "amplitude_note": "" if ripple else "the window holds no full command cycle"}
+
+
 def summarize(res: SimulationResult) -> dict:
     """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds):
     its experiment's :meth:`Experiment.summary`.
@@ -1096,15 +1120,8 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
                       ("return", ax.return_pressure if ax else "return_port_pressure")):
         p = res[key][m]
         if sine:
-            ripple = _cycle_ripple(t, p, t0, t1, res.metadata["command_frequency_hz"])
-            top = max(ripple) if ripple else None
-            out[side] = {"frequency_hz": None,
-                         "amplitude_mpa": None if top is None else top / 2e6,
-                         "ripple_pp_mpa": None if top is None else top / 1e6,
-                         "ripple_pp_mpa_per_cycle": [r / 1e6 for r in ripple],
-                         "settling_time_s": None,
-                         "amplitude_note": "" if ripple else
-                         "the window holds no full command cycle"}
+            out[side] = ripple_metrics(_cycle_ripple(t, p, t0, t1,
+                                                     res.metadata["command_frequency_hz"]))
         else:
             out[side] = pressure_metrics(t, p, t0, t1)
     out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
@@ -1231,14 +1248,7 @@ class SineSummaryStream:
                 if c is not None and c[4] >= 2:
                     ripple.append(float(c[lo + 1] - c[lo]))
                 k += 1
-            top = max(ripple) if ripple else None
-            out[side] = {"frequency_hz": None,
-                         "amplitude_mpa": None if top is None else top / 2e6,
-                         "ripple_pp_mpa": None if top is None else top / 1e6,
-                         "ripple_pp_mpa_per_cycle": [r / 1e6 for r in ripple],
-                         "settling_time_s": None,
-                         "amplitude_note": "" if ripple else
-                         "the window holds no full command cycle"}
+            out[side] = ripple_metrics(ripple)
         out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
         out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
         out["tracking_error_rms_mm"] = float(np.sqrt(self.sumsq / max(self.n, 1)) * 1e3)
