@@ -70,7 +70,7 @@ import math
 import sys
 
 import numpy as np
-from .peaks import find_peaks   # scipy.signal.find_peaks without loading scipy.signal
+from .peaks import find_peaks, local_maxima, peak_prominence   # scipy.signal's, in NumPy
 
 __all__ = ["oscillation_frequency", "oscillation_amplitude", "oscillation_baseline", "overshoot",
            "first_excursion", "peak_to_peak", "settling_time", "port_settling", "pressure_metrics",
@@ -293,7 +293,12 @@ def settling_time(t, p, t_step, band=0.02):
         raise ValueError(f"band must be a number in (0, 1) [-], got {band!r}") from None
     if not 0.0 < band < 1.0:
         raise ValueError(f"band must lie in (0, 1) [-], got {band!r}")
-    ts, ps, p0, p_final, changed = _levels(t, p, t_step)
+    return _settling_time(_levels(t, p, t_step), t_step, band)
+
+
+def _settling_time(levels, t_step, band):
+    """:func:`settling_time` from a checked trace's :func:`_levels`."""
+    ts, ps, p0, p_final, changed = levels
     error = ps - p_final
     reference = abs(p_final - p0) if changed else float(np.max(np.abs(error)))
     if reference == 0.0:
@@ -319,38 +324,94 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
 
     The subharmonics of the dominant peak that pass the harmonic check (largest k first),
     then the dominant peak itself; empty when the spectrum has no genuine peak in range.
+
+    The genuine peaks are the local maxima in range with a prominence of at least
+    :data:`_PEAK_PROMINENCE` of the highest value in range (as
+    ``scipy.signal.find_peaks(spectrum, prominence=...)`` restricted to the range). A
+    prominence costs a pass over the spectrum, so it is taken only where it decides something:
+    the highest maxima in turn until one is genuine (the dominant peak), and near each
+    ``f / k`` the highest maxima down to 10 % of the dominant one.
     """
     duration = ts[-1] - ts[0]
     n = int(min(_MAX_SPECTRUM_GRID, max(_MIN_GRID, 2 * len(ts))))
     grid = np.linspace(ts[0], ts[-1], n)
     dt = grid[1] - grid[0]
-    deviation = np.interp(grid, ts, ps) - p_final
+    deviation = np.interp(grid, ts, ps)
+    deviation -= p_final
     # half-cosine taper over the tail (where the response has settled), so that a trace
     # ending off its final value does not ring across the spectrum; the start is kept
     # whole, since the step is where the oscillation is largest
     m = max(2, int(TAIL_FRACTION * n))
-    deviation[n - m:] *= 0.5 * (1.0 + np.cos(np.pi * np.arange(m) / (m - 1)))
+    deviation[n - m:] *= _taper(m)
     nfft = 1 << int(math.ceil(math.log2(8 * n)))
     spectrum = np.abs(_rfft(deviation, nfft))
-    freq = np.fft.rfftfreq(nfft, dt)
-    in_range = (freq >= min_cycles / duration) & (freq <= 0.25 / dt)
-    if not np.any(in_range):
+    freq = np.arange(spectrum.size) * (1.0 / (nfft * dt))     # np.fft.rfftfreq(nfft, dt)
+    # the range is one run of bins: freq >= min_cycles / duration and freq <= 0.25 / dt
+    lo = int(np.searchsorted(freq, min_cycles / duration, side="left"))
+    hi = int(np.searchsorted(freq, 0.25 / dt, side="right")) - 1
+    if hi < lo:
         return []
-    highest = float(np.max(spectrum[in_range]))
+    highest = float(np.max(spectrum[lo:hi + 1]))
     if highest <= 0.0:
         return []
-    peaks, _ = find_peaks(spectrum, prominence=_PEAK_PROMINENCE * highest)
-    peaks = peaks[in_range[peaks]]
+    peaks = _maxima_between(spectrum, lo, hi)
     if peaks.size == 0:
         return []
-    main = int(peaks[np.argmax(spectrum[peaks])])
+    threshold = _PEAK_PROMINENCE * highest
+    floor = float(spectrum.min())     # no peak's prominence exceeds its height above this
+    order = peaks[np.argsort(-spectrum[peaks], kind="stable")]   # highest first; ties: lowest f
+    known = {}
+
+    def genuine(k):
+        if k not in known:
+            known[k] = peak_prominence(spectrum, k) >= threshold
+        return known[k]
+
+    def best(among, least):
+        """The highest genuine peak of ``among`` (highest first) at least ``least`` high."""
+        for k in among:
+            if spectrum[k] < least or spectrum[k] - floor < threshold:
+                return None
+            if genuine(int(k)):
+                return int(k)
+        return None
+
+    main = best(order, -np.inf)
+    if main is None:
+        return []
     f_main, h_main = float(freq[main]), spectrum[main]
     candidates = [f_main]
     for k in range(2, _MAX_SUBHARMONIC + 1):
-        near = peaks[np.abs(freq[peaks] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
-        if near.size and np.max(spectrum[near]) >= _SUBHARMONIC_HEIGHT * h_main:
-            candidates.insert(0, float(freq[near[np.argmax(spectrum[near])]]))
+        near = order[np.abs(freq[order] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
+        sub = best(near, _SUBHARMONIC_HEIGHT * h_main)
+        if sub is not None:
+            candidates.insert(0, float(freq[sub]))
     return candidates
+
+
+def _maxima_between(x, lo, hi):
+    """Indices of the local maxima of ``x`` (:func:`local_maxima`) within ``[lo, hi]``, found
+    on that stretch and its two neighbours (the whole of ``x`` where a flat top crosses its
+    ends)."""
+    n = x.size
+    if (lo > 0 and x[lo - 1] == x[lo]) or (hi + 1 < n and x[hi] == x[hi + 1]):
+        peaks = local_maxima(x)
+        return peaks[(peaks >= lo) & (peaks <= hi)]
+    a = max(lo - 1, 0)
+    return local_maxima(x[a:hi + 2]) + a
+
+
+_TAPERS: dict = {}
+
+
+def _taper(m):
+    """The half-cosine taper ``(1 + cos(pi k / (m - 1))) / 2``, k = 0 .. m - 1 (kept by m)."""
+    w = _TAPERS.get(m)
+    if w is None:
+        if len(_TAPERS) > 64:
+            _TAPERS.clear()
+        w = _TAPERS[m] = 0.5 * (1.0 + np.cos(np.pi * np.arange(m) / (m - 1)))
+    return w
 
 
 def _rfft(x, n):
@@ -574,7 +635,12 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
             from None
     if not (math.isfinite(min_cycles) and min_cycles > 0):
         raise ValueError(f"min_cycles must be a positive number [-], got {min_cycles!r}")
-    ts, ps, _, p_final, _ = _levels(t, p, t_step)
+    return _frequency(_levels(t, p, t_step), t_step, min_cycles)
+
+
+def _frequency(levels, t_step, min_cycles):
+    """:func:`oscillation_frequency` from a checked trace's :func:`_levels`."""
+    ts, ps, _, p_final, _ = levels
     largest = float(np.max(np.abs(ps - p_final)))
     if largest == 0.0 or largest <= 1e-12 * float(np.max(np.abs(ps))):
         return None
@@ -667,6 +733,11 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
     frequency = float(frequency)
     if not (math.isfinite(frequency) and frequency > 0):
         raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
+    return _baseline(t, p, t_start, frequency, t_end)
+
+
+def _baseline(t, p, t_start, frequency, t_end):
+    """:func:`oscillation_baseline` of a trace checked and cut by :func:`_window`."""
     period = 1.0 / frequency
     duration = t_end - t_start
     # at least 64 samples per period, more where the trace has them (up to 1024), so that a
@@ -739,9 +810,18 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
         frequency = oscillation_frequency(t, p, t_step)
         if frequency is None:
             return 0.0
+    return _amplitude(t, p, t_step, frequency, t_end)
+
+
+def _amplitude(t, p, t_step, frequency, t_end):
+    """:func:`oscillation_amplitude` of a trace checked and cut by :func:`_window`, at a
+    given frequency [Hz]."""
     if (t_end - t_step) * frequency < AMPLITUDE_MIN_PERIODS:
         return None
-    grid, values, baseline = oscillation_baseline(t, p, t_step, frequency, t_end)
+    frequency = float(frequency)
+    if not (math.isfinite(frequency) and frequency > 0):
+        raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
+    grid, values, baseline = _baseline(t, p, t_step, frequency, t_end)
     swing = values - baseline
     per_period = int(round(1.0 / (frequency * (grid[1] - grid[0]))))
     from .filters import maximum_filter1d, minimum_filter1d, savgol_filter   # SciPy's, in NumPy
@@ -853,12 +933,18 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
           ("measured", "estimated" or None) and ``settling_note`` (how it was estimated, or
           why there is none; "" when measured)
     """
-    from .filters import uniform_filter1d   # scipy.ndimage's, in NumPy
-
     t = np.asarray(t, dtype=float)
     p = np.asarray(p, dtype=float)
     inside = t <= t_stop
     measured = settling_time(t[inside], p[inside], t_step, band)
+    return _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside)
+
+
+def _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside=None):
+    """:func:`port_settling` given its measured settling time ``measured`` [s] (None: not
+    settled within the window); ``inside``: where ``t <= t_stop`` (None: everywhere)."""
+    from .filters import uniform_filter1d   # scipy.ndimage's, in NumPy
+
     if measured is not None:
         return {"settling_time_s": float(measured), "settling_method": "measured",
                 "settling_note": ""}
@@ -872,20 +958,28 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
         return f"{v / 1e6:.3g} MPa"
 
     if frequency is None or not frequency > 0:
-        last = inside & (t >= t_stop - 0.1 * window)
+        last = t >= t_stop - 0.1 * window
+        if inside is not None:
+            last &= inside
         slope = _line_fit(t[last] - t_stop, p[last])[0] if last.sum() >= 2 else 0.0
         return none(f"no oscillation; the pressure still moves {slope / 1e6:+.2g} MPa/s at the "
                     f"window's end")
     period = 1.0 / frequency
     periods = window / period
-    n = _BASELINE_SAMPLES
-    g = t_step + np.arange(int(math.floor(window / period * n)) + 1) * (period / n)
-    y = np.interp(g, t, p)
-    level = uniform_filter1d(uniform_filter1d(y, n, mode="nearest"), n, mode="nearest")
-    clear = (g >= t_step + period) & (g <= t_stop - period)
-    if periods < MIN_PERIODS or not clear.any():
+
+    def too_few():
         return none(f"{periods:.1f} periods of the {frequency:.3g} Hz oscillation, too few "
                     f"(< {MIN_PERIODS}) to extrapolate its decay")
+
+    if periods < MIN_PERIODS:
+        return too_few()
+    n = _BASELINE_SAMPLES
+    g = t_step + np.arange(int(math.floor(window / period * n)) + 1) * (period / n)
+    clear = (g >= t_step + period) & (g <= t_stop - period)
+    if not clear.any():
+        return too_few()
+    y = np.interp(g, t, p)
+    level = uniform_filter1d(uniform_filter1d(y, n, mode="nearest"), n, mode="nearest")
     k_end = int(np.flatnonzero(clear)[-1])
     p0, p_final = float(y[0]), float(level[k_end])
     deviation = float(np.max(np.abs(y - p_final)))
@@ -952,9 +1046,12 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
         ``amplitude_note``       "" when frequency and amplitude were measured, else why not
                                  (no oscillation; the window holds too few periods)
     """
+    # the trace is checked once, and its post-step samples and levels (_levels) are shared
+    # by every metric below (each public function would check and compute them again)
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     duration = t_end - t_step
-    frequency = oscillation_frequency(t, p, t_step)
+    levels = _levels(t, p, t_step)
+    frequency = _frequency(levels, t_step, 1.5)
     note = ""
     amplitude = 0.0
     if frequency is None:
@@ -972,8 +1069,8 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
         note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * frequency:.1f} periods of "
                 f"the {frequency:.3g} Hz oscillation; an amplitude needs {AMPLITUDE_MIN_PERIODS:g}")
     else:
-        amplitude = oscillation_amplitude(t, p, t_step, frequency, t_end)
-    ts, ps = _post_step(t, p, t_step)
+        amplitude = _amplitude(t, p, t_step, frequency, t_end)
+    ts, ps = levels[0], levels[1]       # _post_step(t, p, t_step)
     p0 = float(ps[0])
     if frequency is not None and duration * frequency >= 1.0:
         level, _ = _window_moments(ts, ps, t_end - 1.0 / frequency)
@@ -984,11 +1081,13 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
                     "settling_note": f"not settled within the window: {note}"}
         change = None
     else:
-        settling = port_settling(t, p, t_step, t_end, frequency)
+        # port_settling: the window is the whole of t here
+        measured = _settling_time(levels, t_step, SETTLING_BAND)
+        settling = _port_settling(t, p, t_step, t_end, frequency, SETTLING_BAND, measured)
         change = (level - p0) / 1e6
     return {"frequency_hz": None if frequency is None else float(frequency),
             "amplitude_mpa": None if amplitude is None else float(amplitude) / 1e6,
-            "first_excursion_mpa": first_excursion(t, p, t_step) / 1e6,
+            "first_excursion_mpa": max(0.0, _refined_max(ts, np.abs(ps - p0))) / 1e6,
             "steady_change_mpa": change,
-            "peak_to_peak_mpa": peak_to_peak(t, p, t_step) / 1e6,
+            "peak_to_peak_mpa": max(0.0, _refined_max(ts, ps) + _refined_max(ts, -ps)) / 1e6,
             **settling, "amplitude_note": note}
