@@ -760,6 +760,11 @@ def _baseline(t, p, t_start, frequency, t_end):
         # centred means (a decaying oscillation leaks into the mean as a sinusoid of its own
         # period, which a line alone would mistake for a slope) and continue the line only
         h = max(2, min(centred.size, per_period + 1))
+        if h == per_period + 1:     # a full period (the usual case): the fit as two matrices
+            first, last = _edge_lines(per_period, lost)
+            baseline[:lost] = first @ centred[:h]
+            baseline[n - lost:] = last @ centred[-h:]
+            return grid, values, baseline
         w = 2 * np.pi * frequency
 
         def line(tt, yy, at):
@@ -770,6 +775,34 @@ def _baseline(t, p, t_start, frequency, t_end):
         baseline[:lost] = line(grid[lost:lost + h], centred[:h], grid[:lost])
         baseline[n - lost:] = line(grid[n - lost - h:n - lost], centred[-h:], grid[n - lost:])
     return grid, values, baseline
+
+
+_EDGE_LINES: dict = {}
+
+
+def _edge_lines(per_period: int, lost: int):
+    """The baseline's continuation over its first and last ``lost`` samples (see
+    :func:`oscillation_baseline`) as matrices on the first / last ``per_period + 1`` centred
+    means: the least-squares line plus a sinusoid of one period (``per_period`` samples),
+    its line evaluated ``lost`` .. 1 samples before the first mean and 1 .. ``lost`` after the
+    last. A sinusoid of the grid's period spans the same functions whatever its phase, so
+    the matrices depend on the sample counts alone (kept by them); equal to the per-trace
+    least-squares fit to round-off."""
+    key = (per_period, lost)
+    if key not in _EDGE_LINES:
+        h = per_period + 1
+        k = np.arange(h, dtype=float)
+        phase = 2 * np.pi * k / per_period
+        basis = np.column_stack([np.ones(h), k / per_period, np.cos(phase), np.sin(phase)])
+        fit = np.linalg.pinv(basis)[:2]                      # means -> offset, slope
+        before = (np.arange(lost) - lost) / per_period       # where the line is wanted
+        after = (h - 1 + np.arange(1, lost + 1)) / per_period
+        first = fit[0] + before[:, None] * fit[1]
+        last = fit[0] + after[:, None] * fit[1]
+        if len(_EDGE_LINES) > 32:
+            _EDGE_LINES.clear()
+        _EDGE_LINES[key] = (first, last)
+    return _EDGE_LINES[key]
 
 
 def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
