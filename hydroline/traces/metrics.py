@@ -95,6 +95,7 @@ _SUBHARMONIC_TOL = 0.08     # relative distance of that peak from f/k
 _MAX_SUBHARMONIC = 5
 _MAX_INCOHERENCE = 0.3      # weighted RMS phase wander of a coherent fundamental, [rad]
 _CROSSING_GRID = 120        # samples per period for the crossings (divisible by 2..5)
+_LONG_AVERAGE = 64          # moving averages longer than this by running sums, [samples]
 
 
 # --------------------------------------------------------------------------- validation
@@ -481,9 +482,23 @@ def _fit_fundamental(ts, ps, p_final, frequency):
 def _centred_average(y, length):
     """Centred moving average over ``length`` samples (trapezoidal rule, ``length + 1``
     taps); returns the average and the number of samples lost at each end."""
-    kernel = np.full(length + 1, 1.0 / length)
-    kernel[0] = kernel[-1] = 0.5 / length
-    return np.convolve(y, kernel, mode="valid"), length // 2
+    if length <= _LONG_AVERAGE:
+        kernel = np.full(length + 1, 1.0 / length)
+        kernel[0] = kernel[-1] = 0.5 / length
+        return np.convolve(y, kernel, mode="valid"), length // 2
+    # longer: by running sums (a convolution with a period's taps cost ~0.05 ms per
+    # trace), of the deviation from the first sample so that they stay small: equal to the
+    # convolution to round-off (1e-13 of the swing on a 1000-sample trace)
+    ref = y[0]
+    d = y - ref
+    c = np.empty(d.size + 1)
+    c[0] = 0.0
+    np.cumsum(d, out=c[1:])
+    total = c[length + 1:] - c[:c.size - length - 1]
+    total -= 0.5 * (d[:d.size - length] + d[length:])
+    total /= length
+    total += ref
+    return total, length // 2
 
 
 def _crossing_lobes(y):
@@ -500,7 +515,7 @@ def _crossing_lobes(y):
     return idx, np.maximum.reduceat(np.abs(y), bounds[:-1]), largest
 
 
-def _crossing_frequency(ts, ps, p_final, frequency, filtering):
+def _crossing_frequency(ts, ps, p_final, frequency, filtering, memo=None):
     """Frequency [Hz] from the zero crossings of the (filtered) deviation, or None.
 
     ``filtering`` is one of
@@ -522,6 +537,9 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     skew that harmonics and an offset give to alternate half periods. None when fewer than
     two crossings in one direction exist, or when any same-direction interval differs from
     ``1/frequency`` by more than 15 % (extra crossings from a strong harmonic).
+
+    ``memo`` (a dict, or None) keeps the resampled and high-passed deviation between calls
+    at the same ``frequency``.
     """
     period = 1.0 / frequency
     duration = ts[-1] - ts[0]
@@ -530,12 +548,16 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     n = int(duration / dt) + 1
     if n > _MAX_GRID or n < 2 * per_period:
         return None
-    grid = ts[0] + dt * np.arange(n)
-    y = np.interp(grid, ts, ps) - p_final
-    ty = grid
+    memo = {} if memo is None else memo
+    if "raw" not in memo:
+        grid = ts[0] + dt * np.arange(n)
+        memo["raw"] = (np.interp(grid, ts, ps) - p_final, grid)
+    y, ty = memo["raw"]
     if filtering in ("highpass", "harmonics"):
-        trend, lost = _centred_average(y, per_period)
-        y, ty = y[lost:n - lost] - trend, ty[lost:n - lost]
+        if "highpass" not in memo:
+            trend, lost = _centred_average(y, per_period)
+            memo["highpass"] = (y[lost:n - lost] - trend, ty[lost:n - lost])
+        y, ty = memo["highpass"]
     if filtering == "harmonics":
         for k in (2, 3, 4, 5):
             y, lost = _centred_average(y, per_period // k)
@@ -566,7 +588,8 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
         weights.append(times.size - 1)
     if not estimates:
         return None
-    return float(np.average(estimates, weights=weights))
+    # np.average(estimates, weights=weights), without its overhead (the same operations)
+    return float(sum(e * w for e, w in zip(estimates, weights)) / sum(weights))
 
 
 def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles):
@@ -649,8 +672,9 @@ def _frequency(levels, t_step, min_cycles):
                                              min_cycles)
         if frequency is None:
             continue
+        memo = {}
         for filtering in ("harmonics", "highpass", "raw"):
-            crossing = _crossing_frequency(ts, ps, p_final, frequency, filtering)
+            crossing = _crossing_frequency(ts, ps, p_final, frequency, filtering, memo)
             if crossing is not None and abs(crossing / frequency - 1.0) < 0.05:
                 return crossing
         return frequency
@@ -1018,7 +1042,10 @@ def _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside=None)
     deviation = float(np.max(np.abs(y - p_final)))
     change = abs(p_final - p0)
     tolerance = band * (change if change > 0.05 * deviation else deviation)
-    last = clear & (g >= g[k_end] - period)
+    # the last period: samples k_end - n .. k_end (by index: g[k_end - n] equals
+    # g[k_end] - period but for round-off, which made the comparison flip)
+    last = clear.copy()
+    last[:max(k_end - n, 0)] = False
     drift = float(np.max(np.abs(level[last] - p_final)))
     if drift > tolerance / 2:
         return none(f"the mean pressure still moves {mpa(drift)} in its last period, more than "
