@@ -147,9 +147,9 @@ def _post_step(t, p, t_step):
 def _window_moments(ts, ps, t_from):
     """Time-weighted mean and standard deviation of the piecewise-linear trace on
     ``[t_from, ts[-1]]``."""
-    keep = ts > t_from
-    tw = np.concatenate(([t_from], ts[keep]))
-    pw = np.concatenate(([np.interp(t_from, ts, ps)], ps[keep]))
+    i = int(np.searchsorted(ts, t_from, side="right"))     # ts > t_from from i on
+    tw = np.concatenate(([t_from], ts[i:]))
+    pw = np.concatenate(([np.interp(t_from, ts, ps)], ps[i:]))
     h = np.diff(tw)
     a, b = pw[:-1], pw[1:]
     span = tw[-1] - tw[0]
@@ -423,6 +423,16 @@ def _rfft(x, n):
     return fft.rfft(x, n) if fft is not None else np.fft.rfft(x, n)
 
 
+_BOXES: dict = {}
+
+
+def _box(length):
+    """``np.full(length, 1 / length)``, kept by length."""
+    if length not in _BOXES:
+        _BOXES[length] = np.full(length, 1.0 / length)
+    return _BOXES[length]
+
+
 def _demodulate(ts, ps, p_final, frequency):
     """Complex envelope of the component of the trace at ``frequency``.
 
@@ -437,10 +447,23 @@ def _demodulate(ts, ps, p_final, frequency):
     grid = ts[0] + dt * np.arange(n)
     deviation = np.interp(grid, ts, ps) - p_final
     z = deviation * np.exp(-2j * np.pi * frequency * (grid - ts[0]))
-    box = np.full(per_period, 1.0 / per_period)
+    box = _box(per_period)
     z = np.convolve(np.convolve(z, box, mode="valid"), box, mode="valid")
     centres = grid[0] + dt * (np.arange(z.size) + (per_period - 1))
     return centres, z, per_period * dt
+
+
+def _unwrap(phase):
+    """``np.unwrap(phase)`` of a 1-D array of angles [rad] (the same operations, without
+    its generality's overhead)."""
+    dd = np.diff(phase)
+    ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
+    ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi
+    correct = ddmod - dd
+    correct[np.abs(dd) < np.pi] = 0.0
+    out = phase.copy()
+    out[1:] += np.cumsum(correct)
+    return out
 
 
 def _fit_fundamental(ts, ps, p_final, frequency):
@@ -465,7 +488,7 @@ def _fit_fundamental(ts, ps, p_final, frequency):
         tc, zc, mc = centres[span], z[span], magnitude[span]
         if tc.size < 4:
             return None
-        phase = np.unwrap(np.angle(zc))
+        phase = _unwrap(np.angle(zc))
         weights = mc / peak
         slope, offset = _line_fit(tc - tc[0], phase, weights)
         residual = phase - (offset + slope * (tc - tc[0]))
