@@ -490,12 +490,14 @@ def _fit_fundamental(ts, ps, p_final, frequency):
             return None
         phase = _unwrap(np.angle(zc))
         weights = mc / peak
-        slope, offset = _line_fit(tc - tc[0], phase, weights)
-        residual = phase - (offset + slope * (tc - tc[0]))
-        incoherence = math.sqrt(float(np.sum(weights * residual ** 2) / np.sum(weights)))
+        x = tc - tc[0]
+        slope, offset = _line_fit(x, phase, weights)
         frequency = frequency + slope / (2 * np.pi)
+    # the last pass's phase residual (the earlier passes' are not used)
+    residual = phase - (offset + slope * x)
+    incoherence = math.sqrt(float(np.sum(weights * residual ** 2) / np.sum(weights)))
     # decay rate from the log envelope, to undo the smoothing's gain on a decaying signal
-    growth = _line_fit(tc - tc[0], np.log(mc), weights)[0]
+    growth = _line_fit(x, np.log(mc), weights)[0]
     sigma = max(0.0, -growth)
     x = sigma * width / 2
     gain = (math.sinh(x) / x) ** 2 if x > 1e-8 else 1.0
