@@ -60,15 +60,18 @@ def _savgol_weights(w: int, polyorder: int):
     their samples: ``polyval(polyfit(k, x[:w]), k[:half])`` as one matrix, equal to round-off)."""
     key = (w, polyorder)
     if key not in _SAVGOL_WEIGHTS:
+        # by the normal equations of polynomials in a variable scaled to [-1, 1] / [0, 1]
+        # (well conditioned at these degrees; an SVD per new window cost ~0.1 ms)
         half = w // 2
-        pos = np.arange(-half, half + 1, dtype=float)
-        A = pos[None, :] ** np.arange(polyorder + 1)[:, None]        # (polyorder + 1, w)
-        centre = np.linalg.lstsq(A, np.eye(polyorder + 1)[0], rcond=None)[0]
-        k = np.arange(w, dtype=float) / (w - 1)          # scaled to [0, 1]: well conditioned
-        V = k[:, None] ** np.arange(polyorder + 1)[None, :]           # (w, polyorder + 1)
-        fit = np.linalg.pinv(V)                                        # samples -> coefficients
+        powers = np.arange(polyorder + 1)
+        u = np.arange(-half, half + 1, dtype=float) / max(half, 1)
+        A = u[:, None] ** powers[None, :]                              # (w, polyorder + 1)
+        centre = A @ np.linalg.solve(A.T @ A, np.eye(polyorder + 1)[0])  # value at u = 0
+        k = np.arange(w, dtype=float) / (w - 1)
+        V = k[:, None] ** powers[None, :]
+        fit = np.linalg.solve(V.T @ V, V.T)                             # samples -> coefficients
         first, last = V[:half] @ fit, V[w - half:] @ fit
-        if len(_SAVGOL_WEIGHTS) > 32:
+        if len(_SAVGOL_WEIGHTS) >= 64:
             _SAVGOL_WEIGHTS.clear()
         _SAVGOL_WEIGHTS[key] = (centre, first, last)
     return _SAVGOL_WEIGHTS[key]

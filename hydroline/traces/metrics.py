@@ -810,9 +810,12 @@ def _baseline(t, p, t_start, frequency, t_end):
         # period, which a line alone would mistake for a slope) and continue the line only
         h = max(2, min(centred.size, per_period + 1))
         if h == per_period + 1:     # a full period (the usual case): the fit as two matrices
-            first, last = _edge_lines(per_period, lost)
-            baseline[:lost] = first @ centred[:h]
-            baseline[n - lost:] = last @ centred[-h:]
+            fit = _edge_fit(per_period)
+            offset, slope = fit @ centred[:h]       # the line from the first period's means
+            baseline[:lost] = offset + slope * ((np.arange(lost) - lost) / per_period)
+            offset, slope = fit @ centred[-h:]      # and from the last period's
+            baseline[n - lost:] = offset + slope * ((np.arange(1, lost + 1) + per_period)
+                                                    / per_period)
             return grid, values, baseline
         w = 2 * np.pi * frequency
 
@@ -826,32 +829,30 @@ def _baseline(t, p, t_start, frequency, t_end):
     return grid, values, baseline
 
 
-_EDGE_LINES: dict = {}
+_EDGE_FITS: dict = {}
 
 
-def _edge_lines(per_period: int, lost: int):
-    """The baseline's continuation over its first and last ``lost`` samples (see
-    :func:`oscillation_baseline`) as matrices on the first / last ``per_period + 1`` centred
-    means: the least-squares line plus a sinusoid of one period (``per_period`` samples),
-    its line evaluated ``lost`` .. 1 samples before the first mean and 1 .. ``lost`` after the
-    last. A sinusoid of the grid's period spans the same functions whatever its phase, so
-    the matrices depend on the sample counts alone (kept by them); equal to the per-trace
-    least-squares fit to round-off."""
-    key = (per_period, lost)
-    if key not in _EDGE_LINES:
+def _edge_fit(per_period: int) -> np.ndarray:
+    """The least-squares fit of a line plus a sinusoid of one period (``per_period``
+    samples) to ``per_period + 1`` uniform samples, as the matrix (2, per_period + 1) that
+    gives the line's offset at the first sample and its slope per period (see
+    :func:`oscillation_baseline`). A sinusoid of the grid's period spans the same functions
+    whatever its phase, so the matrix depends on the sample count alone (kept by it); equal
+    to the per-trace least-squares fit to round-off."""
+    fit = _EDGE_FITS.get(per_period)
+    if fit is None:
         h = per_period + 1
         k = np.arange(h, dtype=float)
         phase = 2 * np.pi * k / per_period
         basis = np.column_stack([np.ones(h), k / per_period, np.cos(phase), np.sin(phase)])
-        fit = np.linalg.pinv(basis)[:2]                      # means -> offset, slope
-        before = (np.arange(lost) - lost) / per_period       # where the line is wanted
-        after = (h - 1 + np.arange(1, lost + 1)) / per_period
-        first = fit[0] + before[:, None] * fit[1]
-        last = fit[0] + after[:, None] * fit[1]
-        if len(_EDGE_LINES) > 32:
-            _EDGE_LINES.clear()
-        _EDGE_LINES[key] = (first, last)
-    return _EDGE_LINES[key]
+        # by the normal equations: the columns are near orthogonal (condition ~7), and most
+        # runs of a sweep sample their oscillation with a new per_period, for which an SVD
+        # cost ~0.3 ms
+        fit = np.linalg.solve(basis.T @ basis, basis.T)[:2]
+        if len(_EDGE_FITS) >= 256:
+            _EDGE_FITS.clear()
+        _EDGE_FITS[per_period] = fit
+    return fit
 
 
 def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
