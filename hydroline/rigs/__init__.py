@@ -78,14 +78,23 @@ def declarations(section: str) -> dict:
     -------
     dict  Parameter key -> :class:`hydroline.engine.Parameter` (unit, range, description)
     """
-    from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
-    if section == "fluid":
-        return dict(FLUID_PARAMETERS)
-    if section not in COMPONENT_SECTIONS:
-        return {}
-    ctype, keys = COMPONENT_SECTIONS[section]
-    decl = COMPONENT_TYPES[ctype].declarations()
-    return {k: v for k, v in decl.items() if keys is None or k in keys}
+    known = _DECLARATIONS.get(section)
+    if known is None:     # the component classes' declarations do not change: made once
+        from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
+        if section == "fluid":
+            known = dict(FLUID_PARAMETERS)
+        elif section not in COMPONENT_SECTIONS:
+            known = {}
+        else:
+            ctype, keys = COMPONENT_SECTIONS[section]
+            decl = COMPONENT_TYPES[ctype].declarations()
+            known = {k: v for k, v in decl.items() if keys is None or k in keys}
+        if len(_DECLARATIONS) < 1024:     # (bounded: any section name may be asked for)
+            _DECLARATIONS[section] = known
+    return dict(known)
+
+
+_DECLARATIONS: dict = {}
 
 
 def _section_units(section: str, units: dict) -> dict:

@@ -457,6 +457,8 @@ def _unwrap(phase):
     """``np.unwrap(phase)`` of a 1-D array of angles [rad] (the same operations, without
     its generality's overhead)."""
     dd = np.diff(phase)
+    if not np.any(np.abs(dd) >= np.pi):     # nothing to correct: np.unwrap adds zeros
+        return phase.copy()
     ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
     ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi
     correct = ddmod - dd
