@@ -101,14 +101,12 @@ def run_scipy(prob, method, rtol):
     from scipy.integrate import solve_ivp
 
     f = Counted(prob["solver"])
-    jac = None
-    if method == "Radau":
-        g = Counted(prob["solver"])   # the Jacobian's evaluations are not counted as f
-
-        def jac(t, x):
-            return fd_jacobian(g, t, x, prob["scale"])
+    options = {}
+    if method != "DOP853":   # the Jacobian's evaluations are not counted as f
+        g = Counted(prob["solver"])
+        options["jac"] = lambda t, x: fd_jacobian(g, t, x, prob["scale"])
     sol = solve_ivp(f, (0.0, prob["t_end"]), prob["x0"], method=method, rtol=rtol,
-                    atol=1e-7 * (rtol / 1e-6) * prob["scale"], jac=jac, dense_output=True)
+                    atol=1e-7 * (rtol / 1e-6) * prob["scale"], dense_output=True, **options)
     if not sol.success:
         raise RuntimeError(sol.message)
     return dict(steps=len(sol.t) - 1, phases=steps_per_phase(sol.t), f=f.calls,
