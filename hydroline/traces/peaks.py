@@ -33,6 +33,8 @@ def local_maxima(x) -> np.ndarray:
     if n < 3:
         return np.zeros(0, dtype=np.intp)
     d = np.diff(x)
+    if d.all():     # no flat stretch (the usual case): a top is one sample, up then down
+        return np.flatnonzero((d[:-1] > 0) & (d[1:] < 0)) + 1
     rising = np.flatnonzero(d > 0)        # x[i] < x[i + 1]: a top may start at i + 1
     nonflat = np.flatnonzero(d != 0)      # next change after each position
     if nonflat.size == 0:
