@@ -95,7 +95,7 @@ _SUBHARMONIC_TOL = 0.08     # relative distance of that peak from f/k
 _MAX_SUBHARMONIC = 5
 _MAX_INCOHERENCE = 0.3      # weighted RMS phase wander of a coherent fundamental, [rad]
 _CROSSING_GRID = 120        # samples per period for the crossings (divisible by 2..5)
-_LONG_AVERAGE = 64          # moving averages longer than this by running sums, [samples]
+_DIRECT_AVERAGE = 16384     # moving averages costing more taps x samples: by running sums
 
 
 # --------------------------------------------------------------------------- validation
@@ -423,14 +423,18 @@ def _rfft(x, n):
     return fft.rfft(x, n) if fft is not None else np.fft.rfft(x, n)
 
 
-_BOXES: dict = {}
-
-
-def _box(length):
-    """``np.full(length, 1 / length)``, kept by length."""
-    if length not in _BOXES:
-        _BOXES[length] = np.full(length, 1.0 / length)
-    return _BOXES[length]
+def _box_average(z, length):
+    """Moving average of ``z`` over ``length`` samples (``np.convolve(z, box, "valid")``;
+    by running sums where that convolution would cost more than :data:`_DIRECT_AVERAGE`
+    taps x samples, equal to round-off)."""
+    if length * z.size <= _DIRECT_AVERAGE:
+        return np.convolve(z, np.full(length, 1.0 / length), mode="valid")
+    c = np.empty(z.size + 1, dtype=z.dtype)
+    c[0] = 0.0
+    np.cumsum(z, out=c[1:])
+    out = c[length:] - c[:c.size - length]
+    out /= length
+    return out
 
 
 def _demodulate(ts, ps, p_final, frequency):
@@ -447,8 +451,7 @@ def _demodulate(ts, ps, p_final, frequency):
     grid = ts[0] + dt * np.arange(n)
     deviation = np.interp(grid, ts, ps) - p_final
     z = deviation * np.exp(-2j * np.pi * frequency * (grid - ts[0]))
-    box = _box(per_period)
-    z = np.convolve(np.convolve(z, box, mode="valid"), box, mode="valid")
+    z = _box_average(_box_average(z, per_period), per_period)
     centres = grid[0] + dt * (np.arange(z.size) + (per_period - 1))
     return centres, z, per_period * dt
 
@@ -509,7 +512,7 @@ def _fit_fundamental(ts, ps, p_final, frequency):
 def _centred_average(y, length):
     """Centred moving average over ``length`` samples (trapezoidal rule, ``length + 1``
     taps); returns the average and the number of samples lost at each end."""
-    if length <= _LONG_AVERAGE:
+    if length * y.size <= _DIRECT_AVERAGE:
         kernel = np.full(length + 1, 1.0 / length)
         kernel[0] = kernel[-1] = 0.5 / length
         return np.convolve(y, kernel, mode="valid"), length // 2
