@@ -335,7 +335,7 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     """
     duration = ts[-1] - ts[0]
     n = int(min(_MAX_SPECTRUM_GRID, max(_MIN_GRID, 2 * len(ts))))
-    grid = np.linspace(ts[0], ts[-1], n)
+    grid = _linspace(float(ts[0]), float(ts[-1]), n)
     dt = grid[1] - grid[0]
     deviation = np.interp(grid, ts, ps)
     deviation -= p_final
@@ -388,6 +388,19 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
         if sub is not None:
             candidates.insert(0, float(freq[sub]))
     return candidates
+
+
+def _linspace(start, stop, n):
+    """``np.linspace(start, stop, n)`` for n >= 2 and start < stop: its operations without
+    its generality's overhead (the same numbers)."""
+    step = (stop - start) / (n - 1)
+    if step == 0:
+        return np.linspace(start, stop, n)
+    y = np.arange(0, n, dtype=float)
+    y *= step
+    y += start
+    y[-1] = stop
+    return y
 
 
 def _maxima_between(x, lo, hi):
