@@ -206,6 +206,16 @@ def _parse_as(path: str, raw, unit: str):
         raise RigError(str(e)) from None
 
 
+_IMMUTABLE = (float, int, str, bool, type(None))
+
+
+def _copy_values(values: dict) -> dict:
+    """A deep copy of a rig's value dict: numbers and text shared (immutable), anything else
+    (lists, tables) deep-copied (a deepcopy of every value took ~0.25 ms per rig, paid per
+    variant of a sweep)."""
+    return {k: v if type(v) in _IMMUTABLE else copy.deepcopy(v) for k, v in values.items()}
+
+
 class Rig:
     """A parsed rig: parameters in SI, addressed by dotted paths.
 
@@ -272,16 +282,6 @@ class Rig:
         Rig
         """
         return Rig(_copy_values(self.values), _copy_values(self.raw), self.source)
-
-
-_IMMUTABLE = (float, int, str, bool, type(None))
-
-
-def _copy_values(values: dict) -> dict:
-    """A deep copy of a rig's value dict: numbers and text shared (immutable), anything else
-    (lists, tables) deep-copied (a deepcopy of every value took ~0.25 ms per rig, paid per
-    variant of a sweep)."""
-    return {k: v if type(v) in _IMMUTABLE else copy.deepcopy(v) for k, v in values.items()}
 
     def to_toml(self) -> str:
         """The rig as TOML text with its units (the raw values)."""
