@@ -8,6 +8,14 @@ are passed at run time), so the library is keyed by a hash of the source and kep
 directory: the compile cost (about a second) is paid once per machine and structure, not per
 process or per parameter variant.
 
+A model's record (its library, constants and sizes) is kept in the cache directory too, under
+:func:`definition_key`: the network's description (components, numbers, wiring, the source of
+the code involved), known before its CasADi graph is built. A model seen before is then
+loaded without building the graph or importing CasADi; the graph is built for a new model
+only (its structure's record then gives the constants without writing C), or where the
+network cannot describe itself by value (a component class of another package: its record
+is then keyed by the graph's own fingerprint, :func:`model_fingerprint`).
+
 Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.
 Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
@@ -247,6 +255,7 @@ class NativeModel:
     lib : ctypes.CDLL            The loaded library
     library_path : Path          Where the library is cached
     build_time : float           Seconds spent generating (and, on a cache miss, compiling)
+    found_by : str               "definition", "graph", "structure" or "generated" (below)
 
     Parameters
     ----------
@@ -258,15 +267,18 @@ class NativeModel:
 
         tic = time.perf_counter()
         self.network = network
-        definition = definition_key(network)
-        self.generated, tag = _known_model(definition, network)
-        fingerprint, found = None, "definition"
-        if self.generated is None:   # not known by its definition: build the graph
+        # the model's record: under its definition (known before any graph is built) where
+        # the network can describe itself, else under its graph's fingerprint
+        key = definition_key(network)
+        self.generated, tag = _known_model(key, network)
+        found = "definition"
+        if self.generated is None:   # not known: build the graph
             from . import codegen
 
             model = network.compile()
-            fingerprint, found = model_fingerprint(model), "graph"
-            self.generated, tag = _known_model(fingerprint, network)
+            if key is None:
+                key, found = model_fingerprint(model), "graph"
+                self.generated, tag = _known_model(key, network)
             if self.generated is None:   # other numbers: is the structure known?
                 functions = codegen.scaled_functions(model)
                 self.generated, tag = _known_structure(functions)
@@ -293,12 +305,11 @@ class NativeModel:
             raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
                                       f"the model (sizes {tuple(sizes)[:5]})")
         self.n, self.n_signals = int(sizes[0]), int(sizes[3])
-        for key in (fingerprint, definition):   # the definition's record: no graph next time
-            if key is not None:
-                _remember_model(key, g, self.library_path)
+        _remember_model(key, g, self.library_path)
         #: How the model was found: "definition" (its record, found before any graph was
-        #: built), "graph" (the graph's record), "structure" (a known structure: constants
-        #: read from the graph) or "generated" (C written)
+        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
+        #: describe itself), "structure" (a known structure: constants read from the
+        #: graph) or "generated" (C written)
         self.found_by = found
         self.build_time = time.perf_counter() - tic
 

@@ -24,7 +24,7 @@ a function, or a source file changed after this process loaded its code.
 from __future__ import annotations
 
 import hashlib
-import inspect
+import os
 import sys
 import time
 import types
@@ -59,7 +59,7 @@ _TAGS: dict = {}
 
 
 def module_source_tag(name: str) -> str:
-    """SHA-256 of a loaded module's source file (read once per process).
+    """SHA-256 of a loaded module's source file (read once per process and file version).
 
     Parameters
     ----------
@@ -74,19 +74,19 @@ def module_source_tag(name: str) -> str:
     Undescribable  The module has no file, or its file was modified after this process
                    loaded its code (the code that runs may not be the file's)
     """
-    tag = _TAGS.get(name)
-    if tag is None:
-        path = getattr(sys.modules.get(name), "__file__", None)
-        if not path:
-            raise Undescribable(f"module {name} has no source file")
-        try:
-            path = Path(path)
-            if path.stat().st_mtime > LOADED_AT:
-                raise Undescribable(f"{path} changed after this process loaded it")
-            tag = hashlib.sha256(path.read_bytes()).hexdigest()
-        except OSError as e:
-            raise Undescribable(f"{path}: {e}") from None
-        _TAGS[name] = tag
+    path = getattr(sys.modules.get(name), "__file__", None)
+    if not path:
+        raise Undescribable(f"module {name} has no source file")
+    try:
+        st = os.stat(path)
+        if st.st_mtime > LOADED_AT:
+            raise Undescribable(f"{path} changed after this process loaded it")
+        version = (path, st.st_mtime_ns, st.st_size)
+        tag = _TAGS.get(version)
+        if tag is None:
+            tag = _TAGS[version] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as e:
+        raise Undescribable(f"{path}: {e}") from None
     return tag
 
 
@@ -145,11 +145,11 @@ _CLASSES: dict = {}
 
 
 def _class_info(c: type):
-    """(mark, attribute names not described, slot names, public class-data names) of a
-    class whose bases are all hydroline's (or Python's own); Undescribable otherwise."""
+    """(mark, attribute names not described, slot names) of a class whose bases are all
+    hydroline's (or Python's own); Undescribable otherwise."""
     info = _CLASSES.get(c)
     if info is None:
-        skip, slots, data = set(), [], []
+        skip, slots = set(), []
         for base in c.__mro__:
             mod = base.__module__
             if mod == "builtins":
@@ -160,16 +160,17 @@ def _class_info(c: type):
             for name, attr in vars(base).items():
                 if isinstance(attr, cached_property):    # cached values: derived from the rest
                     skip.add(name)
-        for name, attr in vars(c).items():
-            if name.startswith("_") or isinstance(attr, (type, types.FunctionType, staticmethod,
-                                                         classmethod, property, cached_property)):
-                continue
-            if hasattr(attr, "__get__") or inspect.isroutine(attr):   # other descriptors
-                continue
-            data.append(name)
         info = _CLASSES[c] = (_Mark(f"<object {c.__module__}.{c.__qualname__}>"),
-                              frozenset(skip), tuple(slots), tuple(sorted(data)))
+                              frozenset(skip), tuple(slots))
     return info
+
+
+def _class_data(c: type) -> dict:
+    """A class's own public class-level data (a program may change it at run time): not its
+    methods, properties or other descriptors, nor nested classes."""
+    return {name: attr for name, attr in vars(c).items()
+            if not name.startswith("_") and not isinstance(attr, type)
+            and not hasattr(attr, "__get__")}
 
 
 class _Describer:
@@ -217,7 +218,7 @@ class _Describer:
         if isinstance(v, type):
             return self.register(v)[0]
         if _in_package(t.__module__):   # an object of hydroline: its class and attributes
-            mark, skip, slots, _ = self.register(t)
+            mark, skip, slots = self.register(t)
             state = dict(getattr(v, "__dict__", ()))
             for name in slots:
                 if name not in state and hasattr(v, name):
@@ -250,8 +251,7 @@ def definition_fingerprint(network) -> str | None:
         while len(described) < len(d.classes):   # class data may name further classes
             for c in sorted(set(d.classes) - described, key=lambda c: d.classes[c][0].text):
                 described.add(c)
-                mark, _, _, data = d.classes[c]
-                tree.append((mark, d.freeze({k: getattr(c, k) for k in data if k in vars(c)})))
+                tree.append((d.classes[c][0], d.freeze(_class_data(c))))
         modules = set()
         for name in sorted({c.__module__ for c in d.classes} | set(GRAPH_MODULES)):
             modules |= used_modules(name)
