@@ -166,6 +166,42 @@ def test_model_loaded_from_its_record_builds_no_graph_and_integrates_as_built(mo
 
 
 @needs_cc
+def test_a_component_changed_after_its_graph_is_never_recorded_by_definition(monkeypatch):
+    """A graph built before a component changed does not hold the change: its model must
+    not be recorded under the changed network's definition (another process would load the
+    old constants for the new numbers). Built after the change, it is, and a network of
+    that definition then loads it; each compiled right-hand side against the components'
+    own Python equations at the same state."""
+    from hydroline.cache import load_table
+
+    frequency = 150.0 + np.random.default_rng().uniform(0.0, 1e-3)   # new numbers, [Hz]
+
+    def retuned():
+        net = default_network()
+        net.component("servovalve").natural_frequency = frequency
+        return net
+
+    def compiled_rhs_is_the_components(net):
+        x = solve_steady_state(net).x * (1.0 + 1e-3)   # the spool moving: w_v matters
+        solver = compiled.native_model(net).solver()
+        ref = net.rhs(0.0, x)
+        return np.allclose(solver.rhs(0.0, x), ref, rtol=1e-9, atol=1e-12 * np.abs(ref).max())
+
+    stale = default_network()
+    stale.compile()                                        # the graph of the 140 Hz valve
+    stale.component("servovalve").natural_frequency = frequency
+    assert compiled.native_model(stale).found_by != "definition"
+    assert load_table("models", compiled.definition_key(stale)) is None
+    fresh = retuned()
+    assert compiled.native_model(fresh).found_by == "structure"
+    assert compiled_rhs_is_the_components(fresh)
+    monkeypatch.setattr(compiled, "_MODELS", {})
+    again = retuned()
+    assert compiled.native_model(again).found_by == "definition"
+    assert compiled_rhs_is_the_components(again)
+
+
+@needs_cc
 def test_cached_json_run_imports_no_casadi(tmp_path):
     """``hydroline simulate --json`` a second time (model recorded by the first): CasADi is
     never imported, and the summary is the first run's."""

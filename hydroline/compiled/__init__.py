@@ -268,13 +268,16 @@ class NativeModel:
         tic = time.perf_counter()
         self.network = network
         # the model's record: under its definition (known before any graph is built) where
-        # the network can describe itself, else under its graph's fingerprint
+        # the network can describe itself, else under its graph's fingerprint; also where
+        # the graph was built before (components changed since would not be in it)
         key = definition_key(network)
         self.generated, tag = _known_model(key, network)
         found = "definition"
         if self.generated is None:   # not known: build the graph
             from . import codegen
 
+            if getattr(network, "has_graph", True):
+                key = None
             model = network.compile()
             if key is None:
                 key, found = model_fingerprint(model), "graph"

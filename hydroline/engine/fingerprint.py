@@ -212,9 +212,9 @@ class _Describer:
             if v.dtype.hasobject:
                 raise Undescribable("array of objects")
             data = hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()
-            return _Mark(f"<array {v.dtype.str} {v.shape} {data}>")
+            return _Mark(f"<array {v.dtype.descr} {v.shape} {data}>")
         if isinstance(v, np.generic) and not isinstance(v, np.object_):
-            return _Mark(f"<scalar {v.dtype.str} {v.tobytes().hex()}>")
+            return _Mark(f"<scalar {v.dtype.descr} {v.tobytes().hex()}>")
         if isinstance(v, type):
             return self.register(v)[0]
         if _in_package(t.__module__):   # an object of hydroline: its class and attributes

@@ -301,6 +301,12 @@ class Network:
             self._compiled = CompiledModel(self)
         return self._compiled
 
+    @property
+    def has_graph(self) -> bool:
+        """True once :meth:`compile` has built the CasADi graph (of the components as they
+        were then)."""
+        return self._compiled is not None
+
     def definition_fingerprint(self) -> str | None:
         """SHA-256 (hex) of everything :meth:`compile`'s graph is a function of, without
         building it: the components (classes, attributes, wiring, order), the state scales
