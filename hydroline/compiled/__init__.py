@@ -316,18 +316,6 @@ class NativeModel:
         self.found_by = found
         self.build_time = time.perf_counter() - tic
 
-    def signals(self, t: float, x, p=None) -> np.ndarray:
-        """Every signal at (t, x) from the compiled code, in ``network.signal_names`` order,
-        [SI] (no CasADi: e.g. for the steady state's settling and a run's first row).
-
-        Parameters
-        ----------
-        t : float       Time, [s]
-        x : ndarray     States, [SI]
-        p : ndarray     Runtime parameters, [SI] (the network's when None)
-        """
-        return self.solver(p).signals(t, x)
-
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
                fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1):
         """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None).

@@ -42,8 +42,9 @@ GRAPH_MODULES = ("hydroline.engine.component", "hydroline.engine.network",
 PACKAGE = "hydroline"
 #: Deepest nesting of attributes described, [-] (deeper: no fingerprint).
 MAX_DEPTH = 32
-#: When this process loaded its code (this module is imported before any component module):
-#: a source file modified later may not be the code that runs, [s since the epoch].
+#: When this process loaded its code (this module comes with the engine, which a component
+#: module imports before its own code runs): a source file modified later may not be the
+#: code that runs, [s since the epoch].
 LOADED_AT = time.time()
 
 
