@@ -129,6 +129,35 @@ def test_what_cannot_be_described_gives_no_key(monkeypatch):
     assert net2.definition_fingerprint() == before
 
 
+def test_code_replaced_at_run_time_gives_another_key(monkeypatch):
+    """A method patched on a component class, or a function or constant rebound in a module
+    the graph uses, is not in any source file: it changes the key (a hit would give the old
+    physics); undone, the key is the old one again."""
+    from hydroline.components import Servovalve
+    from hydroline.engine import ops
+
+    net = default_network()
+    key = net.definition_fingerprint()
+    real = Servovalve.outputs_of
+
+    def outputs_of(self, t, x, u, p):   # the same equations, defined elsewhere
+        return real(self, t, x, u, p)
+
+    monkeypatch.setattr(Servovalve, "outputs_of", outputs_of)
+    assert net.definition_fingerprint() not in (None, key)
+    monkeypatch.undo()
+    assert net.definition_fingerprint() == key
+    monkeypatch.setattr(ops, "smooth_sqrt", lambda x, eps: ops.sqrt(x))
+    assert net.definition_fingerprint() not in (None, key)
+    monkeypatch.undo()
+    from hydroline.components import hose
+
+    monkeypatch.setattr(hose, "COEFFICIENTS_AS_PARAMETERS", True)   # a module's constant
+    assert net.definition_fingerprint() not in (None, key)
+    monkeypatch.undo()
+    assert net.definition_fingerprint() == key
+
+
 @needs_cc
 def test_model_loaded_from_its_record_builds_no_graph_and_integrates_as_built(monkeypatch):
     """A fresh process's view (no model or library in memory): the default rig's model is

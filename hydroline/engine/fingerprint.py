@@ -11,7 +11,9 @@ is made by evaluating every component's equations on symbols. It depends on
   ``RAMP_ROWS``, ...), which a program may change at run time;
 * the code: the source of every module that defines one of those classes (a component's
   own, its base classes', a hose's line model's), of the modules they use, and of the engine
-  modules that assemble the graph;
+  modules that assemble the graph; and what is bound in place of that source at run time:
+  where each method of those classes and each function of those modules was defined, and
+  their modules' plain constants (a patched method or a rebound constant changes the key);
 * the order of the components, the state scales, and the state, parameter and signal names.
 
 :func:`definition_fingerprint` hashes all of it (SHA-256), so that a compiled model recorded
@@ -33,7 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["definition_fingerprint", "module_source_tag", "used_modules", "GRAPH_MODULES"]
+__all__ = ["definition_fingerprint", "module_source_tag", "module_bindings", "used_modules",
+           "GRAPH_MODULES"]
 
 #: The modules that turn components into the graph (their code is in every fingerprint).
 GRAPH_MODULES = ("hydroline.engine.component", "hydroline.engine.network",
@@ -174,6 +177,60 @@ def _class_data(c: type) -> dict:
             and not hasattr(attr, "__get__")}
 
 
+def _function_name(f) -> str:
+    """Where a function (or method) was defined: a replacement bound in its place at run time
+    (a patched method, a rebound module function) names another place."""
+    f = getattr(f, "__func__", f)          # staticmethod, classmethod, bound method
+    return f"{getattr(f, '__module__', None)}.{getattr(f, '__qualname__', type(f).__qualname__)}"
+
+
+def _class_code(c: type) -> list:
+    """Where each function in a class's own namespace was defined (methods, properties,
+    cached properties): the class's source is tagged, but a method replaced at run time is
+    not in it."""
+    out = []
+    for name, attr in vars(c).items():
+        if isinstance(attr, property):
+            attr = attr.fget
+        elif isinstance(attr, cached_property):
+            attr = attr.func
+        if callable(attr) and not isinstance(attr, type):
+            out.append((name, _function_name(attr)))
+    return sorted(out)
+
+
+def module_bindings(name: str) -> list:
+    """What a loaded module's global names are bound to now: functions and classes by where
+    they were defined, modules by name, plain values (numbers, text) by value, anything else
+    by its type. The module's source is tagged (:func:`module_source_tag`); a name rebound at
+    run time (a patched function or constant) is not in it. (Data changed in place, e.g. an
+    array of the module, is not seen: a component keeps its data as attributes.)
+
+    Parameters
+    ----------
+    name : str   Module name
+    """
+    out = []   # (name, value) of a plain value, (name, kind, where) of anything else
+    for key, value in vars(sys.modules[name]).items():
+        if key[:2] == "__":
+            continue
+        t = type(value)
+        if t in _PLAIN:
+            out.append((key, value))
+        elif t is types.FunctionType or t is types.BuiltinFunctionType:
+            out.append((key, "function", f"{value.__module__}.{value.__qualname__}"))
+        elif t is types.ModuleType:
+            out.append((key, "module", value.__name__))
+        elif isinstance(value, type):
+            out.append((key, "class", f"{value.__module__}.{value.__qualname__}"))
+        elif callable(value):
+            out.append((key, "function", _function_name(value)))
+        else:
+            out.append((key, "object", f"{t.__module__}.{t.__qualname__}"))
+    out.sort()
+    return out
+
+
 class _Describer:
     """Turns values into a tree of literals (dictionaries in sorted order, objects as their
     class and attributes, arrays as dtype, shape and SHA-256) whose repr describes them
@@ -252,11 +309,14 @@ def definition_fingerprint(network) -> str | None:
         while len(described) < len(d.classes):   # class data may name further classes
             for c in sorted(set(d.classes) - described, key=lambda c: d.classes[c][0].text):
                 described.add(c)
-                tree.append((d.classes[c][0], d.freeze(_class_data(c))))
+                tree.append((d.classes[c][0], d.freeze(_class_data(c)), _class_code(c)))
         modules = set()
         for name in sorted({c.__module__ for c in d.classes} | set(GRAPH_MODULES)):
             modules |= used_modules(name)
-        tree.append([(name, module_source_tag(name)) for name in sorted(modules)])
+        # (this module's globals are this process's state, e.g. LOADED_AT: its source only)
+        tree.append([(name, module_source_tag(name),
+                      module_bindings(name) if name != __name__ else None)
+                     for name in sorted(modules)])
     except Undescribable:
         return None
     return hashlib.sha256(repr(tree).encode("utf-8", "surrogatepass")).hexdigest()
