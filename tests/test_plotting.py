@@ -135,10 +135,12 @@ def test_figure_process_draws_without_the_model(tmp_path):
         "draw = plotting.plot_result\n"
         "def plot_and_report(*args, **kwargs):\n"
         "    draw(*args, **kwargs)\n"
-        f"    open({str(report)!r}, 'w').write(' '.join(sorted(k for k, m in sys.modules.items() if m)))\n"
+        "    loaded = sorted(k for k, m in sys.modules.items() if m)\n"
+        f"    open({str(report)!r}, 'w').write(' '.join(loaded))\n"
         "plotting.plot_result = plot_and_report\n"
         "from hydroline.cli import main\n"
-        f"sys.exit(main(['simulate', '--json', '--t-end', '0.03 s', '--out', {str(tmp_path)!r}]))\n")
+        "sys.exit(main(['simulate', '--json', '--t-end', '0.03 s', '--out', "
+        f"{str(tmp_path)!r}]))\n")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     loaded = set(report.read_text().split())
