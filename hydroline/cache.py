@@ -97,8 +97,8 @@ def store_table(kind: str, key: str, value) -> None:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as f:
-            json.dump({"key": key, "value": value}, f)
+        with os.fdopen(fd, "w") as f:   # (dumps: the C encoder; dump streams in Python)
+            f.write(json.dumps({"key": key, "value": value}))
         os.replace(tmp, path)
     except (OSError, TypeError, ValueError):
         try:

@@ -3,7 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_result", "PRESSURE_PANELS", "new_figure"]
+__all__ = ["plot_result", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
+           "column_envelope"]
 
 #: The paper's Figs. 10-12: valve port pressures, chamber pressures, piston velocity.
 PRESSURE_PANELS = (
@@ -12,6 +13,67 @@ PRESSURE_PANELS = (
     ("Chamber pressures [MPa]", ("bottom_chamber_pressure", "top_chamber_pressure"), 1e-6),
     ("Piston velocity [m/s]", ("piston_velocity",), 1.0),
 )
+
+
+class Traces:
+    """Columns against time, what a figure reads of a run: ``t``, ``traces[name]``, ``name in
+    traces``, ``columns`` and ``metadata``, as :class:`hydroline.engine.SimulationResult` has
+    them. Made of NumPy arrays and plain values only, so that the figure process receives it
+    without importing the model (its module pulls in CasADi: ~45 ms on the figure's branch).
+
+    Parameters
+    ----------
+    t : array_like     Times, [s]
+    columns : dict     Name -> values at ``t``, [SI]
+    metadata : dict    What the figure reads of the run's metadata (``metrics_window``,
+                       ``t_disturbance``, ``scenario``, ...)
+    """
+
+    def __init__(self, t, columns: dict, metadata: dict | None = None):
+        self.t = np.asarray(t, dtype=float)
+        self._columns = {k: np.asarray(v, dtype=float) for k, v in columns.items()}
+        self.columns = list(self._columns)
+        self.metadata = {} if metadata is None else metadata
+
+    def __getitem__(self, name) -> np.ndarray:
+        return self._columns[name]
+
+    def __contains__(self, name) -> bool:
+        return name in self._columns
+
+
+def column_envelope(x, y, x0: float, x1: float, columns: int) -> np.ndarray:
+    """Indices of the points of a line that keep its picture at a given width: per pixel
+    column of ``[x0, x1]`` the first and the last point, the one with the smallest and the one
+    with the largest ``y`` (M4 decimation: Jugel et al., VLDB 2014). Drawn through these points
+    the line has in every pixel column the same extremes, and the same segments from one
+    column to the next, as drawn through all of them.
+
+    Parameters
+    ----------
+    x : array         Abscissae, non-decreasing, [any unit]
+    y : array         Ordinates, [any unit]
+    x0, x1 : float    Abscissae at the left and right edges of the axes, [unit of x]
+    columns : int     Pixel columns between ``x0`` and ``x1``
+
+    Returns
+    -------
+    numpy.ndarray  Sorted indices into ``x`` (all of them when the line has no more than four
+                   points per column, or a value that is not finite)
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    n = len(x)
+    if n <= 4 * columns or not x1 > x0 or not np.all(np.isfinite(y)):
+        return np.arange(n)
+    pixel = np.clip(((x - x0) * (columns / (x1 - x0))).astype(np.int64), 0, columns - 1)
+    starts = np.flatnonzero(np.r_[True, pixel[1:] != pixel[:-1]])
+    ends = np.r_[starts[1:], n]
+    segment = np.repeat(np.arange(len(starts)), ends - starts)
+    keep = [starts, ends - 1]
+    for extreme in (np.minimum, np.maximum):
+        at = np.flatnonzero(y == extreme.reduceat(y, starts)[segment])
+        keep.append(at[np.r_[True, segment[at][1:] != segment[at][:-1]]])   # the first in each
+    return np.unique(np.concatenate(keep))
 
 
 def new_figure(figsize):
@@ -61,6 +123,10 @@ def _limits(values, margin=0.08):
     return lo - pad, hi + pad
 
 
+#: Left and right edges of :func:`plot_result`'s panels, [fraction of the figure's width].
+PANEL_LEFT, PANEL_RIGHT = 0.11, 0.98
+
+
 def plot_result(result, signals=None, path=None, title=None):
     """Plot a simulation result; panels of the paper's Figs. 10-12 by default.
 
@@ -71,7 +137,7 @@ def plot_result(result, signals=None, path=None, title=None):
 
     Parameters
     ----------
-    result : SimulationResult
+    result : SimulationResult or Traces
     signals : list[str]   Signals to plot, one panel each (SI units); default panels when None
     path : str            Write a PNG there when given
     title : str           Figure title
@@ -88,6 +154,9 @@ def plot_result(result, signals=None, path=None, title=None):
                            ("Tracking error [mm]", ("tracking_error",), 1e3))
     panels = tuple(p for p in panels if any(k in series for k in p[1]))
     fig, axes = _figure(len(panels))
+    dpi = 110
+    # pixel columns of a panel: each line is drawn through its extremes per column
+    columns = int(np.ceil(fig.get_figwidth() * (PANEL_RIGHT - PANEL_LEFT) * dpi))
     t_ms = result.t * 1e3
     t1 = _window_end(result)
     inside = result.t <= t1 if t1 is not None else np.ones(len(result.t), bool)
@@ -98,9 +167,12 @@ def plot_result(result, signals=None, path=None, title=None):
         for k in keys:
             if k in series:
                 y = series[k] * scale
-                line, = ax.plot(t_ms[:k1], y[:k1], lw=1.0, label=k.replace("_", " "))
+                i = column_envelope(t_ms[:k1], y[:k1], t_ms[0], t_ms[-1], columns)
+                ax.plot(t_ms[i], y[i], lw=1.0, label=k.replace("_", " "))
                 if t1 is not None:   # after the stop: grey, and not in the y-range
-                    ax.plot(t_ms[k1 - 1:], y[k1 - 1:], lw=0.8, color="0.6")
+                    i = k1 - 1 + column_envelope(t_ms[k1 - 1:], y[k1 - 1:], t_ms[0], t_ms[-1],
+                                                 columns)
+                    ax.plot(t_ms[i], y[i], lw=0.8, color="0.6")
                 shown.append(y[:k1])
         if t1 is not None and shown:
             ax.set_ylim(*_limits(np.concatenate(shown)))
@@ -125,10 +197,10 @@ def plot_result(result, signals=None, path=None, title=None):
     height = fig.get_figheight()   # fixed margins, [inch]: tight_layout would draw twice
     fig.suptitle(title or f"hydroline: {result.metadata.get('scenario', 'simulation')}",
                  y=1 - 0.1 / height, va="top")
-    fig.subplots_adjust(left=0.11, right=0.98, top=1 - 0.5 / height, bottom=0.5 / height,
-                        hspace=0.12)
+    fig.subplots_adjust(left=PANEL_LEFT, right=PANEL_RIGHT, top=1 - 0.5 / height,
+                        bottom=0.5 / height, hspace=0.12)
     if path:
-        save_png(fig, path, dpi=110)
+        save_png(fig, path, dpi=dpi)
     return fig
 
 

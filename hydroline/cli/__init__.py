@@ -19,6 +19,8 @@ import os
 import signal
 import sys
 
+from . import figure_process
+
 __all__ = ["main", "UsageError", "Terminated", "version"]
 
 #: Subcommand modules, in help order.
@@ -147,6 +149,32 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
         single_threaded_blas()
+    if draws_a_figure(argv):   # the figure's branch is the longer one: forked before parsing
+        figure_process.start_early()
+    try:
+        return _parse_and_run(argv)
+    finally:
+        figure_process.cancel_unclaimed()
+
+
+def draws_a_figure(argv) -> bool:
+    """Whether a command line will (most likely) draw ``hydroline simulate``'s figure: the
+    figure process is started for it before the arguments are parsed. A wrong guess costs
+    little: a process not claimed is stopped, and one missing is started when needed.
+
+    Parameters
+    ----------
+    argv : list of str  The arguments after ``hydroline``
+    """
+    if not argv or argv[0] != "simulate":
+        return False
+    options = {a.split("=", 1)[0] for a in argv[1:] if a.startswith("-")}
+    if options & {"-h", "--help"}:
+        return False
+    return "--json" not in options or "--out" in options
+
+
+def _parse_and_run(argv) -> int:
     parser = build_parser(_requested_subcommand(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -6,15 +6,66 @@ simulates and writes the CSV; the parent then hands it the columns the figure ne
 for the PNG. On a machine with two cores the whole process ends when the longer of the two
 branches does, not after their sum. Where ``os.fork`` does not exist (Windows), or with
 ``HYDROLINE_FIGURE_PROCESS=0``, the figure is drawn in the parent as before.
+
+The figure's branch (Matplotlib's import, then one figure drawn) is the longer one, so it
+starts as early as it can: :func:`start_early` forks at the very start of ``hydroline.cli.main``
+when the command line asks for a figure, before the arguments are parsed or the command's
+module is imported, and the command takes that process with :func:`claim_figure_process`
+(an unclaimed one is let go by :func:`cancel_unclaimed`). The child imports only the Agg
+canvas and ``matplotlib.figure``, without the 3-D projection, with Python's cyclic garbage
+collector off (it draws one figure and exits).
 """
 from __future__ import annotations
 
+import gc
 import os
 import pickle
 import signal
+import sys
 import threading
+import warnings
 
-__all__ = ["FigureProcess"]
+__all__ = ["FigureProcess", "start_early", "claim_figure_process", "cancel_unclaimed"]
+
+#: The process forked by :func:`start_early` and not claimed yet.
+_early = None
+
+
+def start_early() -> None:
+    """Fork the figure process now (at a command's start), for :func:`claim_figure_process`."""
+    global _early
+    if _early is None:
+        _early = FigureProcess()
+
+
+def claim_figure_process() -> "FigureProcess":
+    """The figure process started by :func:`start_early`, or a new one when none was."""
+    global _early
+    figures, _early = _early, None
+    return figures if figures is not None else FigureProcess()
+
+
+def cancel_unclaimed() -> None:
+    """Let go of a process :func:`start_early` forked that no command claimed (the command
+    line turned out to ask for no figure, or was refused)."""
+    global _early
+    figures, _early = _early, None
+    if figures is not None:
+        figures.cancel()
+
+
+def import_matplotlib() -> None:
+    """Import what a figure on the Agg canvas needs, and no more: ``matplotlib.figure``
+    registers the 3-D projection (``mpl_toolkits.mplot3d``, ~10 % of the import) unless it
+    cannot be imported; the figure process draws 2-D figures only, so it is marked absent
+    (Matplotlib then goes on without it; its warning about that is not shown)."""
+    if "matplotlib.figure" in sys.modules:
+        return
+    sys.modules.setdefault("mpl_toolkits.mplot3d", None)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Unable to import Axes3D")
+        import matplotlib.backends.backend_agg  # noqa: F401
+        import matplotlib.figure  # noqa: F401
 
 
 def _read_all(fd: int) -> bytes:
@@ -65,8 +116,10 @@ class FigureProcess:
         try:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
             signal.signal(signal.SIGINT, signal.SIG_DFL)
-            import matplotlib.backends.backend_agg  # noqa: F401  (the import being overlapped)
-            import matplotlib.figure  # noqa: F401
+            # one figure, then os._exit: the cyclic collector would only walk the objects
+            # (and copy the parent's pages it touches): ~3 % of the import
+            gc.disable()
+            import_matplotlib()   # (the import being overlapped)
 
             job = _read_all(job_r)
             if job:

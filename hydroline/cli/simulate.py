@@ -7,7 +7,7 @@ import sys
 
 from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
                      settling_cell)
-from .figure_process import FigureProcess
+from .figure_process import claim_figure_process
 
 #: The files written to --out.
 OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
@@ -163,8 +163,9 @@ def run(args) -> int:
     """
     write = args.out is not None or not args.json
     # Matplotlib (and NumPy) import in a second process while this one imports the model and
-    # simulates: on two cores the figure costs what the longer branch costs, not the sum
-    figures = FigureProcess() if write else None
+    # simulates: on two cores the figure costs what the longer branch costs, not the sum. It
+    # was forked when the command started (hydroline.cli.main), before the arguments were read
+    figures = claim_figure_process() if write else None
     try:
         return _prepare(args, write, figures)
     finally:
@@ -208,8 +209,8 @@ def _prepare(args, write, figures) -> int:
 
 
 def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance", "scenario")):
-    """The columns and metadata a figure reads, as a small SimulationResult (what is sent to
-    the figure process).
+    """The columns and metadata a figure reads, as :class:`hydroline.plotting.Traces` (what is
+    sent to the figure process: plain arrays, so that it does not import the model).
 
     Parameters
     ----------
@@ -218,16 +219,12 @@ def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance"
                              :func:`hydroline.plotting.plot_result` draws
     metadata : tuple         Metadata keys to keep (those ``res`` has)
     """
-    import numpy as np
-
-    from ..engine import SimulationResult
+    from ..plotting import Traces
 
     if columns is None:
         columns = FIGURE_COLUMNS + ("position_reference", "piston_position")
-    columns = [c for c in dict.fromkeys(columns) if c in res]
     meta = {k: res.metadata[k] for k in metadata if k in res.metadata}
-    return SimulationResult(times=res.t, table=np.column_stack([res[c] for c in columns]),
-                            columns=columns, metadata=meta)
+    return Traces(res.t, {c: res[c] for c in dict.fromkeys(columns) if c in res}, meta)
 
 
 def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) -> int:

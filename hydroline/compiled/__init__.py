@@ -8,6 +8,14 @@ are passed at run time), so the library is keyed by a hash of the source and kep
 directory: the compile cost (about a second) is paid once per machine and structure, not per
 process or per parameter variant.
 
+A model's record (its library, constants and sizes) is kept in the cache directory too, under
+:func:`definition_key`: the network's description (components, numbers, wiring, the source of
+the code involved), known before its CasADi graph is built. A model seen before is then
+loaded without building the graph or importing CasADi; the graph is built for a new model
+only (its structure's record then gives the constants without writing C), or where the
+network cannot describe itself by value (a component class of another package: its record
+is then keyed by the graph's own fingerprint, :func:`model_fingerprint`).
+
 Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.
 Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
@@ -29,11 +37,23 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import cache_dir, load_table, source_tag, store_table  # cache_dir re-exported
-from .codegen import (GeneratedModel, UnsupportedOperation, constant_positions,  # noqa: F401
-                      constants_at, generate, scaled_functions, structure_key)
+from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
-           "available", "CFLAGS"]
+           "available", "CFLAGS", "model_fingerprint", "definition_key"]
+
+#: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
+#: model whose record is known is loaded without them.
+_FROM_CODEGEN = ("generate", "scaled_functions", "structure_key", "constant_positions",
+                 "constants_at")
+
+
+def __getattr__(name):
+    if name in _FROM_CODEGEN:
+        from . import codegen
+
+        return getattr(codegen, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 #: Flags for the system compiler (no -ffast-math: the integrator relies on IEEE semantics;
 #: -fno-math-errno only lets sqrt compile to one instruction; -ffp-contract=fast lets a*b+c
@@ -235,6 +255,7 @@ class NativeModel:
     lib : ctypes.CDLL            The loaded library
     library_path : Path          Where the library is cached
     build_time : float           Seconds spent generating (and, on a cache miss, compiling)
+    found_by : str               "definition", "graph", "structure" or "generated" (below)
 
     Parameters
     ----------
@@ -246,21 +267,37 @@ class NativeModel:
 
         tic = time.perf_counter()
         self.network = network
-        model = network.compile()
-        fingerprint = model_fingerprint(model)
-        self.generated, tag = _known_model(fingerprint)
-        if self.generated is None:   # other numbers: is the structure known?
-            functions = scaled_functions(model)
-            self.generated, tag = _known_structure(functions)
-            if self.generated is None:   # a new structure: write its C
-                self.generated = generate(model, functions)
-                self.library_path, full = _library_path(self.generated)
-                _remember_structure(functions, self.generated, self.library_path)
+        # the model's record: under its definition (known before any graph is built) where
+        # the network can describe itself, else under its graph's fingerprint; also where
+        # the graph was built before (components changed since would not be in it)
+        key = definition_key(network)
+        self.generated, tag = _known_model(key, network)
+        found = "definition"
+        if self.generated is None:   # not known: build the graph
+            from . import codegen
+
+            if getattr(network, "has_graph", True):
+                key = None
+            model = network.compile()
+            if key is None:
+                key, found = model_fingerprint(model), "graph"
+                self.generated, tag = _known_model(key, network)
+            if self.generated is None:   # other numbers: is the structure known?
+                functions = codegen.scaled_functions(model)
+                self.generated, tag = _known_structure(functions)
+                found = "structure"
+                if self.generated is None:   # a new structure: write its C
+                    found = "generated"
+                    self.generated = codegen.generate(model, functions)
+                    self.library_path, full = _library_path(self.generated)
+                    _remember_structure(functions, self.generated, self.library_path)
         if tag is not None:          # known: its C is regenerated only to rebuild a library
             self.library_path = cache_dir() / f"hl_{tag}.so"
 
             def full():
-                return _library_path(generate(model))[1]
+                from . import codegen
+
+                return _library_path(codegen.generate(network.compile()))[1]
         self.cache_hit = self.library_path.exists()
         self.lib = _build(self.library_path, full)
         sizes = (ctypes.c_longlong * 7)()
@@ -271,7 +308,12 @@ class NativeModel:
             raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
                                       f"the model (sizes {tuple(sizes)[:5]})")
         self.n, self.n_signals = int(sizes[0]), int(sizes[3])
-        _remember_model(fingerprint, g, self.library_path)
+        _remember_model(key, g, self.library_path)
+        #: How the model was found: "definition" (its record, found before any graph was
+        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
+        #: describe itself), "structure" (a known structure: constants read from the
+        #: graph) or "generated" (C written)
+        self.found_by = found
         self.build_time = time.perf_counter() - tic
 
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
@@ -453,6 +495,20 @@ class NativeSolver:
         self._lib.hl_scaled_jacobian(self._h, float(t), x.ctypes.data, out.ctypes.data)
         return out[:g.jac_nnz]
 
+    def signals(self, t: float, x) -> np.ndarray:
+        """Every signal at (t, x) from the compiled code, in ``network.signal_names`` order,
+        [SI]. Ends the segment in progress (:meth:`start` begins the next); :meth:`stats`
+        counts the start's two evaluations of f.
+
+        Parameters
+        ----------
+        t : float       Time, [s]
+        x : ndarray     States, [SI]
+        """
+        self.start(t, x, t + max(1.0, abs(t)))
+        _, y = self.advance([t])       # an output at the segment's start: no step taken
+        return y[0]
+
     def rhs(self, t: float, x) -> np.ndarray:
         """dx/dt at (t, x) from the compiled code, [SI/s].
 
@@ -496,21 +552,50 @@ _ARRAYS = ("constants", "jac_colind", "jac_row")
 _SCALARS = ("key", "n_states", "n_parameters", "n_signals", "jac_nnz", "lu_slots", "lu_flops")
 
 
-def _known_model(fingerprint: str):
+def definition_key(network) -> str | None:
+    """Key of a model's record that is known before its CasADi graph is built: the network's
+    :meth:`~hydroline.engine.Network.definition_fingerprint` (components, numbers, wiring,
+    state scales, the source of the code involved) with this module's code tag and the
+    build settings (compiler flags, platform, CPU); None where the network gives none.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+    """
+    describe = getattr(network, "definition_fingerprint", None)
+    digest = describe() if describe is not None else None
+    if digest is None:
+        return None
+    h = hashlib.sha256()
+    for part in ("definition", digest, _CODE_TAG, _build_settings()):
+        h.update(part.encode())
+        h.update(b"\0")
+    return "definition:" + h.hexdigest()
+
+
+def _known_model(fingerprint: str | None, network):
     """(GeneratedModel without its source, library tag) of a model seen before, in this
-    process or recorded in the cache directory; (None, None) if unknown."""
-    if fingerprint in _MODELS:
-        return _MODELS[fingerprint]
-    rec = load_table("models", fingerprint)
-    try:
-        gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS},
-                             constants=np.asarray(rec["constants"], dtype=float),
-                             jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
-                             jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
-        _MODELS[fingerprint] = (gen, str(rec["library"]))   # on disk already: not written again
-        return _MODELS[fingerprint]
-    except (TypeError, KeyError, ValueError):   # none, or damaged: generate anew
+    process or recorded in the cache directory; (None, None) if unknown, or if the record's
+    sizes do not fit the network (states, parameters, signals)."""
+    if fingerprint is None:
         return None, None
+    known = _MODELS.get(fingerprint)
+    if known is None:
+        rec = load_table("models", fingerprint)
+        try:
+            gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS},
+                                 constants=np.asarray(rec["constants"], dtype=float),
+                                 jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
+                                 jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
+            known = (gen, str(rec["library"]))
+        except (TypeError, KeyError, ValueError):   # none, or damaged: generate anew
+            return None, None
+        _MODELS[fingerprint] = known   # on disk already: not written again
+    gen = known[0]
+    if (gen.n_states, gen.n_parameters, gen.n_signals) != (
+            len(network.state_names), len(network.parameter_names), len(network.signal_names)):
+        return None, None
+    return known
 
 
 _STRUCTURES: dict = {}
@@ -521,6 +606,8 @@ def _structure_record_key(functions) -> str:
     code and the build settings (compiler flags, platform, CPU: the record names a library
     built with them)."""
     settings = hashlib.sha256(_build_settings().encode()).hexdigest()[:16]
+    from .codegen import structure_key
+
     return structure_key(functions) + _CODE_TAG + settings
 
 
@@ -536,6 +623,8 @@ def _known_structure(functions):
             return None, None
         _STRUCTURES[key] = rec
     try:
+        from .codegen import constants_at
+
         constants = constants_at(functions, rec["positions"])
         gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS}, constants=constants,
                              jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
@@ -548,6 +637,8 @@ def _known_structure(functions):
 
 
 def _remember_structure(functions, gen, library_path: Path) -> None:
+    from .codegen import constant_positions
+
     positions = constant_positions(functions)
     if sum(map(len, positions)) != len(gen.constants):   # not the order generate() numbers
         return

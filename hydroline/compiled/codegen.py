@@ -26,12 +26,10 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .generated import GeneratedModel, UnsupportedOperation
+
 __all__ = ["GeneratedModel", "generate", "UnsupportedOperation", "structure_key",
            "constant_positions", "constants_at", "scaled_functions"]
-
-
-class UnsupportedOperation(NotImplementedError):
-    """The graph holds an operation the C writer does not know (the caller falls back)."""
 
 
 _BINARY = {
@@ -281,32 +279,6 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
         out.append(f"  b[{plan.order[k]}]=v[{k}];")
     out.append("}")
     return "\n".join(out)
-
-
-@dataclass
-class GeneratedModel:
-    """C source of one network structure and the constants of this network's values.
-
-    Attributes
-    ----------
-    source : str            C code (structure only)
-    key : str               SHA-256 of the source, the cache key
-    constants : ndarray     Values read by the code as ``c[k]``, [SI]
-    n_states, n_parameters, n_signals, jac_nnz, lu_slots, lu_flops : int   Sizes, [-]
-    jac_colind, jac_row : ndarray  Compressed-column pattern of the Jacobian (indices), [-]
-    """
-
-    source: str
-    key: str
-    constants: np.ndarray
-    n_states: int
-    n_parameters: int
-    n_signals: int
-    jac_nnz: int
-    jac_colind: np.ndarray
-    jac_row: np.ndarray
-    lu_slots: int
-    lu_flops: int
 
 
 def structure_key(functions) -> str:

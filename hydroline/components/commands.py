@@ -2,8 +2,8 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
-import casadi as ca
 import numpy as np
 
 from ..engine import ops
@@ -89,7 +89,11 @@ class SineCommand(_Command):
 
 
 def _sin(x):
-    return ca.sin(x) if ops.is_symbolic(x) else np.sin(x)
+    if ops.is_symbolic(x):
+        import casadi as ca
+
+        return ca.sin(x)
+    return np.sin(x)
 
 
 @dataclass(kw_only=True)
@@ -147,8 +151,15 @@ class TableCommand(_Command):
             raise ValueError(f"{self.name}: table times must increase strictly [s]")
         if not (np.all(np.isfinite(self.times)) and np.all(np.isfinite(self.values))):
             raise ValueError(f"{self.name}: table has NaN or infinite entries")
-        self._interp = ca.interpolant(f"{self.name.replace('.', '_')}_table", "linear",
-                                      [self.times.tolist()], self.values.tolist())
+
+    @cached_property
+    def interpolant(self):
+        """The table as a CasADi linear interpolant of time [s] (the compiled path of a table
+        longer than ``RAMP_ROWS``; made on first use)."""
+        import casadi as ca
+
+        return ca.interpolant(f"{self.name.replace('.', '_')}_table", "linear",
+                              [self.times.tolist()], self.values.tolist())
 
     @classmethod
     def from_csv(cls, path, name="command", quantity="current", time_column=0, value_column=1,
@@ -202,8 +213,8 @@ class TableCommand(_Command):
                     if sk != 0.0:
                         out = out + float(sk) * ops.fmin(ops.fmax(t - float(tk), 0.0), float(dtk))
                 return {"command": out}
-            tc = ca.fmin(ca.fmax(t, self.times[0]), self.times[-1])
-            return {"command": self._interp(tc)}
+            tc = ops.fmin(ops.fmax(t, self.times[0]), self.times[-1])
+            return {"command": self.interpolant(tc)}
         return {"command": float(np.interp(t, self.times, self.values))}
 
     def breakpoints(self, t_end):

@@ -8,6 +8,8 @@
 * :mod:`~hydroline.engine.network` — components wired by named signals into one explicit ODE
   ``dx/dt = f(t, x, p)`` (connection checks, evaluation order, algebraic loops, the connection
   table, unused-signal warnings);
+* :mod:`~hydroline.engine.fingerprint` — what the network's compiled graph is a function of,
+  hashed before the graph is built (the key of its compiled model's record);
 * :mod:`~hydroline.engine.steady_state` — the rest state before the disturbance;
 * :mod:`~hydroline.engine.backends` — one class per solver (compiled C core, CVODES, SciPy);
 * :mod:`~hydroline.engine.integrate` — the run over breakpoints and sampling instants;

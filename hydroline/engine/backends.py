@@ -10,6 +10,8 @@ Every backend has the same small interface, which :func:`hydroline.engine.integr
   states side by side when the backend computes them (else None: the sink evaluates the
   signals from the states);
 * ``stats()``: solver statistics (function and Jacobian evaluations, steps);
+* ``signals_at(t, x, p)``: every signal at one (t, x) where the backend computes them
+  (the compiled core), else None (they are then evaluated on the CasADi graph);
 * ``chunked``: True when output in chunks costs nothing (the compiled core keeps its history
   across ``advance`` calls); the others restart at every call, so they are given a whole
   segment unless memory must stay bounded.
@@ -66,6 +68,23 @@ class CompiledBackend:
             self.solver.set_parameters(p)
             self.p_bytes = b_p
         self.solver.start(a, x, b)
+
+    def signals_at(self, t: float, x, p):
+        """Every signal at (t, x) from the compiled code (before :meth:`start`: a run's first
+        row), in ``network.signal_names`` order, [SI].
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : ndarray   States, [SI]
+        p : ndarray   Runtime parameters, [SI]
+        """
+        if np.asarray(p, dtype=float).tobytes() != self.p_bytes:
+            self.solver.set_parameters(p)
+            self.p_bytes = np.asarray(p, dtype=float).tobytes()
+        y = self.solver.signals(t, x)
+        self.solver.reset_stats()   # (the evaluations of f made for it are no step's)
+        return y
 
     def advance(self, grid):
         """States (and, the compiled core computing them, the signals) at the output times.
@@ -145,6 +164,17 @@ class CvodesBackend:
         self.counts["njevals"] += int(st.get("njevals", 0) or st.get("nlinsetups", 0))
         self.counts["nsteps"] += int(st.get("nsteps", 0))
         return self._accept(grid, X), None
+
+    def signals_at(self, t: float, x, p):
+        """None: this backend leaves the signals to the CasADi graph (or the components).
+
+        Parameters
+        ----------
+        t : float     Time, [s]
+        x : ndarray   States, [SI]
+        p : ndarray   Runtime parameters, [SI]
+        """
+        return None
 
     def _accept(self, grid, X):
         if not np.all(np.isfinite(X)):

@@ -197,7 +197,6 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     if not (rtol > 0 and atol_scale > 0):
         raise ValueError(f"rtol and atol_scale must be > 0 [-], got {rtol!r} and {atol_scale!r}")
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
-    model = network.compile()
     n_out = int(round(t_end / dt_out))
     t_last = n_out * dt_out
     h_out = t_last / n_out
@@ -214,7 +213,12 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     sink = OutputSink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
                       preview_columns, preview_rows, column_units(network) if stream_to else None,
                       observe)
-    sink.write(t_out(0, 1), x[None, :], None, model, p)
+    first = backend.signals_at(0.0, x, p)   # the compiled core's; else from the graph:
+    model = network.compile() if first is None else None   # (a backend without signals)
+    if first is None:
+        sink.write(t_out(0, 1), x[None, :], None, model, p)
+    else:
+        sink.write(t_out(0, 1), None, np.concatenate([first, x])[None, :], None, p)
     chunk_rows = max(int(chunk_rows), 1)
     bounded = stream_to is not None or keep_columns is not None
     # a long run's rows are taken in (statistics, CSV text, observe) by a second thread while

@@ -2,7 +2,8 @@
 
 States are named ``<component>.<state>`` (e.g. ``supply.section2.mode3.flow``); signals keep
 their network names (e.g. ``supply_port_pressure``). Runtime parameters (``<component>.<name>``)
-can change between runs without recompiling.
+can change between runs without recompiling. CasADi is imported by :class:`CompiledModel`
+only: a model loaded from the cache runs without it.
 """
 from __future__ import annotations
 
@@ -10,10 +11,10 @@ import functools
 import warnings
 from dataclasses import dataclass
 
-import casadi as ca
 import numpy as np
 
 from .component import Component
+from .fingerprint import definition_fingerprint
 
 __all__ = ["Network", "NetworkError", "CompiledModel", "UnusedSignalWarning", "connection_table"]
 
@@ -300,6 +301,21 @@ class Network:
             self._compiled = CompiledModel(self)
         return self._compiled
 
+    @property
+    def has_graph(self) -> bool:
+        """True once :meth:`compile` has built the CasADi graph (of the components as they
+        were then)."""
+        return self._compiled is not None
+
+    def definition_fingerprint(self) -> str | None:
+        """SHA-256 (hex) of everything :meth:`compile`'s graph is a function of, without
+        building it: the components (classes, attributes, wiring, order), the state scales
+        and names, and the source of the code involved; None where a part cannot be
+        described by value (:func:`hydroline.engine.fingerprint.definition_fingerprint`).
+        Equal fingerprints mean equal graphs: a compiled model recorded under one can be
+        loaded for the other."""
+        return definition_fingerprint(self)
+
     def guess(self) -> np.ndarray:
         """Initial guess of all states from the components, [SI]."""
         x = np.zeros(len(self.state_names))
@@ -335,6 +351,8 @@ class CompiledModel:
     network: Network
 
     def __post_init__(self):
+        import casadi as ca
+
         net = self.network
         n, m = len(net.state_names), len(net.parameter_names)
         t = ca.SX.sym("t")
@@ -354,6 +372,8 @@ class CompiledModel:
     def jac(self):
         """d(dx/dt)/dx as a CasADi function, made on first use (the compiled core writes its
         own sparse Jacobian; building this one costs ~10 ms per network)."""
+        import casadi as ca
+
         return ca.Function("jacobian_f", [self.t, self.x, self.p], [ca.jacobian(self.dx, self.x)],
                            ["t", "x", "p"], ["J"])
 
@@ -377,4 +397,6 @@ class CompiledModel:
         x : ndarray   States, [SI]
         p : ndarray   Runtime parameters, [SI]
         """
+        import casadi as ca
+
         return np.asarray(ca.densify(self.jac(t, x, p)))

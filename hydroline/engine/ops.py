@@ -2,17 +2,34 @@
 
 Components write each equation once with these functions. Evaluated with floats they give
 floats (the reference NumPy path); evaluated with CasADi SX symbols they build the graph the
-network compiles into one function with exact Jacobians.
+network compiles into one function with exact Jacobians. CasADi is not imported here: a
+process that only evaluates numbers (a run of a model loaded from the cache) never loads it.
 """
 from __future__ import annotations
 
-import casadi as ca
+import sys
+
 import numpy as np
 
 __all__ = ["sqrt", "exp", "tanh", "fabs", "fmax", "fmin", "sign", "if_else", "matvec",
            "smooth_sqrt", "softplus", "is_symbolic", "log", "power", "vertcat"]
 
-_SYM = (ca.SX, ca.MX, ca.DM)
+_SYM = ()   # CasADi's expression types, once CasADi is loaded
+
+
+def _symbol_types() -> tuple:
+    global _SYM
+    ca = sys.modules.get("casadi")
+    if ca is not None and hasattr(ca, "DM"):   # (not while casadi itself is being imported)
+        _SYM = (ca.SX, ca.MX, ca.DM)
+    return _SYM
+
+
+def _casadi():
+    """The CasADi module (loaded already by whoever made the symbols)."""
+    import casadi
+
+    return casadi
 
 
 def is_symbolic(*args) -> bool:
@@ -34,11 +51,12 @@ def is_symbolic(*args) -> bool:
     >>> is_symbolic(1.0, 2.0), is_symbolic(1.0, ca.SX.sym("p"))
     (False, True)
     """
-    return any(isinstance(a, _SYM) for a in args)
+    sym = _SYM or _symbol_types()   # no CasADi expression exists before CasADi is loaded
+    return bool(sym) and any(isinstance(a, sym) for a in args)
 
 
 def _pick(*args):
-    return ca if is_symbolic(*args) else np
+    return _casadi() if is_symbolic(*args) else np
 
 
 def sqrt(x):
@@ -118,7 +136,7 @@ def fabs(x):
     float, ndarray or CasADi expression
         ``|x|``, [unit of x].
     """
-    return ca.fabs(x) if is_symbolic(x) else np.abs(x)
+    return _casadi().fabs(x) if is_symbolic(x) else np.abs(x)
 
 
 def sign(x):
@@ -134,7 +152,7 @@ def sign(x):
     float, ndarray or CasADi expression
         ``sgn(x)``, [-].
     """
-    return ca.sign(x) if is_symbolic(x) else np.sign(x)
+    return _casadi().sign(x) if is_symbolic(x) else np.sign(x)
 
 
 def power(x, a):
@@ -168,7 +186,7 @@ def fmax(a, b):
     float, ndarray or CasADi expression
         ``max(a, b)``, [unit of a].
     """
-    return ca.fmax(a, b) if is_symbolic(a, b) else np.maximum(a, b)
+    return _casadi().fmax(a, b) if is_symbolic(a, b) else np.maximum(a, b)
 
 
 def fmin(a, b):
@@ -184,7 +202,7 @@ def fmin(a, b):
     float, ndarray or CasADi expression
         ``min(a, b)``, [unit of a].
     """
-    return ca.fmin(a, b) if is_symbolic(a, b) else np.minimum(a, b)
+    return _casadi().fmin(a, b) if is_symbolic(a, b) else np.minimum(a, b)
 
 
 def if_else(cond, a, b):
@@ -203,7 +221,7 @@ def if_else(cond, a, b):
         The selected values, [unit of a].
     """
     if is_symbolic(cond, a, b):
-        return ca.if_else(cond, a, b)
+        return _casadi().if_else(cond, a, b)
     return np.where(cond, a, b)
 
 
@@ -223,6 +241,7 @@ def matvec(M, x):
         ``M x``, length m, [SI].
     """
     if is_symbolic(x):
+        ca = _casadi()
         return ca.mtimes(ca.DM(M), x)
     return np.asarray(M) @ np.asarray(x, dtype=float)
 
@@ -241,7 +260,7 @@ def vertcat(items):
         Column of the items, [SI, unit of each item].
     """
     if is_symbolic(*items):
-        return ca.vertcat(*items)
+        return _casadi().vertcat(*items)
     return np.array([float(v) for v in items])
 
 

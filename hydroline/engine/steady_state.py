@@ -62,20 +62,19 @@ def _scaled_residual(model, t, x, p, scales):
 
 
 class _CompiledRest:
-    """f(t, x, p) and its Jacobian from the network's compiled C library, with the interface
-    of :class:`~hydroline.engine.CompiledModel` (``rhs``, ``jacobian``, ``signals``): the
-    steady-state iterations then cost microseconds each instead of CasADi's call overhead."""
+    """f(t, x, p), its Jacobian and the signals from the network's compiled C library, with
+    the interface of :class:`~hydroline.engine.CompiledModel` (``rhs``, ``jacobian``,
+    ``signals``): the steady-state iterations then cost microseconds each instead of
+    CasADi's call overhead, and a model loaded from the cache needs no CasADi graph."""
 
-    def __init__(self, model, native):
-        self.model = model
-        self.solver = native.solver(model.network.parameter_values)
-        self.p_bytes = np.asarray(model.network.parameter_values, dtype=float).tobytes()
-        self.scales = np.asarray(model.network.state_scales, dtype=float)
+    def __init__(self, network, native):
+        self.solver = native.solver(network.parameter_values)
+        self.p_bytes = np.asarray(network.parameter_values, dtype=float).tobytes()
+        self.scales = np.asarray(network.state_scales, dtype=float)
         g = native.generated
         self.rows = np.asarray(g.jac_row, dtype=np.intp)
         self.cols = np.repeat(np.arange(g.n_states), np.diff(g.jac_colind))
         self.jnz = np.empty(max(g.jac_nnz, 1))
-        self.signals = model.signals
 
     def _use(self, p):
         b = np.asarray(p, dtype=float).tobytes()
@@ -98,17 +97,22 @@ class _CompiledRest:
     def jacobian(self, t, x, p):
         return self.scaled_jacobian(t, x, p) * self.scales[:, None] / self.scales[None, :]
 
+    def signals(self, t, x, p):
+        """Every signal at (t, x, p), [SI], in the network's signal order."""
+        self._use(p)
+        return self.solver.signals(t, x)
+
 
 def _rest_functions(network):
-    """The model's f and Jacobian for the steady-state solve: compiled C where a library can
-    be built (it is the one the integration uses), else the CasADi functions."""
-    model = network.compile()
+    """The model's f, Jacobian and signals for the steady-state solve: compiled C where a
+    library can be built or loaded (it is the one the integration uses), else the CasADi
+    functions."""
     try:
         from .. import compiled
 
-        return _CompiledRest(model, compiled.native_model(network))
+        return _CompiledRest(network, compiled.native_model(network))
     except Exception:   # no compiler, an operation the C writer lacks, an unusable cache
-        return model
+        return network.compile()
 
 
 def _scaled_jacobian(model, t, x, p, scales):
