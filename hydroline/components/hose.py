@@ -9,7 +9,7 @@ from ..lines.modal import StateSpaceLine
 from ..engine import ops
 from ..engine.component import Component, Port, State
 
-__all__ = ["HoseSection"]
+__all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
 _QUANTITY = {"pressure": "pressure", "flow": "flow"}
 
@@ -19,7 +19,9 @@ _QUANTITY = {"pressure": "pressure", "flow": "flow"}
 #: study) share one model and swap ``p`` (:func:`coefficients_as_parameters`; the sweep's
 #: worker processes set it). Off by default: a single run's graph folds them as constants.
 COEFFICIENTS_AS_PARAMETERS = False
-_MATRICES = ("A", "B", "C", "D")
+#: The line matrices whose nonzero entries become runtime parameters, in their order.
+COEFFICIENT_MATRICES = ("A", "B", "C", "D")
+_MATRICES = COEFFICIENT_MATRICES
 
 
 class coefficients_as_parameters:

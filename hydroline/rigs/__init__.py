@@ -78,14 +78,23 @@ def declarations(section: str) -> dict:
     -------
     dict  Parameter key -> :class:`hydroline.engine.Parameter` (unit, range, description)
     """
-    from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
-    if section == "fluid":
-        return dict(FLUID_PARAMETERS)
-    if section not in COMPONENT_SECTIONS:
-        return {}
-    ctype, keys = COMPONENT_SECTIONS[section]
-    decl = COMPONENT_TYPES[ctype].declarations()
-    return {k: v for k, v in decl.items() if keys is None or k in keys}
+    known = _DECLARATIONS.get(section)
+    if known is None:     # the component classes' declarations do not change: made once
+        from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
+        if section == "fluid":
+            known = dict(FLUID_PARAMETERS)
+        elif section not in COMPONENT_SECTIONS:
+            known = {}
+        else:
+            ctype, keys = COMPONENT_SECTIONS[section]
+            decl = COMPONENT_TYPES[ctype].declarations()
+            known = {k: v for k, v in decl.items() if keys is None or k in keys}
+        if len(_DECLARATIONS) < 1024:     # (bounded: any section name may be asked for)
+            _DECLARATIONS[section] = known
+    return dict(known)
+
+
+_DECLARATIONS: dict = {}
 
 
 def _section_units(section: str, units: dict) -> dict:
@@ -197,6 +206,16 @@ def _parse_as(path: str, raw, unit: str):
         raise RigError(str(e)) from None
 
 
+_IMMUTABLE = (float, int, str, bool, type(None))
+
+
+def _copy_values(values: dict) -> dict:
+    """A deep copy of a rig's value dict: numbers and text shared (immutable), anything else
+    (lists, tables) deep-copied (a deepcopy of every value took ~0.25 ms per rig, paid per
+    variant of a sweep)."""
+    return {k: v if type(v) in _IMMUTABLE else copy.deepcopy(v) for k, v in values.items()}
+
+
 class Rig:
     """A parsed rig: parameters in SI, addressed by dotted paths.
 
@@ -262,7 +281,7 @@ class Rig:
         -------
         Rig
         """
-        return Rig(copy.deepcopy(self.values), copy.deepcopy(self.raw), self.source)
+        return Rig(_copy_values(self.values), _copy_values(self.raw), self.source)
 
     def to_toml(self) -> str:
         """The rig as TOML text with its units (the raw values)."""

@@ -164,6 +164,13 @@ class DerivedTable(Mapping):
     def __len__(self):
         return len(self.entries)
 
+    def items(self):
+        """(key, value) pairs of the derived table (its dict's view: no lookup per key)."""
+        return self._build().items()
+
+    def values(self):
+        return self._build().values()
+
     def __contains__(self, key):
         return key in self.entries
 
@@ -333,8 +340,8 @@ def check_ranges(rig):
         value = rig.get(path)
         if value is None or p.unit == "str":
             continue
-        values = value if isinstance(value, list) else [value]
-        unit = "" if p.unit == "-" else f" [{p.unit}]"
+        values = value if isinstance(value, list) else (value,)
+        unit = "" if p.unit == "-" else " [" + p.unit + "]"
         for v in values:
             if not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise _error(f"{path}: must be a finite number{unit}, got {_shown(rig, path, v)}")

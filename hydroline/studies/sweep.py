@@ -393,18 +393,23 @@ class SharedModel:
     """
 
     def __init__(self, network, circuit, scenario, values: dict):
-        from ..components.hose import HoseSection
+        from ..components.hose import COEFFICIENT_MATRICES, HoseSection
 
         self.network, self.circuit, self.scenario = network, circuit, scenario
         self.values = dict(values)
         self.p = network.parameter_values.copy()
         self.hoses, self.hose_entries = {}, {}
+        self._patterns = {}     # hose -> ((matrix, rows, columns), ...) of its entries in p
         for c in network.components:
             if isinstance(c, HoseSection) and c.coefficient_pattern is not None:
                 self.hoses[c.name] = c
                 self.hose_entries[c.name] = np.array(
                     [network.parameter_names.index(f"{c.name}.{k}")
                      for k in c.runtime_parameters()], dtype=np.intp)
+                self._patterns[c.name] = tuple(
+                    (m, np.array([i for n, i, _ in c.coefficient_pattern if n == m], dtype=np.intp),
+                     np.array([j for n, _, j in c.coefficient_pattern if n == m], dtype=np.intp))
+                    for m in COEFFICIENT_MATRICES)
         self.rest = None
 
     def changed_hoses(self, rig: Rig):
@@ -444,7 +449,6 @@ class SharedModel:
         -------
         ndarray or None  Runtime parameters, [SI]
         """
-        from ..components.hose import HoseSection, coefficients_as_parameters
         from ..lines import ModalLine
         from ..system import hose_lines, validate_rig
 
@@ -459,14 +463,20 @@ class SharedModel:
             if name not in lines or type(old.model) is not ModalLine:
                 return None
             m = old.model
-            with coefficients_as_parameters():
-                new = HoseSection(name=name, model=ModalLine(lines[name], m.n_modes, m.form,
-                                                             method=m.method),
-                                  nominal_pressure=old.nominal_pressure,
-                                  connections=dict(old.connections))
-            if new.coefficient_pattern != old.coefficient_pattern:
+            new = ModalLine(lines[name], m.n_modes, m.form, method=m.method)
+            # its matrices' nonzero entries, in the order of the hose's runtime parameters
+            # (HoseSection.coefficient_pattern: matrix by matrix, row-major), where the
+            # pattern is the kept hose's; a hose section is not built for them
+            entries = []
+            for matrix, rows, cols in self._patterns[name]:
+                a = np.asarray(getattr(new, matrix), dtype=float)
+                i, j = np.nonzero(a)
+                if not (np.array_equal(i, rows) and np.array_equal(j, cols)):
+                    return None
+                entries.append(a[rows, cols])
+            if sum(len(e) for e in entries) != len(self.hose_entries[name]):
                 return None
-            p[self.hose_entries[name]] = list(new.runtime_parameters().values())
+            p[self.hose_entries[name]] = np.concatenate(entries)
         return p
 
 

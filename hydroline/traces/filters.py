@@ -41,16 +41,40 @@ def savgol_filter(x, window_length: int, polyorder: int, mode: str = "interp") -
     if w % 2 != 1 or not polyorder < w <= n:
         raise ValueError(f"window_length must be odd, > polyorder and <= len(x) = {n}; got {w}")
     half = w // 2
-    pos = np.arange(-half, half + 1, dtype=float)
-    A = pos[None, :] ** np.arange(polyorder + 1)[:, None]        # (polyorder + 1, w)
-    coeffs = np.linalg.lstsq(A, np.eye(polyorder + 1)[0], rcond=None)[0]   # value at the centre
+    centre, first, last = _savgol_weights(w, int(polyorder))
     y = np.empty(n)
     if n > 2 * half:
-        y[half:n - half] = np.lib.stride_tricks.sliding_window_view(x, w) @ coeffs
-    k = np.arange(w, dtype=float)
-    y[:half] = np.polyval(np.polyfit(k, x[:w], polyorder), k[:half])
-    y[n - half:] = np.polyval(np.polyfit(k, x[n - w:], polyorder), k[w - half:])
+        y[half:n - half] = np.convolve(x, centre[::-1], mode="valid")
+    y[:half] = first @ x[:w]
+    y[n - half:] = last @ x[n - w:]
     return y
+
+
+_SAVGOL_WEIGHTS: dict = {}
+
+
+def _savgol_weights(w: int, polyorder: int):
+    """Weights of :func:`savgol_filter` for a window of ``w`` samples, kept by (w, polyorder):
+    the centre's (the least-squares polynomial's value at the middle sample) and the first
+    and last half-windows' (the polynomial fitted to the first / last window, evaluated at
+    their samples: ``polyval(polyfit(k, x[:w]), k[:half])`` as one matrix, equal to round-off)."""
+    key = (w, polyorder)
+    if key not in _SAVGOL_WEIGHTS:
+        # by the normal equations of polynomials in a variable scaled to [-1, 1] / [0, 1]
+        # (well conditioned at these degrees; an SVD per new window cost ~0.1 ms)
+        half = w // 2
+        powers = np.arange(polyorder + 1)
+        u = np.arange(-half, half + 1, dtype=float) / max(half, 1)
+        A = u[:, None] ** powers[None, :]                              # (w, polyorder + 1)
+        centre = A @ np.linalg.solve(A.T @ A, np.eye(polyorder + 1)[0])  # value at u = 0
+        k = np.arange(w, dtype=float) / (w - 1)
+        V = k[:, None] ** powers[None, :]
+        fit = np.linalg.solve(V.T @ V, V.T)                             # samples -> coefficients
+        first, last = V[:half] @ fit, V[w - half:] @ fit
+        if len(_SAVGOL_WEIGHTS) >= 64:
+            _SAVGOL_WEIGHTS.clear()
+        _SAVGOL_WEIGHTS[key] = (centre, first, last)
+    return _SAVGOL_WEIGHTS[key]
 
 
 def _nearest_windows(x, size):

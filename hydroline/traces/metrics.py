@@ -70,7 +70,7 @@ import math
 import sys
 
 import numpy as np
-from .peaks import find_peaks   # scipy.signal.find_peaks without loading scipy.signal
+from .peaks import find_peaks, local_maxima, peak_prominence   # scipy.signal's, in NumPy
 
 __all__ = ["oscillation_frequency", "oscillation_amplitude", "oscillation_baseline", "overshoot",
            "first_excursion", "peak_to_peak", "settling_time", "port_settling", "pressure_metrics",
@@ -95,6 +95,7 @@ _SUBHARMONIC_TOL = 0.08     # relative distance of that peak from f/k
 _MAX_SUBHARMONIC = 5
 _MAX_INCOHERENCE = 0.3      # weighted RMS phase wander of a coherent fundamental, [rad]
 _CROSSING_GRID = 120        # samples per period for the crossings (divisible by 2..5)
+_DIRECT_AVERAGE = 16384     # moving averages costing more taps x samples: by running sums
 
 
 # --------------------------------------------------------------------------- validation
@@ -146,9 +147,9 @@ def _post_step(t, p, t_step):
 def _window_moments(ts, ps, t_from):
     """Time-weighted mean and standard deviation of the piecewise-linear trace on
     ``[t_from, ts[-1]]``."""
-    keep = ts > t_from
-    tw = np.concatenate(([t_from], ts[keep]))
-    pw = np.concatenate(([np.interp(t_from, ts, ps)], ps[keep]))
+    i = int(np.searchsorted(ts, t_from, side="right"))     # ts > t_from from i on
+    tw = np.concatenate(([t_from], ts[i:]))
+    pw = np.concatenate(([np.interp(t_from, ts, ps)], ps[i:]))
     h = np.diff(tw)
     a, b = pw[:-1], pw[1:]
     span = tw[-1] - tw[0]
@@ -293,7 +294,12 @@ def settling_time(t, p, t_step, band=0.02):
         raise ValueError(f"band must be a number in (0, 1) [-], got {band!r}") from None
     if not 0.0 < band < 1.0:
         raise ValueError(f"band must lie in (0, 1) [-], got {band!r}")
-    ts, ps, p0, p_final, changed = _levels(t, p, t_step)
+    return _settling_time(_levels(t, p, t_step), t_step, band)
+
+
+def _settling_time(levels, t_step, band):
+    """:func:`settling_time` from a checked trace's :func:`_levels`."""
+    ts, ps, p0, p_final, changed = levels
     error = ps - p_final
     reference = abs(p_final - p0) if changed else float(np.max(np.abs(error)))
     if reference == 0.0:
@@ -319,38 +325,107 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
 
     The subharmonics of the dominant peak that pass the harmonic check (largest k first),
     then the dominant peak itself; empty when the spectrum has no genuine peak in range.
+
+    The genuine peaks are the local maxima in range with a prominence of at least
+    :data:`_PEAK_PROMINENCE` of the highest value in range (as
+    ``scipy.signal.find_peaks(spectrum, prominence=...)`` restricted to the range). A
+    prominence costs a pass over the spectrum, so it is taken only where it decides something:
+    the highest maxima in turn until one is genuine (the dominant peak), and near each
+    ``f / k`` the highest maxima down to 10 % of the dominant one.
     """
     duration = ts[-1] - ts[0]
     n = int(min(_MAX_SPECTRUM_GRID, max(_MIN_GRID, 2 * len(ts))))
-    grid = np.linspace(ts[0], ts[-1], n)
+    grid = _linspace(float(ts[0]), float(ts[-1]), n)
     dt = grid[1] - grid[0]
-    deviation = np.interp(grid, ts, ps) - p_final
+    deviation = np.interp(grid, ts, ps)
+    deviation -= p_final
     # half-cosine taper over the tail (where the response has settled), so that a trace
     # ending off its final value does not ring across the spectrum; the start is kept
     # whole, since the step is where the oscillation is largest
     m = max(2, int(TAIL_FRACTION * n))
-    deviation[n - m:] *= 0.5 * (1.0 + np.cos(np.pi * np.arange(m) / (m - 1)))
+    deviation[n - m:] *= _taper(m)
     nfft = 1 << int(math.ceil(math.log2(8 * n)))
     spectrum = np.abs(_rfft(deviation, nfft))
-    freq = np.fft.rfftfreq(nfft, dt)
-    in_range = (freq >= min_cycles / duration) & (freq <= 0.25 / dt)
-    if not np.any(in_range):
+    freq = np.arange(spectrum.size) * (1.0 / (nfft * dt))     # np.fft.rfftfreq(nfft, dt)
+    # the range is one run of bins: freq >= min_cycles / duration and freq <= 0.25 / dt
+    lo = int(np.searchsorted(freq, min_cycles / duration, side="left"))
+    hi = int(np.searchsorted(freq, 0.25 / dt, side="right")) - 1
+    if hi < lo:
         return []
-    highest = float(np.max(spectrum[in_range]))
+    highest = float(np.max(spectrum[lo:hi + 1]))
     if highest <= 0.0:
         return []
-    peaks, _ = find_peaks(spectrum, prominence=_PEAK_PROMINENCE * highest)
-    peaks = peaks[in_range[peaks]]
+    peaks = _maxima_between(spectrum, lo, hi)
     if peaks.size == 0:
         return []
-    main = int(peaks[np.argmax(spectrum[peaks])])
+    threshold = _PEAK_PROMINENCE * highest
+    floor = float(spectrum.min())     # no peak's prominence exceeds its height above this
+    order = peaks[np.argsort(-spectrum[peaks], kind="stable")]   # highest first; ties: lowest f
+    known = {}
+
+    def genuine(k):
+        if k not in known:
+            known[k] = peak_prominence(spectrum, k) >= threshold
+        return known[k]
+
+    def best(among, least):
+        """The highest genuine peak of ``among`` (highest first) at least ``least`` high."""
+        for k in among:
+            if spectrum[k] < least or spectrum[k] - floor < threshold:
+                return None
+            if genuine(int(k)):
+                return int(k)
+        return None
+
+    main = best(order, -np.inf)
+    if main is None:
+        return []
     f_main, h_main = float(freq[main]), spectrum[main]
     candidates = [f_main]
     for k in range(2, _MAX_SUBHARMONIC + 1):
-        near = peaks[np.abs(freq[peaks] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
-        if near.size and np.max(spectrum[near]) >= _SUBHARMONIC_HEIGHT * h_main:
-            candidates.insert(0, float(freq[near[np.argmax(spectrum[near])]]))
+        near = order[np.abs(freq[order] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
+        sub = best(near, _SUBHARMONIC_HEIGHT * h_main)
+        if sub is not None:
+            candidates.insert(0, float(freq[sub]))
     return candidates
+
+
+def _linspace(start, stop, n):
+    """``np.linspace(start, stop, n)`` for n >= 2 and start < stop: its operations without
+    its generality's overhead (the same numbers)."""
+    step = (stop - start) / (n - 1)
+    if step == 0:
+        return np.linspace(start, stop, n)
+    y = np.arange(0, n, dtype=float)
+    y *= step
+    y += start
+    y[-1] = stop
+    return y
+
+
+def _maxima_between(x, lo, hi):
+    """Indices of the local maxima of ``x`` (:func:`local_maxima`) within ``[lo, hi]``, found
+    on that stretch and its two neighbours (the whole of ``x`` where a flat top crosses its
+    ends)."""
+    n = x.size
+    if (lo > 0 and x[lo - 1] == x[lo]) or (hi + 1 < n and x[hi] == x[hi + 1]):
+        peaks = local_maxima(x)
+        return peaks[(peaks >= lo) & (peaks <= hi)]
+    a = max(lo - 1, 0)
+    return local_maxima(x[a:hi + 2]) + a
+
+
+_TAPERS: dict = {}
+
+
+def _taper(m):
+    """The half-cosine taper ``(1 + cos(pi k / (m - 1))) / 2``, k = 0 .. m - 1 (kept by m)."""
+    w = _TAPERS.get(m)
+    if w is None:
+        if len(_TAPERS) > 64:
+            _TAPERS.clear()
+        w = _TAPERS[m] = 0.5 * (1.0 + np.cos(np.pi * np.arange(m) / (m - 1)))
+    return w
 
 
 def _rfft(x, n):
@@ -359,6 +434,20 @@ def _rfft(x, n):
     0.3 s, which a single run does not pay: a sweep's workers load it)."""
     fft = sys.modules.get("scipy.fft")
     return fft.rfft(x, n) if fft is not None else np.fft.rfft(x, n)
+
+
+def _box_average(z, length):
+    """Moving average of ``z`` over ``length`` samples (``np.convolve(z, box, "valid")``;
+    by running sums where that convolution would cost more than :data:`_DIRECT_AVERAGE`
+    taps x samples, equal to round-off)."""
+    if length * z.size <= _DIRECT_AVERAGE:
+        return np.convolve(z, np.full(length, 1.0 / length), mode="valid")
+    c = np.empty(z.size + 1, dtype=z.dtype)
+    c[0] = 0.0
+    np.cumsum(z, out=c[1:])
+    out = c[length:] - c[:c.size - length]
+    out /= length
+    return out
 
 
 def _demodulate(ts, ps, p_final, frequency):
@@ -375,10 +464,24 @@ def _demodulate(ts, ps, p_final, frequency):
     grid = ts[0] + dt * np.arange(n)
     deviation = np.interp(grid, ts, ps) - p_final
     z = deviation * np.exp(-2j * np.pi * frequency * (grid - ts[0]))
-    box = np.full(per_period, 1.0 / per_period)
-    z = np.convolve(np.convolve(z, box, mode="valid"), box, mode="valid")
+    z = _box_average(_box_average(z, per_period), per_period)
     centres = grid[0] + dt * (np.arange(z.size) + (per_period - 1))
     return centres, z, per_period * dt
+
+
+def _unwrap(phase):
+    """``np.unwrap(phase)`` of a 1-D array of angles [rad] (the same operations, without
+    its generality's overhead)."""
+    dd = np.diff(phase)
+    if not np.any(np.abs(dd) >= np.pi):     # nothing to correct: np.unwrap adds zeros
+        return phase.copy()
+    ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
+    ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi
+    correct = ddmod - dd
+    correct[np.abs(dd) < np.pi] = 0.0
+    out = phase.copy()
+    out[1:] += np.cumsum(correct)
+    return out
 
 
 def _fit_fundamental(ts, ps, p_final, frequency):
@@ -403,14 +506,16 @@ def _fit_fundamental(ts, ps, p_final, frequency):
         tc, zc, mc = centres[span], z[span], magnitude[span]
         if tc.size < 4:
             return None
-        phase = np.unwrap(np.angle(zc))
+        phase = _unwrap(np.angle(zc))
         weights = mc / peak
-        slope, offset = _line_fit(tc - tc[0], phase, weights)
-        residual = phase - (offset + slope * (tc - tc[0]))
-        incoherence = math.sqrt(float(np.sum(weights * residual ** 2) / np.sum(weights)))
+        x = tc - tc[0]
+        slope, offset = _line_fit(x, phase, weights)
         frequency = frequency + slope / (2 * np.pi)
+    # the last pass's phase residual (the earlier passes' are not used)
+    residual = phase - (offset + slope * x)
+    incoherence = math.sqrt(float(np.sum(weights * residual ** 2) / np.sum(weights)))
     # decay rate from the log envelope, to undo the smoothing's gain on a decaying signal
-    growth = _line_fit(tc - tc[0], np.log(mc), weights)[0]
+    growth = _line_fit(x, np.log(mc), weights)[0]
     sigma = max(0.0, -growth)
     x = sigma * width / 2
     gain = (math.sinh(x) / x) ** 2 if x > 1e-8 else 1.0
@@ -420,9 +525,23 @@ def _fit_fundamental(ts, ps, p_final, frequency):
 def _centred_average(y, length):
     """Centred moving average over ``length`` samples (trapezoidal rule, ``length + 1``
     taps); returns the average and the number of samples lost at each end."""
-    kernel = np.full(length + 1, 1.0 / length)
-    kernel[0] = kernel[-1] = 0.5 / length
-    return np.convolve(y, kernel, mode="valid"), length // 2
+    if length * y.size <= _DIRECT_AVERAGE:
+        kernel = np.full(length + 1, 1.0 / length)
+        kernel[0] = kernel[-1] = 0.5 / length
+        return np.convolve(y, kernel, mode="valid"), length // 2
+    # longer: by running sums (a convolution with a period's taps cost ~0.05 ms per
+    # trace), of the deviation from the first sample so that they stay small: equal to the
+    # convolution to round-off (1e-13 of the swing on a 1000-sample trace)
+    ref = y[0]
+    d = y - ref
+    c = np.empty(d.size + 1)
+    c[0] = 0.0
+    np.cumsum(d, out=c[1:])
+    total = c[length + 1:] - c[:c.size - length - 1]
+    total -= 0.5 * (d[:d.size - length] + d[length:])
+    total /= length
+    total += ref
+    return total, length // 2
 
 
 def _crossing_lobes(y):
@@ -439,7 +558,7 @@ def _crossing_lobes(y):
     return idx, np.maximum.reduceat(np.abs(y), bounds[:-1]), largest
 
 
-def _crossing_frequency(ts, ps, p_final, frequency, filtering):
+def _crossing_frequency(ts, ps, p_final, frequency, filtering, memo=None):
     """Frequency [Hz] from the zero crossings of the (filtered) deviation, or None.
 
     ``filtering`` is one of
@@ -461,6 +580,9 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     skew that harmonics and an offset give to alternate half periods. None when fewer than
     two crossings in one direction exist, or when any same-direction interval differs from
     ``1/frequency`` by more than 15 % (extra crossings from a strong harmonic).
+
+    ``memo`` (a dict, or None) keeps the resampled and high-passed deviation between calls
+    at the same ``frequency``.
     """
     period = 1.0 / frequency
     duration = ts[-1] - ts[0]
@@ -469,12 +591,16 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
     n = int(duration / dt) + 1
     if n > _MAX_GRID or n < 2 * per_period:
         return None
-    grid = ts[0] + dt * np.arange(n)
-    y = np.interp(grid, ts, ps) - p_final
-    ty = grid
+    memo = {} if memo is None else memo
+    if "raw" not in memo:
+        grid = ts[0] + dt * np.arange(n)
+        memo["raw"] = (np.interp(grid, ts, ps) - p_final, grid)
+    y, ty = memo["raw"]
     if filtering in ("highpass", "harmonics"):
-        trend, lost = _centred_average(y, per_period)
-        y, ty = y[lost:n - lost] - trend, ty[lost:n - lost]
+        if "highpass" not in memo:
+            trend, lost = _centred_average(y, per_period)
+            memo["highpass"] = (y[lost:n - lost] - trend, ty[lost:n - lost])
+        y, ty = memo["highpass"]
     if filtering == "harmonics":
         for k in (2, 3, 4, 5):
             y, lost = _centred_average(y, per_period // k)
@@ -505,7 +631,8 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering):
         weights.append(times.size - 1)
     if not estimates:
         return None
-    return float(np.average(estimates, weights=weights))
+    # np.average(estimates, weights=weights), without its overhead (the same operations)
+    return float(sum(e * w for e, w in zip(estimates, weights)) / sum(weights))
 
 
 def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles):
@@ -574,7 +701,12 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
             from None
     if not (math.isfinite(min_cycles) and min_cycles > 0):
         raise ValueError(f"min_cycles must be a positive number [-], got {min_cycles!r}")
-    ts, ps, _, p_final, _ = _levels(t, p, t_step)
+    return _frequency(_levels(t, p, t_step), t_step, min_cycles)
+
+
+def _frequency(levels, t_step, min_cycles):
+    """:func:`oscillation_frequency` from a checked trace's :func:`_levels`."""
+    ts, ps, _, p_final, _ = levels
     largest = float(np.max(np.abs(ps - p_final)))
     if largest == 0.0 or largest <= 1e-12 * float(np.max(np.abs(ps))):
         return None
@@ -583,8 +715,9 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
                                              min_cycles)
         if frequency is None:
             continue
+        memo = {}
         for filtering in ("harmonics", "highpass", "raw"):
-            crossing = _crossing_frequency(ts, ps, p_final, frequency, filtering)
+            crossing = _crossing_frequency(ts, ps, p_final, frequency, filtering, memo)
             if crossing is not None and abs(crossing / frequency - 1.0) < 0.05:
                 return crossing
         return frequency
@@ -667,6 +800,11 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
     frequency = float(frequency)
     if not (math.isfinite(frequency) and frequency > 0):
         raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
+    return _baseline(t, p, t_start, frequency, t_end)
+
+
+def _baseline(t, p, t_start, frequency, t_end):
+    """:func:`oscillation_baseline` of a trace checked and cut by :func:`_window`."""
     period = 1.0 / frequency
     duration = t_end - t_start
     # at least 64 samples per period, more where the trace has them (up to 1024), so that a
@@ -689,6 +827,14 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
         # centred means (a decaying oscillation leaks into the mean as a sinusoid of its own
         # period, which a line alone would mistake for a slope) and continue the line only
         h = max(2, min(centred.size, per_period + 1))
+        if h == per_period + 1:     # a full period (the usual case): the fit as two matrices
+            fit = _edge_fit(per_period)
+            offset, slope = fit @ centred[:h]       # the line from the first period's means
+            baseline[:lost] = offset + slope * ((np.arange(lost) - lost) / per_period)
+            offset, slope = fit @ centred[-h:]      # and from the last period's
+            baseline[n - lost:] = offset + slope * ((np.arange(1, lost + 1) + per_period)
+                                                    / per_period)
+            return grid, values, baseline
         w = 2 * np.pi * frequency
 
         def line(tt, yy, at):
@@ -699,6 +845,32 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
         baseline[:lost] = line(grid[lost:lost + h], centred[:h], grid[:lost])
         baseline[n - lost:] = line(grid[n - lost - h:n - lost], centred[-h:], grid[n - lost:])
     return grid, values, baseline
+
+
+_EDGE_FITS: dict = {}
+
+
+def _edge_fit(per_period: int) -> np.ndarray:
+    """The least-squares fit of a line plus a sinusoid of one period (``per_period``
+    samples) to ``per_period + 1`` uniform samples, as the matrix (2, per_period + 1) that
+    gives the line's offset at the first sample and its slope per period (see
+    :func:`oscillation_baseline`). A sinusoid of the grid's period spans the same functions
+    whatever its phase, so the matrix depends on the sample count alone (kept by it); equal
+    to the per-trace least-squares fit to round-off."""
+    fit = _EDGE_FITS.get(per_period)
+    if fit is None:
+        h = per_period + 1
+        k = np.arange(h, dtype=float)
+        phase = 2 * np.pi * k / per_period
+        basis = np.column_stack([np.ones(h), k / per_period, np.cos(phase), np.sin(phase)])
+        # by the normal equations: the columns are near orthogonal (condition ~7), and most
+        # runs of a sweep sample their oscillation with a new per_period, for which an SVD
+        # cost ~0.3 ms
+        fit = np.linalg.solve(basis.T @ basis, basis.T)[:2]
+        if len(_EDGE_FITS) >= 256:
+            _EDGE_FITS.clear()
+        _EDGE_FITS[per_period] = fit
+    return fit
 
 
 def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
@@ -739,9 +911,18 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
         frequency = oscillation_frequency(t, p, t_step)
         if frequency is None:
             return 0.0
+    return _amplitude(t, p, t_step, frequency, t_end)
+
+
+def _amplitude(t, p, t_step, frequency, t_end):
+    """:func:`oscillation_amplitude` of a trace checked and cut by :func:`_window`, at a
+    given frequency [Hz]."""
     if (t_end - t_step) * frequency < AMPLITUDE_MIN_PERIODS:
         return None
-    grid, values, baseline = oscillation_baseline(t, p, t_step, frequency, t_end)
+    frequency = float(frequency)
+    if not (math.isfinite(frequency) and frequency > 0):
+        raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
+    grid, values, baseline = _baseline(t, p, t_step, frequency, t_end)
     swing = values - baseline
     per_period = int(round(1.0 / (frequency * (grid[1] - grid[0]))))
     from .filters import maximum_filter1d, minimum_filter1d, savgol_filter   # SciPy's, in NumPy
@@ -853,12 +1034,18 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
           ("measured", "estimated" or None) and ``settling_note`` (how it was estimated, or
           why there is none; "" when measured)
     """
-    from .filters import uniform_filter1d   # scipy.ndimage's, in NumPy
-
     t = np.asarray(t, dtype=float)
     p = np.asarray(p, dtype=float)
     inside = t <= t_stop
     measured = settling_time(t[inside], p[inside], t_step, band)
+    return _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside)
+
+
+def _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside=None):
+    """:func:`port_settling` given its measured settling time ``measured`` [s] (None: not
+    settled within the window); ``inside``: where ``t <= t_stop`` (None: everywhere)."""
+    from .filters import uniform_filter1d   # scipy.ndimage's, in NumPy
+
     if measured is not None:
         return {"settling_time_s": float(measured), "settling_method": "measured",
                 "settling_note": ""}
@@ -872,26 +1059,37 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
         return f"{v / 1e6:.3g} MPa"
 
     if frequency is None or not frequency > 0:
-        last = inside & (t >= t_stop - 0.1 * window)
+        last = t >= t_stop - 0.1 * window
+        if inside is not None:
+            last &= inside
         slope = _line_fit(t[last] - t_stop, p[last])[0] if last.sum() >= 2 else 0.0
         return none(f"no oscillation; the pressure still moves {slope / 1e6:+.2g} MPa/s at the "
                     f"window's end")
     period = 1.0 / frequency
     periods = window / period
-    n = _BASELINE_SAMPLES
-    g = t_step + np.arange(int(math.floor(window / period * n)) + 1) * (period / n)
-    y = np.interp(g, t, p)
-    level = uniform_filter1d(uniform_filter1d(y, n, mode="nearest"), n, mode="nearest")
-    clear = (g >= t_step + period) & (g <= t_stop - period)
-    if periods < MIN_PERIODS or not clear.any():
+
+    def too_few():
         return none(f"{periods:.1f} periods of the {frequency:.3g} Hz oscillation, too few "
                     f"(< {MIN_PERIODS}) to extrapolate its decay")
+
+    if periods < MIN_PERIODS:
+        return too_few()
+    n = _BASELINE_SAMPLES
+    g = t_step + np.arange(int(math.floor(window / period * n)) + 1) * (period / n)
+    clear = (g >= t_step + period) & (g <= t_stop - period)
+    if not clear.any():
+        return too_few()
+    y = np.interp(g, t, p)
+    level = uniform_filter1d(uniform_filter1d(y, n, mode="nearest"), n, mode="nearest")
     k_end = int(np.flatnonzero(clear)[-1])
     p0, p_final = float(y[0]), float(level[k_end])
     deviation = float(np.max(np.abs(y - p_final)))
     change = abs(p_final - p0)
     tolerance = band * (change if change > 0.05 * deviation else deviation)
-    last = clear & (g >= g[k_end] - period)
+    # the last period: samples k_end - n .. k_end (by index: g[k_end - n] equals
+    # g[k_end] - period but for round-off, which made the comparison flip)
+    last = clear.copy()
+    last[:max(k_end - n, 0)] = False
     drift = float(np.max(np.abs(level[last] - p_final)))
     if drift > tolerance / 2:
         return none(f"the mean pressure still moves {mpa(drift)} in its last period, more than "
@@ -952,9 +1150,12 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
         ``amplitude_note``       "" when frequency and amplitude were measured, else why not
                                  (no oscillation; the window holds too few periods)
     """
+    # the trace is checked once, and its post-step samples and levels (_levels) are shared
+    # by every metric below (each public function would check and compute them again)
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     duration = t_end - t_step
-    frequency = oscillation_frequency(t, p, t_step)
+    levels = _levels(t, p, t_step)
+    frequency = _frequency(levels, t_step, 1.5)
     note = ""
     amplitude = 0.0
     if frequency is None:
@@ -972,8 +1173,8 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
         note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * frequency:.1f} periods of "
                 f"the {frequency:.3g} Hz oscillation; an amplitude needs {AMPLITUDE_MIN_PERIODS:g}")
     else:
-        amplitude = oscillation_amplitude(t, p, t_step, frequency, t_end)
-    ts, ps = _post_step(t, p, t_step)
+        amplitude = _amplitude(t, p, t_step, frequency, t_end)
+    ts, ps = levels[0], levels[1]       # _post_step(t, p, t_step)
     p0 = float(ps[0])
     if frequency is not None and duration * frequency >= 1.0:
         level, _ = _window_moments(ts, ps, t_end - 1.0 / frequency)
@@ -984,11 +1185,13 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
                     "settling_note": f"not settled within the window: {note}"}
         change = None
     else:
-        settling = port_settling(t, p, t_step, t_end, frequency)
+        # port_settling: the window is the whole of t here
+        measured = _settling_time(levels, t_step, SETTLING_BAND)
+        settling = _port_settling(t, p, t_step, t_end, frequency, SETTLING_BAND, measured)
         change = (level - p0) / 1e6
     return {"frequency_hz": None if frequency is None else float(frequency),
             "amplitude_mpa": None if amplitude is None else float(amplitude) / 1e6,
-            "first_excursion_mpa": first_excursion(t, p, t_step) / 1e6,
+            "first_excursion_mpa": max(0.0, _refined_max(ts, np.abs(ps - p0))) / 1e6,
             "steady_change_mpa": change,
-            "peak_to_peak_mpa": peak_to_peak(t, p, t_step) / 1e6,
+            "peak_to_peak_mpa": max(0.0, _refined_max(ts, ps) + _refined_max(ts, -ps)) / 1e6,
             **settling, "amplitude_note": note}

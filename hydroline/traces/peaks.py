@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-__all__ = ["find_peaks", "local_maxima"]
+__all__ = ["find_peaks", "local_maxima", "peak_prominence"]
 
 
 def local_maxima(x) -> np.ndarray:
@@ -33,6 +33,8 @@ def local_maxima(x) -> np.ndarray:
     if n < 3:
         return np.zeros(0, dtype=np.intp)
     d = np.diff(x)
+    if d.all():     # no flat stretch (the usual case): a top is one sample, up then down
+        return np.flatnonzero((d[:-1] > 0) & (d[1:] < 0)) + 1
     rising = np.flatnonzero(d > 0)        # x[i] < x[i + 1]: a top may start at i + 1
     nonflat = np.flatnonzero(d != 0)      # next change after each position
     if nonflat.size == 0:
@@ -48,17 +50,33 @@ def local_maxima(x) -> np.ndarray:
     return ((left + right) // 2).astype(np.intp)
 
 
+def peak_prominence(x, peak: int) -> float:
+    """Topographic prominence of one peak of ``x`` (no window; as
+    :func:`scipy.signal.peak_prominences`): its height above the higher of the lowest points
+    on either side before the signal rises above the peak again.
+
+    Parameters
+    ----------
+    x : ndarray    The signal, float, [any unit]
+    peak : int     Index of a local maximum of ``x``, [samples]
+
+    Returns
+    -------
+    float  Prominence, >= 0, [unit of x]
+    """
+    h = x[peak]
+    higher_left = np.flatnonzero(x[:peak] > h)
+    i0 = higher_left[-1] + 1 if higher_left.size else 0
+    higher_right = np.flatnonzero(x[peak + 1:] > h)
+    i1 = peak + 1 + higher_right[0] if higher_right.size else len(x)
+    return float(h - max(x[i0:peak + 1].min(), x[peak:i1].min()))
+
+
 def _prominences(x, peaks):
-    """Topographic prominence of each peak (no window): its height above the higher of the
-    lowest points on either side before the signal rises above the peak again."""
+    """Topographic prominence of each peak (:func:`peak_prominence`)."""
     out = np.empty(len(peaks))
     for m, p in enumerate(peaks):
-        h = x[p]
-        higher_left = np.flatnonzero(x[:p] > h)
-        i0 = higher_left[-1] + 1 if higher_left.size else 0
-        higher_right = np.flatnonzero(x[p + 1:] > h)
-        i1 = p + 1 + higher_right[0] if higher_right.size else len(x)
-        out[m] = h - max(x[i0:p + 1].min(), x[p:i1].min())
+        out[m] = peak_prominence(x, p)
     return out
 
 
