@@ -442,12 +442,18 @@ def _box_average(z, length):
     taps x samples, equal to round-off)."""
     if length * z.size <= _DIRECT_AVERAGE:
         return np.convolve(z, np.full(length, 1.0 / length), mode="valid")
+    out = _window_sums(z, length)
+    out /= length
+    return out
+
+
+def _window_sums(z, length):
+    """Sums of ``z`` over every run of ``length`` consecutive samples (``z.size - length + 1``
+    of them), by differences of one cumulative sum."""
     c = np.empty(z.size + 1, dtype=z.dtype)
     c[0] = 0.0
     np.cumsum(z, out=c[1:])
-    out = c[length:] - c[:c.size - length]
-    out /= length
-    return out
+    return c[length:] - c[:c.size - length]
 
 
 def _demodulate(ts, ps, p_final, frequency):
@@ -534,10 +540,7 @@ def _centred_average(y, length):
     # convolution to round-off (1e-13 of the swing on a 1000-sample trace)
     ref = y[0]
     d = y - ref
-    c = np.empty(d.size + 1)
-    c[0] = 0.0
-    np.cumsum(d, out=c[1:])
-    total = c[length + 1:] - c[:c.size - length - 1]
+    total = _window_sums(d, length + 1)
     total -= 0.5 * (d[:d.size - length] + d[length:])
     total /= length
     total += ref
