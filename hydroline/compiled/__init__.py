@@ -539,12 +539,17 @@ def model_fingerprint(model) -> str:
     ----------
     model : CompiledModel   The network's CasADi functions (:class:`hydroline.engine.CompiledModel`)
     """
+    scales = np.asarray(model.network.state_scales, dtype=float).tobytes()
+    return _hash_parts(model.f.serialize(), model.signals.serialize(), _CODE_TAG,
+                       _build_settings(), scales)
+
+
+def _hash_parts(*parts) -> str:
+    """SHA-256 (hex) of text and byte parts, each closed by a zero byte (a record's key)."""
     h = hashlib.sha256()
-    for part in (model.f.serialize(), model.signals.serialize(), _CODE_TAG,
-                 " ".join(CFLAGS + NATIVE_FLAGS), sys.platform, _cpu_id()):
-        h.update(part.encode())
+    for part in parts:
+        h.update(part.encode() if isinstance(part, str) else part)
         h.update(b"\0")
-    h.update(np.asarray(model.network.state_scales, dtype=float).tobytes())
     return h.hexdigest()
 
 
@@ -566,11 +571,7 @@ def definition_key(network) -> str | None:
     digest = describe() if describe is not None else None
     if digest is None:
         return None
-    h = hashlib.sha256()
-    for part in ("definition", digest, _CODE_TAG, _build_settings()):
-        h.update(part.encode())
-        h.update(b"\0")
-    return "definition:" + h.hexdigest()
+    return "definition:" + _hash_parts("definition", digest, _CODE_TAG, _build_settings())
 
 
 def _known_model(fingerprint: str | None, network):
