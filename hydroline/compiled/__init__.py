@@ -373,7 +373,7 @@ class NativeSolver:
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
 
     def _checked_parameters(self, p) -> np.ndarray:
-        p = np.ascontiguousarray(np.atleast_1d(np.asarray(p, dtype=float)))
+        p = np.atleast_1d(np.array(p, dtype=float))   # a copy: the caller may change its own
         n_p = len(self.model.network.parameter_values)
         if p.shape != (n_p,):
             raise ValueError(f"parameter vector p must have {n_p} entries, got {p.size}")
@@ -385,13 +385,17 @@ class NativeSolver:
             self._lib.hl_free(h)
 
     def set_parameters(self, p):
-        """Use other runtime parameters from the next step on (a sampled controller's hold).
+        """Use other runtime parameters from the next step on (a sampled controller's hold);
+        the same numbers as now change nothing (callers may pass p at every segment).
 
         Parameters
         ----------
         p : ndarray   Runtime parameters, [SI]
         """
-        self.p = self._checked_parameters(p)
+        p = self._checked_parameters(p)
+        if p.tobytes() == self.p.tobytes():
+            return
+        self.p = p
         self._lib.hl_set_parameters(self._h, _ptr(self.p))
 
     def start(self, t0: float, x0, t_bound: float):

@@ -51,7 +51,6 @@ class CompiledBackend:
     def __init__(self, network: Network, native, p, rtol: float, atol_scale: float):
         self.n_signals = len(network.signal_names)
         self.solver = native.solver(p, rtol=rtol, atol=atol_scale)
-        self.p_bytes = np.asarray(p, dtype=float).tobytes()
 
     def start(self, a: float, x, b: float, p) -> None:
         """Begin a segment.
@@ -63,10 +62,7 @@ class CompiledBackend:
         b : float     Segment end (a breakpoint or sampling instant), [s]
         p : ndarray   Runtime parameters over the segment, [SI]
         """
-        b_p = np.asarray(p, dtype=float).tobytes()
-        if b_p != self.p_bytes:   # a sampled component changed a parameter
-            self.solver.set_parameters(p)
-            self.p_bytes = b_p
+        self.solver.set_parameters(p)   # (a sampled component may have changed one)
         self.solver.start(a, x, b)
 
     def signals_at(self, t: float, x, p):
@@ -79,9 +75,7 @@ class CompiledBackend:
         x : ndarray   States, [SI]
         p : ndarray   Runtime parameters, [SI]
         """
-        if np.asarray(p, dtype=float).tobytes() != self.p_bytes:
-            self.solver.set_parameters(p)
-            self.p_bytes = np.asarray(p, dtype=float).tobytes()
+        self.solver.set_parameters(p)
         y = self.solver.signals(t, x)
         self.solver.reset_stats()   # (the evaluations of f made for it are no step's)
         return y

@@ -69,26 +69,19 @@ class _CompiledRest:
 
     def __init__(self, network, native):
         self.solver = native.solver(network.parameter_values)
-        self.p_bytes = np.asarray(network.parameter_values, dtype=float).tobytes()
         self.scales = np.asarray(network.state_scales, dtype=float)
         g = native.generated
         self.rows = np.asarray(g.jac_row, dtype=np.intp)
         self.cols = np.repeat(np.arange(g.n_states), np.diff(g.jac_colind))
         self.jnz = np.empty(max(g.jac_nnz, 1))
 
-    def _use(self, p):
-        b = np.asarray(p, dtype=float).tobytes()
-        if b != self.p_bytes:   # the components' settling changed a parameter
-            self.solver.set_parameters(p)
-            self.p_bytes = b
-
     def rhs(self, t, x, p):
-        self._use(p)
+        self.solver.set_parameters(p)   # (the components' settling may change one)
         return self.solver.rhs(t, x)
 
     def scaled_jacobian(self, t, x, p):
         """d(dz/dt)/dz, dense, in the scaled states z = x/scale."""
-        self._use(p)
+        self.solver.set_parameters(p)   # (the components' settling may change one)
         J = np.zeros((len(self.scales), len(self.scales)))
         self.solver.scaled_jacobian_nonzeros(t, x, self.jnz)
         J[self.rows, self.cols] = self.jnz[:len(self.rows)]
@@ -99,7 +92,7 @@ class _CompiledRest:
 
     def signals(self, t, x, p):
         """Every signal at (t, x, p), [SI], in the network's signal order."""
-        self._use(p)
+        self.solver.set_parameters(p)   # (the components' settling may change one)
         return self.solver.signals(t, x)
 
 
