@@ -185,3 +185,41 @@ def test_engine_page_example_runs():
     blocks = re.findall(r"```python\n(.*?)```", text, re.S)
     assert len(blocks) == 1
     exec(compile(blocks[0], "docs/engine.md", "exec"), {"__name__": "engine_page"})
+
+
+@pytest.mark.parametrize("chunk_rows", [20000, 7])
+def test_rows_written_in_place_follow_the_exact_charge_across_an_off_grid_step(chunk_rows):
+    """The compiled core writes its rows straight into the run's table (no copy, no stacking
+    of parts): a pump step at t_s = 12.34 ms, between two 1 ms output times, ends a segment
+    off the grid (its extra row is overwritten by the next segment's first). Exact by hand:
+    p_v = 5.5 MPa until t_s, then 7.5 + (5.5 - 7.5) exp(-(t - t_s) / tau) MPa."""
+    from hydroline import compiled
+
+    if not compiled.available():
+        pytest.skip("no C compiler")
+    parts = _vessel(outlet_read=True)
+    parts[0] = comp.PressureSource(name="pump", pressure=10e6, step_time=12.34e-3, step_to=14e6,
+                                   connections={"pressure": "p_pump"})
+    net = Network(parts)
+    res = integrate(net, np.array([5.5e6]), 0.05, dt_out=1e-3, solver="compiled", rtol=1e-9,
+                    atol_scale=1e-10, chunk_rows=chunk_rows)
+    assert res.t.shape == (51,) and np.array_equal(res.t, np.arange(51) * 1e-3)
+    tau = 1e10 * (1e-4 / 1.5e9) / 2
+    ts = 12.34e-3
+    exact = np.where(res.t < ts, 5.5e6, 7.5e6 - 2e6 * np.exp(-np.clip(res.t - ts, 0, None) / tau))
+    assert np.max(np.abs(res["p_v"] - exact)) < 1e-6 * 2e6
+
+
+def test_compiled_advance_refuses_an_output_array_of_another_shape():
+    from hydroline import compiled
+
+    if not compiled.available():
+        pytest.skip("no C compiler")
+    net = Network(_vessel(outlet_read=True))
+    solver = compiled.native_model(net).solver()
+    solver.start(0.0, np.array([1e6]), 0.01)
+    with pytest.raises(ValueError, match="out must be"):
+        solver.advance(np.array([0.005, 0.01]), table=True, out=np.empty((3, 2)))
+    rows = np.full((2, len(net.signal_names) + 1), np.nan)
+    table = solver.advance(np.array([0.005, 0.01]), table=True, out=rows)
+    assert table is rows and np.all(np.isfinite(rows))

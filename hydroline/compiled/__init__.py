@@ -415,7 +415,7 @@ class NativeSolver:
         self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
         self._t_bound = float(t_bound)
 
-    def advance(self, t_out, signals: bool = True, table: bool = False):
+    def advance(self, t_out, signals: bool = True, table: bool = False, out=None):
         """Integrate through the output times (ascending, within the segment).
 
         Parameters
@@ -423,6 +423,9 @@ class NativeSolver:
         t_out : ndarray   Output times, [s]
         signals : bool    Also return every signal at those times
         table : bool      One array, signals then states, instead of a pair
+        out : ndarray     Where to write the rows: C-contiguous float64, one row per output
+                          time of (signals then) states, e.g. a slice of a run's whole table
+                          (no array made, nothing copied afterwards); None: a new array
 
         Returns
         -------
@@ -438,7 +441,15 @@ class NativeSolver:
                              f"(t_bound = {self._t_bound:g} s)")
         n, ny = self.model.n, self.model.n_signals
         ld = (ny if signals else 0) + n
-        block = np.empty((len(t_out), ld))
+        if out is None:
+            block = np.empty((len(t_out), ld))
+        else:
+            block = out
+            if not (isinstance(out, np.ndarray) and out.dtype == np.float64
+                    and out.shape == (len(t_out), ld) and out.flags.c_contiguous
+                    and out.flags.writeable):
+                raise ValueError(f"out must be a writeable C-contiguous float64 array of shape "
+                                 f"{(len(t_out), ld)}")
         X = block[:, ld - n:]
         Y = block[:, :ny] if signals else None
         done = ctypes.c_int(0)

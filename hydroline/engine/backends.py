@@ -5,10 +5,12 @@ Every backend has the same small interface, which :func:`hydroline.engine.integr
 
 * ``start(a, x, b, p)``: begin a segment at time ``a`` [s] from states ``x`` [SI], to end at
   ``b`` [s] (a breakpoint or a sampling instant), with runtime parameters ``p`` [SI];
-* ``advance(grid)``: the states at the output times ``grid`` [s] (increasing, within the
-  segment), as ``(X, table)``: ``X`` the states, one row per time; ``table`` the signals and
-  states side by side when the backend computes them (else None: the sink evaluates the
-  signals from the states);
+* ``advance(grid, out=None)``: the states at the output times ``grid`` [s] (increasing,
+  within the segment), as ``(X, table)``: ``X`` the states, one row per time; ``table`` the
+  signals and states side by side when the backend computes them (else None: the sink
+  evaluates the signals from the states). ``out`` is where the rows may be written (the
+  run's own table, so that they are not copied there afterwards): the compiled core writes
+  its table into it; the other backends ignore it;
 * ``stats()``: solver statistics (function and Jacobian evaluations, steps);
 * ``signals_at(t, x, p)``: every signal at one (t, x) where the backend computes them
   (the compiled core), else None (they are then evaluated on the CasADi graph);
@@ -80,18 +82,21 @@ class CompiledBackend:
         self.solver.reset_stats()   # (the evaluations of f made for it are no step's)
         return y
 
-    def advance(self, grid):
+    def advance(self, grid, out=None):
         """States (and, the compiled core computing them, the signals) at the output times.
 
         Parameters
         ----------
         grid : ndarray   Output times within the segment, increasing, [s]
+        out : ndarray    Where to write the table (C-contiguous rows of signals then states,
+                         one per time), or None (a new array)
 
         Returns
         -------
         (X, table) : states, one row per time [SI]; signals and states side by side [SI]
+                     (``table`` is ``out`` where given)
         """
-        table = self.solver.advance(grid, table=True)   # signals and states in one table
+        table = self.solver.advance(grid, table=True, out=out)   # signals and states
         return table[:, self.n_signals:], table
 
     def stats(self) -> dict:
@@ -136,12 +141,13 @@ class CvodesBackend:
         """
         self.t, self.x, self.p = a, np.asarray(x, dtype=float), np.asarray(p, dtype=float)
 
-    def advance(self, grid):
+    def advance(self, grid, out=None):
         """States (and, CVODES restarting at the segment's last time) at the output times.
 
         Parameters
         ----------
         grid : ndarray   Output times within the segment, increasing, [s]
+        out : ndarray    Ignored (the sink evaluates the signals and copies the rows)
 
         Returns
         -------
@@ -200,12 +206,13 @@ class ScipyBackend(CvodesBackend):
         self.rtol, self.atol = rtol, atol_scale * network.state_scales
         self.counts = {"nfevals": 0, "njevals": 0, "nsteps": 0}
 
-    def advance(self, grid):
+    def advance(self, grid, out=None):
         """States (and, SciPy's BDF restarting at the segment's last time) at the output times.
 
         Parameters
         ----------
         grid : ndarray   Output times within the segment, increasing, [s]
+        out : ndarray    Ignored (the sink evaluates the signals and copies the rows)
 
         Returns
         -------

@@ -261,6 +261,7 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
     """The segment loop of :func:`integrate`: each segment between breakpoints and sampling
     instants started on the backend, its output rows handed to ``rows_in`` chunk by chunk."""
     n_signals = len(network.signal_names)
+    target = getattr(rows_in, "target", None)
     at_edge = None   # the signals at the segment's start, where the backend gave them
     for a, b in zip(edges[:-1], edges[1:]):
         if sampled:
@@ -277,7 +278,9 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
             g = t_out(i0 + k, i0 + min(k + step, n_in))
             if k + step >= n_grid and not ends_on_grid:
                 g = np.append(g, b)
-            X, table = backend.advance(g)
+            # rows written straight into the run's table where the sink keeps one (the extra
+            # row at a segment end off the grid is overwritten by the next segment's first)
+            X, table = backend.advance(g, out=target(len(g)) if target else None)
             m = min(n_in - k, len(g))
             if m > 0:
                 if table is not None:

@@ -247,11 +247,29 @@ class OutputSink:
             if n_total is not None:   # preallocated: no copy at the end
                 self.kept_t = np.empty(n_total)
                 self.kept = np.empty((n_total, len(self.keep)))
+        # every row of every column kept, the count known: one table, written in place by a
+        # backend that can (:meth:`target`), else copied into it; nothing stacked at the end
+        self.whole = self.whole_t = None
+        if path is None and keep is None and n_total is not None:
+            self.whole_t = np.empty(n_total)
+            self.whole = np.empty((n_total, len(columns)))
         self.preview = None
         if preview is not None:
             self.preview, self.preview_index = column_indices("preview_columns", preview, columns)
             self.preview_every = max(1, -(-int(n_total or 1) // max(int(preview_rows), 1)))
             self.preview_parts = []
+
+    def target(self, n: int):
+        """Where the next ``n`` rows (signals then states) may be written in place: a slice of
+        the run's table, or None (the rows are then passed to :meth:`write` and copied).
+
+        Parameters
+        ----------
+        n : int   Rows, [-]
+        """
+        if self.whole is None or self.rows + n > len(self.whole):
+            return None
+        return self.whole[self.rows:self.rows + n]
 
     def write(self, t, X, Y, model, p):
         """Rows at times t: states X and signals Y (None: computed here), or with X None the
@@ -295,7 +313,16 @@ class OutputSink:
                     self.parts.append((self.kept_t[:i0], self.kept[:i0]))
                     self.kept = None
                 self.parts.append((t.copy(), block[:, self.keep_index]))
+        elif self.whole is not None and self.rows <= len(self.whole):
+            self.whole_t[i0:self.rows] = t
+            place = self.whole[i0:self.rows]
+            if not (block.__array_interface__["data"][0] == place.__array_interface__["data"][0]
+                    and block.strides == place.strides):
+                place[...] = block           # (rows written in place by the backend: as they are)
         elif self.path is None:
+            if self.whole is not None:       # more rows than foreseen: go on in parts
+                self.parts.append((self.whole_t[:i0], self.whole[:i0]))
+                self.whole = None
             self.parts.append((t, block))
         if self.path is not None:
             rows = np.arange(i0, self.rows)
@@ -323,6 +350,8 @@ class OutputSink:
             return t, np.vstack([q[1] for q in self.parts]), self.keep
         if self.path is not None:
             return self.last[0], self.last[1], self.columns
+        if self.whole is not None:
+            return self.whole_t[:self.rows], self.whole[:self.rows], self.columns
         if len(self.parts) == 1:
             return self.parts[0][0], self.parts[0][1], self.columns
         return (np.concatenate([q[0] for q in self.parts]),
