@@ -32,6 +32,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +41,8 @@ from ..cache import cache_dir, load_table, source_tag, store_table  # cache_dir 
 from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
-           "available", "CFLAGS", "model_fingerprint", "definition_key"]
+           "available", "CFLAGS", "model_fingerprint", "definition_key", "prune_libraries",
+           "MAX_LIBRARIES"]
 
 #: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
 #: model whose record is known is loaded without them.
@@ -65,6 +67,13 @@ CFLAGS = ["-O3", "-fno-math-errno", "-ffp-contract=fast", "-shared", "-fPIC", "-
 NATIVE_FLAGS = ["-march=native"]
 _BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
+#: Most compiled libraries kept in the cache directory (one per network structure and
+#: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
+#: (a removed one is compiled again when its structure comes back), [-]
+MAX_LIBRARIES = 200
+#: A library loaded from the cache gets a fresh modification time (its use, for the pruning)
+#: when its time is older than this, [s]
+_TOUCH_AFTER = 3600.0
 
 
 class CompilerUnavailable(RuntimeError):
@@ -189,6 +198,61 @@ def _compile(cc: str, full: str, path: Path) -> None:
         lock.close()
 
 
+def prune_libraries(max_libraries: int | None = None) -> int:
+    """Remove the least recently used compiled libraries (``hl_*.so`` with their build record
+    and lock file) beyond ``max_libraries``, down to 90 % of it (the newest always stays).
+    Errors are ignored (another
+    process may prune at the same time; a library still loaded elsewhere stays usable there,
+    and is compiled again when next needed).
+
+    Parameters
+    ----------
+    max_libraries : int   Libraries kept at most, [-] (:data:`MAX_LIBRARIES` when None)
+
+    Returns
+    -------
+    int  Libraries removed, [-]
+    """
+    keep = MAX_LIBRARIES if max_libraries is None else max(int(max_libraries), 0)
+    libs = []
+    try:
+        with os.scandir(cache_dir()) as it:
+            for e in it:
+                if e.name.startswith("hl_") and e.name.endswith(".so"):
+                    try:
+                        libs.append((e.stat().st_mtime, Path(e.path)))
+                    except OSError:
+                        continue
+    except OSError:
+        return 0
+    if len(libs) <= keep:
+        return 0
+    libs.sort()
+    removed = 0
+    for _, path in libs[:len(libs) - max(int(0.9 * keep), 1)]:   # (the newest stays)
+        try:
+            path.unlink()
+        except OSError:
+            continue
+        removed += 1
+        _LIBS.pop(str(path), None)
+        for other in (_record_path(path), path.with_suffix(".lock")):
+            try:
+                other.unlink()
+            except OSError:
+                pass
+    return removed
+
+
+def _touch(path: Path) -> None:
+    """Mark a cached library as used (for :func:`prune_libraries`), at most once an hour."""
+    try:
+        if time.time() - path.stat().st_mtime > _TOUCH_AFTER:
+            os.utime(path)
+    except OSError:
+        pass
+
+
 def _build(path: Path, full) -> ctypes.CDLL:
     """Load the model's library from the cache, compiling it on a miss.
 
@@ -207,6 +271,9 @@ def _build(path: Path, full) -> ctypes.CDLL:
                 if cc is None:
                     raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
                 _compile(cc, full() if callable(full) else full, path)
+                prune_libraries()               # a library more: the oldest beyond the bound go
+            else:
+                _touch(path)
             lib = ctypes.CDLL(str(path))
             _declare(lib)
             break
@@ -263,8 +330,6 @@ class NativeModel:
     """
 
     def __init__(self, network):
-        import time
-
         tic = time.perf_counter()
         self.network = network
         # the model's record: under its definition (known before any graph is built) where
