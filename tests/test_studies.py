@@ -736,6 +736,10 @@ def test_graph_signature_tells_structures_apart():
     circuit = build_circuit(load_rig())                                  # outside: constants
     assert not any(".A" in k for k in circuit.network(
         build_scenario(load_rig(), axes=circuit.axes).commands).parameter_names)
+    other = signature()[1]
+    assert graph_signature(other) == base
+    other.components[0].note = lambda: None       # not describable by value: its own
+    assert graph_signature(other) != base and graph_signature(other) != graph_signature(net)
 
 
 def test_hose_variant_parameters_equal_a_full_build():

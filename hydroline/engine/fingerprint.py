@@ -35,8 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["definition_fingerprint", "module_source_tag", "module_bindings", "used_modules",
-           "GRAPH_MODULES"]
+__all__ = ["definition_fingerprint", "components_signature", "module_source_tag",
+           "module_bindings", "used_modules", "GRAPH_MODULES"]
 
 #: The modules that turn components into the graph (their code is in every fingerprint).
 GRAPH_MODULES = ("hydroline.engine.component", "hydroline.engine.network",
@@ -276,15 +276,51 @@ class _Describer:
         if isinstance(v, type):
             return self.register(v)[0]
         if _in_package(t.__module__):   # an object of hydroline: its class and attributes
-            mark, skip, slots = self.register(t)
-            state = dict(getattr(v, "__dict__", ()))
-            for name in slots:
-                if name not in state and hasattr(v, name):
-                    state[name] = getattr(v, name)
-            for name in skip & state.keys():
-                del state[name]
+            mark, state = self.object_state(v)
             return (mark, self.freeze(state, depth))
         raise Undescribable(f"{t.__module__}.{t.__qualname__} value")   # a function, ...
+
+    def object_state(self, v):
+        """(class mark, attributes described) of an object of a hydroline class: its
+        ``__dict__`` and slots, less its cached properties' values."""
+        mark, skip, slots = self.register(type(v))
+        state = dict(getattr(v, "__dict__", ()))
+        for name in slots:
+            if name not in state and hasattr(v, name):
+                state[name] = getattr(v, name)
+        for name in skip & state.keys():
+            del state[name]
+        return mark, state
+
+
+def components_signature(components, substitute=None) -> str | None:
+    """SHA-256 of components described by value, in order: each one's class and attributes
+    (as in :func:`definition_fingerprint`, without the code and class data, which one process
+    shares). Two lists of equal signature are made of equal components, so their graphs are
+    equal. ``substitute(component, attributes)`` may return other attributes to describe in
+    place of a component's own (e.g. a hose's matrices by their pattern only, where their
+    values are runtime parameters, so that the graph does not depend on them).
+
+    Parameters
+    ----------
+    components : sequence   Components (e.g. ``network.components``)
+    substitute : callable   ``(component, dict) -> dict``, or None
+
+    Returns
+    -------
+    str or None  hex digest; None where some part cannot be described by value
+    """
+    d = _Describer()
+    try:
+        tree = []
+        for c in components:
+            mark, state = d.object_state(c)
+            if substitute is not None:
+                state = substitute(c, state)
+            tree.append((mark, d.freeze(state)))
+    except Undescribable:
+        return None
+    return hashlib.sha256(repr(tree).encode("utf-8", "surrogatepass")).hexdigest()
 
 
 def definition_fingerprint(network) -> str | None:

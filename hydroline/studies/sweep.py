@@ -51,7 +51,6 @@ parent breaks the pool for the other variants in flight.
 """
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 import os
@@ -312,13 +311,14 @@ class VariantRunner:
         return simulate_shared(rig, self.scenario, self.t_end, self.solver, self._models, self)
 
 
-def graph_signature(network) -> tuple:
+def graph_signature(network):
     """What a network's CasADi graph is made from, but its runtime parameters p: per
     component its type and every attribute by value (a hose whose matrix entries are runtime
-    parameters: their pattern, not their values). Two networks of equal signature have the
-    same graph as a function of (t, x, p), so one's compiled model serves the other with its
-    own p. An attribute that cannot be compared by value (a function) makes the signature
-    unique to this network.
+    parameters: their pattern, not their values;
+    :func:`hydroline.engine.fingerprint.components_signature`). Two networks of equal
+    signature have the same graph as a function of (t, x, p), so one's compiled model serves
+    the other with its own p. A part that cannot be described by value (a function, a class
+    of another package) makes the signature unique to this network.
 
     Parameters
     ----------
@@ -326,44 +326,25 @@ def graph_signature(network) -> tuple:
 
     Returns
     -------
-    tuple  hashable
+    str or tuple  hashable
     """
+    from ..engine.fingerprint import components_signature
+
+    key = components_signature(network.components, _hose_pattern_only)
+    return key if key is not None else ("unique", id(network))
+
+
+def _hose_pattern_only(component, attributes: dict) -> dict:
+    """A hose section whose matrix entries are runtime parameters, described by its line
+    model's kind, form and port/state names instead of the matrices' values."""
     from ..components.hose import HoseSection
 
-    parts = []
-    for c in network.components:
-        attrs = dict(vars(c))
-        if isinstance(c, HoseSection) and c.coefficient_pattern is not None:
-            m = attrs.pop("model")
-            attrs["model"] = (type(m).__qualname__, m.form, tuple(m.input_names),
-                              tuple(m.output_names), tuple(m.state_names))
-        parts.append((type(c).__module__, type(c).__qualname__, _value_signature(attrs)))
-    return tuple(parts)
-
-
-def _value_signature(v, depth: int = 0):
-    """A hashable value of an attribute (numbers, text, arrays, containers, objects by their
-    attributes); ("opaque", id) where there is none."""
-    if v is None or isinstance(v, (bool, int, float, str)):
-        return v
-    if depth > 8:
-        return ("opaque", id(v))
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, np.ndarray):
-        return ("array", v.shape, v.dtype.str, v.tobytes())
-    if isinstance(v, (list, tuple)):
-        return (type(v).__name__, tuple(_value_signature(x, depth + 1) for x in v))
-    if isinstance(v, dict):
-        return ("dict", tuple((str(k), _value_signature(x, depth + 1)) for k, x in v.items()))
-    if isinstance(v, type) or callable(v):
-        return ("opaque", id(v))
-    if hasattr(v, "__dict__"):
-        return (type(v).__qualname__, _value_signature(vars(v), depth + 1))
-    if dataclasses.is_dataclass(v):
-        return (type(v).__qualname__, tuple(_value_signature(getattr(v, f.name), depth + 1)
-                                            for f in dataclasses.fields(v)))
-    return ("opaque", id(v))
+    if isinstance(component, HoseSection) and component.coefficient_pattern is not None:
+        m = attributes["model"]
+        attributes = {**attributes, "model": (type(m).__qualname__, m.form,
+                                              tuple(m.input_names), tuple(m.output_names),
+                                              tuple(m.state_names))}
+    return attributes
 
 
 #: Rig keys of a hose section (``<side>.section<n>.<key>`` of the template rig) that change
