@@ -490,7 +490,7 @@ class NativeSolver:
         table : bool      One array, signals then states, instead of a pair
         out : ndarray     Where to write the rows: C-contiguous float64, one row per output
                           time of (signals then) states, e.g. a slice of a run's whole table
-                          (no array made, nothing copied afterwards); None: a new array
+                          (no array made, nothing copied afterwards); None: a new array, [SI]
 
         Returns
         -------

@@ -89,7 +89,7 @@ class CompiledBackend:
         ----------
         grid : ndarray   Output times within the segment, increasing, [s]
         out : ndarray    Where to write the table (C-contiguous rows of signals then states,
-                         one per time), or None (a new array)
+                         one per time), or None (a new array), [SI]
 
         Returns
         -------
@@ -147,7 +147,7 @@ class CvodesBackend:
         Parameters
         ----------
         grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows)
+        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
@@ -212,7 +212,7 @@ class ScipyBackend(CvodesBackend):
         Parameters
         ----------
         grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows)
+        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------

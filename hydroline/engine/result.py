@@ -208,7 +208,9 @@ class OutputSink:
     stream : list[str]     Columns written to the CSV; None: all
     every : int            Write every ``every``-th row (the last row always), [-]
     keep : list[str]       Columns kept in memory; None: none kept
-    n_total : int          Rows the run will give, when known (preallocates what is kept), [-]
+    n_total : int          Rows the run will give, when known: what is kept (every row of every
+                           column when neither a file nor ``keep`` is given) is then one
+                           preallocated table, [-]
     preview : list[str]    Columns of the preview (for a figure); None: no preview
     preview_rows : int     Rows of the preview at most, [-]
     units : dict           Column -> SI unit, written into the CSV header (``name [unit]``)
