@@ -307,6 +307,7 @@ def _declare(lib):
     lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, vp, vp]
     lib.hl_last_nonfinite.argtypes = [vp]
     lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
+    lib.hl_set_order_limits.argtypes = [vp, dp]
 
 
 def _ptr(a):
@@ -373,6 +374,9 @@ class NativeModel:
             raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
                                       f"the model (sizes {tuple(sizes)[:5]})")
         self.n, self.n_signals = int(sizes[0]), int(sizes[3])
+        # (NativeSolver's order limits: the blocks, the Jacobian's columns, results by J)
+        self._blocks = self._jac_cols = None
+        self._limits_seen: dict = {}
         _remember_model(key, g, self.library_path)
         #: How the model was found: "definition" (its record, found before any graph was
         #: built), "graph" (the record of its graph's fingerprint, where the network cannot
@@ -382,7 +386,8 @@ class NativeModel:
         self.build_time = time.perf_counter() - tic
 
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
-               fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1):
+               fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1,
+               order_limits: bool = True):
         """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None).
 
         Parameters
@@ -394,8 +399,13 @@ class NativeModel:
         fixed_step : float    > 0: fixed-step BDF without error control, [s]
         max_order : int       Highest BDF order (1-5)
         newton_coef : float   Newton tolerance relative to the error-test tolerance, [-]
+        order_limits : bool   Keep each NDF order 3-5 below the step where the model's
+                              lightly damped fast modes would make it unstable
+                              (:mod:`.stability`; False: the orders are chosen by accuracy
+                              alone, as before)
         """
-        return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef)
+        return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef,
+                            order_limits)
 
 
 class NativeSolver:
@@ -412,6 +422,8 @@ class NativeSolver:
     fixed_step : float  > 0: fixed-step BDF of order max_order without error control, [s]
     max_order : int     Highest BDF order (1-5)
     newton_coef : float Newton convergence tolerance relative to the error-test tolerance, [-]
+    order_limits : bool Stability limits of the NDF orders 3-5 on the model's fast modes
+                        (:mod:`.stability`), set before the first step
     """
 
     #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
@@ -419,7 +431,7 @@ class NativeSolver:
     max_steps_per_call = 5_000_000
 
     def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
-                 newton_coef):
+                 newton_coef, order_limits: bool = True):
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
         self.model = model
@@ -432,6 +444,9 @@ class NativeSolver:
         self._c = np.ascontiguousarray(c if c.size else np.zeros(1))
         self._scale = np.ascontiguousarray(np.asarray(net.state_scales, dtype=float))
         self._t_bound = None
+        # () : not yet set (before the first step); None: none (fixed step, or not asked)
+        self._limits = () if order_limits and not fixed_step > 0 else None
+        self._start = None
         self._h = lib.hl_new()
         lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
                      max_step, fixed_step, int(max_order), newton_coef)
@@ -479,6 +494,41 @@ class NativeSolver:
             raise ValueError(f"segment end t_bound must be after t0 [s], got {t0!r}, {t_bound!r}")
         self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
         self._t_bound = float(t_bound)
+        self._start = (float(t0), x0)
+
+    def _set_order_limits(self, t0: float, x0) -> None:
+        """Cap each NDF order's step where it would be unstable on the model's lightly damped
+        fast modes (:mod:`.stability`), from the eigenvalues of each component's own block of
+        the Jacobian at (t0, x0); kept for the solver's life (a hose's modes are linear)."""
+        from .stability import block_eigenvalues, order_step_limits
+
+        model, g, n = self.model, self.model.generated, self.model.n
+        if model._blocks is None:    # each component's states; the Jacobian's columns
+            net = model.network
+            model._blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
+                             if sl.stop - sl.start >= 2]
+            model._jac_cols = np.repeat(np.arange(n), np.diff(g.jac_colind))
+        limits = (np.inf,) * 5
+        if model._blocks and g.jac_nnz:
+            jnz = self.scaled_jacobian_nonzeros(t0, x0)
+            key = jnz.tobytes()
+            limits = model._limits_seen.get(key)
+            if limits is None:
+                J = np.zeros((n, n))
+                J[g.jac_row, model._jac_cols] = jnz
+                limits = order_step_limits(block_eigenvalues(J, model._blocks))
+                if len(model._limits_seen) >= 64:
+                    model._limits_seen.clear()
+                model._limits_seen[key] = limits
+        self._limits = limits
+        arr = np.ascontiguousarray(limits, dtype=float)
+        self._lib.hl_set_order_limits(self._h, _ptr(arr))
+
+    @property
+    def order_limits(self) -> tuple:
+        """Largest step of each order 1-5, [s] (inf: none), set before the first step, from
+        the Jacobian at that segment's start (empty before; None in fixed-step mode)."""
+        return self._limits
 
     def advance(self, t_out, signals: bool = True, table: bool = False, out=None):
         """Integrate through the output times (ascending, within the segment).
@@ -500,6 +550,8 @@ class NativeSolver:
         t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
         if self._t_bound is None:
             raise RuntimeError("call start(t0, x0, t_bound) before advance()")
+        if self._limits == () and t_out.size and t_out[-1] > self._start[0]:
+            self._set_order_limits(*self._start)   # once per solver, before its first step
         slack = 1e-9 * max(1.0, abs(self._t_bound))   # grid times rounded onto the segment end
         if t_out.size and (t_out[-1] > self._t_bound + slack or np.any(np.diff(t_out) < 0)):
             raise ValueError(f"output times must ascend and lie within the segment "

@@ -39,6 +39,12 @@
 #ifndef HL_DGMAX
 #define HL_DGMAX 0.3            /* refactor W when c changed by more than this fraction */
 #endif
+#ifndef HL_PROBATION
+#define HL_PROBATION 10         /* steps kept at order 2 after a drop for a stability limit */
+#endif
+#ifndef HL_BACKOFF
+#define HL_BACKOFF 50           /* steps before another drop, after the first that did not pay */
+#endif
 #ifndef HL_MSBP
 #define HL_MSBP 50              /* refactor W at least every this many steps */
 #endif
@@ -47,10 +53,17 @@ typedef struct {
     double p[HL_NP], c[HL_NC], scale[HL_N];
     double rtol, atol, max_step, fixed_step, newton_coef;
     int max_order;
+    /* largest step of each order on the model's oscillatory modes (NDF3-5 are not A-stable):
+     * order_limit[q] for q = 1..5, INFINITY where none (hl_set_order_limits) */
+    double order_limit[HL_MAX_ORDER + 2];
     /* state */
     double t, h_abs, t_bound;
     double D[HL_MAX_ORDER + 3][HL_N];
     int order, n_equal_steps;
+    /* stability-limited orders: steps left at order 2 after dropping there (no increase), and
+     * the step count before which no new drop is tried (after order 2 lost: backoff) */
+    int probation;
+    long long drop_after, drop_backoff;
     int have_lu, lu_dense, steps_since_lu;
     double c_lu, crate;
     double jnz[HL_NNZ];
@@ -272,6 +285,16 @@ int hl_setup(hl_solver* S, const double* p, const double* c, const double* scale
     S->fixed_step = fixed_step;
     S->max_order = max_order < 1 ? 1 : (max_order > HL_MAX_ORDER ? HL_MAX_ORDER : max_order);
     S->newton_coef = newton_coef;
+    for (int q = 0; q < HL_MAX_ORDER + 2; q++) S->order_limit[q] = INFINITY;
+    return 0;
+}
+
+/* Largest step of each order 1..5 (limits[0..4], [s]; INFINITY: none): an order is kept only
+ * while its step stays below its limit, else the step is taken at a lower order
+ * (hydroline.compiled.stability: the NDF orders 3-5 on lightly damped fast modes). */
+int hl_set_order_limits(hl_solver* S, const double* limits) {
+    for (int q = 1; q <= HL_MAX_ORDER; q++)
+        S->order_limit[q] = limits[q - 1] > 0 ? limits[q - 1] : INFINITY;
     return 0;
 }
 
@@ -285,6 +308,7 @@ int hl_init(hl_solver* S, double t0, const double* x0, double t_bound) {
     double z[HL_N], f0[HL_N], f1[HL_N], y1[HL_N], w[HL_N], df[HL_N];
     for (int i = 0; i < HL_N; i++) z[i] = x0[i] / S->scale[i];
     S->t = t0; S->t_bound = t_bound; S->order = 1; S->n_equal_steps = 0;
+    S->probation = 0; S->drop_after = 0; S->drop_backoff = 0;
     S->have_lu = 0; S->crate = 1.; S->status = 0; S->h_step = 0.;
     hl_eval_f(S, t0, z, f0);
     double interval = fabs(t_bound - t0), h;
@@ -324,6 +348,9 @@ static int hl_step(hl_solver* S) {
         hl_change_D(S, order, S->max_step / h_abs); h_abs = S->max_step; S->n_equal_steps = 0;
     } else if (h_abs < min_step) {
         hl_change_D(S, order, min_step / h_abs); h_abs = min_step; S->n_equal_steps = 0;
+    }
+    while (order > 1 && h_abs > S->order_limit[order]) {   /* beyond this order's stability */
+        order--; S->order = order; S->n_equal_steps = 0;
     }
     double error_norm = 0., safety = HL_SAFETY, t_new = t;
     int n_iter = 1;
@@ -388,6 +415,7 @@ static int hl_step(hl_solver* S) {
     S->nsteps++;
     S->steps_since_lu++;
     S->n_equal_steps++;
+    if (S->probation > 0) S->probation--;
     S->t_old = t;
     S->t = t_new;
     S->h_step = h_abs;
@@ -422,13 +450,38 @@ static int hl_step(hl_solver* S) {
     double fp = e_p > 0 ? pow(e_p, -1. / (order + 2)) : INFINITY;
     if (order == 1) fm = 0.;
     if (order >= S->max_order) fp = 0.;
+    /* each candidate's step factor, at most its order's stability limit allows: an order whose
+     * limit binds is left (one order down, the step at the limit), and not entered from
+     * below (its error estimates carry the fast mode it lets ring; order 2 damps it) */
+    double cm = safety * fm, c0 = safety * f0, cp = safety * fp;
+    int limited = order >= 3 && c0 > S->order_limit[order] / h_abs;
+    if (order > 1) cm = fmin(cm, S->order_limit[order - 1] / h_abs);
+    c0 = fmin(c0, S->order_limit[order] / h_abs);
+    if (order < S->max_order) {
+        if (S->probation > 0 || h_abs >= S->order_limit[order + 1]) cp = 0.;
+        else cp = fmin(cp, S->order_limit[order + 1] / h_abs);
+    }
     int delta = 0;
-    double best = f0;
-    if (fm > best) { best = fm; delta = -1; }
-    if (fp > best) { best = fp; delta = 1; }
+    double best = c0;
+    if (limited && S->nsteps >= S->drop_after) {
+        /* held at a stability limit: to order 2 (A-stable, damps the fast mode), same step,
+         * for HL_PROBATION steps at least; kept while its steps outgrow order 3's limit */
+        delta = 2 - order;
+        best = 1.;
+        S->probation = HL_PROBATION;
+    } else {
+        if (cm > best) { best = cm; delta = -1; }
+        if (cp > best) { best = cp; delta = 1; }
+        if (delta == 1 && order == 2 && S->order_limit[3] < INFINITY) {
+            /* back up from order 2 below order 3's limit: the drop did not pay; try the next
+             * one only after twice as many steps as last time */
+            S->drop_backoff = S->drop_backoff ? 2 * S->drop_backoff : HL_BACKOFF;
+            S->drop_after = S->nsteps + S->drop_backoff;
+        }
+    }
     order += delta;
     S->order = order;
-    double factor = fmin(HL_MAX_FACTOR, safety * best);
+    double factor = fmin(HL_MAX_FACTOR, best);
     S->n_equal_steps = 0;
     if (factor >= 1. && factor < HL_STEP_THRESHOLD) return 0;   /* not worth a change (CVODE's threshold) */
     S->h_abs *= factor;

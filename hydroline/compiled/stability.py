@@ -1,0 +1,172 @@
+"""Where the compiled core's NDF orders 3-5 stop being stable on a network's oscillatory modes.
+
+The integrator (``bdf.c``) uses the numerical differentiation formulas NDF1-5 of Shampine &
+Reichelt (SIAM J. Sci. Comput. 18, 1997), in backward-difference form with the coefficients
+``KAPPA`` below. Applied to ``y' = lambda y`` with step h, NDF of order q is
+
+    sum_{m=1..q} (1/m) w^m - kappa_q gamma_q w^(q+1) = z,   w = 1 - 1/zeta,  z = h lambda,
+
+(gamma_q = 1 + 1/2 + ... + 1/q), and it is stable where every root zeta has |zeta| <= 1.
+Orders 1 and 2 are A-stable; orders 3-5 are only A(alpha)-stable (alpha ~ 81, 66 and 51
+degrees): a lightly damped mode (lambda near the imaginary axis, e.g. a short hose's upper
+modes at 10-25 kHz and 5 % damping) makes them unstable once |h lambda| passes ~0.6-0.9.
+The step-size control then holds h just below that limit at orders 3-4 (tens of thousands of
+3.9 us steps for a 0.05 m hose section) where order 2 would take steps set by accuracy alone.
+
+:func:`order_step_limits` gives, for a set of eigenvalues, the largest step each order may
+take before one of them leaves its stability region (the lower edge of the unstable band
+along the eigenvalue's ray, from the boundary locus of the formula); the C core keeps an
+order only while its step stays below that limit (``hl_set_order_limits``) and otherwise
+steps at a lower order. :func:`block_eigenvalues` finds the eigenvalues cheaply: each
+component's own block of the Jacobian (a hose section's modes are its own to within a
+fraction of a per cent; the coupled network's full 58 x 58 eigenproblem costs ~1 ms).
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+__all__ = ["KAPPA", "unstable_onset", "order_step_limits", "block_eigenvalues", "MARGIN"]
+
+#: NDF coefficients kappa_q, q = 0..5 (as ``hl_kappa`` in ``bdf.c``; SciPy's BDF)
+KAPPA = (0.0, -0.1850, -1.0 / 9.0, -0.0823, -0.0415, 0.0)
+#: Fraction of the stability limit a step may reach (the block eigenvalues are estimates)
+MARGIN = 0.95
+#: Orders whose stability region is not the whole left half-plane
+LIMITED_ORDERS = (3, 4, 5)
+
+
+def _gamma(q: int) -> float:
+    return sum(1.0 / j for j in range(1, q + 1))
+
+
+def locus(q: int, n: int = 8192) -> np.ndarray:
+    """The boundary locus z(theta) of NDF order q (|zeta| = 1), theta in (0, pi] (the curve is
+    symmetric about the real axis).
+
+    Parameters
+    ----------
+    q : int   Order, 1-5
+    n : int   Points, [-]
+
+    Returns
+    -------
+    ndarray  complex z = h lambda on the boundary, [-]
+    """
+    theta = np.linspace(0.0, np.pi, n + 1)[1:]
+    w = 1.0 - np.exp(-1j * theta)
+    z = sum((1.0 / m) * w**m for m in range(1, q + 1))
+    return z - KAPPA[q] * _gamma(q) * w ** (q + 1)
+
+
+@functools.lru_cache(maxsize=None)
+def _onset_table(q: int):
+    """(angles [rad], lower edge of the unstable band [-]) of NDF order q, angles measured from
+    the negative real axis (0: a real decaying mode, pi/2: an undamped oscillation)."""
+    z = locus(q)
+    phi = np.arctan2(z.imag, -z.real)          # in (0, pi) for the upper half
+    r = np.abs(z)
+    grid = np.linspace(0.0, np.pi / 2, 721)
+    onset = np.full(grid.shape, np.inf)
+    # where the locus crosses each ray (segments between neighbouring locus points), the
+    # smallest radius; the locus leaves the origin tangent to the imaginary axis on its right
+    # (phi > pi/2), so rays into the left half-plane meet it only where the bulge of the
+    # unstable region reaches over
+    a, b = phi[:-1], phi[1:]
+    ra, rb = r[:-1], r[1:]
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    for k, g in enumerate(grid):
+        hit = (lo <= g) & (g <= hi) & (hi - lo < 0.5)
+        if not hit.any():
+            continue
+        s = (g - a[hit]) / np.where(b[hit] != a[hit], b[hit] - a[hit], 1.0)
+        radii = ra[hit] + s * (rb[hit] - ra[hit])
+        radii = radii[radii > 1e-6]
+        if radii.size:
+            onset[k] = radii.min()
+    return grid, onset
+
+
+def unstable_onset(q: int, angle) -> np.ndarray:
+    """Smallest |h lambda| at which NDF order q becomes unstable on a mode whose eigenvalue
+    makes ``angle`` with the negative real axis; inf where the whole ray is stable.
+
+    Parameters
+    ----------
+    q : int          Order, 1-5
+    angle : array    Angle of h lambda from the negative real axis, [rad] (0..pi/2)
+
+    Returns
+    -------
+    ndarray  |h lambda| at the onset, [-]
+    """
+    grid, onset = _onset_table(q)
+    idx = np.clip(np.searchsorted(grid, np.asarray(angle, dtype=float)), 0, len(grid) - 1)
+    # the next grid angle up: nearer the imaginary axis, the band starts lower (conservative)
+    return onset[idx]
+
+
+def order_step_limits(eigenvalues) -> tuple:
+    """Largest step of each order 1-5 for which every given eigenvalue stays inside the
+    order's stability region (times :data:`MARGIN`); inf where none limits it.
+
+    Parameters
+    ----------
+    eigenvalues : array   Eigenvalues of the Jacobian, [1/s]
+
+    Returns
+    -------
+    tuple  (h_1, ..., h_5), [s]
+    """
+    lam = np.asarray(eigenvalues, dtype=complex).ravel()
+    lam = lam[np.isfinite(lam) & (lam.real < 0) & (lam.imag != 0)]
+    limits = [np.inf] * 5
+    if lam.size:
+        angle = np.arctan2(np.abs(lam.imag), -lam.real)
+        size = np.abs(lam)
+        for q in LIMITED_ORDERS:
+            h = unstable_onset(q, angle) / size
+            limits[q - 1] = MARGIN * float(h.min())
+    return tuple(limits)
+
+
+_EIGEN_CACHE: dict = {}
+_EIGEN_CACHE_SIZE = 256
+
+
+def _eigvals(sub: np.ndarray) -> np.ndarray:
+    """Eigenvalues of a small square matrix: 2 x 2 in closed form, larger ones by LAPACK,
+    remembered by value (a hose section's block is the same in every run of its numbers)."""
+    if sub.shape[0] == 2:
+        a, b, c, d = sub[0, 0], sub[0, 1], sub[1, 0], sub[1, 1]
+        mean, det = 0.5 * (a + d), a * d - b * c
+        root = np.sqrt(complex(mean * mean - det))
+        return np.array([mean + root, mean - root])
+    key = (sub.shape[0], sub.tobytes())
+    w = _EIGEN_CACHE.get(key)
+    if w is None:
+        if len(_EIGEN_CACHE) >= _EIGEN_CACHE_SIZE:
+            _EIGEN_CACHE.pop(next(iter(_EIGEN_CACHE)))
+        w = _EIGEN_CACHE[key] = np.linalg.eigvals(sub)
+    return w
+
+
+def block_eigenvalues(jacobian, blocks) -> np.ndarray:
+    """Eigenvalues of the diagonal blocks of a Jacobian (each component's own states).
+
+    Parameters
+    ----------
+    jacobian : ndarray   Dense Jacobian, [1/s] (scaled or not: similar blocks)
+    blocks : list        Slices or index arrays of the states of each block
+
+    Returns
+    -------
+    ndarray  complex, [1/s]
+    """
+    out = []
+    for b in blocks:
+        sub = jacobian[b, b] if isinstance(b, slice) else jacobian[np.ix_(b, b)]
+        if sub.shape[0] >= 2 and np.isfinite(sub).all():
+            out.append(_eigvals(np.ascontiguousarray(sub)))
+    return np.concatenate(out) if out else np.zeros(0, dtype=complex)
