@@ -42,6 +42,9 @@
 #ifndef HL_PROBATION
 #define HL_PROBATION 10         /* steps kept at order 2 after a drop for a stability limit */
 #endif
+#ifndef HL_DROP_RATIO
+#define HL_DROP_RATIO 2.0       /* drop a limited order when accuracy asks for this times its limit */
+#endif
 #ifndef HL_BACKOFF
 #define HL_BACKOFF 50           /* steps before another drop, after the first that did not pay */
 #endif
@@ -454,7 +457,7 @@ static int hl_step(hl_solver* S) {
      * limit binds is left (one order down, the step at the limit), and not entered from
      * below (its error estimates carry the fast mode it lets ring; order 2 damps it) */
     double cm = safety * fm, c0 = safety * f0, cp = safety * fp;
-    int limited = order >= 3 && c0 > S->order_limit[order] / h_abs;
+    int limited = order >= 3 && c0 > HL_DROP_RATIO * S->order_limit[order] / h_abs;
     if (order > 1) cm = fmin(cm, S->order_limit[order - 1] / h_abs);
     c0 = fmin(c0, S->order_limit[order] / h_abs);
     if (order < S->max_order) {
