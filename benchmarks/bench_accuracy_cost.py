@@ -14,9 +14,10 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
 
 import numpy as np
+
+from tables import text_table
 
 TRACES = ("supply_port_pressure", "return_port_pressure", "piston_velocity")
 METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
@@ -57,14 +58,10 @@ def main(argv=None):
                      f"{t_end / best:.0f}x", f"{trace:.2e}", f"{moved:.2e}"))
     head = ("rtol", "atol_scale", "steps", "integration [ms]", "real time", "trace err [%]",
             "metrics moved [%]")
-    widths = [max(len(h), *(len(str(r[i])) for r in rows)) for i, h in enumerate(head)]
     print(f"Default scenario ({t_end:g} s simulated), compiled core; trace error: port pressures "
           f"and piston velocity against CVODES rtol 1e-10, % of excursion; metrics moved: the "
           f"largest change of {', '.join(METRICS)} of both ports against the rtol 1e-10 run, %")
-    print("  ".join(h.rjust(w) for h, w in zip(head, widths)))
-    print("  ".join("-" * w for w in widths))
-    for r in rows:
-        print("  ".join(str(v).rjust(w) for v, w in zip(r, widths)))
+    print(text_table(head, rows))
 
 
 if __name__ == "__main__":

@@ -32,6 +32,8 @@ import argparse
 
 import numpy as np
 
+from tables import text_table
+
 #: Phases of the default open-loop step (0.25 s): at rest, valve step at 10 ms, piston
 #: moving ~0.015-0.11 s, at its stop from ~0.115 s with the hoses ringing.
 PHASES = [(0.0, 0.01, "rest"), (0.01, 0.115, "moving"), (0.115, 0.25, "at the stop")]
@@ -249,13 +251,9 @@ def main(argv=None):
         rows.append([label, f"{rtol:g}", r["steps"], *r["phases"], r["f"], r["lu"] or "-",
                      f"{r['err']:.2e}"])
         print(f"  {label} rtol {rtol:g}: {r['steps']} steps", flush=True)
-    widths = [max(len(str(x)) for x in col) for col in zip(head, *rows)]
     print("Methods on the default scenario (0.25 s), f from the compiled model; steps per "
           "phase: rest 0-10 ms, moving 10-115 ms, at the stop 115-250 ms")
-    print("  ".join(h.rjust(w) for h, w in zip(head, widths)))
-    print("  ".join("-" * w for w in widths))
-    for r in rows:
-        print("  ".join(str(x).rjust(w) for x, w in zip(r, widths)))
+    print(text_table(head, rows))
 
 
 if __name__ == "__main__":

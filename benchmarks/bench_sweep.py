@@ -36,6 +36,8 @@ import time
 
 import numpy as np
 
+from tables import text_table
+
 PARAMETER = "supply.section2.length+return.section2.length"
 
 
@@ -264,14 +266,6 @@ def measure(args) -> dict:
     return out
 
 
-def _table(head, rows):
-    widths = [max(len(str(r[i])) for r in rows + [head]) for i in range(len(head))]
-    lines = ["  ".join(str(h).rjust(w) for h, w in zip(head, widths)),
-             "  ".join("-" * w for w in widths)]
-    lines += ["  ".join(str(c).rjust(w) for c, w in zip(r, widths)) for r in rows]
-    return "\n".join(lines)
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--variants", type=int, default=1000)
@@ -316,7 +310,7 @@ def main(argv=None):
         if args.before:
             row.append(f"{best['before'][w] / best['this'][w]:.2f}")
         rows.append(row)
-    print(_table(head, rows))
+    print(text_table(head, rows))
     failed = {n: runs[-1]["failed"] for n, runs in results.items()}
     print("failed variants: " + "; ".join(f"{n}: {f}" for n, f in failed.items()))
     if args.stages:
@@ -340,7 +334,7 @@ def main(argv=None):
             rows.append(row)
         print(f"\nwhere one variant's time goes (in-process, mean over {args.stages} variants, "
               f"best run):")
-        print(_table(head, rows))
+        print(text_table(head, rows))
     for r in results["this"][-1]["rows"]:
         hz = lambda v: float("nan") if v is None else v  # noqa: E731
         print(f"  L = {r['length_m']:.3f} m: supply {hz(r['supply_hz']):.1f} Hz "
