@@ -76,15 +76,17 @@ def _onset_table(q: int):
     a, b = phi[:-1], phi[1:]
     ra, rb = r[:-1], r[1:]
     lo, hi = np.minimum(a, b), np.maximum(a, b)
-    for k, g in enumerate(grid):
-        hit = (lo <= g) & (g <= hi) & (hi - lo < 0.5)
-        if not hit.any():
-            continue
-        s = (g - a[hit]) / np.where(b[hit] != a[hit], b[hit] - a[hit], 1.0)
-        radii = ra[hit] + s * (rb[hit] - ra[hit])
-        radii = radii[radii > 1e-6]
-        if radii.size:
-            onset[k] = radii.min()
+    seg = np.flatnonzero(hi - lo < 0.5)
+    # every (segment, grid angle within it) pair, without a loop over the grid (~1 ms a table,
+    # once per process: it is met at the first run's first step)
+    first = np.searchsorted(grid, lo[seg], "left")
+    count = np.searchsorted(grid, hi[seg], "right") - first
+    seg = np.repeat(seg, count)
+    k = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+    s = (grid[k] - a[seg]) / np.where(b[seg] != a[seg], b[seg] - a[seg], 1.0)
+    radii = ra[seg] + s * (rb[seg] - ra[seg])
+    far = radii > 1e-6
+    np.minimum.at(onset, k[far], radii[far])
     return grid, onset
 
 
