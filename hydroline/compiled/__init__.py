@@ -374,8 +374,9 @@ class NativeModel:
             raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
                                       f"the model (sizes {tuple(sizes)[:5]})")
         self.n, self.n_signals = int(sizes[0]), int(sizes[3])
-        # (NativeSolver's order limits: the blocks, the Jacobian's columns, results by J)
-        self._blocks = self._jac_cols = None
+        # (the dense Jacobian's row and column indices, each component's state block, and
+        # the order limits found, by Jacobian: made on first use)
+        self._jac_index = self._blocks = None
         self._limits_seen: dict = {}
         _remember_model(key, g, self.library_path)
         #: How the model was found: "definition" (its record, found before any graph was
@@ -384,6 +385,52 @@ class NativeModel:
         #: graph) or "generated" (C written)
         self.found_by = found
         self.build_time = time.perf_counter() - tic
+
+    def dense_jacobian(self, jnz) -> np.ndarray:
+        """The Jacobian as a dense matrix from its nonzeros (``generated.jac_colind`` /
+        ``jac_row`` order, as :meth:`NativeSolver.scaled_jacobian_nonzeros` gives them).
+
+        Parameters
+        ----------
+        jnz : ndarray   Nonzeros, [1/s]
+        """
+        g = self.generated
+        if self._jac_index is None:
+            self._jac_index = (np.asarray(g.jac_row, dtype=np.intp),
+                               np.repeat(np.arange(self.n), np.diff(g.jac_colind)))
+        J = np.zeros((self.n, self.n))
+        J[self._jac_index] = jnz[:g.jac_nnz]
+        return J
+
+    def order_limits(self, jnz) -> tuple:
+        """Largest step of each NDF order 1-5 on this model's fast modes (:mod:`.stability`),
+        from the eigenvalues of each component's own block of the scaled Jacobian with
+        nonzeros ``jnz`` (remembered by those numbers).
+
+        Parameters
+        ----------
+        jnz : ndarray   Nonzeros of the scaled Jacobian, [1/s]
+
+        Returns
+        -------
+        tuple  (h_1, ..., h_5), [s] (inf: no limit)
+        """
+        from .stability import block_eigenvalues, order_step_limits
+
+        if self._blocks is None:
+            net = self.network
+            self._blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
+                            if sl.stop - sl.start >= 2]
+        if not (self._blocks and self.generated.jac_nnz):
+            return (np.inf,) * 5
+        key = jnz.tobytes()
+        limits = self._limits_seen.get(key)
+        if limits is None:
+            limits = order_step_limits(block_eigenvalues(self.dense_jacobian(jnz), self._blocks))
+            if len(self._limits_seen) >= 64:
+                self._limits_seen.clear()
+            self._limits_seen[key] = limits
+        return limits
 
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
                fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1,
@@ -447,6 +494,7 @@ class NativeSolver:
         # () : not yet set (before the first step); None: none (fixed step, or not asked)
         self._limits = () if order_limits and not fixed_step > 0 else None
         self._start = None
+        self._jnz = None                                  # (scaled_jacobian's buffer)
         self._h = lib.hl_new()
         lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
                      max_step, fixed_step, int(max_order), newton_coef)
@@ -498,30 +546,10 @@ class NativeSolver:
 
     def _set_order_limits(self, t0: float, x0) -> None:
         """Cap each NDF order's step where it would be unstable on the model's lightly damped
-        fast modes (:mod:`.stability`), from the eigenvalues of each component's own block of
-        the Jacobian at (t0, x0); kept for the solver's life (a hose's modes are linear)."""
-        from .stability import block_eigenvalues, order_step_limits
-
-        model, g, n = self.model, self.model.generated, self.model.n
-        if model._blocks is None:    # each component's states; the Jacobian's columns
-            net = model.network
-            model._blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
-                             if sl.stop - sl.start >= 2]
-            model._jac_cols = np.repeat(np.arange(n), np.diff(g.jac_colind))
-        limits = (np.inf,) * 5
-        if model._blocks and g.jac_nnz:
-            jnz = self.scaled_jacobian_nonzeros(t0, x0)
-            key = jnz.tobytes()
-            limits = model._limits_seen.get(key)
-            if limits is None:
-                J = np.zeros((n, n))
-                J[g.jac_row, model._jac_cols] = jnz
-                limits = order_step_limits(block_eigenvalues(J, model._blocks))
-                if len(model._limits_seen) >= 64:
-                    model._limits_seen.clear()
-                model._limits_seen[key] = limits
-        self._limits = limits
-        arr = np.ascontiguousarray(limits, dtype=float)
+        fast modes (:meth:`NativeModel.order_limits`, from the Jacobian at (t0, x0)); kept for
+        the solver's life (a hose's modes are linear)."""
+        self._limits = self.model.order_limits(self.scaled_jacobian_nonzeros(t0, x0))
+        arr = np.ascontiguousarray(self._limits, dtype=float)
         self._lib.hl_set_order_limits(self._h, _ptr(arr))
 
     @property
@@ -626,6 +654,17 @@ class NativeSolver:
             out = np.empty(max(g.jac_nnz, 1))
         self._lib.hl_scaled_jacobian(self._h, float(t), x.ctypes.data, out.ctypes.data)
         return out[:g.jac_nnz]
+
+    def scaled_jacobian(self, t: float, x) -> np.ndarray:
+        """d(dz/dt)/dz at (t, x), dense, in the scaled states z = x/scale, [1/s].
+
+        Parameters
+        ----------
+        t : float         Time, [s]
+        x : ndarray       States, [SI]
+        """
+        self._jnz = self.scaled_jacobian_nonzeros(t, x, self._jnz)
+        return self.model.dense_jacobian(self._jnz)
 
     def signals(self, t: float, x) -> np.ndarray:
         """Every signal at (t, x) from the compiled code, in ``network.signal_names`` order,

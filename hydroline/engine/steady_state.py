@@ -70,10 +70,6 @@ class _CompiledRest:
     def __init__(self, network, native):
         self.solver = native.solver(network.parameter_values)
         self.scales = np.asarray(network.state_scales, dtype=float)
-        g = native.generated
-        self.rows = np.asarray(g.jac_row, dtype=np.intp)
-        self.cols = np.repeat(np.arange(g.n_states), np.diff(g.jac_colind))
-        self.jnz = np.empty(max(g.jac_nnz, 1))
 
     def rhs(self, t, x, p):
         self.solver.set_parameters(p)   # (the components' settling may change one)
@@ -82,10 +78,7 @@ class _CompiledRest:
     def scaled_jacobian(self, t, x, p):
         """d(dz/dt)/dz, dense, in the scaled states z = x/scale."""
         self.solver.set_parameters(p)   # (the components' settling may change one)
-        J = np.zeros((len(self.scales), len(self.scales)))
-        self.solver.scaled_jacobian_nonzeros(t, x, self.jnz)
-        J[self.rows, self.cols] = self.jnz[:len(self.rows)]
-        return J
+        return self.solver.scaled_jacobian(t, x)
 
     def jacobian(self, t, x, p):
         return self.scaled_jacobian(t, x, p) * self.scales[:, None] / self.scales[None, :]
