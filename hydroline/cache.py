@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 __all__ = ["cache_dir", "load_table", "store_table", "source_tag", "prune_tables",
-           "MAX_ENTRIES"]
+           "least_recently_used", "mark_used", "MAX_ENTRIES"]
 
 #: Most entries kept per table kind (a correction-factor entry is ~0.5 kB, a model record
 #: ~10 kB), [-]
@@ -70,14 +70,10 @@ def load_table(kind: str, key: str):
     try:
         with open(path) as f:
             entry = json.load(f)
-            age = time.time() - os.fstat(f.fileno()).st_mtime
+            mtime = os.fstat(f.fileno()).st_mtime
         if entry.get("key") != key:
             return None
-        if age > _TOUCH_AFTER:      # recently used: kept by prune_tables
-            try:
-                os.utime(path)
-            except OSError:
-                pass
+        mark_used(path, mtime)      # recently used: kept by prune_tables
         return entry["value"]
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
@@ -141,10 +137,7 @@ def prune_tables(kind: str, max_entries: int | None = None) -> int:
                     stale.append(e.path)
     except OSError:
         return 0
-    drop = stale
-    if len(entries) > max_entries:
-        entries.sort()
-        drop += [path for _, path in entries[:len(entries) - int(0.9 * max_entries)]]
+    drop = stale + least_recently_used(entries, max_entries)
     removed = 0
     for path in drop:
         try:
@@ -153,3 +146,42 @@ def prune_tables(kind: str, max_entries: int | None = None) -> int:
         except OSError:
             pass
     return removed
+
+
+def least_recently_used(entries, max_entries: int, at_least: int = 0) -> list:
+    """Of a cache's entries, those to remove: none while there are at most ``max_entries``,
+    else the least recently used down to 90 % of it (so that pruning is not needed at every
+    write), keeping ``at_least`` of the newest.
+
+    Parameters
+    ----------
+    entries : list      (modification time [s since the epoch], path) of each entry
+    max_entries : int   Entries kept at most, [-]
+    at_least : int      Newest entries always kept, [-]
+
+    Returns
+    -------
+    list  paths, least recently used first
+    """
+    if len(entries) <= max_entries:
+        return []
+    entries = sorted(entries)
+    return [path for _, path in entries[:len(entries) - max(int(0.9 * max_entries), at_least)]]
+
+
+def mark_used(path, mtime: float | None = None) -> None:
+    """Give a cache file a fresh modification time (its last use, which the pruning goes by),
+    at most once in :data:`_TOUCH_AFTER`; errors are ignored.
+
+    Parameters
+    ----------
+    path : str or Path   The file
+    mtime : float        Its modification time when known, [s since the epoch] (else read)
+    """
+    try:
+        if mtime is None:
+            mtime = os.stat(path).st_mtime
+        if time.time() - mtime > _TOUCH_AFTER:
+            os.utime(path)
+    except OSError:
+        pass

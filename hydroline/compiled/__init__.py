@@ -37,7 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cache import cache_dir, load_table, source_tag, store_table  # cache_dir re-exported
+from ..cache import cache_dir  # noqa: F401  (re-exported)
+from ..cache import least_recently_used, load_table, mark_used, source_tag, store_table
 from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
@@ -71,9 +72,6 @@ _LIBS: dict = {}
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
 MAX_LIBRARIES = 200
-#: A library loaded from the cache gets a fresh modification time (its use, for the pruning)
-#: when its time is older than this, [s]
-_TOUCH_AFTER = 3600.0
 
 
 class CompilerUnavailable(RuntimeError):
@@ -200,10 +198,10 @@ def _compile(cc: str, full: str, path: Path) -> None:
 
 def prune_libraries(max_libraries: int | None = None) -> int:
     """Remove the least recently used compiled libraries (``hl_*.so`` with their build record
-    and lock file) beyond ``max_libraries``, down to 90 % of it (the newest always stays).
-    Errors are ignored (another
-    process may prune at the same time; a library still loaded elsewhere stays usable there,
-    and is compiled again when next needed).
+    and lock file) beyond ``max_libraries``, down to 90 % of it (the newest always stays;
+    :func:`hydroline.cache.least_recently_used`, as the cache's tables). Errors are ignored
+    (another process may prune at the same time; a library still loaded elsewhere stays
+    usable there, and is compiled again when next needed).
 
     Parameters
     ----------
@@ -225,11 +223,8 @@ def prune_libraries(max_libraries: int | None = None) -> int:
                         continue
     except OSError:
         return 0
-    if len(libs) <= keep:
-        return 0
-    libs.sort()
     removed = 0
-    for _, path in libs[:len(libs) - max(int(0.9 * keep), 1)]:   # (the newest stays)
+    for path in least_recently_used(libs, keep, at_least=1):   # (the newest stays)
         try:
             path.unlink()
         except OSError:
@@ -242,15 +237,6 @@ def prune_libraries(max_libraries: int | None = None) -> int:
             except OSError:
                 pass
     return removed
-
-
-def _touch(path: Path) -> None:
-    """Mark a cached library as used (for :func:`prune_libraries`), at most once an hour."""
-    try:
-        if time.time() - path.stat().st_mtime > _TOUCH_AFTER:
-            os.utime(path)
-    except OSError:
-        pass
 
 
 def _build(path: Path, full) -> ctypes.CDLL:
@@ -273,7 +259,7 @@ def _build(path: Path, full) -> ctypes.CDLL:
                 _compile(cc, full() if callable(full) else full, path)
                 prune_libraries()               # a library more: the oldest beyond the bound go
             else:
-                _touch(path)
+                mark_used(path)                 # (a library's last use, for the pruning)
             lib = ctypes.CDLL(str(path))
             _declare(lib)
             break
