@@ -195,6 +195,12 @@ def csv_rows(rows) -> str:
                    for part in (rows[k:k + step] for k in range(0, len(rows), step)))
 
 
+def _same_place(a: np.ndarray, b: np.ndarray) -> bool:
+    """True when two arrays are the same memory seen the same way (start, shape, strides)."""
+    return (a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
+            and a.shape == b.shape and a.strides == b.strides)
+
+
 class OutputSink:
     """Where output rows go: kept in memory (all columns, or only ``keep``), streamed to CSV
     (every ``every``-th row of ``stream`` columns, the last row always) with per-column
@@ -243,18 +249,15 @@ class OutputSink:
             self.mn, self.mx = np.full(n, np.inf), np.full(n, -np.inf)
             self.sum, self.sumsq = np.zeros(n), np.zeros(n)
             self.stats_index = True
+        # rows kept in memory: the ``keep`` columns, or every column when nothing is streamed;
+        # the count known, one preallocated table (no copy at the end), which a backend may
+        # write into in place when it holds every column (:meth:`target`)
         self.keep = self.kept = None
         if keep is not None:
             self.keep, self.keep_index = column_indices("keep_columns", keep, columns)
-            if n_total is not None:   # preallocated: no copy at the end
-                self.kept_t = np.empty(n_total)
-                self.kept = np.empty((n_total, len(self.keep)))
-        # every row of every column kept, the count known: one table, written in place by a
-        # backend that can (:meth:`target`), else copied into it; nothing stacked at the end
-        self.whole = self.whole_t = None
-        if path is None and keep is None and n_total is not None:
-            self.whole_t = np.empty(n_total)
-            self.whole = np.empty((n_total, len(columns)))
+        if (keep is not None or path is None) and n_total is not None:
+            self.kept_t = np.empty(n_total)
+            self.kept = np.empty((n_total, len(self.keep if keep is not None else columns)))
         self.preview = None
         if preview is not None:
             self.preview, self.preview_index = column_indices("preview_columns", preview, columns)
@@ -269,9 +272,9 @@ class OutputSink:
         ----------
         n : int   Rows, [-]
         """
-        if self.whole is None or self.rows + n > len(self.whole):
+        if self.keep is not None or self.kept is None or self.rows + n > len(self.kept):
             return None
-        return self.whole[self.rows:self.rows + n]
+        return self.kept[self.rows:self.rows + n]
 
     def write(self, t, X, Y, model, p):
         """Rows at times t: states X and signals Y (None: computed here), or with X None the
@@ -306,26 +309,20 @@ class OutputSink:
             self.mx = np.maximum(self.mx, block.max(axis=0))
             self.sum += block.sum(axis=0)
             self.sumsq += np.einsum("ij,ij->j", block, block)   # (no temporary block)
-        if self.keep is not None:
+        if self.keep is not None or self.path is None:     # rows kept in memory
             if self.kept is not None and self.rows <= len(self.kept_t):
                 self.kept_t[i0:self.rows] = t
-                self.kept[i0:self.rows] = block[:, self.keep_index]
-            else:   # more rows than foreseen: go on in parts
+                place = self.kept[i0:self.rows]
+                if self.keep is not None:
+                    place[...] = block[:, self.keep_index]
+                elif not _same_place(block, place):   # (rows the backend wrote here: as they are)
+                    place[...] = block
+            else:   # no count foreseen, or more rows than foreseen: go on in parts
                 if self.kept is not None:
                     self.parts.append((self.kept_t[:i0], self.kept[:i0]))
                     self.kept = None
-                self.parts.append((t.copy(), block[:, self.keep_index]))
-        elif self.whole is not None and self.rows <= len(self.whole):
-            self.whole_t[i0:self.rows] = t
-            place = self.whole[i0:self.rows]
-            if not (block.__array_interface__["data"][0] == place.__array_interface__["data"][0]
-                    and block.strides == place.strides):
-                place[...] = block           # (rows written in place by the backend: as they are)
-        elif self.path is None:
-            if self.whole is not None:       # more rows than foreseen: go on in parts
-                self.parts.append((self.whole_t[:i0], self.whole[:i0]))
-                self.whole = None
-            self.parts.append((t, block))
+                self.parts.append((t.copy(), block[:, self.keep_index]) if self.keep is not None
+                                  else (t, block))
         if self.path is not None:
             rows = np.arange(i0, self.rows)
             sel = (rows % self.every == 0)
@@ -345,19 +342,15 @@ class OutputSink:
         last row of every column when streaming without ``keep``."""
         if self.path is not None:
             self.file.close()
-        if self.keep is not None:
-            if self.kept is not None:
-                return self.kept_t[:self.rows], self.kept[:self.rows], self.keep
-            t = np.concatenate([q[0] for q in self.parts])
-            return t, np.vstack([q[1] for q in self.parts]), self.keep
-        if self.path is not None:
+        if self.keep is None and self.path is not None:
             return self.last[0], self.last[1], self.columns
-        if self.whole is not None:
-            return self.whole_t[:self.rows], self.whole[:self.rows], self.columns
+        columns = self.keep if self.keep is not None else self.columns
+        if self.kept is not None:
+            return self.kept_t[:self.rows], self.kept[:self.rows], columns
         if len(self.parts) == 1:
-            return self.parts[0][0], self.parts[0][1], self.columns
+            return self.parts[0][0], self.parts[0][1], columns
         return (np.concatenate([q[0] for q in self.parts]),
-                np.vstack([q[1] for q in self.parts]), self.columns)
+                np.vstack([q[1] for q in self.parts]), columns)
 
     def preview_result(self):
         """(times, table, columns) of the preview, or None."""
