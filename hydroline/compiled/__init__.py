@@ -42,8 +42,8 @@ from ..cache import least_recently_used, load_table, mark_used, source_tag, stor
 from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
-           "available", "CFLAGS", "model_fingerprint", "definition_key", "prune_libraries",
-           "MAX_LIBRARIES"]
+           "available", "CFLAGS", "native_flags", "model_fingerprint", "definition_key",
+           "prune_libraries", "MAX_LIBRARIES"]
 
 #: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
 #: model whose record is known is loaded without them.
@@ -63,9 +63,13 @@ def __getattr__(name):
 #: be one fused multiply-add, rounded once, which ISO C mode otherwise forbids: 0.86x the CPU
 #: of an integration, mostly in the sparse back-solves, same error, benchmarks/README.md).
 #: The library is built for this machine's CPU (``-march=native``, dropped where the compiler
-#: refuses it), so the cache key includes the CPU model.
+#: refuses it, or where ``$HYDROLINE_PORTABLE_BUILD`` is set to anything but ``0``: see
+#: :func:`native_flags`), so the cache key includes the CPU model and the flags.
 CFLAGS = ["-O3", "-fno-math-errno", "-ffp-contract=fast", "-shared", "-fPIC", "-std=c99"]
 NATIVE_FLAGS = ["-march=native"]
+#: Environment variable that asks for a portable build (no ``-march=native``: baseline x86-64,
+#: no fused multiply-add on that target), e.g. for a cache shared by different CPUs
+PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
 _BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
 #: Most compiled libraries kept in the cache directory (one per network structure and
@@ -118,10 +122,18 @@ def _bdf_source() -> str:
     return _BDF_SOURCE.read_text()
 
 
+def native_flags() -> list[str]:
+    """The CPU-specific compiler flags of a build: :data:`NATIVE_FLAGS`, or none when
+    ``$HYDROLINE_PORTABLE_BUILD`` is set (and not ``0``). Read at each build, so a process
+    can build both kinds; their libraries and records have separate cache keys."""
+    portable = os.environ.get(PORTABLE_ENV, "").strip() not in ("", "0")
+    return [] if portable else list(NATIVE_FLAGS)
+
+
 def _build_settings() -> str:
     """What a library's machine code depends on besides its source: the compiler flags, the
     platform and this CPU."""
-    return " ".join(CFLAGS + NATIVE_FLAGS) + sys.platform + _cpu_id()
+    return " ".join(CFLAGS + native_flags()) + sys.platform + _cpu_id()
 
 
 def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
@@ -180,9 +192,9 @@ def _compile(cc: str, full: str, path: Path) -> None:
             src = Path(tmp) / "model.c"
             src.write_text(full)
             out = Path(tmp) / "model.so"
-            proc = subprocess.run([cc, *CFLAGS, *NATIVE_FLAGS, "-o", str(out), str(src), "-lm"],
-                                  capture_output=True, text=True)
-            if proc.returncode != 0:   # e.g. a compiler without -march=native
+            proc = subprocess.run([cc, *CFLAGS, *native_flags(), "-o", str(out), str(src),
+                                   "-lm"], capture_output=True, text=True)
+            if proc.returncode != 0 and native_flags():   # a compiler without -march=native
                 proc = subprocess.run([cc, *CFLAGS, "-o", str(out), str(src), "-lm"],
                                       capture_output=True, text=True)
             if proc.returncode != 0:
