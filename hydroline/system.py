@@ -34,7 +34,7 @@ import numpy as np
 
 from . import components as comp
 from .fluid import Fluid
-from .lines import Line, ModalLine
+from .lines import DEFAULT_LINE_METHOD, Line, ModalLine
 from .circuit import Circuit, CircuitError, axes_of, circuit_components, has_circuit, rewire
 from .engine import Network
 from .rigs import SCHEMA, Rig, RigError, declarations
@@ -133,7 +133,8 @@ def _modes(rig, section):
 
 
 def _hose(rig, name, line, form, nominal):
-    model = ModalLine(line, _modes(rig, name), form, method=rig.get("rig.line_method", "yang-tobler"))
+    model = ModalLine(line, _modes(rig, name), form,
+                      method=rig.get("rig.line_method", DEFAULT_LINE_METHOD))
     return model
 
 

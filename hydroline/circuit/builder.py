@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import components as comp
 from ..fluid import Fluid
-from ..lines import Line, ModalLine
+from ..lines import DEFAULT_LINE_METHOD, Line, ModalLine
 from ..engine import Network, NetworkError
 from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
@@ -420,7 +420,7 @@ def _make(rig, fluid, name, ctype, params, terms):
         if int(modes) != modes or modes < 1:
             raise CircuitError(f"circuit.{name}.modes: must be an integer >= 1, got {modes!r}")
         model = ModalLine(line, int(modes), params.get("form", "PQ"),
-                          method=params.get("method", rig.get("rig.line_method", "yang-tobler")))
+                          method=params.get("method", rig.get("rig.line_method", DEFAULT_LINE_METHOD)))
         return comp.HoseSection(name=name, model=model,
                                 nominal_pressure=params.get("nominal_pressure", 1e7))
     if ctype.name == "accumulator":

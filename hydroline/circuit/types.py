@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 from .. import components as comp
 from ..engine.component import Parameter
+from ..lines import LINE_METHODS
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
            "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT",
@@ -46,8 +47,9 @@ HOSE_PARAMETERS = {
                               0.0, exclusive_minimum=True, optional=True, plausible=(1e7, 5e9)),
     "modes": Parameter("-", "modes of the modal line (M8); the rig's modes_per_section when absent",
                        1.0, optional=True, plausible=(1, 40)),
-    "method": Parameter("str", "modal line: Yang-Tobler corrections or exact residues",
-                        choices=("yang-tobler", "residue"), optional=True),
+    "method": Parameter("str", "modal line: exact residues (default) or the paper's "
+                        "Yang-Tobler corrections; the rig's line_method when absent",
+                        choices=LINE_METHODS, optional=True),
     "form": Parameter("str", "causal form: inputs upstream/downstream (M8)",
                       choices=("PQ", "QP", "PP", "QQ"), default="PQ"),
     "nominal_pressure": Parameter("Pa", "mean pressure: state scale and steady-state guess",

@@ -50,6 +50,14 @@ from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["ModalLine", "RigidColumnLine", "StateSpaceLine"]
 
+#: The modal line of every rig, circuit hose and :class:`ModalLine` unless one asks for
+#: another: the exact poles and residues of the dissipative model. Its resonances lie within
+#: ~0.5 % of the exact model's where the Yang-Tobler corrections' are off by up to ~12 %
+#: (``hydroline line-response``, tests/test_modal_vs_characteristics.py); "yang-tobler" is
+#: the 2005 paper's method, kept selectable (``rig.line_method``, a hose's ``method``).
+DEFAULT_LINE_METHOD = "residue"
+LINE_METHODS = ("residue", "yang-tobler")
+
 #: Schohl (1993) five-term approximation of Zielke's weighting function,
 #: W(tau) ~ sum_i m_i exp(-n_i nu tau / r^2).
 SCHOHL_M = np.array([1.051, 2.358, 9.021, 29.47, 79.55])
@@ -291,8 +299,9 @@ class ModalLine(StateSpaceLine):
         linear friction (alpha = beta = 1); or an ``(alpha, beta)`` pair of arrays, [-].
         Used by method "yang-tobler" only.
     method : str
-        "yang-tobler" (the 2005 paper's model, default) or "residue" (exact poles and exact
-        residues of the dissipative model, see :mod:`hydroline.lines.residue`).
+        "residue" (default, :data:`DEFAULT_LINE_METHOD`: exact poles and exact residues of the
+        dissipative model, see :mod:`hydroline.lines.residue`) or "yang-tobler" (the 2005
+        paper's model: Yang-Tobler frequency and damping corrections of linear friction).
 
     Attributes
     ----------
@@ -323,7 +332,7 @@ class ModalLine(StateSpaceLine):
     >>> from hydroline import MINERAL_OIL
     >>> from hydroline.lines import Line
     >>> line = Line(3.048, 0.0159, MINERAL_OIL, bulk_modulus=178e6)
-    >>> m = ModalLine(line, 6, "PQ")
+    >>> m = ModalLine(line, 6, "PQ", method="yang-tobler")
     >>> dc = m.transfer(0.0).real
     >>> print(np.round(dc[0] / [1.0, -line.resistance], 9), np.round(dc[1], 9))
     [1. 1.] [0. 1.]
@@ -333,7 +342,7 @@ class ModalLine(StateSpaceLine):
     """
 
     def __init__(self, line: Line, n_modes: int = 6, form: str = "PQ", corrections="exact",
-                 method: str = "yang-tobler"):
+                 method: str = DEFAULT_LINE_METHOD):
         if not isinstance(line, Line):
             raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
         self.line = line
@@ -349,7 +358,7 @@ class ModalLine(StateSpaceLine):
             self._set_ports()
             return
         if method != "yang-tobler":
-            raise ValueError(f"method must be 'yang-tobler' or 'residue'; got {method!r}")
+            raise ValueError(f"method must be one of {', '.join(LINE_METHODS)}; got {method!r}")
         self.alpha, self.beta = _resolve_corrections(line, self.n_modes, self.form, corrections)
         build = {"PQ": self._build_pq, "QP": self._build_qp,
                  "PP": self._build_pp, "QQ": self._build_qq}[self.form]
