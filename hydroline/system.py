@@ -35,7 +35,7 @@ import numpy as np
 from . import components as comp
 from .fluid import Fluid
 from .lines import Line, ModalLine
-from .circuit import Circuit, CircuitError, axes_of, circuit_components, has_circuit, rewire
+from .circuit import Circuit, CircuitError, axes_of, check_circuit, circuit_components, has_circuit, rewire
 from .engine import Network
 from .rigs import SCHEMA, Rig, RigError, declarations
 from .rigs.parameters import check_consistency, check_ranges
@@ -386,6 +386,8 @@ def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
     overrides = _overrides(rig)
     try:
         rewire(parts, overrides, allow_unknown=True)
+        if overrides:   # the template itself is wired right (tests/test_wiring.py)
+            check_circuit(parts, overrides)
     except CircuitError as e:
         raise RigError(str(e)) from None
     return Circuit(parts, axes_of(parts), rig.source, overrides)

@@ -16,7 +16,10 @@ Two ports are connected when they name the same signal; exactly one of them outp
 (causality). ``volume`` and ``junction`` components list their flow terms with signs
 (``terms = { inflow = 1, valve = -1 }``). Every port must be listed: an unlisted port is
 refused, as are a port the type does not have, an unknown type, two outputs on one signal,
-a causality clash and an algebraic loop, each in one line naming the component and port.
+a causality clash and an algebraic loop, each in one line naming the component and port;
+then the physical wiring checks of :mod:`hydroline.circuit.wiring` (self-loops, short
+circuits, ends cut off or crossed, a servovalve's P not above its T, parts cut off from every
+source).
 
 :func:`axes_of` finds the servo axes (actuator, its valve, its controller) in any component
 list and returns their handles (:class:`Axis`): which signals are the axis's port pressures,
@@ -24,6 +27,7 @@ piston position, valve current, ... so experiments and analysis never hard-code 
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,9 +39,10 @@ from ..lines import Line, ModalLine
 from ..engine import Network, NetworkError
 from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
+from .wiring import check_self_loops, check_wiring
 
-__all__ = ["Axis", "Circuit", "axes_of", "circuit_components", "circuit_names", "has_circuit",
-           "parse_circuit_value", "rewire"]
+__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "circuit_components", "circuit_names",
+           "has_circuit", "parse_circuit_value", "rewire"]
 
 PREFIX = "circuit."
 
@@ -381,11 +386,48 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
         parts.append(c)
     rewire(parts, overrides or {}, allow_unknown=True)
     circuit = Circuit(parts, axes_of(parts), rig.source, dict(overrides or {}))
-    try:   # the wiring checks (two outputs, causality, loops) on the circuit alone, with a
-        Network(parts + experiment_placeholders(parts))   # stand-in for what an experiment feeds
-    except NetworkError as e:
-        raise CircuitError(f"circuit: {e}") from None
+    check_circuit(parts, overrides or {}, "circuit.{component}.ports.{port}", "circuit")
     return circuit
+
+
+def check_circuit(parts: list, overrides: dict, port_path: str = "{component}.{port}",
+                  label: str = "connections") -> list:
+    """The checks a circuit passes before any run: the network's (two outputs on a signal,
+    causality, algebraic loops: on the circuit alone, with a stand-in for what an experiment
+    feeds), then the physical wiring (:func:`hydroline.circuit.wiring.check_wiring`).
+
+    Parameters
+    ----------
+    parts : list       The components, rewired by ``overrides``
+    overrides : dict   The rig's ``[connections]``, "component.port" -> signal: a port named
+                       there is named ``connections.<component>.<port>`` in a message
+    port_path : str    How a message names any other port (``{component}``, ``{port}``)
+    label : str        What a message of the network's checks starts with ("circuit")
+
+    Returns
+    -------
+    list of str  The wiring warnings given
+
+    Raises
+    ------
+    CircuitError  One line naming the component and port at fault
+    """
+    def path_of(c, port):
+        if f"{c.name}.{port}" in overrides:
+            return f"connections.{c.name}.{port}"
+        return port_path.format(component=c.name, port=port)
+
+    check_self_loops(parts, path_of)   # named by its port before the network calls it a loop
+    with warnings.catch_warnings(record=True) as said:   # given once the wiring is found sound
+        warnings.simplefilter("always")
+        try:
+            Network(parts + experiment_placeholders(parts))
+        except NetworkError as e:
+            raise CircuitError(f"{label}: {e}") from None
+    found = check_wiring(parts, path_of)
+    for w in said:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return found
 
 
 def experiment_placeholders(parts: list) -> list:

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["PistonAccumulator"]
 
@@ -57,6 +57,7 @@ class PistonAccumulator(Component):
     inputs = {"pressure": Port("pressure", "pressure at the node the accumulator hangs on")}
     outputs = {"flow": Port("flow", "flow from the node into the accumulator branch")}
     feedthrough = False
+    conducts = True
 
     def __post_init__(self):
         self.check_parameters()
@@ -74,6 +75,10 @@ class PistonAccumulator(Component):
         else:
             st += [State(f"line.{n}", "-", 1e-4) for n in self.connection_model.state_names]
         return st
+
+    def hydraulic_ends(self):
+        """Its connection to the node, holding oil."""
+        return {"node": HydraulicEnd("pressure", ("flow",), compliant=True)}
 
     def runtime_parameters(self):
         return {"reference_pressure": self.nominal_pressure}

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine import ops
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["Actuator"]
 
@@ -83,6 +83,11 @@ class Actuator(Component):
         self.check_parameters()
         if self.stop_damping is None:   # critically damped contact
             self.stop_damping = 2.0 * np.sqrt(self.stop_stiffness * self.moving_mass)
+
+    def hydraulic_ends(self):
+        """The two chambers, each holding oil (M22)."""
+        return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",), compliant=True)
+                for end in ("bottom", "top")}
 
     @property
     def states(self):

@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass
 
 from ..engine import ops
-from ..engine.component import Component, Port, parameter
+from ..engine.component import Component, HydraulicEnd, Port, parameter
 
 __all__ = ["Pump"]
 
@@ -46,12 +46,18 @@ class Pump(Component):
     inputs = {"outlet_pressure": Port("pressure", "pressure at the pump outlet"),
               "inlet_pressure": Port("pressure", "pressure at the pump inlet (tank)")}
     outputs = {"flow": Port("flow", "flow delivered into the outlet node")}
+    source_ends = ("outlet",)
 
     def __post_init__(self):
         self.check_parameters()
         if self.control == "pressure-compensated" and not self.deadhead_pressure > self.compensator_pressure:
             raise ValueError(f"{self.name}: deadhead_pressure must be > compensator_pressure "
                              f"({self.compensator_pressure:g} Pa) [Pa], got {self.deadhead_pressure!r}")
+
+    def hydraulic_ends(self):
+        """Inlet and outlet, the delivered flow passing from one to the other."""
+        return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
+                "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
     @property
     def geometric_flow(self) -> float:

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..engine import ops
-from ..engine.component import Component, Port, parameter
+from ..engine.component import Component, HydraulicEnd, Port, parameter
 
 __all__ = ["ReliefValve"]
 
@@ -44,6 +44,11 @@ class ReliefValve(Component):
 
     def __post_init__(self):
         self.check_parameters()
+
+    def hydraulic_ends(self):
+        """Inlet (the protected node) and outlet (tank), the relieved flow passing between."""
+        return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
+                "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
     def flow(self, dp):
         """Relieved flow, [m^3/s].

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["HydraulicVolume"]
 
@@ -32,6 +32,7 @@ class HydraulicVolume(Component):
     nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True)
 
     feedthrough = False
+    conducts = True
 
     def __post_init__(self):
         self.check_parameters()
@@ -41,6 +42,10 @@ class HydraulicVolume(Component):
     @property
     def states(self):
         return [State("pressure", "Pa", max(self.nominal_pressure, 1e5))]
+
+    def hydraulic_ends(self):
+        """One node holding oil: its pressure and the flows into it."""
+        return {"node": HydraulicEnd("pressure", tuple(self.terms), compliant=True)}
 
     def outputs_of(self, t, x, u, p):
         return {"pressure": x["pressure"]}
