@@ -8,7 +8,8 @@ circuit runs and gives a wrong answer without a word, so these checks run before
 of a circuit rig and of a template rig with ``[connections]``.
 
 Everything is derived from the components' declarations (:meth:`Component.hydraulic_ends`,
-``conducts``, ``pressure_order``, ``source_ends``), never from their type names:
+``conducts``, ``pressure_order``, ``source_ends``), never from their type names; a component
+that declares no ends (a user's own type) only joins its oil ports for rule 8 below:
 
 * a **node** is a pressure signal; an end sits at the node its pressure port is joined to;
   a flow junction (an end without a pressure) sits where all its flows meet;
@@ -363,6 +364,8 @@ def _islands(g, path_of):
     hydraulic = []
     for c in g.parts:
         ports = [p for e in g.ends[c.name].values() for p in (e.pressure, *e.flows) if p]
+        if not ports:   # a component that declares no ends: all its oil ports are one place
+            ports = [p for p, s in {**c.inputs, **c.outputs}.items() if s.quantity in HYDRAULIC]
         if not ports:
             continue
         hydraulic.append((c, ports))
