@@ -11,8 +11,10 @@ absolute pressure); see :func:`hydroline.system.pressure_profile`.
 
 An optional ``[connections]`` table rewires component ports to other signals, e.g.
 ``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
-(an ideal supply). The network checks the result: a port wired to a signal nobody outputs is
-reported as unconnected.
+(an ideal supply). The result is checked before a run: a port wired to a signal nobody outputs
+is reported as unconnected, and a physically wrong wiring (a self-loop, a short circuit, an end
+cut off or crossed, a servovalve's P not above its T) is refused in one line
+(:mod:`hydroline.circuit.wiring`).
 """
 from __future__ import annotations
 
