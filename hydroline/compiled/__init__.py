@@ -270,9 +270,9 @@ def _build(path: Path, full) -> ctypes.CDLL:
 
     The cached file is verified against the size, hash and key recorded at its build before
     it is loaded; one that fails (truncated, overwritten, another library, a damaged record)
-    is discarded with one :class:`~hydroline.cache.CacheWarning` naming it and rebuilt. Any failure
-    to compile, store or load it (no compiler, a cache directory that cannot be written)
-    raises :class:`CompilerUnavailable`, so callers can fall back to another solver.
+    is discarded with one :class:`~hydroline.cache.CacheWarning` naming it and rebuilt. Any
+    failure to compile, store or load it (no compiler, a cache directory that cannot be
+    written) raises :class:`CompilerUnavailable`, so callers can fall back to another solver.
     ``full`` is the library source, or a callable that makes it (only a rebuild needs it).
     """
     if str(path) in _LIBS:
