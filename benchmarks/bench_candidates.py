@@ -220,7 +220,7 @@ def c_eval_cost(sc, z0):
         with open(os.path.join(tmp, "h.c"), "w") as fh:
             fh.write("#define _POSIX_C_SOURCE 199309L\n" + src)
         exe = os.path.join(tmp, "h")
-        subprocess.run([cc, *flags, *compiled.NATIVE_FLAGS, "-o", exe, os.path.join(tmp, "h.c"),
+        subprocess.run([cc, *flags, *compiled.native_flags(), "-o", exe, os.path.join(tmp, "h.c"),
                         "-lm"], check=True, capture_output=True)
         out = subprocess.run([exe], check=True, capture_output=True, text=True).stdout.split()
     return float(out[0]), float(out[1])

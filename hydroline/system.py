@@ -284,7 +284,8 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
             if rule is not None:
                 raise _bad(rig, path, rule)
     if has_circuit(rig.values):
-        return {}
+        check_ranges(rig)      # the rig-wide settings, the oil, the scenarios (the components':
+        return {}              # hydroline.circuit.builder, against their declarations)
     for path in _POSITIVE:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v > 0):
@@ -378,6 +379,7 @@ def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
             circuit.place(position_guess)
         except CircuitError as e:
             raise RigError(str(e)) from None
+        _check_controller_table(rig, circuit)
         return circuit
     try:
         parts = _build(rig, position_guess, profiles)
@@ -391,6 +393,17 @@ def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
     except CircuitError as e:
         raise RigError(str(e)) from None
     return Circuit(parts, axes_of(parts), rig.source, overrides)
+
+
+def _check_controller_table(rig: Rig, circuit: Circuit):
+    """A circuit rig's ``[controller]`` closes the loop of an axis whose circuit has no
+    position controller: refused by name where every axis has its own (it would not be used)."""
+    key = next((k for k in rig.values if k.startswith("controller.")), None)
+    if key is not None and circuit.axes and all(ax.controller for ax in circuit.axes.values()):
+        own = ", ".join(ax.controller for ax in circuit.axes.values())
+        raise RigError(f"{key}: every axis of the circuit has its own position controller "
+                       f"({own}); the [controller] table, which closes the loop of an axis "
+                       f"without one, would not be used: remove it, or set the gains there")
 
 
 def _overrides(rig):

@@ -5,6 +5,7 @@ import hashlib
 import os
 import subprocess
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from hydroline.rigs import load_rig
 from hydroline.scenarios import build_scenario
 from hydroline.engine import integrate, solve_steady_state
 from hydroline.system import build_network
+from rounding_bound import rounding_bound
 
 #: Tests that build a library; the fallback, code-generation and lumped-line tests need no compiler.
 needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
@@ -216,22 +218,46 @@ def test_sparse_lu_solves_like_dense_numpy():
 
 
 @pytest.fixture(scope="module")
-def default_rig_network():
-    rig = load_rig(None)
-    sc = build_scenario(rig, "open-loop-step")
-    net = build_network(rig, sc.commands, sc.position_guess)
-    return net, solve_steady_state(net)
+def built_networks():
+    """The default rig's network per build kind, made once per module."""
+    return {}
+
+
+@pytest.fixture(params=["native", "portable"])
+def default_rig_network(request, monkeypatch, built_networks):
+    """The default rig's network and rest state, its library built for this CPU
+    (``-march=native``, fused multiply-adds where the CPU has them) or portably (no
+    CPU-specific flags): the suite covers both, whatever machine it runs on."""
+    if request.param == "portable":
+        monkeypatch.setenv(compiled.PORTABLE_ENV, "1")
+    if request.param not in built_networks:
+        rig = load_rig(None)
+        sc = build_scenario(rig, "open-loop-step")
+        net = build_network(rig, sc.commands, sc.position_guess)
+        built_networks[request.param] = (net, solve_steady_state(net))
+    return built_networks[request.param]
+
+
+def test_a_portable_build_has_no_cpu_specific_flags(monkeypatch):
+    monkeypatch.setenv(compiled.PORTABLE_ENV, "1")
+    assert compiled.native_flags() == []
+    monkeypatch.setenv(compiled.PORTABLE_ENV, "0")
+    assert compiled.native_flags() == compiled.NATIVE_FLAGS
 
 
 @needs_cc
 def test_compiled_rhs_equals_reference_python_rhs(default_rig_network):
+    """The C library's derivatives against the components' own Python equations, within the
+    rounding bound of the evaluation (tests/rounding_bound.py): fused multiply-adds and
+    another operation order may move a near-cancelling dp/dt far beyond 1e-9 of itself, never
+    beyond a few roundings of its terms."""
     net, ss = default_rig_network
     solver = compiled.native_model(net).solver(ss.p)
     rng = np.random.default_rng(2)
     for t in (0.0, 0.02):
         x = ss.x + 0.05 * rng.normal(size=len(ss.x)) * net.state_scales
         ref = net.rhs(t, x, ss.p)
-        assert solver.rhs(t, x) == pytest.approx(ref, rel=1e-9, abs=1e-12 * np.max(np.abs(ref)))
+        assert np.all(np.abs(solver.rhs(t, x) - ref) <= rounding_bound(net, t, x, ss.p))
 
 
 @needs_cc
@@ -336,31 +362,50 @@ def _fresh_process_cache(monkeypatch):
 
 
 @needs_cc
-@pytest.mark.parametrize("damage", ["garbage", "random-bytes", "other-library", "unrecorded"])
+@pytest.mark.parametrize("damage", ["garbage", "random-bytes", "other-library", "other-record",
+                                    "damaged-record", "unrecorded", "record-without-key"])
 def test_damaged_cached_library_is_rebuilt(monkeypatch, tmp_path, damage):
-    """A cached library that is not the file its build recorded (size + SHA-256) is rebuilt
-    before anything loads it: text, random bytes, another model's valid library, or a file
-    without a record (a cache from before the records)."""
+    """A cached library that is not the file its build recorded (size, SHA-256 and the key it
+    was built for) is rebuilt before anything loads it, with one warning naming it: text,
+    random bytes, another model's valid library, another library's record, a damaged record.
+    A library without a record, or with a record of the format before keys (size and hash
+    only), is rebuilt quietly (a cache of an older hydroline)."""
+    from hydroline.cache import CacheWarning
+
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
     net = oscillator_network(omega=211.0)
     path = compiled.native_model(net).library_path
     record = path.with_suffix(".sha256")
-    assert record.read_text().split()[0] == str(path.stat().st_size)
+    size, digest, key = record.read_text().split()
+    assert size == str(path.stat().st_size) and key.startswith(path.stem[3:]) and len(key) == 64
     if damage == "garbage":
         _replace(path, b"not a shared library")   # e.g. a build killed mid-write elsewhere
     elif damage == "random-bytes":
         _replace(path, np.random.default_rng(0).bytes(path.stat().st_size))
     elif damage == "other-library":
         _replace(path, _other_library())
-    else:
+    elif damage == "other-record":                 # another library's file and its record
+        other = _other_library_path()
+        _replace(path, other.read_bytes())
+        record.write_text(other.with_suffix(".sha256").read_text())
+    elif damage == "damaged-record":
+        record.write_text(f"{size}x {digest} {key}")
+    elif damage == "unrecorded":
         record.unlink()
+    else:
+        record.write_text(f"{size} {digest}\n")
     _fresh_process_cache(monkeypatch)
-    res = integrate(oscillator_network(omega=211.0), np.zeros(2), 0.05, solver="compiled")
+    warned = damage not in ("unrecorded", "record-without-key")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = integrate(oscillator_network(omega=211.0), np.zeros(2), 0.05, solver="compiled")
+    said = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
+    assert len(said) == int(warned) and all(str(path) in text for text in said), said
     assert res.metadata["solver"] == "compiled"
     assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
     assert compiled.native_model(oscillator_network(omega=211.0)).library_path == path
     data = path.read_bytes()
-    assert record.read_text().split() == [str(len(data)), hashlib.sha256(data).hexdigest()]
+    assert record.read_text().split() == [str(len(data)), hashlib.sha256(data).hexdigest(), key]
 
 
 def _replace(path, data):
@@ -371,11 +416,16 @@ def _replace(path, data):
     os.replace(tmp, path)
 
 
-def _other_library() -> bytes:
-    """The bytes of a valid library of another model structure (two oscillators in a row)."""
+def _other_library_path() -> Path:
+    """A valid library of another model structure (two oscillators in a row)."""
     net = Network([Hold(name="source"), Oscillator(name="osc"),
                    Oscillator(name="osc2", connections={"u": "x", "x": "x2"})])
-    return compiled.native_model(net).library_path.read_bytes()
+    return compiled.native_model(net).library_path
+
+
+def _other_library() -> bytes:
+    """The bytes of a valid library of another model structure."""
+    return _other_library_path().read_bytes()
 
 
 @needs_cc
@@ -400,8 +450,9 @@ def test_truncated_cached_library_does_not_crash_a_new_process(tmp_path):
     second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert second.returncode == 0, second.stderr   # not -7 (SIGBUS)
     rebuilt = path.read_bytes()
-    assert path.with_suffix(".sha256").read_text().split() == [
+    assert path.with_suffix(".sha256").read_text().split()[:2] == [
         str(len(rebuilt)), hashlib.sha256(rebuilt).hexdigest()]
+    assert "CacheWarning" in second.stderr and str(path) in second.stderr
 
 
 @needs_cc

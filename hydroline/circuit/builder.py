@@ -27,6 +27,7 @@ piston position, valve current, ... so experiments and analysis never hard-code 
 """
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,10 +42,13 @@ from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
 from .wiring import check_self_loops, check_wiring
 
-__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "circuit_components", "circuit_names",
-           "has_circuit", "parse_circuit_value", "rewire"]
+__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "check_component_name",
+           "circuit_components", "circuit_names", "has_circuit", "parse_circuit_value", "rewire",
+           "MAX_NAME_LENGTH"]
 
 PREFIX = "circuit."
+#: Longest component name, [characters]: a name labels messages, result columns and figures.
+MAX_NAME_LENGTH = 100
 
 
 def has_circuit(values: dict) -> bool:
@@ -97,6 +101,7 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
     """
     name, key = _split(path, raw)
     if key == "type":
+        check_component_name(name)
         if raw_value not in COMPONENT_TYPES:
             raise CircuitError(f"{path}: unknown component type {raw_value!r} of component "
                                f"'{name}' (known: {', '.join(COMPONENT_TYPES)})")
@@ -108,6 +113,9 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
                                f"signal, e.g. \"supply_port_pressure\"; got {raw_value!r}")
         return raw_value
     if key.startswith("terms."):
+        if ctype.name not in ("volume", "junction"):
+            raise CircuitError(f"{path}: component '{name}' ({ctype.name}) has no flow terms "
+                               f"(only a volume or a junction sums signed flows)")
         if raw_value not in (1, -1):
             raise CircuitError(f"{path}: flow term '{key[6:]}' of component '{name}' must be "
                                f"+1 (in) or -1 (out), got {raw_value!r}")
@@ -119,6 +127,33 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
         raise CircuitError(f"{path}: component '{name}' ({ctype.name}) has no parameter '{key}' "
                            f"(parameters: {', '.join(ctype.declarations()) or 'none'}; ports, terms)")
     return parse_quantity_as(path, raw_value, unit)
+
+
+def check_component_name(name: str):
+    """Refuse a name no message, result column or figure can show: empty or blank, with a
+    character that does not print (a control character, a line break), or longer than
+    :data:`MAX_NAME_LENGTH`. Any script is welcome (``"Pumpe-Ölseite"``, ``"泵"``).
+
+    Parameters
+    ----------
+    name : str   Component name, the ``<name>`` of ``[circuit.<name>]``
+
+    Raises
+    ------
+    CircuitError  One line naming the component's table
+    """
+    table = f"[circuit.{json.dumps(name[:40], ensure_ascii=False)}]"
+    if not name.strip():
+        raise CircuitError(f"{table}: a component name must not be empty or blank; name the "
+                           f"table, e.g. [circuit.pump]")
+    if len(name) > MAX_NAME_LENGTH:
+        raise CircuitError(f"{table[:-1]}...]: a component name of {len(name)} characters is "
+                           f"too long (at most {MAX_NAME_LENGTH})")
+    odd = next((i for i, ch in enumerate(name) if not ch.isprintable()), None)
+    if odd is not None:
+        raise CircuitError(f"{table}: the component name holds a character that does not "
+                           f"print, {name[odd]!r} at position {odd + 1}; use letters, digits, "
+                           f"'.', '_' or '-'")
 
 
 @dataclass
@@ -342,7 +377,7 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
         head = f"{PREFIX}{name}."
         params = {k[len(head):]: v for k, v in values.items()
                   if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
-        decls = ctype.declarations()
+        decls = ctype.declarations(params)   # (a command's levels: its quantity's range)
         for key, v in params.items():   # the declared bounds, with the value as written
             rule = decls[key].violation(v) if key in decls else None
             if rule is not None:

@@ -34,14 +34,18 @@ class Pump(Component):
     the outlet node [m^3/s].
     """
 
-    displacement: float = parameter(10e-6, "m^3", "D, geometric volume per revolution", positive=True)
+    displacement: float = parameter(10e-6, "m^3", "D, geometric volume per revolution", positive=True,
+                                    plausible=(1e-7, 1e-2))
     shaft_speed: float = parameter(157.07963267948966, "rad/s", "omega, shaft speed (1500 rpm)",
-                                   positive=True)
-    leakage: float = parameter(0.0, "m^3/s/Pa", "C_l, volumetric loss per pressure", minimum=0.0)
+                                   positive=True, plausible=(1.0, 2000.0))
+    leakage: float = parameter(0.0, "m^3/s/Pa", "C_l, volumetric loss per pressure", minimum=0.0,
+                               plausible=(0.0, 1e-9))
     control: str = parameter("fixed", "str", "fixed displacement or pressure compensated",
                              choices=("fixed", "pressure-compensated"))
-    compensator_pressure: float = parameter(20e6, "Pa", "p_c, start of destroking", positive=True)
-    deadhead_pressure: float = parameter(21e6, "Pa", "p_d, zero delivery", positive=True)
+    compensator_pressure: float = parameter(20e6, "Pa", "p_c, start of destroking", positive=True,
+                                            plausible=(1e5, 1e8))
+    deadhead_pressure: float = parameter(21e6, "Pa", "p_d, zero delivery", positive=True,
+                                         plausible=(1e5, 1e8))
 
     inputs = {"outlet_pressure": Port("pressure", "pressure at the pump outlet"),
               "inlet_pressure": Port("pressure", "pressure at the pump inlet (tank)")}

@@ -40,7 +40,7 @@ class PressureSource(Component):
     """
 
     pressure: float | None = parameter(None, "Pa", "absolute pressure (or the waveform's at t = 0)",
-                                       positive=True, optional=True)
+                                       positive=True, optional=True, plausible=(1e3, 1e8))
     waveform: Component | None = None
     step_time: float | None = None
     step_to: float | None = None

@@ -26,10 +26,13 @@ class HydraulicVolume(Component):
     Ports: the flow terms [m^3/s]; output ``pressure`` [Pa]. State ``pressure``.
     """
 
-    volume: float = parameter(1e-5, "m^3", "V, the oil volume", positive=True)
-    bulk_modulus: float = parameter(1.5e9, "Pa", "beta of the oil in it", positive=True)
+    volume: float = parameter(1e-5, "m^3", "V, the oil volume", positive=True,
+                              plausible=(1e-9, 1.0))
+    bulk_modulus: float = parameter(1.5e9, "Pa", "beta of the oil in it", positive=True,
+                                    plausible=(1e7, 5e9))
     terms: dict = field(default_factory=dict)
-    nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True)
+    nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True,
+                                        plausible=(1e3, 1e8))
 
     feedthrough = False
     conducts = True
