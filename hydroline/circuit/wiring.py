@@ -274,7 +274,8 @@ def _names(nodes) -> str:
 
 def _ends(g, path_of):
     """Pressure and flow of every end on one node (rule 5 of the module). Of several ends
-    found wrong, one on a port rewired by ``[connections]`` is named: that is what changed."""
+    found wrong, one on a port rewired by ``[connections]`` is named (that is what changed),
+    else one that reads a pressure of another node before one left cut off by it."""
     found = []
     for c in g.parts:
         ends = g.ends[c.name]
@@ -294,19 +295,19 @@ def _ends(g, path_of):
                        for n in nodes):
                     continue          # reads a prescribed pressure of its side (ideal source)
                 flow = c.signal(f)
+                path = path_of(c, end.pressure)
+                rewired = any(p.startswith("connections.") for p in (path, path_of(c, f)))
                 if end.pressure in c.outputs and node not in g.readers:
-                    found.append((path_of(c, f), path_of(c, end.pressure),
+                    found.append((not rewired, True, path,
                         f"outputs the pressure '{node}', which no component reads: this end of "
                         f"{c.name} is cut off (its flow '{flow}' is exchanged at {_names(nodes)})"))
                 else:
-                    found.append((path_of(c, end.pressure), path_of(c, end.pressure),
+                    found.append((not rewired, False, path,
                         f"is on '{node}' but its flow '{flow}' ({c.name}.{f}) is exchanged at "
                         f"{_names(nodes)}: the pressure and flow of one end on different nodes "
                         f"(a cut or crossed connection)"))
     if found:
-        rewired = [x for x in found if x[0].startswith("connections.")
-                   or x[1].startswith("connections.")]
-        _, path, text = (rewired or found)[0]
+        _, _, path, text = min(found, key=lambda x: x[:2])   # stable: the first of the best
         raise CircuitError(f"{path}: {text}")
 
 
