@@ -60,6 +60,15 @@ def _port_path(c, port: str) -> str:
     return f"{c.name}.{port}"
 
 
+def _root(parent: dict, a):
+    """The representative of ``a`` in a union-find forest (``parent``: item -> parent)."""
+    parent.setdefault(a, a)
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
 class _Circuit:
     """The hydraulic graph of a component list: producers, readers, ends, nodes and sides."""
 
@@ -100,23 +109,14 @@ class _Circuit:
     def _sides(self) -> dict:
         """Node -> side label: nodes joined by conducting components (union-find)."""
         parent = {}
-
-        def find(a):
-            parent.setdefault(a, a)
-            while parent[a] != a:
-                parent[a] = parent[parent[a]]
-                a = parent[a]
-            return a
-
         for c in self.parts:
             nodes = [c.signal(e.pressure) for e in self.ends[c.name].values() if e.pressure]
             for n in nodes:
-                find(n)
+                _root(parent, n)
             if c.conducts:
                 for n in nodes[1:]:
-                    parent[find(n)] = find(nodes[0])
-        return {n: find(n) for n in parent} | {s: s for s in self.prescribed
-                                                if s not in parent}
+                    parent[_root(parent, n)] = _root(parent, nodes[0])
+        return {n: _root(parent, n) for n in list(parent)}
 
     def side_of(self, node):
         return self.side.get(node, node)
@@ -354,14 +354,6 @@ def _islands(g, path_of):
     """Components joined by any oil path (valves and pistons included) that reach no
     prescribed pressure and no pump."""
     parent = {}
-
-    def find(a):
-        parent.setdefault(a, a)
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
     hydraulic = []
     for c in g.parts:
         ports = [p for e in g.ends[c.name].values() for p in (e.pressure, *e.flows) if p]
@@ -370,12 +362,12 @@ def _islands(g, path_of):
         if not ports:
             continue
         hydraulic.append((c, ports))
-        for p in ports:
-            parent[find(c.signal(p))] = find(c.name)
-    fed = {find(s) for s in g.prescribed if s in parent}
-    fed |= {find(c.name) for c in g.parts if c.source_ends and c.name in parent}
+        for p in ports:      # (kind, name): a component and a signal may share a name
+            parent[_root(parent, ("signal", c.signal(p)))] = _root(parent, ("component", c.name))
+    fed = {_root(parent, ("signal", s)) for s in g.prescribed if ("signal", s) in parent}
+    fed |= {_root(parent, ("component", c.name)) for c, _ in hydraulic if c.source_ends}
     for c, ports in hydraulic:
-        if find(c.name) not in fed:
+        if _root(parent, ("component", c.name)) not in fed:
             raise CircuitError(f"{path_of(c, ports[0])}: {c.name} is cut off from every "
                                f"pressure source and pump (no oil path reaches one): its "
                                f"pressures have no level to start from")
