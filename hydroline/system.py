@@ -96,10 +96,10 @@ def make_line(rig: Rig, section: str, fluid: Fluid) -> Line:
     ------
     RigError  One line naming the section's parameter at fault
     """
+    length, diameter = rig[f"{section}.length"], rig[f"{section}.diameter"]   # (named in full)
     try:
-        return Line(rig[f"{section}.length"], rig[f"{section}.diameter"], fluid,
-                    rig.get(f"{section}.bulk_modulus"))
-    except ValueError as e:
+        return Line(length, diameter, fluid, rig.get(f"{section}.bulk_modulus"))
+    except ValueError as e:   # Line names the parameter: "diameter: must be > 0 ..."
         raise RigError(f"{section}.{e}") from None
 
 

@@ -42,9 +42,9 @@ from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
 from .wiring import check_self_loops, check_wiring
 
-__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "check_component_name",
-           "circuit_components", "circuit_names", "has_circuit", "parse_circuit_value", "rewire",
-           "MAX_NAME_LENGTH"]
+__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "check_circuit_value",
+           "check_component_name", "circuit_components", "circuit_names", "has_circuit",
+           "parse_circuit_value", "rewire", "MAX_NAME_LENGTH"]
 
 PREFIX = "circuit."
 #: Longest component name, [characters]: a name labels messages, result columns and figures.
@@ -352,6 +352,48 @@ def _table(values: dict, name: str, sub: str) -> dict:
     return {k[len(head):]: v for k, v in values.items() if k.startswith(head)}
 
 
+def _check_declared(rig, name: str, ctype, decls: dict, key: str, v, allowed) -> None:
+    """A component's parameter against its type's declaration (``decls``): bounds, then the
+    plausible range (unless the path is in ``allowed``); one line, CircuitError, naming it."""
+    if key not in decls:
+        return
+    head = f"{PREFIX}{name}."
+    unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
+    rule = decls[key].violation(v)
+    if rule is not None:
+        raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
+                           f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
+    implausible = decls[key].implausible(v)
+    if implausible is not None and f"{head}{key}" not in allowed:
+        raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
+                           f"plausible range, {implausible}{unit} ({decls[key].description}); "
+                           f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
+
+
+def check_circuit_value(rig, path: str) -> None:
+    """Refuse one circuit parameter's value (``circuit.<component>.<parameter>``) outside its
+    type's declared bounds or plausible range, as :func:`circuit_components` does for all of
+    them: what a sweep checks for each level before its first variant.
+
+    Parameters
+    ----------
+    rig : Rig    A rig holding the value (SI) and the component's type
+    path : str   ``circuit.<component>.<parameter>``
+
+    Raises
+    ------
+    CircuitError  One line naming the path, the bounds or range and the unit
+    """
+    name, key = _split(path, rig.raw)
+    ctype = COMPONENT_TYPES[rig.values[f"{PREFIX}{name}.type"]]
+    if path in rig.values and "." not in key:
+        head = f"{PREFIX}{name}."
+        params = {k[len(head):]: v for k, v in rig.values.items()
+                  if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+        _check_declared(rig, name, ctype, ctype.declarations(params), key, rig.values[path],
+                        set(rig.get("rig.allow_implausible") or []))
+
+
 def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     """The components of a rig's ``[circuit.*]`` description, checked port by port.
 
@@ -379,17 +421,7 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
                   if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
         decls = ctype.declarations(params)   # (a command's levels: its quantity's range)
         for key, v in params.items():   # the declared bounds, with the value as written
-            rule = decls[key].violation(v) if key in decls else None
-            if rule is not None:
-                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
-                raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
-                                   f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
-            implausible = decls[key].implausible(v) if key in decls else None
-            if implausible is not None and f"{head}{key}" not in allowed:
-                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
-                raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
-                                   f"plausible range, {implausible}{unit} ({decls[key].description}); "
-                                   f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
+            _check_declared(rig, name, ctype, decls, key, v, allowed)
         specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
     # the load mass rides on the actuator whose position it reads (Load's docstring)
     for name, (ctype, params, ports, _) in specs.items():

@@ -44,7 +44,7 @@ from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-e
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
            "available", "CFLAGS", "native_flags", "model_fingerprint", "definition_key",
-           "prune_libraries", "MAX_LIBRARIES"]
+           "prune_libraries", "MAX_LIBRARIES", "needs_build"]
 
 #: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
 #: model whose record is known is loaded without them.
@@ -921,6 +921,33 @@ def _remember_model(fingerprint: str, gen, library_path: Path) -> None:
     rec = {k: getattr(gen, k) for k in _SCALARS}
     rec.update({k: np.asarray(getattr(gen, k)).tolist() for k in _ARRAYS}, library=tag)
     store_table("models", fingerprint, rec)
+
+
+def needs_build(network) -> bool:
+    """Whether running ``network`` on the compiled core would first write and compile a new
+    library (its definition and its structure unknown to the cache, or the library missing):
+    what a command estimates before a run. Looked up as :class:`NativeModel` does, without
+    writing C; the CasADi graph is built (on ``network``) where the definition is unknown.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Returns
+    -------
+    bool  True when the first run will compile (seconds to minutes, by the model's size)
+    """
+    if network.__dict__.get("_native_model") is not None:
+        return False
+    _, tag = _known_model(definition_key(network), network)
+    if tag is None:
+        model = network.compile()
+        _, tag = _known_model(model_fingerprint(model), network)
+        if tag is None:
+            from . import codegen
+
+            _, tag = _known_structure(codegen.scaled_functions(model))
+    return tag is None or not _verified(cache_dir() / f"hl_{tag}.so")
 
 
 def native_model(network) -> NativeModel:

@@ -360,11 +360,13 @@ def _read_toml(path) -> tuple[dict, str]:
         text = resources.files(__name__).joinpath(DEFAULT_RIG).read_text()
         return tomllib.loads(text), f"embedded:{DEFAULT_RIG}"
     p = Path(path)
-    if not p.is_file() and shipped_rig(str(path)) is not None:
-        name = shipped_rig(str(path))
-        return tomllib.loads(resources.files(__name__).joinpath(name).read_text()), f"embedded:{name}"
-    if not p.is_file():
-        raise RigError(f"rig file not found: {path}")
+    shipped = None if p.is_file() else shipped_rig(str(path))
+    if shipped is not None and p.suffix != ".toml":   # a shipped rig's name, e.g. "two_axis"
+        return tomllib.loads(resources.files(__name__).joinpath(shipped).read_text()), f"embedded:{shipped}"
+    if not p.is_file():   # a file name is a file: not silently the shipped rig of that name
+        hint = (f" (the shipped rig of that name is '{Path(shipped).stem}', without .toml)"
+                if shipped is not None else "")
+        raise RigError(f"rig file not found: {path}{hint}")
     try:
         if p.stat().st_size > MAX_RIG_BYTES:
             raise RigError(f"{path}: {p.stat().st_size} bytes is too large for a rig file "
