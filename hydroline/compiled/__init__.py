@@ -946,8 +946,9 @@ def needs_build(network) -> bool:
         if tag is None:
             from . import codegen
 
-            _, tag = _known_structure(codegen.scaled_functions(model))
-    return tag is None or not _verified(cache_dir() / f"hl_{tag}.so")
+            functions = codegen.scaled_functions(model)
+            _, tag = _known_structure(functions, _structure_record_key(functions), network)
+    return tag is None or not _library_check(cache_dir() / f"hl_{tag}.so")[0]
 
 
 def native_model(network) -> NativeModel:
