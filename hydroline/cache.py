@@ -7,6 +7,14 @@ The tables are bounded: each kind keeps about :data:`MAX_ENTRIES` files, the lea
 used removed first (:func:`prune_tables`, run by one :func:`store_table` in
 :data:`PRUNE_EVERY` at random, so that many short processes prune as often as one long one;
 a read refreshes an entry's time at most once an hour).
+
+Every entry is verified when it is read: a table's file holds the key it was made for and a
+SHA-256 of that key with its value (:func:`table_checksum`); a compiled library's build record
+holds its size, SHA-256 and key (:mod:`hydroline.compiled`). An entry that fails (numbers
+altered, another key's file, a damaged or truncated file) is discarded with one
+:class:`CacheWarning` naming the file, and computed again: a wrong entry is never used, and
+what follows from it is never blamed on the rig. An entry of the format before the checksums
+(no ``sha256`` field) is a quiet miss: computed again and overwritten.
 """
 from __future__ import annotations
 
@@ -16,10 +24,12 @@ import os
 import random
 import tempfile
 import time
+import warnings
 from pathlib import Path
 
 __all__ = ["cache_dir", "load_table", "store_table", "source_tag", "prune_tables",
-           "least_recently_used", "mark_used", "MAX_ENTRIES"]
+           "least_recently_used", "mark_used", "MAX_ENTRIES", "CacheWarning", "table_checksum",
+           "discard_table", "discard_entry"]
 
 #: Most entries kept per table kind (a correction-factor entry is ~0.5 kB, a model record
 #: ~10 kB), [-]
@@ -49,13 +59,51 @@ def source_tag(*paths) -> str:
     return h.hexdigest()[:16]
 
 
+class CacheWarning(UserWarning):
+    """A cache entry failed its check (altered, another key's, damaged) and is computed again."""
+
+
 def _table_path(kind: str, key: str) -> Path:
     return cache_dir() / kind / (hashlib.sha256(key.encode()).hexdigest()[:32] + ".json")
 
 
+def table_checksum(key: str, value) -> str:
+    """SHA-256 (hex) of a table entry's key and value as its file holds them: the key, a zero
+    byte, and the value's JSON text as :func:`json.dumps` writes it (the text a reader
+    hashes, without parsing it first).
+
+    Parameters
+    ----------
+    key : str       Everything the value depends on
+    value : object  JSON value (lists, dicts, numbers, strings)
+
+    Returns
+    -------
+    str  64 hexadecimal digits
+    """
+    return _checksum(key, json.dumps(value).encode())
+
+
+def _checksum(key: str, text: bytes) -> str:
+    h = hashlib.sha256(key.encode())
+    h.update(b"\0")
+    h.update(text)
+    return h.hexdigest()
+
+
+#: A table file's text: ``{"key": <key>, "sha256": "<64 hex>", "value": <value>}``
+_HEAD, _MIDDLE = '{{"key": {}, "sha256": "', '", "value": '
+
+
 def load_table(kind: str, key: str):
-    """The JSON value stored under ``key`` (a string naming every input), or None when absent
-    or unreadable (a damaged entry is treated as a miss).
+    """The JSON value stored under ``key`` (a string naming every input), or None when absent,
+    unreadable or not the value stored for that key.
+
+    The entry is verified: the key it holds must be ``key`` and the checksum it holds must
+    be that of the key and the value's text (:func:`table_checksum`). One that fails (numbers
+    altered, a file copied from another key, damaged JSON) is discarded with one
+    :class:`CacheWarning` naming the file (:func:`discard_entry`), so the caller computes the
+    value again; an entry without a checksum (the format before them) is a quiet miss.
 
     Parameters
     ----------
@@ -68,20 +116,75 @@ def load_table(kind: str, key: str):
     """
     path = _table_path(kind, key)
     try:
-        with open(path) as f:
-            entry = json.load(f)
+        with open(path, "rb") as f:
+            raw = f.read()
             mtime = os.fstat(f.fileno()).st_mtime
-        if entry.get("key") != key:
-            return None
-        mark_used(path, mtime)      # recently used: kept by prune_tables
-        return entry["value"]
-    except (OSError, ValueError, KeyError, TypeError, AttributeError):
-        return None
+    except OSError:
+        return None                 # absent (or unreadable: the cache only saves time)
+    head = _HEAD.format(json.dumps(key)).encode()
+    start = len(head) + 64 + len(_MIDDLE)
+    if (raw.startswith(head) and raw[start - len(_MIDDLE):start] == _MIDDLE.encode()
+            and raw.endswith(b"}")
+            and _checksum(key, raw[start:-1]).encode() == raw[len(head):len(head) + 64]):
+        try:
+            value = json.loads(raw[start:-1])
+        except (ValueError, RecursionError):
+            pass
+        else:
+            mark_used(path, mtime)  # recently used: kept by prune_tables
+            return value
+    why = _table_fault(raw, key)
+    if why:
+        discard_entry(path, why=why)
+    return None
+
+
+def _table_fault(raw: bytes, key: str) -> str:
+    """Why a table file failed its check ("" for the format before checksums)."""
+    try:
+        entry = json.loads(raw)
+        if "sha256" not in entry and "value" in entry:
+            return ""
+        return ("it was made for another key" if entry["key"] != key else
+                "its content does not match its checksum")
+    except (ValueError, KeyError, TypeError, RecursionError):
+        return "it is not a readable entry"
+
+
+def discard_table(kind: str, key: str, why: str) -> None:
+    """Discard the entry stored under ``key`` that its reader found wrong (its value does not
+    fit what it was stored for), with one :class:`CacheWarning` naming the file.
+
+    Parameters
+    ----------
+    kind : str   Sub-directory of the cache naming the table, e.g. ``"models"``
+    key : str    The key it is stored under
+    why : str    What is wrong with it (part of the warning)
+    """
+    discard_entry(_table_path(kind, key), why=why)
+
+
+def discard_entry(*paths, why: str) -> None:
+    """Remove a cache entry's files (errors ignored) and say so in one :class:`CacheWarning`
+    naming the first file; whoever needs the entry computes it again.
+
+    Parameters
+    ----------
+    *paths : Path   The entry's files (a table's file; a library and its build record)
+    why : str       What is wrong with it (part of the warning)
+    """
+    for p in paths:
+        try:
+            os.unlink(p)
+        except OSError:
+            pass
+    warnings.warn(f"cache entry {paths[0]} failed its check ({why}): discarded and rebuilt",
+                  CacheWarning, stacklevel=2)
 
 
 def store_table(kind: str, key: str, value) -> None:
-    """Store a JSON-serialisable value under ``key`` (atomic rename; errors ignored: the cache
-    only saves time).
+    """Store a JSON-serialisable value under ``key`` with the key and a checksum of both
+    (:func:`table_checksum`; atomic rename; errors ignored: the cache only saves time).
 
     Parameters
     ----------
@@ -91,10 +194,12 @@ def store_table(kind: str, key: str, value) -> None:
     """
     path = _table_path(kind, key)
     try:
+        text = json.dumps(value)        # (dumps: the C encoder; dump streams in Python)
+        head = _HEAD.format(json.dumps(key))
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as f:   # (dumps: the C encoder; dump streams in Python)
-            f.write(json.dumps({"key": key, "value": value}))
+        with os.fdopen(fd, "w") as f:
+            f.write(f"{head}{_checksum(key, text.encode())}{_MIDDLE}{text}}}")
         os.replace(tmp, path)
     except (OSError, TypeError, ValueError):
         try:

@@ -5,7 +5,9 @@ streams them to a file; a long ``t_end`` at a fine output step would otherwise i
 hours and end in a MemoryError. :func:`output_estimate` gives the rows and bytes of a run
 from ``t_end``, the output step and the number of columns; :func:`check_output_size` refuses
 a run beyond :data:`MAX_TABLE_BYTES` in memory, or one whose CSV would not fit on the disk,
-with one line saying how large it would be and what to change.
+with one line saying how large it would be and what to change. :func:`run_cost` estimates
+the wall time and memory of a run that is allowed (its model's size, the compiled core's
+first build, the output rows), for the note a command prints before an expensive one.
 """
 from __future__ import annotations
 
@@ -15,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 __all__ = ["MAX_TABLE_BYTES", "CSV_BYTES_PER_VALUE", "OutputEstimate", "output_estimate",
-           "check_output_size"]
+           "check_output_size", "RunCost", "run_cost", "NOTE_SECONDS", "NOTE_BYTES"]
 
 #: Largest time-series table a run keeps in memory, [bytes] (2 GiB: 86 columns of the default
 #: rig at the default 0.1 ms output step are about 80 s of simulated time).
@@ -115,3 +117,118 @@ def check_output_size(t_end: float, dt_out: float, n_columns: int, *, stream_to=
             raise ValueError(f"{name}: {t_end:g} s at a {dt_out:g} s output step is "
                              f"{est.describe()}; only {_size(free)} are free in {folder}")
     return est
+
+
+# The cost model of a run: an estimate for a note, not a limit. Hand-fitted on the 2-core
+# development machine (under a load of 2-3), with n the model's states:
+#
+#   build [s]        = BUILD_SECONDS + (n / BUILD_STATES)^3    (a model structure new to the cache)
+#   build [B]        = BUILD_BYTES + BUILD_BYTES_PER_STATE3 * n^3   (the C compiler's memory)
+#   integrate [s]    = t_end / INTEGRATION_SPEED * (n / REFERENCE_STATES)^1.5
+#   write [s]        = CSV bytes / CSV_RATE
+#   table [B]        = 2 * 8 * rows * columns   (kept in memory, doubled while it becomes the
+#                                                result, one per variant running; 0 when
+#                                                streamed to a file)
+#   wall time        = build + integrate + write;  memory = the larger of build and table
+#
+# The compiled core's C source holds the sparse LU of the Jacobian, whose operations grow as
+# ~n^3 on the hose models (561, 6633, 41741, 174717 for 26, 58, 106, 170 states): compiling
+# took 2.5 s, 5.2 s, 12 s for 58, 106, 170 states, and 95 s and 550 MB for 330 states
+# (rig.modes_per_section = 40). Integration: 45 simulated seconds per second for the default
+# rig's 58 states (600 s of closed-loop sine in 11-14 s, benchmarks/README.md), 12x slower
+# per simulated second at 330 states (6.3 and 0.5 x real time on the open-loop step: n^1.45).
+
+#: Fixed part of a first build (compiler start-up, the BDF integrator's code), [s].
+BUILD_SECONDS = 2.0
+#: States at which the n^3 part of a first build takes 1 s, [-].
+BUILD_STATES = 73.0
+#: Memory of the C compiler on a small model, [B], and its n^3 part, [B per state^3].
+BUILD_BYTES = 70e6
+BUILD_BYTES_PER_STATE3 = 13.4
+#: Simulated seconds per wall second of the compiled integrator on REFERENCE_STATES states.
+INTEGRATION_SPEED = 45.0
+REFERENCE_STATES = 58
+#: Bytes of CSV written per second, [B/s].
+CSV_RATE = 15e6
+#: A run estimated above these gets a note before it starts: wall time [s], memory [B].
+NOTE_SECONDS = 10.0
+NOTE_BYTES = 300e6
+
+
+@dataclass(frozen=True)
+class RunCost:
+    """A run's estimated cost (the model in the comment above :data:`BUILD_SECONDS`).
+
+    Attributes
+    ----------
+    build_seconds : float     Writing and compiling the model's C core (0 when cached), [s]
+    integrate_seconds : float Integration of all variants, [s]
+    write_seconds : float     Writing the CSV, [s]
+    memory_bytes : float      Peak memory: the compiler's or the table's, [B]
+    """
+
+    build_seconds: float
+    integrate_seconds: float
+    write_seconds: float
+    memory_bytes: float
+
+    @property
+    def seconds(self) -> float:
+        """Estimated wall time, [s]."""
+        return self.build_seconds + self.integrate_seconds + self.write_seconds
+
+    @property
+    def notable(self) -> bool:
+        """True when the run is worth a note: beyond :data:`NOTE_SECONDS` or
+        :data:`NOTE_BYTES`."""
+        return self.seconds > NOTE_SECONDS or self.memory_bytes > NOTE_BYTES
+
+    def describe(self) -> str:
+        """One line, e.g. ``"about 95 s and 550 MB (95 s compiling ...)"``.
+
+        Returns
+        -------
+        str  Wall time and memory, and the part the compiled core's first build takes
+        """
+        text = f"about {_duration(self.seconds)} and {_size(self.memory_bytes)}"
+        if self.build_seconds > 0.5 * self.seconds:
+            text += (f" ({_duration(self.build_seconds)} of it compiling the model's C core, "
+                     f"once: later runs of this model structure reuse it)")
+        return text
+
+
+def _duration(s: float) -> str:
+    return f"{s / 60:.0f} min" if s >= 120 else f"{s:.0f} s"
+
+
+def run_cost(n_states: int, t_end: float, rows: float = 0, columns: int = 0, *,
+             build: bool = False, in_memory: bool = True, csv: bool = False,
+             variants: int = 1, workers: int = 1) -> RunCost:
+    """Estimate a run's wall time and memory before it starts (the cost model above
+    :data:`BUILD_SECONDS`).
+
+    Parameters
+    ----------
+    n_states : int     States of the model, [-]
+    t_end : float      Simulated time of one variant, [s]
+    rows : float       Output rows of one variant, [-]
+    columns : int      Output columns (time, signals and states), [-]
+    build : bool       The compiled core is built first (:func:`hydroline.compiled.needs_build`)
+    in_memory : bool   The table is kept in memory (False: streamed to a file)
+    csv : bool         The table is written as CSV
+    variants : int     Runs of the same model (a sweep), [-]
+    workers : int      Processes running them side by side, [-]
+
+    Returns
+    -------
+    RunCost
+    """
+    n = float(n_states)
+    build_s = BUILD_SECONDS + (n / BUILD_STATES) ** 3 if build else 0.0
+    build_b = BUILD_BYTES + BUILD_BYTES_PER_STATE3 * n ** 3 if build else 0.0
+    rounds = math.ceil(max(variants, 1) / max(workers, 1))
+    integrate = rounds * t_end / INTEGRATION_SPEED * (n / REFERENCE_STATES) ** 1.5
+    write = rounds * CSV_BYTES_PER_VALUE * rows * columns / CSV_RATE if csv else 0.0
+    side_by_side = min(max(workers, 1), max(variants, 1))   # a table per running variant
+    table = 2 * 8 * rows * columns * side_by_side if in_memory else 0.0
+    return RunCost(build_s, integrate, write, max(build_b, table))

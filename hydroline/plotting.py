@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["plot_result", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
-           "column_envelope"]
+           "column_envelope", "figure_title", "TITLE_CHARACTERS"]
 
 #: The paper's Figs. 10-12: valve port pressures, chamber pressures, piston velocity.
 PRESSURE_PANELS = (
@@ -90,6 +90,27 @@ def new_figure(figsize):
     fig = Figure(figsize=figsize)
     FigureCanvasAgg(fig)
     return fig
+
+
+#: Longest title a figure draws, [characters]: a longer one (a rig name of 10^6 characters)
+#: is cut, since laying out its text takes minutes and hundreds of MB.
+TITLE_CHARACTERS = 160
+
+
+def figure_title(text: str) -> str:
+    """A figure's title as drawn: at most :data:`TITLE_CHARACTERS` characters, a longer one
+    cut and ended with "...".
+
+    Parameters
+    ----------
+    text : str  The title (it may hold a rig's name, of any length)
+
+    Returns
+    -------
+    str
+    """
+    text = str(text)
+    return text if len(text) <= TITLE_CHARACTERS else text[:TITLE_CHARACTERS - 3] + "..."
 
 
 def save_png(fig, path, dpi: int = 100) -> None:
@@ -195,8 +216,8 @@ def plot_result(result, signals=None, path=None, title=None):
                             bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.85))
     axes[-1, 0].set_xlabel("time [ms]")
     height = fig.get_figheight()   # fixed margins, [inch]: tight_layout would draw twice
-    fig.suptitle(title or f"hydroline: {result.metadata.get('scenario', 'simulation')}",
-                 y=1 - 0.1 / height, va="top")
+    default = f"hydroline: {result.metadata.get('scenario', 'simulation')}"
+    fig.suptitle(figure_title(title or default), y=1 - 0.1 / height, va="top")
     fig.subplots_adjust(left=PANEL_LEFT, right=PANEL_RIGHT, top=1 - 0.5 / height,
                         bottom=0.5 / height, hspace=0.12)
     if path:
@@ -245,8 +266,8 @@ def plot_line_response(line, models, f, form, path=None, title=None):
     axes[0, 0].legend(fontsize=8)
     for ax in axes[-1]:
         ax.set_xlabel("frequency [Hz]")
-    fig.suptitle(title or f"{form} line: L = {line.length:g} m, d = {line.diameter * 1e3:g} mm, "
-                 f"Dn = {line.dissipation_number:.3g}")
+    fig.suptitle(figure_title(title or f"{form} line: L = {line.length:g} m, "
+                              f"d = {line.diameter * 1e3:g} mm, Dn = {line.dissipation_number:.3g}"))
     fig.tight_layout()
     if path:
         save_png(fig, path, dpi=100)

@@ -20,7 +20,8 @@ from .traces.metrics import pressure_metrics
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .components.commands import read_table_csv
-from .rigs.parameters import ATMOSPHERIC_PRESSURE, check_consistency, steady_state_hint
+from .rigs.parameters import (ATMOSPHERIC_PRESSURE, allowed_implausible, check_consistency,
+                              steady_state_hint)
 from .engine import SimulationResult, SteadyStateError, integrate, solve_steady_state
 from .scenario_schema import QUANTITY_UNITS, WAVEFORM_KEYS
 from .system import build_circuit
@@ -155,6 +156,28 @@ def template_controller(rig: Rig, axis) -> comp.PositionController:
         sample_time=rig.get("controller.sample_time"),
         connections={"reference": axis.reference_signal, "position": axis.position,
                      "velocity": axis.velocity, "current": axis.current})
+
+
+def _within_stroke(rig, path: str, reach: float, what: str, axis):
+    """Refuse a position reference that leaves the axis's stroke: ``reach`` [m] from mid-stroke
+    beyond +-stroke/2 parks the piston on its stop for the run (a slip of unit, "1 km" for
+    "1 mm"); ``[rig] allow_implausible`` naming ``path`` lets it run.
+
+    Parameters
+    ----------
+    rig : Rig        Parameters (SI); None: nothing is allowed
+    path : str       The scenario key that sets the command, for the message
+    reach : float    Farthest reference from mid-stroke, [m]
+    what : str       How the reference gets there, for the message
+    axis : Axis      The commanded axis (its stroke)
+    """
+    half = axis.stroke / 2
+    if abs(reach) <= half * (1 + 1e-9) or (rig is not None and path in allowed_implausible(rig)):
+        return
+    raise RigError(f"{path}: {what} takes the position reference of axis '{axis.name}' to "
+                   f"{reach * 1e3:g} mm, beyond its stroke (+-{half * 1e3:g} mm) [m]: the piston "
+                   f"would sit on its stop; if it is meant, add \"{path}\" to [rig] "
+                   f"allow_implausible")
 
 
 def _drive(rig, axis, quantity: str, component, key: str) -> list:
@@ -362,6 +385,9 @@ class ClosedLoopSine(Experiment):
 
     def commands(self, axes, rig=None):
         axis = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
+        _within_stroke(rig, f"scenario.{self.name}.amplitude", abs(self.offset) + abs(self.amplitude),
+                       f"an offset of {self.offset * 1e3:g} mm and an amplitude of "
+                       f"{self.amplitude * 1e3:g} mm", axis)
         ref = comp.SineCommand(name="command", quantity="position", offset=self.offset,
                                amplitude=self.amplitude, frequency=self.frequency, start=0.0,
                                connections={"command": axis.reference_signal})
@@ -429,6 +455,8 @@ class PositionStep(Experiment):
                            f"in the circuit (a position_controller whose current drives "
                            f"'{ax.valve}')")
         x0 = _initial_position(rig, ax)
+        _within_stroke(rig, f"scenario.{self.name}.step", x0 + self.step,
+                       f"a step of {self.step * 1e3:g} mm from {x0 * 1e3:g} mm", ax)
         cmd = comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
                                final=x0 + self.step, time=self.time,
                                connections={"command": ax.reference_signal})

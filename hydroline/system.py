@@ -35,7 +35,8 @@ import numpy as np
 from . import components as comp
 from .fluid import Fluid
 from .lines import DEFAULT_LINE_METHOD, Line, ModalLine
-from .circuit import Circuit, CircuitError, axes_of, circuit_components, has_circuit, rewire
+from .circuit import (Circuit, CircuitError, axes_of, check_circuit, circuit_components,
+                      has_circuit, rewire)
 from .engine import Network
 from .rigs import SCHEMA, Rig, RigError, declarations
 from .rigs.parameters import check_consistency, check_ranges
@@ -96,10 +97,10 @@ def make_line(rig: Rig, section: str, fluid: Fluid) -> Line:
     ------
     RigError  One line naming the section's parameter at fault
     """
+    length, diameter = rig[f"{section}.length"], rig[f"{section}.diameter"]   # (named in full)
     try:
-        return Line(rig[f"{section}.length"], rig[f"{section}.diameter"], fluid,
-                    rig.get(f"{section}.bulk_modulus"))
-    except ValueError as e:
+        return Line(length, diameter, fluid, rig.get(f"{section}.bulk_modulus"))
+    except ValueError as e:   # Line names the parameter: "diameter: must be > 0 ..."
         raise RigError(f"{section}.{e}") from None
 
 
@@ -285,7 +286,8 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
             if rule is not None:
                 raise _bad(rig, path, rule)
     if has_circuit(rig.values):
-        return {}
+        check_ranges(rig)      # the rig-wide settings, the oil, the scenarios (the components':
+        return {}              # hydroline.circuit.builder, against their declarations)
     for path in _POSITIVE:
         v = rig.get(path)
         if v is not None and not (np.isfinite(v) and v > 0):
@@ -379,6 +381,7 @@ def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
             circuit.place(position_guess)
         except CircuitError as e:
             raise RigError(str(e)) from None
+        _check_controller_table(rig, circuit)
         return circuit
     try:
         parts = _build(rig, position_guess, profiles)
@@ -387,9 +390,22 @@ def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
     overrides = _overrides(rig)
     try:
         rewire(parts, overrides, allow_unknown=True)
+        if overrides:   # the template itself is wired right (tests/test_wiring.py)
+            check_circuit(parts, overrides)
     except CircuitError as e:
         raise RigError(str(e)) from None
     return Circuit(parts, axes_of(parts), rig.source, overrides)
+
+
+def _check_controller_table(rig: Rig, circuit: Circuit):
+    """A circuit rig's ``[controller]`` closes the loop of an axis whose circuit has no
+    position controller: refused by name where every axis has its own (it would not be used)."""
+    key = next((k for k in rig.values if k.startswith("controller.")), None)
+    if key is not None and circuit.axes and all(ax.controller for ax in circuit.axes.values()):
+        own = ", ".join(ax.controller for ax in circuit.axes.values())
+        raise RigError(f"{key}: every axis of the circuit has its own position controller "
+                       f"({own}); the [controller] table, which closes the loop of an axis "
+                       f"without one, would not be used: remove it, or set the gains there")
 
 
 def _overrides(rig):

@@ -1,5 +1,6 @@
-"""The on-disk cache is bounded (least recently used entries go first), and the compiled
-model's structure records are keyed by the build settings they were built with."""
+"""The on-disk cache is bounded (least recently used entries go first), the compiled
+model's structure records are keyed by the build settings they were built with, and every
+entry is verified by its key and checksum when read (a wrong one is rebuilt with a warning)."""
 from __future__ import annotations
 
 import os
@@ -107,3 +108,223 @@ def test_a_pruned_library_is_compiled_again(monkeypatch, tmp_path):
                       solver="compiled")
     assert path.exists()                            # compiled again, same numbers
     assert np.array_equal(first["p_v"], again["p_v"])
+
+
+# ---- every entry verified: checksum and key (issue 24 item 3) --------------------------------
+def _written(tmp_path, kind):
+    (path,) = (tmp_path / kind).glob("*.json")
+    return path
+
+
+def _cache_warnings(caught):
+    return [str(w.message) for w in caught if issubclass(w.category, cache.CacheWarning)]
+
+
+@pytest.mark.parametrize("alter", ["scaled numbers", "another key's file", "truncated",
+                                   "not an object", "checksum of other numbers"])
+def test_an_altered_table_entry_is_discarded_with_one_warning_naming_it(monkeypatch, tmp_path,
+                                                                         alter):
+    """Whatever is changed in an entry's file (its numbers, still valid JSON; the file of
+    another key put in its place; half the file; another JSON value; the checksum), the
+    reader gets no value, one warning naming the file, and the file is gone; the value
+    stored again reads back exactly."""
+    import json
+    import warnings
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    value = [[1.0367, 1.0211, 0.1 + 0.2], [3.71, 6.23, 1e-300]]
+    cache.store_table("kind", "line A", value)
+    path = _written(tmp_path, "kind")
+    assert cache.load_table("kind", "line A") == value
+    entry = json.loads(path.read_text())
+    if alter == "scaled numbers":
+        entry["value"] = [[1.5 * v for v in row] for row in entry["value"]]
+        path.write_text(json.dumps(entry))
+    elif alter == "another key's file":
+        cache.store_table("kind", "line B", value)
+        other = next(p for p in (tmp_path / "kind").glob("*.json") if p != path)
+        os.replace(other, path)
+    elif alter == "truncated":
+        path.write_text(path.read_text()[:40])
+    elif alter == "not an object":
+        path.write_text("[1, 2, 3]")
+    else:
+        entry["value"][0][0] = 1.5
+        entry["sha256"] = cache.table_checksum("line A", value[::-1])
+        path.write_text(json.dumps(entry))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert cache.load_table("kind", "line A") is None
+        assert cache.load_table("kind", "line A") is None     # gone: a plain miss, no word
+    said = _cache_warnings(caught)
+    assert len(said) == 1 and str(path) in said[0] and "\n" not in said[0], said
+    assert not path.exists()
+    cache.store_table("kind", "line A", value)
+    assert cache.load_table("kind", "line A") == value
+
+
+def test_table_entries_read_back_exactly_and_old_ones_are_a_quiet_miss(monkeypatch, tmp_path):
+    """The checksum is of the value's JSON text (hand-checked here with hashlib): rewriting an
+    untouched entry with Python's json keeps it valid; an entry of the format before the
+    checksums ({"key", "value"} only) is not used, without a warning."""
+    import hashlib
+    import json
+    import warnings
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    value = {"constants": [63741423.624223284, -0.0, float("nan")], "jac_row": [0, 2], "n": 3,
+             "library": "31ffefc2435a746ecd0c9269c370e39c", "name": "Zylinder \u00e4"}
+    cache.store_table("kind", "model \u00e4", value)
+    path = _written(tmp_path, "kind")
+    entry = json.loads(path.read_text())
+    assert entry["key"] == "model \u00e4"
+    want = hashlib.sha256("model \u00e4".encode() + b"\0" + json.dumps(value).encode())
+    assert entry["sha256"] == want.hexdigest() == cache.table_checksum("model \u00e4", value)
+    path.write_text(json.dumps(entry))                       # the same text again
+    got = cache.load_table("kind", "model \u00e4")
+    assert json.dumps(got) == json.dumps(value)              # (NaN != NaN: compare the text)
+    path.write_text(json.dumps({"key": "model \u00e4", "value": value}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cache.load_table("kind", "model \u00e4") is None
+
+
+@pytest.fixture(scope="module")
+def default_rig_cache(tmp_path_factory):
+    """A cache directory filled by one run of the default rig (a fresh process), and that
+    run's summary."""
+    import json
+
+    d = tmp_path_factory.mktemp("cache")
+    out = _simulate(d)
+    assert out.returncode == 0 and "warning" not in out.stderr, out.stderr
+    return d, json.loads(out.stdout)
+
+
+def _simulate(cache_dir):
+    """``hydroline simulate --json`` (the default rig) in a new process with this cache."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, HYDROLINE_CACHE_DIR=str(cache_dir))
+    return subprocess.run([sys.executable, "-m", "hydroline", "simulate", "--json"], env=env,
+                          capture_output=True, text=True, timeout=300)
+
+
+def _copy_of(default_rig_cache, tmp_path):
+    import shutil
+
+    d = tmp_path / "cache"
+    shutil.copytree(default_rig_cache[0], d)
+    return d
+
+
+def _rerun_after(d, damaged: list, clean_summary):
+    """Run the default rig again on the damaged cache: exit 0, one warning line per damaged
+    file naming it, nothing blamed on the rig, and the paper's figures again (README:
+    40.0 Hz / 1.00 MPa at the supply port, 31.0 Hz / 0.94 MPa at the return port)."""
+    import json
+
+    out = _simulate(d)
+    assert out.returncode == 0, out.stderr
+    lines = out.stderr.splitlines()
+    assert len(lines) == len(damaged), lines
+    for path in damaged:
+        (line,) = [ln for ln in lines if str(path) in ln]
+        assert line.startswith("hydroline simulate: warning: cache entry ")
+        assert "discarded and rebuilt" in line
+    said = out.stderr
+    for path in damaged:
+        said = said.replace(str(path), "PATH")
+    for word in ("hose", "accumulator", "supply.", "return.", "error", "Traceback"):
+        assert word not in said
+    summary = json.loads(out.stdout)
+    assert summary["supply"]["frequency_hz"] == pytest.approx(40.0, abs=0.05)
+    assert summary["supply"]["amplitude_mpa"] == pytest.approx(1.00, abs=0.005)
+    assert summary["return"]["frequency_hz"] == pytest.approx(31.0, abs=0.05)
+    assert summary["return"]["amplitude_mpa"] == pytest.approx(0.94, abs=0.005)
+    for side in ("supply", "return"):     # and those of the run that filled the cache
+        assert summary[side] == clean_summary[side]
+    return out
+
+
+def test_tampered_correction_factors_are_rebuilt_with_a_warning(default_rig_cache, tmp_path):
+    """Issue 24: the cached correction factors alpha_i, beta_i scaled by 1.5 (still valid
+    JSON) gave 25.8 Hz / 1.50 MPa, exit 0 and no word. Now: one warning naming each altered
+    file, and 40.0 Hz / 1.00 MPa again."""
+    import json
+
+    d = _copy_of(default_rig_cache, tmp_path)
+    tables = sorted((d / "correction_factors").glob("*.json"))
+    assert tables
+    for path in tables:
+        entry = json.loads(path.read_text())
+        entry["value"] = [[1.5 * v for v in row] for row in entry["value"]]
+        path.write_text(json.dumps(entry))
+    _rerun_after(d, tables, default_rig_cache[1])
+    again = _simulate(d)             # rebuilt: the next run has nothing to say
+    assert again.returncode == 0 and again.stderr == ""
+
+
+@pytest.mark.parametrize("damage", ["scaled constants", "shifted Jacobian rows", "truncated"])
+def test_damaged_model_record_is_rebuilt_and_never_blames_the_rig(default_rig_cache, tmp_path,
+                                                                  damage):
+    """A model record with its constants scaled made the steady state fail with an error
+    about the supply accumulator; shifted Jacobian rows ended in a traceback; half a file
+    was a quiet miss. Each is now one warning naming the record, and the run as it should
+    be."""
+    import json
+
+    d = _copy_of(default_rig_cache, tmp_path)
+    (path,) = (d / "models").glob("*.json")
+    entry = json.loads(path.read_text())
+    if damage == "scaled constants":
+        entry["value"]["constants"] = [10.0 * c for c in entry["value"]["constants"]]
+        path.write_text(json.dumps(entry))
+    elif damage == "shifted Jacobian rows":
+        entry["value"]["jac_row"] = [r + 1 for r in entry["value"]["jac_row"]]
+        path.write_text(json.dumps(entry))
+    else:
+        path.write_text(path.read_text()[:len(path.read_text()) // 2])
+    _rerun_after(d, [path], default_rig_cache[1])
+
+
+@pytest.mark.parametrize("misfit", ["another library", "Jacobian rows out of range"])
+def test_a_model_record_that_does_not_fit_is_rebuilt(monkeypatch, tmp_path, misfit):
+    """A record with a valid checksum that still does not fit its model (written wrongly: it
+    names the library of another structure with as many states, parameters and signals, or
+    its Jacobian pattern has rows beyond the states) is discarded with one warning naming
+    it and the model is built anew: the oscillator's exact step response (peak
+    1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm)."""
+    import json
+    import warnings
+
+    from hydroline import compiled
+    from hydroline.engine import integrate
+    from test_compiled import _oscillator_peak, oscillator_network
+
+    if not compiled.available():
+        pytest.skip("no C compiler")
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(compiled, "_LIBS", {})
+    monkeypatch.setattr(compiled, "_MODELS", {})
+    library = compiled.native_model(oscillator_network(omega=219.0)).library_path
+    path = _written(tmp_path, "models")
+    key = json.loads(path.read_text())["key"]
+    record = cache.load_table("models", key)
+    if misfit == "another library":    # no damping term: fewer constants (another structure)
+        other = compiled.native_model(oscillator_network(omega=219.0, zeta=0.0)).library_path
+        assert other != library
+        record["library"] = other.stem[3:]
+    else:
+        record["jac_row"] = [r + 2 for r in record["jac_row"]]
+    cache.store_table("models", key, record)                 # with a checksum that fits it
+    monkeypatch.setattr(compiled, "_MODELS", {})
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = integrate(oscillator_network(omega=219.0), np.zeros(2), 0.05, solver="compiled")
+    said = _cache_warnings(caught)
+    assert len(said) == 1 and str(path) in said[0], said
+    assert res.metadata["solver"] == "compiled"
+    assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+    assert cache.load_table("models", key)["library"] == library.stem[3:]   # recorded anew

@@ -5,6 +5,7 @@ import hashlib
 import os
 import subprocess
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -361,31 +362,50 @@ def _fresh_process_cache(monkeypatch):
 
 
 @needs_cc
-@pytest.mark.parametrize("damage", ["garbage", "random-bytes", "other-library", "unrecorded"])
+@pytest.mark.parametrize("damage", ["garbage", "random-bytes", "other-library", "other-record",
+                                    "damaged-record", "unrecorded", "record-without-key"])
 def test_damaged_cached_library_is_rebuilt(monkeypatch, tmp_path, damage):
-    """A cached library that is not the file its build recorded (size + SHA-256) is rebuilt
-    before anything loads it: text, random bytes, another model's valid library, or a file
-    without a record (a cache from before the records)."""
+    """A cached library that is not the file its build recorded (size, SHA-256 and the key it
+    was built for) is rebuilt before anything loads it, with one warning naming it: text,
+    random bytes, another model's valid library, another library's record, a damaged record.
+    A library without a record, or with a record of the format before keys (size and hash
+    only), is rebuilt quietly (a cache of an older hydroline)."""
+    from hydroline.cache import CacheWarning
+
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
     net = oscillator_network(omega=211.0)
     path = compiled.native_model(net).library_path
     record = path.with_suffix(".sha256")
-    assert record.read_text().split()[0] == str(path.stat().st_size)
+    size, digest, key = record.read_text().split()
+    assert size == str(path.stat().st_size) and key.startswith(path.stem[3:]) and len(key) == 64
     if damage == "garbage":
         _replace(path, b"not a shared library")   # e.g. a build killed mid-write elsewhere
     elif damage == "random-bytes":
         _replace(path, np.random.default_rng(0).bytes(path.stat().st_size))
     elif damage == "other-library":
         _replace(path, _other_library())
-    else:
+    elif damage == "other-record":                 # another library's file and its record
+        other = _other_library_path()
+        _replace(path, other.read_bytes())
+        record.write_text(other.with_suffix(".sha256").read_text())
+    elif damage == "damaged-record":
+        record.write_text(f"{size}x {digest} {key}")
+    elif damage == "unrecorded":
         record.unlink()
+    else:
+        record.write_text(f"{size} {digest}\n")
     _fresh_process_cache(monkeypatch)
-    res = integrate(oscillator_network(omega=211.0), np.zeros(2), 0.05, solver="compiled")
+    warned = damage not in ("unrecorded", "record-without-key")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = integrate(oscillator_network(omega=211.0), np.zeros(2), 0.05, solver="compiled")
+    said = [str(w.message) for w in caught if issubclass(w.category, CacheWarning)]
+    assert len(said) == int(warned) and all(str(path) in text for text in said), said
     assert res.metadata["solver"] == "compiled"
     assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
     assert compiled.native_model(oscillator_network(omega=211.0)).library_path == path
     data = path.read_bytes()
-    assert record.read_text().split() == [str(len(data)), hashlib.sha256(data).hexdigest()]
+    assert record.read_text().split() == [str(len(data)), hashlib.sha256(data).hexdigest(), key]
 
 
 def _replace(path, data):
@@ -396,11 +416,16 @@ def _replace(path, data):
     os.replace(tmp, path)
 
 
-def _other_library() -> bytes:
-    """The bytes of a valid library of another model structure (two oscillators in a row)."""
+def _other_library_path() -> Path:
+    """A valid library of another model structure (two oscillators in a row)."""
     net = Network([Hold(name="source"), Oscillator(name="osc"),
                    Oscillator(name="osc2", connections={"u": "x", "x": "x2"})])
-    return compiled.native_model(net).library_path.read_bytes()
+    return compiled.native_model(net).library_path
+
+
+def _other_library() -> bytes:
+    """The bytes of a valid library of another model structure."""
+    return _other_library_path().read_bytes()
 
 
 @needs_cc
@@ -425,8 +450,9 @@ def test_truncated_cached_library_does_not_crash_a_new_process(tmp_path):
     second = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert second.returncode == 0, second.stderr   # not -7 (SIGBUS)
     rebuilt = path.read_bytes()
-    assert path.with_suffix(".sha256").read_text().split() == [
+    assert path.with_suffix(".sha256").read_text().split()[:2] == [
         str(len(rebuilt)), hashlib.sha256(rebuilt).hexdigest()]
+    assert "CacheWarning" in second.stderr and str(path) in second.stderr
 
 
 @needs_cc

@@ -289,3 +289,179 @@ def test_one_fuzzed_rig_in_a_real_process(fuzzed, tmp_path):
     assert done.returncode == 2, done.stderr
     assert len(done.stderr.strip().splitlines()) == 1 and "Traceback" not in done.stderr
     assert done.stdout == ""
+
+
+# ---- circuit fuzz (issue 24): miswired circuits --------------------------------------------
+# A seeded generator rewires the shipped circuits through [connections] (the template rig,
+# close-coupled or not, the two-axis rig, the paper's rig written as a circuit) in the ways a
+# circuit goes physically wrong: a port fed its own component's output, two ports of one
+# component on one node, a servovalve port moved to the other side, P and T swapped, a line
+# crossed between supply and return, a port re-pointed to another node (a cut), flows
+# crossed, a port on a signal of another kind or of no component, and pairs of these. Each
+# is only built (the checks run before any run): every one must be refused in one line
+# naming a component's port, or be warned of in one line; none is accepted silently.
+# Which side a signal is on comes from its name in the shipped rigs, not from the checks.
+
+N_CIRCUITS = 240
+CIRCUIT_SEED = 20260524
+#: The shipped rigs' prescribed pressures (pressure sources): reading one of them in place of
+#: a node of its own side is the documented ideal-source idealization, not a miswiring.
+PRESCRIBED = {"pump_pressure": "supply", "tank_pressure": "return"}
+HYDRAULIC = ("pressure", "flow")
+
+
+def _side(signal):
+    """supply / return / a chamber, from a shipped rig's signal name."""
+    if "_chamber_" in signal:
+        return signal.split("_chamber_")[0]
+    if "return" in signal or "tank" in signal:
+        return "return"
+    if "supply" in signal or "pump" in signal:
+        return "supply"
+    return None
+
+
+def _circuit_bases():
+    from pathlib import Path
+    close = load_rig()
+    close.set("supply.section2.length", "0 m")
+    close.set("return.section2.length", "0 m")
+    rigs = {"default": load_rig(), "close-coupled": close, "two_axis": load_rig("two_axis"),
+            "paper-circuit": load_rig(Path(__file__).parent / "data" / "ayalew2005_circuit.toml")}
+    from hydroline.system import build_circuit
+    return {k: (rig, build_circuit(rig).components) for k, rig in rigs.items()}
+
+
+class _Miswire:
+    """The generator's view of one base circuit: its ports and signals by quantity."""
+
+    def __init__(self, parts):
+        self.parts = parts
+        self.signals = {}
+        for c in parts:
+            for p, spec in {**c.inputs, **c.outputs}.items():
+                self.signals.setdefault(spec.quantity, set()).add(c.signal(p))
+        self.signals = {q: sorted(s) for q, s in self.signals.items()}
+        self.inputs = [(c, p, s.quantity) for c in parts for p, s in c.inputs.items()
+                       if s.quantity in HYDRAULIC]
+        self.valves = [c for c in parts if "supply_pressure" in c.inputs and "return_pressure" in c.inputs]
+
+    def pick(self, rng, seq):
+        return seq[int(rng.integers(len(seq)))] if seq else None
+
+    def self_loop(self, rng):
+        c, p, o = self.pick(rng, [(c, p, o) for c in self.parts for p, s in c.inputs.items()
+                                  for o, t in c.outputs.items()
+                                  if s.quantity in HYDRAULIC and s.quantity == t.quantity])
+        return {f"{c.name}.{p}": c.signal(o)}
+
+    def short(self, rng):
+        c, p, q = self.pick(rng, [(c, p, q) for c in self.parts for p, s in c.inputs.items()
+                                  for q, t in c.inputs.items() if p != q
+                                  and s.quantity in HYDRAULIC and s.quantity == t.quantity])
+        return {f"{c.name}.{p}": c.signal(q)}
+
+    def other_side(self, rng):
+        v = self.pick(rng, self.valves)
+        port = self.pick(rng, ["supply_pressure", "return_pressure"])
+        here = _side(v.signal(port))
+        return {f"{v.name}.{port}": self.pick(rng, [s for s in self.signals["pressure"]
+                                                    if _side(s) in ("supply", "return")
+                                                    and _side(s) != here])}
+
+    def swap(self, rng):
+        v = self.pick(rng, self.valves)
+        return {f"{v.name}.{a}_{q}": v.signal(f"{b}_{q}") for a, b in
+                (("supply", "return"), ("return", "supply")) for q in HYDRAULIC}
+
+    def cross(self, rng):
+        c, p, _ = self.pick(rng, [(c, p, q) for c, p, q in self.inputs if q == "pressure"
+                                  and c not in self.valves
+                                  and _side(c.signal(p)) in ("supply", "return")])
+        here = _side(c.signal(p))
+        return {f"{c.name}.{p}": self.pick(rng, [s for s in self.signals["pressure"]
+                                                 if _side(s) in ("supply", "return")
+                                                 and _side(s) != here])}
+
+    def cut(self, rng):
+        c, p, _ = self.pick(rng, [x for x in self.inputs if x[2] == "pressure"])
+        old = c.signal(p)
+        return {f"{c.name}.{p}": self.pick(rng, [s for s in self.signals["pressure"] if s != old
+                                                 and PRESCRIBED.get(s, "-") != _side(old)])}
+
+    def flow_cross(self, rng):
+        c, p, _ = self.pick(rng, [x for x in self.inputs if x[2] == "flow"])
+        old = c.signal(p)
+        return {f"{c.name}.{p}": self.pick(rng, [s for s in self.signals["flow"] if s != old])}
+
+    def absurd(self, rng):
+        c, p, q = self.pick(rng, self.inputs)
+        other = [s for k, v in self.signals.items() if k not in HYDRAULIC for s in v]
+        return {f"{c.name}.{p}": self.pick(rng, other + ["nowhere", "valve current", ""])}
+
+    KINDS = ("self_loop", "short", "other_side", "swap", "cross", "cut", "flow_cross", "absurd")
+
+    def make(self, rng):
+        kind = str(self.pick(rng, self.KINDS + ("pair",)))
+        if kind != "pair":
+            return kind, getattr(self, kind)(rng)
+        a, b = (str(self.pick(rng, self.KINDS)) for _ in range(2))
+        return f"{a}+{b}", {**getattr(self, a)(rng), **getattr(self, b)(rng)}
+
+
+@pytest.fixture(scope="module")
+def miswired():
+    rng = np.random.default_rng(CIRCUIT_SEED)
+    bases = _circuit_bases()
+    cases = []
+    while len(cases) < N_CIRCUITS:
+        name = str(rng.choice(sorted(bases)))
+        rig, parts = bases[name]
+        kind, overrides = _Miswire(parts).make(rng)
+        cases.append((name, kind, overrides))
+    return bases, cases
+
+
+def test_miswired_circuits_refused_in_one_line_or_warned(miswired):
+    """>= 200 generated bad circuits: each refused (RigError, one line, naming a component's
+    port) or warned of in one line; 0 accepted silently, no other exception."""
+    import warnings
+
+    from hydroline.circuit.wiring import WiringWarning
+    from hydroline.engine.network import UnusedSignalWarning
+    from hydroline.rigs import RigError
+    from hydroline.system import build_circuit
+
+    bases, cases = miswired
+    tic = time.perf_counter()
+    outcome, kinds = {"refused": 0, "warned": 0}, set()
+    for name, kind, overrides in cases:
+        rig, parts = bases[name]
+        rig = rig.copy()
+        ports = {f"{c.name}.{p}" for c in parts for p in (*c.inputs, *c.outputs)}
+        ports |= {f"{c.name}.ports.{p}" for c in parts for p in (*c.inputs, *c.outputs)}
+        with warnings.catch_warnings(record=True) as said:
+            warnings.simplefilter("always")
+            try:
+                for port, signal in overrides.items():
+                    rig.set(f"connections.{port}", signal)
+                build_circuit(rig)
+            except RigError as e:
+                msg = str(e)
+                assert msg and "\n" not in msg and len(msg) < 600, (name, kind, overrides, msg)
+                assert re.match(r"^(connections|circuit)[.:]|^[\w.]+: ", msg), (name, overrides, msg)
+                assert any(p in msg for p in ports), (name, kind, overrides, msg)
+                outcome["refused"] += 1
+                kinds.add(kind.split("+")[0])
+                continue
+            except Exception as e:         # anything else is a bug
+                pytest.fail(f"{name} {kind} {overrides}: {type(e).__name__}: {str(e)[:300]}")
+        lines = [str(w.message) for w in said
+                 if issubclass(w.category, (WiringWarning, UnusedSignalWarning))]
+        assert lines, f"accepted silently: {name} {kind} {overrides}"
+        assert all("\n" not in s for s in lines)
+        outcome["warned"] += 1
+    assert sum(outcome.values()) == len(cases) >= 200
+    assert outcome["refused"] >= 0.9 * len(cases), outcome
+    assert kinds == set(_Miswire.KINDS), kinds        # every class was generated and refused
+    assert time.perf_counter() - tic < 60             # generous: build only, no integration

@@ -476,13 +476,16 @@ def test_sweep_cli_killed_with_sigkill_leaves_no_workers(tmp_path):
 
 
 def test_sweep_with_invalid_variant_finishes_the_others(tmp_path, capsys):
-    res = sweep(["supply.section2.diameter=15.9 mm,-5 mm,12.7 mm"], t_end=T_END, workers=2,
-                out=tmp_path)
+    # each level is within its range (a level outside it refuses the whole sweep,
+    # test_cli_edges.py); 25 MPa is above the rig's 20.7 MPa supply: no oil in the
+    # accumulator, a variant that fails with its reason
+    res = sweep(["supply.accumulator.precharge_pressure=6.9 MPa,25 MPa,10 MPa"], t_end=T_END,
+                workers=2, out=tmp_path)
     tab = res.table
     assert len(tab) == 3 and res.n_failed == 1
     bad = tab.iloc[1]
-    assert bad["supply.section2.diameter"] == -0.005
-    assert "supply.section2.diameter" in bad["error"] and "positive" in bad["error"]
+    assert bad["supply.accumulator.precharge_pressure"] == 25e6
+    assert "supply.accumulator.precharge_pressure" in bad["error"] and "below" in bad["error"]
     assert np.isnan(bad["supply_frequency_hz"])
     good = tab.iloc[[0, 2]]
     assert good["error"].isna().all()
@@ -496,15 +499,16 @@ def test_sweep_with_invalid_variant_finishes_the_others(tmp_path, capsys):
                                       for line in lines[1:])}
     assert rows[1]["supply_frequency_hz"] is None and rows[1]["error"]
     # the CLI reports it, writes the table and exits 1 with the count on stderr
-    assert main(["sweep", "--set", "return.section2.diameter=-1 mm", "--t-end", "0.12 s",
-                 "--workers", "1", "--out", str(tmp_path / "cli")]) == 1
+    assert main(["sweep", "--set", "return.accumulator.precharge_pressure=2 MPa", "--t-end",
+                 "0.12 s", "--workers", "1", "--out", str(tmp_path / "cli")]) == 1
     cap = capsys.readouterr()
-    assert "1 failed" in cap.out and "return.section2.diameter" in cap.out
+    assert "1 failed" in cap.out and "return.accumulator.precharge_pressure" in cap.out
     failed = [ln for ln in cap.err.splitlines() if ln.startswith("hydroline sweep: ")]
     assert len(failed) == 1 and failed[0].startswith("hydroline sweep: 1 of 1 variants failed")
     # and --json is strict JSON too (null for the metrics of the failed variant)
-    assert main(["sweep", "--set", "return.section2.diameter=-1 mm,15.9 mm", "--t-end", "0.12 s",
-                 "--workers", "1", "--out", str(tmp_path / "cli_json"), "--json"]) == 1
+    assert main(["sweep", "--set", "return.accumulator.precharge_pressure=2 MPa,0.35 MPa",
+                 "--t-end", "0.12 s", "--workers", "1", "--out", str(tmp_path / "cli_json"),
+                 "--json"]) == 1
     rows = json.loads(capsys.readouterr().out, parse_constant=_no_constant)
     assert rows[0]["supply_amplitude_mpa"] is None and rows[0]["error"]
     assert rows[1]["supply_amplitude_mpa"] > 0 and rows[1]["error"] is None

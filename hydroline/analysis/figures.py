@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..plotting import figure_title
+
 __all__ = ["plot_bode", "plot_fit", "plot_friction", "SIGNAL_DISPLAY"]
 
 #: How signals are shown: name -> (label, unit shown, factor from SI).
@@ -114,7 +116,7 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
         for ax in (am, ap):
             ax.grid(True, which="both", alpha=0.3)
     axes[0, 0].legend(fontsize=8, loc="best")
-    fig.suptitle(title or "hydroline bode", fontsize=10)
+    fig.suptitle(figure_title(title or "hydroline bode"), fontsize=10)
     fig.tight_layout()
     if path:
         _save_png(fig, path)
@@ -150,7 +152,7 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
         ax.grid(True, alpha=0.3)
     axes[0, 0].legend(fontsize=8, loc="best")
     axes[-1, 0].set_xlabel("time [ms]")
-    fig.suptitle(title or "hydroline fit: measured vs fitted")
+    fig.suptitle(figure_title(title or "hydroline fit: measured vs fitted"))
     fig.tight_layout()
     if path:
         _save_png(fig, path)
@@ -193,7 +195,7 @@ def plot_friction(points: dict, fit, path=None, title=None):
     ax.set_ylabel("friction force [N]")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title(title or "friction identification")
+    ax.set_title(figure_title(title or "friction identification"))
     fig.tight_layout()
     if path:
         _save_png(fig, path)

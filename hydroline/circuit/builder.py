@@ -16,7 +16,10 @@ Two ports are connected when they name the same signal; exactly one of them outp
 (causality). ``volume`` and ``junction`` components list their flow terms with signs
 (``terms = { inflow = 1, valve = -1 }``). Every port must be listed: an unlisted port is
 refused, as are a port the type does not have, an unknown type, two outputs on one signal,
-a causality clash and an algebraic loop, each in one line naming the component and port.
+a causality clash and an algebraic loop, each in one line naming the component and port;
+then the physical wiring checks of :mod:`hydroline.circuit.wiring` (self-loops, short
+circuits, ends cut off or crossed, a servovalve's P not above its T, parts cut off from every
+source).
 
 :func:`axes_of` finds the servo axes (actuator, its valve, its controller) in any component
 list and returns their handles (:class:`Axis`): which signals are the axis's port pressures,
@@ -24,6 +27,8 @@ piston position, valve current, ... so experiments and analysis never hard-code 
 """
 from __future__ import annotations
 
+import json
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,11 +40,15 @@ from ..lines import DEFAULT_LINE_METHOD, Line, ModalLine
 from ..engine import Network, NetworkError
 from ..engine.network import connection_table
 from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
+from .wiring import check_self_loops, check_wiring
 
-__all__ = ["Axis", "Circuit", "axes_of", "circuit_components", "circuit_names", "has_circuit",
-           "parse_circuit_value", "rewire"]
+__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "check_circuit_value",
+           "check_component_name", "circuit_components", "circuit_names", "has_circuit",
+           "parse_circuit_value", "rewire", "MAX_NAME_LENGTH"]
 
 PREFIX = "circuit."
+#: Longest component name, [characters]: a name labels messages, result columns and figures.
+MAX_NAME_LENGTH = 100
 
 
 def has_circuit(values: dict) -> bool:
@@ -92,6 +101,7 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
     """
     name, key = _split(path, raw)
     if key == "type":
+        check_component_name(name)
         if raw_value not in COMPONENT_TYPES:
             raise CircuitError(f"{path}: unknown component type {raw_value!r} of component "
                                f"'{name}' (known: {', '.join(COMPONENT_TYPES)})")
@@ -103,6 +113,9 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
                                f"signal, e.g. \"supply_port_pressure\"; got {raw_value!r}")
         return raw_value
     if key.startswith("terms."):
+        if ctype.name not in ("volume", "junction"):
+            raise CircuitError(f"{path}: component '{name}' ({ctype.name}) has no flow terms "
+                               f"(only a volume or a junction sums signed flows)")
         if raw_value not in (1, -1):
             raise CircuitError(f"{path}: flow term '{key[6:]}' of component '{name}' must be "
                                f"+1 (in) or -1 (out), got {raw_value!r}")
@@ -114,6 +127,33 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
         raise CircuitError(f"{path}: component '{name}' ({ctype.name}) has no parameter '{key}' "
                            f"(parameters: {', '.join(ctype.declarations()) or 'none'}; ports, terms)")
     return parse_quantity_as(path, raw_value, unit)
+
+
+def check_component_name(name: str):
+    """Refuse a name no message, result column or figure can show: empty or blank, with a
+    character that does not print (a control character, a line break), or longer than
+    :data:`MAX_NAME_LENGTH`. Any script is welcome (``"Pumpe-Ölseite"``, ``"泵"``).
+
+    Parameters
+    ----------
+    name : str   Component name, the ``<name>`` of ``[circuit.<name>]``
+
+    Raises
+    ------
+    CircuitError  One line naming the component's table
+    """
+    table = f"[circuit.{json.dumps(name[:40], ensure_ascii=False)}]"
+    if not name.strip():
+        raise CircuitError(f"{table}: a component name must not be empty or blank; name the "
+                           f"table, e.g. [circuit.pump]")
+    if len(name) > MAX_NAME_LENGTH:
+        raise CircuitError(f"{table[:-1]}...]: a component name of {len(name)} characters is "
+                           f"too long (at most {MAX_NAME_LENGTH})")
+    odd = next((i for i, ch in enumerate(name) if not ch.isprintable()), None)
+    if odd is not None:
+        raise CircuitError(f"{table}: the component name holds a character that does not "
+                           f"print, {name[odd]!r} at position {odd + 1}; use letters, digits, "
+                           f"'.', '_' or '-'")
 
 
 @dataclass
@@ -312,6 +352,48 @@ def _table(values: dict, name: str, sub: str) -> dict:
     return {k[len(head):]: v for k, v in values.items() if k.startswith(head)}
 
 
+def _check_declared(rig, name: str, ctype, decls: dict, key: str, v, allowed) -> None:
+    """A component's parameter against its type's declaration (``decls``): bounds, then the
+    plausible range (unless the path is in ``allowed``); one line, CircuitError, naming it."""
+    if key not in decls:
+        return
+    head = f"{PREFIX}{name}."
+    unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
+    rule = decls[key].violation(v)
+    if rule is not None:
+        raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
+                           f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
+    implausible = decls[key].implausible(v)
+    if implausible is not None and f"{head}{key}" not in allowed:
+        raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
+                           f"plausible range, {implausible}{unit} ({decls[key].description}); "
+                           f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
+
+
+def check_circuit_value(rig, path: str) -> None:
+    """Refuse one circuit parameter's value (``circuit.<component>.<parameter>``) outside its
+    type's declared bounds or plausible range, as :func:`circuit_components` does for all of
+    them: what a sweep checks for each level before its first variant.
+
+    Parameters
+    ----------
+    rig : Rig    A rig holding the value (SI) and the component's type
+    path : str   ``circuit.<component>.<parameter>``
+
+    Raises
+    ------
+    CircuitError  One line naming the path, the bounds or range and the unit
+    """
+    name, key = _split(path, rig.raw)
+    ctype = COMPONENT_TYPES[rig.values[f"{PREFIX}{name}.type"]]
+    if path in rig.values and "." not in key:
+        head = f"{PREFIX}{name}."
+        params = {k[len(head):]: v for k, v in rig.values.items()
+                  if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+        _check_declared(rig, name, ctype, ctype.declarations(params), key, rig.values[path],
+                        set(rig.get("rig.allow_implausible") or []))
+
+
 def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     """The components of a rig's ``[circuit.*]`` description, checked port by port.
 
@@ -337,19 +419,9 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
         head = f"{PREFIX}{name}."
         params = {k[len(head):]: v for k, v in values.items()
                   if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
-        decls = ctype.declarations()
+        decls = ctype.declarations(params)   # (a command's levels: its quantity's range)
         for key, v in params.items():   # the declared bounds, with the value as written
-            rule = decls[key].violation(v) if key in decls else None
-            if rule is not None:
-                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
-                raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
-                                   f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
-            implausible = decls[key].implausible(v) if key in decls else None
-            if implausible is not None and f"{head}{key}" not in allowed:
-                unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
-                raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
-                                   f"plausible range, {implausible}{unit} ({decls[key].description}); "
-                                   f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
+            _check_declared(rig, name, ctype, decls, key, v, allowed)
         specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
     # the load mass rides on the actuator whose position it reads (Load's docstring)
     for name, (ctype, params, ports, _) in specs.items():
@@ -381,11 +453,48 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
         parts.append(c)
     rewire(parts, overrides or {}, allow_unknown=True)
     circuit = Circuit(parts, axes_of(parts), rig.source, dict(overrides or {}))
-    try:   # the wiring checks (two outputs, causality, loops) on the circuit alone, with a
-        Network(parts + experiment_placeholders(parts))   # stand-in for what an experiment feeds
-    except NetworkError as e:
-        raise CircuitError(f"circuit: {e}") from None
+    check_circuit(parts, overrides or {}, "circuit.{component}.ports.{port}", "circuit")
     return circuit
+
+
+def check_circuit(parts: list, overrides: dict, port_path: str = "{component}.{port}",
+                  label: str = "connections") -> list:
+    """The checks a circuit passes before any run: the network's (two outputs on a signal,
+    causality, algebraic loops: on the circuit alone, with a stand-in for what an experiment
+    feeds), then the physical wiring (:func:`hydroline.circuit.wiring.check_wiring`).
+
+    Parameters
+    ----------
+    parts : list       The components, rewired by ``overrides``
+    overrides : dict   The rig's ``[connections]``, "component.port" -> signal: a port named
+                       there is named ``connections.<component>.<port>`` in a message
+    port_path : str    How a message names any other port (``{component}``, ``{port}``)
+    label : str        What a message of the network's checks starts with ("circuit")
+
+    Returns
+    -------
+    list of str  The wiring warnings given
+
+    Raises
+    ------
+    CircuitError  One line naming the component and port at fault
+    """
+    def path_of(c, port):
+        if f"{c.name}.{port}" in overrides:
+            return f"connections.{c.name}.{port}"
+        return port_path.format(component=c.name, port=port)
+
+    check_self_loops(parts, path_of)   # named by its port before the network calls it a loop
+    with warnings.catch_warnings(record=True) as said:   # given once the wiring is found sound
+        warnings.simplefilter("always")
+        try:
+            Network(parts + experiment_placeholders(parts))
+        except NetworkError as e:
+            raise CircuitError(f"{label}: {e}") from None
+    found = check_wiring(parts, path_of)
+    for w in said:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return found
 
 
 def experiment_placeholders(parts: list) -> list:

@@ -53,7 +53,7 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
     """
     import networkx as nx
 
-    from ..plotting import new_figure, save_png
+    from ..plotting import figure_title, new_figure, save_png
 
     g = nx.DiGraph()
     for c in circuit.components:
@@ -82,8 +82,9 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
                             labels={v: f"{v}\n({g.nodes[v]['kind']})" for v in g})
     nx.draw_networkx_edge_labels(g, pos, ax=ax, font_size=6,
                                  edge_labels={e: ",".join(sorted(set(q))) for e, q in labels.items()})
-    ax.set_title(title or "circuit: arrows from the component that outputs a signal to its readers "
-                 "(p pressure, f flow/force, c current, v velocity)", fontsize=9)
+    ax.set_title(figure_title(title or "circuit: arrows from the component that outputs a signal "
+                              "to its readers (p pressure, f flow/force, c current, v velocity)"),
+                 fontsize=9)
     ax.axis("off")
     fig.tight_layout()
     save_png(fig, path, dpi=120)

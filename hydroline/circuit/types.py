@@ -17,7 +17,7 @@ from ..lines import LINE_METHODS
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
            "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT",
-           "parameter_reference"]
+           "QUANTITY_PLAUSIBLE", "FASTEST_RAMP", "parameter_reference"]
 
 
 class CircuitError(ValueError):
@@ -27,6 +27,16 @@ class CircuitError(ValueError):
 #: Physical quantity of a command -> SI unit of its values.
 QUANTITY_UNIT = {"current": "A", "position": "m", "pressure": "Pa", "velocity": "m/s",
                  "force": "N", "flow": "m^3/s"}
+
+#: Physical quantity of a command -> the largest magnitude a real rig commands, [its SI unit]
+#: (as the rig's own ranges: a valve current, a stroke, a supply pressure, an applied force,
+#: a valve's rated flow): a command's levels are plausible within +-this, its ramp slope
+#: within +-this per :data:`FASTEST_RAMP`.
+QUANTITY_PLAUSIBLE = {"current": 5.0, "position": 5.0, "pressure": 1e8, "velocity": 10.0,
+                      "force": 1e7, "flow": 0.1}
+
+#: The shortest time a command ramps across its whole plausible range, [s] (steeper is a step).
+FASTEST_RAMP = 1e-4
 
 #: The rig's oil (``[fluid]``), used by every hose, volume default and accumulator passage.
 FLUID_PARAMETERS = {
@@ -53,7 +63,7 @@ HOSE_PARAMETERS = {
     "form": Parameter("str", "causal form: inputs upstream/downstream (M8)",
                       choices=("PQ", "QP", "PP", "QQ"), default="PQ"),
     "nominal_pressure": Parameter("Pa", "mean pressure: state scale and steady-state guess",
-                                  0.0, exclusive_minimum=True, default=1e7),
+                                  0.0, exclusive_minimum=True, default=1e7, plausible=(1e3, 1e8)),
 }
 
 #: The accumulator's connection passage (M18): a short line from the node to the oil side.
@@ -92,10 +102,27 @@ class ComponentType:
     parameters: dict = field(default_factory=dict)
     hidden: tuple = ()
 
-    def declarations(self) -> dict:
-        """Every parameter a file may give for this type, name -> Parameter."""
+    def declarations(self, values: dict | None = None) -> dict:
+        """Every parameter a file may give for this type, name -> Parameter; a command's
+        levels (initial, final, offset, amplitude, slope) in the SI unit and plausible range
+        of its ``quantity`` (:data:`QUANTITY_PLAUSIBLE`).
+
+        Parameters
+        ----------
+        values : dict  The component's values as given (its ``quantity``); None: the defaults
+        """
         own = {k: v for k, v in self.component.parameters().items() if k not in self.hidden}
-        return {**own, **self.parameters}
+        out = {**own, **self.parameters}
+        q = (values or {}).get("quantity", "current")
+        if self.name in _COMMAND_KEYS and q in QUANTITY_UNIT:
+            unit, top = QUANTITY_UNIT[q], QUANTITY_PLAUSIBLE[q]
+            for key in _COMMAND_KEYS[self.name] + ("slope",):
+                if key in out:
+                    rate = key == "slope"
+                    top_k = top / FASTEST_RAMP if rate else top
+                    out[key] = dataclasses.replace(out[key], unit=unit + "/s" if rate else unit,
+                                                   plausible=(-top_k, top_k))
+        return out
 
     def unit_of(self, key: str, values: dict) -> str | None:
         """SI unit of a parameter (a command's values take its ``quantity``'s); None if unknown.
@@ -105,10 +132,7 @@ class ComponentType:
         key : str      Parameter name
         values : dict  The component's other raw values (for a command's ``quantity``)
         """
-        if self.name in _COMMAND_KEYS and key in _COMMAND_KEYS[self.name] + ("slope",):
-            q = QUANTITY_UNIT.get(values.get("quantity", "current"), "-")
-            return q + "/s" if key == "slope" else q
-        decl = self.declarations().get(key)
+        decl = self.declarations(values).get(key)
         return None if decl is None else decl.unit
 
 
@@ -177,11 +201,10 @@ def parameter_reference() -> str:
                   "|---|---|---|---|---|---|"]
         for key, d in t.declarations().items():
             unit = {"-": "-", "str": "text"}.get(d.unit, d.unit)
-            if d.unit == "-" and name.endswith("_command") and key in ("initial", "final", "offset",
-                                                                       "amplitude", "slope"):
-                unit = "of quantity"
             plausible = "-" if d.plausible is None else " ... ".join(
                 "" if v is None else f"{v:g}" for v in d.plausible)
+            if name in _COMMAND_KEYS and key in _COMMAND_KEYS[name] + ("slope",):
+                unit, plausible = "of quantity", "by quantity"
             lines.append(f"| `{key}` | {unit} | {d.rule()} | {plausible} | {_fmt_default(d)} "
                          f"| {d.description} |")
         lines.append("")

@@ -4,9 +4,11 @@ Every subcommand turns bad input into one clear line on stderr and exit code 2 (
 traceback); so do a model that cannot be started or run (no steady state, no C compiler
 for ``--solver compiled``, integrator failure), an output that cannot be written (a full
 disk, stdout on ``/dev/full``), input nested too deeply to read and a run too large for
-memory. A closed output pipe (``hydroline simulate | head``) ends the command quietly with
-exit code 141 (128 + SIGPIPE, as a shell reports it); Ctrl-C with 130 and SIGTERM with 143
-(128 + the signal). To add one, write a module with ``register(subparsers)`` (which sets
+memory; an option or argument given as an empty string is refused the same way (it does not
+silently mean the default). A closed output pipe (``hydroline simulate | head``) or a closed
+stdout (``hydroline simulate --json >&-``) ends the command quietly with exit code 141
+(128 + SIGPIPE, as a shell reports it); Ctrl-C with 130 and SIGTERM with 143 (128 + the
+signal). To add one, write a module with ``register(subparsers)`` (which sets
 ``func=run`` on its parser, ``run(args) -> int``) and list it in ``SUBCOMMANDS``.
 """
 from __future__ import annotations
@@ -15,13 +17,15 @@ import argparse
 import errno
 import functools
 import importlib
+import io
 import os
+import re
 import signal
 import sys
 
 from . import figure_process
 
-__all__ = ["main", "UsageError", "Terminated", "version"]
+__all__ = ["main", "UsageError", "Terminated", "version", "refuse_empty_values", "ClosedStdout"]
 
 #: Subcommand modules, in help order.
 SUBCOMMANDS = [
@@ -55,6 +59,30 @@ def raise_terminated(signum, frame):
     frame : frame    The interrupted stack frame (unused)
     """
     raise Terminated
+
+
+class ClosedStdout(io.TextIOBase):
+    """``sys.stdout`` of a command started with its stdout closed (``hydroline simulate --json
+    >&-``: Python then sets ``sys.stdout`` to None): writing to it fails as writing to a pipe
+    whose reader is gone does, so the command ends as ``hydroline simulate | head`` does, with
+    exit code 141 and no traceback."""
+
+    def writable(self) -> bool:
+        """True: the command may try to write (and then learns that nobody reads)."""
+        return True
+
+    def write(self, text) -> int:
+        """Refuse the text as a closed pipe would.
+
+        Parameters
+        ----------
+        text : str  What the command printed
+
+        Raises
+        ------
+        BrokenPipeError  Always (EPIPE)
+        """
+        raise BrokenPipeError(errno.EPIPE, "stdout is closed")
 
 
 def version() -> str:
@@ -149,12 +177,38 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
         single_threaded_blas()
+    streams = sys.stdout, sys.stderr
+    _closed_streams_replaced()       # (before the fork: the figure process inherits them)
     if draws_a_figure(argv):   # the figure's branch is the longer one: forked before parsing
         figure_process.start_early()
     try:
         return _parse_and_run(argv)
     finally:
         figure_process.cancel_unclaimed()
+        if streams[0] is None or streams[1] is None:   # (main() may run in-process)
+            sys.stdout, sys.stderr = streams
+
+
+def _closed_streams_replaced() -> None:
+    """A command started with stdout or stderr closed (``>&-``, ``2>&-``; Python sets the
+    stream to None): stdout becomes a :class:`ClosedStdout` (the command ends with 141, as
+    on a closed pipe), stderr a sink (the command's messages are dropped, not sent to stdout
+    by ``print(file=None)``). The closed descriptor is held on /dev/null, so that a file the
+    run opens (a CSV, a pipe to the figure process) does not become fd 1 or 2."""
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        if getattr(sys, name) is not None:
+            continue
+        try:
+            os.fstat(fd)
+        except OSError:              # closed: keep the number taken
+            try:
+                null = os.open(os.devnull, os.O_WRONLY)
+                if null != fd:
+                    os.dup2(null, fd)
+                    os.close(null)
+            except OSError:
+                pass
+        setattr(sys, name, ClosedStdout() if name == "stdout" else open(os.devnull, "w"))
 
 
 def draws_a_figure(argv) -> bool:
@@ -189,6 +243,7 @@ def _parse_and_run(argv) -> int:
     except ValueError:          # not the main thread (e.g. called from a worker thread)
         old_term = None
     try:
+        refuse_empty_values(args)
         rc = int(args.func(args) or 0)
         sys.stdout.flush()      # a full or closed stdout is found here, not at exit
         return rc
@@ -224,6 +279,31 @@ def _parse_and_run(argv) -> int:
         warnings.showwarning = shown_before
 
 
+#: How the messages name a parsed value whose option is not ``--`` and its name (as the
+#: usage line does).
+ARGUMENT_NAMES = {"rig": "RIG", "files": "FILE", "sets": "--set"}
+
+
+def refuse_empty_values(args) -> None:
+    """Refuse an option or argument given as an empty or blank string: it would otherwise be
+    taken as not given (``--t-end ""`` the scenario's own end time, ``--out ""`` the current
+    folder, ``hydroline simulate ""`` the embedded rig).
+
+    Parameters
+    ----------
+    args : argparse.Namespace  The parsed command line
+
+    Raises
+    ------
+    UsageError  One line naming the option
+    """
+    for dest, value in vars(args).items():
+        values = value if isinstance(value, (list, tuple)) else (value,)
+        if any(isinstance(v, str) and not v.strip() for v in values):
+            name = ARGUMENT_NAMES.get(dest, "--" + dest.replace("_", "-"))
+            raise UsageError(f"{name}: empty value; give one, or leave it out for the default")
+
+
 def _model_errors() -> tuple:
     """The model's own errors that are printed as one line: imported only when an exception is
     being matched, so that a command's start-up (and the figure process it forks) does not
@@ -235,9 +315,20 @@ def _model_errors() -> tuple:
     return SteadyStateError, CompilerUnavailable, UnsupportedOperation
 
 
+#: Matplotlib's warning, one per character, for text its font cannot draw (a rig or component
+#: name in another script): said once, as :data:`MISSING_GLYPHS`.
+_MISSING_GLYPH = re.compile(r"Glyph \d+ .*missing from font")
+MISSING_GLYPHS = ("the figure's font cannot draw some characters of its text (a rig or "
+                  "component name): they show as empty boxes")
+
+
 def _show_warning(command, said, message, category, filename, lineno, file=None, line=None):
-    """A Python warning as one line: ``hydroline <command>: warning: <message>`` (each once)."""
-    text = f"hydroline {command}: warning: {str(message).strip().splitlines()[0]}"
+    """A Python warning as one line: ``hydroline <command>: warning: <message>`` (each once;
+    Matplotlib's missing-glyph warnings, one per character, as one)."""
+    text = (str(message).strip() or category.__name__).splitlines()[0]
+    if _MISSING_GLYPH.match(text):
+        text = MISSING_GLYPHS
+    text = f"hydroline {command}: warning: {text}"
     if text not in said:   # each warning once per command
         said.add(text)
         _say(text)

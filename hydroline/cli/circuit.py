@@ -47,7 +47,15 @@ def run(args) -> int:
     -------
     int  Exit code, 0 on success
     """
-    if args.types:
+    if args.types:   # the reference of every type: nothing of a rig is read or drawn
+        if args.rig is not None:
+            raise ValueError(f"--types lists every component type and reads no rig; got the "
+                             f"rig {args.rig!r} too (run 'hydroline circuit {args.rig}' for "
+                             f"its circuit)")
+        given = [o for o, v in (("--json", args.json), ("--png", args.png)) if v]
+        if given:
+            raise ValueError(f"--types prints the reference as Markdown; {given[0]} is not "
+                             f"taken with it")
         print(parameter_reference())
         return 0
     rig = load_rig(args.rig)

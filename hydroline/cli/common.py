@@ -18,7 +18,7 @@ from pathlib import Path
 from ..units import parse_quantity
 
 __all__ = ["quantity", "out_dir", "atomic_outputs", "OutputError", "print_table", "dump_json",
-           "progress_printer", "settling_cell"]
+           "progress_printer", "settling_cell", "run_network", "note_cost"]
 
 
 class OutputError(ValueError):
@@ -245,3 +245,80 @@ def settling_cell(metrics: dict):
     if v is None:
         return None
     return f"~{v * 1e3:.4g}" if metrics.get("settling_method") == "estimated" else v * 1e3
+
+
+def run_network(rig, scenario: str, duration: float):
+    """A run's circuit and network, built before it starts: the model's size for the output
+    and cost estimates.
+
+    Parameters
+    ----------
+    rig : Rig         The rig
+    scenario : str    The experiment's name
+    duration : float  Simulated time, [s]
+
+    Returns
+    -------
+    tuple  (Circuit, Network)
+    """
+    from ..scenarios import build_scenario
+    from ..system import build_circuit
+
+    circuit = build_circuit(rig)
+    sc = build_scenario(rig, scenario, duration, axes=circuit.axes)
+    return circuit, circuit.network(sc.commands)
+
+
+def note_cost(command, network, solver, duration, rows, columns, *, streamed=False, write=False,
+              dt_out=None, variants=1, workers=1) -> None:
+    """One note on stderr before a run estimated (:func:`hydroline.limits.run_cost`) to take
+    more than a few seconds or a few hundred MB: the model's size, the output and the
+    estimate, so that a long run is not taken for a hang.
+
+    Parameters
+    ----------
+    command : str       The subcommand, for the note
+    network : Network   The run's model (:func:`run_network`)
+    solver : str        --solver: "auto" and "compiled" build the compiled core if needed
+    duration : float    Simulated time of one run, [s]
+    rows : int          Output rows of one run, [-]
+    columns : int       Output columns (time, signals, states), [-]
+    streamed : bool     The table is streamed to results.csv, not kept in memory
+    write : bool        results.csv is written
+    dt_out : float      --dt-out [s], or None (for the hint)
+    variants : int      Runs of the model (a sweep's variants), [-]
+    workers : int       Processes running them side by side, [-]
+    """
+    from .. import compiled
+    from ..limits import run_cost
+
+    n = len(network.state_names)
+    compiles = solver in ("auto", "compiled") and compiled.available()
+
+    def cost(build):
+        return run_cost(n, duration, rows, columns, build=build, in_memory=not streamed,
+                        csv=write, variants=variants, workers=workers)
+
+    estimate = cost(compiles)
+    if not estimate.notable:
+        return
+    if compiles:   # (looked up only for a large run)
+        try:
+            builds = compiled.needs_build(network)
+        except (compiled.CompilerUnavailable, compiled.UnsupportedOperation):
+            builds = False   # the run goes to CVODES instead
+        if not builds:
+            estimate = cost(False)
+            if not estimate.notable:
+                return
+    what = f"{n} states, {duration:g} s simulated"
+    if variants > 1:
+        what += f" per variant, {variants} variants"
+    else:
+        what += f", {rows:,} rows x {columns} columns" + (" to results.csv" if write else "")
+    hint = ""
+    if estimate.write_seconds > 0.5 * estimate.seconds:
+        hint = ("; --dt-out 10 ms would write 1/100 of it" if dt_out is None
+                else "; a larger --dt-out writes less")
+    print(f"hydroline {command}: note: a large run: {what}: {estimate.describe()}{hint}",
+          file=sys.stderr, flush=True)

@@ -125,7 +125,11 @@ class FigureProcess:
     Use :meth:`draw` once with a module-level drawing function and its arguments (all
     picklable: arrays, not open files), or :meth:`cancel`. :meth:`draw` returns when the
     figure is written; an error in the child is raised again in the parent (the same exception
-    where it can be pickled, else ``RuntimeError`` with its text).
+    where it can be pickled, else ``RuntimeError`` with its text), and its warnings are
+    warned again in the parent. As a context manager (``with figures:``) it is cancelled when
+    the block ends with an exception (Ctrl-C): put it inside the ``atomic_outputs`` block
+    whose temporary file it draws, so that the child is gone before that file is removed
+    (else a child still drawing writes it again).
     """
 
     def __init__(self):
@@ -158,10 +162,13 @@ class FigureProcess:
             import_matplotlib()   # (the import being overlapped)
 
             job = _read_all(job_r)
-            if job:
-                function, args, kwargs = pickle.loads(job)
-                function(*args, **kwargs)
-            _write_all(done_w, b"ok")
+            with warnings.catch_warnings(record=True) as said:
+                if job:
+                    function, args, kwargs = pickle.loads(job)
+                    function(*args, **kwargs)
+            # its warnings (e.g. Matplotlib's about glyphs) are said by the parent, in the
+            # command's one-line form
+            _write_all(done_w, b"ok" + pickle.dumps([str(w.message) for w in said]))
             status = 0
         except BaseException as e:   # reported to the parent, which raises it
             try:
@@ -216,7 +223,9 @@ class FigureProcess:
         self._done_r = None
         os.waitpid(self.pid, 0)
         self.pid = None
-        if answer == b"ok":
+        if answer.startswith(b"ok"):
+            for text in pickle.loads(answer[2:]) if len(answer) > 2 else ():
+                warnings.warn(text, stacklevel=2)
             return
         if answer.startswith(b"E"):   # the child's exception, raised here (a full disk: OSError)
             raise pickle.loads(answer[1:])
@@ -239,16 +248,24 @@ class FigureProcess:
         self.submit(function, *args, **kwargs)
         self.wait()
 
+    def __enter__(self) -> "FigureProcess":
+        return self
+
+    def __exit__(self, kind, value, traceback) -> bool:
+        if kind is not None:
+            self.cancel()
+        return False
+
     def cancel(self) -> None:
-        """Let the child go without drawing (an error in the parent, nothing to draw): stopped
-        at once when it has no job yet (it may still be importing Matplotlib)."""
+        """Stop the child without waiting for its figure (an error in the parent, Ctrl-C,
+        nothing to draw): a figure it was drawing is not wanted, and its file, a temporary
+        one, is removed by the caller after this returns."""
         if self.pid is None:
             return
-        if self._job_w is not None:   # nothing submitted: no figure is being written
-            try:
-                os.kill(self.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
         for fd in (self._job_w, self._done_r):
             if fd is not None:
                 try:

@@ -5,8 +5,8 @@ import contextlib
 import json
 import sys
 
-from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
-                     settling_cell)
+from .common import (atomic_outputs, dump_json, note_cost, out_dir, print_table, progress_printer,
+                     quantity, run_network, settling_cell)
 from .figure_process import claim_figure_process
 
 #: The files written to --out.
@@ -109,11 +109,6 @@ SUMMARY_COLUMNS = ("supply_port_pressure", "return_port_pressure", "piston_posit
 PREVIEW_ROWS = 20_000
 FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
                   "top_chamber_pressure", "piston_velocity", "piston_position")
-#: Rough rates for the cost estimate of a long run: simulated seconds per wall second of the
-#: compiled integrator (the 600 s closed-loop sine took 11-14 s at load 2-3 on the 2-core
-#: development machine, benchmarks/README.md), and CSV bytes written per second.
-INTEGRATION_SPEED = 45.0
-CSV_RATE = 15e6
 
 
 def output_grid(t_end: float, dt_out: float | None):
@@ -130,20 +125,6 @@ def output_grid(t_end: float, dt_out: float | None):
     h = dt_out / every
     n = int(round(t_end / h))
     return h, every, n // every + 1 + (n % every != 0)
-
-
-def _check_size(rig, scenario, t_end, out, name):
-    """Rows and bytes of the run estimated before it starts: memory and free disk for
-    results.csv (one line, ValueError, when it would not fit)."""
-    from ..limits import check_output_size
-    from ..scenarios import build_scenario
-    from ..system import build_circuit
-
-    circuit = build_circuit(rig)
-    sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
-    net = circuit.network(sc.commands)
-    check_output_size(sc.t_end, 1e-4, len(net.signal_names) + len(net.state_names),
-                      csv_folder=out, name=name or f"scenario.{scenario}.t_end")
 
 
 def run(args) -> int:
@@ -174,10 +155,10 @@ def run(args) -> int:
 
 
 def _prepare(args, write, figures) -> int:
+    from ..limits import check_output_size
     from ..rigs import load_rig
     from ..rigs.parameters import defaults_used
     from ..scenarios import build_scenario, default_scenario, scenario_names
-    from ..system import build_circuit
 
     rig = load_rig(args.rig)
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
@@ -191,16 +172,26 @@ def _prepare(args, write, figures) -> int:
         raise ValueError(f"{'--scenario' if args.scenario else 'rig.scenario'}: unknown "
                          f"experiment {scenario!r} (known: {', '.join(scenario_names(rig))})")
     duration = t_end or rig.get(f"scenario.{scenario}.t_end") or build_scenario(rig, scenario).t_end
+    if dt_out is not None and dt_out > duration:
+        raise ValueError(f"--dt-out: {args.dt_out} is longer than the run ({duration:g} s): "
+                         f"results.csv would hold only its first and last rows; give at most "
+                         f"{duration:g} s")
     h, every, rows = output_grid(duration, dt_out)
-    long_run = round(duration / h) + 1 > LONG_ROWS and len(build_circuit(rig).axes) == 1
+    circuit, network = run_network(rig, scenario, duration)
+    long_run = round(duration / h) + 1 > LONG_ROWS and len(circuit.axes) == 1
+    columns = 1 + len(network.signal_names) + len(network.state_names)
+    name = "--t-end" if args.t_end else f"scenario.{scenario}.t_end"
     out = None
     if write:
         out = out_dir(args.out if args.out is not None else "hydroline-out", OUTPUT_FILES)
-        if not long_run:   # (a long run streams: memory bounded, its disk checked in simulate)
-            _check_size(rig, scenario, t_end, out, "--t-end" if args.t_end else None)
-        else:
-            _say_cost(rig, scenario, duration, rows, dt_out, out, h * every,
-                      "--t-end" if args.t_end else f"scenario.{scenario}.t_end")
+    if long_run:   # (streamed: memory bounded; the disk checked when it writes)
+        if write:
+            check_output_size(duration, h * every, columns - 1, stream_to=out / "results.csv",
+                              name=name)
+    else:
+        check_output_size(duration, h, columns - 1, csv_folder=out, name=name)
+    note_cost("simulate", network, args.solver, duration, rows, columns, streamed=long_run,
+              write=write, dt_out=dt_out)
     defaults = defaults_used(rig, scenario)
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
@@ -231,7 +222,10 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     from ..scenarios import simulate, summarize
     from ..plotting import plot_result
 
-    with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp:
+    # (on an error or Ctrl-C the figure process is stopped first, then the temporary files
+    # are removed: a figure still being drawn would write its file again)
+    with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp, \
+            (figures if figures is not None else contextlib.nullcontext()):
         options = {}
         stream = None
         if long_run:   # bounded memory: the summary's columns in full, a preview for the figure
@@ -376,7 +370,7 @@ def plot_axes(res, summary, path, title=""):
     """
     import numpy as np
 
-    from ..plotting import new_figure, save_png
+    from ..plotting import figure_title, new_figure, save_png
 
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
@@ -396,7 +390,7 @@ def plot_axes(res, summary, path, title=""):
         a_.grid(alpha=0.3)
     ax[2].set_yscale("symlog", linthresh=1e-4)
     ax[2].set_xlabel("time [ms]")
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(figure_title(title), fontsize=10)
     fig.tight_layout()
     save_png(fig, path, dpi=110)
 
@@ -407,8 +401,10 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
         out = out_dir(args.out if args.out is not None else "hydroline-out")
         columns = [c for a in res.metadata["axes"].values()
                    for c in (a.supply_pressure, a.return_pressure, a.position)]
-        figures.draw(plot_axes, figure_result(res, columns, ("axes",)), summary,
-                     str(out / "pressures.png"), f"{scenario} on {rig.get('rig.name', rig.source)}")
+        with atomic_outputs(out) as temp, figures:
+            figures.draw(plot_axes, figure_result(res, columns, ("axes",)), summary,
+                         str(temp("pressures.png")),
+                         f"{scenario} on {rig.get('rig.name', rig.source)}")
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import time
@@ -11,7 +12,7 @@ import numpy as np
 from ..rigs import load_rig
 from ..scenarios import default_scenario
 from ..studies.sweep import sweep
-from .common import dump_json, print_table, quantity
+from .common import dump_json, note_cost, print_table, quantity, run_network
 
 EPILOG = """\
 values (after PATH=; PATH is a parameter's dotted path in the rig file, values carry units):
@@ -95,10 +96,12 @@ def register(sub):
 
 
 class _Progress:
-    """A progress bar on stderr (a TTY), or a line per 10 % (a log file)."""
+    """A progress bar on stderr (a TTY), or a line per 10 % (a log file); ``starting(n)`` is
+    called once, when the sweep's inputs are checked and its ``n`` variants are about to run."""
 
-    def __init__(self, enabled):
+    def __init__(self, enabled, starting=None):
         self.enabled = enabled
+        self.starting = starting
         self.tty = sys.stderr.isatty()
         self.start = time.perf_counter()
         self.base = None
@@ -106,6 +109,10 @@ class _Progress:
         self.last_decile = -1
 
     def __call__(self, done, total, failed):
+        if self.starting is not None:
+            starting, self.starting = self.starting, None
+            if total > done:
+                starting(total - done)
         if not self.enabled or total == 0:
             return
         now = time.perf_counter()
@@ -152,7 +159,11 @@ def run(args) -> int:
     if not args.sets:
         raise ValueError("give at least one --set PATH=VALUES, e.g. "
                          "--set 'supply.section2.bulk_modulus=150 MPa,220 MPa'")
-    progress = _Progress(not args.json)
+
+    def note_cost_of(variants):   # (once the design is known and checked)
+        _note_sweep_cost(args, rig, scenario, t_end, variants)
+
+    progress = _Progress(not args.json, note_cost_of)
     done = {"rows": 0}
 
     def count(row):
@@ -223,6 +234,22 @@ def run(args) -> int:
     for note in result.notes:       # parquet not written, rows beyond a smaller --samples
         print(f"  note: {note}")
     return _failed_status(result, args)
+
+
+def _note_sweep_cost(args, rig, scenario, t_end, variants):
+    """The cost note of :func:`hydroline.cli.common.note_cost` for a sweep of ``variants``
+    runs of the base rig's model (on --workers processes, default the CPU count)."""
+    from ..scenarios import build_scenario
+    from .simulate import DT_OUT
+
+    try:
+        duration = t_end or build_scenario(rig, scenario).t_end
+        _, network = run_network(rig, scenario, duration)
+    except ValueError:   # the base rig alone does not build: each variant says why it fails
+        return
+    columns = 1 + len(network.signal_names) + len(network.state_names)
+    note_cost("sweep", network, args.solver, duration, round(duration / DT_OUT) + 1, columns,
+              variants=variants, workers=args.workers or os.cpu_count() or 1)
 
 
 #: Exit status of a sweep in which at least one variant failed (2 stays "bad input").

@@ -38,12 +38,13 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import cache_dir  # noqa: F401  (re-exported)
-from ..cache import least_recently_used, load_table, mark_used, source_tag, store_table
+from ..cache import (discard_entry, discard_table, least_recently_used, load_table, mark_used,
+                     source_tag, store_table)
 from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-exported)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
            "available", "CFLAGS", "native_flags", "model_fingerprint", "definition_key",
-           "prune_libraries", "MAX_LIBRARIES"]
+           "prune_libraries", "MAX_LIBRARIES", "needs_build"]
 
 #: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
 #: model whose record is known is loaded without them.
@@ -80,6 +81,11 @@ MAX_LIBRARIES = 200
 
 class CompilerUnavailable(RuntimeError):
     """No working C compiler: the compiled core cannot be built on this machine."""
+
+
+class _RecordMismatch(Exception):
+    """A model or structure record of the cache does not fit the model it was found for: the
+    record is discarded and the model built without records."""
 
 
 def _compiler() -> str | None:
@@ -136,11 +142,15 @@ def _build_settings() -> str:
     return " ".join(CFLAGS + native_flags()) + sys.platform + _cpu_id()
 
 
+def _library_key(full: str) -> str:
+    """A library's cache key: SHA-256 (hex) of its source and the build settings; its file is
+    named by the first 32 digits, its build record holds all 64."""
+    return hashlib.sha256((full + _build_settings()).encode()).hexdigest()
+
+
 def _library_path(gen: GeneratedModel) -> tuple[Path, str]:
     full = gen.source + "\n" + _bdf_source()
-    ident = full + _build_settings()
-    tag = hashlib.sha256(ident.encode()).hexdigest()[:32]
-    return cache_dir() / f"hl_{tag}.so", full
+    return cache_dir() / f"hl_{_library_key(full)[:32]}.so", full
 
 
 def _digest(path: Path) -> tuple[int, str]:
@@ -153,17 +163,32 @@ def _record_path(path: Path) -> Path:
     return path.with_suffix(".sha256")
 
 
-def _verified(path: Path) -> bool:
-    """True when the cached library at ``path`` is the file its build recorded: same size and
-    content hash. Checked before the library is loaded: a truncated, overwritten or foreign
-    file mapped into the process would crash it (SIGBUS, SIGSEGV) instead of raising."""
+def _library_check(path: Path) -> tuple[bool, str]:
+    """Whether the cached library at ``path`` is the file its build recorded (size, SHA-256,
+    and the key it was built for, of which its name is the start). Checked before the
+    library is loaded: a truncated, overwritten or foreign file mapped into the process
+    would crash it (SIGBUS, SIGSEGV) instead of raising.
+
+    Returns (True, "") when it is; (False, "") when there is nothing to check (no library;
+    no record, or a record of the format before keys: a quiet miss); (False, why) when it
+    fails its record (to be said in a warning)."""
     try:
-        size, digest = _record_path(path).read_text().split()
-        if path.stat().st_size != int(size):
-            return False
-        return _digest(path) == (int(size), digest)
-    except (OSError, ValueError):
-        return False
+        size = path.stat().st_size
+        fields = _record_path(path).read_text().split()
+    except (OSError, UnicodeDecodeError):
+        return False, ""
+    if len(fields) == 2:
+        return False, ""
+    if len(fields) != 3 or not fields[0].isdigit():
+        return False, "its build record is damaged"
+    if fields[2][:32] != path.stem[3:]:
+        return False, "its build record was made for another library"
+    try:
+        if int(fields[0]) != size or _digest(path) != (size, fields[1]):
+            return False, "its content does not match its build record's size and SHA-256"
+    except OSError:
+        return False, ""
+    return True, ""
 
 
 def _discard(path: Path) -> None:
@@ -175,8 +200,9 @@ def _discard(path: Path) -> None:
 
 
 def _compile(cc: str, full: str, path: Path) -> None:
-    """Compile the library source into ``path`` and record its size and hash next to it (atomic
-    renames; one builder per key at a time; a cached file that fails verification is rebuilt)."""
+    """Compile the library source into ``path`` and record its size, hash and key next to it
+    (atomic renames; one builder per key at a time; a cached file that fails verification is
+    rebuilt)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = open(path.with_suffix(".lock"), "w")
     try:
@@ -185,7 +211,7 @@ def _compile(cc: str, full: str, path: Path) -> None:
             fcntl.flock(lock, fcntl.LOCK_EX)    # other processes wait for this build
         except ImportError:                     # no fcntl (Windows): concurrent builds are harmless
             pass
-        if _verified(path):                     # built by another process meanwhile
+        if _library_check(path)[0]:             # built by another process meanwhile
             return
         _discard(path)                          # damaged or unrecorded: build it anew
         with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
@@ -201,7 +227,7 @@ def _compile(cc: str, full: str, path: Path) -> None:
                 raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
             size, digest = _digest(out)
             record = Path(tmp) / "model.sha256"
-            record.write_text(f"{size} {digest}\n")
+            record.write_text(f"{size} {digest} {_library_key(full)}\n")
             os.replace(record, _record_path(path))   # the record first: a reader that sees the
             os.replace(out, path)                     # library can always verify it
     finally:
@@ -254,18 +280,23 @@ def prune_libraries(max_libraries: int | None = None) -> int:
 def _build(path: Path, full) -> ctypes.CDLL:
     """Load the model's library from the cache, compiling it on a miss.
 
-    The cached file is verified against the size and hash recorded at its build before it is
-    loaded; one that fails (truncated, overwritten, another library) is rebuilt. Any failure
-    to compile, store or load it (no compiler, a cache directory that cannot be written)
-    raises :class:`CompilerUnavailable`, so callers can fall back to another solver.
+    The cached file is verified against the size, hash and key recorded at its build before
+    it is loaded; one that fails (truncated, overwritten, another library, a damaged record)
+    is discarded with one :class:`~hydroline.cache.CacheWarning` naming it and rebuilt. Any
+    failure to compile, store or load it (no compiler, a cache directory that cannot be
+    written) raises :class:`CompilerUnavailable`, so callers can fall back to another solver.
     ``full`` is the library source, or a callable that makes it (only a rebuild needs it).
     """
     if str(path) in _LIBS:
         return _LIBS[str(path)]
     cc = _compiler()
+    verified = False
     for attempt in (0, 1):
         try:
-            if not _verified(path):
+            verified, why = _library_check(path)
+            if not verified:
+                if why:
+                    discard_entry(path, _record_path(path), why=why)
                 if cc is None:
                     raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
                 _compile(cc, full() if callable(full) else full, path)
@@ -277,8 +308,11 @@ def _build(path: Path, full) -> ctypes.CDLL:
             break
         except (OSError, AttributeError) as e:   # AttributeError: a symbol is missing
             if attempt == 0 and path.is_file() and cc is not None:
-                _discard(path)   # a corrupt or foreign cached library: build it anew
-                continue
+                if verified:    # a cached library that passes its record but not the loader
+                    discard_entry(path, _record_path(path), why=f"it cannot be loaded: {e}")
+                else:
+                    _discard(path)
+                continue        # build it anew
             raise CompilerUnavailable(f"compiled library unusable at {path}: {e}") from None
     _LIBS[str(path)] = lib
     return lib
@@ -331,13 +365,40 @@ class NativeModel:
     def __init__(self, network):
         tic = time.perf_counter()
         self.network = network
+        key, found, full, record = self._locate(network)
+        try:
+            self._load(full, record is not None)
+        except _RecordMismatch as e:   # a record that does not fit: without records
+            discard_table(*record, why=str(e))
+            _MODELS.pop(key, None)
+            _STRUCTURES.pop(record[1], None)
+            key, found, full, record = self._locate(network, records=False)
+            self._load(full, False)
+        self.n, self.n_signals = int(self._sizes[0]), int(self._sizes[3])
+        # (the dense Jacobian's row and column indices, each component's state block, and
+        # the order limits found, by Jacobian: made on first use)
+        self._jac_index = self._blocks = None
+        self._limits_seen: dict = {}
+        _remember_model(key, self.generated, self.library_path)
+        #: How the model was found: "definition" (its record, found before any graph was
+        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
+        #: describe itself), "structure" (a known structure: constants read from the
+        #: graph) or "generated" (C written)
+        self.found_by = found
+        self.build_time = time.perf_counter() - tic
+
+    def _locate(self, network, records: bool = True):
+        """Find the model's record (``records``), else generate its C; sets ``generated``
+        and ``library_path``. Returns (key of its model record, how it was found, the
+        library's source or a callable that makes it, the record used as (table kind, key)
+        or None)."""
         # the model's record: under its definition (known before any graph is built) where
         # the network can describe itself, else under its graph's fingerprint; also where
         # the graph was built before (components changed since would not be in it)
         key = definition_key(network)
-        self.generated, tag = _known_model(key, network)
-        found = "definition"
-        if self.generated is None:   # not known: build the graph
+        gen, tag = _known_model(key, network) if records else (None, None)
+        found, record = "definition", ("models", key)
+        if gen is None:   # not known: build the graph
             from . import codegen
 
             if getattr(network, "has_graph", True):
@@ -345,23 +406,37 @@ class NativeModel:
             model = network.compile()
             if key is None:
                 key, found = model_fingerprint(model), "graph"
-                self.generated, tag = _known_model(key, network)
-            if self.generated is None:   # other numbers: is the structure known?
+                record = ("models", key)
+                gen, tag = _known_model(key, network) if records else (None, None)
+            if gen is None:   # other numbers: is the structure known?
                 functions = codegen.scaled_functions(model)
-                self.generated, tag = _known_structure(functions)
+                record = ("structures", _structure_record_key(functions))
+                gen, tag = (_known_structure(functions, record[1], network) if records
+                            else (None, None))
                 found = "structure"
-                if self.generated is None:   # a new structure: write its C
-                    found = "generated"
-                    self.generated = codegen.generate(model, functions)
-                    self.library_path, full = _library_path(self.generated)
-                    _remember_structure(functions, self.generated, self.library_path)
+                if gen is None:   # a new structure: write its C
+                    found, record = "generated", None
+                    gen = codegen.generate(model, functions)
+                    path, full = _library_path(gen)
+                    _remember_structure(functions, gen, path)
+        self.generated = gen
         if tag is not None:          # known: its C is regenerated only to rebuild a library
-            self.library_path = cache_dir() / f"hl_{tag}.so"
+            path = cache_dir() / f"hl_{tag}.so"
 
             def full():
                 from . import codegen
 
-                return _library_path(codegen.generate(network.compile()))[1]
+                made, source = _library_path(codegen.generate(network.compile()))
+                if made != path:
+                    raise _RecordMismatch(f"it names the library {path.name}, which is not "
+                                          f"this model's")
+                return source
+        self.library_path = path
+        return key, found, full, record
+
+    def _load(self, full, from_record: bool) -> None:
+        """Load (or build) the library and check that it fits the model's sizes; a misfit
+        of a model found by its record is that record's fault (:class:`_RecordMismatch`)."""
         self.cache_hit = self.library_path.exists()
         self.lib = _build(self.library_path, full)
         sizes = (ctypes.c_longlong * 7)()
@@ -369,20 +444,12 @@ class NativeModel:
         g = self.generated
         if tuple(sizes)[:5] != (g.n_states, max(g.n_parameters, 1), max(len(g.constants), 1),
                                 max(g.n_signals, 1), max(g.jac_nnz, 1)):
+            if from_record:
+                raise _RecordMismatch(f"the library it names, {self.library_path.name}, does "
+                                      f"not fit the model")
             raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
                                       f"the model (sizes {tuple(sizes)[:5]})")
-        self.n, self.n_signals = int(sizes[0]), int(sizes[3])
-        # (the dense Jacobian's row and column indices, each component's state block, and
-        # the order limits found, by Jacobian: made on first use)
-        self._jac_index = self._blocks = None
-        self._limits_seen: dict = {}
-        _remember_model(key, g, self.library_path)
-        #: How the model was found: "definition" (its record, found before any graph was
-        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
-        #: describe itself), "structure" (a known structure: constants read from the
-        #: graph) or "generated" (C written)
-        self.found_by = found
-        self.build_time = time.perf_counter() - tic
+        self._sizes = tuple(sizes)
 
     def dense_jacobian(self, jnz) -> np.ndarray:
         """The Jacobian as a dense matrix from its nonzeros (``generated.jac_colind`` /
@@ -745,27 +812,47 @@ def definition_key(network) -> str | None:
 
 def _known_model(fingerprint: str | None, network):
     """(GeneratedModel without its source, library tag) of a model seen before, in this
-    process or recorded in the cache directory; (None, None) if unknown, or if the record's
-    sizes do not fit the network (states, parameters, signals)."""
+    process or recorded in the cache directory; (None, None) if unknown. A record that does
+    not fit the network (:func:`_misfit`) is discarded with a warning naming its file."""
     if fingerprint is None:
         return None, None
     known = _MODELS.get(fingerprint)
     if known is None:
         rec = load_table("models", fingerprint)
+        if rec is None:
+            return None, None
         try:
             gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS},
                                  constants=np.asarray(rec["constants"], dtype=float),
                                  jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
                                  jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
             known = (gen, str(rec["library"]))
-        except (TypeError, KeyError, ValueError):   # none, or damaged: generate anew
-            return None, None
+        except (TypeError, KeyError, ValueError):
+            known = (None, None)
         _MODELS[fingerprint] = known   # on disk already: not written again
-    gen = known[0]
-    if (gen.n_states, gen.n_parameters, gen.n_signals) != (
-            len(network.state_names), len(network.parameter_names), len(network.signal_names)):
+    why = _misfit(known[0], network)
+    if why:
+        _MODELS.pop(fingerprint, None)
+        discard_table("models", fingerprint, why=why)
         return None, None
     return known
+
+
+def _misfit(gen, network) -> str:
+    """What makes a model read from a record unfit for ``network`` ("" when nothing): its
+    sizes (states, parameters, signals) or its Jacobian's compressed-column pattern."""
+    if gen is None:
+        return "its record is incomplete"
+    n = len(network.state_names)
+    if (gen.n_states, gen.n_parameters, gen.n_signals) != (
+            n, len(network.parameter_names), len(network.signal_names)):
+        return "its sizes do not fit the model"
+    colind, row = np.asarray(gen.jac_colind), np.asarray(gen.jac_row)
+    if not (colind.shape == (n + 1,) and colind[0] == 0 and np.all(np.diff(colind) >= 0)
+            and colind[-1] == gen.jac_nnz == row.size
+            and (row.size == 0 or (row.min() >= 0 and row.max() < n))):
+        return "its Jacobian pattern does not fit the model"
+    return ""
 
 
 _STRUCTURES: dict = {}
@@ -781,11 +868,12 @@ def _structure_record_key(functions) -> str:
     return structure_key(functions) + _CODE_TAG + settings
 
 
-def _known_structure(functions):
+def _known_structure(functions, key: str, network):
     """(GeneratedModel with this model's constants and no source, library tag) when a model
-    of the same structure was generated before (this process or recorded on disk): only the
-    constants are read from the graph; (None, None) otherwise."""
-    key = _structure_record_key(functions)
+    of the same structure (record key ``key``, :func:`_structure_record_key`) was generated
+    before (this process or recorded on disk): only the constants are read from the graph;
+    (None, None) otherwise. A record that does not fit (:func:`_misfit`, its constants'
+    positions) is discarded with a warning naming its file."""
     rec = _STRUCTURES.get(key)
     if rec is None:
         rec = load_table("structures", key)
@@ -799,11 +887,15 @@ def _known_structure(functions):
         gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS}, constants=constants,
                              jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
                              jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
-        if len(constants) != rec["n_constants"]:
-            return None, None
-        return gen, str(rec["library"])
-    except (TypeError, KeyError, ValueError, RuntimeError):   # damaged record: generate anew
-        return None, None
+        why = _misfit(gen, network) or (
+            "its constants do not fit the model" if len(constants) != rec["n_constants"] else "")
+        if not why:
+            return gen, str(rec["library"])
+    except (TypeError, KeyError, ValueError, RuntimeError):
+        why = _misfit(None, network)
+    _STRUCTURES.pop(key, None)
+    discard_table("structures", key, why=why)
+    return None, None
 
 
 def _remember_structure(functions, gen, library_path: Path) -> None:
@@ -829,6 +921,34 @@ def _remember_model(fingerprint: str, gen, library_path: Path) -> None:
     rec = {k: getattr(gen, k) for k in _SCALARS}
     rec.update({k: np.asarray(getattr(gen, k)).tolist() for k in _ARRAYS}, library=tag)
     store_table("models", fingerprint, rec)
+
+
+def needs_build(network) -> bool:
+    """Whether running ``network`` on the compiled core would first write and compile a new
+    library (its definition and its structure unknown to the cache, or the library missing):
+    what a command estimates before a run. Looked up as :class:`NativeModel` does, without
+    writing C; the CasADi graph is built (on ``network``) where the definition is unknown.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Returns
+    -------
+    bool  True when the first run will compile (seconds to minutes, by the model's size)
+    """
+    if network.__dict__.get("_native_model") is not None:
+        return False
+    _, tag = _known_model(definition_key(network), network)
+    if tag is None:
+        model = network.compile()
+        _, tag = _known_model(model_fingerprint(model), network)
+        if tag is None:
+            from . import codegen
+
+            functions = codegen.scaled_functions(model)
+            _, tag = _known_structure(functions, _structure_record_key(functions), network)
+    return tag is None or not _library_check(cache_dir() / f"hl_{tag}.so")[0]
 
 
 def native_model(network) -> NativeModel:

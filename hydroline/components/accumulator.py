@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["PistonAccumulator"]
 
@@ -50,13 +50,15 @@ class PistonAccumulator(Component):
     resistance: float = parameter(0.0, "Pa*s/m^3", "R_a of the connection, version II (M18)", minimum=0.0)
     inertance: float = parameter(1.0, "kg/m^4", "I_a of the connection, version II (M18)", positive=True)
     connection_model: StateSpaceLine | None = None
-    nominal_pressure: float = parameter(2e7, "Pa", "guess of the node pressure", positive=True)
+    nominal_pressure: float = parameter(2e7, "Pa", "guess of the node pressure", positive=True,
+                                        plausible=(1e3, 1e8))
     stop_stiffness: float | None = parameter(None, "Pa/m^3", "oil side emptied (None: 1 % film)",
-                                             positive=True, optional=True)
+                                             positive=True, optional=True, plausible=(1e8, 1e18))
 
     inputs = {"pressure": Port("pressure", "pressure at the node the accumulator hangs on")}
     outputs = {"flow": Port("flow", "flow from the node into the accumulator branch")}
     feedthrough = False
+    conducts = True
 
     def __post_init__(self):
         self.check_parameters()
@@ -74,6 +76,10 @@ class PistonAccumulator(Component):
         else:
             st += [State(f"line.{n}", "-", 1e-4) for n in self.connection_model.state_names]
         return st
+
+    def hydraulic_ends(self):
+        """Its connection to the node, holding oil."""
+        return {"node": HydraulicEnd("pressure", ("flow",), compliant=True)}
 
     def runtime_parameters(self):
         return {"reference_pressure": self.nominal_pressure}

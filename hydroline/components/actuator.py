@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine import ops
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["Actuator"]
 
@@ -46,8 +46,10 @@ class Actuator(Component):
                                    plausible=(1e-06, 1.0))
     top_area: float = parameter(1e-3, "m^2", "A_t, top (rod-side) piston area (M22)", positive=True,
                                 plausible=(1e-06, 1.0))
-    bottom_volume: float = parameter(1e-4, "m^3", "V_b at mid-stroke incl. passages (M22)", positive=True)
-    top_volume: float = parameter(1e-4, "m^3", "V_t at mid-stroke incl. passages (M22)", positive=True)
+    bottom_volume: float = parameter(1e-4, "m^3", "V_b at mid-stroke incl. passages (M22)", positive=True,
+                                     plausible=(1e-8, 10.0))
+    top_volume: float = parameter(1e-4, "m^3", "V_t at mid-stroke incl. passages (M22)", positive=True,
+                                  plausible=(1e-8, 10.0))
     bulk_modulus: float = parameter(1.4e9, "Pa", "beta_c of the oil in the chambers (M22)", positive=True,
                                     plausible=(1e8, 5e9))
     moving_mass: float = parameter(10.0, "kg", "piston, rod and attached load (M23)", positive=True,
@@ -60,14 +62,16 @@ class Actuator(Component):
                                         plausible=(0.0, 1e-10))
     gravity: float = parameter(9.81, "m/s^2", "g along the axis, 0 horizontal (M23)",
                                plausible=(-15.0, 15.0))
-    stop_stiffness: float = parameter(1e9, "N/m", "end-stop contact stiffness", positive=True)
+    stop_stiffness: float = parameter(1e9, "N/m", "end-stop contact stiffness", positive=True,
+                                      plausible=(1e5, 1e13))
     stop_damping: float | None = parameter(None, "N*s/m", "end-stop contact damping (None: critical)",
-                                           minimum=0.0, optional=True)
+                                           minimum=0.0, optional=True, plausible=(0.0, 1e9))
     min_volume_fraction: float = parameter(0.02, "-", "floor of the chamber volumes", positive=True,
-                                           maximum=1.0)
+                                           maximum=1.0, plausible=(1e-4, 0.5))
     initial_position: float = parameter(0.0, "m", "guess of x_p for the steady state",
                                         plausible=(-5.0, 5.0))
-    nominal_pressure: float = parameter(1e7, "Pa", "chamber pressure scale and guess", positive=True)
+    nominal_pressure: float = parameter(1e7, "Pa", "chamber pressure scale and guess", positive=True,
+                                        plausible=(1e3, 1e8))
 
     inputs = {"bottom_flow": Port("flow", "q_b into the bottom chamber"),
               "top_flow": Port("flow", "q_t out of the top chamber"),
@@ -83,6 +87,11 @@ class Actuator(Component):
         self.check_parameters()
         if self.stop_damping is None:   # critically damped contact
             self.stop_damping = 2.0 * np.sqrt(self.stop_stiffness * self.moving_mass)
+
+    def hydraulic_ends(self):
+        """The two chambers, each holding oil (M22)."""
+        return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",), compliant=True)
+                for end in ("bottom", "top")}
 
     @property
     def states(self):

@@ -30,7 +30,8 @@ class CheckValve(OrientedResistance):
                                           plausible=(0.0, 1e13))
     reverse_resistance: float = parameter(1e13, "Pa*s/m^3", "R_r against it (large)", positive=True,
                                           plausible=(1e6, 1e16))
-    transition_flow: float = parameter(1e-7, "m^3/s", "q_t, width of the switch", positive=True)
+    transition_flow: float = parameter(1e-7, "m^3/s", "q_t, width of the switch", positive=True,
+                                       plausible=(1e-12, 1e-3))
 
     def __post_init__(self):
         super().__post_init__()

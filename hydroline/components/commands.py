@@ -47,7 +47,8 @@ class StepCommand(_Command):
 
     initial: float = parameter(0.0, _VALUE, "value before the step, [unit of quantity]")
     final: float = parameter(0.0, _VALUE, "value after the step, [unit of quantity]")
-    time: float = parameter(0.0, "s", "time of the step", minimum=0.0)
+    time: float = parameter(0.0, "s", "time of the step", minimum=0.0,
+                            plausible=(0.0, 1e4))
 
     def runtime_parameters(self):
         return {"initial": self.initial, "final": self.final}
@@ -73,8 +74,10 @@ class SineCommand(_Command):
 
     offset: float = parameter(0.0, _VALUE, "mean value, [unit of quantity]")
     amplitude: float = parameter(0.0, _VALUE, "amplitude, [unit of quantity]")
-    frequency: float = parameter(1.0, "Hz", "frequency of the sine", positive=True)
-    start: float = parameter(0.0, "s", "time the sine starts", minimum=0.0)
+    frequency: float = parameter(1.0, "Hz", "frequency of the sine", positive=True,
+                                 plausible=(1e-4, 1e4))
+    start: float = parameter(0.0, "s", "time the sine starts", minimum=0.0,
+                             plausible=(0.0, 1e4))
 
     def runtime_parameters(self):
         return {"amplitude": self.amplitude}
@@ -110,8 +113,10 @@ class RampCommand(_Command):
 
     initial: float = parameter(0.0, _VALUE, "value before the ramp, [unit of quantity]")
     slope: float = parameter(0.0, _VALUE, "rate of the ramp, [unit of quantity/s]")
-    start: float = parameter(0.0, "s", "time the ramp starts", minimum=0.0)
-    end: float = parameter(1.0, "s", "time the ramp ends (held after)", minimum=0.0)
+    start: float = parameter(0.0, "s", "time the ramp starts", minimum=0.0,
+                             plausible=(0.0, 1e4))
+    end: float = parameter(1.0, "s", "time the ramp ends (held after)", minimum=0.0,
+                           plausible=(0.0, 1e4))
 
     def outputs_of(self, t, x, u, p):
         tau = ops.fmin(ops.fmax(t - self.start, 0.0), self.end - self.start)

@@ -7,7 +7,7 @@ import numpy as np
 
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
-from ..engine.component import Component, Port, State
+from ..engine.component import Component, HydraulicEnd, Port, State
 
 __all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
@@ -57,6 +57,8 @@ class HoseSection(Component):
     model: StateSpaceLine = None
     nominal_pressure: float = 0.0
 
+    conducts = True
+
     def __post_init__(self):
         m = self.model
         self.inputs = {n: Port(n.split("_")[1], f"{n.replace('_', ' ')} of the line")
@@ -81,6 +83,11 @@ class HoseSection(Component):
     @property
     def states(self):
         return self._states
+
+    def hydraulic_ends(self):
+        """Its two ends, each holding oil (the line's compliance)."""
+        return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",), compliant=True)
+                for end in ("upstream", "downstream")}
 
     def _vectors(self, x, u):
         xv = ops.vertcat([x[s.name] for s in self._states])

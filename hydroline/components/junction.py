@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..engine.component import Component, Port
+from ..engine.component import Component, HydraulicEnd, Port
 
 __all__ = ["FlowJunction"]
 
@@ -21,9 +21,15 @@ class FlowJunction(Component):
 
     terms: dict = field(default_factory=dict)
 
+    conducts = True
+
     def __post_init__(self):
         self.inputs = {k: Port("flow", f"flow term, sign {s:+d}") for k, s in self.terms.items()}
         self.outputs = {"flow": Port("flow", "sum of the signed flows")}
+
+    def hydraulic_ends(self):
+        """One node without its own pressure: the summed flows and the sum."""
+        return {"node": HydraulicEnd(None, ("flow", *self.terms))}
 
     def outputs_of(self, t, x, u, p):
         total = 0.0

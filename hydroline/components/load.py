@@ -41,8 +41,9 @@ class Load(Component):
     applied_force: float = parameter(0.0, "N", "constant external force, positive down",
                                      plausible=(-1e7, 1e7))
     step_time: float | None = parameter(None, "s", "time of a step of the external force",
-                                        minimum=0.0, optional=True)
-    step_force: float = parameter(0.0, "N", "the force step, positive down")
+                                        minimum=0.0, optional=True, plausible=(0.0, 1e4))
+    step_force: float = parameter(0.0, "N", "the force step, positive down",
+                                  plausible=(-1e7, 1e7))
 
     inputs = {"position": Port("position", "piston position"),
               "velocity": Port("velocity", "piston velocity")}

@@ -5,7 +5,7 @@ import math
 from dataclasses import dataclass
 
 from ..engine import ops
-from ..engine.component import Component, Port, parameter
+from ..engine.component import Component, HydraulicEnd, Port, parameter
 
 __all__ = ["Pump"]
 
@@ -34,24 +34,34 @@ class Pump(Component):
     the outlet node [m^3/s].
     """
 
-    displacement: float = parameter(10e-6, "m^3", "D, geometric volume per revolution", positive=True)
+    displacement: float = parameter(10e-6, "m^3", "D, geometric volume per revolution", positive=True,
+                                    plausible=(1e-7, 1e-2))
     shaft_speed: float = parameter(157.07963267948966, "rad/s", "omega, shaft speed (1500 rpm)",
-                                   positive=True)
-    leakage: float = parameter(0.0, "m^3/s/Pa", "C_l, volumetric loss per pressure", minimum=0.0)
+                                   positive=True, plausible=(1.0, 2000.0))
+    leakage: float = parameter(0.0, "m^3/s/Pa", "C_l, volumetric loss per pressure", minimum=0.0,
+                               plausible=(0.0, 1e-9))
     control: str = parameter("fixed", "str", "fixed displacement or pressure compensated",
                              choices=("fixed", "pressure-compensated"))
-    compensator_pressure: float = parameter(20e6, "Pa", "p_c, start of destroking", positive=True)
-    deadhead_pressure: float = parameter(21e6, "Pa", "p_d, zero delivery", positive=True)
+    compensator_pressure: float = parameter(20e6, "Pa", "p_c, start of destroking", positive=True,
+                                            plausible=(1e5, 1e8))
+    deadhead_pressure: float = parameter(21e6, "Pa", "p_d, zero delivery", positive=True,
+                                         plausible=(1e5, 1e8))
 
     inputs = {"outlet_pressure": Port("pressure", "pressure at the pump outlet"),
               "inlet_pressure": Port("pressure", "pressure at the pump inlet (tank)")}
     outputs = {"flow": Port("flow", "flow delivered into the outlet node")}
+    source_ends = ("outlet",)
 
     def __post_init__(self):
         self.check_parameters()
         if self.control == "pressure-compensated" and not self.deadhead_pressure > self.compensator_pressure:
             raise ValueError(f"{self.name}: deadhead_pressure must be > compensator_pressure "
                              f"({self.compensator_pressure:g} Pa) [Pa], got {self.deadhead_pressure!r}")
+
+    def hydraulic_ends(self):
+        """Inlet and outlet, the delivered flow passing from one to the other."""
+        return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
+                "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
     @property
     def geometric_flow(self) -> float:

@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..engine import ops
-from ..engine.component import Component, Port, parameter
+from ..engine.component import Component, HydraulicEnd, Port, parameter
 
 __all__ = ["ReliefValve"]
 
@@ -32,11 +32,13 @@ class ReliefValve(Component):
     """
 
     cracking_pressure: float = parameter(21e6, "Pa", "p_c, drop at which the valve cracks open",
-                                         positive=True)
+                                         positive=True, plausible=(1e4, 1e8))
     flow_gradient: float = parameter(1e-10, "m^3/s/Pa", "G, flow-pressure slope above cracking",
-                                     positive=True)
-    transition_pressure: float = parameter(1e4, "Pa", "p_w, width of the smooth opening", positive=True)
-    leakage: float = parameter(0.0, "m^3/s/Pa", "G_l, leakage conductance when closed", minimum=0.0)
+                                     positive=True, plausible=(1e-14, 1e-6))
+    transition_pressure: float = parameter(1e4, "Pa", "p_w, width of the smooth opening", positive=True,
+                                           plausible=(1.0, 1e7))
+    leakage: float = parameter(0.0, "m^3/s/Pa", "G_l, leakage conductance when closed", minimum=0.0,
+                               plausible=(0.0, 1e-9))
 
     inputs = {"inlet_pressure": Port("pressure", "pressure at the protected node"),
               "outlet_pressure": Port("pressure", "pressure at the outlet (tank)")}
@@ -44,6 +46,11 @@ class ReliefValve(Component):
 
     def __post_init__(self):
         self.check_parameters()
+
+    def hydraulic_ends(self):
+        """Inlet (the protected node) and outlet (tank), the relieved flow passing between."""
+        return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
+                "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
     def flow(self, dp):
         """Relieved flow, [m^3/s].

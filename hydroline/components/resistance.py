@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..engine.component import Component, Port, parameter
+from ..engine.component import Component, HydraulicEnd, Port, parameter
 
 __all__ = ["LinearResistance", "OrientedResistance"]
 
@@ -24,6 +24,8 @@ class OrientedResistance(Component):
     compute: str = parameter("outlet", "str", "causality: what the component outputs",
                              choices=("outlet", "inlet", "flow"))
 
+    conducts = True
+
     def __post_init__(self):
         if self.compute not in ("outlet", "inlet", "flow"):
             raise ValueError(f"{self.name}: compute must be 'outlet', 'inlet' or 'flow', got {self.compute!r}")
@@ -36,6 +38,11 @@ class OrientedResistance(Component):
         self.inputs = {f"{known}_pressure": Port("pressure", f"pressure at the {known}"),
                        "flow": Port("flow", "flow from inlet to outlet")}
         self.outputs = {f"{self.compute}_pressure": Port("pressure", f"pressure at the {self.compute}")}
+
+    def hydraulic_ends(self):
+        """Inlet and outlet, the flow passing through from one to the other."""
+        return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
+                "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
     def pressure_drop(self, q):
         """Pressure drop [Pa] at flow q [m^3/s].

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine import ops
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["Servovalve", "valve_coefficient"]
 
@@ -82,6 +82,8 @@ class Servovalve(Component):
         "bottom_flow": Port("flow", "flow into the bottom chamber (q_b)"),
         "top_flow": Port("flow", "flow out of the top chamber (q_t)"),
     }
+    #: P must reach the supply, T the tank (M20 meters P -> B, A -> T, ...)
+    pressure_order = (("supply", "return"),)
 
     def __post_init__(self):
         self.check_parameters()
@@ -90,6 +92,11 @@ class Servovalve(Component):
         if any(not abs(u) < self.max_opening for u in self.laps):
             raise ValueError(f"{self.name}: laps must each be shorter than max_opening "
                              f"({self.max_opening:g} m) [m], got {tuple(self.laps)!r}")
+
+    def hydraulic_ends(self):
+        """Ports P (supply), T (return) and the control ports to the chambers."""
+        return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",))
+                for end in ("supply", "return", "bottom", "top")}
 
     @property
     def coefficient(self) -> float:

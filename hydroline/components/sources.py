@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..engine.component import Component, Port, parameter
+from ..engine.component import Component, HydraulicEnd, Port, parameter
 from .commands import StepCommand
 
 __all__ = ["PressureSource"]
@@ -40,13 +40,14 @@ class PressureSource(Component):
     """
 
     pressure: float | None = parameter(None, "Pa", "absolute pressure (or the waveform's at t = 0)",
-                                       positive=True, optional=True)
+                                       positive=True, optional=True, plausible=(1e3, 1e8))
     waveform: Component | None = None
     step_time: float | None = None
     step_to: float | None = None
 
     outputs = {"pressure": Port("pressure", "source pressure, absolute")}
     feedthrough = False
+    conducts = True
 
     def __post_init__(self):
         self.check_parameters()
@@ -71,6 +72,10 @@ class PressureSource(Component):
         elif abs(self.pressure - start) > 1e-9 * max(abs(start), 1.0):
             raise ValueError(f"{self.name}: pressure ({self.pressure:g} Pa) must equal the "
                              f"waveform's value at t = 0 ({start:g} Pa), or be omitted")
+
+    def hydraulic_ends(self):
+        """Its port: a prescribed pressure (it takes any flow)."""
+        return {"port": HydraulicEnd("pressure")}
 
     def waveform_value(self, t: float) -> float:
         """The waveform's pressure at time t (numbers; default parameters), [Pa].

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..engine.component import Component, Port, State, parameter
+from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 
 __all__ = ["HydraulicVolume"]
 
@@ -26,12 +26,16 @@ class HydraulicVolume(Component):
     Ports: the flow terms [m^3/s]; output ``pressure`` [Pa]. State ``pressure``.
     """
 
-    volume: float = parameter(1e-5, "m^3", "V, the oil volume", positive=True)
-    bulk_modulus: float = parameter(1.5e9, "Pa", "beta of the oil in it", positive=True)
+    volume: float = parameter(1e-5, "m^3", "V, the oil volume", positive=True,
+                              plausible=(1e-9, 1.0))
+    bulk_modulus: float = parameter(1.5e9, "Pa", "beta of the oil in it", positive=True,
+                                    plausible=(1e7, 5e9))
     terms: dict = field(default_factory=dict)
-    nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True)
+    nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True,
+                                        plausible=(1e3, 1e8))
 
     feedthrough = False
+    conducts = True
 
     def __post_init__(self):
         self.check_parameters()
@@ -41,6 +45,10 @@ class HydraulicVolume(Component):
     @property
     def states(self):
         return [State("pressure", "Pa", max(self.nominal_pressure, 1e5))]
+
+    def hydraulic_ends(self):
+        """One node holding oil: its pressure and the flows into it."""
+        return {"node": HydraulicEnd("pressure", tuple(self.terms), compliant=True)}
 
     def outputs_of(self, t, x, u, p):
         return {"pressure": x["pressure"]}

@@ -20,13 +20,13 @@ Data flows one way: components -> network -> compiled function -> backend -> res
 here imports the rigs, circuits, scenarios, studies or the CLI.
 """
 from .backends import SOLVERS
-from .component import QUANTITY_UNITS, Component, Parameter, Port, State, parameter
+from .component import QUANTITY_UNITS, Component, HydraulicEnd, Parameter, Port, State, parameter
 from .integrate import integrate
 from .network import CompiledModel, Network, NetworkError
 from .result import SimulationResult, column_units, write_csv_rows
 from .steady_state import SteadyState, SteadyStateError, solve_steady_state
 
-__all__ = ["Component", "Port", "State", "Parameter", "parameter", "QUANTITY_UNITS",
+__all__ = ["Component", "HydraulicEnd", "Port", "State", "Parameter", "parameter", "QUANTITY_UNITS",
            "Network", "NetworkError", "CompiledModel", "SteadyState", "SteadyStateError",
            "solve_steady_state", "integrate", "SimulationResult", "column_units",
            "write_csv_rows", "SOLVERS"]

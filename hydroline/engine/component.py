@@ -26,7 +26,8 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 
-__all__ = ["Port", "State", "Component", "QUANTITY_UNITS", "Parameter", "parameter", "range_text"]
+__all__ = ["Port", "State", "Component", "QUANTITY_UNITS", "Parameter", "parameter", "range_text",
+           "HydraulicEnd"]
 
 #: Physical quantity kinds of signals and their SI units.
 QUANTITY_UNITS = {
@@ -76,6 +77,28 @@ class State:
     unit: str
     scale: float = 1.0
     description: str = ""
+
+
+@dataclass(frozen=True)
+class HydraulicEnd:
+    """One place where a component meets the oil: the pressure there and the flows crossing it.
+
+    The circuit's wiring checks (:mod:`hydroline.circuit.wiring`) derive its nodes and sides
+    from these declarations (:meth:`Component.hydraulic_ends`).
+
+    Parameters
+    ----------
+    pressure : str     Port of the pressure at that place; None for a flow junction (a node
+                       whose pressure another component gives)
+    flows : tuple      Ports of the flows crossing it; a flow port listed at two ends of one
+                       component passes through it from one to the other (a resistance, a pump)
+    compliant : bool   True where the component holds oil: its pressure follows from a volume
+                       of oil (a hose end, a chamber, an accumulator, a lumped volume)
+    """
+
+    pressure: str | None
+    flows: tuple = ()
+    compliant: bool = False
 
 
 @dataclass(frozen=True)
@@ -241,6 +264,15 @@ class Component:
     inputs = {}
     outputs = {}
     feedthrough = True
+    #: True where oil passes between the component's ends without a metering edge, a piston or
+    #: a pump between them (a hose, a resistance, a node): its ends lie on one side of the
+    #: circuit (see :meth:`hydraulic_ends`)
+    conducts = False
+    #: Pairs (high, low) of ends the circuit must hold apart, ``high`` reaching a higher
+    #: prescribed pressure than ``low`` (a servovalve's P above its T)
+    pressure_order = ()
+    #: Ends where the component delivers oil under pressure into the circuit (a pump's outlet)
+    source_ends = ()
     #: Zero-order-hold period of a sampled component, [s]; None for a continuous one
     sample_time = None
 
@@ -338,6 +370,11 @@ class Component:
         t_end : float   End of the run, [s]
         """
         return []
+
+    def hydraulic_ends(self) -> dict:
+        """Where the component meets the oil, end name -> :class:`HydraulicEnd`; empty for a
+        component of signals only (a command, a controller, friction)."""
+        return {}
 
     def signal(self, port: str) -> str:
         """Network signal connected to a local port.

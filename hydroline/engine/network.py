@@ -130,7 +130,13 @@ class Network:
         deps = {}
         for c in self.components:
             if c.feedthrough:
-                deps[c.name] = {self.producer[c.signal(p)][0].name for p in c.inputs} - {c.name}
+                deps[c.name] = {self.producer[c.signal(p)][0].name for p in c.inputs}
+                if c.name in deps[c.name]:     # its outputs would need themselves
+                    port = next(p for p in c.inputs if self.producer[c.signal(p)][0] is c)
+                    raise NetworkError(
+                        f"algebraic loop through one component: '{c.name}.{port}' reads "
+                        f"'{c.signal(port)}', which its own port '{c.name}."
+                        f"{self.producer[c.signal(port)][1]}' outputs (a self-loop)")
             else:
                 deps[c.name] = set()
         by_name = {c.name: c for c in self.components}

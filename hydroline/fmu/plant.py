@@ -26,7 +26,7 @@ from ..components import CheckValve, LinearResistance
 from ..rigs import Rig, RigError
 from ..scenarios import SCENARIOS, build_scenario
 from ..engine import SteadyStateError, solve_steady_state
-from ..system import build_network
+from ..system import build_circuit, build_network
 
 __all__ = ["Tunable", "TUNABLES", "INPUTS", "OUTPUTS", "Plant", "rest_state", "symbolic_model"]
 
@@ -108,6 +108,11 @@ class Plant:
     rig: Rig
 
 
+#: Why a rig is refused for export: what an FMU's interface holds.
+SINGLE_AXIS_ONLY = ("only a single-axis plant (one servovalve driven by 'valve_current', one "
+                    "'actuator') can be exported as an FMU")
+
+
 def rest_state(rig: Rig, start: str = "open-loop-step") -> Plant:
     """The plant of a rig at the rest state of a scenario, before its disturbance.
 
@@ -128,11 +133,14 @@ def rest_state(rig: Rig, start: str = "open-loop-step") -> Plant:
     """
     if start not in SCENARIOS:
         raise ValueError(f"start: unknown scenario {start!r} (known: {', '.join(SCENARIOS)})")
+    axes = build_circuit(rig).axes   # said first: no scenario of a multi-axis rig would do
+    if len(axes) > 1:
+        raise RigError(f"rig {rig.source}: {len(axes)} servo axes ({', '.join(axes)}): "
+                       f"{SINGLE_AXIS_ONLY}")
     sc = build_scenario(rig, start)
     full = build_network(rig, sc.commands, sc.position_guess)
     if "valve_current" not in full.signal_names or "actuator" not in {c.name for c in full.components}:
-        raise RigError(f"rig {rig.source}: only a single-axis plant (one servovalve driven by "
-                       f"'valve_current', one 'actuator') can be exported as an FMU")
+        raise RigError(f"rig {rig.source}: {SINGLE_AXIS_ONLY}")
     ss = solve_steady_state(full, t0=0.0)
     current = full.signals_at(0.0, ss.x, ss.p)["valve_current"]
     net = linear_network(rig, "lines", valve_current=current, position_guess=sc.position_guess)

@@ -9,10 +9,17 @@ Optional ``[supply.pressure_profile]`` / ``[return.pressure_profile]`` tables ma
 tank pressure vary in time (step, sine, ramp about ``<side>.pressure``, or a CSV table of the
 absolute pressure); see :func:`hydroline.system.pressure_profile`.
 
+A rig is either the template (the tables above, ``[rig] base = "default"`` to start from the
+embedded one) or a circuit (``[circuit.<name>]`` components, see :mod:`hydroline.circuit`);
+a table the rig's kind does not read (a ``[supply]`` table in a circuit rig) is refused by
+name, as is a ``base`` other than ``"default"``.
+
 An optional ``[connections]`` table rewires component ports to other signals, e.g.
 ``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
-(an ideal supply). The network checks the result: a port wired to a signal nobody outputs is
-reported as unconnected.
+(an ideal supply). The result is checked before a run: a port wired to a signal nobody outputs
+is reported as unconnected, and a physically wrong wiring (a self-loop, a short circuit, an end
+cut off or crossed, a servovalve's P not above its T) is refused in one line
+(:mod:`hydroline.circuit.wiring`).
 """
 from __future__ import annotations
 
@@ -151,7 +158,29 @@ def _flatten(tree, prefix="", depth=0):
     return out
 
 
+#: The tables a circuit rig (``[circuit.<name>]`` components) reads besides its components:
+#: the rig's own settings, the oil, the experiments, rewired ports, and a ``[controller]``
+#: that closes the loop of an axis whose circuit has no position controller. The template
+#: rig's other tables (``[supply]``, ``[servovalve]``, ``[actuator]``, ...) describe
+#: components a circuit gives as its own and are refused there by name.
+CIRCUIT_RIG_TABLES = ("rig", "fluid", "scenario", "connections", "controller", "circuit")
+
+
+def _unused_by_circuit(path: str, context: dict) -> str | None:
+    """The message refusing ``path`` in a circuit rig that does not read it; None if read."""
+    if path.split(".", 1)[0] in CIRCUIT_RIG_TABLES or \
+            not any(k.startswith("circuit.") for k in context):
+        return None
+    table = path.rpartition(".")[0] or path
+    return (f"{path}: a circuit rig does not use the [{table}] table (the template rig's); its "
+            f"components and their values are its [circuit.<name>] tables: remove it, or give "
+            f"the value on the component")
+
+
 def _parse(path: str, raw, context: dict | None = None):
+    unused = _unused_by_circuit(path, context or {})
+    if unused:
+        raise RigError(unused)
     if path.startswith("circuit."):
         # [circuit.<component>] tables: units from the component type's declarations
         from ..circuit import CircuitError, parse_circuit_value
@@ -331,11 +360,13 @@ def _read_toml(path) -> tuple[dict, str]:
         text = resources.files(__name__).joinpath(DEFAULT_RIG).read_text()
         return tomllib.loads(text), f"embedded:{DEFAULT_RIG}"
     p = Path(path)
-    if not p.is_file() and shipped_rig(str(path)) is not None:
-        name = shipped_rig(str(path))
-        return tomllib.loads(resources.files(__name__).joinpath(name).read_text()), f"embedded:{name}"
-    if not p.is_file():
-        raise RigError(f"rig file not found: {path}")
+    shipped = None if p.is_file() else shipped_rig(str(path))
+    if shipped is not None and p.suffix != ".toml":   # a shipped rig's name, e.g. "two_axis"
+        return tomllib.loads(resources.files(__name__).joinpath(shipped).read_text()), f"embedded:{shipped}"
+    if not p.is_file():   # a file name is a file: not silently the shipped rig of that name
+        hint = (f" (the shipped rig of that name is '{Path(shipped).stem}', without .toml)"
+                if shipped is not None else "")
+        raise RigError(f"rig file not found: {path}{hint}")
     try:
         if p.stat().st_size > MAX_RIG_BYTES:
             raise RigError(f"{path}: {p.stat().st_size} bytes is too large for a rig file "
@@ -374,6 +405,8 @@ def load_rig(path=None) -> Rig:
     """
     tree, source = _read_toml(path)
     raw = _flatten(tree)
+    if "rig.base" in raw:
+        _check_base(raw)
     if raw.get("rig.base") in ("default", DEFAULT_RIG):
         base = load_rig(None)
         for k, v in sorted(raw.items(), key=lambda kv: not kv[0].endswith(".type")):
@@ -383,3 +416,17 @@ def load_rig(path=None) -> Rig:
         return base
     values = {k: _parse(k, v, raw) for k, v in raw.items()}
     return Rig(values, raw, source)
+
+
+def _check_base(raw: dict):
+    """RigError unless ``rig.base`` names the rig a file may start from: the embedded
+    template (``"default"``), and only for a template rig."""
+    base = raw["rig.base"]
+    if base not in ("default", DEFAULT_RIG):
+        raise RigError(f"rig.base: {base!r} is not a rig to start from: give \"default\" (the "
+                       f"embedded {DEFAULT_RIG}; the file then changes only what it lists) or "
+                       f"leave base out")
+    if any(k.startswith("circuit.") for k in raw):
+        raise RigError("rig.base: a circuit rig ([circuit.<name>] tables) does not start from "
+                       "the template rig, whose tables it would not use; leave base out and "
+                       "give every component as a [circuit.<name>] table")

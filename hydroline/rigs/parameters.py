@@ -304,12 +304,29 @@ def allowed_implausible(rig) -> set:
     """
     listed = rig.get("rig.allow_implausible") or []
     for path in listed:
-        if path.startswith("circuit."):   # a circuit component's parameter: checked where the
-            continue                      # circuit is built (hydroline.circuit.builder)
+        if path.startswith("circuit."):   # a circuit component's parameter (its range is
+            if not _circuit_parameter(rig, path):   # checked where the circuit is built)
+                raise _error(f"rig.allow_implausible: {path!r} is not a parameter of a circuit "
+                             f"component of the rig (e.g. 'circuit.<name>.<parameter>')")
+            continue
         if path not in PARAMETERS:
             raise _error(f"rig.allow_implausible: {path!r} is not a rig parameter with a "
                          f"plausible range (e.g. 'actuator.moving_mass')")
     return set(listed)
+
+
+def _circuit_parameter(rig, path: str) -> bool:
+    """True when ``path`` is ``circuit.<name>.<key>`` of a component of the rig whose type
+    declares the parameter ``key``."""
+    from ..circuit.types import COMPONENT_TYPES
+
+    for key, ctype in rig.values.items():
+        head = key[:-len("type")]
+        if key.startswith("circuit.") and key.endswith(".type") and path.startswith(head) \
+                and ctype in COMPONENT_TYPES \
+                and path[len(head):] in COMPONENT_TYPES[ctype].declarations():
+            return True
+    return False
 
 
 def _shown(rig, path, value):
@@ -547,4 +564,8 @@ def steady_state_hint(state: str) -> str:
         if key in state:
             text = balance.format(side=side, section=section)
             return f"{text} (look at {params.format(side=side, section=section)})"
+    if state.endswith(".pressure"):   # a volume of a circuit: what flows in never flows out
+        return (f"the flows into '{state[:-len('.pressure')]}' do not balance, its pressure "
+                f"rises or falls for ever (look at what feeds and what drains it: a pump "
+                f"needs a way out, e.g. a relief valve)")
     return f"state '{state}' does not settle"

@@ -30,7 +30,8 @@ from collections import deque
 from ..rigs import RigError
 
 __all__ = ["run_serial", "run_processes", "run_dask", "dask_client", "die_with_parent",
-           "failure_reason", "MAX_ATTEMPTS", "MAX_WORKERS", "WINDOW_PER_WORKER"]
+           "quiet_resource_tracker", "failure_reason", "MAX_ATTEMPTS", "MAX_WORKERS",
+           "WINDOW_PER_WORKER"]
 
 #: Times a variant may be in flight when a worker process dies before it is recorded failed.
 MAX_ATTEMPTS = 2
@@ -153,6 +154,28 @@ def _pool_task(index, values):
     return _WORKER["runner"](index, values)
 
 
+#: The resource tracker's warning when the process that started the workers was killed
+#: (SIGKILL) before it could release their semaphores: the tracker releases them, and says so
+#: in two lines of a Python warning that tell the user nothing to do.
+_LEAK_WARNING = "ignore:resource_tracker:UserWarning"
+
+
+def quiet_resource_tracker() -> None:
+    """Start multiprocessing's resource tracker (as the first pool would) with its warning
+    about semaphores "leaked" by a killed sweep turned off; it still releases them. A tracker
+    already running is left as it is."""
+    from multiprocessing import resource_tracker
+
+    added = _LEAK_WARNING not in sys.warnoptions
+    if added:   # the tracker is a new interpreter started with this process's -W options
+        sys.warnoptions.append(_LEAK_WARNING)
+    try:
+        resource_tracker.ensure_running()
+    finally:
+        if added:
+            sys.warnoptions.remove(_LEAK_WARNING)
+
+
 def _mp_context():
     import multiprocessing as mp
 
@@ -230,6 +253,8 @@ def _run_process_pool(tasks, workers, runner, record, failed_row):
     attempts: dict = {}
     window = WINDOW_PER_WORKER * workers
     ctx = _mp_context()
+    if os.name == "posix":
+        quiet_resource_tracker()
     init_args = (runner, os.getpid())
     while pending:
         inflight = {}

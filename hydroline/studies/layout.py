@@ -233,7 +233,7 @@ class LayoutStudy:
         -------
         matplotlib.figure.Figure (written as PNG to ``path`` when given)
         """
-        from ..plotting import new_figure, save_png
+        from ..plotting import figure_title, new_figure, save_png
 
         n = len(self.lengths)
         fig = new_figure((11, 1.7 * n + 4.0))
@@ -317,8 +317,8 @@ class LayoutStudy:
         what = (f"sections II of {' and '.join(self.sides)} set" if not self.sections or
                 set(self.sections) == {f"{s}.section2" for s in self.sides} else
                 f"{', '.join(self.sections)} set" + (f"; ports of {self.axis}" if self.axis else ""))
-        fig.suptitle(title or f"Section II layout study: {self.scenario} on {self.rig_name} "
-                     f"({what})", fontsize=11, y=0.995)
+        fig.suptitle(figure_title(title or f"Section II layout study: {self.scenario} on "
+                                  f"{self.rig_name} ({what})"), fontsize=11, y=0.995)
         fig.subplots_adjust(left=0.07, right=0.98, top=0.955, bottom=0.05)
         if path is not None:
             save_png(fig, path, dpi=110)

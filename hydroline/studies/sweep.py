@@ -69,7 +69,7 @@ from .journal import (FORMAT_VERSION, JOURNAL_NAME, Journal, SweepFileError, che
                       check_same_sweep, journal_header, read_journal)
 from .settling import port_summary
 
-__all__ = ["sweep", "run_variant", "VariantRunner", "SweepResult", "SweepFileError",
+__all__ = ["sweep", "check_levels", "run_variant", "VariantRunner", "SweepResult", "SweepFileError",
            "METRIC_COLUMNS", "TRACKING_COLUMNS", "SETTLING_COLUMNS", "PORT_METRICS",
            "JOURNAL_NAME", "FORMAT_VERSION", "MAX_ATTEMPTS", "MAX_WORKERS", "read_journal",
            "metric_columns", "settling_columns", "failed_row", "row_columns", "graph_signature",
@@ -159,6 +159,55 @@ def _set_si(rig: Rig, path: str, value, unit: str):
         rig.set(path, value)
     else:
         rig.set(path, f"{float(value)!r} {unit}")
+
+
+def _values_checked(p) -> tuple:
+    """The values of a parameter that :func:`check_levels` checks: every level; the ends of a
+    distribution that has them (uniform, loguniform, triangular), every value of a choice, the
+    centre of one that has none (normal: its mean, lognormal: its median)."""
+    if p.levels is not None:
+        return p.levels
+    d = p.distribution
+    if d.kind == "triangular":
+        return (d.args[0], d.args[2])
+    if d.kind in ("normal", "lognormal"):
+        return d.args[:1]
+    return d.args
+
+
+def check_levels(rig: Rig, params) -> None:
+    """Refuse a sweep, before its first variant, whose parameter takes a value no variant
+    could run: each level (:func:`_values_checked` for a distribution), set alone on the base
+    rig, is checked against its bounds and plausible range (``[rig] allow_implausible``
+    honoured) -- :func:`hydroline.rigs.parameters.check_ranges`, and for a circuit path its
+    component type's declaration. Combinations (a pre-charge level above a supply pressure
+    level) are the variants' own: such a variant fails with its reason, the others run.
+
+    Parameters
+    ----------
+    rig : Rig                   The base rig
+    params : list[Parameter]    The parsed parameters (:func:`~hydroline.studies.design.parse_parameters`)
+
+    Raises
+    ------
+    RigError  One line: ``PATH: <value> is outside its plausible range, ...``
+    """
+    from ..circuit import CircuitError, check_circuit_value
+    from ..rigs.parameters import check_ranges
+
+    for p in params:
+        if p.unit == "str":
+            continue
+        probe = rig.copy()
+        for value in _values_checked(p):
+            try:
+                for path in p.paths:
+                    _set_si(probe, path, value, p.unit)
+                    if path.startswith("circuit."):
+                        check_circuit_value(probe, path)
+                check_ranges(probe)
+            except CircuitError as e:
+                raise RigError(str(e)) from None
 
 
 def _empty_row(index, values, axes, scenario) -> dict:
@@ -758,6 +807,7 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
         raise RigError(f"--t-end must be > 0 s, got {t_end!r}")
     params = parse_parameters(parameters, rig)
     design = Design(params, samples, seed)
+    check_levels(rig, params)      # before the first variant: a level no variant could run
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
     if not 1 <= workers <= MAX_WORKERS:
         raise RigError(f"--workers must be within 1 ... {MAX_WORKERS} [-] (processes on this "
