@@ -155,7 +155,9 @@ class LayoutStudy:
         amplitude_mpa, settling_time_s, first_excursion_mpa, steady_change_mpa,
         peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
         flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
-        {supply,return}_round_trip_ms (2 L / c of that section II), wall_time_s, warnings
+        {supply,return}_round_trip_ms (2 L / c of that section II),
+        {supply,return}_valve_bound_mpa (the most the valve's flow rise can put into that
+        section's quarter-wave swing, docs/model.md M30), wall_time_s, warnings
         (NaN where a metric does not exist)."""
         import pandas as pd     # here: a sweep's worker imports this module, never a table
 
@@ -173,7 +175,8 @@ class LayoutStudy:
                 row[f"{side}_settling_method"] = s[side].get("settling_method") or ""
                 row[f"{side}_settling_note"] = s[side].get("settling_note", "")
                 row[f"{side}_amplitude_note"] = s[side].get("amplitude_note", "")
-            for k in ("flow_rise_time_ms", "supply_round_trip_ms", "return_round_trip_ms"):
+            for k in ("flow_rise_time_ms", "supply_round_trip_ms", "return_round_trip_ms",
+                      "supply_valve_bound_mpa", "return_valve_bound_mpa"):
                 row[k] = s.get("flow", {}).get(k, np.nan)
             row["wall_time_s"] = s["wall_time_s"]
             row["warnings"] = "; ".join(s["warnings"])
@@ -325,20 +328,30 @@ class LayoutStudy:
         return fig
 
 
+def _flow_change(res, flow_signal: str):
+    """The valve port flow over the metrics window: ``(times, flows, q0, q1)`` with q0 at the
+    step and q1 the mean over the last 20 % of the window, [s], [m^3/s]; None without it."""
+    t0, t1, _ = res.metadata["metrics_window"]
+    if flow_signal not in res:
+        return None
+    t, q = res.t, res[flow_signal]
+    w = (t >= t0) & (t <= t1)
+    tw, qw = t[w], q[w]
+    q0 = float(np.interp(t0, t, q))
+    q1 = float(np.mean(qw[tw >= t1 - 0.2 * (t1 - t0)]))
+    return tw, qw, q0, q1
+
+
 def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
     """10-90 % rise time [s] of the valve's supply-port flow after the step (NaN if none).
 
     The flow step at the valve starts the water hammer; it reaches the hose as the full
     Joukowsky swing ``Z0 * dQ`` only when it rises faster than the hose's round-trip wave time
     ``2 L / c``. The final flow is the mean over the last 20 % of the metrics window."""
-    t0, t1, _ = res.metadata["metrics_window"]
-    if flow_signal not in res:
+    change = _flow_change(res, flow_signal)
+    if change is None:
         return float("nan")
-    t, q = res.t, res[flow_signal]
-    w = (t >= t0) & (t <= t1)
-    tw, qw = t[w], q[w]
-    q0 = float(np.interp(t0, t, q))
-    q1 = float(np.mean(qw[tw >= t1 - 0.2 * (t1 - t0)]))
+    tw, qw, q0, q1 = change
     if not abs(q1 - q0) > 0:
         return float("nan")
     rel = (qw - q0) / (q1 - q0)
@@ -346,6 +359,25 @@ def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
     if any(r.size == 0 for r in reach):
         return float("nan")
     return float(tw[reach[1][0]] - tw[reach[0][0]])
+
+
+#: A port amplitude at least this share of the valve's bound (M30) is "close to it": the
+#: conclusion then says the valve, not the hose, limits it, [-]
+NEAR_BOUND = 0.6
+
+
+def _valve_bound_mpa(res, line: Line, length: float, flow_signal: str, valve) -> float:
+    """The valve's bound (M30, :func:`hydroline.analysis.water_hammer.valve_bound`) on the
+    half peak-to-peak swing of a section of ``length`` at the port, for the run's flow change
+    at the port, [MPa]; NaN for a removed section or without the flow."""
+    from ..analysis.water_hammer import valve_bound
+
+    change = _flow_change(res, flow_signal)
+    if not length > 0 or change is None:
+        return float("nan")
+    _, _, q0, q1 = change
+    bound = valve_bound(length, line.wave_speed, line.impedance, q1 - q0, *valve)
+    return bound["swing_amplitude_pa"] / 1e6
 
 
 def conclusion(study: "LayoutStudy") -> str:
@@ -382,6 +414,25 @@ def conclusion(study: "LayoutStudy") -> str:
                     if None not in freqs else "")
             parts.append(f"shortening sections II from {long_:g} m to {short:g} m {verb} the "
                          f"port oscillation amplitude{how} from " + " and ".join(pieces) + freq)
+    if hoses:
+        bound = {L: study.summaries[study.lengths.index(L)]["flow"] for L in hoses}
+        near = []
+        for side in study.sides:
+            pairs = [(recs[L][side]["amplitude_mpa"], bound[L].get(f"{side}_valve_bound_mpa",
+                                                                   float("nan"))) for L in hoses]
+            short_amp, short_bound = pairs[0]
+            if short_amp is None or not short_bound > 0 or short_amp < NEAR_BOUND * short_bound:
+                continue
+            shares = [a / b for a, b in pairs if a is not None and b > 0]
+            span = (f"{min(shares):.0%}-{max(shares):.0%}" if len(shares) > 1
+                    else f"{shares[0]:.0%}")
+            falls = (f" falls from {pairs[-1][1]:.2f} to {short_bound:.2f} MPa and"
+                     if len(pairs) > 1 and pairs[-1][1] > 0 else " is")
+            near.append(f"{side}: the bound{falls} the amplitude stays at {span} of it")
+        if near:
+            parts.append(f"at {hoses[0]:g} m the amplitude is close to the most the valve's "
+                         "flow rise can put into the hose's quarter-wave mode (docs/model.md "
+                         "M30; " + "; ".join(near) + "): the valve, not the hose, bounds it")
     if 0.0 in recs:
         flat = all(recs[0.0][side]["frequency_hz"] is None for side in SIDES)
         parts.append("close-coupling the manifold to the valve (0 m) removes the oscillation"
@@ -473,12 +524,35 @@ def _report_axis(res, sections, axis):
     return stepped if stepped in axes else next(iter(axes))
 
 
-def _wave_speed(rig: Rig, section: str, fluid) -> float:
-    """Wave speed c (M2) of a hose section of the rig, [m/s]."""
+def _section_line(rig: Rig, section: str, fluid, length: float = 1.0) -> Line:
+    """A hose section of the rig as a :class:`~hydroline.lines.Line` of ``length`` [m]."""
     from ..circuit import has_circuit
 
     base = f"circuit.{section}" if has_circuit(rig.values) else section
-    return Line(1.0, rig[f"{base}.diameter"], fluid, rig.get(f"{base}.bulk_modulus")).wave_speed
+    return Line(length, rig[f"{base}.diameter"], fluid, rig.get(f"{base}.bulk_modulus"))
+
+
+def _wave_speed(rig: Rig, section: str, fluid) -> float:
+    """Wave speed c (M2) of a hose section of the rig, [m/s]."""
+    return _section_line(rig, section, fluid).wave_speed
+
+
+def _valve(rig: Rig, res, chosen):
+    """(port flow signals by side, (natural frequency [Hz], damping ratio [-])) of the valve
+    of the reported axis: the template's servovalve, or the circuit axis's."""
+    from ..circuit import has_circuit
+
+    flows = {"supply": "supply_port_flow", "return": "return_port_flow"}
+    if not has_circuit(rig.values):
+        return flows, (rig["servovalve.natural_frequency"], rig["servovalve.damping_ratio"])
+    axes = res.metadata.get("axes") or {}
+    ax = axes.get(chosen) if chosen is not None else next(iter(axes.values()), None)
+    if ax is None:
+        return flows, (float("nan"), float("nan"))
+    head = f"circuit.{ax.valve}"
+    flows = {side: rig.get(f"{head}.ports.{side}_flow", flows[side]) for side in SIDES}
+    return flows, (rig.get(f"{head}.natural_frequency", float("nan")),
+                   rig.get(f"{head}.damping_ratio", float("nan")))
 
 
 def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axis=None,
@@ -555,18 +629,23 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         if progress is not None:
             progress(k + 1, len(lengths))
     fluid = make_fluid(rig)
-    speeds = {}
+    lines = {}
     for side in SIDES:
         mine = [s for s in sections if _section_side(s) == side]
         default = f"{side}.section2"
         if mine:
-            speeds[side] = _wave_speed(rig, mine[0], fluid)
+            lines[side] = _section_line(rig, mine[0], fluid)
         elif default in layout_sections_available(rig):
-            speeds[side] = _wave_speed(rig, default, fluid)
-    for L, summary in zip(lengths, summaries):
+            lines[side] = _section_line(rig, default, fluid)
+    speeds = {side: line.wave_speed for side, line in lines.items()}
+    for L, summary, res in zip(lengths, summaries, results):
+        flows, valve = _valve(rig, res, chosen)
         for side in SIDES:
             summary["flow"][f"{side}_round_trip_ms"] = (2 * L / speeds[side] * 1e3
                                                         if side in speeds else float("nan"))
+            summary["flow"][f"{side}_valve_bound_mpa"] = (
+                _valve_bound_mpa(res, lines[side], L, flows[side], valve)
+                if side in lines and all(math.isfinite(v) for v in valve) else float("nan"))
     return LayoutStudy(lengths, summaries, results, sides, scenario,
                        str(rig.get("rig.name", rig.source)), _time.perf_counter() - tic, speeds,
                        sections=sections, axis=chosen)
