@@ -54,7 +54,7 @@ print(f"{'line':16s} {'model':24s} {'freq. err %':>11s} {'peak err %':>10s}")
 for name, line in lines.items():
     models = {
         "residue, 6 modes": ModalLine(line, 6, "PQ", method="residue"),
-        "Yang-Tobler, 6 modes": ModalLine(line, 6, "PQ"),
+        "Yang-Tobler, 6 modes": ModalLine(line, 6, "PQ", method="yang-tobler"),
         "alpha = beta = 1": ModalLine(line, 6, "PQ", corrections="none"),
         "lumped, 24 segments": LumpedLine(line, 24),
     }
@@ -70,7 +70,7 @@ line = lines["rig supply hose"]
 u = np.array([20.7e6, 3e-4])                       # P_u [Pa], Q_d [m^3/s]
 exact = line.steady_state("PQ", u)
 for label, model in (("residue", ModalLine(line, 6, method="residue")),
-                     ("Yang-Tobler", ModalLine(line, 6))):
+                     ("Yang-Tobler", ModalLine(line, 6, method="yang-tobler"))):
     y = model.outputs(model.initial_state(u), u)
     print(f"{label:12s} P_d error {y[0] - exact[0]:.2e} Pa, Q_u error {y[1] - exact[1]:.2e} m^3/s")
 
@@ -95,7 +95,7 @@ ref = CharacteristicsLine(line, n_reaches=128).simulate(40 * tau, upstream_press
 surge = line.impedance * dq
 u = np.c_[np.zeros_like(ref.t), q_d(ref.t)]
 for label, model in (("residue", ModalLine(line, 10, method="residue")),
-                     ("Yang-Tobler", ModalLine(line, 10))):
+                     ("Yang-Tobler", ModalLine(line, 10, method="yang-tobler"))):
     _, y, _ = lsim((model.A, model.B, model.C, model.D), u, ref.t)
     err = (y[:, 0] - ref.downstream_pressure) / surge
     print(f"{label:12s} downstream pressure: rms {100 * np.sqrt(np.mean(err**2)):.2f} %, "
@@ -104,10 +104,11 @@ for label, model in (("residue", ModalLine(line, 10, method="residue")),
 # %%
 # Which to use
 # ------------
-# * In system simulations (``modes_per_section`` in the rig file): the Yang-Tobler line is
-#   the paper's and adequate for hoses with Dn below about 0.003; the residue line is more
-#   accurate at the same size, especially on lossy lines, and its error falls as modes are
-#   added.
+# * In system simulations (``modes_per_section`` in the rig file): the residue line, the
+#   default of every rig (``rig.line_method = "residue"``), is the more accurate at the same
+#   size, especially on lossy lines, and its error falls as modes are added. The Yang-Tobler
+#   line is the paper's (``rig.line_method = "yang-tobler"`` to reproduce it), adequate for
+#   hoses with Dn below about 0.003; on the default rig its port swing is ~10 % high.
 # * Never alpha = beta = 1 for hydraulic hoses: the resonance peaks come out many times too
 #   high.
 # * A lumped segmented line needs many segments for the same frequencies, and its steady
