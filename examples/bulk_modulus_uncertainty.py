@@ -6,7 +6,7 @@ modulus is only known to +-10 %?
 A random design (Monte Carlo) over the effective bulk modulus of the hose sections: the
 supply sections' (both take the same draw) from a normal distribution about the rig's value
 with a standard deviation of 6 %, the return sections' likewise, independently; the means
-are read from the rig (194.5 MPa supply, 139.5 MPa return on the default rig). On local worker
+are read from the rig (203.8 MPa supply, 140.8 MPa return on the default rig). On local worker
 processes. Prints the 5/50/95 % points of each metric and writes OUT_DIR/sweep.csv. Stop it
 at any time (Ctrl-C) and run it again: it resumes from OUT_DIR/sweep.jsonl; run it with a
 larger N and the first variants are kept (variant i is drawn from its own random stream).
@@ -14,8 +14,8 @@ larger N and the first variants are kept (variant i is drawn from its own random
 The same from the command line:
 
     hydroline sweep --samples 64 --seed 1 \\
-        --set 'supply.section1.bulk_modulus+supply.section2.bulk_modulus=normal(194.5 MPa, 11.67 MPa)' \\
-        --set 'return.section1.bulk_modulus+return.section2.bulk_modulus=normal(139.5 MPa, 8.37 MPa)' \\
+        --set 'supply.section1.bulk_modulus+supply.section2.bulk_modulus=normal(203.8 MPa, 12.23 MPa)' \\
+        --set 'return.section1.bulk_modulus+return.section2.bulk_modulus=normal(140.8 MPa, 8.45 MPa)' \\
         --out bulk-modulus-mc --resume
 
 (add ``--scheduler tcp://host:8786`` to run it on a Dask cluster instead).

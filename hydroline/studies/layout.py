@@ -23,10 +23,12 @@ frequency rises roughly as 1/L when the hose is shortened (c/(4L) is about 39 Hz
 amplitude is the water hammer Z0 * dQ that the valve's flow step starts -- but only where the
 flow rises faster than the hose's round trip 2L/c. On the default rig the flow rises (10-90 %)
 in about 5 ms (spool 140 Hz, zeta = 1, and the actuator's acceleration; the table's
-``flow_rise_time_ms``), against round trips of 12.9 ms at 3.048 m and 3.2 ms at 0.7512 m
-(``*_round_trip_ms``): the long hoses differ little (1.00 / 0.96 / 0.87 MPa at the supply port
+``flow_rise_time_ms``), against round trips of 12.6 ms at 3.048 m and 3.1 ms at 0.7512 m
+(``*_round_trip_ms``): the long hoses differ little (1.00 / 1.02 / 0.97 MPa at the supply port
 for 3.048 / 2.286 / 1.524 m), the 0.7512 m hose's reflection returns before the flow has risen
-(0.43 MPa), and close-coupling removes the resonator (0). The paper: peak amplitudes
+(0.56 MPa), and close-coupling removes the resonator (0). How much a valve whose flow rises like
+a second-order system can put into the quarter-wave mode is (M25), the table's
+``*_valve_bound_mpa`` (:mod:`hydroline.analysis.water_hammer`). The paper: peak amplitudes
 "progressively reduced", "slightly", the close coupling "eliminates" the oscillation.
 
 References
@@ -157,7 +159,7 @@ class LayoutStudy:
         flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
         {supply,return}_round_trip_ms (2 L / c of that section II),
         {supply,return}_valve_bound_mpa (the most the valve's flow rise can put into that
-        section's quarter-wave swing, docs/model.md M30), wall_time_s, warnings
+        section's quarter-wave swing, docs/model.md M25), wall_time_s, warnings
         (NaN where a metric does not exist)."""
         import pandas as pd     # here: a sweep's worker imports this module, never a table
 
@@ -361,13 +363,13 @@ def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
     return float(tw[reach[1][0]] - tw[reach[0][0]])
 
 
-#: A port amplitude at least this share of the valve's bound (M30) is "close to it": the
+#: A port amplitude at least this share of the valve's bound (M25) is "close to it": the
 #: conclusion then says the valve, not the hose, limits it, [-]
 NEAR_BOUND = 0.6
 
 
 def _valve_bound_mpa(res, line: Line, length: float, flow_signal: str, valve) -> float:
-    """The valve's bound (M30, :func:`hydroline.analysis.water_hammer.valve_bound`) on the
+    """The valve's bound (M25, :func:`hydroline.analysis.water_hammer.valve_bound`) on the
     half peak-to-peak swing of a section of ``length`` at the port, for the run's flow change
     at the port, [MPa]; NaN for a removed section or without the flow."""
     from ..analysis.water_hammer import valve_bound
@@ -432,7 +434,7 @@ def conclusion(study: "LayoutStudy") -> str:
         if near:
             parts.append(f"at {hoses[0]:g} m the amplitude is close to the most the valve's "
                          "flow rise can put into the hose's quarter-wave mode (docs/model.md "
-                         "M30; " + "; ".join(near) + "): the valve, not the hose, bounds it")
+                         "M25; " + "; ".join(near) + "): the valve, not the hose, bounds it")
     if 0.0 in recs:
         flat = all(recs[0.0][side]["frequency_hz"] is None for side in SIDES)
         parts.append("close-coupling the manifold to the valve (0 m) removes the oscillation"
