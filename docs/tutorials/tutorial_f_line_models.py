@@ -108,7 +108,7 @@ for label, model in (("residue", ModalLine(line, 10, method="residue")),
 #   default of every rig (``rig.line_method = "residue"``), is the more accurate at the same
 #   size, especially on lossy lines, and its error falls as modes are added. The Yang-Tobler
 #   line is the paper's (``rig.line_method = "yang-tobler"`` to reproduce it), adequate for
-#   hoses with Dn below about 0.003; on the default rig its port swing is ~10 % high.
+#   hoses with Dn below about 0.003; on the default rig its port swing is 6-12 % high.
 # * Never alpha = beta = 1 for hydraulic hoses: the resonance peaks come out many times too
 #   high.
 # * A lumped segmented line needs many segments for the same frequencies, and its steady
