@@ -1,6 +1,9 @@
 """How the default rig (hydroline/rigs/ayalew2005.toml) is calibrated, and how firmly.
 
-Run by hand: ``python tools/calibrate_ayalew2005.py [--sensitivities-only]`` (about 20 s).
+Run by hand: ``python tools/calibrate_ayalew2005.py [--sensitivities-only] [--line-method M]``
+(about 20 s for the calibration, a minute or two for the elasticities). ``--line-method
+yang-tobler`` calibrates the paper's line instead of the default exact-pole line (what
+``hydroline/rigs/ayalew2005_yang_tobler.toml`` holds).
 
 Targets: the 2005 paper's open-loop baseline (the model reference, section 7): supply-port
 oscillation 40 Hz / 1.0 MPa, return port 31 Hz / 0.94 MPa, after a 50 mA step, with the
@@ -94,8 +97,12 @@ def elasticities(rig, rel=0.05):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sensitivities-only", action="store_true")
+    ap.add_argument("--line-method", default=None,
+                    help="rig.line_method to calibrate (default: the rig's, the exact-pole line)")
     args = ap.parse_args(argv)
     rig = hydroline.load_rig()
+    if args.line_method:
+        rig.set("rig.line_method", args.line_method)
     if not args.sensitivities_only:
         print("calibrating the four values to the four targets:")
         calibrate(rig)
