@@ -294,7 +294,7 @@ def test_blocked_line_pressure_step(Dn):
 
     late = t > 8 * tau
     errors = {}
-    models = (("residue", residue_line(line, n)), ("yang-tobler", ModalLine(line, n, "PQ")))
+    models = (("residue", residue_line(line, n)), ("yang-tobler", ModalLine(line, n, "PQ", method="yang-tobler")))
     for name, model in models:
         y = model.step_response(t, 0)[:, 0]
         filt = _Plain(*_series((Af, Bf, Cf, np.zeros((2, 2))),
@@ -313,7 +313,7 @@ def test_blocked_line_pressure_step(Dn):
     # (c) 20 modes: the residue line converges, Yang-Tobler does not get below ~1 %
     late20 = {name: np.abs(model.step_response(t, 0)[:, 0] - exact)[late].max()
               for name, model in (("residue", residue_line(line, 20)),
-                                  ("yang-tobler", ModalLine(line, 20, "PQ")))}
+                                  ("yang-tobler", ModalLine(line, 20, "PQ", method="yang-tobler")))}
     print(f"  after 2 periods, 20 modes: residue {100 * late20['residue']:.4f} %, "
           f"Yang-Tobler {100 * late20['yang-tobler']:.3f} %")
     assert late20["residue"] < 0.5 * res[1]

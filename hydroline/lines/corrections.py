@@ -13,41 +13,19 @@ friction root with alpha = beta = 1 and continued from the previous mode.
 """
 from __future__ import annotations
 
-from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
 
-from ..cache import load_table, source_tag, store_table
+from ..cache import source_tag
+from .memo import LineMemo, kept_in_memory
 from .line import Line, bessel_ratio, check_form
 
 __all__ = ["correction_factors", "modal_angles", "dissipative_root", "dissipative_roots",
            "check_modes", "kept_in_memory"]
 
-#: Correction factors of the lines met in this process, key -> (alpha, beta), most recent
-#: last; at most :data:`MEMORY_KEPT` of them.
-_MEMORY: OrderedDict = OrderedDict()
-MEMORY_KEPT = 512
-#: False inside :class:`kept_in_memory`: the on-disk cache is neither read nor written.
-STORE_ON_DISK = True
-
-
-class kept_in_memory:
-    """Context manager: correction factors computed inside it are kept in this process's
-    table only, neither looked up in nor written to the on-disk cache
-    (:mod:`hydroline.cache`). A sweep's worker meets thousands of lines (one per hose length)
-    that no later run asks for again: a file per line filled the cache directory (13 000
-    files after a few sweeps), and a look-up that misses costs about as much as a solve."""
-
-    def __enter__(self):
-        global STORE_ON_DISK
-        self._saved, STORE_ON_DISK = STORE_ON_DISK, False
-        return self
-
-    def __exit__(self, *exc):
-        global STORE_ON_DISK
-        STORE_ON_DISK = self._saved
-        return False
+#: Correction factors of the lines met in this process and on disk, key -> (alpha, beta)
+_FACTORS = LineMemo("correction_factors")
 
 
 def modal_angles(n_modes: int, form: str = "PQ") -> np.ndarray:
@@ -263,21 +241,15 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     # the same line skips the root finding (and the import of scipy.special)
     key = (f"{_SOURCE_TAG}|{form}|{n_modes}|{line.length!r}|{line.diameter!r}|"
            f"{line.fluid.kinematic_viscosity!r}|{line.wave_time!r}")
-    known = _MEMORY.get(key)
-    if known is not None:
-        _MEMORY.move_to_end(key)
-        return known[0].copy(), known[1].copy()
-    stored = load_table("correction_factors", key) if STORE_ON_DISK else None
-    if stored is not None and len(stored) == 2 and all(len(v) == n_modes for v in stored):
-        alphas, betas = np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
-    else:
-        alphas, betas = _solve_correction_factors(line, n_modes, form)
-        if STORE_ON_DISK:
-            store_table("correction_factors", key, [alphas.tolist(), betas.tolist()])
-    _MEMORY[key] = (alphas.copy(), betas.copy())
-    if len(_MEMORY) > MEMORY_KEPT:
-        _MEMORY.popitem(last=False)
-    return alphas, betas
+
+    def decode(stored):
+        if len(stored) != 2 or not all(len(v) == n_modes for v in stored):
+            return None
+        return np.array(stored[0], dtype=float), np.array(stored[1], dtype=float)
+
+    alphas, betas = _FACTORS.get(key, lambda: _solve_correction_factors(line, n_modes, form),
+                                 lambda v: [v[0].tolist(), v[1].tolist()], decode)
+    return alphas.copy(), betas.copy()
 
 
 _SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"))

@@ -298,10 +298,12 @@ class ModalLine(StateSpaceLine):
         "exact": alpha_i, beta_i from the dissipative model's roots (M15); "none": plain
         linear friction (alpha = beta = 1); or an ``(alpha, beta)`` pair of arrays, [-].
         Used by method "yang-tobler" only.
-    method : str
-        "residue" (default, :data:`DEFAULT_LINE_METHOD`: exact poles and exact residues of the
+    method : str, optional
+        "residue" (:data:`DEFAULT_LINE_METHOD`: exact poles and exact residues of the
         dissipative model, see :mod:`hydroline.lines.residue`) or "yang-tobler" (the 2005
         paper's model: Yang-Tobler frequency and damping corrections of linear friction).
+        None: "yang-tobler" where ``corrections`` is given other than "exact", else the
+        default.
 
     Attributes
     ----------
@@ -342,9 +344,15 @@ class ModalLine(StateSpaceLine):
     """
 
     def __init__(self, line: Line, n_modes: int = 6, form: str = "PQ", corrections="exact",
-                 method: str = DEFAULT_LINE_METHOD):
+                 method: str | None = None):
         if not isinstance(line, Line):
             raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
+        explicit = not (isinstance(corrections, str) and corrections == "exact")
+        if method is None:   # corrections given: they are the Yang-Tobler line's
+            method = "yang-tobler" if explicit else DEFAULT_LINE_METHOD
+        if method == "residue" and explicit:
+            raise ValueError("corrections apply to method 'yang-tobler' only; the residue line "
+                             "has exact poles and residues")
         self.line = line
         self.n_modes = check_modes(n_modes)
         self.form = check_form(form)

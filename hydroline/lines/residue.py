@@ -89,11 +89,14 @@ Inputs and outputs are in the order of the form's table (:data:`FORM_PORTS`).
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import numpy as np
 from scipy import special
 
+from ..cache import source_tag
 from .corrections import check_modes, dissipative_root, modal_angles
+from .memo import LineMemo
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
@@ -958,6 +961,34 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
     n = check_modes(n_modes)
     form = check_form(form)
+    # a pure function of these numbers, kept in this process and on disk: a later build of
+    # the same line (a CLI run, a fit's next evaluation) skips the root finding and fitting
+    key = (f"{_SOURCE_TAG}|{form}|{n}|{line.length!r}|{line.diameter!r}|"
+           f"{line.fluid.density!r}|{line.fluid.kinematic_viscosity!r}|{line.wave_time!r}")
+
+    def decode(stored):
+        A, B, C, names = (np.array(stored["A"], dtype=float), np.array(stored["B"], dtype=float),
+                          np.array(stored["C"], dtype=float), list(stored["names"]))
+        N = len(names)
+        if A.shape != (N, N) or B.shape != (N, 2) or C.shape != (2, N):
+            return None
+        return A, B, C, np.zeros((2, 2)), names
+
+    A, B, C, D, names = _REALISATIONS.get(
+        key, lambda: _realise(line, n, form),
+        lambda v: {"A": v[0].tolist(), "B": v[1].tolist(), "C": v[2].tolist(), "names": v[4]},
+        decode)
+    return A.copy(), B.copy(), C.copy(), D.copy(), list(names)
+
+
+#: Exact-pole realisations of the lines met in this process and on disk
+_REALISATIONS = LineMemo("residue_lines")
+_SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"),
+                         Path(__file__).with_name("corrections.py"))
+
+
+def _realise(line: Line, n: int, form: str):
+    """:func:`residue_realisation`'s matrices, computed."""
     ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
     tau = line.wave_time
     blocks = []                                                     # (A, B, C, names)
