@@ -121,7 +121,8 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     return fig
 
 
-def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=None):
+def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=None,
+             windows=None, rms=None, start_rms=None, worse=None):
     """Measured, initial-model and fitted-model traces, one panel per signal.
 
     Parameters
@@ -130,6 +131,11 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     measured, initial, fitted : dict   Signal name -> array in SI (initial may be empty)
     path : str        PNG to write
     title : str
+    windows : list    (first, last) times of samples the fit left out, shaded, [s]
+    rms, start_rms : dict  Signal -> rms residual of the fitted / initial model, [SI], shown
+                      in the legend
+    worse : dict      Signal -> why the fitted model is worse than the start there: written
+                      in that panel (a panel never shows it worse without saying why)
 
     Returns
     -------
@@ -137,24 +143,43 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     """
     plt = _plt()
     names = list(measured)
+    rms, start_rms, worse = rms or {}, start_rms or {}, worse or {}
     fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.3 * len(names) + 0.8), sharex=True,
                              squeeze=False)
     for ax, k in zip(axes[:, 0], names):
         label, unit, factor = _display(k)
+
+        def with_rms(text, table):
+            return f"{text} (rms {table[k] * factor:.3g} {unit})" if k in table else text
+
         ax.plot(t * 1e3, measured[k] * factor, ".", ms=2, color="0.45", label="measured")
         if k in initial:
-            ax.plot(t * 1e3, initial[k] * factor, ":", color="C1", lw=1.0, label="initial model")
+            ax.plot(t * 1e3, initial[k] * factor, ":", color="C1", lw=1.0,
+                    label=with_rms("initial model", start_rms))
         if k in fitted:
-            ax.plot(t * 1e3, fitted[k] * factor, "-", color="C0", lw=1.2, label="fitted model")
+            ax.plot(t * 1e3, fitted[k] * factor, "-", color="C0", lw=1.2,
+                    label=with_rms("fitted model", rms))
+        for j, (a, b) in enumerate(windows or []):
+            ax.axvspan(a * 1e3, b * 1e3, color="C3", alpha=0.15, lw=0,
+                       label="left out: not resolved by the sampling" if j == 0 else None)
+        if k in worse:
+            ax.text(0.01, 0.03, _wrap(f"fitted worse than the start here: {worse[k]}", 110),
+                    transform=ax.transAxes, fontsize=7, color="C3", ha="left", va="bottom")
         ax.set_ylabel(f"{label} [{unit}]", fontsize=8)
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=8, loc="best")
+        ax.legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel("time [ms]")
     fig.suptitle(title or "hydroline fit: measured vs fitted")
     fig.tight_layout()
     if path:
         _save_png(fig, path)
     return fig
+
+
+def _wrap(text, width):
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
 
 
 def plot_friction(points: dict, fit, path=None, title=None):
