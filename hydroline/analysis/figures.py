@@ -50,7 +50,8 @@ def _display(name):
 
 
 def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None = None,
-              path=None, title=None, highest_mode_hz: float | None = None):
+              path=None, title=None, highest_mode_hz: float | None = None,
+              passbands: dict | None = None):
     """Magnitude and phase of ``output/input`` for several model variants.
 
     Parameters
@@ -66,6 +67,9 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     highest_mode_hz : float  Highest retained mode of the modal lines (the frequency up to
                           which they follow the exact lines), drawn as a grey vertical
                           line, [Hz]
+    passbands : dict      Label -> {output: :class:`~hydroline.analysis.frequency.Passband`}:
+                          a first crossing in a notch is marked so, and the frequency up to
+                          which the gain stays within 3 dB is listed beside it
 
     Returns
     -------
@@ -97,9 +101,15 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
             phase -= 360.0 * np.floor((phase[0] + 270.0) / 360.0)   # start in [-270, 90) deg
             ap.semilogx(f, phase, styles[k % 4], color=colors[k % 4], lw=1.3)
             bw = (bandwidths or {}).get(label, {}).get(out)
+            band = (passbands or {}).get(label, {}).get(out)
             if bw:
                 am.axvline(bw, color=colors[k % 4], lw=0.8, ls=(0, (2, 3)))
-                notes.append((f"{bw:.1f} Hz", colors[k % 4]))
+                text = f"{bw:.1f} Hz"
+                if band is not None and band.in_notch:
+                    up = band.within_3db_up_to_hz
+                    text += (" in a notch; within 3 dB up to "
+                             + (f"{up:.1f} Hz" if up is not None else f"{f[-1]:.0f} Hz and beyond"))
+                notes.append((text, colors[k % 4]))
         for k, (text, color) in enumerate(notes):
             am.text(0.02, 0.03 + 0.08 * (len(notes) - 1 - k), ("-3 dB: " if k == 0 else "") + text,
                     transform=am.transAxes, fontsize=8, color=color, ha="left", va="bottom")
