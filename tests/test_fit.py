@@ -13,8 +13,8 @@ import pandas as pd
 import pytest
 
 from hydroline.analysis import DataError, fit_parameters, fit_stribeck, identify_friction, read_measurements
-from hydroline.analysis.fit import (UNRESOLVED_CURVATURE, Measurements, command_table, noise_level,
-                                    simulate_record, unresolved_samples)
+from hydroline.analysis.fit import (RECORD_ATOL_SCALE, RECORD_RTOL, UNRESOLVED_CURVATURE, Measurements,
+                                    command_table, noise_level, simulate_record, unresolved_samples)
 from hydroline.analysis.figures import plot_fit
 from hydroline.analysis.friction_id import newton_friction
 from hydroline.studies.friction_tests import virtual_friction_tests
@@ -170,6 +170,14 @@ def test_unresolved_samples_of_a_sampled_sine():
         == [98, 99, 100, 101]
 
 
+def test_record_tolerance_is_simulates():
+    """The intervals' integration term assumes a record made at simulate's tolerances."""
+    from hydroline.studies.sweep import simulate_defaults
+
+    d = simulate_defaults()
+    assert (RECORD_RTOL, RECORD_ATOL_SCALE) == (d["rtol"], d["atol_scale"])
+
+
 def test_fit_model_reproduces_simulate_record(simulated_record):
     """At the true parameters the fit's model (the record's current as a table, the rest state,
     the compiled core at rtol 1e-8) reproduces simulate's record to simulate's own integration
@@ -209,12 +217,12 @@ def test_fit_cli_recovers_simulate_record(simulated_record, tmp_path, capsys):
     assert not out["worse_than_start"]
 
 
-@pytest.mark.parametrize("noise", [0.0, 0.01])
-def test_fit_recovers_simulate_record_from_an_offset_start(simulated_record, noise):
+@pytest.mark.parametrize("noise, offset", [(0.0, 1.15), (0.01, 1.0)])
+def test_fit_recovers_simulate_record_from_an_offset_start(simulated_record, noise, offset):
     """The same whole record (stop included), fitted from bulk moduli 15 % off: noise-free,
     within 0.5 % and inside the intervals (the intervals carry the shift an integration error
     at simulate's rtol 1e-6 causes); with white noise of 1 % of each channel's excursion
-    (seed 1) the 95 % intervals cover the truth. The errors are those of the linearised
+    (seed 1), fitted from the rig's values as the CLI does, the 95 % intervals cover the truth. The errors are those of the linearised
     estimate (J^T J)^-1 J^T e for the same noise e, J by central differences (seed 1: -1.1
     and +0.55 standard errors; seed 0 is a 2.7-sigma draw); 20 seeds of the fit gave
     standardised errors of std 1.09 and 0.85 and covered 95 % and 100 %, 2000 linearised
@@ -228,7 +236,7 @@ def test_fit_recovers_simulate_record_from_an_offset_start(simulated_record, noi
             meas.data[s] = y + rng.normal(0.0, noise * np.ptp(y), len(y))
     start = rig.copy()
     for name in BULK:
-        start.set(name, f"{1.15 * rig[name]!r} Pa")
+        start.set(name, f"{offset * rig[name]!r} Pa")
     res = fit_parameters(start, meas, list(BULK))
     assert res.success
     for name, lo, est, hi in zip(res.names, res.ci_low, res.estimate, res.ci_high):
@@ -246,8 +254,8 @@ def test_fit_says_why_a_signal_got_worse(tmp_path):
     is that of a 10 % stiffer return hose, fitted in the supply hose's bulk modulus only from
     the truth: the supply channel can only get worse (it was exact), and it does, to fit the
     return channel; the result and fit.png say why."""
-    t = np.arange(0.0, 0.04 + 1e-12, 1e-4)
-    meas = Measurements(pd.DataFrame({"time": t, "valve_current": np.where(t >= 0.005, 0.05, 0.0),
+    t = np.arange(0.0, 0.04 + 1e-12, 1e-4)      # simulate's step: its compiled model is reused
+    meas = Measurements(pd.DataFrame({"time": t, "valve_current": np.where(t >= 0.01, 0.05, 0.0),
                                       "supply_port_pressure": 0.0, "return_port_pressure": 0.0}), "mixed")
     rig = load_rig()
     meas.data["supply_port_pressure"] = simulate_record(rig, meas, ["supply_port_pressure"])["supply_port_pressure"]

@@ -74,6 +74,7 @@ import numpy as np
 import pandas as pd
 
 from .. import components as comp
+from ..components.hose import coefficients_as_parameters
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..engine import integrate, solve_steady_state
 from ..units import csv_column, split_header
@@ -397,7 +398,11 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     signals = meas.signals if signals is None else list(signals)
     t = meas.t
     ax = select_axis(rig, axis)
-    st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start, ax.name)
+    # the hoses' matrix entries as runtime parameters: a fit's runs, which differ in a hose's
+    # numbers, share one compiled model instead of compiling one each (the residue line's
+    # entries depend on the bulk modulus, length and bore)
+    with coefficients_as_parameters():
+        st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start, ax.name)
     span = t[-1] - t[0]
     dt = float(np.median(np.diff(t)))
     n = int(np.ceil(span / dt - 1e-9))
@@ -490,7 +495,7 @@ class FitResult:
     notes : list[str]          Why the result reads as it does: samples left out, a channel
                                the fit made worse than the start, widened intervals
     worse : dict               Channel -> why its fitted rms exceeds the start's (by more
-                               than ``WORSE``)
+                               than ``WORSE`` of the start's rms or the noise level)
     status : str               The optimiser's own message (``message`` adds the notes)
     """
 
@@ -572,12 +577,14 @@ class FitResult:
         return "\n".join(head) + "\n\n" + self.rig.to_toml()
 
 
-#: A signal's fitted rms residual this much (relatively) above the start's is reported as
-#: worse than the start, with the reason, [-].
+#: A signal's fitted rms residual above the start's by more than this fraction of the larger
+#: of the start's rms and the signal's noise level is reported as worse than the start, with
+#: the reason (less is invisible beside the noise), [-].
 WORSE = 0.01
-#: Relative tolerance a simulated record is taken to be accurate to: ``hydroline simulate``'s
-#: (:func:`hydroline.scenarios.simulate`), [-].
+#: Relative tolerance and absolute tolerance scale a simulated record is taken to be accurate
+#: to: ``hydroline simulate``'s (:func:`hydroline.scenarios.simulate`'s defaults), [-].
 RECORD_RTOL = 1e-6
+RECORD_ATOL_SCALE = 1e-7
 
 
 def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=None,
@@ -739,7 +746,8 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     if best is not None and record_rtol > 0:
         try:
             loose = simulate_record(calibrated(sol.x), meas, signals, rtol=record_rtol,
-                                    start=start, axis=axis, atol_scale=record_rtol / 10)
+                                    start=start, axis=axis,
+                                    atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
             count["n"] += 1
             dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(best, use))
             shift = np.abs(np.linalg.lstsq(J, dr, rcond=None)[0])
@@ -778,7 +786,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         total0 = sum((start_rms[s] / sigma[s]) ** 2 for s in signals)
         total1 = sum((rms[s] / sigma[s]) ** 2 for s in signals)
         for s in signals:
-            if rms[s] > start_rms[s] * (1 + WORSE):
+            if rms[s] - start_rms[s] > WORSE * max(start_rms[s], sigma[s]):
                 if total1 > total0:
                     why = (f"the optimiser stopped worse than it started ({sol.message}); the "
                            f"start is the better model")
