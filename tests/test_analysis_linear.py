@@ -248,6 +248,16 @@ def test_constant_supply_bandwidth_above_hoses_default_rig(bode_default, tmp_pat
     beyond = np.interp(-3.0, [db[MODAL][k + 1], db[MODAL][k]], [f[k + 1], f[k]])
     gap = bw[CONSTANT]["piston_velocity"] - bw[EXACT]["piston_velocity"]
     assert gap > 3 * abs(beyond - bw[EXACT]["piston_velocity"])
+    # the table's second reading is that last fall, "gain within 3 dB up to" (by hand at the
+    # half-power level 10 log10(1/2) = -3.0103 dB re the low-frequency gain, interpolated
+    # linearly in log f)
+    band = bode_default.passbands[MODAL]["piston_velocity"]
+    level = 10 * np.log10(0.5)
+    g = 20 * np.log10(np.abs(bode_default.curves[MODAL][:, 0]) / band.reference)
+    k = np.flatnonzero(g >= level)[-1]
+    last = np.exp(np.interp(level, [g[k + 1], g[k]], np.log([f[k + 1], f[k]])))
+    assert band.within_3db_up_to_hz == pytest.approx(last, rel=1e-9)
+    assert band.in_notch == (band.first_crossing_hz < band.within_3db_up_to_hz)
     for label in (MODAL, EXACT):
         g = np.abs(bode_default.curves[label][:, 1])
         assert g.max() > 10 * g[0]                      # +20 dB and more: a resonance
@@ -282,6 +292,51 @@ def test_bode_cli_json_and_figure(tmp_path, capsys):
     rc = main(["bode", "--output", "no_such_signal", "--out", str(tmp_path)])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "no_such_signal" in err[0]
+
+
+def _same_reading(a, b, rel):
+    """Two -3 dB readings [Hz] agree: both absent, or within ``rel`` of each other."""
+    return (a is None and b is None) or (a is not None and b is not None and abs(a - b) <= rel * min(a, b))
+
+
+def test_bode_cli_residue_line_modal_and_exact_readings_agree(tmp_path, capsys):
+    """With the exact-pole (residue) line the modal curves follow the exact (M6) ones closely
+    enough (resonances within 1 %) that every reported -3 dB reading -- first crossing and
+    "gain within 3 dB up to" -- agrees within 5 % (``hydroline bode --output piston_velocity
+    --json``); the JSON carries both readings and the notch mark, and bandwidth_hz is the
+    first crossing."""
+    rig_file = tmp_path / "residue.toml"
+    rig_file.write_text('[rig]\nbase = "default"\nline_method = "residue"\n')
+    rc = main(["bode", str(rig_file), "--output", "piston_velocity", "--json", "--points", "400",
+               "--compare", "none", "--out", str(tmp_path)])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    modal, exact = (out["passband"][k]["piston_velocity"] for k in (MODAL, EXACT))
+    for key in ("first_crossing_hz", "within_3db_up_to_hz"):
+        assert _same_reading(modal[key], exact[key], 0.05), (key, modal, exact)
+    assert (modal["first_crossing_in_notch"] is None) == (exact["first_crossing_in_notch"] is None)
+    for label, band in ((MODAL, modal), (EXACT, exact)):
+        assert out["bandwidth_hz"][label]["piston_velocity"] == band["first_crossing_hz"]
+
+
+def test_bode_readings_continuous_over_a_supply_hose_sweep():
+    """Supply section II bulk modulus swept +-12 % about the rig's in 7 steps (piston velocity
+    at rated flow, the rig's line model): between neighbours each reading moves by less than
+    5 %, except where a notch crosses -3 dB -- a first crossing that enters or leaves a notch,
+    or a notch or peak named within 0.5 dB of the level -- which the output states."""
+    base = load_rig()
+    f = np.logspace(np.log10(5.0), np.log10(400.0), 300)
+    op = OperatingPoint(0.0, rated_velocity(base))
+    bands = []
+    for factor in np.linspace(0.88, 1.12, 7):
+        rig = load_rig()
+        rig.set("supply.section2.bulk_modulus", f"{float(factor * base['supply.section2.bulk_modulus'])!r} Pa")
+        res = bode_analysis(rig, op, "valve_current", ["piston_velocity"], f, compare=False, exact=False)
+        bands.append(res.passbands[MODAL]["piston_velocity"])
+    for a, b in zip(bands, bands[1:]):
+        stated = a.in_notch != b.in_notch or "should" in a.note + b.note
+        for key in ("first_crossing_hz", "within_3db_up_to_hz"):
+            assert _same_reading(getattr(a, key), getattr(b, key), 0.05) or stated, (key, a, b)
 
 
 @pytest.fixture(scope="module")

@@ -155,7 +155,14 @@ def test_commands():
     table = comp.TableCommand(name="t", times=[0, 1, 2], values=[0, 10, 0])
     assert table.outputs_of(0.5, {}, {}, {})["command"] == pytest.approx(5.0)
     with pytest.raises(ValueError, match="increase"):
-        comp.TableCommand(name="t", times=[0, 0, 2], values=[0, 1, 2])
+        comp.TableCommand(name="t", times=[0, 0, 0, 2], values=[0, 1, 2, 3])
+    with pytest.raises(ValueError, match="increase"):
+        comp.TableCommand(name="t", times=[0, 1, 0.5], values=[0, 1, 2])
+    # a time given twice is a jump: the second value from that time on (StepCommand's t >= time)
+    jump = comp.TableCommand(name="t", times=[0, 1, 1, 2], values=[0, 1, 5, 7])
+    assert [jump.outputs_of(t, {}, {}, {})["command"] for t in (0.5, 1 - 1e-12, 1.0, 1.5, 3.0)] == \
+        pytest.approx([0.5, 1.0, 5.0, 6.0, 7.0])
+    assert jump.breakpoints(3.0) == [1.0]
 
 
 def test_table_command_from_csv(tmp_path):
@@ -235,6 +242,14 @@ def test_table_command_compiles_to_exact_ramps():
     f = ca.Function("f", [t], [table.outputs_of(t, {}, {}, {})["command"]])
     for tk in (-1.0, 0.0, 0.005, 0.02, 0.035, 0.04, 1.0):
         assert float(f(tk)) == pytest.approx(np.interp(tk, table.times, table.values), abs=1e-12)
+    # jumps (a time twice): steps on top of the ramps, right-continuous like StepCommand
+    jump = comp.TableCommand(name="j", quantity="current", times=[0.0, 0.01, 0.01, 0.02, 0.03, 0.03],
+                             values=[0.0, 0.0, 0.05, 0.04, 0.04, 0.0])
+    g = ca.Function("g", [t], [jump.outputs_of(t, {}, {}, {})["command"]])
+    for tk, want in ((0.005, 0.0), (0.01 - 1e-9, 0.0), (0.01, 0.05), (0.015, 0.045), (0.025, 0.04),
+                     (0.03, 0.0), (1.0, 0.0)):
+        assert float(g(tk)) == pytest.approx(want, abs=1e-12)
+        assert jump.outputs_of(tk, {}, {}, {})["command"] == pytest.approx(want, abs=1e-12)
 
 
 def test_table_csv_errors_name_file_and_column(tmp_path):

@@ -13,7 +13,9 @@ import pandas as pd
 import pytest
 
 from hydroline.analysis import DataError, fit_parameters, fit_stribeck, identify_friction, read_measurements
-from hydroline.analysis.fit import Measurements, noise_level, simulate_record
+from hydroline.analysis.fit import (RECORD_ATOL_SCALE, RECORD_RTOL, UNRESOLVED_CURVATURE, Measurements,
+                                    command_table, noise_level, simulate_record, unresolved_samples)
+from hydroline.analysis.figures import plot_fit
 from hydroline.analysis.friction_id import newton_friction
 from hydroline.studies.friction_tests import virtual_friction_tests
 from hydroline.cli import main
@@ -116,6 +118,159 @@ def test_fit_recovers_downward_friction_within_confidence_intervals():
         assert lo < truth[name] < hi, (name, lo, est, hi)
         assert (hi - lo) / est < 0.15, name
     assert 0.8 < res.residual_variance < 1.25
+
+
+# ---- the round trip simulate -> results.csv -> fit (issue 23, item 6) ---------------------------
+BULK = ("supply.section2.bulk_modulus", "return.section2.bulk_modulus")
+
+
+@pytest.fixture(scope="module")
+def simulated_record(tmp_path_factory):
+    """``hydroline simulate --out d``: the default rig's whole open-loop step (0.25 s, the
+    piston runs into its top stop at ~114 ms), as the CLI writes it."""
+    out = tmp_path_factory.mktemp("sim")
+    assert main(["simulate", "--out", str(out)]) == 0
+    return out / "results.csv"
+
+
+def test_command_table_places_steps_where_the_samples_say():
+    """A step command sampled at 0.1 ms (0 before 10 ms, 50 mA from it, as StepCommand writes
+    it) is a jump at 10 ms, not a ramp over the sample before; a ramp stays a ramp; collinear
+    rows go; a sine keeps every row; the table reproduces every sample."""
+    t = np.round(np.arange(0.0, 0.0251, 1e-4), 10)
+    step = np.where(t >= 0.01, 0.05, 0.0)
+    times, values = command_table(t, step)
+    assert times.tolist() == [0.0, 0.01, 0.01, 0.025] and values.tolist() == [0.0, 0.0, 0.05, 0.05]
+    ramp = np.clip((t - 0.005) * 10.0, 0.0, 0.1)
+    times, values = command_table(t, ramp)
+    assert times.tolist() == pytest.approx([0.0, 0.005, 0.015, 0.025], abs=1e-12)
+    assert np.all(np.diff(times) > 0)                                # no jump in a ramp
+    sine = 0.01 * np.sin(2 * np.pi * 50 * t)
+    times, values = command_table(t, sine)
+    assert np.all(np.diff(times) > 0)                    # straight only at its inflections:
+    assert set(np.round(np.setdiff1d(t, times), 6)) <= {0.01, 0.02}      # t = 10, 20 ms
+    from hydroline.components import TableCommand
+    for sig in (step, ramp, sine):
+        table = TableCommand(name="i", times=command_table(t, sig)[0], values=command_table(t, sig)[1])
+        assert np.max(np.abs(table.at(t) - sig)) <= 1e-12 * np.max(np.abs(sig))
+
+
+def test_unresolved_samples_of_a_sampled_sine():
+    """A sine of amplitude A sampled h apart has second differences 4 sin^2(w h/2) A: over
+    UNRESOLVED_CURVATURE of its range 2A when w h > 2 asin(sqrt(UNRESOLVED_CURVATURE/2))
+    (about 15.6 samples a period at 8 %). 20 samples a period pass, 12 do not; a jump is
+    flagged with the samples either side."""
+    limit = np.pi / np.arcsin(np.sqrt(UNRESOLVED_CURVATURE / 2))   # samples per period
+    assert 12 < limit < 20
+    k = np.arange(200)
+    assert not unresolved_samples({"p": np.sin(2 * np.pi * k / 20)}).any()
+    assert unresolved_samples({"p": np.sin(2 * np.pi * k / 12)}).mean() > 0.5
+    jump = np.where(k >= 100, 1.0, 0.0) + 1e-3 * np.sin(2 * np.pi * k / 50)
+    assert np.flatnonzero(unresolved_samples({"p": jump, "q": np.cos(2 * np.pi * k / 50)})).tolist() \
+        == [98, 99, 100, 101]
+
+
+def test_record_tolerance_is_simulates():
+    """The intervals' integration term assumes a record made at simulate's tolerances."""
+    from hydroline.studies.sweep import simulate_defaults
+
+    d = simulate_defaults()
+    assert (RECORD_RTOL, RECORD_ATOL_SCALE) == (d["rtol"], d["atol_scale"])
+
+
+def test_fit_model_reproduces_simulate_record(simulated_record):
+    """At the true parameters the fit's model (the record's current as a table, the rest state,
+    the compiled core at rtol 1e-8) reproduces simulate's record to simulate's own integration
+    error: rtol 1e-6 keeps the port pressures and the piston velocity within 6e-3 % of their
+    excursion of a 1e-10 reference (scenarios.simulate), so within 1e-4 of each channel's
+    excursion (the stop impact included). It was 20 % of the excursion when the sampled step
+    was a ramp over the sample before it (a 50 us late step)."""
+    meas = read_measurements(simulated_record)
+    y = simulate_record(load_rig(), meas)
+    assert set(y) == {"supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
+                      "top_chamber_pressure", "piston_position", "piston_velocity"}
+    for s, trace in y.items():
+        data = meas.data[s].to_numpy()
+        assert np.max(np.abs(trace - data)) < 1e-4 * np.ptp(data), s
+
+
+def test_fit_cli_recovers_simulate_record(simulated_record, tmp_path, capsys):
+    """``hydroline fit d/results.csv --params supply/return.section2.bulk_modulus --json`` on
+    the noise-free record: estimates within 0.5 % (to ~1e-6 in fact), the truth inside the
+    95 % intervals; the stop impact, which 0.1 ms samples do not resolve, left out and said so
+    (it lies where the recorded piston reaches its top stop)."""
+    rig = load_rig()
+    rc = main(["fit", str(simulated_record), "--params", ",".join(BULK), "--json", "--out", str(tmp_path)])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    for name in BULK:
+        p = out["parameters"][name]
+        assert p["estimate"] == pytest.approx(rig[name], rel=5e-3)
+        assert p["ci_low"] <= rig[name] <= p["ci_high"], (name, p)
+    meas = read_measurements(simulated_record)
+    x = meas.data["piston_position"].to_numpy()
+    t_stop = meas.t[np.argmax(x >= rig["actuator.stroke"] / 2)]          # reaches the top stop
+    assert len(out["left_out_s"]) == 1
+    first, last = out["left_out_s"][0]
+    assert first <= t_stop <= last and last - first < 1e-3
+    assert any("left out" in n and "stop impact" in n for n in out["notes"])
+    assert not out["worse_than_start"]
+
+
+@pytest.mark.parametrize("noise, offset", [(0.0, 1.15), (0.01, 1.0)])
+def test_fit_recovers_simulate_record_from_an_offset_start(simulated_record, noise, offset):
+    """The same whole record (stop included), fitted from bulk moduli 15 % off: noise-free,
+    within 0.5 % and inside the intervals (the intervals carry the shift an integration error
+    at simulate's rtol 1e-6 causes); with white noise of 1 % of each channel's excursion
+    (seed 1), fitted from the rig's values as the CLI does, the 95 % intervals cover the truth. The errors are those of the linearised
+    estimate (J^T J)^-1 J^T e for the same noise e, J by central differences (seed 1: -1.1
+    and +0.55 standard errors; seed 0 is a 2.7-sigma draw); 20 seeds of the fit gave
+    standardised errors of std 1.09 and 0.85 and covered 95 % and 100 %, 2000 linearised
+    draws 94.7 % and 95.3 %."""
+    rig = load_rig()
+    meas = read_measurements(simulated_record)
+    if noise:
+        rng = np.random.default_rng(1)
+        for s in meas.signals:
+            y = meas.data[s].to_numpy()
+            meas.data[s] = y + rng.normal(0.0, noise * np.ptp(y), len(y))
+    start = rig.copy()
+    for name in BULK:
+        start.set(name, f"{offset * rig[name]!r} Pa")
+    res = fit_parameters(start, meas, list(BULK))
+    assert res.success
+    for name, lo, est, hi in zip(res.names, res.ci_low, res.estimate, res.ci_high):
+        assert est == pytest.approx(rig[name], rel=5e-3)
+        assert lo <= rig[name] <= hi, (name, lo, est, hi)
+    assert not res.worse
+    if noise:
+        assert 0.8 < res.residual_variance < 1.25        # the noise, nothing else
+        assert res.sigma["supply_port_pressure"] == pytest.approx(noise * np.ptp(
+            meas.data["supply_port_pressure"]), rel=0.1)
+
+
+def test_fit_says_why_a_signal_got_worse(tmp_path):
+    """A record whose supply port pressure is the default rig's but whose return port pressure
+    is that of a 10 % stiffer return hose, fitted in the supply hose's bulk modulus only from
+    the truth: the supply channel can only get worse (it was exact), and it does, to fit the
+    return channel; the result and fit.png say why."""
+    t = np.arange(0.0, 0.04 + 1e-12, 1e-4)      # simulate's step: its compiled model is reused
+    meas = Measurements(pd.DataFrame({"time": t, "valve_current": np.where(t >= 0.01, 0.05, 0.0),
+                                      "supply_port_pressure": 0.0, "return_port_pressure": 0.0}), "mixed")
+    rig = load_rig()
+    meas.data["supply_port_pressure"] = simulate_record(rig, meas, ["supply_port_pressure"])["supply_port_pressure"]
+    stiff = rig.copy()
+    stiff.set("return.section2.bulk_modulus", f"{1.1 * rig['return.section2.bulk_modulus']!r} Pa")
+    meas.data["return_port_pressure"] = simulate_record(stiff, meas, ["return_port_pressure"])["return_port_pressure"]
+    res = fit_parameters(rig, meas, ["supply.section2.bulk_modulus"], sigma={
+        "supply_port_pressure": 2e4, "return_port_pressure": 2e4}, max_evaluations=12)
+    assert res.rms["supply_port_pressure"] > res.start_rms["supply_port_pressure"]
+    assert "trades supply_port_pressure" in res.worse["supply_port_pressure"]
+    assert any("fitted rms" in n for n in res.notes)
+    fig = plot_fit(t, {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial, res.fitted,
+                   path=tmp_path / "fit.png", rms=res.rms, start_rms=res.start_rms, worse=res.worse)
+    texts = [tx.get_text() for ax in fig.axes for tx in ax.texts]
+    assert any("worse than the start" in tx and "trades" in tx for tx in texts)
 
 
 def _write_csv(meas, path):

@@ -52,7 +52,8 @@ def _display(name):
 
 
 def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None = None,
-              path=None, title=None, highest_mode_hz: float | None = None):
+              path=None, title=None, highest_mode_hz: float | None = None,
+              passbands: dict | None = None):
     """Magnitude and phase of ``output/input`` for several model variants.
 
     Parameters
@@ -68,6 +69,9 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     highest_mode_hz : float  Highest retained mode of the modal lines (the frequency up to
                           which they follow the exact lines), drawn as a grey vertical
                           line, [Hz]
+    passbands : dict      Label -> {output: :class:`~hydroline.analysis.frequency.Passband`}:
+                          a first crossing in a notch is marked so, and the frequency up to
+                          which the gain stays within 3 dB is listed beside it
 
     Returns
     -------
@@ -99,9 +103,15 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
             phase -= 360.0 * np.floor((phase[0] + 270.0) / 360.0)   # start in [-270, 90) deg
             ap.semilogx(f, phase, styles[k % 4], color=colors[k % 4], lw=1.3)
             bw = (bandwidths or {}).get(label, {}).get(out)
+            band = (passbands or {}).get(label, {}).get(out)
             if bw:
                 am.axvline(bw, color=colors[k % 4], lw=0.8, ls=(0, (2, 3)))
-                notes.append((f"{bw:.1f} Hz", colors[k % 4]))
+                text = f"{bw:.1f} Hz"
+                if band is not None and band.in_notch:
+                    up = band.within_3db_up_to_hz
+                    text += (" in a notch; within 3 dB up to "
+                             + (f"{up:.1f} Hz" if up is not None else f"{f[-1]:.0f} Hz and beyond"))
+                notes.append((text, colors[k % 4]))
         for k, (text, color) in enumerate(notes):
             am.text(0.02, 0.03 + 0.08 * (len(notes) - 1 - k), ("-3 dB: " if k == 0 else "") + text,
                     transform=am.transAxes, fontsize=8, color=color, ha="left", va="bottom")
@@ -123,7 +133,8 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     return fig
 
 
-def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=None):
+def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=None,
+             windows=None, rms=None, start_rms=None, worse=None):
     """Measured, initial-model and fitted-model traces, one panel per signal.
 
     Parameters
@@ -132,6 +143,11 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     measured, initial, fitted : dict   Signal name -> array in SI (initial may be empty)
     path : str        PNG to write
     title : str
+    windows : list    (first, last) times of samples the fit left out, shaded, [s]
+    rms, start_rms : dict  Signal -> rms residual of the fitted / initial model, [SI], shown
+                      in the legend
+    worse : dict      Signal -> why the fitted model is worse than the start there: written
+                      in that panel (a panel never shows it worse without saying why)
 
     Returns
     -------
@@ -139,24 +155,43 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     """
     plt = _plt()
     names = list(measured)
+    rms, start_rms, worse = rms or {}, start_rms or {}, worse or {}
     fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.3 * len(names) + 0.8), sharex=True,
                              squeeze=False)
     for ax, k in zip(axes[:, 0], names):
         label, unit, factor = _display(k)
+
+        def with_rms(text, table):
+            return f"{text} (rms {table[k] * factor:.3g} {unit})" if k in table else text
+
         ax.plot(t * 1e3, measured[k] * factor, ".", ms=2, color="0.45", label="measured")
         if k in initial:
-            ax.plot(t * 1e3, initial[k] * factor, ":", color="C1", lw=1.0, label="initial model")
+            ax.plot(t * 1e3, initial[k] * factor, ":", color="C1", lw=1.0,
+                    label=with_rms("initial model", start_rms))
         if k in fitted:
-            ax.plot(t * 1e3, fitted[k] * factor, "-", color="C0", lw=1.2, label="fitted model")
+            ax.plot(t * 1e3, fitted[k] * factor, "-", color="C0", lw=1.2,
+                    label=with_rms("fitted model", rms))
+        for j, (a, b) in enumerate(windows or []):
+            ax.axvspan(a * 1e3, b * 1e3, color="C3", alpha=0.15, lw=0,
+                       label="left out: not resolved by the sampling" if j == 0 else None)
+        if k in worse:
+            ax.text(0.01, 0.03, _wrap(f"fitted worse than the start here: {worse[k]}", 110),
+                    transform=ax.transAxes, fontsize=7, color="C3", ha="left", va="bottom")
         ax.set_ylabel(f"{label} [{unit}]", fontsize=8)
         ax.grid(True, alpha=0.3)
-    axes[0, 0].legend(fontsize=8, loc="best")
+        ax.legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel("time [ms]")
     fig.suptitle(figure_title(title or "hydroline fit: measured vs fitted"))
     fig.tight_layout()
     if path:
         _save_png(fig, path)
     return fig
+
+
+def _wrap(text, width):
+    import textwrap
+
+    return "\n".join(textwrap.wrap(text, width))
 
 
 def plot_friction(points: dict, fit, path=None, title=None):

@@ -28,7 +28,13 @@ naming the file, column and row.
 Model of the experiment
 -----------------------
 The measured valve current drives the open-loop network through a
-:class:`~hydroline.components.TableCommand` (piecewise linear between samples). The record
+:class:`~hydroline.components.TableCommand` (:func:`command_table`): piecewise linear between
+samples, except where the current changes within one sample interval by more than ten
+times the change in the intervals either side (a step written by a data-acquisition card or
+by ``hydroline simulate``'s step command): that is a jump at the sample that first reads the
+new value, as such a command makes it. Rows on a straight line through their neighbours are
+dropped, so a stepped or ramped command is a short table the compiled core integrates with
+restarts at its corners (a long, noisy current is a CasADi interpolant, CVODES). The record
 must start at rest. If the piston position is measured and clear of the stops at the first
 sample, the model starts from the operating point that holds it there (the current that
 holds it is solved for, and the model's current is the measured one shifted by the
@@ -45,7 +51,19 @@ estimated from the data (median absolute second difference, which a smooth signa
 densely does not reach). With ``J`` the Jacobian at the optimum and ``s^2 = SSR/(N - k)``,
 ``cov(theta) = s^2 (J^T J)^-1`` and the confidence interval of a parameter is
 ``exp(theta +- t_{N-k} sqrt(cov_ii))`` (asymmetric in the value). They assume white noise and
-a right model; real residuals are correlated in time, which makes them optimistic.
+a right model; real residuals are correlated in time, which makes them optimistic: a lag-1
+autocorrelation of the residuals widens them (AR(1) count of independent residuals). A record
+made by a simulation is exact only to its integration tolerance: the shift of the estimate
+that the integration error at ``RECORD_RTOL`` (``hydroline simulate``'s) causes is added to
+each standard error, so a noise-free simulated record's truth lies inside its interval.
+
+Samples the record's sampling does not resolve in the model's traces (:func:`unresolved_samples`:
+a stop impact, whose contact lasts a fraction of a millisecond) are left out of the fit, and
+the result says which (``unresolved="keep"`` fits them): there a residual measures when the
+event happens to within a fraction of a sample, a matter of the stop's compliance, not of
+the parameters. Each signal's rms residual at the start and at the optimum is reported; one
+the fit made worse than the start is named with the reason (the fit traded it against the
+other signals, or the optimiser stopped worse than it started).
 """
 from __future__ import annotations
 
@@ -56,6 +74,7 @@ import numpy as np
 import pandas as pd
 
 from .. import components as comp
+from ..components.hose import coefficients_as_parameters
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..engine import integrate, solve_steady_state
 from ..units import csv_column, split_header
@@ -64,7 +83,8 @@ from .linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal
 
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
            "FitResult", "fit_parameters", "simulate_record", "parameter_unit", "noise_level",
-           "STARTS", "residual_correlation"]
+           "STARTS", "residual_correlation", "command_table", "unresolved_samples",
+           "sample_spans"]
 
 #: Columns understood in a measurement file: name -> SI unit.
 COLUMNS = {
@@ -200,6 +220,56 @@ def noise_level(y) -> float:
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / np.sqrt(6.0))
 
 
+#: A change of the current within one sample interval this many times larger than the changes
+#: in the intervals either side is a jump (:func:`command_table`), [-].
+JUMP_RATIO = 10.0
+
+
+def command_table(t, values) -> tuple:
+    """A sampled command as a :class:`~hydroline.components.TableCommand` table: jumps as a
+    time given twice, rows on a straight line through their neighbours dropped.
+
+    A change within one sample interval ``(t_k-1, t_k]`` larger than ``JUMP_RATIO`` times the
+    changes in the intervals either side (and than ten noise levels and 0.1 % of the range)
+    is a jump at ``t_k``, the sample that first reads the new value (a data-acquisition card's
+    or a step command's ``t >= time``). Elsewhere the command is linear between samples.
+
+    Parameters
+    ----------
+    t : array_like        Sample times, strictly increasing, [s]
+    values : array_like   Sampled command, [SI unit of the command]
+
+    Returns
+    -------
+    (times, values) : ndarray, ndarray  The table, [s] and [SI unit of the command]
+    """
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(values, dtype=float)
+    d = np.diff(v)
+    neighbours = np.maximum(np.abs(np.r_[0.0, d[:-1]]), np.abs(np.r_[d[1:], 0.0]))
+    floor = max(1e-3 * np.ptp(v), 10 * noise_level(v), 1e-300)
+    jump = (np.abs(d) > floor) & (np.abs(d) > JUMP_RATIO * neighbours)
+    # row k+1 after a jump interval k is preceded by (t_k+1, v_k): the value held up to it
+    before = np.r_[False, jump]
+    times = np.repeat(t, np.where(before, 2, 1))
+    vals = np.repeat(v, np.where(before, 2, 1))
+    first = np.cumsum(np.where(before, 2, 1)) - np.where(before, 2, 1)
+    vals[first[before]] = v[np.flatnonzero(before) - 1]
+    # drop rows on the straight line through their neighbours (exactly: checked afterwards)
+    scale = max(np.ptp(vals), np.max(np.abs(vals)), 1e-300)
+    keep = np.ones(len(times), dtype=bool)
+    inner = np.arange(1, len(times) - 1)
+    t0, t1, t2 = times[inner - 1], times[inner], times[inner + 1]
+    distinct = (t0 < t1) & (t1 < t2)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        line = vals[inner - 1] + (vals[inner + 1] - vals[inner - 1]) * (t1 - t0) / (t2 - t0)
+    keep[inner] = ~(distinct & (np.abs(vals[inner] - line) <= 1e-12 * scale))
+    short = comp.TableCommand(name="check", times=times[keep], values=vals[keep])
+    if np.max(np.abs(short.at(t) - v)) > 1e-9 * scale:
+        return times, vals
+    return short.times, short.values
+
+
 def parameter_unit(rig: Rig, path: str) -> str:
     """SI unit of a numeric rig parameter that can be fitted, or RigError naming it.
 
@@ -285,15 +355,16 @@ def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto", ax
     ax = select_axis(rig, axis)
     half = ax.stroke / 2
     x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.data else None
+    times, current = command_table(times - t0, current)
     if start_mode(rig, meas, start, ax.name) == "hold":
         hold = solve_operating_point(rig, OperatingPoint(piston_position=float(x0)), axis=ax.name)
         values = current - current[0] + hold.valve_current
-        cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times - t0, values=values,
+        cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times, values=values,
                                 connections={"command": ax.current})
         net = axis_network(rig, [cmd], ax.name, float(x0))
         x, p = transfer_state(hold, net)
         return _Start(net, x, p)
-    cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times - t0, values=current,
+    cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times, values=current,
                             connections={"command": ax.current})
     # on a stop: the measured position may lie a hair beyond it (the stop's compliance, M23)
     guess = float(np.clip(x0, -half, half)) if x0 is not None and abs(x0) >= half - 1e-3 else None
@@ -303,7 +374,8 @@ def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto", ax
 
 
 def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e-8,
-                    start: str = "auto", axis: str | None = None) -> dict:
+                    start: str = "auto", axis: str | None = None,
+                    atol_scale: float | None = None) -> dict:
     """The model's response to a record's valve current, at the record's sample times.
 
     Parameters
@@ -316,6 +388,8 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
                           current) or "hold" (the measured initial position held)
     axis : str            The axis the record is of (None: the first): its valve current is
                           driven, the record's columns are its signals, the others hold
+    atol_scale : float    Absolute tolerance as a fraction of each state's typical magnitude
+                          (None: ``rtol``), [-]
 
     Returns
     -------
@@ -324,12 +398,68 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     signals = meas.signals if signals is None else list(signals)
     t = meas.t
     ax = select_axis(rig, axis)
-    st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start, ax.name)
+    # the hoses' matrix entries as runtime parameters: a fit's runs, which differ in a hose's
+    # numbers, share one compiled model instead of compiling one each (the residue line's
+    # entries depend on the bulk modulus, length and bore)
+    with coefficients_as_parameters():
+        st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start, ax.name)
     span = t[-1] - t[0]
     dt = float(np.median(np.diff(t)))
     n = int(np.ceil(span / dt - 1e-9))
-    res = integrate(st.network, st.x, n * dt, dt_out=dt, p=st.p, rtol=rtol)
+    res = integrate(st.network, st.x, n * dt, dt_out=dt, p=st.p, rtol=rtol,
+                    atol_scale=rtol if atol_scale is None else atol_scale)
     return {k: np.interp(t - t[0], res.t, res[axis_signal(ax, k)]) for k in signals}
+
+
+#: A sample whose second difference in a model trace exceeds this fraction of the trace's
+#: range is not resolved by the record's sampling: linear interpolation between samples
+#: misses the motion there by up to about an eighth of it, over 1 % of the range (a
+#: sensor's accuracy), [-].
+UNRESOLVED_CURVATURE = 0.08
+#: What the fit does with samples the sampling does not resolve: leave them out, or keep them.
+UNRESOLVED = ("window", "keep")
+
+
+def unresolved_samples(traces) -> np.ndarray:
+    """Samples a record's sampling does not resolve in any of the model's traces (a stop
+    impact, a valve slamming): second difference over one sample above
+    ``UNRESOLVED_CURVATURE`` of the trace's range, with the samples either side.
+
+    There the residual measures when an event happens to within a fraction of a sample, not
+    the parameters; the compliance of the event (a stop's) rules it.
+
+    Parameters
+    ----------
+    traces : dict   Channel -> noise-free model trace at the record's sample times, [SI]
+
+    Returns
+    -------
+    ndarray of bool  True at the unresolved samples
+    """
+    traces = [np.asarray(y, dtype=float) for y in traces.values()]
+    n = len(traces[0]) if traces else 0
+    bad = np.zeros(n, dtype=bool)
+    for y in traces:
+        if n >= 3 and np.ptp(y) > 0:
+            bad[1:-1] |= np.abs(np.diff(y, 2)) > UNRESOLVED_CURVATURE * np.ptp(y)
+    return bad | np.r_[bad[1:], False] | np.r_[False, bad[:-1]]
+
+
+def sample_spans(t, mask) -> list:
+    """Contiguous runs of True in ``mask`` as (first, last) times.
+
+    Parameters
+    ----------
+    t : array_like      Sample times, [s]
+    mask : array_like   True for the samples to gather, one per sample, [-]
+
+    Returns
+    -------
+    list of (float, float)  [s]
+    """
+    m = np.r_[False, np.asarray(mask, dtype=bool), False]
+    edges = np.flatnonzero(np.diff(m.astype(int)))
+    return [(float(t[i]), float(t[j - 1])) for i, j in zip(edges[::2], edges[1::2])]
 
 
 @dataclass
@@ -342,11 +472,13 @@ class FitResult:
     units : list[str]          Their SI units
     start, estimate : ndarray  Starting and fitted values, [SI]
     ci_low, ci_high : ndarray  Confidence interval bounds, [SI]
-    std_log : ndarray          Standard errors of ln(value), [-] (~ relative standard errors)
+    std_log : ndarray          Standard errors of ln(value), [-] (~ relative standard errors),
+                               the integration term included
     correlation : ndarray      Correlation matrix of the estimates, [-]
     confidence : float         Confidence level of the intervals, [-]
     sigma : dict               Channel -> noise level used as weight, [SI]
-    rms : dict                 Channel -> rms residual at the optimum, [SI]
+    rms : dict                 Channel -> rms residual at the optimum over the samples
+                               fitted, [SI]
     residual_variance : float  s^2 = SSR/(N - k) of the weighted residuals, [-]
     n_data : int               Residuals used
     n_evaluations : int        Model runs
@@ -356,6 +488,15 @@ class FitResult:
                                (channels with a free offset shown with it)
     rig : Rig                  The calibrated rig
     offsets : dict             Channel -> fitted sensor offset, measured minus model, [SI]
+    start_rms : dict           Channel -> rms residual at the start over the same samples, [SI]
+    windows : list             (first, last) record times of the samples left out, [s]
+    integration_std_log : ndarray  Shift of ln(value) under the integration error of a
+                               simulated record (``record_rtol``), [-]
+    notes : list[str]          Why the result reads as it does: samples left out, a channel
+                               the fit made worse than the start, widened intervals
+    worse : dict               Channel -> why its fitted rms exceeds the start's (by more
+                               than ``WORSE`` of the start's rms or the noise level)
+    status : str               The optimiser's own message (``message`` adds the notes)
     """
 
     names: list
@@ -378,6 +519,12 @@ class FitResult:
     initial: dict
     rig: Rig
     offsets: dict = field(default_factory=dict)
+    start_rms: dict = field(default_factory=dict)
+    windows: list = field(default_factory=list)
+    integration_std_log: np.ndarray | None = None
+    notes: list = field(default_factory=list)
+    worse: dict = field(default_factory=dict)
+    status: str = ""
 
     def table(self) -> list:
         """Rows (name, unit, start, estimate, ci_low, ci_high, relative std error)."""
@@ -386,22 +533,29 @@ class FitResult:
 
     def to_dict(self) -> dict:
         """The fit as plain JSON-ready data: each parameter's unit, start, estimate, confidence
-        interval and relative standard error, the correlation matrix, noise and residuals.
+        interval and relative standard error, the correlation matrix, noise and residuals,
+        the samples left out and the notes.
 
         Returns
         -------
         dict  Numbers in the parameters' own (SI) units
         """
+        shift = self.integration_std_log if self.integration_std_log is not None else \
+            np.zeros(len(self.names))
         return {
             "parameters": {n: {"unit": u, "start": float(s), "estimate": float(e),
                                "ci_low": float(lo), "ci_high": float(hi),
-                               "relative_std_error": float(sd)}
-                           for n, u, s, e, lo, hi, sd in self.table()},
+                               "relative_std_error": float(sd),
+                               "integration_relative_error": float(d)}
+                           for (n, u, s, e, lo, hi, sd), d in zip(self.table(), shift)},
             "confidence": self.confidence, "correlation": np.asarray(self.correlation).tolist(),
             "noise_sigma": self.sigma, "rms_residual": self.rms,
+            "rms_residual_start": self.start_rms,
             "residual_variance": self.residual_variance, "n_data": self.n_data,
             "n_evaluations": self.n_evaluations, "success": self.success, "message": self.message,
             "sensor_offsets": self.offsets,
+            "left_out_s": [list(w) for w in self.windows], "notes": list(self.notes),
+            "worse_than_start": dict(self.worse),
         }
 
     def calibrated_toml(self, data_source: str = "") -> str:
@@ -423,10 +577,21 @@ class FitResult:
         return "\n".join(head) + "\n\n" + self.rig.to_toml()
 
 
+#: A signal's fitted rms residual above the start's by more than this fraction of the larger
+#: of the start's rms and the signal's noise level is reported as worse than the start, with
+#: the reason (less is invisible beside the noise), [-].
+WORSE = 0.01
+#: Relative tolerance and absolute tolerance scale a simulated record is taken to be accurate
+#: to: ``hydroline simulate``'s (:func:`hydroline.scenarios.simulate`'s defaults), [-].
+RECORD_RTOL = 1e-6
+RECORD_ATOL_SCALE = 1e-7
+
+
 def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=None,
                    confidence: float = 0.95, max_evaluations: int = 60, bound_factor: float = 10.0,
                    sigma: dict | None = None, start: str = "auto", offsets=None,
-                   progress=None, axis: str | None = None) -> FitResult:
+                   progress=None, axis: str | None = None, unresolved: str = "window",
+                   record_rtol: float = RECORD_RTOL) -> FitResult:
     """Fit rig parameters to a measured record (see the module docstring).
 
     Parameters
@@ -449,6 +614,14 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     progress : callable          Called with (evaluations, cost) after each model run
     axis : str                   The axis the record is of (None: the first); the record's
                                  columns (``piston_position``, ...) are its signals
+    unresolved : str             "window": leave out the samples the record's sampling does not
+                                 resolve in the model's traces (:func:`unresolved_samples`, a
+                                 stop impact), at the start and again at the optimum (the fit is
+                                 redone once if they moved); "keep": fit every sample
+    record_rtol : float          Integration tolerance a simulated record is accurate to
+                                 (``hydroline simulate``'s): the shift of the estimate under
+                                 that integration error is added in quadrature to each
+                                 standard error (negligible beside a sensor's noise), [-]
 
     Returns
     -------
@@ -463,6 +636,8 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         raise ValueError("--params: give at least one rig parameter to fit")
     if len(set(params)) != len(params):
         raise ValueError("--params: a parameter is listed twice")
+    if unresolved not in UNRESOLVED:
+        raise ValueError(f"unresolved must be one of {', '.join(UNRESOLVED)}; got {unresolved!r}")
     units = [parameter_unit(rig, k) for k in params]
     signals = meas.signals if signals is None else list(signals)
     for s in signals:
@@ -486,30 +661,40 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     count = {"n": 0}
     cache = {}
 
+    def calibrated(theta):
+        r = rig.copy()
+        for k, v in zip(params, np.exp(theta)):
+            _set(r, k, v)
+        return r
+
     def model(theta):
         key = tuple(np.round(theta, 14))
         if key in cache:
             return cache[key]
-        r = rig.copy()
-        for k, v in zip(params, np.exp(theta)):
-            _set(r, k, v)
         try:
-            out = simulate_record(r, meas, signals, start=start, axis=axis)
+            out = simulate_record(calibrated(theta), meas, signals, start=start, axis=axis)
         except (RuntimeError, ArithmeticError):      # SteadyStateError, integration failure
             out = None
         count["n"] += 1
         cache[key] = out
         return out
 
+    def weighted(out, use):
+        """Weighted residuals of the used samples, channel by channel (offsets profiled)."""
+        parts = []
+        for s in signals:
+            r = ((out[s] - y[s]) / sigma[s])[use]
+            parts.append(r - np.mean(r) if s in offsets else r)
+        return parts
+
+    n_samples = len(meas.t)
+    use = np.ones(n_samples, dtype=bool)
+
     def residuals(theta):
         out = model(theta)
         if out is None:
-            return np.full(sum(len(v) for v in y.values()), 1e3)
-        parts = []
-        for s in signals:
-            r = (out[s] - y[s]) / sigma[s]
-            parts.append(r - np.mean(r) if s in offsets else r)
-        r = np.concatenate(parts)
+            return np.full(len(signals) * int(use.sum()), 1e3)
+        r = np.concatenate(weighted(out, use))
         if progress:
             progress(count["n"], 0.5 * float(r @ r))
         return r
@@ -518,8 +703,23 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     initial = model(theta0)
     if initial is None:
         raise ValueError("the model does not run with the starting rig on this record")
-    sol = least_squares(residuals, theta0, bounds=(lo, hi), method="trf", x_scale=1.0,
-                        diff_step=1e-4, max_nfev=max_evaluations, xtol=1e-6, ftol=1e-8)
+    left_out = unresolved_samples(initial) if unresolved == "window" else np.zeros(n_samples, bool)
+
+    def solve(x0, nfev):
+        return least_squares(residuals, x0, bounds=(lo, hi), method="trf", x_scale=1.0,
+                             diff_step=1e-4, max_nfev=nfev, xtol=1e-6, ftol=1e-8)
+
+    use = ~left_out
+    sol = solve(theta0, max_evaluations)
+    if unresolved == "window" and model(sol.x) is not None:
+        moved = unresolved_samples(model(sol.x)) & ~left_out
+        if moved.any() and count["n"] < max_evaluations:   # the events moved: fit once more
+            left_out |= moved
+            use = ~left_out
+            sol = solve(sol.x, max(max_evaluations - count["n"], 2))
+    if use.sum() < len(params) + 2:
+        raise DataError(f"{meas.source}: too few samples the sampling resolves to fit "
+                        f"({int(use.sum())}); try unresolved='keep' (--keep-unresolved)")
     N, k = len(sol.fun), len(params)
     dof = max(N - k - len(offsets), 1)
     s2 = float(sol.fun @ sol.fun) / dof
@@ -528,39 +728,85 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         cov = s2 * np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
         cov = np.full((k, k), np.inf)
-    rho, inflation = residual_correlation([
-        (model(sol.x)[s] - y[s]) / sigma[s] for s in signals] if model(sol.x) else [])
-    note = ""
+    best = model(sol.x)
+    notes = []
+    rho, inflation = residual_correlation(weighted(best, use) if best else [])
     if inflation > 1.0:
         # misfit correlated in time is model error, not white noise: N residuals carry about
         # N (1 - rho)/(1 + rho) independent ones (AR(1)), which widens the interval
         cov = cov * inflation
-        note = (f"; residuals correlated in time (lag-1 autocorrelation {rho:.3f}): the misfit "
-                f"is model or sampling error, not white noise, so the intervals are widened "
-                f"{np.sqrt(inflation):.3g}x for the ~{N / inflation:.0f} independent residuals "
-                f"and still assume the model is right (a step in the current between samples, "
-                f"a stop impact in the record bias the estimate; fit the part of the record "
-                f"before the piston reaches a stop)")
+        notes.append(f"residuals correlated in time (lag-1 autocorrelation {rho:.3f}): the "
+                     f"misfit is model, integration or sampling error, not white noise, so the "
+                     f"intervals are widened {np.sqrt(inflation):.3g}x for the "
+                     f"~{N / inflation:.0f} independent residuals and still assume the model "
+                     f"is right")
+    # a simulated record is exact only to its integration tolerance: the estimate's shift under
+    # that error (the model at the optimum run at record_rtol) joins the standard error
+    shift = np.zeros(k)
+    if best is not None and record_rtol > 0:
+        try:
+            loose = simulate_record(calibrated(sol.x), meas, signals, rtol=record_rtol,
+                                    start=start, axis=axis,
+                                    atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
+            count["n"] += 1
+            dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(best, use))
+            shift = np.abs(np.linalg.lstsq(J, dr, rcond=None)[0])
+        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError):
+            pass
+    cov = cov + np.diag(shift ** 2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
     tq = float(student_t.ppf(0.5 + confidence / 2, dof))
     est = np.exp(sol.x)
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
-    fitted = dict(model(sol.x) or {})
+    fitted = dict(best or {})
     for s in offsets:
         if s in fitted:                 # shown with the fitted sensor offset
-            fitted[s] = fitted[s] - np.mean(fitted[s] - y[s])
-            if initial is not None and s in initial:
-                initial = dict(initial, **{s: initial[s] - np.mean(initial[s] - y[s])})
-    calibrated = rig.copy()
-    for name, v in zip(params, est):
-        _set(calibrated, name, v)
-    rms = {s: float(np.sqrt(np.mean((fitted[s] - y[s]) ** 2))) for s in signals} if fitted else {}
-    offset_values = {s: float(np.mean(y[s] - model(sol.x)[s])) for s in offsets if model(sol.x)}
+            fitted[s] = fitted[s] - np.mean((fitted[s] - y[s])[use])
+            initial = dict(initial, **{s: initial[s] - np.mean((initial[s] - y[s])[use])})
+
+    def rms_of(traces):
+        return {s: float(np.sqrt(np.mean(((traces[s] - y[s])[use]) ** 2))) for s in signals}
+
+    rms = rms_of(fitted) if fitted else {}
+    start_rms = rms_of(initial)
+    windows = sample_spans(meas.t, left_out)
+    if windows:
+        spans = ", ".join(f"{1e3 * (a - meas.t[0]):.1f}-{1e3 * (b - meas.t[0]):.1f} ms"
+                          for a, b in windows[:4]) + (f" and {len(windows) - 4} more"
+                                                      if len(windows) > 4 else "")
+        notes.insert(0, f"left out {int(left_out.sum())} of {n_samples} samples ({spans} after "
+                        f"the record's start) where the sampling does not resolve the model's "
+                        f"motion (one-sample curvature over {100 * UNRESOLVED_CURVATURE:g} % of a "
+                        f"signal's range, e.g. a stop impact): there the residual measures the "
+                        f"event's timing to a fraction of a sample, not the parameters "
+                        f"(--keep-unresolved fits them)")
+    worse = {}
+    if fitted:
+        total0 = sum((start_rms[s] / sigma[s]) ** 2 for s in signals)
+        total1 = sum((rms[s] / sigma[s]) ** 2 for s in signals)
+        for s in signals:
+            if rms[s] - start_rms[s] > WORSE * max(start_rms[s], sigma[s]):
+                if total1 > total0:
+                    why = (f"the optimiser stopped worse than it started ({sol.message}); the "
+                           f"start is the better model")
+                else:
+                    why = (f"the fit trades {s} against the other signals (weighted sum of "
+                           f"squares {total1:.4g} < {total0:.4g} at the start, each signal "
+                           f"weighted by its noise level)")
+                worse[s] = why
+                notes.append(f"{s}: fitted rms {rms[s]:.4g} > start {start_rms[s]:.4g} [SI]: {why}")
+    if shift.any():
+        notes.append(f"intervals include the estimate's shift under the integration error of a "
+                     f"simulated record (rtol {record_rtol:g}): up to {np.max(shift):.2g} in "
+                     f"ln(value)")
+    message = "; ".join([str(sol.message)] + notes)
     return FitResult(params, units, start_values, est, np.exp(sol.x - tq * sd), np.exp(sol.x + tq * sd), sd,
                      corr, confidence, {s: float(v) for s, v in sigma.items()}, rms, s2, N,
-                     count["n"], bool(sol.success), str(sol.message) + note, fitted, initial,
-                     calibrated, offset_values)
+                     count["n"], bool(sol.success), message, fitted, initial,
+                     calibrated(sol.x), {s: float(np.mean((y[s] - best[s])[use])) for s in offsets
+                                         if best}, start_rms, windows, shift, notes, worse,
+                     str(sol.message))
 
 
 def residual_correlation(traces) -> tuple[float, float]:

@@ -29,7 +29,7 @@ model's poles.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -41,8 +41,8 @@ from .linearize import (OperatingPoint, SolvedOperatingPoint, axis_signal, check
                         friction_slope, input_parameter, jacobians, linear_network, transfer_state,
                         solve_operating_point)
 
-__all__ = ["state_space_response", "bandwidth", "Resonance", "resonances", "LineCoupledModel",
-           "line_coupled_model", "exact_resonances", "highest_retained_mode"]
+__all__ = ["state_space_response", "bandwidth", "passband", "Passband", "Resonance", "resonances",
+           "LineCoupledModel", "line_coupled_model", "exact_resonances", "highest_retained_mode"]
 
 
 def state_space_response(A, B, C, D, f, scales=None):
@@ -77,7 +77,8 @@ def _response(A, B, C, D, s, scales=None):
 
 
 def bandwidth(f, H, reference=None):
-    """-3 dB bandwidth: the first frequency at which ``|H|`` falls below ``|H_ref|/sqrt(2)``.
+    """-3 dB bandwidth: the first frequency at which ``|H|`` falls below ``|H_ref|/sqrt(2)``
+    (:func:`passband`'s first crossing; it also gives the "within 3 dB up to" reading).
 
     Parameters
     ----------
@@ -88,70 +89,136 @@ def bandwidth(f, H, reference=None):
 
     Returns
     -------
-    float or None  Bandwidth [Hz] (log-log interpolated), None if |H| stays above the
-    level up to f[-1]
+    float or None  Bandwidth [Hz] (log-log interpolated; ``f[0]`` when already below there),
+    None if |H| stays above the level up to f[-1]
+    """
+    band = passband(f, H, reference)
+    if band.first_crossing_hz is None and band.within_3db_up_to_hz is None and band.note:
+        return float(np.asarray(f, dtype=float)[0])          # below the level from the start
+    return band.first_crossing_hz
+
+
+#: The -3 dB level: half the power, ``20 log10(1/sqrt(2))``, [dB].
+LEVEL_DB = 20 * np.log10(1 / np.sqrt(2.0))
+#: A notch or peak within this many dB of the -3 dB level is named: a small change of the
+#: parameters can carry it across the level, and a crossing frequency then jumps, [dB].
+NOTCH_MARGIN_DB = 0.5
+
+
+@dataclass
+class Passband:
+    """Where a low-pass gain leaves its -3 dB band, read two ways (:func:`passband`).
+
+    Attributes
+    ----------
+    first_crossing_hz : float or None    First fall of the gain below -3 dB, [Hz] (None: none
+                                         in the range)
+    within_3db_up_to_hz : float or None  Last fall below -3 dB, after which the gain stays
+                                         below it to the end of the range: the gain is within
+                                         3 dB up to there, notches aside, [Hz] (None: within
+                                         3 dB to the end of the range)
+    notch : tuple or None                (frequency [Hz], depth [dB]) of the notch the first
+                                         crossing falls in -- a local minimum below -3 dB
+                                         that the gain climbs out of -- else None
+    note : str                           A notch or peak within ``NOTCH_MARGIN_DB`` of the
+                                         level (where a reading jumps), or ""
+    reference : float                    The gain the levels are relative to, [unit of H]
+    """
+
+    first_crossing_hz: float | None
+    within_3db_up_to_hz: float | None
+    notch: tuple | None = None
+    note: str = ""
+    reference: float = 1.0
+
+    @property
+    def in_notch(self) -> bool:
+        """True when the first -3 dB crossing lies in a notch the gain recovers from."""
+        return self.notch is not None
+
+
+def _crossing(f, db, k):
+    """Frequency where ``db`` passes the level between samples k and k + 1 (log f linear)."""
+    x0, x1 = np.log(f[k]), np.log(f[k + 1])
+    return float(np.exp(x0 + (LEVEL_DB - db[k]) * (x1 - x0) / (db[k + 1] - db[k])))
+
+
+def passband(f, H, reference=None) -> Passband:
+    """The -3 dB readings of a low-pass gain: first crossing and "within 3 dB up to".
+
+    A gain with a notch (a line mode's anti-resonance) that dips below -3 dB and recovers
+    has two readings: its first -3 dB crossing lies in the notch, the frequency up to which
+    it stays within 3 dB (notches aside) lies beyond. Each moves continuously with the
+    parameters except where a notch crosses the level: its minimum falling below -3 dB
+    carries the first crossing down into the notch, a peak beyond the last crossing rising
+    above -3 dB carries the within-3-dB reading up past it. Such a notch or peak within
+    ``NOTCH_MARGIN_DB`` of the level is named in the note.
+
+    Parameters
+    ----------
+    f : array_like      Increasing frequencies, [Hz]
+    H : array_like      Complex (or magnitude) response at f, [any unit]
+    reference : float   Reference gain |H_ref| [unit of H]; the gain at the lowest frequency
+                        when None
+
+    Returns
+    -------
+    Passband  (crossings log-log interpolated between samples; None where the gain is below
+    -3 dB at ``f[0]`` too, see :func:`bandwidth`)
     """
     f = np.asarray(f, dtype=float)
     g = np.abs(np.asarray(H))
     ref = g[0] if reference is None else float(reference)
-    level = ref / np.sqrt(2.0)
-    below = np.flatnonzero(g < level)
-    if below.size == 0:
-        return None
-    k = int(below[0])
-    if k == 0:
-        return float(f[0])
-    x0, x1 = np.log(f[k - 1]), np.log(f[k])
-    y0, y1 = np.log(g[k - 1]), np.log(g[k])
-    return float(np.exp(x0 + (np.log(level) - y0) * (x1 - x0) / (y1 - y0)))
-
-
-#: A notch whose depth lies within this many dB of the -3 dB level makes the bandwidth fragile.
-NOTCH_MARGIN_DB = 0.5
-
-
-def notch_near_level(f, g, bw):
-    """Why a -3 dB bandwidth may jump: a notch (a line mode's anti-resonance) near the level.
-
-    The -3 dB bandwidth is the *first* crossing, so a notch that dips just below -3 dB and
-    recovers puts it at the notch, and one that stays just above leaves it far higher: a small
-    parameter change moves it between the two. Reported when the deepest local minimum of the
-    gain before the final fall lies within :data:`NOTCH_MARGIN_DB` of -3 dB.
-
-    Parameters
-    ----------
-    f : array    Increasing frequencies, [Hz]
-    g : array    Gain relative to the low-frequency gain, [-]
-    bw : float   The -3 dB bandwidth found, [Hz] (None: above the range)
-
-    Returns
-    -------
-    str  A note naming the notch and the other reading of the bandwidth, or "" when none.
-    """
-    db = 20 * np.log10(np.maximum(g, 1e-300))
-    below = np.flatnonzero(db < -3.0)
-    if below.size:
-        k0 = int(below[0])
-        back = np.flatnonzero(db[k0:] >= -3.0)
-        if back.size:               # the first crossing is a notch the gain climbs out of
-            k1 = k0 + int(back[0])
-            k = k0 + int(np.argmin(db[k0:k1]))
-            if db[k] >= -3.0 - NOTCH_MARGIN_DB:
-                other = bandwidth(f[k1:], g[k1:], reference=1.0)
-                where = "above the range" if other is None else f"{other:.4g} Hz"
-                return (f"-3 dB bandwidth at a notch ({db[k]:.2f} dB at {f[k]:.3g} Hz, within "
-                        f"{NOTCH_MARGIN_DB:g} dB of the level); the gain is back above -3 dB from "
-                        f"{f[k1]:.3g} Hz up to {where}: a small change can move the bandwidth there")
-        stop = k0
-    else:
-        stop = db.size
-    minima = np.flatnonzero((db[1:-1] < db[:-2]) & (db[1:-1] <= db[2:])) + 1
-    minima = minima[(minima < stop) & (db[minima] <= -3.0 + NOTCH_MARGIN_DB)]
-    if minima.size == 0:
-        return ""
-    k = int(minima[np.argmin(db[minima])])
-    return (f"a notch reaches {db[k]:.2f} dB at {f[k]:.3g} Hz, within {NOTCH_MARGIN_DB:g} dB of "
-            f"the -3 dB level: a small change can move the bandwidth down to there")
+    db = 20 * np.log10(np.maximum(g / ref, 1e-300))
+    above = db >= LEVEL_DB
+    if not above[0]:
+        return Passband(None, None, None, f"below {f[0]:.4g} Hz", ref)
+    falls = np.flatnonzero(above[:-1] & ~above[1:])          # k: above at k, below at k + 1
+    rises = np.flatnonzero(~above[:-1] & above[1:])
+    first = _crossing(f, db, falls[0]) if falls.size else None
+    last = _crossing(f, db, falls[-1]) if falls.size and not above[-1] else None
+    notch = None
+    if falls.size and rises.size and rises[0] > falls[0]:    # the gain climbs back: a notch
+        k = falls[0] + 1 + int(np.argmin(db[falls[0] + 1:rises[0] + 1]))
+        notch = (float(f[k]), float(db[k]))
+    notes = []
+    if notch is not None:
+        notes.append(f"the first -3 dB crossing lies in a notch ({notch[1]:.2f} dB at "
+                     f"{notch[0]:.4g} Hz), the gain back within 3 dB from "
+                     f"{_crossing(f, db, rises[0]):.4g} Hz")
+    # notches and peaks near the level, where a reading jumps as they cross it
+    interior = np.arange(1, len(db) - 1)
+    minima = interior[(db[1:-1] < db[:-2]) & (db[1:-1] <= db[2:])]
+    maxima = interior[(db[1:-1] > db[:-2]) & (db[1:-1] >= db[2:])]
+    end = falls[-1] if last is not None else len(db)
+    here = f"{first:.4g} Hz" if first is not None else f"above {f[-1]:.4g} Hz"
+    shallow = [k for k in minima if (not falls.size or k <= falls[0])
+               and LEVEL_DB <= db[k] <= LEVEL_DB + NOTCH_MARGIN_DB]
+    if shallow:
+        which = ", ".join(f"{db[k]:.2f} dB at {f[k]:.4g} Hz" for k in shallow)
+        notes.append(f"{'a notch reaches' if len(shallow) == 1 else 'notches reach'} {which}, "
+                     f"within {NOTCH_MARGIN_DB:g} dB above -3 dB: should "
+                     f"{'it' if len(shallow) == 1 else 'one'} dip below, the first crossing "
+                     f"jumps from {here} down into it")
+    if notch is not None and notch[1] >= LEVEL_DB - NOTCH_MARGIN_DB:
+        after = f"{_crossing(f, db, falls[1]):.4g} Hz" if falls.size > 1 else f"above {f[-1]:.4g} Hz"
+        notes.append(f"the notch lies {LEVEL_DB - notch[1]:.2f} dB below -3 dB: should it rise "
+                     f"above, the first crossing jumps up to {after}")
+    low_peaks = [k for k in maxima if falls.size and falls[0] < k < end
+                 and LEVEL_DB <= db[k] <= LEVEL_DB + NOTCH_MARGIN_DB]
+    if low_peaks:
+        k = min(low_peaks, key=lambda k: db[k])
+        notes.append(f"between notch and band edge the gain climbs back only to {db[k]:.2f} dB "
+                     f"at {f[k]:.4g} Hz: should it stay below -3 dB, the within-3-dB reading "
+                     f"jumps down below it")
+    if last is not None:
+        near = [k for k in maxima if k > end and db[k] >= LEVEL_DB - NOTCH_MARGIN_DB]
+        if near:
+            k = max(near, key=lambda k: db[k])
+            notes.append(f"beyond {last:.4g} Hz a peak reaches {db[k]:.2f} dB at {f[k]:.4g} Hz, "
+                         f"{LEVEL_DB - db[k]:.2f} dB below -3 dB: should it rise above, the "
+                         f"within-3-dB reading jumps up past it")
+    return Passband(first, last, notch, "; ".join(notes), float(ref))
 
 
 @dataclass
@@ -518,10 +585,13 @@ class BodeResult:
     input : str
     outputs : list[str]
     curves : dict             Variant label -> complex ``(len(f), len(outputs))``, [SI]
-    bandwidths : dict         Label -> {output: -3 dB bandwidth [Hz] or None}; None also
-                              where |H| rises more than 3 dB above its low-frequency gain
+    bandwidths : dict         Label -> {output: first -3 dB crossing [Hz] or None}; None
+                              also where |H| rises more than 3 dB above its low-frequency gain
                               (resonant, not low-pass: e.g. the port pressures)
-    notes : dict              Label -> {output: why there is no bandwidth} where None
+    notes : dict              Label -> {output: why there is no bandwidth, or the notch the
+                              first crossing lies in and the notches near -3 dB}
+    passbands : dict          Label -> {output: :class:`Passband`} of the low-pass channels:
+                              first -3 dB crossing and "gain within 3 dB up to", and the notch
     resonances : dict         Label -> list[Resonance] (modal and constant-supply models)
     exact_poles : dict        Modal eigenvalue -> (frequency [Hz], damping [-]) of the
                               exact-line pole next to it, or None
@@ -539,6 +609,7 @@ class BodeResult:
     exact_poles: dict
     operating_points: dict
     highest_mode_hz: float
+    passbands: dict = field(default_factory=dict)
 
 
 def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
@@ -548,7 +619,9 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
     """Bode data with modal lines, exact lines and (optionally) ideal constant supply.
 
     The -3 dB bandwidth of a channel is measured against its low-frequency gain and only for
-    a low-pass response: where |H| rises more than 3 dB above that gain anywhere in ``f``
+    a low-pass response, read two ways (:func:`passband`): the first -3 dB crossing, marked
+    when it lies in a notch the gain recovers from, and the frequency up to which the gain
+    stays within 3 dB, notches aside. Where |H| rises more than 3 dB above that gain anywhere in ``f``
     (the port pressures' line resonances, the chamber pressures' actuator resonance, or the
     piston velocity at rest, +16 dB at 172 Hz on the default rig) it is None with the note
     "resonant, not low-pass"; integrating outputs (piston position) have none either.
@@ -598,11 +671,11 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
                                                 ideal.state_scales)[:, :, 0]
         ops[CONSTANT] = ideal.operating_point
         res[CONSTANT] = resonances(ideal, input_name, outputs, f_max=f[-1])
-    bws, notes = {}, {}
+    bws, notes, bands = {}, {}, {}
     for label in list(curves):
         H_low, H = curves[label][:2], curves[label][2:]
         curves[label] = H
-        bws[label], notes[label] = {}, {}
+        bws[label], notes[label], bands[label] = {}, {}, {}
         for j, out in enumerate(outputs):
             dc, integrating = _low_frequency_gain(f_low, H_low[:, j])
             bw = None
@@ -621,13 +694,13 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
                                          f"{20 * np.log10(g[k] / dc):+.1f} dB re low-frequency "
                                          f"gain, at {f[k]:.4g} Hz)")
                 else:
-                    bw = bandwidth(f, H[:, j], reference=dc)
-                    if bw is None:
+                    band = passband(f, H[:, j], reference=dc)
+                    bands[label][out] = band
+                    bw = band.first_crossing_hz
+                    if band.note:
+                        notes[label][out] = band.note
+                    elif bw is None:
                         notes[label][out] = f"above {f[-1]:g} Hz"
-                    elif bw <= f[0]:
-                        bw, notes[label][out] = None, f"below {f[0]:g} Hz"
-                    notch = notch_near_level(f, g / dc, bw)
-                    if notch:
-                        notes[label][out] = notch
             bws[label][out] = bw
-    return BodeResult(f, input_name, outputs, curves, bws, notes, res, exact_poles, ops, f_top)
+    return BodeResult(f, input_name, outputs, curves, bws, notes, res, exact_poles, ops, f_top,
+                      bands)

@@ -28,7 +28,9 @@ def register(sub):
         "moving at --velocity, under --force; the valve current that holds it there is solved "
         "for) and plot magnitude and phase of OUTPUT/INPUT with the hoses as modal lines, with "
         "the hoses as exact dissipative lines (M6), and with ideal constant supply and return "
-        "pressures. Prints the -3 dB bandwidths and the resonances (frequency, damping); writes "
+        "pressures. Prints the -3 dB bandwidths read two ways -- the first -3 dB crossing (marked "
+        "when it lies in a notch the gain climbs out of) and the frequency up to which the gain "
+        "stays within 3 dB, notches aside -- and the resonances (frequency, damping); writes "
         "bode.png, bode.json and bode.csv to --out.")
     p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
     p.add_argument("--axis", default=None, help="servo axis whose valve drives (default: the "
@@ -105,6 +107,13 @@ def summary_dict(res, op) -> dict:
             "return_port_pressure_pa": solved.signals[solved.axis.return_pressure]},
         "frequency_range_hz": [float(res.f[0]), float(res.f[-1])],
         "bandwidth_hz": res.bandwidths, "bandwidth_notes": res.notes,
+        "passband": {label: {o: {"first_crossing_hz": b.first_crossing_hz,
+                                 "within_3db_up_to_hz": b.within_3db_up_to_hz,
+                                 "first_crossing_in_notch": None if b.notch is None else
+                                 {"frequency_hz": b.notch[0], "depth_db": b.notch[1]},
+                                 "note": b.note}
+                             for o, b in bands.items()}
+                     for label, bands in res.passbands.items()},
         "highest_retained_mode_hz": res.highest_mode_hz,
         "resonances": {},
     }
@@ -159,7 +168,7 @@ def run(args) -> int:
             dump_json(summary, fh)
         pd.DataFrame(cols).to_csv(temp("bode.csv"), index=False)
         plot_bode(res.f, res.curves, args.input, outputs, res.bandwidths, path=temp("bode.png"),
-                  title=title, highest_mode_hz=res.highest_mode_hz)
+                  title=title, highest_mode_hz=res.highest_mode_hz, passbands=res.passbands)
     if args.json:
         dump_json(summary)
         return 0
@@ -167,12 +176,26 @@ def run(args) -> int:
     print(f"  operating point: piston at {op.piston_position * 1e3:g} mm moving at "
           f"{op.piston_velocity:.3g} m/s, holding current "
           f"{res.operating_points[MODAL].valve_current * 1e3:.4g} mA")
-    rows = []
+    rows, notes = [], []
     for label in res.curves:
         for o in outputs:
-            bw = res.bandwidths[label][o]
-            rows.append([label, o, bw if bw is not None else res.notes[label].get(o, "-")])
-    print_table(["model", "output", "-3 dB bandwidth [Hz]"], rows)
+            band = res.passbands[label].get(o)
+            if band is None:       # no low-pass: resonant, integrating, held constant
+                rows.append([label, o, "-", "-"])
+                notes.append(f"  {label}, {o}: no -3 dB reading: {res.notes[label].get(o, '-')}")
+                continue
+            first = "-" if band.first_crossing_hz is None else f"{band.first_crossing_hz:.4g}"
+            rows.append([label, o, first + (" (in a notch)" if band.in_notch else ""),
+                         band.within_3db_up_to_hz if band.within_3db_up_to_hz is not None
+                         else f"above {res.f[-1]:.4g}"])
+            if band.note:
+                notes.append(f"  {label}, {o}: {band.note}")
+    print_table(["model", "output", "first -3 dB crossing [Hz]", "gain within 3 dB up to [Hz]"], rows)
+    print("  first -3 dB crossing: where the gain first falls 3 dB below its low-frequency gain, "
+          "'(in a notch)' when it climbs back above -3 dB after (a line mode's anti-resonance); "
+          "gain within 3 dB up to: where it falls below -3 dB for good, notches aside")
+    for line in notes:
+        print(line)
     print("  resonances (lightly damped poles that show in these outputs):")
     rows = []
     for label, rs in res.resonances.items():

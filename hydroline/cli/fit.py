@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..analysis.figures import plot_fit
-from ..analysis.fit import COLUMNS, STARTS, fit_parameters, read_measurements
+from ..analysis.fit import COLUMNS, STARTS, UNRESOLVED_CURVATURE, fit_parameters, read_measurements
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table
 
@@ -45,6 +45,11 @@ def register(sub):
     p.add_argument("--axis", default=None, help="servo axis the record is of (default: the first; "
                    "`hydroline circuit RIG` lists them): the record's valve_current drives it, "
                    "its columns are that axis's signals, the other axes hold")
+    p.add_argument("--keep-unresolved", action="store_true",
+                   help="fit every sample; by default the samples the record's sampling does not "
+                   "resolve in the model's traces (a stop impact: a one-sample curvature over "
+                   f"{100 * UNRESOLVED_CURVATURE:g} %% of a signal's range) are left out, and "
+                   "the output says which")
     p.add_argument("--out", default="hydroline-out", help="output folder (default hydroline-out)")
     p.add_argument("--json", action="store_true", help="print the result as JSON on stdout only")
     p.set_defaults(func=run)
@@ -91,7 +96,7 @@ def run(args) -> int:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
     res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
                          max_evaluations=args.max_evals, start=args.start, offsets=offsets,
-                         axis=args.axis)
+                         axis=args.axis, unresolved="keep" if args.keep_unresolved else "window")
     rig_file = out / "calibrated_rig.toml"
     summary = res.to_dict()
     summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),
@@ -103,22 +108,27 @@ def run(args) -> int:
         with open(temp("fit.json"), "w") as fh:     # strict JSON: NaN/inf as null
             dump_json(summary, fh)
         plot_fit(t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial,
-                 res.fitted, path=temp("fit.png"), title=f"hydroline fit: {data_path}")
+                 res.fitted, path=temp("fit.png"), title=f"hydroline fit: {data_path}",
+                 windows=[(a - t[0], b - t[0]) for a, b in res.windows], rms=res.rms,
+                 start_rms=res.start_rms, worse=res.worse)
     if args.json:
         dump_json(summary)
         return 0
     pct = f"{100 * args.confidence:g} %"
     print(f"hydroline fit: {len(params)} parameter(s) of {rig.get('rig.name', rig.source)} to {data_path}")
     print(f"  {res.n_data} residuals from {', '.join(res.sigma)}; {res.n_evaluations} model runs; "
-          f"{res.message}")
+          f"{res.status}")
+    for note in res.notes:
+        print(f"  note: {note}")
     if meas.ignored:
         shown = ", ".join(meas.ignored[:8]) + (f" and {len(meas.ignored) - 8} more"
                                                if len(meas.ignored) > 8 else "")
         print(f"  ignored columns: {shown}")
     print_table(["parameter", "unit", "start", "estimate", f"{pct} CI low", f"{pct} CI high",
                  "rel. std error"], res.table())
-    rows = [[s, res.sigma[s], res.rms.get(s)] for s in res.sigma]
-    print_table(["signal", "noise sigma [SI]", "rms residual [SI]"], rows)
+    rows = [[s, res.sigma[s], res.start_rms.get(s), res.rms.get(s)] for s in res.sigma]
+    print_table(["signal", "noise sigma [SI]", "rms residual at start [SI]",
+                 "rms residual fitted [SI]"], rows)
     for s, v in res.offsets.items():
         print(f"  fitted sensor offset of {s}: {v:.4g} [SI] (measured minus model)")
     print(f"  residual variance s^2 = {res.residual_variance:.3g} (about 1 when the model explains "

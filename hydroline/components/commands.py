@@ -130,13 +130,18 @@ class RampCommand(_Command):
 class TableCommand(_Command):
     """Piecewise-linear command through (times [s], values [unit]); held beyond the ends.
 
+    A time given twice is a jump (as in Modelica's ``CombiTimeTable``): the first of the two
+    rows is the value reached just before it, the second the value from that time on (a step
+    written by a data-acquisition card, or :class:`StepCommand`'s ``t >= time``).
+
     In the compiled model a table of up to ``RAMP_ROWS`` rows is the exact sum of clipped
     ramps ``v_0 + sum_k s_k min(max(t - t_k, 0), t_(k+1) - t_k)`` (slopes ``s_k``), which the
     C core compiles; a longer table is a CasADi interpolant (the integrator then uses CVODES).
+    Jumps are added to either as steps ``J_j (t >= t_j)``.
 
     Parameters
     ----------
-    times : array_like    Times of the rows, strictly increasing, [s]
+    times : array_like    Times of the rows, increasing; a time twice is a jump, [s]
     values : array_like   Values at those times, [SI unit of ``quantity``]
     """
 
@@ -152,19 +157,41 @@ class TableCommand(_Command):
         self.values = np.asarray(self.values, dtype=float)
         if self.times.ndim != 1 or len(self.times) < 2 or len(self.times) != len(self.values):
             raise ValueError(f"{self.name}: table needs >= 2 (time, value) rows of equal length")
-        if np.any(np.diff(self.times) <= 0):
-            raise ValueError(f"{self.name}: table times must increase strictly [s]")
         if not (np.all(np.isfinite(self.times)) and np.all(np.isfinite(self.values))):
             raise ValueError(f"{self.name}: table has NaN or infinite entries")
+        dt = np.diff(self.times)
+        if np.any(dt < 0) or np.any((dt[1:] == 0) & (dt[:-1] == 0)):
+            raise ValueError(f"{self.name}: table times must increase (a time at most twice: "
+                             f"a jump) [s]")
+        if np.all(dt == 0):
+            raise ValueError(f"{self.name}: table needs two distinct times [s]")
+
+    @cached_property
+    def jumps(self) -> tuple:
+        """(times [s], sizes [unit]) of the table's jumps (a time given twice)."""
+        k = np.flatnonzero(np.diff(self.times) == 0)
+        return self.times[k], self.values[k + 1] - self.values[k]
+
+    @cached_property
+    def continuous(self) -> tuple:
+        """(times [s], values [unit]) of the table less its jumps: strictly increasing times,
+        a continuous piecewise-linear function (the command is it plus the jumps' steps)."""
+        k = np.flatnonzero(np.diff(self.times) == 0)
+        shift = np.zeros(len(self.times))
+        shift[k + 1] = self.values[k + 1] - self.values[k]
+        keep = np.ones(len(self.times), dtype=bool)
+        keep[k + 1] = False
+        return self.times[keep], (self.values - np.cumsum(shift))[keep]
 
     @cached_property
     def interpolant(self):
-        """The table as a CasADi linear interpolant of time [s] (the compiled path of a table
-        longer than ``RAMP_ROWS``; made on first use)."""
+        """The table (less its jumps) as a CasADi linear interpolant of time [s] (the compiled
+        path of a table longer than ``RAMP_ROWS``; made on first use)."""
         import casadi as ca
 
+        times, values = self.continuous
         return ca.interpolant(f"{self.name.replace('.', '_')}_table", "linear",
-                              [self.times.tolist()], self.values.tolist())
+                              [times.tolist()], values.tolist())
 
     @classmethod
     def from_csv(cls, path, name="command", quantity="current", time_column=0, value_column=1,
@@ -209,32 +236,54 @@ class TableCommand(_Command):
                                                               read_table_csv(path, unit))), **kw)
 
     def outputs_of(self, t, x, u, p):
+        times, values = self.continuous
         if ops.is_symbolic(t):
-            if len(self.times) <= self.RAMP_ROWS:
-                dt = np.diff(self.times)
-                slopes = np.diff(self.values) / dt
-                out = float(self.values[0])
-                for tk, dtk, sk in zip(self.times[:-1], dt, slopes):
+            if len(times) <= self.RAMP_ROWS:
+                dt = np.diff(times)
+                slopes = np.diff(values) / dt
+                out = float(values[0])
+                for tk, dtk, sk in zip(times[:-1], dt, slopes):
                     if sk != 0.0:
                         out = out + float(sk) * ops.fmin(ops.fmax(t - float(tk), 0.0), float(dtk))
-                return {"command": out}
-            tc = ops.fmin(ops.fmax(t, self.times[0]), self.times[-1])
-            return {"command": self.interpolant(tc)}
-        return {"command": float(np.interp(t, self.times, self.values))}
+            else:
+                out = self.interpolant(ops.fmin(ops.fmax(t, times[0]), times[-1]))
+            for tj, size in zip(*self.jumps):
+                out = out + ops.if_else(t >= float(tj), float(size), 0.0)
+            return {"command": out}
+        return {"command": float(self.at(t))}
+
+    def at(self, t):
+        """The command at times ``t`` (numbers), right-continuous at the jumps, [unit].
+
+        Parameters
+        ----------
+        t : float or array_like   Times, [s]
+
+        Returns
+        -------
+        float or ndarray  Values, [SI unit of ``quantity``]
+        """
+        times, values = self.continuous
+        tj, size = self.jumps
+        steps = np.r_[0.0, np.cumsum(size)]
+        return np.interp(t, times, values) + steps[np.searchsorted(tj, t, side="right")]
 
     def breakpoints(self, t_end):
-        """Times where the table's slope changes (integration restarts there, so a steep
-        edge is not stepped over), for tables of up to ``RAMP_ROWS`` rows, [s].
+        """Times of the jumps, and where the table's slope changes for tables of up to
+        ``RAMP_ROWS`` rows (integration restarts there, so a steep edge is not stepped
+        over), [s].
 
         Parameters
         ----------
         t_end : float   End of the run, [s]
         """
-        if len(self.times) > self.RAMP_ROWS:
-            return []
-        slopes = np.diff(self.values) / np.diff(self.times)
-        kinks = np.flatnonzero(np.diff(slopes) != 0.0) + 1
-        return [float(self.times[k]) for k in kinks]
+        times, values = self.continuous
+        out = [float(tj) for tj in self.jumps[0]]
+        if len(times) <= self.RAMP_ROWS:
+            slopes = np.diff(values) / np.diff(times)
+            kinks = np.flatnonzero(np.diff(slopes) != 0.0) + 1
+            out += [float(times[k]) for k in kinks]
+        return sorted(set(out))
 
     def value_range(self):
         """Smallest and largest value of the table, [unit]."""
