@@ -153,7 +153,7 @@ def test_code_replaced_at_run_time_gives_another_key(monkeypatch):
     monkeypatch.undo()
     from hydroline.components import hose
 
-    monkeypatch.setattr(hose, "COEFFICIENTS_AS_PARAMETERS", True)   # a module's constant
+    monkeypatch.setattr(hose, "COEFFICIENTS_AS_PARAMETERS", False)   # a module's constant
     assert net.definition_fingerprint() not in (None, key)
     monkeypatch.undo()
     assert net.definition_fingerprint() == key

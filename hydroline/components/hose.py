@@ -16,9 +16,12 @@ _QUANTITY = {"pressure": "pressure", "flow": "flow"}
 #: Hose sections made while this is True read their line's matrix entries (the nonzeros of A,
 #: B, C, D, M8-M14) from the runtime parameters ``p`` instead of the graph's constants, so
 #: that variants that differ only in hose numbers (length, bore, bulk modulus: the layout
-#: study) share one model and swap ``p`` (:func:`coefficients_as_parameters`; the sweep's
-#: worker processes set it). Off by default: a single run's graph folds them as constants.
-COEFFICIENTS_AS_PARAMETERS = False
+#: study, a fit, a rig file that changes one hose's bulk modulus) share one compiled model and
+#: swap ``p``. On by default: the exact-pole (residue) line's graph, folded as constants, took
+#: another C build (~5 s) for every new number (CasADi folds equal and zero constants, so its
+#: program changed with the numbers), against ~0.1 s with the entries in ``p``; a run costs
+#: the same either way (default rig: 20 ms in-process).
+COEFFICIENTS_AS_PARAMETERS = True
 #: The line matrices whose nonzero entries become runtime parameters, in their order.
 COEFFICIENT_MATRICES = ("A", "B", "C", "D")
 _MATRICES = COEFFICIENT_MATRICES
