@@ -133,10 +133,11 @@ def run(args) -> int:
               "flow has risen and less of the water hammer Z0*dQ builds up.")
     print("  amplitude: half the largest swing about the one-period mean; 0 with frequency '-': no "
           "oscillation.")
-    print("  " + settling_legend([(side, s[side]) for s in study.summaries
-                                  for side in ("supply", "return")])
-          + "; measured within the metrics window (step to the stop the piston moves toward), "
-          "'-' none:")
+    legend = settling_legend([(side, s[side]) for s in study.summaries
+                              for side in ("supply", "return")])
+    if legend:
+        print(f"  {legend}; measured within the metrics window (step to the stop the piston "
+              "moves toward), '-' none:")
     for L, s in zip(study.lengths, study.summaries):
         for side in ("supply", "return"):
             if s[side].get("settling_note"):

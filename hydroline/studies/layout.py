@@ -9,11 +9,12 @@ see :func:`hydroline.system.build_network`), runs the scenario (the 50 mA open-l
 default) from the solved steady state and takes the port metrics of
 :func:`hydroline.scenarios.summarize` over the metrics window (step to the piston's arrival at
 the stop it moves toward): oscillation frequency [Hz], oscillation amplitude (two-sided, about
-the pressure's one-period mean) [MPa], first excursion and steady change [MPa], and the 2 %
-settling time [s] of :func:`hydroline.analysis.port_settling` -- measured on the window where
-the port pressure settles within it, else estimated from the exponential decay of its
-oscillation where the window holds enough of it (the table's ``*_settling_method`` column says
-which, and ``*_settling_note`` how, or why there is none). A frequency of None means the port
+the pressure's one-period mean) [MPa], first excursion and steady change [MPa], and the
+settling time [s] of :func:`hydroline.analysis.port_settling` within +-2 % of the final
+absolute pressure (``settling_band``) -- measured on the window where the port pressure
+settles within it, else estimated from the exponential decay of its oscillation's crests (the
+table's ``*_settling_method`` column says which, and ``*_settling_note`` how, or why there is
+none). A frequency of None means the port
 pressure does not ring (amplitude 0, ``*_amplitude_note`` says so). :func:`conclusion` writes
 the design conclusion from the numbers.
 
@@ -227,7 +228,7 @@ class LayoutStudy:
 
     def plot(self, path=None, title=None):
         """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
-        return right; dotted: step and piston stop, green dashed: a measured 2 % settling
+        return right; dotted: step and piston stop, green dashed: a measured settling
         time) above frequency and amplitude against length.
 
         Parameters

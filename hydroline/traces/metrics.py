@@ -30,7 +30,12 @@ interpolation (so nonuniform solver output is fine):
    half-cosine taper over the last 20 % so that a trace ending off its final value does not
    ring across the spectrum). Its highest genuine local maximum (prominence >= 2 % of the
    highest value in range) between ``min_cycles / duration`` and a quarter of the sampling
-   rate is the dominant peak. A monotone response has no such maximum: None.
+   rate is the dominant peak, if it stands at least 10 times above the spectrum's median in
+   that range (the largest of many bins of noise stands about 6 times above it). A
+   monotone response has no such maximum: None. Where the candidates of steps 2-4 all
+   fail, the dominant peak of the spectrum of the rate of change (sample differences, same
+   taper and test) is tried last: a ringing short or small beside a large slow drift (a
+   short hose's, after a valve step) stands out there.
 2. *Harmonic check.* If the spectrum also has a genuine peak within 8 % of ``1/k`` of the
    dominant frequency (k = 2..5) at least 10 % as high, that lower peak is the first
    candidate for the fundamental (the largest such k first); the dominant peak is the last
@@ -40,15 +45,22 @@ interpolation (so nonuniform solver output is fine):
    removes the final value, every harmonic and nearly all of a slow drift, and it passes the
    damped fundamental ``exp((-sigma + i Delta) t)`` with its phase slope ``Delta`` unchanged
    (a linear filter multiplies an exponential by a constant). The amplitude-weighted slope
-   of the unwrapped phase corrects ``f``; three passes. The trace must span two periods, and
-   the weighted RMS of the phase about that line must stay below 0.3 rad (a coherent
-   oscillation, not noise).
+   of the unwrapped phase corrects ``f``; three passes, over the stretch around the
+   envelope's peak where it stays above 5 % of it (a later, weaker component beyond a null
+   of the envelope is another oscillation). The trace must span two periods, and the RMS of
+   the phase about that line, weighted by the envelope squared (the oscillation's energy),
+   must stay below 0.5 rad (a coherent oscillation, not noise; two modes beating near one
+   frequency wander by about 0.3 rad). Where the refinement wanders off by more than 50 %
+   (a burst of a few periods right after the step, which the demodulation sees only from
+   one period on), the spectral peak's frequency is checked as it is.
 4. *Oscillating or not.* The envelope of the fundamental (the demodulated amplitude divided
    by the filter's gain for the fitted decay rate) must stay above 1 % of the largest
    deviation ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``.
    For the step response of a second-order system this reports damping ratios up to
    about 0.46 with the default ``min_cycles = 1.5`` (ratio 0.45: 1.5 cycles of overshoot and
-   undershoot above 1 %). No candidate passing: None.
+   undershoot above 1 %). No candidate passing: None. The verdict is a threshold: a ringing
+   that dies within a few periods is near it, where its amplitude jumps to 0
+   (:func:`pressure_metrics` says so below :data:`VERDICT_MARGIN` periods).
 5. *Zero crossings.* The mean interval between crossings in the same direction, over all
    crossings whose lobes reach 0.1 % of the largest, is the period; for a damped sinusoid
    about a constant it is exactly ``1 / f_d = 2 pi / omega_d``. Crossings of, in turn,
@@ -321,10 +333,10 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     (a generator: the second spectrum is taken only when the first's candidates are used up).
 
     The subharmonics of the dominant peak that pass the harmonic check (largest k first),
-    then the dominant peak itself; then the same from the spectrum of the rate of change
-    (the deviation's spectrum times f), where it finds other frequencies: a short ringing
-    beside a large slow drift stands out there. Empty when neither spectrum has a genuine
-    peak in range.
+    then the dominant peak itself; then the dominant peak of the spectrum of the rate of
+    change (the deviation's sample differences), where it is another frequency: a short
+    ringing beside a large slow drift stands out there. Empty when neither spectrum has a
+    genuine peak in range that stands 10 times above its median.
 
     The genuine peaks are the local maxima in range with a prominence of at least
     :data:`_PEAK_PROMINENCE` of the highest value in range (as
