@@ -184,6 +184,10 @@ def test_near_the_verdict_the_amplitude_says_so():
     m = pressure_metrics(t, p, T0)
     assert m["amplitude_mpa"] > 0.3
     assert "near the 'no oscillation' verdict" in m["amplitude_note"]
+    assert 1.5 <= m["ringing_periods"] < 3
+    # a ringing that lasts to the window's end is not near it
+    m = pressure_metrics(t, P + ringing(t, 1.0e6, 0.5, f), T0)
+    assert m["ringing_periods"] is None and m["amplitude_note"] == ""
 
 
 # --------------------------------------------------------------------------- on the rig

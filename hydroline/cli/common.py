@@ -18,7 +18,8 @@ from pathlib import Path
 from ..units import parse_quantity
 
 __all__ = ["quantity", "out_dir", "atomic_outputs", "OutputError", "print_table", "dump_json",
-           "progress_printer", "settling_cell", "settling_legend", "add_settling_band_option"]
+           "progress_printer", "settling_cell", "settling_legend", "add_settling_band_option",
+           "amplitude_cell"]
 
 
 class OutputError(ValueError):
@@ -263,6 +264,28 @@ def add_settling_band_option(parser):
                         "pressure a fluid-power engineer reads a trace against) or e.g. "
                         "'5%% of change' (+-5 %% of the steady pressure change, the control "
                         "engineer's step-response band)")
+
+
+def amplitude_cell(metrics: dict):
+    """A port's amplitude for a table: [MPa], "...^" where the ringing lasts fewer than
+    :data:`hydroline.traces.metrics.VERDICT_MARGIN` periods above 1 % of the excursion (near
+    the 'no oscillation' verdict, where the amplitude jumps to 0), None when there is none.
+
+    Parameters
+    ----------
+    metrics : dict  A port's metrics, holding ``amplitude_mpa`` [MPa] (or None) and
+                    ``ringing_periods`` [-]
+
+    Returns
+    -------
+    float, str or None  Amplitude, [MPa]
+    """
+    from ..traces.metrics import VERDICT_MARGIN
+
+    a, periods = metrics["amplitude_mpa"], metrics.get("ringing_periods")
+    if a is None or periods is None or periods >= VERDICT_MARGIN:
+        return a
+    return f"{a:.4g}^"
 
 
 def settling_legend(summaries) -> str:

@@ -5,8 +5,8 @@ import math
 
 from ..rigs import load_rig
 from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
-from .common import (add_settling_band_option, atomic_outputs, dump_json, out_dir, print_table,
-                     progress_printer, quantity, settling_cell, settling_legend)
+from .common import (add_settling_band_option, amplitude_cell, atomic_outputs, dump_json, out_dir,
+                     print_table, progress_printer, quantity, settling_cell, settling_legend)
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
@@ -115,7 +115,7 @@ def run(args) -> int:
         rows = []
         for rec, s in zip(study.records(), study.summaries):
             m = s[side]
-            rows.append([rec["section2_length_m"], m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([rec["section2_length_m"], m["frequency_hz"], amplitude_cell(m),
                          m.get("first_excursion_mpa"), m.get("steady_change_mpa"),
                          settling_cell(m)])
         print(f"  {side} port:")
@@ -132,7 +132,7 @@ def run(args) -> int:
               + ": where the round trip is shorter than the rise, the reflection returns before the "
               "flow has risen and less of the water hammer Z0*dQ builds up.")
     print("  amplitude: half the largest swing about the one-period mean; 0 with frequency '-': no "
-          "oscillation.")
+          "oscillation; '^' near that verdict (amplitude notes below).")
     legend = settling_legend([(side, s[side]) for s in study.summaries
                               for side in ("supply", "return")])
     if legend:

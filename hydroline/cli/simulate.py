@@ -5,8 +5,8 @@ import contextlib
 import json
 import sys
 
-from .common import (add_settling_band_option, atomic_outputs, dump_json, out_dir, print_table,
-                     progress_printer, quantity, settling_cell, settling_legend)
+from .common import (add_settling_band_option, amplitude_cell, atomic_outputs, dump_json, out_dir,
+                     print_table, progress_printer, quantity, settling_cell, settling_legend)
 from .figure_process import claim_figure_process
 
 #: The files written to --out.
@@ -307,13 +307,13 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         rows = []
         for side in ("supply", "return"):
             m = summary[side]
-            rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([f"{side} port", m["frequency_hz"], amplitude_cell(m),
                          m["first_excursion_mpa"], m["steady_change_mpa"], m["peak_to_peak_mpa"],
                          settling_cell(m)])
         print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                      "steady change [MPa]", "peak-to-peak [MPa]", "settling [ms]"], rows)
-        print("  amplitude: half the largest swing about the pressure's one-period mean (+-);"
-              " first excursion: largest |p - p0|")
+        print("  amplitude: half the largest swing about the pressure's one-period mean (+-); "
+              "'^' near the 'no oscillation' verdict (below); first excursion: largest |p - p0|")
         print(f"  {settling_legend([(side, summary[side]) for side in ('supply', 'return')])}")
         for side in ("supply", "return"):
             m = summary[side]
@@ -432,7 +432,7 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
     for name, a in summary["axes"].items():
         for side in ("supply", "return"):
             m = a[side]
-            rows.append([f"{name} {side} port", m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([f"{name} {side} port", m["frequency_hz"], amplitude_cell(m),
                          m.get("first_excursion_mpa"), m.get("peak_to_peak_mpa"), settling_cell(m)])
     print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                  "peak-to-peak [MPa]", "settling [ms]"], rows)

@@ -88,7 +88,7 @@ from .peaks import find_peaks, local_maxima, peak_prominence   # scipy.signal's,
 
 __all__ = ["oscillation_frequency", "oscillation_amplitude", "oscillation_baseline", "overshoot",
            "first_excursion", "peak_to_peak", "settling_time", "port_settling", "pressure_metrics",
-           "SettlingBand", "SETTLING_BAND", "AMPLITUDE_MIN_PERIODS"]
+           "SettlingBand", "SETTLING_BAND", "AMPLITUDE_MIN_PERIODS", "VERDICT_MARGIN"]
 
 #: Fraction of the post-step interval, at its end, that defines the final value.
 TAIL_FRACTION = 0.2
@@ -1297,12 +1297,30 @@ def _ringing_settling(t, p, t_step, t_stop, frequency, band, base=None):
     # the slow level (a pressure drop settling, an accumulator charging) must have come
     # within the band of the final pressure too
     notes = [note]
+    offset = np.abs(level - p_final)
     arrived = _band_exit(grid, level - p_final, h)
     if arrived > settled:
-        settled, jump = arrived, None
+        # the mean's last excursion outside the band: a discrete event where it barely is
+        last = np.flatnonzero(offset <= h)
+        last = last[grid[last] < arrived]
+        peak = float(np.max(offset[(last[-1] if last.size else 0):np.searchsorted(grid, arrived)]))
+        jump = arrived - settled if peak < (1 + EDGE_MARGIN) * h else None
+        settled = arrived
         notes = [f"the mean pressure enters the +-{_mpa(h)} band about the final pressure "
                  f"{(arrived - t_step) * 1e3:.0f} ms after the step, after its "
                  f"{frequency:.3g} Hz oscillation has" + (f" ({note})" if note else "")]
+        if jump:
+            notes.append(f"its last excursion exceeds the band by only {(peak / h - 1) * 100:.0f} "
+                         f"%: a slightly smaller one settles {jump * 1e3:.3g} ms earlier (a "
+                         f"discrete event)")
+    else:
+        later = offset[grid > settled]
+        if jump is None and later.size and float(later.max()) > (1 - EDGE_MARGIN) * h:
+            k = int(np.argmax(later))
+            jump = float(grid[grid > settled][k]) - settled
+            notes.append(f"the mean pressure comes within {(1 - later[k] / h) * 100:.0f} % of "
+                         f"the band's edge {jump * 1e3:.3g} ms later: a slightly larger "
+                         f"excursion settles that much later at least (a discrete event)")
     per_period = int(round(period / (grid[1] - grid[0])))
     drift = float(level[-1] - level[max(0, level.size - 1 - per_period)])
     if abs(drift) > h / 2:
@@ -1437,6 +1455,9 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
                                  the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
                                  above 1 %: near the 'no oscillation' verdict, where the
                                  amplitude jumps to 0
+        ``ringing_periods``      for how many periods after the step the oscillation stays
+                                 above 1 % of the excursion, [-]; None where it does so to
+                                 the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
@@ -1488,4 +1509,6 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
             "first_excursion_mpa": max(0.0, _refined_max(ts, np.abs(ps - p0))) / 1e6,
             "steady_change_mpa": change,
             "peak_to_peak_mpa": max(0.0, _refined_max(ts, ps) + _refined_max(ts, -ps)) / 1e6,
-            **settling, "amplitude_note": note}
+            **settling, "amplitude_note": note,
+            "ringing_periods": (float(periods) if periods is not None and math.isfinite(periods)
+                                else None)}
