@@ -16,7 +16,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import components as comp
-from .traces.metrics import pressure_metrics
+from .traces.metrics import SETTLING_BAND, SettlingBand, pressure_metrics
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .components.commands import read_table_csv
@@ -255,18 +255,21 @@ class Experiment:
         """What the experiment adds to a result's ``metadata``."""
         return {}
 
-    def summary(self, result: SimulationResult) -> dict:
+    def summary(self, result: SimulationResult, settling_band=SETTLING_BAND) -> dict:
         """The summary of a run of this experiment (see :func:`summarize`).
 
         Parameters
         ----------
         result : SimulationResult  A run of this experiment (:func:`simulate`)
+        settling_band : SettlingBand  The port pressures' settling band
+                                   (:class:`hydroline.traces.metrics.SettlingBand`; default
+                                   +-2 % of the final absolute pressure)
 
         Returns
         -------
         dict
         """
-        return _summary(result, self.window_start, sine=False)
+        return _summary(result, self.window_start, sine=False, settling_band=settling_band)
 
 
 def _commands_with_holds(rig, axes, driven: str, commands: list) -> list:
@@ -394,7 +397,7 @@ class ClosedLoopSine(Experiment):
         cmds = [ref] if axis.controller else [ref, template_controller(rig, axis)]
         return _commands_with_holds(rig, axes, axis.name, cmds)
 
-    def summary(self, result):
+    def summary(self, result, settling_band=SETTLING_BAND):
         return _summary(result, self.window_start, sine=True)
 
 
@@ -1098,15 +1101,16 @@ def ripple_metrics(ripple) -> dict:
             "amplitude_note": "" if ripple else "the window holds no full command cycle"}
 
 
-def summarize(res: SimulationResult) -> dict:
+def summarize(res: SimulationResult, settling_band=SETTLING_BAND) -> dict:
     """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds):
     its experiment's :meth:`Experiment.summary`.
 
     Open-loop step (and a user's own experiment): per port (``"supply"``, ``"return"``) the
     metrics of :func:`hydroline.traces.metrics.pressure_metrics` over :func:`metrics_window`:
     frequency [Hz], two-sided oscillation amplitude [MPa], first excursion [MPa], steady
-    change [MPa], peak-to-peak [MPa], 2 % settling time [s] (measured or estimated, with its
-    method and note), and a note where an amplitude cannot be given.
+    change [MPa], peak-to-peak [MPa], settling time [s] in ``settling_band`` (by default
+    +-2 % of the final absolute pressure; measured or estimated, with its method, note, band
+    and half-width ``settling_band_mpa``), and a note where an amplitude cannot be given.
 
     Closed-loop sine (no step, a forced response): per port the peak-to-peak ripple in each
     full command cycle (``ripple_pp_mpa_per_cycle``, its maximum ``ripple_pp_mpa``);
@@ -1120,20 +1124,28 @@ def summarize(res: SimulationResult) -> dict:
     Parameters
     ----------
     res : SimulationResult  A run of :func:`simulate`
+    settling_band : SettlingBand or str  The port pressures' settling band
+                            (:meth:`hydroline.traces.metrics.SettlingBand.parse`: "2%" of the
+                            final absolute pressure, the default, or e.g. "5% of change")
 
     Returns
     -------
     dict
     """
+    settling_band = SettlingBand.parse(settling_band)
     exp = res.metadata.get("experiment")
     if exp is not None:
-        return exp.summary(res)
+        # (an experiment of a user's own that overrides summary(result) keeps the default band)
+        return exp.summary(res) if settling_band == SETTLING_BAND else \
+            exp.summary(res, settling_band=settling_band)
     scenario = res.metadata.get("scenario")
     return _summary(res, "the valve step" if scenario == "open-loop-step"
-                    else "the start of the command", sine=scenario == "closed-loop-sine")
+                    else "the start of the command", sine=scenario == "closed-loop-sine",
+                    settling_band=settling_band)
 
 
-def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
+def _summary(res: SimulationResult, window_start: str, sine: bool,
+             settling_band=SETTLING_BAND) -> dict:
     """Summary of a run (:func:`summarize`); ``sine``: ripple per command cycle and tracking
     error instead of step metrics (single-axis rigs)."""
     t0, t1, reason = metrics_window(res)
@@ -1141,7 +1153,7 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
     t = res.t[m]
     axes = res.metadata.get("axes") or {}
     if len(axes) > 1:
-        return _summarize_axes(res, axes, t0, t1, m, reason, window_start)
+        return _summarize_axes(res, axes, t0, t1, m, reason, window_start, settling_band)
     ax = next(iter(axes.values()), None)
     out = {}
     for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
@@ -1151,7 +1163,7 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
             out[side] = ripple_metrics(_cycle_ripple(t, p, t0, t1,
                                                      res.metadata["command_frequency_hz"]))
         else:
-            out[side] = pressure_metrics(t, p, t0, t1)
+            out[side] = pressure_metrics(t, p, t0, t1, settling_band)
     out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
     if sine:
@@ -1161,6 +1173,8 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
         out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
     out["metrics_window_s"] = [t0, t1]
     out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
+    if not sine:
+        out["settling_band"] = settling_band.describe()
     out["warnings"] = list(res.warnings)
     return out
 
@@ -1287,7 +1301,7 @@ class SineSummaryStream:
         return out
 
 
-def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
+def _summarize_axes(res, axes, t0, t1, m, reason, window_start, settling_band=SETTLING_BAND):
     """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
 
     ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
@@ -1301,7 +1315,7 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
     for name, ax in axes.items():
         x = res[ax.position][m]
         dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
-        entry = {side: pressure_metrics(t, res[key][m], t0, t1)
+        entry = {side: pressure_metrics(t, res[key][m], t0, t1, settling_band)
                  for side, key in (("supply", ax.supply_pressure), ("return", ax.return_pressure))}
         entry["position_disturbance_mm"] = None if name in driven else dev
         if name in driven:
@@ -1312,5 +1326,6 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
     out["metrics_window_s"] = [t0, t1]
     out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
+    out["settling_band"] = settling_band.describe()
     out["warnings"] = list(res.warnings)
     return out

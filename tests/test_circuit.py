@@ -78,10 +78,11 @@ def test_two_axis_cli_json_schema(capsys, tmp_path):
     import json
     assert main(["simulate", "two_axis", "--json", "--out", str(tmp_path)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert set(doc) == {"axes", "wall_time_s"}
+    assert set(doc) == {"axes", "wall_time_s", "settling_band"}
     assert set(doc["axes"]) == {"axis1", "axis2"}
     for a in doc["axes"].values():
-        assert set(a["supply"]) == {"frequency_hz", "amplitude_mpa", "settling_time_s"}
+        assert set(a["supply"]) == {"frequency_hz", "amplitude_mpa", "settling_time_s",
+                                    "settling_band_mpa"}
         assert "position_disturbance_mm" in a
     assert isinstance(doc["axes"]["axis2"]["position_disturbance_mm"], float)
 

@@ -246,9 +246,12 @@ def test_cli_json_summary(capsys, tmp_path):
     assert rc == 0
     s = json.loads(capsys.readouterr().out)
     # exactly the issue's schema, nothing else
-    assert set(s) == {"supply", "return", "actuator_natural_frequency_hz", "wall_time_s"}
+    assert set(s) == {"supply", "return", "actuator_natural_frequency_hz", "wall_time_s",
+                      "settling_band"}
+    assert s["settling_band"] == "+-2 % of the final absolute pressure"     # (issue 23)
     for side in ("supply", "return"):
-        assert set(s[side]) == {"frequency_hz", "amplitude_mpa", "settling_time_s"}
+        assert set(s[side]) == {"frequency_hz", "amplitude_mpa", "settling_time_s",
+                                "settling_band_mpa"}
         assert s[side]["frequency_hz"] is None or isinstance(s[side]["frequency_hz"], float)
         assert isinstance(s[side]["amplitude_mpa"], float)
         assert s[side]["settling_time_s"] is None or isinstance(s[side]["settling_time_s"], float)

@@ -5,8 +5,9 @@ import contextlib
 import json
 import sys
 
-from .common import (atomic_outputs, dump_json, note_cost, out_dir, print_table, progress_printer,
-                     quantity, run_network, settling_cell)
+from .common import (add_settling_band_option, amplitude_cell, atomic_outputs, dump_json,
+                     note_cost, out_dir, print_table, progress_printer, quantity, run_network,
+                     settling_cell, settling_legend)
 from .figure_process import claim_figure_process
 
 #: The files written to --out.
@@ -47,30 +48,35 @@ def register(sub):
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
                    help="auto (default: the compiled C core where a C compiler exists, else "
                    "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
+    add_settling_band_option(p)
     p.set_defaults(func=run)
 
 
-#: What ``--json`` prints (issue 3): per port, then the actuator and the wall time.
-PORT_KEYS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
-JSON_KEYS = ("supply", "return", "actuator_natural_frequency_hz", "wall_time_s")
+#: What ``--json`` prints (issue 3): per port, then the actuator, the wall time and the
+#: settling band in words (issue 23; per port its half-width).
+PORT_KEYS = ("frequency_hz", "amplitude_mpa", "settling_time_s", "settling_band_mpa")
+JSON_KEYS = ("supply", "return", "actuator_natural_frequency_hz", "wall_time_s", "settling_band")
 
 
 def json_summary(summary: dict) -> dict:
     """The ``--json`` document: exactly ``{"supply": {frequency_hz, amplitude_mpa,
-    settling_time_s}, "return": {...}, "actuator_natural_frequency_hz", "wall_time_s"}``
-    (floats, [Hz], [MPa], [s]; frequency and settling time null when there is none).
+    settling_time_s, settling_band_mpa}, "return": {...}, "actuator_natural_frequency_hz",
+    "wall_time_s", "settling_band"}`` (floats, [Hz], [MPa], [s]; frequency and settling time
+    null when there is none; the settling band in words, e.g. "+-2 % of the final absolute
+    pressure", and its half-width per port, null where the summary has none).
     ``summary.json`` keeps the extras (metrics window, warnings, tracking error).
 
     Parameters
     ----------
     summary : dict   :func:`hydroline.summarize` of a single-axis run
     """
-    out = {side: {k: _float_or_none(summary[side][k]) for k in PORT_KEYS}
+    out = {side: {k: _float_or_none(summary[side].get(k)) for k in PORT_KEYS}
            for side in ("supply", "return")}
     # amplitude_mpa is 0.0 where no oscillation was detected and null only where the window
     # is too short to tell (summary.json and stderr say why)
     out["actuator_natural_frequency_hz"] = float(summary["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(summary["wall_time_s"])
+    out["settling_band"] = summary.get("settling_band")
     return out
 
 
@@ -85,12 +91,14 @@ def json_axes_summary(summary: dict) -> dict:
     """
     axes = {}
     for name, a in summary["axes"].items():
-        entry = {side: {k: _float_or_none(a[side][k]) for k in PORT_KEYS} for side in ("supply", "return")}
+        entry = {side: {k: _float_or_none(a[side].get(k)) for k in PORT_KEYS}
+                 for side in ("supply", "return")}
         for k in ("position_disturbance_mm", "position_change_mm", "actuator_natural_frequency_hz"):
             if k in a:
                 entry[k] = _float_or_none(a[k])
         axes[name] = entry
-    return {"axes": axes, "wall_time_s": float(summary["wall_time_s"])}
+    return {"axes": axes, "wall_time_s": float(summary["wall_time_s"]),
+            "settling_band": summary.get("settling_band")}
 
 
 def _float_or_none(v):
@@ -159,8 +167,10 @@ def _prepare(args, write, figures) -> int:
     from ..rigs import load_rig
     from ..rigs.parameters import defaults_used
     from ..scenarios import build_scenario, default_scenario, scenario_names
+    from ..traces.metrics import SettlingBand
 
     rig = load_rig(args.rig)
+    args.settling_band = SettlingBand.parse(args.settling_band)   # refused before the run
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
@@ -258,7 +268,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             figures.submit(plot_result, figure_result(figure), path=str(temp("pressures.png")),
                            title=f"{scenario} on {rig.get('rig.name', rig.source)}")
         if stream is None:
-            summary = summarize(res)
+            summary = summarize(res, settling_band=args.settling_band)
         if write:   # replaced together, or none (previous results kept)
             if not long_run:
                 res.to_csv(temp("results.csv"), every=every)
@@ -292,19 +302,21 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         rows = []
         for side in ("supply", "return"):
             m = summary[side]
-            rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([f"{side} port", m["frequency_hz"], amplitude_cell(m),
                          m["first_excursion_mpa"], m["steady_change_mpa"], m["peak_to_peak_mpa"],
                          settling_cell(m)])
         print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                      "steady change [MPa]", "peak-to-peak [MPa]", "settling [ms]"], rows)
-        print("  amplitude: half the largest swing about the pressure's one-period mean (+-);"
-              " first excursion: largest |p - p0|; '~' settling estimated from the decay")
+        print("  amplitude: half the largest swing about the pressure's one-period mean (+-); "
+              "'^' near the 'no oscillation' verdict (below); first excursion: largest |p - p0|")
+        print(f"  {settling_legend([(side, summary[side]) for side in ('supply', 'return')])}")
         for side in ("supply", "return"):
             m = summary[side]
             if m.get("amplitude_note"):
                 print(f"  {side} port: {m['amplitude_note']}")
-            elif m["settling_time_s"] is None and m.get("settling_note"):
-                print(f"  {side} port settling '-': {m['settling_note']}")
+            if m.get("settling_note") and m.get("amplitude_mpa") is not None:
+                mark = " '-'" if m["settling_time_s"] is None else ""
+                print(f"  {side} port settling{mark}: {m['settling_note']}")
     print(f"  actuator hydraulic natural frequency: {summary['actuator_natural_frequency_hz']:.1f} Hz")
     for w in summary["warnings"]:
         print(f"  WARNING: {w}")
@@ -417,10 +429,14 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
     for name, a in summary["axes"].items():
         for side in ("supply", "return"):
             m = a[side]
-            rows.append([f"{name} {side} port", m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([f"{name} {side} port", m["frequency_hz"], amplitude_cell(m),
                          m.get("first_excursion_mpa"), m.get("peak_to_peak_mpa"), settling_cell(m)])
     print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                  "peak-to-peak [MPa]", "settling [ms]"], rows)
+    legend = settling_legend([(f"{name} {side}", a[side]) for name, a in summary["axes"].items()
+                              for side in ("supply", "return")])
+    if legend:
+        print(f"  {legend}")
     for name, a in summary["axes"].items():
         d = a["position_disturbance_mm"]
         what = (f"moved {a['position_change_mm']:.3g} mm (driven by the experiment)" if d is None
