@@ -2,11 +2,10 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import sys
 
-from .common import (atomic_outputs, dump_json, note_cost, out_dir, print_table, progress_printer,
-                     quantity, run_network, settling_cell)
+from .common import (SCHEMA_VERSION, atomic_outputs, dump_json, note_cost, out_dir,
+                     print_table, progress_printer, quantity, run_network, settling_cell)
 from .figure_process import claim_figure_process
 
 #: The files written to --out.
@@ -50,51 +49,25 @@ def register(sub):
     p.set_defaults(func=run)
 
 
-#: What ``--json`` prints (issue 3): per port, then the actuator and the wall time.
-PORT_KEYS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
-JSON_KEYS = ("supply", "return", "actuator_natural_frequency_hz", "wall_time_s")
-
-
 def json_summary(summary: dict) -> dict:
-    """The ``--json`` document: exactly ``{"supply": {frequency_hz, amplitude_mpa,
-    settling_time_s}, "return": {...}, "actuator_natural_frequency_hz", "wall_time_s"}``
-    (floats, [Hz], [MPa], [s]; frequency and settling time null when there is none).
-    ``summary.json`` keeps the extras (metrics window, warnings, tracking error).
+    """The ``--json`` document, also what ``summary.json`` holds: ``schema_version`` then every
+    key of the summary (:func:`hydroline.summarize`), nested as it is: per port every metric
+    and note, the metrics window and its note, the warnings, the experiment's own metrics
+    (tracking error and ripple of the closed-loop sine) and, on a multi-axis rig, the same
+    per axis under ``"axes"``. Documented in docs/summary.schema.json. NaN and infinities
+    (a metric that does not exist) are written as null by :func:`dump_json`.
 
     Parameters
     ----------
-    summary : dict   :func:`hydroline.summarize` of a single-axis run
+    summary : dict
+        :func:`hydroline.summarize` of a run.
+
+    Returns
+    -------
+    dict
+        ``{"schema_version": SCHEMA_VERSION, **summary}`` (the summary is not modified).
     """
-    out = {side: {k: _float_or_none(summary[side][k]) for k in PORT_KEYS}
-           for side in ("supply", "return")}
-    # amplitude_mpa is 0.0 where no oscillation was detected and null only where the window
-    # is too short to tell (summary.json and stderr say why)
-    out["actuator_natural_frequency_hz"] = float(summary["actuator_natural_frequency_hz"])
-    out["wall_time_s"] = float(summary["wall_time_s"])
-    return out
-
-
-def json_axes_summary(summary: dict) -> dict:
-    """The ``--json`` document of a multi-axis rig: ``{"axes": {"<axis>": {"supply": {...},
-    "return": {...}, "position_disturbance_mm": float or null (the stepped axis), ...}},
-    "wall_time_s": float}`` ([Hz], [MPa], [s], [mm]).
-
-    Parameters
-    ----------
-    summary : dict   :func:`hydroline.summarize` of a multi-axis run
-    """
-    axes = {}
-    for name, a in summary["axes"].items():
-        entry = {side: {k: _float_or_none(a[side][k]) for k in PORT_KEYS} for side in ("supply", "return")}
-        for k in ("position_disturbance_mm", "position_change_mm", "actuator_natural_frequency_hz"):
-            if k in a:
-                entry[k] = _float_or_none(a[k])
-        axes[name] = entry
-    return {"axes": axes, "wall_time_s": float(summary["wall_time_s"])}
-
-
-def _float_or_none(v):
-    return None if v is None else float(v)
+    return {"schema_version": SCHEMA_VERSION, **summary}
 
 
 #: Output interval of the integration, [s]: what the summary's metrics are computed from.
@@ -262,7 +235,8 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         if write:   # replaced together, or none (previous results kept)
             if not long_run:
                 res.to_csv(temp("results.csv"), every=every)
-            temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+            with open(temp("summary.json"), "w") as f:
+                dump_json(json_summary(summary), f)
             if single:
                 figures.wait()
     if "axes" in summary:
@@ -408,7 +382,7 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
-        dump_json(json_axes_summary(summary))
+        dump_json(json_summary(summary))
         return 0
     print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, wall time {summary['wall_time_s']:.2f} s")

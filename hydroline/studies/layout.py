@@ -65,7 +65,14 @@ _MORE = ("first_excursion_mpa", "steady_change_mpa", "peak_to_peak_mpa")
 
 
 def _finite_or_none(v):
-    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else v
+    """``v`` with every NaN or infinite float in it (nested dicts, lists) replaced by None."""
+    if isinstance(v, dict):
+        return {k: _finite_or_none(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite_or_none(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v.item() if isinstance(v, np.generic) else v
 
 
 def parse_lengths(lengths) -> list[float]:
@@ -143,11 +150,20 @@ class LayoutStudy:
     axis: str | None = None
 
     def records(self) -> list[dict]:
-        """The ``--json`` list: ``[{"section2_length_m", "supply": {frequency_hz,
-        amplitude_mpa, settling_time_s}, "return": {...}}, ...]`` (None where a metric does
-        not exist; never NaN, so the list is strict JSON)."""
-        return [{"section2_length_m": float(L),
-                 **{side: {k: _finite_or_none(s[side][k]) for k in _METRICS} for side in SIDES}}
+        """The rows of the ``--json`` document, one per length: ``{"section2_length_m", **summary}``
+        with every key of that run's summary (:func:`hydroline.studies.settling.port_summary`),
+        nested as it is: ``"supply"`` and ``"return"`` with every port metric and note,
+        ``"flow"`` (flow rise and round trips), the metrics window, ``wall_time_s`` and
+        ``warnings``; so every column of :meth:`table` is in it (``supply_x`` as
+        ``["supply"]["x"]``, the flow's columns under ``["flow"]``). None where a metric does
+        not exist; never NaN, so the rows are strict JSON.
+
+        Returns
+        -------
+        list[dict]
+            One row per length, in the order of :attr:`lengths`.
+        """
+        return [{"section2_length_m": float(L), **_finite_or_none(s)}
                 for L, s in zip(self.lengths, self.summaries)]
 
     def table(self) -> "pandas.DataFrame":
