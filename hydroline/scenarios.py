@@ -1141,7 +1141,7 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
     t = res.t[m]
     axes = res.metadata.get("axes") or {}
     if len(axes) > 1:
-        return _summarize_axes(res, axes, t0, t1, m, reason, window_start)
+        return _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine)
     ax = next(iter(axes.values()), None)
     out = {}
     for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
@@ -1287,12 +1287,14 @@ class SineSummaryStream:
         return out
 
 
-def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
+def _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine=False):
     """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
 
     ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
     the disturbance, over the metrics window, for every axis but the stepped one (null there:
-    it moves on purpose; ``position_change_mm`` gives its travel), [mm].
+    it moves on purpose; ``position_change_mm`` gives its travel), [mm]. ``sine``: per axis
+    the ripple per command cycle instead of the step metrics, and the tracking error
+    (reference minus position, rms and max [mm]), as :func:`_summary` gives a single axis.
     """
     t = res.t[m]
     i0 = int(np.searchsorted(res.t, t0))
@@ -1301,8 +1303,16 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
     for name, ax in axes.items():
         x = res[ax.position][m]
         dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
-        entry = {side: pressure_metrics(t, res[key][m], t0, t1)
-                 for side, key in (("supply", ax.supply_pressure), ("return", ax.return_pressure))}
+        ports = (("supply", ax.supply_pressure), ("return", ax.return_pressure))
+        if sine:
+            f = res.metadata["command_frequency_hz"]
+            entry = {side: ripple_metrics(_cycle_ripple(t, res[key][m], t0, t1, f))
+                     for side, key in ports}
+            err = (res[ax.reference_signal] - res[ax.position])[m]
+            entry["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
+            entry["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
+        else:
+            entry = {side: pressure_metrics(t, res[key][m], t0, t1) for side, key in ports}
         entry["position_disturbance_mm"] = None if name in driven else dev
         if name in driven:
             entry["position_change_mm"] = float((x[-1] - x[i0]) * 1e3)

@@ -129,3 +129,23 @@ def test_layout_json_rows_carry_every_table_column(tmp_path, capsys):
                 assert (value or "") == line[col], col
             elif col != "wall_time_s":
                 assert value == pytest.approx(float(line[col]), rel=1e-9), col
+
+
+def test_two_axis_closed_loop_sine_json_per_axis(tmp_path, capsys):
+    """A multi-axis closed-loop sine: ripple and tracking error per axis, by their definition
+    from the CSV (``<axis>.position_reference - <axis>.piston_position`` over the window)."""
+    assert main(["simulate", "two_axis", "--scenario", "closed-loop-sine", "--json",
+                 "--t-end", "0.15 s", "--out", str(tmp_path)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    validate_summary(doc)
+    tab = _csv(tmp_path / "results.csv")
+    t0, t1 = doc["metrics_window_s"]
+    t = tab["time"].to_numpy()
+    w = (t >= t0 - 1e-9) & (t <= t1 + 1e-9)
+    for name, a in doc["axes"].items():
+        assert "ripple_pp_mpa_per_cycle" in a["supply"]
+        err = (tab[f"{name}.position_reference"] - tab[f"{name}.piston_position"]).to_numpy()[w]
+        assert a["tracking_error_rms_mm"] == pytest.approx(np.sqrt(np.mean(err**2)) * 1e3,
+                                                           rel=1e-3, abs=1e-6)
+        assert a["tracking_error_max_mm"] == pytest.approx(np.max(np.abs(err)) * 1e3,
+                                                           rel=1e-3, abs=1e-6)

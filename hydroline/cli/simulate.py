@@ -399,6 +399,9 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
         d = a["position_disturbance_mm"]
         what = (f"moved {a['position_change_mm']:.3g} mm (driven by the experiment)" if d is None
                 else f"position disturbance {d * 1e3:.3g} um")
+        if "tracking_error_rms_mm" in a:
+            what += (f", tracking error (reference - position) rms {a['tracking_error_rms_mm']:.2f}"
+                     f" mm, max {a['tracking_error_max_mm']:.2f} mm")
         print(f"  {name}: {what}")
     for w in summary["warnings"]:
         print(f"  warning: {w}")
