@@ -90,8 +90,23 @@ class Scenario:
 def _scenario_value(rig, scenario, key, default=None):
     v = rig.get(f"scenario.{scenario}.{key}", default)
     if v is None:
-        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}")
+        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}; add to the rig "
+                       f"file: [scenario.{scenario}] {key} = {_example_value(scenario, key)}")
     return v
+
+
+def _example_value(scenario, key) -> str:
+    """A TOML value for a missing ``scenario.<scenario>.<key>``: the embedded rig's (as written
+    there, with its unit), else a placeholder in the key's SI unit."""
+    from .rigs.parameters import PARAMETERS
+
+    raw = load_rig().raw.get(f"scenario.{scenario}.{key}")
+    if raw is not None:
+        return f'"{raw}"' if isinstance(raw, str) else repr(raw)
+    units = [getattr(p, "unit", None) for path, p in PARAMETERS.items()
+             if path.startswith("scenario.") and path.endswith(f".{key}")]
+    unit = next((u for u in units if u and u not in ("-", "str")), None)
+    return f'"<value> {unit}"' if unit else "<value>"
 
 
 def _check_scenario(rig, scenario, t_end):
@@ -450,17 +465,16 @@ class PositionStep(Experiment):
 
     def commands(self, axes, rig=None):
         ax = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
-        if ax.controller is None:
-            raise RigError(f"scenario.{self.name}: axis '{ax.name}' has no position controller "
-                           f"in the circuit (a position_controller whose current drives "
-                           f"'{ax.valve}')")
         x0 = _initial_position(rig, ax)
         _within_stroke(rig, f"scenario.{self.name}.step", x0 + self.step,
                        f"a step of {self.step * 1e3:g} mm from {x0 * 1e3:g} mm", ax)
         cmd = comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
                                final=x0 + self.step, time=self.time,
                                connections={"command": ax.reference_signal})
-        return _commands_with_holds(rig, axes, ax.name, [cmd])
+        # an axis without a position controller in the circuit (the template rig): the
+        # rig's [controller] closes its loop, as for the closed-loop sine
+        cmds = [cmd] if ax.controller else [cmd, template_controller(rig, ax)]
+        return _commands_with_holds(rig, axes, ax.name, cmds)
 
 
 @dataclass
