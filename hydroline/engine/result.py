@@ -76,6 +76,62 @@ class SimulationResult:
     def __contains__(self, key) -> bool:
         return key in self._column_index if self._data is None else key in self._data
 
+    def _summary_rows(self):
+        """(label, value) rows describing the run, and the port-metric rows of its summary
+        (:func:`hydroline.summarize`; none where the run has no experiment's metadata)."""
+        meta = self.metadata
+        t = self._times
+        rows = [("scenario", meta.get("scenario", "-")),
+                ("time [s]", f"{t[0]:.4g} to {t[-1]:.4g}, {len(t)} rows" if len(t) else "no rows"),
+                ("columns", len(self.columns)), ("states", meta.get("n_states", "-")),
+                ("wall time [s]", self.wall_time)]
+        if self.steady_state is not None:
+            rows.append(("steady-state residual [1/s]", getattr(self.steady_state, "residual", None)))
+        rows += [("warning", w) for w in self.warnings]
+        metrics = []
+        try:   # the summary lives above the engine: loaded by name (as plot does)
+            import importlib
+
+            summary = importlib.import_module("hydroline.scenarios").summarize(self)
+        except Exception:                   # a result built by hand: no experiment to read
+            return rows, metrics
+        axes = summary.get("axes") or {"": summary}
+        for name, entry in axes.items():
+            for side in ("supply", "return"):
+                m = entry.get(side, {})
+                metrics.append([f"{name} {side}".strip(), m.get("frequency_hz"),
+                                m.get("amplitude_mpa"), m.get("first_excursion_mpa"),
+                                m.get("ripple_pp_mpa"),
+                                None if m.get("settling_time_s") is None
+                                else m["settling_time_s"] * 1e3])
+        rows.append(("metrics window", summary.get("metrics_window_note", "-")))
+        return rows, metrics
+
+    #: Columns of the port-metric table of the summary shown by ``repr`` and in a notebook.
+    METRIC_HEADER = ("port", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
+                     "ripple p-p [MPa]", "settling [ms]")
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        rows, metrics = self._summary_rows()
+        text = text_block("hydroline SimulationResult", rows)
+        if metrics:
+            text += "\n" + text_block("port pressures (hydroline.summarize):", metrics,
+                                       self.METRIC_HEADER)
+        return text
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        rows, metrics = self._summary_rows()
+        out = html_block("hydroline SimulationResult", rows,
+                         note="res['supply_port_pressure'] gives a column [SI]; res.data all "
+                         "of them (pandas); res.plot() the figure")
+        if metrics:
+            out += html_block("port pressures (hydroline.summarize)", metrics, self.METRIC_HEADER)
+        return out
+
     def csv_header(self) -> list[str]:
         """``time [s]``, then every column with its SI unit (``supply_port_pressure [Pa]``), as
         ``hydroline fit`` reads it."""

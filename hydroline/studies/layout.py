@@ -166,6 +166,36 @@ class LayoutStudy:
         return [{"section2_length_m": float(L), **_finite_or_none(s)}
                 for L, s in zip(self.lengths, self.summaries)]
 
+    #: Columns of the study's summary table (``repr`` and a notebook).
+    SUMMARY_HEADER = ("length [m]", "supply [Hz]", "supply amplitude [MPa]",
+                      "return [Hz]", "return amplitude [MPa]", "supply settling [ms]")
+
+    def _summary_rows(self):
+        rows = [(L, s["supply"].get("frequency_hz"), s["supply"].get("amplitude_mpa"),
+                 s["return"].get("frequency_hz"), s["return"].get("amplitude_mpa"),
+                 None if s["supply"].get("settling_time_s") is None
+                 else s["supply"]["settling_time_s"] * 1e3)
+                for L, s in zip(self.lengths, self.summaries)]
+        title = (f"hydroline LayoutStudy: {self.scenario} on {self.rig_name or 'a rig'}, "
+                 f"{', '.join(self.sections) or 'sections II'} set to each length"
+                 + (f" ({self.wall_time:.1f} s)" if self.wall_time > 0 else ""))
+        return title, rows
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        title, rows = self._summary_rows()
+        text = text_block(title, rows, self.SUMMARY_HEADER)
+        return text + ("\n  " + conclusion(self) if self.results else "")
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        title, rows = self._summary_rows()
+        return html_block(title, rows, self.SUMMARY_HEADER,
+                          note=(conclusion(self) if self.results else "")
+                          + " (every metric: .table(); the traces: .traces())")
+
     def table(self) -> "pandas.DataFrame":
         """One row per length: section2_length_m, {supply,return}_{frequency_hz,
         amplitude_mpa, settling_time_s, first_excursion_mpa, steady_change_mpa,
