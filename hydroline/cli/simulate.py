@@ -10,6 +10,8 @@ from .figure_process import claim_figure_process
 
 #: The files written to --out.
 OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
+#: --format -> the time-series file it writes (SimulationResult.to_csv / to_parquet / to_mat).
+RESULT_FILES = {"csv": "results.csv", "parquet": "results.parquet", "mat": "results.mat"}
 
 #: The built-in experiments (:data:`hydroline.scenarios.SCENARIOS`, named here so that the
 #: parser is built without importing the model: the figure process forks before that import).
@@ -43,6 +45,11 @@ def register(sub):
     p.add_argument("--dt-out", help="interval of the rows written to results.csv, with unit, "
                    "e.g. '1 ms' (default: every 0.1 ms output row; the summary always uses "
                    "the full output)")
+    p.add_argument("--format", default="csv", choices=tuple(RESULT_FILES),
+                   help="time-series file: csv (results.csv, units in the header; default), "
+                   "parquet (results.parquet, units in its metadata: pandas.read_parquet(...)"
+                   ".attrs['units']; needs pyarrow) or mat (results.mat for MATLAB: one "
+                   "variable per signal, the struct 'units'); hydroline fit reads all three")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
                    help="auto (default: the compiled C core where a C compiler exists, else "
                    "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
@@ -155,8 +162,14 @@ def _prepare(args, write, figures) -> int:
     columns = 1 + len(network.signal_names) + len(network.state_names)
     name = "--t-end" if args.t_end else f"scenario.{scenario}.t_end"
     out = None
+    fmt = getattr(args, "format", "csv")
     if write:
-        out = out_dir(args.out if args.out is not None else "hydroline-out", OUTPUT_FILES)
+        out = out_dir(args.out if args.out is not None else "hydroline-out",
+                      (RESULT_FILES[fmt],) + OUTPUT_FILES[1:])
+    if long_run and write and fmt != "csv":
+        raise ValueError(f"--format {fmt}: a run of {round(duration / h) + 1:,} output rows is "
+                         f"streamed to CSV; give --format csv, or --dt-out to write fewer rows "
+                         f"(at most {LONG_ROWS:,})")
     if long_run:   # (streamed: memory bounded; the disk checked when it writes)
         if write:
             check_output_size(duration, h * every, columns - 1, stream_to=out / "results.csv",
@@ -197,6 +210,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
 
     # (on an error or Ctrl-C the figure process is stopped first, then the temporary files
     # are removed: a figure still being drawn would write its file again)
+    fmt = getattr(args, "format", "csv")
     with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp, \
             (figures if figures is not None else contextlib.nullcontext()):
         options = {}
@@ -234,7 +248,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             summary = summarize(res)
         if write:   # replaced together, or none (previous results kept)
             if not long_run:
-                res.to_csv(temp("results.csv"), every=every)
+                getattr(res, f"to_{fmt}")(temp(RESULT_FILES[fmt]), every=every)
             with open(temp("summary.json"), "w") as f:
                 dump_json(json_summary(summary), f)
             if single:
@@ -282,7 +296,8 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     print(f"  actuator hydraulic natural frequency: {summary['actuator_natural_frequency_hz']:.1f} Hz")
     for w in summary["warnings"]:
         print(f"  WARNING: {w}")
-    print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
+    print(f"  wrote {out / RESULT_FILES[getattr(args, 'format', 'csv')]}, {out / 'summary.json'}, "
+          f"{out / 'pressures.png'}")
     return 0
 
 
@@ -405,5 +420,6 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
         print(f"  {name}: {what}")
     for w in summary["warnings"]:
         print(f"  warning: {w}")
-    print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
+    print(f"  wrote {out / RESULT_FILES[getattr(args, 'format', 'csv')]}, {out / 'summary.json'}, "
+          f"{out / 'pressures.png'}")
     return 0
