@@ -90,8 +90,23 @@ class Scenario:
 def _scenario_value(rig, scenario, key, default=None):
     v = rig.get(f"scenario.{scenario}.{key}", default)
     if v is None:
-        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}")
+        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}; add to the rig "
+                       f"file: [scenario.{scenario}] {key} = {_example_value(scenario, key)}")
     return v
+
+
+def _example_value(scenario, key) -> str:
+    """A TOML value for a missing ``scenario.<scenario>.<key>``: the embedded rig's (as written
+    there, with its unit), else a placeholder in the key's SI unit."""
+    from .rigs.parameters import PARAMETERS
+
+    raw = load_rig().raw.get(f"scenario.{scenario}.{key}")
+    if raw is not None:
+        return f'"{raw}"' if isinstance(raw, str) else repr(raw)
+    units = [getattr(p, "unit", None) for path, p in PARAMETERS.items()
+             if path.startswith("scenario.") and path.endswith(f".{key}")]
+    unit = next((u for u in units if u and u not in ("-", "str")), None)
+    return f'"<value> {unit}"' if unit else "<value>"
 
 
 def _check_scenario(rig, scenario, t_end):
@@ -453,17 +468,16 @@ class PositionStep(Experiment):
 
     def commands(self, axes, rig=None):
         ax = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
-        if ax.controller is None:
-            raise RigError(f"scenario.{self.name}: axis '{ax.name}' has no position controller "
-                           f"in the circuit (a position_controller whose current drives "
-                           f"'{ax.valve}')")
         x0 = _initial_position(rig, ax)
         _within_stroke(rig, f"scenario.{self.name}.step", x0 + self.step,
                        f"a step of {self.step * 1e3:g} mm from {x0 * 1e3:g} mm", ax)
         cmd = comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
                                final=x0 + self.step, time=self.time,
                                connections={"command": ax.reference_signal})
-        return _commands_with_holds(rig, axes, ax.name, [cmd])
+        # an axis without a position controller in the circuit (the template rig): the
+        # rig's [controller] closes its loop, as for the closed-loop sine
+        cmds = [cmd] if ax.controller else [cmd, template_controller(rig, ax)]
+        return _commands_with_holds(rig, axes, ax.name, cmds)
 
 
 @dataclass
@@ -1153,7 +1167,8 @@ def _summary(res: SimulationResult, window_start: str, sine: bool,
     t = res.t[m]
     axes = res.metadata.get("axes") or {}
     if len(axes) > 1:
-        return _summarize_axes(res, axes, t0, t1, m, reason, window_start, settling_band)
+        return _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine,
+                               settling_band)
     ax = next(iter(axes.values()), None)
     out = {}
     for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
@@ -1301,12 +1316,15 @@ class SineSummaryStream:
         return out
 
 
-def _summarize_axes(res, axes, t0, t1, m, reason, window_start, settling_band=SETTLING_BAND):
+def _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine=False,
+                    settling_band=SETTLING_BAND):
     """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
 
     ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
     the disturbance, over the metrics window, for every axis but the stepped one (null there:
-    it moves on purpose; ``position_change_mm`` gives its travel), [mm].
+    it moves on purpose; ``position_change_mm`` gives its travel), [mm]. ``sine``: per axis
+    the ripple per command cycle instead of the step metrics, and the tracking error
+    (reference minus position, rms and max [mm]), as :func:`_summary` gives a single axis.
     """
     t = res.t[m]
     i0 = int(np.searchsorted(res.t, t0))
@@ -1315,8 +1333,17 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start, settling_band=SE
     for name, ax in axes.items():
         x = res[ax.position][m]
         dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
-        entry = {side: pressure_metrics(t, res[key][m], t0, t1, settling_band)
-                 for side, key in (("supply", ax.supply_pressure), ("return", ax.return_pressure))}
+        ports = (("supply", ax.supply_pressure), ("return", ax.return_pressure))
+        if sine:
+            f = res.metadata["command_frequency_hz"]
+            entry = {side: ripple_metrics(_cycle_ripple(t, res[key][m], t0, t1, f))
+                     for side, key in ports}
+            err = (res[ax.reference_signal] - res[ax.position])[m]
+            entry["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
+            entry["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
+        else:
+            entry = {side: pressure_metrics(t, res[key][m], t0, t1, settling_band)
+                     for side, key in ports}
         entry["position_disturbance_mm"] = None if name in driven else dev
         if name in driven:
             entry["position_change_mm"] = float((x[-1] - x[i0]) * 1e3)

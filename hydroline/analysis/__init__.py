@@ -26,6 +26,7 @@ _LAZY = {
     "resonances": "frequency",
     "DataError": "fit", "fit_parameters": "fit", "read_measurements": "fit",
     "fit_stribeck": "friction_id", "identify_friction": "friction_id",
+    "bode_data": "loop", "frequency_response_data": "loop", "stability_margins": "loop",
 }
 
 __all__ = list(_LAZY)

@@ -17,9 +17,9 @@ from pathlib import Path
 
 from ..units import parse_quantity
 
-__all__ = ["quantity", "out_dir", "atomic_outputs", "OutputError", "print_table", "dump_json",
-           "progress_printer", "settling_cell", "settling_legend", "add_settling_band_option",
-           "amplitude_cell", "run_network", "note_cost"]
+__all__ = ["SCHEMA_VERSION", "quantity", "out_dir", "atomic_outputs", "OutputError",
+           "print_table", "dump_json", "progress_printer", "settling_cell", "settling_legend",
+           "add_settling_band_option", "amplitude_cell", "run_network", "note_cost"]
 
 
 class OutputError(ValueError):
@@ -176,6 +176,12 @@ def _fmt(c):
     if isinstance(c, float):
         return f"{c:.4g}"
     return str(c)
+
+
+#: Version of the ``--json`` documents of ``simulate`` and ``layout`` (docs/summary.schema.json,
+#: docs/layout.schema.json): raised when a documented key is renamed, removed or changes its
+#: meaning, not when one is added.
+SCHEMA_VERSION = 1
 
 
 def dump_json(obj, file=None):

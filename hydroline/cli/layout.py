@@ -5,8 +5,9 @@ import math
 
 from ..rigs import load_rig
 from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
-from .common import (add_settling_band_option, amplitude_cell, atomic_outputs, dump_json, out_dir,
-                     print_table, progress_printer, quantity, settling_cell, settling_legend)
+from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
+                     dump_json, out_dir, print_table, progress_printer, quantity, settling_cell,
+                     settling_legend)
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
@@ -57,11 +58,34 @@ def register(sub):
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")
     p.add_argument("--json", action="store_true",
-                   help="print only the JSON list [{section2_length_m, supply: {frequency_hz, "
-                   "amplitude_mpa, settling_time_s, settling_band_mpa}, return: {...}, "
-                   "settling_band}, ...] on stdout")
+                   help="print only the JSON document on stdout: {schema_version, rig, "
+                   "scenario, sections, axis, conclusion, wall_time_s, rows: [{section2_length_m, "
+                   "supply: {every port metric and note}, return: {...}, flow: {...}, "
+                   "metrics_window_s, warnings, ...}, ...]} (docs/layout.schema.json)")
     add_settling_band_option(p)
     p.set_defaults(func=run)
+
+
+def json_document(study) -> dict:
+    """The ``--json`` document of a layout study (docs/layout.schema.json).
+
+    Parameters
+    ----------
+    study : LayoutStudy
+        A finished study (:func:`hydroline.studies.layout`).
+
+    Returns
+    -------
+    dict
+        ``schema_version``, ``rig``, ``scenario``, ``sections`` (the hose sections whose length
+        was set), ``axis`` (null on a single-axis rig), ``conclusion`` (the sentence printed),
+        ``wall_time_s`` (the whole study, [s]) and ``rows``: :meth:`LayoutStudy.records`, one
+        per length, with every column of the table.
+    """
+    return {"schema_version": SCHEMA_VERSION, "rig": study.rig_name, "scenario": study.scenario,
+            "sections": list(study.sections), "axis": study.axis,
+            "conclusion": conclusion(study), "wall_time_s": float(study.wall_time),
+            "rows": study.records()}
 
 
 def _progress(enabled):
@@ -102,7 +126,7 @@ def run(args) -> int:
         with atomic_outputs(out) as temp:
             files = study.save(out, temp)
     if args.json:
-        dump_json(study.records())
+        dump_json(json_document(study))
         return 0
     if args.sections:
         what = f"{', '.join(study.sections)} set to each length" + \

@@ -66,7 +66,14 @@ _MORE = ("first_excursion_mpa", "steady_change_mpa", "peak_to_peak_mpa")
 
 
 def _finite_or_none(v):
-    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else v
+    """``v`` with every NaN or infinite float in it (nested dicts, lists) replaced by None."""
+    if isinstance(v, dict):
+        return {k: _finite_or_none(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite_or_none(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v.item() if isinstance(v, np.generic) else v
 
 
 def parse_lengths(lengths) -> list[float]:
@@ -144,15 +151,51 @@ class LayoutStudy:
     axis: str | None = None
 
     def records(self) -> list[dict]:
-        """The ``--json`` list: ``[{"section2_length_m", "supply": {frequency_hz,
-        amplitude_mpa, settling_time_s, settling_band_mpa}, "return": {...}, "settling_band"},
-        ...]`` (None where a metric does not exist; never NaN, so the list is strict JSON;
-        ``settling_band`` the band in words, ``settling_band_mpa`` its half-width [MPa])."""
-        return [{"section2_length_m": float(L),
-                 **{side: {k: _finite_or_none(s[side].get(k)) for k in _METRICS}
-                    for side in SIDES},
-                 "settling_band": s.get("settling_band")}
+        """The rows of the ``--json`` document, one per length: ``{"section2_length_m", **summary}``
+        with every key of that run's summary (:func:`hydroline.studies.settling.port_summary`),
+        nested as it is: ``"supply"`` and ``"return"`` with every port metric and note,
+        ``"flow"`` (flow rise and round trips), the metrics window, ``wall_time_s`` and
+        ``warnings``; so every column of :meth:`table` is in it (``supply_x`` as
+        ``["supply"]["x"]``, the flow's columns under ``["flow"]``). None where a metric does
+        not exist; never NaN, so the rows are strict JSON.
+
+        Returns
+        -------
+        list[dict]
+            One row per length, in the order of :attr:`lengths`.
+        """
+        return [{"section2_length_m": float(L), **_finite_or_none(s)}
                 for L, s in zip(self.lengths, self.summaries)]
+
+    #: Columns of the study's summary table (``repr`` and a notebook).
+    SUMMARY_HEADER = ("length [m]", "supply [Hz]", "supply amplitude [MPa]",
+                      "return [Hz]", "return amplitude [MPa]", "supply settling [ms]")
+
+    def _summary_rows(self):
+        rows = [(L, s["supply"].get("frequency_hz"), s["supply"].get("amplitude_mpa"),
+                 s["return"].get("frequency_hz"), s["return"].get("amplitude_mpa"),
+                 None if s["supply"].get("settling_time_s") is None
+                 else s["supply"]["settling_time_s"] * 1e3)
+                for L, s in zip(self.lengths, self.summaries)]
+        title = (f"hydroline LayoutStudy: {self.scenario} on {self.rig_name or 'a rig'}, "
+                 f"{', '.join(self.sections) or 'sections II'} set to each length"
+                 + (f" ({self.wall_time:.1f} s)" if self.wall_time > 0 else ""))
+        return title, rows
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        title, rows = self._summary_rows()
+        text = text_block(title, rows, self.SUMMARY_HEADER)
+        return text + ("\n  " + conclusion(self) if self.results else "")
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        title, rows = self._summary_rows()
+        return html_block(title, rows, self.SUMMARY_HEADER,
+                          note=(conclusion(self) if self.results else "")
+                          + " (every metric: .table(); the traces: .traces())")
 
     def table(self) -> "pandas.DataFrame":
         """One row per length: section2_length_m, {supply,return}_{frequency_hz,
