@@ -34,8 +34,10 @@ def main(out="layout-example"):
     study = layout(lengths=[3.048, 2.286, 1.524, 0.7512, 0.0])
     print("Section II layout study (open-loop 50 mA step, default rig):")
     table = study.table()
-    print(table.drop(columns=["warnings", "supply_settling_note", "return_settling_note"])
+    print(table.drop(columns=["warnings", "supply_settling_note", "return_settling_note",
+                              "settling_band"])
           .to_string(index=False, float_format="%.4g"))
+    # settling within +-2 % of the final absolute pressure (table["settling_band"]);
     # settling_method: "measured" within the window (step to piston stop), "estimated" from
     # the decay of the ringing at the stop, "" none -- the note says why
     for L, s in zip(study.lengths, study.summaries):

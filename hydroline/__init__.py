@@ -22,10 +22,20 @@ _LAZY = {
     "scenarios": ("hydroline.scenarios", None),  # experiments: hydroline.scenarios.OpenLoopStep
     "analysis": ("hydroline.analysis", None),   # hydroline.analysis.linearize(...)
     "studies": ("hydroline.studies", None),     # hydroline.studies.layout(...)
+    # the linear model and what is read from it (python-control, SciPy: loaded on first use)
+    "linearize": ("hydroline.analysis", "linearize"),
+    "bode_analysis": ("hydroline.analysis", "bode_analysis"),
+    "bode_data": ("hydroline.analysis", "bode_data"),
+    "frequency_response_data": ("hydroline.analysis", "frequency_response_data"),
+    "stability_margins": ("hydroline.analysis", "stability_margins"),
+    "layout": ("hydroline.studies", "layout"),
+    "sweep": ("hydroline.studies", "sweep"),
 }
 
 __all__ = ["Fluid", "MINERAL_OIL", "effective_bulk_modulus", "Rig", "load_rig", "simulate",
-           "summarize", "scenarios", "analysis", "studies", "__version__"]
+           "summarize", "scenarios", "analysis", "studies", "linearize", "bode_analysis",
+           "bode_data", "frequency_response_data", "stability_margins", "layout", "sweep",
+           "__version__"]
 
 
 def __getattr__(name):

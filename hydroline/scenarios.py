@@ -16,7 +16,7 @@ from typing import ClassVar
 import numpy as np
 
 from . import components as comp
-from .traces.metrics import pressure_metrics
+from .traces.metrics import SETTLING_BAND, SettlingBand, pressure_metrics
 from .limits import check_output_size
 from .rigs import SCHEMA, Rig, RigError, load_rig
 from .components.commands import read_table_csv
@@ -90,8 +90,23 @@ class Scenario:
 def _scenario_value(rig, scenario, key, default=None):
     v = rig.get(f"scenario.{scenario}.{key}", default)
     if v is None:
-        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}")
+        raise RigError(f"scenario.{scenario}.{key}: not set in rig {rig.source}; add to the rig "
+                       f"file: [scenario.{scenario}] {key} = {_example_value(scenario, key)}")
     return v
+
+
+def _example_value(scenario, key) -> str:
+    """A TOML value for a missing ``scenario.<scenario>.<key>``: the embedded rig's (as written
+    there, with its unit), else a placeholder in the key's SI unit."""
+    from .rigs.parameters import PARAMETERS
+
+    raw = load_rig().raw.get(f"scenario.{scenario}.{key}")
+    if raw is not None:
+        return f'"{raw}"' if isinstance(raw, str) else repr(raw)
+    units = [getattr(p, "unit", None) for path, p in PARAMETERS.items()
+             if path.startswith("scenario.") and path.endswith(f".{key}")]
+    unit = next((u for u in units if u and u not in ("-", "str")), None)
+    return f'"<value> {unit}"' if unit else "<value>"
 
 
 def _check_scenario(rig, scenario, t_end):
@@ -255,18 +270,21 @@ class Experiment:
         """What the experiment adds to a result's ``metadata``."""
         return {}
 
-    def summary(self, result: SimulationResult) -> dict:
+    def summary(self, result: SimulationResult, settling_band=SETTLING_BAND) -> dict:
         """The summary of a run of this experiment (see :func:`summarize`).
 
         Parameters
         ----------
         result : SimulationResult  A run of this experiment (:func:`simulate`)
+        settling_band : SettlingBand  The port pressures' settling band
+                                   (:class:`hydroline.traces.metrics.SettlingBand`; default
+                                   +-2 % of the final absolute pressure)
 
         Returns
         -------
         dict
         """
-        return _summary(result, self.window_start, sine=False)
+        return _summary(result, self.window_start, sine=False, settling_band=settling_band)
 
 
 def _commands_with_holds(rig, axes, driven: str, commands: list) -> list:
@@ -394,7 +412,7 @@ class ClosedLoopSine(Experiment):
         cmds = [ref] if axis.controller else [ref, template_controller(rig, axis)]
         return _commands_with_holds(rig, axes, axis.name, cmds)
 
-    def summary(self, result):
+    def summary(self, result, settling_band=SETTLING_BAND):
         return _summary(result, self.window_start, sine=True)
 
 
@@ -450,17 +468,16 @@ class PositionStep(Experiment):
 
     def commands(self, axes, rig=None):
         ax = _pick_axis(axes, self.axis, f"scenario.{self.name}.axis")
-        if ax.controller is None:
-            raise RigError(f"scenario.{self.name}: axis '{ax.name}' has no position controller "
-                           f"in the circuit (a position_controller whose current drives "
-                           f"'{ax.valve}')")
         x0 = _initial_position(rig, ax)
         _within_stroke(rig, f"scenario.{self.name}.step", x0 + self.step,
                        f"a step of {self.step * 1e3:g} mm from {x0 * 1e3:g} mm", ax)
         cmd = comp.StepCommand(name=f"{ax.name}.command", quantity="position", initial=x0,
                                final=x0 + self.step, time=self.time,
                                connections={"command": ax.reference_signal})
-        return _commands_with_holds(rig, axes, ax.name, [cmd])
+        # an axis without a position controller in the circuit (the template rig): the
+        # rig's [controller] closes its loop, as for the closed-loop sine
+        cmds = [cmd] if ax.controller else [cmd, template_controller(rig, ax)]
+        return _commands_with_holds(rig, axes, ax.name, cmds)
 
 
 @dataclass
@@ -1098,15 +1115,16 @@ def ripple_metrics(ripple) -> dict:
             "amplitude_note": "" if ripple else "the window holds no full command cycle"}
 
 
-def summarize(res: SimulationResult) -> dict:
+def summarize(res: SimulationResult, settling_band=SETTLING_BAND) -> dict:
     """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds):
     its experiment's :meth:`Experiment.summary`.
 
     Open-loop step (and a user's own experiment): per port (``"supply"``, ``"return"``) the
     metrics of :func:`hydroline.traces.metrics.pressure_metrics` over :func:`metrics_window`:
     frequency [Hz], two-sided oscillation amplitude [MPa], first excursion [MPa], steady
-    change [MPa], peak-to-peak [MPa], 2 % settling time [s] (measured or estimated, with its
-    method and note), and a note where an amplitude cannot be given.
+    change [MPa], peak-to-peak [MPa], settling time [s] in ``settling_band`` (by default
+    +-2 % of the final absolute pressure; measured or estimated, with its method, note, band
+    and half-width ``settling_band_mpa``), and a note where an amplitude cannot be given.
 
     Closed-loop sine (no step, a forced response): per port the peak-to-peak ripple in each
     full command cycle (``ripple_pp_mpa_per_cycle``, its maximum ``ripple_pp_mpa``);
@@ -1120,20 +1138,28 @@ def summarize(res: SimulationResult) -> dict:
     Parameters
     ----------
     res : SimulationResult  A run of :func:`simulate`
+    settling_band : SettlingBand or str  The port pressures' settling band
+                            (:meth:`hydroline.traces.metrics.SettlingBand.parse`: "2%" of the
+                            final absolute pressure, the default, or e.g. "5% of change")
 
     Returns
     -------
     dict
     """
+    settling_band = SettlingBand.parse(settling_band)
     exp = res.metadata.get("experiment")
     if exp is not None:
-        return exp.summary(res)
+        # (an experiment of a user's own that overrides summary(result) keeps the default band)
+        return exp.summary(res) if settling_band == SETTLING_BAND else \
+            exp.summary(res, settling_band=settling_band)
     scenario = res.metadata.get("scenario")
     return _summary(res, "the valve step" if scenario == "open-loop-step"
-                    else "the start of the command", sine=scenario == "closed-loop-sine")
+                    else "the start of the command", sine=scenario == "closed-loop-sine",
+                    settling_band=settling_band)
 
 
-def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
+def _summary(res: SimulationResult, window_start: str, sine: bool,
+             settling_band=SETTLING_BAND) -> dict:
     """Summary of a run (:func:`summarize`); ``sine``: ripple per command cycle and tracking
     error instead of step metrics (single-axis rigs)."""
     t0, t1, reason = metrics_window(res)
@@ -1141,7 +1167,8 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
     t = res.t[m]
     axes = res.metadata.get("axes") or {}
     if len(axes) > 1:
-        return _summarize_axes(res, axes, t0, t1, m, reason, window_start)
+        return _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine,
+                               settling_band)
     ax = next(iter(axes.values()), None)
     out = {}
     for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
@@ -1151,7 +1178,7 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
             out[side] = ripple_metrics(_cycle_ripple(t, p, t0, t1,
                                                      res.metadata["command_frequency_hz"]))
         else:
-            out[side] = pressure_metrics(t, p, t0, t1)
+            out[side] = pressure_metrics(t, p, t0, t1, settling_band)
     out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
     if sine:
@@ -1161,6 +1188,8 @@ def _summary(res: SimulationResult, window_start: str, sine: bool) -> dict:
         out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
     out["metrics_window_s"] = [t0, t1]
     out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
+    if not sine:
+        out["settling_band"] = settling_band.describe()
     out["warnings"] = list(res.warnings)
     return out
 
@@ -1287,12 +1316,15 @@ class SineSummaryStream:
         return out
 
 
-def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
+def _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine=False,
+                    settling_band=SETTLING_BAND):
     """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
 
     ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
     the disturbance, over the metrics window, for every axis but the stepped one (null there:
-    it moves on purpose; ``position_change_mm`` gives its travel), [mm].
+    it moves on purpose; ``position_change_mm`` gives its travel), [mm]. ``sine``: per axis
+    the ripple per command cycle instead of the step metrics, and the tracking error
+    (reference minus position, rms and max [mm]), as :func:`_summary` gives a single axis.
     """
     t = res.t[m]
     i0 = int(np.searchsorted(res.t, t0))
@@ -1301,8 +1333,17 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
     for name, ax in axes.items():
         x = res[ax.position][m]
         dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
-        entry = {side: pressure_metrics(t, res[key][m], t0, t1)
-                 for side, key in (("supply", ax.supply_pressure), ("return", ax.return_pressure))}
+        ports = (("supply", ax.supply_pressure), ("return", ax.return_pressure))
+        if sine:
+            f = res.metadata["command_frequency_hz"]
+            entry = {side: ripple_metrics(_cycle_ripple(t, res[key][m], t0, t1, f))
+                     for side, key in ports}
+            err = (res[ax.reference_signal] - res[ax.position])[m]
+            entry["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
+            entry["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
+        else:
+            entry = {side: pressure_metrics(t, res[key][m], t0, t1, settling_band)
+                     for side, key in ports}
         entry["position_disturbance_mm"] = None if name in driven else dev
         if name in driven:
             entry["position_change_mm"] = float((x[-1] - x[i0]) * 1e3)
@@ -1312,5 +1353,6 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start):
     out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
     out["metrics_window_s"] = [t0, t1]
     out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
+    out["settling_band"] = settling_band.describe()
     out["warnings"] = list(res.warnings)
     return out

@@ -78,11 +78,15 @@ def test_two_axis_cli_json_schema(capsys, tmp_path):
     import json
     assert main(["simulate", "two_axis", "--json", "--out", str(tmp_path)]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert set(doc) == {"axes", "wall_time_s"}
+    assert {"schema_version", "axes", "wall_time_s", "metrics_window_s", "warnings",
+            "settling_band"} <= set(doc)
     assert set(doc["axes"]) == {"axis1", "axis2"}
     for a in doc["axes"].values():
-        assert set(a["supply"]) == {"frequency_hz", "amplitude_mpa", "settling_time_s"}
+        assert {"frequency_hz", "amplitude_mpa", "settling_time_s", "first_excursion_mpa",
+                "settling_note", "settling_band_mpa"} <= set(a["supply"])
         assert "position_disturbance_mm" in a
+    from test_json_summary import validate_summary   # the documented schema (docs/)
+    validate_summary(doc)
     assert isinstance(doc["axes"]["axis2"]["position_disturbance_mm"], float)
 
 

@@ -166,3 +166,36 @@ def test_run_ending_before_the_disturbance_is_refused_naming_both_times(rig_name
     assert len(err) == 1
     assert "t_end: the run would end at 5 ms, before the disturbance" in err[0]
     assert "at 10 ms (scenario." in err[0] and ".time) [s]" in err[0]
+
+
+def test_every_builtin_scenario_runs_on_the_default_rig(tmp_path, capsys):
+    """position-step on the default (template) rig: the rig's [controller] closes the loop, as
+    for the closed-loop sine; the piston ends at the rig's step (a P loop on an integrating
+    plant has no steady error without a load force: the default rig's load is a mass)."""
+    from hydroline.cli.simulate import BUILTIN_SCENARIOS
+
+    rig = load_rig()
+    step = rig["scenario.position-step.step"]
+    assert 0 < step <= rig["actuator.stroke"] / 2
+    assert main(["simulate", "--scenario", "position-step", "--json", "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    import pandas as pd
+    tab = pd.read_csv(tmp_path / "results.csv", usecols=["position_reference [m]",
+                                                         "piston_position [m]"])
+    assert tab["position_reference [m]"].iloc[-1] == pytest.approx(step, rel=1e-9)
+    assert tab["piston_position [m]"].iloc[-1] == pytest.approx(step, rel=0.02)
+    for scenario in BUILTIN_SCENARIOS:    # the others: the scenario builds (no run)
+        assert build_scenario(rig, scenario).t_end > 0
+
+
+def test_missing_scenario_value_says_what_to_add(tmp_path, capsys):
+    """A rig without scenario.position-step.step: one line with the TOML to add (the embedded
+    rig's value as an example)."""
+    text = TWO_AXIS.read_text()
+    f = tmp_path / "no_step.toml"
+    f.write_text("\n".join(ln for ln in text.splitlines() if not ln.startswith("step =")))
+    assert main(["simulate", str(f), "--scenario", "position-step", "--json"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1
+    raw = load_rig().raw["scenario.position-step.step"]
+    assert f'add to the rig file: [scenario.position-step] step = "{raw}"' in err[0]

@@ -93,3 +93,19 @@ fig.savefig(OUT / "bode_velocity.png", dpi=100)
 # below the first line resonance, so the supply line, not the valve, sets the achievable
 # test bandwidth.
 print(f"highest retained line mode: {bode.highest_mode_hz:.0f} Hz")
+
+# %%
+# Gain and phase margins of the position loop
+# -------------------------------------------
+# The rig's P controller (``controller.proportional_gain`` [A/m]) closes the loop around
+# valve current -> piston position. ``control.margin`` on the ~60-state model fails inside
+# python-control (it converts to a transfer-function polynomial first); the margins read off
+# the frequency response do not: :func:`hydroline.stability_margins` evaluates the response
+# directly and reads them through ``control.frd`` (:func:`hydroline.frequency_response_data`
+# gives the FRD itself, :func:`hydroline.bode_data` a table of gain and phase).
+rig = hydroline.load_rig()
+plant = hydroline.linearize(rig, inputs=["valve_current"], outputs=["piston_position"])
+m = hydroline.stability_margins(plant, gain=rig["controller.proportional_gain"])
+print(f"position loop: phase margin {m['phase_margin_deg']:.0f} deg at "
+      f"{m['gain_crossover_hz']:.1f} Hz, gain margin {m['gain_margin_db']:.1f} dB at "
+      f"{m['phase_crossover_hz']:.0f} Hz")

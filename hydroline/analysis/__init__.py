@@ -18,7 +18,7 @@ _LAZY = {
     "oscillation_baseline": "..traces.metrics", "overshoot": "..traces.metrics",
     "first_excursion": "..traces.metrics", "peak_to_peak": "..traces.metrics",
     "pressure_metrics": "..traces.metrics", "port_settling": "..traces.metrics",
-    "settling_time": "..traces.metrics",
+    "settling_time": "..traces.metrics", "SettlingBand": "..traces.metrics",
     "OperatingPoint": "linearize", "OperatingPointError": "linearize", "linearize": "linearize",
     "solve_operating_point": "linearize",
     "bandwidth": "frequency", "passband": "frequency", "bode_analysis": "frequency",
@@ -26,6 +26,7 @@ _LAZY = {
     "resonances": "frequency",
     "DataError": "fit", "fit_parameters": "fit", "read_measurements": "fit",
     "fit_stribeck": "friction_id", "identify_friction": "friction_id",
+    "bode_data": "loop", "frequency_response_data": "loop", "stability_margins": "loop",
 }
 
 __all__ = list(_LAZY)

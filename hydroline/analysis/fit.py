@@ -141,12 +141,49 @@ class Measurements:
         self.data.rename(columns={c: f"{c} [{COLUMNS[c]}]" for c in self.data}).to_csv(path, index=False)
 
 
+def _read_table(path, src) -> pd.DataFrame:
+    """A record as a table with ``name [unit]`` columns: a CSV as it is; a Parquet file with
+    its units in the metadata (``attrs["units"]``, as ``hydroline simulate --format parquet``
+    writes it); a MAT file of one variable per signal with the structs ``units`` and
+    ``names`` (``--format mat``)."""
+    suffix = Path(path).suffix.lower()
+    try:
+        if suffix == ".parquet":
+            table = pd.read_parquet(path)
+            units = table.attrs.get("units", {})
+            return table.rename(columns={c: f"{c} [{units[c]}]" for c in table.columns
+                                         if c in units})
+        if suffix == ".mat":
+            from scipy.io import loadmat
+
+            mat = loadmat(path, squeeze_me=True)
+            fields = {k: mat[k] for k in ("units", "names") if k in mat}
+            info = {k: {n: str(v[n]) for n in v.dtype.names} if getattr(v, "dtype", None) is not None
+                    and v.dtype.names else {} for k, v in fields.items()}
+            cols = {}
+            for var, values in mat.items():
+                if var.startswith("__") or var in ("units", "names"):
+                    continue
+                name = info.get("names", {}).get(var, var)
+                unit = info.get("units", {}).get(var)
+                cols[f"{name} [{unit}]" if unit else name] = np.ravel(values)
+            return pd.DataFrame(cols)
+        return pd.read_csv(path, skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
+        raise DataError(f"{src}: not a readable CSV file ({str(e).strip().splitlines()[0]})") from None
+    except (OSError, ValueError, TypeError) as e:   # pyarrow's and SciPy's readers
+        what = "Parquet" if suffix == ".parquet" else "MAT"
+        raise DataError(f"{src}: not a readable {what} file "
+                        f"({str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__})") from None
+
+
 def read_measurements(path, required=("time", "valve_current"), need_signal: bool = True) -> Measurements:
-    """Read and check a measurement CSV (see the module docstring).
+    """Read and check a measured record (see the module docstring): a CSV, or a Parquet or
+    MAT file as ``hydroline simulate --format parquet|mat`` writes them.
 
     Parameters
     ----------
-    path : str or Path      CSV file
+    path : str or Path      CSV, ``.parquet`` or ``.mat`` file
     required : tuple[str]   Columns that must be present
     need_signal : bool      Require at least one of :data:`MEASURABLE`
 
@@ -161,10 +198,7 @@ def read_measurements(path, required=("time", "valve_current"), need_signal: boo
     src = str(path)
     if not Path(path).is_file():
         raise DataError(f"{src}: data file not found")
-    try:
-        raw = pd.read_csv(path, skipinitialspace=True)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
-        raise DataError(f"{src}: not a readable CSV file ({str(e).strip().splitlines()[0]})") from None
+    raw = _read_table(path, src)
     cols, ignored = {}, []
     for col in raw.columns:
         name, _ = split_header(col)

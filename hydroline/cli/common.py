@@ -17,8 +17,9 @@ from pathlib import Path
 
 from ..units import parse_quantity
 
-__all__ = ["quantity", "out_dir", "atomic_outputs", "OutputError", "print_table", "dump_json",
-           "progress_printer", "settling_cell", "run_network", "note_cost"]
+__all__ = ["SCHEMA_VERSION", "quantity", "out_dir", "atomic_outputs", "OutputError",
+           "print_table", "dump_json", "progress_printer", "settling_cell", "settling_legend",
+           "add_settling_band_option", "amplitude_cell", "run_network", "note_cost"]
 
 
 class OutputError(ValueError):
@@ -177,6 +178,12 @@ def _fmt(c):
     return str(c)
 
 
+#: Version of the ``--json`` documents of ``simulate`` and ``layout`` (docs/summary.schema.json,
+#: docs/layout.schema.json): raised when a documented key is renamed, removed or changes its
+#: meaning, not when one is added.
+SCHEMA_VERSION = 1
+
+
 def dump_json(obj, file=None):
     """Strict JSON (RFC 8259) on stdout or ``file``: NaN and +-inf, which JSON has no word
     for, are written as null (a metric that does not exist).
@@ -229,13 +236,13 @@ def progress_printer(label, enabled=True):
 
 
 def settling_cell(metrics: dict):
-    """A port's settling time for a table: [ms], "~..." when estimated, None when there is
-    none.
+    """A port's settling time for a table: [ms], "~..." when estimated, "...*" where a crest
+    lies at the band's edge (the time may jump by half a period), None when there is none.
 
     Parameters
     ----------
-    metrics : dict  A port's metrics, holding ``settling_time_s`` [s] (or None) and
-                    ``settling_method``
+    metrics : dict  A port's metrics, holding ``settling_time_s`` [s] (or None),
+                    ``settling_method`` and ``settling_jump_s``
 
     Returns
     -------
@@ -244,7 +251,10 @@ def settling_cell(metrics: dict):
     v = metrics["settling_time_s"]
     if v is None:
         return None
-    return f"~{v * 1e3:.4g}" if metrics.get("settling_method") == "estimated" else v * 1e3
+    estimated = metrics.get("settling_method") == "estimated"
+    if not estimated and not metrics.get("settling_jump_s"):
+        return v * 1e3
+    return f"{'~' if estimated else ''}{v * 1e3:.4g}{'*' if metrics.get('settling_jump_s') else ''}"
 
 
 def run_network(rig, scenario: str, duration: float):
@@ -322,3 +332,69 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
                 else "; a larger --dt-out writes less")
     print(f"hydroline {command}: note: a large run: {what}: {estimate.describe()}{hint}",
           file=sys.stderr, flush=True)
+
+
+def add_settling_band_option(parser):
+    """Add ``--settling-band`` (the port pressures' settling band) to a subcommand's parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser  The subcommand's parser
+    """
+    parser.add_argument("--settling-band", default="2%", metavar="BAND",
+                        help="band the port pressures' settling time is read against: '2%%' "
+                        "(default: +-2 %% of the final absolute pressure, the operating "
+                        "pressure a fluid-power engineer reads a trace against) or e.g. "
+                        "'5%% of change' (+-5 %% of the steady pressure change, the control "
+                        "engineer's step-response band)")
+
+
+def amplitude_cell(metrics: dict):
+    """A port's amplitude for a table: [MPa], "...^" where the ringing lasts fewer than
+    :data:`hydroline.traces.metrics.VERDICT_MARGIN` periods above 1 % of the excursion (near
+    the 'no oscillation' verdict, where the amplitude jumps to 0), None when there is none.
+
+    Parameters
+    ----------
+    metrics : dict  A port's metrics, holding ``amplitude_mpa`` [MPa] (or None) and
+                    ``ringing_periods`` [-]
+
+    Returns
+    -------
+    float, str or None  Amplitude, [MPa]
+    """
+    from ..traces.metrics import VERDICT_MARGIN
+
+    a, periods = metrics["amplitude_mpa"], metrics.get("ringing_periods")
+    if a is None or periods is None or periods >= VERDICT_MARGIN:
+        return a
+    return f"{a:.4g}^"
+
+
+def settling_legend(summaries) -> str:
+    """One line saying what the settling column means: the band in words and its half-width
+    per port, and the marks of :func:`settling_cell`.
+
+    Parameters
+    ----------
+    summaries : list of tuple  Port metrics (``settling_band``, ``settling_band_mpa``),
+                               labelled: ``[(label, metrics), ...]``; the half-widths of one
+                               label are given as their range
+
+    Returns
+    -------
+    str
+    """
+    bands = [(label, m) for label, m in summaries if m.get("settling_band")]
+    if not bands:
+        return ""
+    by_label = {}
+    for label, m in bands:
+        if m.get("settling_band_mpa") is not None:
+            by_label.setdefault(label, []).append(m["settling_band_mpa"])
+    widths = ", ".join(f"{label} +-{min(v):.3g}" + (f"-{max(v):.3g}" if f"{max(v):.3g}" !=
+                                                     f"{min(v):.3g}" else "") + " MPa"
+                       for label, v in by_label.items())
+    return (f"settling: within {bands[0][1]['settling_band']}" + (f" ({widths})" if widths else "")
+            + " about the pressure's one-period mean; '~' estimated from the decay of the "
+            "oscillation; '*' a crest at the band's edge: the time may jump by half a period")

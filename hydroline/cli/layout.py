@@ -5,8 +5,9 @@ import math
 
 from ..rigs import load_rig
 from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
-from .common import (atomic_outputs, dump_json, out_dir, print_table, progress_printer, quantity,
-                     settling_cell)
+from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
+                     dump_json, out_dir, print_table, progress_printer, quantity, settling_cell,
+                     settling_legend)
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
@@ -28,10 +29,11 @@ def register(sub):
         "supply and return port oscillation frequency, oscillation amplitude (half the largest swing "
         "about the one-period mean), first excursion |p - p0| and steady change over the metrics "
         "window (step to the stop the piston moves toward), the design conclusion they support, "
-        "and the 2 % settling time: measured where the port pressure settles "
+        "and the settling time (by default within +-2 % of the final absolute pressure, "
+        "--settling-band): measured where the port pressure settles "
         "within the window, '~' estimated from the decay of its oscillation where it is still "
-        "ringing at the stop (the window must hold >= 6 periods and the mean pressure have stopped "
-        "moving), '-' neither (the reason is printed). With --out DIR: layout.csv, layout_traces.csv "
+        "ringing at the stop (at least 3 crests after the first period fitted with an exponential "
+        "decay), '-' neither (the reason is printed). With --out DIR: layout.csv, layout_traces.csv "
         "and layout.png (the port-pressure traces of every length stacked, as the paper's "
         "Figs. 13-14, plus frequency and amplitude against length).")
     p.add_argument("rig", nargs="?", help="rig TOML file (default: the embedded Ayalew & Kulakowski 2005 rig)")
@@ -56,9 +58,34 @@ def register(sub):
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")
     p.add_argument("--json", action="store_true",
-                   help="print only the JSON list [{section2_length_m, supply: {frequency_hz, "
-                   "amplitude_mpa, settling_time_s}, return: {...}}, ...] on stdout")
+                   help="print only the JSON document on stdout: {schema_version, rig, "
+                   "scenario, sections, axis, conclusion, wall_time_s, rows: [{section2_length_m, "
+                   "supply: {every port metric and note}, return: {...}, flow: {...}, "
+                   "metrics_window_s, warnings, ...}, ...]} (docs/layout.schema.json)")
+    add_settling_band_option(p)
     p.set_defaults(func=run)
+
+
+def json_document(study) -> dict:
+    """The ``--json`` document of a layout study (docs/layout.schema.json).
+
+    Parameters
+    ----------
+    study : LayoutStudy
+        A finished study (:func:`hydroline.studies.layout`).
+
+    Returns
+    -------
+    dict
+        ``schema_version``, ``rig``, ``scenario``, ``sections`` (the hose sections whose length
+        was set), ``axis`` (null on a single-axis rig), ``conclusion`` (the sentence printed),
+        ``wall_time_s`` (the whole study, [s]) and ``rows``: :meth:`LayoutStudy.records`, one
+        per length, with every column of the table.
+    """
+    return {"schema_version": SCHEMA_VERSION, "rig": study.rig_name, "scenario": study.scenario,
+            "sections": list(study.sections), "axis": study.axis,
+            "conclusion": conclusion(study), "wall_time_s": float(study.wall_time),
+            "rows": study.records()}
 
 
 def _progress(enabled):
@@ -80,7 +107,10 @@ def run(args) -> int:
     -------
     int  Exit code, 0 on success
     """
+    from ..traces.metrics import SettlingBand
+
     rig = load_rig(args.rig)
+    band = SettlingBand.parse(args.settling_band)     # refused before any run
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
@@ -90,13 +120,13 @@ def run(args) -> int:
     sections = layout_sections(rig, args.sections, sides)   # refused before any run
     study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
                    scenario=args.scenario, t_end=t_end, solver=args.solver,
-                   progress=_progress(not args.json))
+                   progress=_progress(not args.json), settling_band=band)
     files = {}
     if args.out:   # all three files replaced together, or none (a failed write keeps the old)
         with atomic_outputs(out) as temp:
             files = study.save(out, temp)
     if args.json:
-        dump_json(study.records())
+        dump_json(json_document(study))
         return 0
     if args.sections:
         what = f"{', '.join(study.sections)} set to each length" + \
@@ -109,7 +139,7 @@ def run(args) -> int:
         rows = []
         for rec, s in zip(study.records(), study.summaries):
             m = s[side]
-            rows.append([rec["section2_length_m"], m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([rec["section2_length_m"], m["frequency_hz"], amplitude_cell(m),
                          m.get("first_excursion_mpa"), m.get("steady_change_mpa"),
                          settling_cell(m)])
         print(f"  {side} port:")
@@ -126,12 +156,22 @@ def run(args) -> int:
               + ": where the round trip is shorter than the rise, the reflection returns before the "
               "flow has risen and less of the water hammer Z0*dQ builds up.")
     print("  amplitude: half the largest swing about the one-period mean; 0 with frequency '-': no "
-          "oscillation. settling (2 % band): measured within the metrics window (step to the stop "
-          "the piston moves toward); '~' estimated from the decay of the oscillation; '-' neither:")
+          "oscillation; '^' near that verdict (amplitude notes below).")
+    legend = settling_legend([(side, s[side]) for s in study.summaries
+                              for side in ("supply", "return")])
+    if legend:
+        print(f"  {legend}; measured within the metrics window (step to the stop the piston "
+              "moves toward), '-' none:")
     for L, s in zip(study.lengths, study.summaries):
         for side in ("supply", "return"):
-            if s[side].get("settling_method") != "measured" and s[side].get("settling_note"):
+            if s[side].get("settling_note"):
                 print(f"    L = {L:g} m, {side}: {s[side]['settling_note']}")
+    notes = [(L, side, s[side]["amplitude_note"]) for L, s in zip(study.lengths, study.summaries)
+             for side in ("supply", "return") if s[side].get("amplitude_note")]
+    if notes:
+        print("  amplitude notes:")
+        for L, side, note in notes:
+            print(f"    L = {L:g} m, {side}: {note}")
     for L, s in zip(study.lengths, study.summaries):
         for w in s["warnings"]:
             print(f"  WARNING (L = {L:g} m): {w}")

@@ -2,15 +2,17 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import sys
 
-from .common import (atomic_outputs, dump_json, note_cost, out_dir, print_table, progress_printer,
-                     quantity, run_network, settling_cell)
+from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
+                     dump_json, note_cost, out_dir, print_table, progress_printer, quantity,
+                     run_network, settling_cell, settling_legend)
 from .figure_process import claim_figure_process
 
 #: The files written to --out.
 OUTPUT_FILES = ("results.csv", "summary.json", "pressures.png")
+#: --format -> the time-series file it writes (SimulationResult.to_csv / to_parquet / to_mat).
+RESULT_FILES = {"csv": "results.csv", "parquet": "results.parquet", "mat": "results.mat"}
 
 #: The built-in experiments (:data:`hydroline.scenarios.SCENARIOS`, named here so that the
 #: parser is built without importing the model: the figure process forks before that import).
@@ -44,57 +46,37 @@ def register(sub):
     p.add_argument("--dt-out", help="interval of the rows written to results.csv, with unit, "
                    "e.g. '1 ms' (default: every 0.1 ms output row; the summary always uses "
                    "the full output)")
+    p.add_argument("--format", default="csv", choices=tuple(RESULT_FILES),
+                   help="time-series file: csv (results.csv, units in the header; default), "
+                   "parquet (results.parquet, units in its metadata: pandas.read_parquet(...)"
+                   ".attrs['units']; needs pyarrow) or mat (results.mat for MATLAB: one "
+                   "variable per signal, the struct 'units'); hydroline fit reads all three")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
                    help="auto (default: the compiled C core where a C compiler exists, else "
                    "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
+    add_settling_band_option(p)
     p.set_defaults(func=run)
 
 
-#: What ``--json`` prints (issue 3): per port, then the actuator and the wall time.
-PORT_KEYS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
-JSON_KEYS = ("supply", "return", "actuator_natural_frequency_hz", "wall_time_s")
-
-
 def json_summary(summary: dict) -> dict:
-    """The ``--json`` document: exactly ``{"supply": {frequency_hz, amplitude_mpa,
-    settling_time_s}, "return": {...}, "actuator_natural_frequency_hz", "wall_time_s"}``
-    (floats, [Hz], [MPa], [s]; frequency and settling time null when there is none).
-    ``summary.json`` keeps the extras (metrics window, warnings, tracking error).
+    """The ``--json`` document, also what ``summary.json`` holds: ``schema_version`` then every
+    key of the summary (:func:`hydroline.summarize`), nested as it is: per port every metric
+    and note, the metrics window and its note, the warnings, the experiment's own metrics
+    (tracking error and ripple of the closed-loop sine) and, on a multi-axis rig, the same
+    per axis under ``"axes"``. Documented in docs/summary.schema.json. NaN and infinities
+    (a metric that does not exist) are written as null by :func:`dump_json`.
 
     Parameters
     ----------
-    summary : dict   :func:`hydroline.summarize` of a single-axis run
+    summary : dict
+        :func:`hydroline.summarize` of a run.
+
+    Returns
+    -------
+    dict
+        ``{"schema_version": SCHEMA_VERSION, **summary}`` (the summary is not modified).
     """
-    out = {side: {k: _float_or_none(summary[side][k]) for k in PORT_KEYS}
-           for side in ("supply", "return")}
-    # amplitude_mpa is 0.0 where no oscillation was detected and null only where the window
-    # is too short to tell (summary.json and stderr say why)
-    out["actuator_natural_frequency_hz"] = float(summary["actuator_natural_frequency_hz"])
-    out["wall_time_s"] = float(summary["wall_time_s"])
-    return out
-
-
-def json_axes_summary(summary: dict) -> dict:
-    """The ``--json`` document of a multi-axis rig: ``{"axes": {"<axis>": {"supply": {...},
-    "return": {...}, "position_disturbance_mm": float or null (the stepped axis), ...}},
-    "wall_time_s": float}`` ([Hz], [MPa], [s], [mm]).
-
-    Parameters
-    ----------
-    summary : dict   :func:`hydroline.summarize` of a multi-axis run
-    """
-    axes = {}
-    for name, a in summary["axes"].items():
-        entry = {side: {k: _float_or_none(a[side][k]) for k in PORT_KEYS} for side in ("supply", "return")}
-        for k in ("position_disturbance_mm", "position_change_mm", "actuator_natural_frequency_hz"):
-            if k in a:
-                entry[k] = _float_or_none(a[k])
-        axes[name] = entry
-    return {"axes": axes, "wall_time_s": float(summary["wall_time_s"])}
-
-
-def _float_or_none(v):
-    return None if v is None else float(v)
+    return {"schema_version": SCHEMA_VERSION, **summary}
 
 
 #: Output interval of the integration, [s]: what the summary's metrics are computed from.
@@ -159,8 +141,10 @@ def _prepare(args, write, figures) -> int:
     from ..rigs import load_rig
     from ..rigs.parameters import defaults_used
     from ..scenarios import build_scenario, default_scenario, scenario_names
+    from ..traces.metrics import SettlingBand
 
     rig = load_rig(args.rig)
+    args.settling_band = SettlingBand.parse(args.settling_band)   # refused before the run
     t_end = quantity(args.t_end, "s", "--t-end") if args.t_end else None
     if t_end is not None and not t_end > 0:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
@@ -182,8 +166,14 @@ def _prepare(args, write, figures) -> int:
     columns = 1 + len(network.signal_names) + len(network.state_names)
     name = "--t-end" if args.t_end else f"scenario.{scenario}.t_end"
     out = None
+    fmt = getattr(args, "format", "csv")
     if write:
-        out = out_dir(args.out if args.out is not None else "hydroline-out", OUTPUT_FILES)
+        out = out_dir(args.out if args.out is not None else "hydroline-out",
+                      (RESULT_FILES[fmt],) + OUTPUT_FILES[1:])
+    if long_run and write and fmt != "csv":
+        raise ValueError(f"--format {fmt}: a run of {round(duration / h) + 1:,} output rows is "
+                         f"streamed to CSV; give --format csv, or --dt-out to write fewer rows "
+                         f"(at most {LONG_ROWS:,})")
     if long_run:   # (streamed: memory bounded; the disk checked when it writes)
         if write:
             check_output_size(duration, h * every, columns - 1, stream_to=out / "results.csv",
@@ -224,6 +214,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
 
     # (on an error or Ctrl-C the figure process is stopped first, then the temporary files
     # are removed: a figure still being drawn would write its file again)
+    fmt = getattr(args, "format", "csv")
     with (atomic_outputs(out) if write else contextlib.nullcontext()) as temp, \
             (figures if figures is not None else contextlib.nullcontext()):
         options = {}
@@ -258,11 +249,12 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             figures.submit(plot_result, figure_result(figure), path=str(temp("pressures.png")),
                            title=f"{scenario} on {rig.get('rig.name', rig.source)}")
         if stream is None:
-            summary = summarize(res)
+            summary = summarize(res, settling_band=args.settling_band)
         if write:   # replaced together, or none (previous results kept)
             if not long_run:
-                res.to_csv(temp("results.csv"), every=every)
-            temp("summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+                getattr(res, f"to_{fmt}")(temp(RESULT_FILES[fmt]), every=every)
+            with open(temp("summary.json"), "w") as f:
+                dump_json(json_summary(summary), f)
             if single:
                 figures.wait()
     if "axes" in summary:
@@ -292,23 +284,26 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         rows = []
         for side in ("supply", "return"):
             m = summary[side]
-            rows.append([f"{side} port", m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([f"{side} port", m["frequency_hz"], amplitude_cell(m),
                          m["first_excursion_mpa"], m["steady_change_mpa"], m["peak_to_peak_mpa"],
                          settling_cell(m)])
         print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                      "steady change [MPa]", "peak-to-peak [MPa]", "settling [ms]"], rows)
-        print("  amplitude: half the largest swing about the pressure's one-period mean (+-);"
-              " first excursion: largest |p - p0|; '~' settling estimated from the decay")
+        print("  amplitude: half the largest swing about the pressure's one-period mean (+-); "
+              "'^' near the 'no oscillation' verdict (below); first excursion: largest |p - p0|")
+        print(f"  {settling_legend([(side, summary[side]) for side in ('supply', 'return')])}")
         for side in ("supply", "return"):
             m = summary[side]
             if m.get("amplitude_note"):
                 print(f"  {side} port: {m['amplitude_note']}")
-            elif m["settling_time_s"] is None and m.get("settling_note"):
-                print(f"  {side} port settling '-': {m['settling_note']}")
+            if m.get("settling_note") and m.get("amplitude_mpa") is not None:
+                mark = " '-'" if m["settling_time_s"] is None else ""
+                print(f"  {side} port settling{mark}: {m['settling_note']}")
     print(f"  actuator hydraulic natural frequency: {summary['actuator_natural_frequency_hz']:.1f} Hz")
     for w in summary["warnings"]:
         print(f"  WARNING: {w}")
-    print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
+    print(f"  wrote {out / RESULT_FILES[getattr(args, 'format', 'csv')]}, {out / 'summary.json'}, "
+          f"{out / 'pressures.png'}")
     return 0
 
 
@@ -408,7 +403,7 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
     if args.json:
         for w in summary["warnings"]:
             print(f"hydroline simulate: warning: {w}", file=sys.stderr)
-        dump_json(json_axes_summary(summary))
+        dump_json(json_summary(summary))
         return 0
     print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, wall time {summary['wall_time_s']:.2f} s")
@@ -417,16 +412,24 @@ def _report_axes(args, rig, res, summary, scenario, figures) -> int:
     for name, a in summary["axes"].items():
         for side in ("supply", "return"):
             m = a[side]
-            rows.append([f"{name} {side} port", m["frequency_hz"], m["amplitude_mpa"],
+            rows.append([f"{name} {side} port", m["frequency_hz"], amplitude_cell(m),
                          m.get("first_excursion_mpa"), m.get("peak_to_peak_mpa"), settling_cell(m)])
     print_table(["pressure", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
                  "peak-to-peak [MPa]", "settling [ms]"], rows)
+    legend = settling_legend([(f"{name} {side}", a[side]) for name, a in summary["axes"].items()
+                              for side in ("supply", "return")])
+    if legend:
+        print(f"  {legend}")
     for name, a in summary["axes"].items():
         d = a["position_disturbance_mm"]
         what = (f"moved {a['position_change_mm']:.3g} mm (driven by the experiment)" if d is None
                 else f"position disturbance {d * 1e3:.3g} um")
+        if "tracking_error_rms_mm" in a:
+            what += (f", tracking error (reference - position) rms {a['tracking_error_rms_mm']:.2f}"
+                     f" mm, max {a['tracking_error_max_mm']:.2f} mm")
         print(f"  {name}: {what}")
     for w in summary["warnings"]:
         print(f"  warning: {w}")
-    print(f"  wrote {out / 'results.csv'}, {out / 'summary.json'}, {out / 'pressures.png'}")
+    print(f"  wrote {out / RESULT_FILES[getattr(args, 'format', 'csv')]}, {out / 'summary.json'}, "
+          f"{out / 'pressures.png'}")
     return 0

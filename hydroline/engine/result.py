@@ -9,7 +9,8 @@ import numpy as np
 from .network import Network
 from .steady_state import SteadyState
 
-__all__ = ["SimulationResult", "OutputSink", "column_units", "column_indices", "write_csv_rows"]
+__all__ = ["SimulationResult", "OutputSink", "column_units", "column_indices", "write_csv_rows",
+           "matlab_names"]
 
 
 class SimulationResult:
@@ -76,6 +77,62 @@ class SimulationResult:
     def __contains__(self, key) -> bool:
         return key in self._column_index if self._data is None else key in self._data
 
+    def _summary_rows(self):
+        """(label, value) rows describing the run, and the port-metric rows of its summary
+        (:func:`hydroline.summarize`; none where the run has no experiment's metadata)."""
+        meta = self.metadata
+        t = self._times
+        rows = [("scenario", meta.get("scenario", "-")),
+                ("time [s]", f"{t[0]:.4g} to {t[-1]:.4g}, {len(t)} rows" if len(t) else "no rows"),
+                ("columns", len(self.columns)), ("states", meta.get("n_states", "-")),
+                ("wall time [s]", self.wall_time)]
+        if self.steady_state is not None:
+            rows.append(("steady-state residual [1/s]", getattr(self.steady_state, "residual", None)))
+        rows += [("warning", w) for w in self.warnings]
+        metrics = []
+        try:   # the summary lives above the engine: loaded by name (as plot does)
+            import importlib
+
+            summary = importlib.import_module("hydroline.scenarios").summarize(self)
+        except Exception:                   # a result built by hand: no experiment to read
+            return rows, metrics
+        axes = summary.get("axes") or {"": summary}
+        for name, entry in axes.items():
+            for side in ("supply", "return"):
+                m = entry.get(side, {})
+                metrics.append([f"{name} {side}".strip(), m.get("frequency_hz"),
+                                m.get("amplitude_mpa"), m.get("first_excursion_mpa"),
+                                m.get("ripple_pp_mpa"),
+                                None if m.get("settling_time_s") is None
+                                else m["settling_time_s"] * 1e3])
+        rows.append(("metrics window", summary.get("metrics_window_note", "-")))
+        return rows, metrics
+
+    #: Columns of the port-metric table of the summary shown by ``repr`` and in a notebook.
+    METRIC_HEADER = ("port", "oscillation [Hz]", "amplitude [MPa]", "first excursion [MPa]",
+                     "ripple p-p [MPa]", "settling [ms]")
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        rows, metrics = self._summary_rows()
+        text = text_block("hydroline SimulationResult", rows)
+        if metrics:
+            text += "\n" + text_block("port pressures (hydroline.summarize):", metrics,
+                                       self.METRIC_HEADER)
+        return text
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        rows, metrics = self._summary_rows()
+        out = html_block("hydroline SimulationResult", rows,
+                         note="res['supply_port_pressure'] gives a column [SI]; res.data all "
+                         "of them (pandas); res.plot() the figure")
+        if metrics:
+            out += html_block("port pressures (hydroline.summarize)", metrics, self.METRIC_HEADER)
+        return out
+
     def csv_header(self) -> list[str]:
         """``time [s]``, then every column with its SI unit (``supply_port_pressure [Pa]``), as
         ``hydroline fit`` reads it."""
@@ -102,6 +159,60 @@ class SimulationResult:
             f.write(",".join(self.csv_header()) + "\n")
             write_csv_rows(f, self._times[rows], self._table[rows])
 
+    def _rows(self, every: int):
+        """(times [s], table [SI]) of every n-th row and the last."""
+        if self._data is not None:
+            self._times, self._table = self._data.index.to_numpy(), self._data.to_numpy()
+            self.columns = list(self._data.columns)
+        if every <= 1:
+            return self._times, self._table
+        rows = np.unique(np.r_[np.arange(0, len(self._times), every), len(self._times) - 1])
+        return self._times[rows], self._table[rows]
+
+    def to_parquet(self, path, every: int = 1):
+        """Write all series to Parquet: a column ``time`` [s], then one per signal and state
+        under its own name; the SI units in the file's metadata, as pandas reads them back
+        (``pandas.read_parquet(path).attrs["units"]``: column -> unit). Needs pyarrow.
+
+        Parameters
+        ----------
+        path : str or Path   The file to write
+        every : int          Keep every n-th row (and the last), [-]
+        """
+        import pandas as pd
+
+        t, table = self._rows(every)
+        df = pd.DataFrame(table, columns=self.columns)
+        df.insert(0, "time", t)
+        units = self.metadata.get("units", {})
+        df.attrs["units"] = {"time": "s", **{c: units[c] for c in self.columns if c in units}}
+        df.to_parquet(path, index=False)
+
+    def to_mat(self, path, every: int = 1):
+        """Write all series to a MATLAB file (``scipy.io.savemat``, MAT 5): one variable per
+        signal and state (a column vector), ``time`` [s] first; names made valid MATLAB
+        names (:func:`matlab_names`: ``supply.section2.mode3.flow`` ->
+        ``supply_section2_mode3_flow``); the struct ``units`` gives each variable's SI unit
+        and the struct ``names`` its name in hydroline.
+
+        Parameters
+        ----------
+        path : str or Path   The file to write
+        every : int          Keep every n-th row (and the last), [-]
+        """
+        from scipy.io import savemat
+
+        t, table = self._rows(every)
+        units = self.metadata.get("units", {})
+        columns = ["time"] + list(self.columns)
+        names = matlab_names(columns)
+        data = {"time": t[:, None]}
+        for k, (c, v) in enumerate(zip(self.columns, names[1:])):
+            data[v] = table[:, k][:, None]
+        data["units"] = {v: ("s" if c == "time" else units.get(c, "")) for c, v in zip(columns, names)}
+        data["names"] = dict(zip(names, columns))
+        savemat(path, data, do_compression=True, oned_as="column")
+
     def plot(self, signals=None, path=None, title=None):
         """Plot signals (default: the paper's Figs. 10-12 set when present); the figure is
         drawn by :func:`hydroline.plotting.plot_result`, which this calls. Returns the figure.
@@ -117,6 +228,45 @@ class SimulationResult:
         # the figure lives above the engine; loaded by name so the engine imports nothing above it
         return importlib.import_module("hydroline.plotting").plot_result(
             self, signals=signals, path=path, title=title)
+
+
+#: Longest variable name MATLAB accepts (``namelengthmax``).
+MATLAB_NAME_LENGTH = 63
+#: Names a MAT file of a run keeps for itself.
+MATLAB_RESERVED = ("units", "names")
+
+
+def matlab_names(columns) -> list[str]:
+    """Valid, distinct MATLAB variable names for column names: every character other than a
+    letter, digit or ``_`` becomes ``_``, a name not starting with a letter gets an ``x``
+    prefix, names are cut to 63 characters and made distinct with a ``_<n>`` suffix.
+
+    Parameters
+    ----------
+    columns : list of str
+        Column names (e.g. ``supply.section2.mode3.flow``).
+
+    Returns
+    -------
+    list of str
+        One MATLAB name per column, in order.
+    """
+    import re
+
+    out, seen = [], set(MATLAB_RESERVED)
+    for c in columns:
+        v = re.sub(r"[^A-Za-z0-9_]", "_", str(c))
+        if not v or not v[0].isalpha() or not v.isascii():
+            v = "x" + v
+        v = v[:MATLAB_NAME_LENGTH]
+        base, n = v, 1
+        while v in seen:
+            n += 1
+            suffix = f"_{n}"
+            v = base[:MATLAB_NAME_LENGTH - len(suffix)] + suffix
+        seen.add(v)
+        out.append(v)
+    return out
 
 
 def write_csv_rows(file, t, block):

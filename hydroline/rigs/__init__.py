@@ -281,6 +281,38 @@ class Rig:
     def __contains__(self, path):
         return path in self.values
 
+    #: Parameters a rig's summary shows where the rig sets them (as written, with units).
+    KEY_PARAMETERS = ("supply.pressure", "return.pressure", "fluid.density",
+                      "fluid.bulk_modulus", "supply.section2.length", "return.section2.length",
+                      "actuator.stroke", "actuator.moving_mass", "servovalve.rated_current",
+                      "controller.proportional_gain", "rig.modes_per_section")
+
+    def _summary_rows(self):
+        """(label, value) rows of the rig's summary: name, source, experiments, components
+        or key parameters as written."""
+        scenarios = sorted({p.split(".")[1] for p in self.values if p.startswith("scenario.")})
+        components = [p[len("circuit."):-len(".type")] for p in self.values
+                      if p.startswith("circuit.") and p.endswith(".type")]
+        rows = [("name", self.get("rig.name", "")), ("source", self.source),
+                ("scenario", self.get("rig.scenario", "open-loop-step")),
+                ("experiments in the rig", ", ".join(scenarios) or "-")]
+        if components:
+            rows.append(("circuit components", f"{len(components)}: {', '.join(components)}"))
+        rows += [(p, self.raw[p]) for p in self.KEY_PARAMETERS if p in self.raw]
+        rows.append(("parameters set", len(self.values)))
+        return rows
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        return text_block("hydroline Rig", self._summary_rows())
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        return html_block("hydroline Rig", self._summary_rows(),
+                          note="rig[path] gives a value in SI; rig.to_toml() every value")
+
     def set(self, path: str, value) -> "Rig":
         """Set one parameter from a quantity with units (``"1.5 m"``) or, for text and
         dimensionless ones, a plain value. Returns self.

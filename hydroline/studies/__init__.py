@@ -8,8 +8,9 @@
   every row appended to a results file as it finishes so that an interrupted sweep resumes.
   CLI: ``hydroline sweep``. Value and distribution syntax: :mod:`hydroline.studies.design`;
   the results file: :mod:`.journal`; where variants run: :mod:`.executors`.
-* :func:`port_settling` -- the studies' 2 % settling time of a port pressure: measured on the
-  metrics window, or estimated from the decay of its oscillation (:mod:`.settling`).
+* :func:`port_settling` -- the studies' settling time of a port pressure (+-2 % of its final
+  absolute pressure by default): measured on the metrics window, or estimated from the decay
+  of its oscillation (:mod:`.settling`).
 """
 from .design import DISTRIBUTIONS, Design, Distribution, Parameter, parse_parameter, parse_parameters
 from .layout import DEFAULT_LENGTHS, LayoutStudy, layout, parse_lengths

@@ -9,11 +9,12 @@ see :func:`hydroline.system.build_network`), runs the scenario (the 50 mA open-l
 default) from the solved steady state and takes the port metrics of
 :func:`hydroline.scenarios.summarize` over the metrics window (step to the piston's arrival at
 the stop it moves toward): oscillation frequency [Hz], oscillation amplitude (two-sided, about
-the pressure's one-period mean) [MPa], first excursion and steady change [MPa], and the 2 %
-settling time [s] of :func:`hydroline.analysis.port_settling` -- measured on the window where
-the port pressure settles within it, else estimated from the exponential decay of its
-oscillation where the window holds enough of it (the table's ``*_settling_method`` column says
-which, and ``*_settling_note`` how, or why there is none). A frequency of None means the port
+the pressure's one-period mean) [MPa], first excursion and steady change [MPa], and the
+settling time [s] of :func:`hydroline.analysis.port_settling` within +-2 % of the final
+absolute pressure (``settling_band``) -- measured on the window where the port pressure
+settles within it, else estimated from the exponential decay of its oscillation's crests (the
+table's ``*_settling_method`` column says which, and ``*_settling_note`` how, or why there is
+none). A frequency of None means the port
 pressure does not ring (amplitude 0, ``*_amplitude_note`` says so). :func:`conclusion` writes
 the design conclusion from the numbers.
 
@@ -53,7 +54,7 @@ from ..engine import SteadyStateError
 from ..lines import Line
 from ..system import make_fluid
 from ..units import parse_quantity
-from .settling import port_summary
+from .settling import BAND, SettlingBand, port_summary
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion",
            "layout_sections"]
@@ -61,13 +62,20 @@ __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES",
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
 SIDES = ("supply", "return")
-_METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s")
+_METRICS = ("frequency_hz", "amplitude_mpa", "settling_time_s", "settling_band_mpa")
 #: The table's further port metrics (:func:`hydroline.analysis.pressure_metrics`).
 _MORE = ("first_excursion_mpa", "steady_change_mpa", "peak_to_peak_mpa")
 
 
 def _finite_or_none(v):
-    return None if v is None or (isinstance(v, float) and not math.isfinite(v)) else v
+    """``v`` with every NaN or infinite float in it (nested dicts, lists) replaced by None."""
+    if isinstance(v, dict):
+        return {k: _finite_or_none(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_finite_or_none(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v.item() if isinstance(v, np.generic) else v
 
 
 def parse_lengths(lengths) -> list[float]:
@@ -145,17 +153,57 @@ class LayoutStudy:
     axis: str | None = None
 
     def records(self) -> list[dict]:
-        """The ``--json`` list: ``[{"section2_length_m", "supply": {frequency_hz,
-        amplitude_mpa, settling_time_s}, "return": {...}}, ...]`` (None where a metric does
-        not exist; never NaN, so the list is strict JSON)."""
-        return [{"section2_length_m": float(L),
-                 **{side: {k: _finite_or_none(s[side][k]) for k in _METRICS} for side in SIDES}}
+        """The rows of the ``--json`` document, one per length: ``{"section2_length_m", **summary}``
+        with every key of that run's summary (:func:`hydroline.studies.settling.port_summary`),
+        nested as it is: ``"supply"`` and ``"return"`` with every port metric and note,
+        ``"flow"`` (flow rise and round trips), the metrics window, ``wall_time_s`` and
+        ``warnings``; so every column of :meth:`table` is in it (``supply_x`` as
+        ``["supply"]["x"]``, the flow's columns under ``["flow"]``). None where a metric does
+        not exist; never NaN, so the rows are strict JSON.
+
+        Returns
+        -------
+        list[dict]
+            One row per length, in the order of :attr:`lengths`.
+        """
+        return [{"section2_length_m": float(L), **_finite_or_none(s)}
                 for L, s in zip(self.lengths, self.summaries)]
+
+    #: Columns of the study's summary table (``repr`` and a notebook).
+    SUMMARY_HEADER = ("length [m]", "supply [Hz]", "supply amplitude [MPa]",
+                      "return [Hz]", "return amplitude [MPa]", "supply settling [ms]")
+
+    def _summary_rows(self):
+        rows = [(L, s["supply"].get("frequency_hz"), s["supply"].get("amplitude_mpa"),
+                 s["return"].get("frequency_hz"), s["return"].get("amplitude_mpa"),
+                 None if s["supply"].get("settling_time_s") is None
+                 else s["supply"]["settling_time_s"] * 1e3)
+                for L, s in zip(self.lengths, self.summaries)]
+        title = (f"hydroline LayoutStudy: {self.scenario} on {self.rig_name or 'a rig'}, "
+                 f"{', '.join(self.sections) or 'sections II'} set to each length"
+                 + (f" ({self.wall_time:.1f} s)" if self.wall_time > 0 else ""))
+        return title, rows
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        title, rows = self._summary_rows()
+        text = text_block(title, rows, self.SUMMARY_HEADER)
+        return text + ("\n  " + conclusion(self) if self.results else "")
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        title, rows = self._summary_rows()
+        return html_block(title, rows, self.SUMMARY_HEADER,
+                          note=(conclusion(self) if self.results else "")
+                          + " (every metric: .table(); the traces: .traces())")
 
     def table(self) -> "pandas.DataFrame":
         """One row per length: section2_length_m, {supply,return}_{frequency_hz,
-        amplitude_mpa, settling_time_s, first_excursion_mpa, steady_change_mpa,
-        peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
+        amplitude_mpa, settling_time_s, settling_band_mpa, first_excursion_mpa,
+        steady_change_mpa, peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
+        settling_band (in words),
         flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
         {supply,return}_round_trip_ms (2 L / c of that section II),
         {supply,return}_valve_bound_mpa (the most the valve's flow rise can put into that
@@ -168,7 +216,8 @@ class LayoutStudy:
             row = {"section2_length_m": float(L)}
             for side in SIDES:
                 for k in _METRICS:
-                    row[f"{side}_{k}"] = np.nan if s[side][k] is None else s[side][k]
+                    v = s[side].get(k)
+                    row[f"{side}_{k}"] = np.nan if v is None else v
             for side in SIDES:
                 for k in _MORE:
                     v = s[side].get(k)
@@ -177,6 +226,7 @@ class LayoutStudy:
                 row[f"{side}_settling_method"] = s[side].get("settling_method") or ""
                 row[f"{side}_settling_note"] = s[side].get("settling_note", "")
                 row[f"{side}_amplitude_note"] = s[side].get("amplitude_note", "")
+            row["settling_band"] = s.get("settling_band", "")
             for k in ("flow_rise_time_ms", "supply_round_trip_ms", "return_round_trip_ms",
                       "supply_valve_bound_mpa", "return_valve_bound_mpa"):
                 row[k] = s.get("flow", {}).get(k, np.nan)
@@ -226,7 +276,7 @@ class LayoutStudy:
 
     def plot(self, path=None, title=None):
         """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
-        return right; dotted: step and piston stop, green dashed: a measured 2 % settling
+        return right; dotted: step and piston stop, green dashed: a measured settling
         time) above frequency and amplitude against length.
 
         Parameters
@@ -416,6 +466,7 @@ def conclusion(study: "LayoutStudy") -> str:
                     if None not in freqs else "")
             parts.append(f"shortening sections II from {long_:g} m to {short:g} m {verb} the "
                          f"port oscillation amplitude{how} from " + " and ".join(pieces) + freq)
+        parts.extend(_settling_sentence(study, hoses))
     if hoses:
         bound = {L: study.summaries[study.lengths.index(L)]["flow"] for L in hoses}
         near = []
@@ -436,13 +487,54 @@ def conclusion(study: "LayoutStudy") -> str:
                          "flow rise can put into the hose's quarter-wave mode (docs/model.md "
                          "M25; " + "; ".join(near) + "): the valve, not the hose, bounds it")
     if 0.0 in recs:
-        flat = all(recs[0.0][side]["frequency_hz"] is None for side in SIDES)
+        left = [(side, recs[0.0][side]) for side in SIDES
+                if recs[0.0][side]["frequency_hz"] is not None]
+        longest = recs[hoses[-1]] if hoses else None
+
+        def share(side, m):
+            a = longest[side]["amplitude_mpa"] if longest else None
+            return f", {m['amplitude_mpa'] / a * 100:.0f} % of the {hoses[-1]:g} m hose's" \
+                if a and m["amplitude_mpa"] is not None else ""
+
         parts.append("close-coupling the manifold to the valve (0 m) removes the oscillation"
-                     if flat else "close-coupling (0 m) still leaves an oscillation (see the table)")
+                     if not left else "close-coupling (0 m) leaves " + " and ".join(
+                         f"{m['amplitude_mpa']:.2g} MPa at {m['frequency_hz']:.0f} Hz ({side}"
+                         f"{share(side, m)})" for side, m in left))
     if not parts:
         return ""
     text = "; ".join(parts)
     return text[0].upper() + text[1:] + "."
+
+
+def _settling_sentence(study: "LayoutStudy", hoses: list) -> list[str]:
+    """The conclusion's clause on settling: how each port's settling time changes from the
+    longest section II to the shortest, and when the longest is halved (the paper's
+    comparison); "~" marks an estimate (empty list when no port has two settling times)."""
+    by_length = dict(zip(study.lengths, study.summaries))
+    long_ = hoses[-1]
+    half = min(hoses, key=lambda L: abs(L - long_ / 2))
+    pieces = []
+    for side in study.sides:
+        m = {L: by_length[L][side] for L in hoses}
+        times = {L: v["settling_time_s"] for L, v in m.items() if v.get("settling_time_s")}
+        if long_ not in times or len(times) < 2:
+            continue
+
+        def ms(L):
+            return f"{'~' if m[L].get('settling_method') == 'estimated' else ''}" \
+                   f"{times[L] * 1e3:.0f} ms"
+
+        text = f"{side} " + ", ".join(f"{ms(L)} at {L:g} m" for L in reversed(hoses)
+                                      if L in times)
+        if half in times and half != long_ and abs(half - long_ / 2) <= 0.1 * long_:
+            change = times[half] - times[long_]
+            text += (f" (halving {long_:g} m to {half:g} m: {change * 1e3:+.0f} ms, "
+                     f"{change / times[long_] * 100:+.0f} %)")
+        pieces.append(text)
+    if not pieces:
+        return []
+    band = next((s.get("settling_band") for s in study.summaries if s.get("settling_band")), "")
+    return [f"the port pressures settle (within {band}) in " + "; ".join(pieces)]
 
 
 def layout_sections(rig: Rig, sections=None, sides=SIDES) -> tuple:
@@ -559,7 +651,7 @@ def _valve(rig: Rig, res, chosen):
 
 def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axis=None,
            scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
-           progress=None) -> LayoutStudy:
+           progress=None, settling_band=BAND) -> LayoutStudy:
     """The section II layout study: the scenario run once per hose length.
 
     Parameters
@@ -581,6 +673,9 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     t_end : float            Simulated time, [s]; the scenario's default when None
     solver : str             See :func:`hydroline.engine.integrate`
     progress : callable      ``progress(done, total)`` after each length
+    settling_band : SettlingBand or str  The port pressures' settling band
+                             (:meth:`hydroline.traces.metrics.SettlingBand.parse`; default +-2 %
+                             of the final absolute pressure)
 
     Returns
     -------
@@ -605,6 +700,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     else:
         sides = SIDES
     lengths = parse_lengths(lengths)
+    settling_band = SettlingBand.parse(settling_band)
     summaries, results = [], []
     chosen = None
     for k, L in enumerate(lengths):
@@ -616,7 +712,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         except (ValueError, SteadyStateError) as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise RigError(f"section length {L:g} m: {msg}") from e
-        summary = port_summary(res)
+        summary = port_summary(res, settling_band)
         chosen = _report_axis(res, sections, axis)
         flow = "supply_port_flow"
         if chosen is not None:       # a multi-axis rig: that axis's ports

@@ -706,6 +706,31 @@ class SweepResult:
     axes: list = field(default_factory=list)
     scenario: str = "open-loop-step"
 
+    def _summary_rows(self):
+        return [("scenario", self.scenario),
+                ("variants", f"{len(self.table)} of {len(self.design)} in the table, "
+                             f"{self.n_computed} run by this call, {self.n_failed} failed"),
+                ("parameters", ", ".join(f"{'='.join(p.paths)} [{p.unit}]"
+                                         for p in self.design.parameters)),
+                ("wall time [s]", self.wall_time),
+                ("complete", self.complete)] + \
+            [(role, str(path)) for role, path in self.files.items()] + \
+            [("note", n) for n in self.notes]
+
+    def __repr__(self) -> str:
+        from ..display import text_block
+
+        return text_block("hydroline SweepResult", self._summary_rows()) + \
+            "\n  (.table: one row per variant, pandas)"
+
+    def _repr_html_(self) -> str:
+        from ..display import html_block
+
+        head = self.table.head(10)
+        return (html_block("hydroline SweepResult", self._summary_rows())
+                + f"<div>first {len(head)} of {len(self.table)} rows of .table</div>"
+                + head._repr_html_())
+
     @property
     def failed(self) -> "pandas.DataFrame":
         """The rows of failed variants (``error`` set)."""

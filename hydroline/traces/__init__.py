@@ -6,10 +6,10 @@ signal ``p`` (usually a pressure, [Pa]) and returns numbers. Scenarios, studies 
 these; this package imports nothing else of hydroline, so it sits at the bottom of the package
 and can be used on measured traces as well as simulated ones.
 """
-from .metrics import (first_excursion, oscillation_amplitude, oscillation_baseline,
+from .metrics import (SettlingBand, first_excursion, oscillation_amplitude, oscillation_baseline,
                       oscillation_frequency, overshoot, peak_to_peak, port_settling,
                       pressure_metrics, settling_time)
 
 __all__ = ["first_excursion", "oscillation_amplitude", "oscillation_baseline",
            "oscillation_frequency", "overshoot", "peak_to_peak", "port_settling",
-           "pressure_metrics", "settling_time"]
+           "pressure_metrics", "settling_time", "SettlingBand"]

@@ -30,7 +30,12 @@ interpolation (so nonuniform solver output is fine):
    half-cosine taper over the last 20 % so that a trace ending off its final value does not
    ring across the spectrum). Its highest genuine local maximum (prominence >= 2 % of the
    highest value in range) between ``min_cycles / duration`` and a quarter of the sampling
-   rate is the dominant peak. A monotone response has no such maximum: None.
+   rate is the dominant peak, if it stands at least 10 times above the spectrum's median in
+   that range (the largest of many bins of noise stands about 6 times above it). A
+   monotone response has no such maximum: None. Where the candidates of steps 2-4 all
+   fail, the dominant peak of the spectrum of the rate of change (sample differences, same
+   taper and test) is tried last: a ringing short or small beside a large slow drift (a
+   short hose's, after a valve step) stands out there.
 2. *Harmonic check.* If the spectrum also has a genuine peak within 8 % of ``1/k`` of the
    dominant frequency (k = 2..5) at least 10 % as high, that lower peak is the first
    candidate for the fundamental (the largest such k first); the dominant peak is the last
@@ -40,15 +45,22 @@ interpolation (so nonuniform solver output is fine):
    removes the final value, every harmonic and nearly all of a slow drift, and it passes the
    damped fundamental ``exp((-sigma + i Delta) t)`` with its phase slope ``Delta`` unchanged
    (a linear filter multiplies an exponential by a constant). The amplitude-weighted slope
-   of the unwrapped phase corrects ``f``; three passes. The trace must span two periods, and
-   the weighted RMS of the phase about that line must stay below 0.3 rad (a coherent
-   oscillation, not noise).
+   of the unwrapped phase corrects ``f``; three passes, over the stretch around the
+   envelope's peak where it stays above 5 % of it (a later, weaker component beyond a null
+   of the envelope is another oscillation). The trace must span two periods, and the RMS of
+   the phase about that line, weighted by the envelope squared (the oscillation's energy),
+   must stay below 0.5 rad (a coherent oscillation, not noise; two modes beating near one
+   frequency wander by about 0.3 rad). Where the refinement wanders off by more than 50 %
+   (a burst of a few periods right after the step, which the demodulation sees only from
+   one period on), the spectral peak's frequency is checked as it is.
 4. *Oscillating or not.* The envelope of the fundamental (the demodulated amplitude divided
    by the filter's gain for the fitted decay rate) must stay above 1 % of the largest
    deviation ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``.
    For the step response of a second-order system this reports damping ratios up to
    about 0.46 with the default ``min_cycles = 1.5`` (ratio 0.45: 1.5 cycles of overshoot and
-   undershoot above 1 %). No candidate passing: None.
+   undershoot above 1 %). No candidate passing: None. The verdict is a threshold: a ringing
+   that dies within a few periods is near it, where its amplitude jumps to 0
+   (:func:`pressure_metrics` says so below :data:`VERDICT_MARGIN` periods).
 5. *Zero crossings.* The mean interval between crossings in the same direction, over all
    crossings whose lobes reach 0.1 % of the largest, is the period; for a damped sinusoid
    about a constant it is exactly ``1 / f_d = 2 pi / omega_d``. Crossings of, in turn,
@@ -68,13 +80,15 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from .peaks import find_peaks, local_maxima, peak_prominence   # scipy.signal's, in NumPy
 
 __all__ = ["oscillation_frequency", "oscillation_amplitude", "oscillation_baseline", "overshoot",
            "first_excursion", "peak_to_peak", "settling_time", "port_settling", "pressure_metrics",
-           "AMPLITUDE_MIN_PERIODS"]
+           "SettlingBand", "SETTLING_BAND", "AMPLITUDE_MIN_PERIODS", "VERDICT_MARGIN"]
 
 #: Fraction of the post-step interval, at its end, that defines the final value.
 TAIL_FRACTION = 0.2
@@ -93,7 +107,9 @@ _PEAK_PROMINENCE = 0.02     # genuine spectral peak: prominence / highest peak i
 _SUBHARMONIC_HEIGHT = 0.10  # a peak at f/k this high (relative) makes f/k the fundamental
 _SUBHARMONIC_TOL = 0.08     # relative distance of that peak from f/k
 _MAX_SUBHARMONIC = 5
-_MAX_INCOHERENCE = 0.3      # weighted RMS phase wander of a coherent fundamental, [rad]
+_MAX_INCOHERENCE = 0.5      # weighted RMS phase wander of a coherent fundamental, [rad]
+_ABOVE_NOISE = 10.0         # a dominant spectral peak: this many times the median in range
+_STRONG = 0.05              # the fundamental is fitted where its envelope is this much of its peak
 _CROSSING_GRID = 120        # samples per period for the crossings (divisible by 2..5)
 _DIRECT_AVERAGE = 16384     # moving averages costing more taps x samples: by running sums
 
@@ -304,16 +320,8 @@ def _settling_time(levels, t_step, band):
     reference = abs(p_final - p0) if changed else float(np.max(np.abs(error)))
     if reference == 0.0:
         return 0.0
-    tolerance = band * reference
-    outside = np.flatnonzero(np.abs(error) > tolerance)
-    if outside.size == 0:
-        return 0.0
-    k = int(outside[-1])
-    if k == len(ts) - 1:
-        return None
-    side = math.copysign(tolerance, error[k])
-    entered = ts[k] + (ts[k + 1] - ts[k]) * (error[k] - side) / (error[k] - error[k + 1])
-    if entered > ts[-1] - SETTLED_FRACTION * (ts[-1] - t_step):
+    entered = _band_exit(ts, error, band * reference)
+    if entered is None or entered > ts[-1] - SETTLED_FRACTION * (ts[-1] - t_step):
         return None
     return float(entered - t_step)
 
@@ -321,10 +329,14 @@ def _settling_time(levels, t_step, band):
 # --------------------------------------------------------------------------- frequency
 
 def _spectral_candidates(ts, ps, p_final, min_cycles):
-    """Coarse fundamental frequencies [Hz] from the spectrum of the deviation, best first.
+    """Coarse fundamental frequencies [Hz] from the spectrum of the deviation, best first
+    (a generator: the second spectrum is taken only when the first's candidates are used up).
 
     The subharmonics of the dominant peak that pass the harmonic check (largest k first),
-    then the dominant peak itself; empty when the spectrum has no genuine peak in range.
+    then the dominant peak itself; then the dominant peak of the spectrum of the rate of
+    change (the deviation's sample differences), where it is another frequency: a short
+    ringing beside a large slow drift stands out there. Empty when neither spectrum has a
+    genuine peak in range that stands 10 times above its median.
 
     The genuine peaks are the local maxima in range with a prominence of at least
     :data:`_PEAK_PROMINENCE` of the highest value in range (as
@@ -339,6 +351,9 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     dt = grid[1] - grid[0]
     deviation = np.interp(grid, ts, ps)
     deviation -= p_final
+    # the rate of change, per sample (before the taper): a ringing that is short or small
+    # beside a slow drift (a short hose's, after a valve step) stands out in its spectrum
+    rate = np.diff(deviation)
     # half-cosine taper over the tail (where the response has settled), so that a trace
     # ending off its final value does not ring across the spectrum; the start is kept
     # whole, since the step is where the oscillation is largest
@@ -351,7 +366,21 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     lo = int(np.searchsorted(freq, min_cycles / duration, side="left"))
     hi = int(np.searchsorted(freq, 0.25 / dt, side="right")) - 1
     if hi < lo:
-        return []
+        return
+    candidates = _peak_candidates(spectrum, freq, lo, hi)
+    yield from candidates
+    # (the rate's spectrum only where the caller asks for more: most traces do not)
+    rate[rate.size - m:] *= _taper(m)
+    for f in _peak_candidates(np.abs(_rfft(rate, nfft)), freq, lo, hi, subharmonics=False):
+        if all(abs(f / g - 1.0) > _SUBHARMONIC_TOL for g in candidates):
+            yield f
+
+
+def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True):
+    """:func:`_spectral_candidates` of one amplitude spectrum ``spectrum`` at frequencies
+    ``freq`` [Hz], searched within bins ``lo .. hi``: the subharmonics of its dominant peak
+    that pass the harmonic check (largest k first; none where ``subharmonics`` is False),
+    then the dominant peak; empty when it has no genuine peak in range."""
     highest = float(np.max(spectrum[lo:hi + 1]))
     if highest <= 0.0:
         return []
@@ -378,11 +407,14 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
         return None
 
     main = best(order, -np.inf)
-    if main is None:
+    # a peak of noise stands a few times above the spectrum's median (the largest of N
+    # Rayleigh-distributed bins: about sqrt(2 ln N) / 0.83, ~6 for 1e5 bins); a ringing's
+    # stands far above it (every 8th bin: the 8x zero padding makes neighbours alike)
+    if main is None or spectrum[main] < _ABOVE_NOISE * float(np.median(spectrum[lo:hi + 1:8])):
         return []
     f_main, h_main = float(freq[main]), spectrum[main]
     candidates = [f_main]
-    for k in range(2, _MAX_SUBHARMONIC + 1):
+    for k in range(2, _MAX_SUBHARMONIC + 1 if subharmonics else 2):
         near = order[np.abs(freq[order] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
         sub = best(near, _SUBHARMONIC_HEIGHT * h_main)
         if sub is not None:
@@ -490,14 +522,15 @@ def _unwrap(phase):
     return out
 
 
-def _fit_fundamental(ts, ps, p_final, frequency):
+def _fit_fundamental(ts, ps, p_final, frequency, passes=3):
     """Refine ``frequency`` [Hz] from the phase slope of the demodulated fundamental.
 
     Returns ``(frequency [Hz], centre times [s], envelope of the fundamental [unit of p],
     weighted RMS phase residual [rad])`` of the last pass, or None where the trace is too
     short for the demodulation (under two periods) or holds nothing at ``frequency``.
+    ``passes`` = 0: one pass at ``frequency``, which is returned unchanged.
     """
-    for _ in range(3):
+    for _ in range(max(passes, 1)):
         if frequency <= 0 or 2.0 / frequency >= ts[-1] - ts[0]:
             return None
         centres, z, width = _demodulate(ts, ps, p_final, frequency)
@@ -507,8 +540,13 @@ def _fit_fundamental(ts, ps, p_final, frequency):
         peak = float(np.max(magnitude))
         if peak == 0.0:
             return None
-        strong = np.flatnonzero(magnitude >= 0.05 * peak)
-        span = slice(int(strong[0]), int(strong[-1]) + 1)
+        # the stretch around the strongest point where the component stays above 5 % of
+        # it (a later, weaker component near this frequency, beyond a null of the
+        # envelope, is not this oscillation)
+        top = int(np.argmax(magnitude))
+        weak = np.flatnonzero(magnitude < _STRONG * peak)
+        span = slice(int(weak[weak < top][-1]) + 1 if np.any(weak < top) else 0,
+                     int(weak[weak > top][0]) if np.any(weak > top) else magnitude.size)
         tc, zc, mc = centres[span], z[span], magnitude[span]
         if tc.size < 4:
             return None
@@ -516,10 +554,14 @@ def _fit_fundamental(ts, ps, p_final, frequency):
         weights = mc / peak
         x = tc - tc[0]
         slope, offset = _line_fit(x, phase, weights)
-        frequency = frequency + slope / (2 * np.pi)
+        if passes:
+            frequency = frequency + slope / (2 * np.pi)
     # the last pass's phase residual (the earlier passes' are not used)
+    # weighted as the fit itself (by the envelope squared: the oscillation's energy), so that
+    # a weak later component near this frequency does not count as the oscillation wandering
     residual = phase - (offset + slope * x)
-    incoherence = math.sqrt(float(np.sum(weights * residual ** 2) / np.sum(weights)))
+    energy = weights * weights
+    incoherence = math.sqrt(float(np.sum(energy * residual ** 2) / np.sum(energy)))
     # decay rate from the log envelope, to undo the smoothing's gain on a decaying signal
     growth = _line_fit(x, np.log(mc), weights)[0]
     sigma = max(0.0, -growth)
@@ -639,25 +681,31 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering, memo=None):
 
 
 def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles):
-    """Demodulated frequency [Hz] near ``coarse`` if a coherent oscillation lasting at least
-    ``min_cycles`` periods above 1 % of ``largest`` is there, else None."""
+    """``(frequency [Hz], periods [-])``: the demodulated frequency near ``coarse`` and how
+    many periods after ``t_step`` its envelope stays above 1 % of ``largest`` (inf: until the
+    window's end), if that is at least ``min_cycles`` (a coherent oscillation), else None.
+    Where the refined
+    frequency wanders off (more than 50 %), the spectral peak's ``coarse`` itself is
+    checked: a burst of a few periods right after the step, which the demodulation sees
+    only from one period on, can pull the phase slope off to a later, slower component."""
     fitted = _fit_fundamental(ts, ps, p_final, coarse)
+    if fitted is not None and not (math.isfinite(fitted[0]) and fitted[0] > 0
+                                   and abs(fitted[0] / coarse - 1.0) <= 0.5):
+        fitted = _fit_fundamental(ts, ps, p_final, coarse, passes=0)
     if fitted is None:
         return None
     frequency, centres, envelope, incoherence = fitted
     if not (incoherence <= _MAX_INCOHERENCE):
         return None
-    if not (math.isfinite(frequency) and frequency > 0):
-        return None
-    if abs(frequency / coarse - 1.0) > 0.5:
-        return None  # wandered off to another component
     above = np.flatnonzero(envelope >= OSCILLATION_THRESHOLD * largest)
     if above.size == 0:
         return None
     cycles = frequency * (centres[above[-1]] - t_step)
     if cycles < min_cycles:
         return None
-    return float(frequency)
+    # (a ringing still above the threshold at the demodulation's last point lasts as long as
+    # the window does: not close to the verdict's edge)
+    return float(frequency), (math.inf if above[-1] == centres.size - 1 else float(cycles))
 
 
 def oscillation_frequency(t, p, t_step, min_cycles=1.5):
@@ -709,22 +757,29 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
 
 def _frequency(levels, t_step, min_cycles):
     """:func:`oscillation_frequency` from a checked trace's :func:`_levels`."""
+    return _frequency_and_periods(levels, t_step, min_cycles)[0]
+
+
+def _frequency_and_periods(levels, t_step, min_cycles):
+    """``(frequency [Hz] or None, periods [-] or None)``: :func:`oscillation_frequency` and
+    for how many periods after ``t_step`` the oscillation stays above 1 % of the largest
+    deviation (what the verdict 'oscillating' needs ``min_cycles`` of)."""
     ts, ps, _, p_final, _ = levels
     largest = float(np.max(np.abs(ps - p_final)))
     if largest == 0.0 or largest <= 1e-12 * float(np.max(np.abs(ps))):
-        return None
+        return None, None
     for coarse in _spectral_candidates(ts, ps, p_final, min_cycles):
-        frequency = _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest,
-                                             min_cycles)
-        if frequency is None:
+        found = _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles)
+        if found is None:
             continue
+        frequency, periods = found
         memo = {}
         for filtering in ("harmonics", "highpass", "raw"):
             crossing = _crossing_frequency(ts, ps, p_final, frequency, filtering, memo)
             if crossing is not None and abs(crossing / frequency - 1.0) < 0.05:
-                return crossing
-        return frequency
-    return None
+                return crossing, periods
+        return frequency, periods
+    return None, None
 
 
 
@@ -739,19 +794,127 @@ def _frequency(levels, t_step, min_cycles):
 #   first excursion  the largest |p - p0| (what a transducer's peak hold shows);
 #   steady change    the level the pressure settles to minus the pre-step level;
 #   peak-to-peak     max p - min p (what a scope's cursors show);
-#   settling time    when the pressure stays within 2 % of the change (:func:`port_settling`).
+#   settling time    when the pressure stays within +-2 % of its final absolute pressure
+#                    (:func:`port_settling`, :class:`SettlingBand`).
 
+#: A ringing that stays above 1 % of its excursion for fewer periods than this is close to
+#: the 'no oscillation' verdict (1.5 periods), where the amplitude jumps to 0: its
+#: amplitude note says so, [-].
+VERDICT_MARGIN = 3.0
 #: Fewest periods of the oscillation the metrics window must hold for an amplitude, [-]: the
 #: baseline is a centred mean over one period, so a swing is measured only where a period of
 #: signal exists on both sides of the half period it belongs to.
 AMPLITUDE_MIN_PERIODS = 2.0
-#: Half-width of the settling band relative to the step's pressure change, [-].
-SETTLING_BAND = 0.02
-#: Periods of the oscillation the window must hold for a decay to be extrapolated, [-].
-MIN_PERIODS = 6
-#: Largest RMS scatter of ln(peak) about the fitted exponential decay, [-].
-MAX_FIT_SCATTER = 0.25
 _BASELINE_SAMPLES = 64      # uniform grid of the baseline and amplitude, per period
+
+
+@dataclass(frozen=True)
+class SettlingBand:
+    """The band a port pressure must stay within to count as settled (:func:`port_settling`).
+
+    A fluid-power engineer reads a pressure trace against its operating pressure: the default
+    band is +-2 % of the final absolute pressure (``reference="final"``). The control
+    engineer's band of a step response, a fraction of the steady change, stays available
+    (``reference="change"``; where the change is below 5 % of the largest deviation, e.g. a
+    disturbance that dies away, that deviation stands in for it).
+
+    Attributes
+    ----------
+    fraction : float   Half-width of the band as a fraction of its reference, [-], in (0, 1)
+    reference : str    "final" (the final absolute pressure) or "change" (the steady change)
+    """
+
+    fraction: float = 0.02
+    reference: str = "final"
+
+    #: What each reference is, in words.
+    REFERENCES: ClassVar[dict] = {"final": "the final absolute pressure",
+                                  "change": "the steady pressure change"}
+
+    def __post_init__(self):
+        try:
+            fraction = float(self.fraction)
+        except (TypeError, ValueError):
+            raise ValueError(f"--settling-band: the band must be a number in (0, 1) [-], got "
+                             f"{self.fraction!r}") from None
+        if not 0.0 < fraction < 1.0:
+            raise ValueError(f"--settling-band: the band must lie between 0 and 100 % of its "
+                             f"reference, got {fraction * 100:g} %")
+        if self.reference not in self.REFERENCES:
+            raise ValueError(f"--settling-band: the band is a fraction of 'final' (the final "
+                             f"absolute pressure) or 'change' (the steady change), got "
+                             f"{self.reference!r}")
+        object.__setattr__(self, "fraction", fraction)
+
+    @classmethod
+    def parse(cls, spec) -> "SettlingBand":
+        """The band from its text: ``"2%"`` or ``"2 % of final"`` (+-2 % of the final absolute
+        pressure), ``"5% of change"`` (+-5 % of the steady change); a band passes through, a
+        bare number is a fraction of the final pressure (0.02).
+
+        Parameters
+        ----------
+        spec : str, float or SettlingBand   The band
+
+        Returns
+        -------
+        SettlingBand
+
+        Raises
+        ------
+        ValueError  One line naming ``--settling-band``.
+        """
+        if isinstance(spec, SettlingBand):
+            return spec
+        if not isinstance(spec, str):
+            return cls(spec)
+        text, of, reference = spec.strip().partition(" of ")
+        text = text.strip()
+        percent = text.endswith("%")
+        try:
+            value = float(text[:-1] if percent else text)
+        except ValueError:
+            raise ValueError(f"--settling-band: expected e.g. '2%' (of the final absolute "
+                             f"pressure) or '5% of change', got {spec!r}") from None
+        return cls(value / 100 if percent else value, reference.strip() if of else "final")
+
+    def describe(self) -> str:
+        """The band in words, e.g. "+-2 % of the final absolute pressure"."""
+        return f"+-{self.fraction * 100:g} % of {self.REFERENCES[self.reference]}"
+
+    def half_width(self, p_final: float, p0: float, largest: float) -> float:
+        """The band's half-width, [unit of p].
+
+        Parameters
+        ----------
+        p_final : float   Final (absolute) pressure, [unit of p]
+        p0 : float        Pressure at the step, [unit of p]
+        largest : float   Largest deviation from the final pressure after the step, [unit of
+                          p]: the reference of a "change" band where the change is below 5 %
+                          of it
+
+        Returns
+        -------
+        float  >= 0, [unit of p]
+        """
+        if self.reference == "final":
+            return self.fraction * abs(p_final)
+        change = abs(p_final - p0)
+        return self.fraction * (change if change > 0.05 * largest else largest)
+
+
+#: The default settling band: +-2 % of the final absolute pressure.
+SETTLING_BAND = SettlingBand(0.02, "final")
+#: Fewest crests of the ringing, after its first period, that a decay is fitted to, [-].
+MIN_CRESTS = 3
+#: Largest RMS scatter of ln(crest) about the fitted exponential decay, [-].
+MAX_FIT_SCATTER = 0.25
+#: A crest within this fraction of the band's edge makes the settling time a near-discrete
+#: event: a slightly smaller (larger) ringing moves it by half a period, [-].
+EDGE_MARGIN = 0.1
+#: An estimate whose uncertainty (one standard error of the fitted decay) exceeds this
+#: fraction of itself is not given, [-].
+MAX_ESTIMATE_SPREAD = 0.5
 
 
 def _window(t, p, t_start, t_end):
@@ -917,15 +1080,15 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
     return _amplitude(t, p, t_step, frequency, t_end)
 
 
-def _amplitude(t, p, t_step, frequency, t_end):
+def _amplitude(t, p, t_step, frequency, t_end, base=None):
     """:func:`oscillation_amplitude` of a trace checked and cut by :func:`_window`, at a
-    given frequency [Hz]."""
+    given frequency [Hz]; ``base``: its :func:`_baseline` where known."""
     if (t_end - t_step) * frequency < AMPLITUDE_MIN_PERIODS:
         return None
     frequency = float(frequency)
     if not (math.isfinite(frequency) and frequency > 0):
         raise ValueError(f"frequency must be a positive number [Hz], got {frequency!r}")
-    grid, values, baseline = _baseline(t, p, t_step, frequency, t_end)
+    grid, values, baseline = base or _baseline(t, p, t_step, frequency, t_end)
     swing = values - baseline
     per_period = int(round(1.0 / (frequency * (grid[1] - grid[0]))))
     from .filters import maximum_filter1d, minimum_filter1d, savgol_filter   # SciPy's, in NumPy
@@ -999,133 +1162,267 @@ def _rough_frequency(t, p, t_start, t_end):
     return float(0.5 / np.mean(np.diff(grid[idx])))
 
 
-def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> dict:
-    """The 2 % settling time of a port pressure after the step, measured or estimated.
-
-    The time after the step from which the pressure stays within ``+-band`` of the step's
-    pressure change about its final level.
-
-    ``"measured"``
-        The trace settles within the window ``[t_step, t_stop]``: :func:`settling_time` over
-        the window (final level: the mean of the window's last 20 %).
-    ``"estimated"``
-        The trace is still outside the band at ``t_stop`` but is a decaying oscillation of
-        frequency ``f`` about a level that has stopped moving. The level is the trace's double
-        moving average over one period ``T = 1/f``; the band is ``+-band * |p_final - p0|``
-        (or ``band`` times the largest deviation where the net change is below 5 % of it); the
-        peaks of ``|p - level|`` in the second half of the window are fitted with
-        ``ln A = c - sigma t``; the estimate is ``(t_stop - t_step) + ln(A(t_stop) / band) /
-        sigma``. Given only when the window holds at least :data:`MIN_PERIODS` periods, the
-        fit is clean (RMS scatter of ``ln A`` below :data:`MAX_FIT_SCATTER`), the level moves
-        less than half the band over the last period, and the extrapolation reaches no further
-        past ``t_stop`` than the window is long.
-    None
-        Neither: the note says why.
+def _band_exit(times, error, tolerance):
+    """The instant after which ``|error| <= tolerance`` for good: the last exit from the band,
+    interpolated linearly between samples; ``times[0]`` when the error never leaves it; None
+    when it is still outside at the last sample.
 
     Parameters
     ----------
-    t : array          Sample times, increasing, [s]
-    p : array          Port pressure, [Pa]
+    times : ndarray      Sample times, increasing, [s]
+    error : ndarray      Deviation from the band's centre at ``times``, [unit of p]
+    tolerance : float    Half-width of the band, >= 0, [unit of p]
+
+    Returns
+    -------
+    float or None  [s]
+    """
+    outside = np.flatnonzero(np.abs(error) > tolerance)
+    if outside.size == 0:
+        return float(times[0])
+    k = int(outside[-1])
+    if k == len(times) - 1:
+        return None
+    side = math.copysign(tolerance, error[k])
+    return float(times[k] + (times[k + 1] - times[k]) * (error[k] - side)
+                 / (error[k] - error[k + 1]))
+
+
+def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> dict:
+    """Settling time of a port pressure after the step: when it stays within the band for good.
+
+    The band (:class:`SettlingBand`) is by default +-2 % of the final absolute pressure; its
+    half-width ``h`` is stated in the result.
+
+    With an oscillation of frequency ``f`` (period ``T``) the band is centred on the
+    pressure's slow level, its centred one-period mean (:func:`oscillation_baseline`, whose
+    value at the window's end is the final pressure): the settling time is when the ringing
+    about the operating pressure dies into the band, and a slow drift of that level (an
+    accumulator charging) is the steady change's business, not the settling time's.
+
+    ``"measured"``
+        The ringing ``r = p - level`` leaves the band for the last time at least one period
+        before ``t_stop``: that instant (interpolated linearly), from ``t_step``.
+    ``"estimated"``
+        It is still outside the band within the window's last period. The crests of ``|r|``
+        after the first period (at least :data:`MIN_CRESTS`) are fitted with
+        ``ln A = c - sigma t`` (RMS scatter at most :data:`MAX_FIT_SCATTER`, ``sigma > 0``);
+        the ringing is continued as crests every ``T/2`` on that envelope, and the estimate
+        is the last exit from the band of that continuation (after the last crest above the
+        band ``A_k``: ``t_k + arccos(h / A_k) / (2 pi f)``). Its spread, one standard error
+        of the fitted envelope's crossing of the band, is in the note; an estimate spread by
+        more than :data:`MAX_ESTIMATE_SPREAD` of itself is not given.
+    None
+        Neither: the note says why.
+
+    Without an oscillation (``frequency`` None) the band is centred on the final pressure
+    (the mean of the window's last 20 %), and the trace must stay within it over the window's
+    last 5 % to count as settled (as :func:`settling_time`).
+
+    The last exit of a band is a discrete event: when the crest that last leaves it drops
+    inside (or the next crest rises outside) the settling time jumps by half a period. Where
+    a crest lies within :data:`EDGE_MARGIN` of the band's edge the result says so
+    (``settling_jump_s``, and the note).
+
+    Parameters
+    ----------
+    t : array          Sample times, strictly increasing, [s]
+    p : array          Port pressure (absolute), [Pa]
     t_step : float     Time of the step, [s]
     t_stop : float     End of the metrics window, [s]
     frequency : float  Oscillation frequency of the trace in the window, [Hz]; None: none
-    band : float       Half-width of the band relative to the pressure change, [-]
+    band : SettlingBand, float or str  The band (:meth:`SettlingBand.parse`: a number is a
+                       fraction of the final absolute pressure)
 
     Returns
     -------
     dict  ``settling_time_s`` (float from the step [s], or None), ``settling_method``
-          ("measured", "estimated" or None) and ``settling_note`` (how it was estimated, or
-          why there is none; "" when measured)
+          ("measured", "estimated" or None), ``settling_note`` (how it was estimated, a
+          crest at the band's edge, or why there is none; "" when there is nothing to add),
+          ``settling_band`` (the band in words), ``settling_band_mpa`` (its half-width
+          [MPa]) and ``settling_jump_s`` (the half period by which a crest at the band's edge
+          may move the settling time [s], or None)
     """
-    t = np.asarray(t, dtype=float)
-    p = np.asarray(p, dtype=float)
-    inside = t <= t_stop
-    measured = settling_time(t[inside], p[inside], t_step, band)
-    return _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside)
+    t, p, t_step, t_stop = _window(t, p, t_step, t_stop)
+    return _port_settling(t, p, t_step, t_stop, frequency, SettlingBand.parse(band))
 
 
-def _port_settling(t, p, t_step, t_stop, frequency, band, measured, inside=None):
-    """:func:`port_settling` given its measured settling time ``measured`` [s] (None: not
-    settled within the window); ``inside``: where ``t <= t_stop`` (None: everywhere)."""
-    from .filters import uniform_filter1d   # scipy.ndimage's, in NumPy
-
-    if measured is not None:
-        return {"settling_time_s": float(measured), "settling_method": "measured",
-                "settling_note": ""}
+def _port_settling(t, p, t_step, t_stop, frequency, band, levels=None, base=None):
+    """:func:`port_settling` of a trace checked and cut by :func:`_window`; ``levels``: its
+    :func:`_levels`, ``base`` its :func:`_baseline` at ``frequency``, where known."""
     window = t_stop - t_step
-    where = f"not settled within the metrics window ({window * 1e3:.0f} ms after the step)"
+    if frequency is not None and frequency > 0 and window * frequency >= AMPLITUDE_MIN_PERIODS:
+        return _ringing_settling(t, p, t_step, t_stop, float(frequency), band, base)
+    ts, ps, p0, p_final, _ = levels if levels is not None else _levels(t, p, t_step)
+    error = ps - p_final
+    h = band.half_width(p_final, p0, float(np.max(np.abs(error))))
+    out = _settling_result(None, None, "", band, h, None)
+    exit_ = _band_exit(ts, error, h)
+    if exit_ is not None and exit_ <= ts[-1] - SETTLED_FRACTION * window:
+        return {**out, "settling_time_s": exit_ - t_step, "settling_method": "measured"}
+    last = ts >= t_stop - 0.1 * window
+    slope = _line_fit(ts[last] - t_stop, ps[last])[0] if last.sum() >= 2 else 0.0
+    out["settling_note"] = (f"not settled within the metrics window ({window * 1e3:.0f} ms "
+                            f"after the step) in the +-{_mpa(h)} band about the final "
+                            f"pressure: no oscillation; the pressure still moves "
+                            f"{slope / 1e6:+.2g} MPa/s at the window's end")
+    return out
 
-    def none(why):
-        return {"settling_time_s": None, "settling_method": None, "settling_note": f"{where}: {why}"}
 
-    def mpa(v):
-        return f"{v / 1e6:.3g} MPa"
+def _mpa(v):
+    return f"{v / 1e6:.3g} MPa"
 
-    if frequency is None or not frequency > 0:
-        last = t >= t_stop - 0.1 * window
-        if inside is not None:
-            last &= inside
-        slope = _line_fit(t[last] - t_stop, p[last])[0] if last.sum() >= 2 else 0.0
-        return none(f"no oscillation; the pressure still moves {slope / 1e6:+.2g} MPa/s at the "
-                    f"window's end")
+
+def _settling_result(time, method, note, band, h, jump):
+    return {"settling_time_s": None if time is None else float(time), "settling_method": method,
+            "settling_note": note, "settling_band": band.describe(),
+            "settling_band_mpa": None if h is None else float(h) / 1e6,
+            "settling_jump_s": None if jump is None else float(jump)}
+
+
+def _ringing_settling(t, p, t_step, t_stop, frequency, band, base=None):
+    """:func:`port_settling` of a trace that rings at ``frequency`` [Hz]: the band about the
+    pressure's one-period mean, which must itself have entered the band about the final
+    pressure; ``base``: the trace's :func:`_baseline` where known."""
     period = 1.0 / frequency
-    periods = window / period
+    window = t_stop - t_step
+    grid, values, level = base or _baseline(t, p, t_step, frequency, t_stop)
+    p_final = float(level[-1])
+    h = band.half_width(p_final, float(values[0]), float(np.max(np.abs(values - p_final))))
+    settled, method, note, jump = _ringing_exit(grid, values - level, h, t_step, t_stop,
+                                                frequency)
+    if settled is None:
+        return _settling_result(None, None, f"not settled within the metrics window "
+                                f"({window * 1e3:.0f} ms after the step): {note}", band, h, None)
+    # the slow level (a pressure drop settling, an accumulator charging) must have come
+    # within the band of the final pressure too
+    notes = [note]
+    offset = np.abs(level - p_final)
+    arrived = _band_exit(grid, level - p_final, h)
+    if arrived > settled:
+        # the mean's last excursion outside the band: a discrete event where it barely is
+        last = np.flatnonzero(offset <= h)
+        last = last[grid[last] < arrived]
+        peak = float(np.max(offset[(last[-1] if last.size else 0):np.searchsorted(grid, arrived)]))
+        jump = arrived - settled if peak < (1 + EDGE_MARGIN) * h else None
+        settled = arrived
+        notes = [f"the mean pressure enters the +-{_mpa(h)} band about the final pressure "
+                 f"{(arrived - t_step) * 1e3:.0f} ms after the step, after its "
+                 f"{frequency:.3g} Hz oscillation has" + (f" ({note})" if note else "")]
+        if jump:
+            notes.append(f"its last excursion exceeds the band by only {(peak / h - 1) * 100:.0f} "
+                         f"%: a slightly smaller one settles {jump * 1e3:.3g} ms earlier (a "
+                         f"discrete event)")
+    else:
+        later = offset[grid > settled]
+        if jump is None and later.size and float(later.max()) > (1 - EDGE_MARGIN) * h:
+            k = int(np.argmax(later))
+            jump = float(grid[grid > settled][k]) - settled
+            notes.append(f"the mean pressure comes within {(1 - later[k] / h) * 100:.0f} % of "
+                         f"the band's edge {jump * 1e3:.3g} ms later: a slightly larger "
+                         f"excursion settles that much later at least (a discrete event)")
+    per_period = int(round(period / (grid[1] - grid[0])))
+    drift = float(level[-1] - level[max(0, level.size - 1 - per_period)])
+    if abs(drift) > h / 2:
+        notes.append(f"the mean pressure still moves {drift / period / 1e6:+.2g} MPa/s at the "
+                     f"window's end: the band is centred on its value there, which is not yet "
+                     f"a final one")
+    return _settling_result(settled - t_step, method, "; ".join(filter(None, notes)), band, h,
+                            jump)
 
-    def too_few():
-        return none(f"{periods:.1f} periods of the {frequency:.3g} Hz oscillation, too few "
-                    f"(< {MIN_PERIODS}) to extrapolate its decay")
 
-    if periods < MIN_PERIODS:
-        return too_few()
-    n = _BASELINE_SAMPLES
-    g = t_step + np.arange(int(math.floor(window / period * n)) + 1) * (period / n)
-    clear = (g >= t_step + period) & (g <= t_stop - period)
-    if not clear.any():
-        return too_few()
-    y = np.interp(g, t, p)
-    level = uniform_filter1d(uniform_filter1d(y, n, mode="nearest"), n, mode="nearest")
-    k_end = int(np.flatnonzero(clear)[-1])
-    p0, p_final = float(y[0]), float(level[k_end])
-    deviation = float(np.max(np.abs(y - p_final)))
-    change = abs(p_final - p0)
-    tolerance = band * (change if change > 0.05 * deviation else deviation)
-    # the last period: samples k_end - n .. k_end (by index: g[k_end - n] equals
-    # g[k_end] - period but for round-off, which made the comparison flip)
-    last = clear.copy()
-    last[:max(k_end - n, 0)] = False
-    drift = float(np.max(np.abs(level[last] - p_final)))
-    if drift > tolerance / 2:
-        return none(f"the mean pressure still moves {mpa(drift)} in its last period, more than "
-                    f"half the +-{mpa(tolerance)} band")
-    ringing = y - level
-    peaks, _ = find_peaks(np.abs(ringing), distance=max(1, int(0.35 * n)))
-    peaks = peaks[clear[peaks] & (g[peaks] >= t_step + window / 2)]
-    if len(peaks) < 4:
-        return none("too few oscillation peaks in the second half of the window to fit a decay")
-    log_a = np.log(np.abs(ringing[peaks]))
-    slope, c = _line_fit(g[peaks] - t_stop, log_a)
-    scatter = float(np.sqrt(np.mean((log_a - (c + slope * (g[peaks] - t_stop))) ** 2)))
+def _ringing_exit(grid, ringing, h, t_step, t_stop, frequency):
+    """When the ringing ``ringing`` (on the uniform ``grid`` [s], about the pressure's
+    one-period mean) leaves the band ``+-h`` for the last time: ``(time [s] or None, method,
+    note, jump [s] or None)`` (:func:`port_settling`: measured, or estimated from the decay of
+    its crests; None with the note saying why)."""
+    period = 1.0 / frequency
+    per_period = int(round(period / (grid[1] - grid[0])))
+    # the crests of |ringing|: one per half period
+    crests, _ = find_peaks(np.abs(ringing), distance=max(1, int(0.35 * per_period)))
+    crest_t, crest_a = grid[crests], np.abs(ringing[crests])
+    exit_ = _band_exit(grid, ringing, h)
+    if exit_ is not None and exit_ <= t_stop - period:
+        before = crest_a[crest_t < exit_]
+        after = crest_a[crest_t > exit_]
+        jump, note = _edge(before[-1] if before.size else None,
+                           after[0] if after.size else None, h, period)
+        return exit_, "measured", note, jump
+    # still ringing outside the band in the window's last period: fit the decay
+    fit = (crest_t >= t_step + period)
+    n = int(np.count_nonzero(fit))
+    if n < MIN_CRESTS:
+        return None, None, (f"{n} crests of the {frequency:.3g} Hz oscillation after its first "
+                            f"period, too few (< {MIN_CRESTS}) to fit its decay"), None
+    x, y = crest_t[fit] - t_stop, np.log(crest_a[fit])
+    slope, c = _line_fit(x, y)
+    residual = y - (c + slope * x)
+    scatter = float(np.sqrt(np.mean(residual ** 2)))
     sigma = -float(slope)
-    a_stop = math.exp(c)
     if not sigma > 0:
-        return none(f"the {frequency:.3g} Hz oscillation does not decay over the window's "
-                    f"second half")
+        return None, None, f"the {frequency:.3g} Hz oscillation does not decay over the window", None
     if scatter > MAX_FIT_SCATTER:
-        return none(f"the envelope of the {frequency:.3g} Hz oscillation is not a clean "
-                    f"exponential decay (scatter {scatter:.2f} in ln A)")
-    gap = max(0.0, math.log(a_stop / tolerance) / sigma)
-    if gap > window:
-        return none(f"the {frequency:.3g} Hz oscillation (+-{mpa(a_stop)} at the window's end, "
-                    f"decay rate {sigma:.3g} 1/s) would take about {gap * 1e3:.0f} ms more to "
-                    f"enter the +-{mpa(tolerance)} band: longer than the window, not extrapolated")
-    return {"settling_time_s": float(window + gap), "settling_method": "estimated",
-            "settling_note": f"estimated: the {frequency:.3g} Hz oscillation, +-{mpa(a_stop)} "
-                             f"at the window's end {window * 1e3:.0f} ms after the step, decays "
-                             f"as exp(-{sigma:.3g} t) (fit over {len(peaks)} peaks) into the "
-                             f"+-{mpa(tolerance)} band {gap * 1e3:.0f} ms later"}
+        return None, None, (f"the envelope of the {frequency:.3g} Hz oscillation is not a clean "
+                            f"exponential decay (scatter {scatter:.2f} in ln A)"), None
+    # the fitted envelope A(t) = exp(c - sigma (t - t_stop)) crosses the band at t_stop + gap
+    gap = (c - math.log(h)) / sigma
+    # its standard error (inverse prediction from the line fit, n - 2 degrees of freedom)
+    xm = float(np.mean(x))
+    sxx = float(np.sum((x - xm) ** 2))
+    s = math.sqrt(float(np.sum(residual ** 2)) / (n - 2))
+    spread = s * math.sqrt(1.0 / n + (gap - xm) ** 2 / sxx) / sigma
+    # continue the crests every half period on the envelope; the last one above the band
+    last = float(crest_t[-1])
+    half = period / 2
+    j = math.floor((t_stop + gap - last) / half)      # crests last + k T/2, k <= j, above h
+    while j >= 1 and c - sigma * (last + j * half - t_stop) <= math.log(h):
+        j -= 1
+    if j >= 1:
+        t_k = last + j * half
+        a_k = math.exp(c - sigma * (t_k - t_stop))
+        settled = t_k + math.acos(min(1.0, h / a_k)) / (2 * math.pi * frequency)
+        a_next = a_k * math.exp(-sigma * half)
+    else:   # the next crest is predicted inside the band: the exit from the last one seen
+        a_k = float(crest_a[-1])
+        settled = exit_ if exit_ is not None else \
+            max(t_stop, last + math.acos(min(1.0, h / a_k)) / (2 * math.pi * frequency))
+        a_next = math.exp(c - sigma * (last + half - t_stop))
+    decay = (f"the {frequency:.3g} Hz oscillation, +-{_mpa(math.exp(c))} about the mean "
+             f"pressure at the window's end ({(t_stop - t_step) * 1e3:.0f} ms after the step), "
+             f"decays as exp(-{sigma:.3g} t) (fit over {n} crests)")
+    if spread > MAX_ESTIMATE_SPREAD * (settled - t_step):
+        return None, None, (f"{decay} and would leave the +-{_mpa(h)} band about "
+                            f"{(settled - t_step) * 1e3:.0f} +- {spread * 1e3:.0f} ms after the "
+                            f"step: too uncertain to give"), None
+    jump, edge_note = _edge(a_k, a_next, h, period)
+    if settled <= t_stop:
+        note = (f"estimated: the pressure left the +-{_mpa(h)} band for the last time "
+                f"{(t_stop - settled) * 1e3:.0f} ms before the window's end; {decay}, and its "
+                f"next crests are predicted inside the band")
+    else:
+        note = (f"estimated: {decay} and leaves the +-{_mpa(h)} band for the last time "
+                f"{(settled - t_stop) * 1e3:.0f} ms after the window's end (+- "
+                f"{spread * 1e3:.0f} ms, one standard error of the fit)")
+    return settled, "estimated", "; ".join(filter(None, (note, edge_note))), jump
 
 
-def pressure_metrics(t, p, t_step, t_end=None) -> dict:
+def _edge(a_out, a_in, h, period):
+    """``(jump [s] or None, note)``: whether the crest that leaves the band last (``a_out``)
+    or the first crest inside it (``a_in``) lies within :data:`EDGE_MARGIN` of the band's
+    half-width ``h`` (amplitudes and ``h`` in one unit; None: no such crest)."""
+    half = period / 2
+    if a_out is not None and a_out < (1 + EDGE_MARGIN) * h:
+        return half, (f"the last crest outside the band exceeds it by only "
+                      f"{(a_out / h - 1) * 100:.0f} %: a slightly smaller ringing settles half "
+                      f"a period ({half * 1e3:.3g} ms) earlier (a discrete event)")
+    if a_in is not None and a_in > (1 - EDGE_MARGIN) * h:
+        return half, (f"the next crest reaches {a_in / h * 100:.0f} % of the band: a slightly "
+                      f"larger ringing settles half a period ({half * 1e3:.3g} ms) later (a "
+                      f"discrete event)")
+    return None, ""
+
+
+def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> dict:
     """Every metric of one port pressure after a disturbance, over ``[t_step, t_end]``.
 
     Parameters
@@ -1134,6 +1431,8 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
     p : array_like    Pressure, [Pa]
     t_step : float    Time of the disturbance (start of the metrics window), [s]
     t_end : float     End of the metrics window, [s]; the end of ``t`` when None
+    settling_band : SettlingBand, float or str  The settling band (:class:`SettlingBand`;
+                      default +-2 % of the final absolute pressure)
 
     Returns
     -------
@@ -1149,18 +1448,27 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
                                  oscillation, or over its last 20 % without one; None when
                                  the window is too short to tell
         ``peak_to_peak_mpa``     ``max p - min p`` in the window, [MPa]
-        ``settling_time_s``, ``settling_method``, ``settling_note``  (:func:`port_settling`)
+        ``settling_time_s``, ``settling_method``, ``settling_note``, ``settling_band``,
+        ``settling_band_mpa``, ``settling_jump_s``  (:func:`port_settling`)
         ``amplitude_note``       "" when frequency and amplitude were measured, else why not
-                                 (no oscillation; the window holds too few periods)
+                                 (no oscillation; the window holds too few periods), or that
+                                 the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
+                                 above 1 %: near the 'no oscillation' verdict, where the
+                                 amplitude jumps to 0
+        ``ringing_periods``      for how many periods after the step the oscillation stays
+                                 above 1 % of the excursion, [-]; None where it does so to
+                                 the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
+    settling_band = SettlingBand.parse(settling_band)
     duration = t_end - t_step
     levels = _levels(t, p, t_step)
-    frequency = _frequency(levels, t_step, 1.5)
+    frequency, periods = _frequency_and_periods(levels, t_step, 1.5)
     note = ""
     amplitude = 0.0
+    base = None
     if frequency is None:
         rough = _rough_frequency(t, p, t_step, t_end)
         if rough is not None and duration * rough < AMPLITUDE_MIN_PERIODS + 0.5:
@@ -1176,7 +1484,13 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
         note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * frequency:.1f} periods of "
                 f"the {frequency:.3g} Hz oscillation; an amplitude needs {AMPLITUDE_MIN_PERIODS:g}")
     else:
-        amplitude = _amplitude(t, p, t_step, frequency, t_end)
+        base = _baseline(t, p, t_step, frequency, t_end)
+        amplitude = _amplitude(t, p, t_step, frequency, t_end, base)
+        if periods < VERDICT_MARGIN:
+            note = (f"rings for only {periods:.1f} periods above {OSCILLATION_THRESHOLD:.0%} of "
+                    f"its excursion, near the 'no oscillation' verdict (1.5 periods): a "
+                    f"slightly more damped or weaker ringing reads amplitude 0 (a discrete "
+                    f"event)")
     ts, ps = levels[0], levels[1]       # _post_step(t, p, t_step)
     p0 = float(ps[0])
     if frequency is not None and duration * frequency >= 1.0:
@@ -1184,17 +1498,17 @@ def pressure_metrics(t, p, t_step, t_end=None) -> dict:
     else:
         level, _ = _window_moments(ts, ps, t_end - TAIL_FRACTION * duration)
     if amplitude is None:      # too short to know where the pressure settles, or when
-        settling = {"settling_time_s": None, "settling_method": None,
-                    "settling_note": f"not settled within the window: {note}"}
+        settling = _settling_result(None, None, f"not settled within the window: {note}",
+                                    settling_band, None, None)
         change = None
     else:
-        # port_settling: the window is the whole of t here
-        measured = _settling_time(levels, t_step, SETTLING_BAND)
-        settling = _port_settling(t, p, t_step, t_end, frequency, SETTLING_BAND, measured)
+        settling = _port_settling(t, p, t_step, t_end, frequency, settling_band, levels, base)
         change = (level - p0) / 1e6
     return {"frequency_hz": None if frequency is None else float(frequency),
             "amplitude_mpa": None if amplitude is None else float(amplitude) / 1e6,
             "first_excursion_mpa": max(0.0, _refined_max(ts, np.abs(ps - p0))) / 1e6,
             "steady_change_mpa": change,
             "peak_to_peak_mpa": max(0.0, _refined_max(ts, ps) + _refined_max(ts, -ps)) / 1e6,
-            **settling, "amplitude_note": note}
+            **settling, "amplitude_note": note,
+            "ringing_periods": (float(periods) if periods is not None and math.isfinite(periods)
+                                else None)}
