@@ -248,18 +248,27 @@ def _rerun_after(d, damaged: list, clean_summary):
     return out
 
 
-def test_tampered_correction_factors_are_rebuilt_with_a_warning(default_rig_cache, tmp_path):
+def test_tampered_line_tables_are_rebuilt_with_a_warning(default_rig_cache, tmp_path):
     """Issue 24: the cached correction factors alpha_i, beta_i scaled by 1.5 (still valid
-    JSON) gave 25.8 Hz / 1.50 MPa, exit 0 and no word. Now: one warning naming each altered
-    file, and 40.0 Hz / 1.00 MPa again."""
+    JSON) gave 25.8 Hz / 1.50 MPa, exit 0 and no word. The default rig's lines are now the
+    exact-pole realisations (table ``residue_lines``): their matrices scaled by 1.5 likewise.
+    Now: one warning naming each altered file, and 40.0 Hz / 1.00 MPa again."""
     import json
 
+    def scaled(v):
+        if isinstance(v, list):
+            return [scaled(x) for x in v]
+        if isinstance(v, dict):
+            return {k: scaled(x) for k, x in v.items()}
+        return 1.5 * v if isinstance(v, float) else v
+
     d = _copy_of(default_rig_cache, tmp_path)
-    tables = sorted((d / "correction_factors").glob("*.json"))
+    tables = sorted((d / "residue_lines").glob("*.json")) + sorted(
+        (d / "correction_factors").glob("*.json"))
     assert tables
     for path in tables:
         entry = json.loads(path.read_text())
-        entry["value"] = [[1.5 * v for v in row] for row in entry["value"]]
+        entry["value"] = scaled(entry["value"])
         path.write_text(json.dumps(entry))
     _rerun_after(d, tables, default_rig_cache[1])
     again = _simulate(d)             # rebuilt: the next run has nothing to say

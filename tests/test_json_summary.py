@@ -64,9 +64,13 @@ def test_simulate_json_is_the_summary(tmp_path, capsys):
     for side in ("supply", "return"):
         p = tab[f"{side}_port_pressure"].to_numpy()
         p0 = np.interp(t0, t, p)
+        # a maximum read on another grid (the summary's metrics grid, the window's end between
+        # two rows) differs by at most one row's change of the trace
+        step = np.max(np.abs(np.diff(p[w]))) / 1e6
         assert doc[side]["first_excursion_mpa"] == pytest.approx(
-            np.max(np.abs(p[w] - p0)) / 1e6, rel=1e-4)
-        assert doc[side]["peak_to_peak_mpa"] == pytest.approx(np.ptp(p[w]) / 1e6, rel=1e-4)
+            np.max(np.abs(p[w] - p0)) / 1e6, rel=1e-4, abs=step)
+        assert doc[side]["peak_to_peak_mpa"] == pytest.approx(np.ptp(p[w]) / 1e6, rel=1e-4,
+                                                              abs=2 * step)
 
 
 def test_closed_loop_sine_json_has_tracking_error_and_ripple(tmp_path, capsys):

@@ -306,6 +306,17 @@ def _without_timing(df):
     return df.drop(columns=["wall_time_s"]).reset_index(drop=True)
 
 
+def _same_rows(a, b):
+    """Two sweeps' rows, equal to the solver's tolerance: a variant's rest state starts from
+    the previous variant's on its worker (another one after a resume or on another worker),
+    and the rest state is found to its tolerance (the exact-pole line's Jacobian has a
+    condition number ~1e8), so a row's traces may differ by the integrator's rtol 1e-6 of
+    ~20 MPa (~20 Pa) and its metrics by a few times that in relative terms (a settling time
+    extrapolated from crests); 1e-4 relative bounds both."""
+    pd.testing.assert_frame_equal(_without_timing(a), _without_timing(b), check_exact=False,
+                                  rtol=1e-4)
+
+
 @pytest.fixture(scope="module")
 def uninterrupted(tmp_path_factory):
     """The reference: the whole sweep in one go on 2 worker processes."""
@@ -345,7 +356,7 @@ def test_sweep_interrupted_and_resumed_equals_uninterrupted(uninterrupted, tmp_p
         sweep(SWEEP_SETS, t_end=0.2, workers=2, out=tmp_path, resume=True)
     res = sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, resume=True)
     assert res.n_computed == 4 and res.complete
-    pd.testing.assert_frame_equal(_without_timing(res.table), _without_timing(ref))
+    _same_rows(res.table, ref)
     csv = pd.read_csv(tmp_path / "sweep.csv")
     pd.testing.assert_frame_equal(_without_timing(csv), _without_timing(pd.read_csv(
         uninterrupted.files["csv"])))
@@ -366,7 +377,7 @@ def test_sweep_interrupted_on_worker_processes_keeps_the_running_variants(uninte
     assert sorted(rows) == sorted(seen)             # every recorded row was reported
     res = sweep(SWEEP_SETS, t_end=T_END, workers=2, out=tmp_path, resume=True)
     assert res.n_computed == 6 - len(rows)
-    pd.testing.assert_frame_equal(_without_timing(res.table), _without_timing(uninterrupted.table))
+    _same_rows(res.table, uninterrupted.table)
 
 
 def test_sweep_parquet_matches_csv(uninterrupted):
@@ -471,8 +482,7 @@ def test_sweep_cli_killed_with_sigterm_resumes(kill_reference, tmp_path, workers
     # the message counts what this run recorded, the in-flight variants included
     assert f"terminated (SIGTERM) after {len(rows)} variants" in err
     assert main([*_kill_args(out, 2), "--resume"]) == 0     # resumed on 2 workers: faster
-    pd.testing.assert_frame_equal(_without_timing(pd.read_csv(out / "sweep.csv")),
-                                  _without_timing(kill_reference))
+    _same_rows(pd.read_csv(out / "sweep.csv"), kill_reference)
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
@@ -549,7 +559,7 @@ def test_sweep_on_dask_cluster_matches_local_processes(tmp_path):
         assert address.startswith("tcp://127.0.0.1:")
         remote = sweep(sets, t_end=T_END, scheduler=address, out=tmp_path)
     assert remote.n_failed == 0
-    pd.testing.assert_frame_equal(_without_timing(remote.table), _without_timing(local.table))
+    _same_rows(remote.table, local.table)
 
 
 def test_sweep_cli_on_local_dask_cluster(uninterrupted, tmp_path, capsys):
@@ -715,22 +725,22 @@ def test_shared_model_trace_and_rest_state_equal_simulates():
 
 
 def test_sweep_variants_write_no_cache_file_per_hose(monkeypatch):
-    """A sweep's hoses are new lines in every variant: their correction factors stay in the
-    worker's memory instead of one cache file each (and a repeated line is not solved
-    again)."""
-    from hydroline.lines import corrections
+    """A sweep's hoses are new lines in every variant: their line numbers (the exact-pole
+    realisation of the default line, the Yang-Tobler corrections) stay in the worker's memory
+    instead of one cache file each (and a repeated line is not solved again)."""
+    from hydroline.lines import memo, residue
     from hydroline.studies.sweep import VariantRunner
 
     written, solved = [], []
-    monkeypatch.setattr(corrections, "store_table", lambda kind, key, value: written.append(kind))
-    real_solve = corrections._solve_correction_factors
-    monkeypatch.setattr(corrections, "_solve_correction_factors",
-                        lambda *a: solved.append(a[0].length) or real_solve(*a))
+    monkeypatch.setattr(memo, "store_table", lambda kind, key, value: written.append(kind))
+    real_realise = residue._realise
+    monkeypatch.setattr(residue, "_realise",
+                        lambda *a: solved.append(a[0].length) or real_realise(*a))
     runner = VariantRunner(load_rig())
     for i, length in enumerate((1.234567, 2.345678, 1.234567)):
         row = runner(i, {"supply.section2.length": length, "return.section2.length": length})
         assert row["error"] is None
-    assert "correction_factors" not in written
+    assert "residue_lines" not in written and "correction_factors" not in written
     assert solved.count(2.345678) == 2       # supply and return side, once: then remembered
 
 
@@ -754,8 +764,8 @@ def test_graph_signature_tells_structures_apart():
     assert signature(supply__section2__length="1 m")[0] == base          # numbers only: in p
     assert signature(supply__section2__length="0 m")[0] != base          # section removed
     assert signature(supply__accumulator__precharge_pressure="8 MPa")[0] != base  # a constant
-    circuit = build_circuit(load_rig())                                  # outside: constants
-    assert not any(".A" in k for k in circuit.network(
+    circuit = build_circuit(load_rig())                 # outside too: the default since the
+    assert any(".A" in k for k in circuit.network(      # exact-pole line became the default
         build_scenario(load_rig(), axes=circuit.axes).commands).parameter_names)
     other = signature()[1]
     assert graph_signature(other) == base

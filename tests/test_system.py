@@ -350,7 +350,9 @@ def test_supply_pressure_table_from_rig_file(tmp_path):
     f = tmp_path / "rig.toml"
     f.write_text('[rig]\nbase = "default"\n[supply.pressure_profile]\ntype = "table"\n'
                  'file = "p_hps.csv"\n[scenario.open-loop-step]\ncurrent = "0 mA"\n')
-    res = simulate(load_rig(f), t_end=0.2)
+    # 0.5 s: the exact-pole line keeps the hoses' slow viscous (real-axis) poles, through
+    # which the manifold is still 18 kPa short of its final drop at 0.2 s
+    res = simulate(load_rig(f), t_end=0.5)
     if hydroline.compiled.available():
         assert res.metadata["solver"] == "compiled"         # the table compiles (sum of ramps)
     t = res.t

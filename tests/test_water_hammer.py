@@ -1,4 +1,4 @@
-"""The valve's bound on a hose's quarter-wave oscillation (M25, hydroline.analysis.water_hammer)
+"""The valve's bound on a hose's quarter-wave oscillation (M25-M26, hydroline.analysis.water_hammer)
 against an ideal lossless line solved by the method of characteristics (exact for a lossless
 line: one reach per time step along the characteristics), driven at its valve end by the flow
 of a second-order valve and held at constant pressure at the manifold end."""
@@ -36,7 +36,7 @@ def valve_flow(dq, fv, zeta):
 def test_bound_against_the_ideal_line(length, fv, zeta):
     """Fundamental (Fourier coefficient over whole periods, after the valve's transient) and
     half the peak-to-peak swing of the ideal line's valve-end pressure in its periodic state,
-    against (M25b) and the harmonic series, within 5 %."""
+    against (M26) and the harmonic series, within 5 %."""
     line = Line(length, 13.43e-3, FLUID, 203.8e6)
     dq = 3.6e-4
     moc = CharacteristicsLine(line, n_reaches=200, friction="none")

@@ -1,5 +1,5 @@
 """How much of the water hammer a servovalve can put into a hose's quarter-wave mode
-(docs/model.md, M25).
+(docs/model.md, M25-M26).
 
 A hose section between a manifold held at constant pressure by its accumulator (an open end)
 and a valve port whose flow changes by ``dQ`` (a flow-driven end) is a quarter-wave
@@ -8,19 +8,19 @@ M3). A flow step that rises instantly gives the Joukowsky water hammer, a square
 amplitude ``Z0 dQ`` about the initial pressure, period ``4 T``, i.e. frequency
 ``f = c / (4 L)``::
 
-    p(t) - p(0) = -Z0 dQ [1 - 2 H(t - 2T) + 2 H(t - 4T) - ...]                        (M25a)
+    p(t) - p(0) = -Z0 dQ [1 - 2 H(t - 2T) + 2 H(t - 4T) - ...]                        (M25)
 
 Its Fourier series holds the odd harmonics k f with amplitudes ``4 Z0 dQ / (pi k)``. A valve
 flow that rises like a second-order system, ``Q(s) = dQ / s * w_v^2 / (s^2 + 2 zeta_v w_v s +
 w_v^2)``, passes each harmonic through the valve's gain ``|G_v(j k w)|``, so the quarter-wave
 mode (the fundamental) of the lossless line settles to the amplitude::
 
-    A_1 = (4 / pi) Z0 dQ / sqrt((1 - r^2)^2 + (2 zeta_v r)^2),   r = f / f_v           (M25b)
+    A_1 = (4 / pi) Z0 dQ / sqrt((1 - r^2)^2 + (2 zeta_v r)^2),   r = f / f_v           (M26)
 
 and the whole periodic trace swings by half the peak-to-peak of the series of all odd
 harmonics (:func:`periodic_swing_fraction`). Friction and a manifold that is not quite an
 open end (its resistance, the accumulator's connection) only lower both: for a lossless line
-the mode is undamped, so (M25b) is the largest share of ``Z0 dQ`` such a valve can put into
+the mode is undamped, so (M26) is the largest share of ``Z0 dQ`` such a valve can put into
 the mode. Short hoses (``r`` near or above 1) are bounded by the valve, not by the hose: at
 the default rig's 0.7512 m section II (c = 484 m/s, f = 161 Hz, r = 1.15 with a 140 Hz,
 zeta = 1 spool) ``A_1 = 0.55 Z0 dQ``, against ``1.18 Z0 dQ`` at 3.048 m (f = 39.7 Hz,
@@ -73,7 +73,7 @@ def valve_gain(frequency_ratio, damping_ratio):
 
 def quarter_wave_fraction(frequency_ratio, damping_ratio) -> float:
     """Amplitude of a lossless quarter-wave hose's fundamental mode driven by the valve's flow
-    step, as a fraction of the water hammer Z0 dQ (M25b), [-].
+    step, as a fraction of the water hammer Z0 dQ (M26), [-].
 
     Parameters
     ----------
@@ -94,7 +94,7 @@ def quarter_wave_fraction(frequency_ratio, damping_ratio) -> float:
 
 def periodic_swing_fraction(frequency_ratio, damping_ratio) -> float:
     """Half the peak-to-peak swing of the lossless hose's periodic pressure at the valve (the
-    square wave (M25a) with each harmonic through the valve's gain and phase), as a fraction
+    square wave (M25) with each harmonic through the valve's gain and phase), as a fraction
     of Z0 dQ, [-]. 1 for an instantaneous valve (the square wave), ~ :func:`quarter_wave_fraction`
     when the valve filters the third harmonic out (r above ~0.5).
 
@@ -125,7 +125,7 @@ def periodic_swing_fraction(frequency_ratio, damping_ratio) -> float:
 
 def valve_bound(length, wave_speed, impedance, flow_change, valve_frequency,
                 valve_damping) -> dict:
-    """The valve's bound on a section's quarter-wave oscillation (M25b), with its terms.
+    """The valve's bound on a section's quarter-wave oscillation (M26), with its terms.
 
     Parameters
     ----------
@@ -146,7 +146,7 @@ def valve_bound(length, wave_speed, impedance, flow_change, valve_frequency,
     -------
     dict
         ``quarter_wave_hz`` c/(4L) [Hz], ``frequency_ratio`` f/f_v [-], ``water_hammer_pa``
-        Z0 |dQ| [Pa], ``mode_fraction`` (M25b) [-], ``mode_amplitude_pa`` [Pa],
+        Z0 |dQ| [Pa], ``mode_fraction`` (M26) [-], ``mode_amplitude_pa`` [Pa],
         ``swing_fraction`` and ``swing_amplitude_pa`` (:func:`periodic_swing_fraction`) [-],
         [Pa].
     """

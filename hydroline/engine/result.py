@@ -211,7 +211,7 @@ class SimulationResult:
             data[v] = table[:, k][:, None]
         data["units"] = {v: ("s" if c == "time" else units.get(c, "")) for c, v in zip(columns, names)}
         data["names"] = dict(zip(names, columns))
-        savemat(path, data, do_compression=True, oned_as="column")
+        savemat(path, data, do_compression=True, oned_as="column", long_field_names=True)
 
     def plot(self, signals=None, path=None, title=None):
         """Plot signals (default: the paper's Figs. 10-12 set when present); the figure is

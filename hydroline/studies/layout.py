@@ -28,7 +28,7 @@ in about 5 ms (spool 140 Hz, zeta = 1, and the actuator's acceleration; the tabl
 (``*_round_trip_ms``): the long hoses differ little (1.00 / 1.02 / 0.97 MPa at the supply port
 for 3.048 / 2.286 / 1.524 m), the 0.7512 m hose's reflection returns before the flow has risen
 (0.56 MPa), and close-coupling removes the resonator (0). How much a valve whose flow rises like
-a second-order system can put into the quarter-wave mode is (M25), the table's
+a second-order system can put into the quarter-wave mode is (M26), the table's
 ``*_valve_bound_mpa`` (:mod:`hydroline.analysis.water_hammer`). The paper: peak amplitudes
 "progressively reduced", "slightly", the close coupling "eliminates" the oscillation.
 
@@ -207,7 +207,7 @@ class LayoutStudy:
         flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
         {supply,return}_round_trip_ms (2 L / c of that section II),
         {supply,return}_valve_bound_mpa (the most the valve's flow rise can put into that
-        section's quarter-wave swing, docs/model.md M25), wall_time_s, warnings
+        section's quarter-wave swing, docs/model.md M26), wall_time_s, warnings
         (NaN where a metric does not exist)."""
         import pandas as pd     # here: a sweep's worker imports this module, never a table
 
@@ -413,13 +413,13 @@ def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
     return float(tw[reach[1][0]] - tw[reach[0][0]])
 
 
-#: A port amplitude at least this share of the valve's bound (M25) is "close to it": the
+#: A port amplitude at least this share of the valve's bound (M26) is "close to it": the
 #: conclusion then says the valve, not the hose, limits it, [-]
 NEAR_BOUND = 0.6
 
 
 def _valve_bound_mpa(res, line: Line, length: float, flow_signal: str, valve) -> float:
-    """The valve's bound (M25, :func:`hydroline.analysis.water_hammer.valve_bound`) on the
+    """The valve's bound (M26, :func:`hydroline.analysis.water_hammer.valve_bound`) on the
     half peak-to-peak swing of a section of ``length`` at the port, for the run's flow change
     at the port, [MPa]; NaN for a removed section or without the flow."""
     from ..analysis.water_hammer import valve_bound
@@ -485,7 +485,7 @@ def conclusion(study: "LayoutStudy") -> str:
         if near:
             parts.append(f"at {hoses[0]:g} m the amplitude is close to the most the valve's "
                          "flow rise can put into the hose's quarter-wave mode (docs/model.md "
-                         "M25; " + "; ".join(near) + "): the valve, not the hose, bounds it")
+                         "M26; " + "; ".join(near) + "): the valve, not the hose, bounds it")
     if 0.0 in recs:
         left = [(side, recs[0.0][side]) for side in SIDES
                 if recs[0.0][side]["frequency_hz"] is not None]
