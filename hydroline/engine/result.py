@@ -113,7 +113,7 @@ class SimulationResult:
                      "ripple p-p [MPa]", "settling [ms]")
 
     def __repr__(self) -> str:
-        from ..display import text_block
+        from .display import text_block
 
         rows, metrics = self._summary_rows()
         text = text_block("hydroline SimulationResult", rows)
@@ -123,7 +123,7 @@ class SimulationResult:
         return text
 
     def _repr_html_(self) -> str:
-        from ..display import html_block
+        from .display import html_block
 
         rows, metrics = self._summary_rows()
         out = html_block("hydroline SimulationResult", rows,

@@ -303,12 +303,12 @@ class Rig:
         return rows
 
     def __repr__(self) -> str:
-        from ..display import text_block
+        from ..engine.display import text_block
 
         return text_block("hydroline Rig", self._summary_rows())
 
     def _repr_html_(self) -> str:
-        from ..display import html_block
+        from ..engine.display import html_block
 
         return html_block("hydroline Rig", self._summary_rows(),
                           note="rig[path] gives a value in SI; rig.to_toml() every value")

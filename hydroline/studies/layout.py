@@ -185,14 +185,14 @@ class LayoutStudy:
         return title, rows
 
     def __repr__(self) -> str:
-        from ..display import text_block
+        from ..engine.display import text_block
 
         title, rows = self._summary_rows()
         text = text_block(title, rows, self.SUMMARY_HEADER)
         return text + ("\n  " + conclusion(self) if self.results else "")
 
     def _repr_html_(self) -> str:
-        from ..display import html_block
+        from ..engine.display import html_block
 
         title, rows = self._summary_rows()
         return html_block(title, rows, self.SUMMARY_HEADER,

@@ -718,13 +718,13 @@ class SweepResult:
             [("note", n) for n in self.notes]
 
     def __repr__(self) -> str:
-        from ..display import text_block
+        from ..engine.display import text_block
 
         return text_block("hydroline SweepResult", self._summary_rows()) + \
             "\n  (.table: one row per variant, pandas)"
 
     def _repr_html_(self) -> str:
-        from ..display import html_block
+        from ..engine.display import html_block
 
         head = self.table.head(10)
         return (html_block("hydroline SweepResult", self._summary_rows())
