@@ -573,7 +573,8 @@ def test_sweep_cli_on_local_dask_cluster(uninterrupted, tmp_path, capsys):
     ref = uninterrupted.table.iloc[[1, 3]]          # 150/14 MPa and 178/14 MPa
     for col in ("supply.section2.bulk_modulus", "supply_frequency_hz", "supply_amplitude_mpa",
                 "return_frequency_hz", "return_amplitude_mpa"):
-        assert got[col].tolist() == pytest.approx(ref[col].tolist(), rel=1e-9)
+        # to the solver's tolerance: each started from another neighbour's rest (_same_rows)
+        assert got[col].tolist() == pytest.approx(ref[col].tolist(), rel=1e-4)
 
 
 def test_studies_reachable_from_import_hydroline():
