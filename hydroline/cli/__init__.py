@@ -141,7 +141,7 @@ BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THR
 
 def single_threaded_blas() -> None:
     """Ask the BLAS library for one thread, unless the user set a count (to take effect, call
-    before NumPy is imported). The model's matrices are small (58 x 58 on the default rig):
+    before NumPy is imported). The model's matrices are small (138 x 138 on the default rig):
     extra BLAS threads only spin, on the cores the figure process and a sweep's workers use
     (after the steady-state solve, ~7 % of a short run's CPU samples)."""
     for name in BLAS_THREAD_VARIABLES:
