@@ -1412,8 +1412,10 @@ def _edge(a_out, a_in, h, period):
     half-width ``h`` (amplitudes and ``h`` in one unit; None: no such crest)."""
     half = period / 2
     if a_out is not None and a_out < (1 + EDGE_MARGIN) * h:
-        return half, (f"the last crest outside the band exceeds it by only "
-                      f"{(a_out / h - 1) * 100:.0f} %: a slightly smaller ringing settles half "
+        # (its fitted height may lie a little inside the band while the trace itself left it)
+        return half, (f"the last crest outside the band lies within "
+                      f"{abs(a_out / h - 1) * 100:.0f} % of its edge: a slightly smaller "
+                      f"ringing settles half "
                       f"a period ({half * 1e3:.3g} ms) earlier (a discrete event)")
     if a_in is not None and a_in > (1 - EDGE_MARGIN) * h:
         return half, (f"the next crest reaches {a_in / h * 100:.0f} % of the band: a slightly "
