@@ -312,9 +312,14 @@ def _same_rows(a, b):
     and the rest state is found to its tolerance (the exact-pole line's Jacobian has a
     condition number ~1e8), so a row's traces may differ by the integrator's rtol 1e-6 of
     ~20 MPa (~20 Pa) and its metrics by a few times that in relative terms (a settling time
-    extrapolated from crests); 1e-4 relative bounds both."""
-    pd.testing.assert_frame_equal(_without_timing(a), _without_timing(b), check_exact=False,
-                                  rtol=1e-4)
+    extrapolated from crests); 1e-4 relative bounds them, except the settling times estimated
+    by extrapolating a decay up to ~250 ms past the window (a 1e-5 change of the fitted
+    decay rate moves them by ~1e-4 of their span per crest): 2e-3."""
+    a, b = _without_timing(a), _without_timing(b)
+    settling = [c for c in a.columns if c.endswith("settling_time_s")]
+    pd.testing.assert_frame_equal(a.drop(columns=settling), b.drop(columns=settling),
+                                  check_exact=False, rtol=1e-4)
+    pd.testing.assert_frame_equal(a[settling], b[settling], check_exact=False, rtol=2e-3)
 
 
 @pytest.fixture(scope="module")
