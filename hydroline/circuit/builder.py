@@ -370,6 +370,14 @@ def _check_declared(rig, name: str, ctype, decls: dict, key: str, v, allowed) ->
                            f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
 
 
+def _component_params(values: dict, name: str) -> dict:
+    """A circuit component's own parameters (SI), by key: ``circuit.<name>.<key>`` without
+    its type and its port and term tables."""
+    head = f"{PREFIX}{name}."
+    return {k[len(head):]: v for k, v in values.items()
+            if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+
+
 def check_circuit_value(rig, path: str) -> None:
     """Refuse one circuit parameter's value (``circuit.<component>.<parameter>``) outside its
     type's declared bounds or plausible range, as :func:`circuit_components` does for all of
@@ -387,9 +395,7 @@ def check_circuit_value(rig, path: str) -> None:
     name, key = _split(path, rig.raw)
     ctype = COMPONENT_TYPES[rig.values[f"{PREFIX}{name}.type"]]
     if path in rig.values and "." not in key:
-        head = f"{PREFIX}{name}."
-        params = {k[len(head):]: v for k, v in rig.values.items()
-                  if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+        params = _component_params(rig.values, name)
         _check_declared(rig, name, ctype, ctype.declarations(params), key, rig.values[path],
                         set(rig.get("rig.allow_implausible") or []))
 
@@ -416,9 +422,7 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     allowed = set(rig.get("rig.allow_implausible") or [])
     for name in names:
         ctype = COMPONENT_TYPES[values[f"{PREFIX}{name}.type"]]
-        head = f"{PREFIX}{name}."
-        params = {k[len(head):]: v for k, v in values.items()
-                  if k.startswith(head) and "." not in k[len(head):] and k[len(head):] != "type"}
+        params = _component_params(values, name)
         decls = ctype.declarations(params)   # (a command's levels: its quantity's range)
         for key, v in params.items():   # the declared bounds, with the value as written
             _check_declared(rig, name, ctype, decls, key, v, allowed)

@@ -142,30 +142,6 @@ def _newton(model, t0, x, p, scales, tol, max_iter=30):
     return (z * scales, True) if np.max(np.abs(r)) < tol else (x, False)
 
 
-def _polish(model, t0, x, p, scales, max_steps=4):
-    """Full Newton steps from a state already within the tolerance, while each at least
-    halves the residual: the rest state to rounding, the same whatever start the solve came
-    from (a sweep's variant warm-started from its neighbour gives the numbers of a cold
-    start), instead of anywhere within the tolerance's ball around it."""
-    z = x / scales
-    r = model.rhs(t0, z * scales, p) / scales
-    norm = np.linalg.norm(r)
-    for _ in range(max_steps):
-        if not np.isfinite(norm) or norm == 0.0:
-            break
-        try:
-            dz = np.linalg.solve(_scaled_jacobian(model, t0, z * scales, p, scales), -r)
-        except np.linalg.LinAlgError:
-            break
-        z_new = z + dz
-        r_new = model.rhs(t0, z_new * scales, p) / scales
-        norm_new = np.linalg.norm(r_new)
-        if not norm_new <= 0.5 * norm:
-            break
-        z, r, norm = z_new, r_new, norm_new
-    return z * scales
-
-
 def pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     """Pseudo-transient continuation (Kelley & Keyes, SIAM J. Numer. Anal. 35 (1998) 508):
     implicit-Euler steps ``(I/dt - J) dz = f`` in scaled states with dt growing as the residual
@@ -268,7 +244,6 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     for _ in range(max_rounds):
         x_newton, converged = _newton(model, t0, x, p, scales, tol)
         x = x_newton if converged else pseudo_transient(model, t0, x, p, scales, tol)
-        x = _polish(model, t0, x, p, scales)
         changed = bool(settling) and settle_components(network, settling, x, p,
                                                  _signals(model, network, t0, x, p))
         res, k = _scaled_residual(model, t0, x, p, scales)

@@ -618,17 +618,13 @@ def _report_axis(res, sections, axis):
     return stepped if stepped in axes else next(iter(axes))
 
 
-def _section_line(rig: Rig, section: str, fluid, length: float = 1.0) -> Line:
-    """A hose section of the rig as a :class:`~hydroline.lines.Line` of ``length`` [m]."""
+def _section_line(rig: Rig, section: str, fluid) -> Line:
+    """A hose section's bore and bulk modulus as a 1 m :class:`~hydroline.lines.Line` (its
+    wave speed c and impedance Z0, M2-M3, do not depend on the length)."""
     from ..circuit import has_circuit
 
     base = f"circuit.{section}" if has_circuit(rig.values) else section
-    return Line(length, rig[f"{base}.diameter"], fluid, rig.get(f"{base}.bulk_modulus"))
-
-
-def _wave_speed(rig: Rig, section: str, fluid) -> float:
-    """Wave speed c (M2) of a hose section of the rig, [m/s]."""
-    return _section_line(rig, section, fluid).wave_speed
+    return Line(1.0, rig[f"{base}.diameter"], fluid, rig.get(f"{base}.bulk_modulus"))
 
 
 def _valve(rig: Rig, res, chosen):
