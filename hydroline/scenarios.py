@@ -1356,3 +1356,6 @@ def _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine=False,
     out["settling_band"] = settling_band.describe()
     out["warnings"] = list(res.warnings)
     return out
+
+
+SimulationResult.summarizer = staticmethod(summarize)   # what a result's repr shows

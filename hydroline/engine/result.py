@@ -37,6 +37,11 @@ class SimulationResult:
     warnings : list[str]      Validity warnings (e.g. pressure below zero absolute)
     """
 
+    #: ``summarizer(result) -> dict``: the summary its repr shows, registered by the module
+    #: that defines the experiments' summaries (:func:`hydroline.summarize`, which sits above
+    #: the engine); None: no summary shown
+    summarizer = None
+
     def __init__(self, data=None, steady_state: SteadyState | None = None, wall_time: float = 0.0,
                  stats: dict | None = None, warnings: list | None = None,
                  metadata: dict | None = None, *, times=None, table=None, columns=None):
@@ -90,10 +95,10 @@ class SimulationResult:
             rows.append(("steady-state residual [1/s]", getattr(self.steady_state, "residual", None)))
         rows += [("warning", w) for w in self.warnings]
         metrics = []
-        try:   # the summary lives above the engine: loaded by name (as plot does)
-            import importlib
-
-            summary = importlib.import_module("hydroline.scenarios").summarize(self)
+        if self.summarizer is None:
+            return rows, metrics
+        try:
+            summary = self.summarizer(self)
         except Exception:                   # a result built by hand: no experiment to read
             return rows, metrics
         axes = summary.get("axes") or {"": summary}
