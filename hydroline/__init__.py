@@ -17,8 +17,8 @@ _LAZY = {
     "effective_bulk_modulus": ("hydroline.fluid", "effective_bulk_modulus"),
     "Rig": ("hydroline.rigs", "Rig"),
     "load_rig": ("hydroline.rigs", "load_rig"),
-    "simulate": ("hydroline.scenarios", "simulate"),
-    "summarize": ("hydroline.scenarios", "summarize"),
+    "simulate": ("hydroline.scenarios.running", "simulate"),
+    "summarize": ("hydroline.scenarios.summaries", "summarize"),
     "scenarios": ("hydroline.scenarios", None),  # experiments: hydroline.scenarios.OpenLoopStep
     "analysis": ("hydroline.analysis", None),   # hydroline.analysis.linearize(...)
     "studies": ("hydroline.studies", None),     # hydroline.studies.layout(...)

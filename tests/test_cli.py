@@ -63,7 +63,7 @@ def test_simulate_model_failures_are_one_line(tmp_path, capsys, monkeypatch, err
     def fail(*a, **k):
         raise exc
 
-    monkeypatch.setattr("hydroline.scenarios.simulate", fail)   # what the command runs
+    monkeypatch.setattr("hydroline.scenarios.running.simulate", fail)   # what the command runs
     rc = main(["simulate", "--out", str(tmp_path)])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and len(err.splitlines()) == 1

@@ -3,7 +3,7 @@ on a closed stdout; no stray file after Ctrl-C; a sweep's levels checked before 
 variant; one line for Matplotlib's glyph warnings) and the note before an expensive run.
 
 Every case runs in-process and stops before a simulation where it can (a refused command line,
-or ``hydroline.scenarios.simulate`` replaced); the few that run, run 20 ms of the default rig.
+or ``hydroline.scenarios.running.simulate`` replaced); the few that run, run 20 ms of the default rig.
 """
 from __future__ import annotations
 
@@ -57,7 +57,7 @@ def _no_run(*args, **kwargs):
 def test_an_empty_value_is_refused_not_taken_as_the_default(tmp_path, monkeypatch, capsys,
                                                             argv, name):
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("hydroline.scenarios.simulate", _no_run)
+    monkeypatch.setattr("hydroline.scenarios.running.simulate", _no_run)
     _one_error(capsys, main(argv), f"{name}: empty value")
     assert os.listdir(tmp_path) == []         # --out "" wrote nothing into the current folder
 
@@ -66,7 +66,7 @@ def test_an_empty_value_is_refused_not_taken_as_the_default(tmp_path, monkeypatc
 
 def test_a_missing_rig_file_is_not_the_shipped_rig_of_its_name(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)               # no two_axis.toml here
-    monkeypatch.setattr("hydroline.scenarios.simulate", _no_run)
+    monkeypatch.setattr("hydroline.scenarios.running.simulate", _no_run)
     _one_error(capsys, main(["simulate", "two_axis.toml", "--json"]),
                "rig file not found: two_axis.toml", "'two_axis'")
     assert main(["circuit", "two_axis", "--json"]) == 0   # the shipped name still loads it
@@ -84,7 +84,7 @@ def test_circuit_types_takes_no_other_argument(tmp_path, monkeypatch, capsys, ex
 
 
 def test_an_output_step_longer_than_the_run_is_refused(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr("hydroline.scenarios.simulate", _no_run)
+    monkeypatch.setattr("hydroline.scenarios.running.simulate", _no_run)
     _one_error(capsys, main(["simulate", "--t-end", "50 ms", "--dt-out", "10 s", "--json"]),
                "--dt-out: 10 s", "0.05 s")
 
@@ -166,7 +166,7 @@ def interrupted(*args, **kwargs):
 def test_ctrl_c_while_the_figure_is_drawn_leaves_no_temporary_file(tmp_path, monkeypatch,
                                                                     capsys):
     monkeypatch.setattr("hydroline.plotting.plot_result", slow_figure)
-    monkeypatch.setattr("hydroline.scenarios.summarize", interrupted)   # after the hand-over
+    monkeypatch.setattr("hydroline.scenarios.summaries.summarize", interrupted)  # after hand-over
     out = tmp_path / "out"
     assert main(["simulate", "--t-end", "0.02 s", "--out", str(out)]) == 130
     assert "interrupted" in capsys.readouterr().err
@@ -230,7 +230,7 @@ def test_a_note_before_a_large_model_is_built(tmp_path, monkeypatch, capsys):
     friction = 410 states (138 at the default 6). Its first
     run compiles for minutes: the note comes before it (the run itself is stopped here)."""
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path / "cache"))   # nothing built yet
-    monkeypatch.setattr("hydroline.scenarios.simulate", interrupted)
+    monkeypatch.setattr("hydroline.scenarios.running.simulate", interrupted)
     f = tmp_path / "modes.toml"
     f.write_text('[rig]\nbase = "default"\nmodes_per_section = 40\n')
     assert main(["simulate", str(f), "--json"]) == 130

@@ -199,3 +199,28 @@ def test_missing_scenario_value_says_what_to_add(tmp_path, capsys):
     assert len(err) == 1
     raw = load_rig().raw["scenario.position-step.step"]
     assert f'add to the rig file: [scenario.position-step] step = "{raw}"' in err[0]
+
+
+def test_a_simulation_object_keeps_its_own_models():
+    """A :class:`Simulation` of one's own keeps the models of its runs apart from the default
+    one that ``hydroline.simulate`` runs on; a repeated run reuses its model (same numbers);
+    the oldest model goes beyond ``models_kept``; an experiment object is never kept."""
+    import inspect
+
+    from hydroline.scenarios.running import DEFAULT_SIMULATION, Simulation
+
+    rig = load_rig()
+    sim = Simulation(models_kept=1)
+    before = dict(DEFAULT_SIMULATION.models)
+    first = sim.run(rig, "open-loop-step", t_end=0.02)
+    assert len(sim.models) == 1 and DEFAULT_SIMULATION.models == before
+    model = next(iter(sim.models.values()))
+    again = sim.run(rig, "open-loop-step", t_end=0.02)
+    assert next(iter(sim.models.values())) is model
+    np.testing.assert_array_equal(again.data.to_numpy(), first.data.to_numpy())
+    sim.remember(("another", None, ""), "model")
+    assert list(sim.models) == [("another", None, "")]      # one kept: the oldest went
+    assert Simulation.model_key(rig, OpenLoopStep(t_end=0.02), None) is None
+    # simulate() is Simulation.run on the default object: the same keywords and defaults
+    run = inspect.signature(Simulation.run).parameters
+    assert list(inspect.signature(simulate).parameters.values()) == list(run.values())[1:]

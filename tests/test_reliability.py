@@ -224,7 +224,7 @@ def test_output_estimate_and_refusal_before_the_run(tmp_path, capsys, monkeypatc
     def no_run(*a, **k):
         raise AssertionError("the steady state was solved")
 
-    monkeypatch.setattr("hydroline.scenarios.solve_steady_state", no_run)
+    monkeypatch.setattr("hydroline.scenarios.running.solve_steady_state", no_run)
     rc = main(["simulate", "--t-end", "1e30 s", "--out", str(tmp_path)])
     _one_error(capsys, rc, "--t-end: 1e+30 s")
 
@@ -237,7 +237,7 @@ def test_output_estimate_and_refusal_before_the_run(tmp_path, capsys, monkeypatc
     ("csv_folder", "results.csv is a folder"),
 ])
 def test_output_path_checked_before_the_run(tmp_path, capsys, monkeypatch, setup, needle):
-    monkeypatch.setattr("hydroline.scenarios.simulate",
+    monkeypatch.setattr("hydroline.scenarios.running.simulate",
                         lambda *a, **k: pytest.fail("ran before checking --out"))
     target = tmp_path / "out"
     if setup == "file":

@@ -61,7 +61,7 @@ from .. import components as comp
 from ..engine import Network, SteadyStateError, solve_steady_state
 from ..engine.steady_state import pseudo_transient, settle_components
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import hold_other_axes
+from ..scenarios.experiments import hold_other_axes
 from ..system import build_circuit
 
 __all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",

@@ -271,7 +271,7 @@ def run_network(rig, scenario: str, duration: float):
     -------
     tuple  (Circuit, Network)
     """
-    from ..scenarios import build_scenario
+    from ..scenarios.experiments import build_scenario
     from ..system import build_circuit
 
     circuit = build_circuit(rig)

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ..rigs import load_rig
-from ..scenarios import SCENARIOS
+from ..scenarios.experiments import SCENARIOS
 
 
 def register(sub):

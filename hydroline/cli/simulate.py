@@ -140,7 +140,7 @@ def _prepare(args, write, figures) -> int:
     from ..limits import check_output_size
     from ..rigs import load_rig
     from ..rigs.parameters import defaults_used
-    from ..scenarios import build_scenario, default_scenario, scenario_names
+    from ..scenarios.experiments import build_scenario, default_scenario, scenario_names
     from ..traces.metrics import SettlingBand
 
     rig = load_rig(args.rig)
@@ -209,7 +209,8 @@ def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance"
 
 
 def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) -> int:
-    from ..scenarios import simulate, summarize
+    from ..scenarios.running import simulate
+    from ..scenarios.summaries import summarize
     from ..plotting import plot_result
 
     # (on an error or Ctrl-C the figure process is stopped first, then the temporary files
@@ -310,7 +311,8 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
 def _sine_summary_stream(rig, scenario, t_end):
     """The summary accumulator of a long closed-loop sine on a single-axis rig (t_end [s],
     None: the experiment's own); None for any other experiment."""
-    from ..scenarios import ClosedLoopSine, SineSummaryStream, experiment
+    from ..scenarios.experiments import ClosedLoopSine, experiment
+    from ..scenarios.summaries import SineSummaryStream
     from ..system import build_circuit
 
     exp = experiment(rig, scenario, t_end)
@@ -325,7 +327,7 @@ def _sine_summary_stream(rig, scenario, t_end):
 def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
     """Refuse a streamed run whose CSV would not fit on the disk (one line, ValueError), and
     say on stderr what one that writes more than ~1 GB or takes minutes will cost."""
-    from ..scenarios import build_scenario
+    from ..scenarios.experiments import build_scenario
     from ..system import build_circuit
     from ..limits import check_output_size
 

@@ -10,7 +10,7 @@ import time
 import numpy as np
 
 from ..rigs import load_rig
-from ..scenarios import default_scenario
+from ..scenarios.experiments import default_scenario
 from ..studies.sweep import sweep
 from .common import dump_json, note_cost, print_table, quantity, run_network
 
@@ -239,7 +239,7 @@ def run(args) -> int:
 def _note_sweep_cost(args, rig, scenario, t_end, variants):
     """The cost note of :func:`hydroline.cli.common.note_cost` for a sweep of ``variants``
     runs of the base rig's model (on --workers processes, default the CPU count)."""
-    from ..scenarios import build_scenario
+    from ..scenarios.experiments import build_scenario
     from .simulate import DT_OUT
 
     try:

@@ -461,7 +461,7 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     sym = symbolic_model(plant)
     gen = generate(sym)
     if stop_time is None:
-        from ..scenarios import build_scenario
+        from ..scenarios.experiments import build_scenario
         stop_time = build_scenario(rig, start).t_end
     kinds = {"cs", "me"} if kind == "both" else {kind}
     ident = model_identifier(out.stem)

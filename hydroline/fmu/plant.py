@@ -24,7 +24,7 @@ from ..analysis.linearize import INPUTS as LINEAR_INPUTS
 from ..analysis.linearize import linear_network
 from ..components import CheckValve, LinearResistance
 from ..rigs import Rig, RigError
-from ..scenarios import SCENARIOS, build_scenario
+from ..scenarios.experiments import SCENARIOS, build_scenario
 from ..engine import SteadyStateError, solve_steady_state
 from ..system import build_circuit, build_network
 

@@ -19,7 +19,8 @@ from ..analysis.friction_id import axis_mechanics
 from ..analysis.linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal, select_axis,
                                   solve_operating_point, transfer_state)
 from ..rigs import Rig, load_rig
-from ..scenarios import experiment, simulate
+from ..scenarios.experiments import experiment
+from ..scenarios.running import simulate
 from ..engine import integrate
 from ..system import build_circuit
 

@@ -49,7 +49,8 @@ from pathlib import Path
 import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import scenario_names, simulate
+from ..scenarios.experiments import scenario_names
+from ..scenarios.running import simulate
 from ..engine import SteadyStateError
 from ..lines import Line
 from ..system import make_fluid
@@ -678,7 +679,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     LayoutStudy  (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
     ``plot()``/``save(folder)`` the figure and CSV files)
     """
-    from ..scenarios import default_scenario
+    from ..scenarios.experiments import default_scenario
 
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):

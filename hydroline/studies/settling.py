@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from ..traces.metrics import (MAX_FIT_SCATTER, MIN_CRESTS, SETTLING_BAND as BAND, SettlingBand,
                               port_settling)
-from ..scenarios import summarize as port_summary
+from ..scenarios.summaries import summarize as port_summary
 
 __all__ = ["port_settling", "port_summary", "MIN_CRESTS", "MAX_FIT_SCATTER", "BAND",
            "SettlingBand"]

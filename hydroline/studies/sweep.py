@@ -61,7 +61,8 @@ from pathlib import Path
 import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
-from ..scenarios import default_scenario, scenario_names, simulate
+from ..scenarios.experiments import default_scenario, scenario_names
+from ..scenarios.running import simulate
 from .design import Design, parameter_unit, parse_parameters
 from .executors import (MAX_ATTEMPTS, MAX_WORKERS, dask_client, failure_reason, run_dask,
                         run_processes, run_serial)
@@ -529,7 +530,7 @@ def _run_shared(model: SharedModel, rig: Rig, p, guess, solver: str, tic: float)
     """
     from ..engine import integrate
     from ..engine.steady_state import SteadyStateError
-    from ..scenarios import describe_run, rest_state
+    from ..scenarios.running import describe_run, rest_state
 
     net, sc = model.network, model.scenario
     net.parameter_values = np.asarray(p, dtype=float).copy()       # this variant's p
@@ -592,7 +593,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     """
     from ..components.hose import coefficients_as_parameters
     from ..limits import check_output_size
-    from ..scenarios import build_scenario
+    from ..scenarios.experiments import build_scenario
     from ..system import build_circuit
 
     tic = _time.perf_counter()

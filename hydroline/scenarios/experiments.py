@@ -1,36 +1,33 @@
-"""Experiments on a rig: the open-loop step and the closed-loop sine (the paper's tests).
+"""Experiments on a rig: what drives which axis, for how long, and where the disturbance is.
 
-``simulate(rig, scenario, t_end)`` builds the network of the rig with the scenario's command
-components, solves its steady state before the disturbance, integrates, checks validity
-(pressures below zero absolute) and returns a :class:`~hydroline.engine.SimulationResult`
-whose ``metadata`` holds what the summary needs.
+The built-in experiments are the paper's open-loop step and closed-loop sine and the
+multi-axis position step (:data:`EXPERIMENTS`); a rig may define its own, a command per axis
+(:class:`AxisCommands`, :data:`OWN_EXPERIMENTS`). :func:`build_scenario` turns one into the
+command components and times of a run (:class:`Scenario`); :mod:`hydroline.scenarios.running`
+runs it and :mod:`hydroline.scenarios.summaries` summarizes the run.
 """
 from __future__ import annotations
 
-import math
-import time as _time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
 
-from . import components as comp
-from .traces.metrics import SETTLING_BAND, SettlingBand, pressure_metrics
-from .limits import check_output_size
-from .rigs import SCHEMA, Rig, RigError, load_rig
-from .components.commands import read_table_csv
-from .rigs.parameters import (ATMOSPHERIC_PRESSURE, allowed_implausible, check_consistency,
-                              steady_state_hint)
-from .engine import SimulationResult, SteadyStateError, integrate, solve_steady_state
-from .scenario_schema import QUANTITY_UNITS, WAVEFORM_KEYS
-from .system import build_circuit
+from .. import components as comp
+from ..traces.metrics import SETTLING_BAND
+from ..rigs import SCHEMA, Rig, RigError, load_rig
+from ..components.commands import read_table_csv
+from ..rigs.parameters import allowed_implausible, check_consistency
+from ..engine import SimulationResult
+from ..scenario_schema import QUANTITY_UNITS, WAVEFORM_KEYS
+from ..system import build_circuit
+from .summaries import COMMAND_START, run_summary
 
 __all__ = ["SCENARIOS", "EXPERIMENTS", "OWN_EXPERIMENTS", "Experiment", "OpenLoopStep",
            "ClosedLoopSine", "PositionStep", "AxisCommand", "AxisCommands", "experiment",
-           "scenario_names", "simulate", "summarize", "SineSummaryStream", "build_scenario",
-           "Scenario", "default_scenario", "hold_other_axes", "template_controller", "rest_state",
-           "ripple_metrics"]
+           "scenario_names", "build_scenario", "Scenario", "default_scenario", "hold_other_axes",
+           "template_controller"]
 
 #: "position-step": the axis named by ``scenario.position-step.axis`` (the first by default)
 #: steps its position reference by ``step`` at ``time`` while every other axis holds its
@@ -50,19 +47,6 @@ def default_scenario(rig: Rig) -> str:
     str  The scenario's name
     """
     return rig.get("rig.scenario", "open-loop-step")
-
-#: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
-#: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
-#: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
-#: no longer holds, [Pa].
-CAVITATION_PRESSURE = ATMOSPHERIC_PRESSURE
-#: Shared nodes watched besides every axis's ports and chambers (from its handles), where the
-#: circuit has them: the HSM nodes of the template rig and of ``two_axis``.
-WATCHED_NODES = ("supply.manifold_pressure", "return.manifold_pressure")
-#: What is watched in a result without axis handles (the template rig's signals).
-WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
-                     "top_chamber_pressure") + WATCHED_NODES
-
 
 @dataclass
 class Scenario:
@@ -98,7 +82,7 @@ def _scenario_value(rig, scenario, key, default=None):
 def _example_value(scenario, key) -> str:
     """A TOML value for a missing ``scenario.<scenario>.<key>``: the embedded rig's (as written
     there, with its unit), else a placeholder in the key's SI unit."""
-    from .rigs.parameters import PARAMETERS
+    from ..rigs.parameters import PARAMETERS
 
     raw = load_rig().raw.get(f"scenario.{scenario}.{key}")
     if raw is not None:
@@ -223,7 +207,7 @@ class Experiment:
     #: Registry name of the experiment type.
     kind: ClassVar[str] = ""
     #: How the metrics window's start is named in the summary note.
-    window_start: ClassVar[str] = "the start of the command"
+    window_start: ClassVar[str] = COMMAND_START
 
     name: str = ""
     t_end: float = 1.0
@@ -284,7 +268,7 @@ class Experiment:
         -------
         dict
         """
-        return _summary(result, self.window_start, sine=False, settling_band=settling_band)
+        return run_summary(result, self.window_start, sine=False, settling_band=settling_band)
 
 
 def _commands_with_holds(rig, axes, driven: str, commands: list) -> list:
@@ -413,7 +397,7 @@ class ClosedLoopSine(Experiment):
         return _commands_with_holds(rig, axes, axis.name, cmds)
 
     def summary(self, result, settling_band=SETTLING_BAND):
-        return _summary(result, self.window_start, sine=True)
+        return run_summary(result, self.window_start, sine=True)
 
 
 @dataclass(kw_only=True)
@@ -713,54 +697,6 @@ EXPERIMENTS = {cls.kind: cls for cls in (OpenLoopStep, ClosedLoopSine, PositionS
 OWN_EXPERIMENTS = {cls.kind: cls for cls in (AxisCommands,)}
 
 
-def describe_run(res: SimulationResult, rig: Rig, circuit, net, sc: "Scenario", ss, tic: float,
-                 window: bool = True) -> None:
-    """Fill a finished run's metadata and warnings as :func:`simulate` gives them (the
-    experiment, its axes, natural frequencies, gas-release warnings, metrics window); also
-    used by :func:`hydroline.studies.sweep.simulate_shared`, whose variants run on a model
-    shared among them.
-
-    Parameters
-    ----------
-    res : SimulationResult   The run (modified)
-    rig : Rig                Parameters (SI)
-    circuit : Circuit        The rig's circuit (axis handles)
-    net : Network            The run's network (its components give stroke and w_h)
-    sc : Scenario            The experiment's commands and times
-    ss : SteadyState         The rest state the run started from
-    tic : float              ``time.perf_counter()`` at the run's start, [s]
-    window : bool            Take the metrics window (False for a streamed run)
-    """
-    res.steady_state = ss
-    first = next(iter(circuit.axes.values()))
-    act = net.component(first.actuator)
-    exp = sc.experiment
-    driven = exp.driven_axes(circuit.axes)
-    res.metadata.update(exp.metadata())
-    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
-                        stroke=act.stroke, axes=circuit.axes, experiment=exp,
-                        driven_axes=driven, stepped_axis=driven[0] if driven else first.name,
-                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
-                        axis_natural_frequency_hz={
-                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
-                            for n, a in circuit.axes.items()},
-                        total_wall_time=_time.perf_counter() - tic,
-                        steady_state_residual=ss.residual, n_states=len(net.state_names))
-    threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
-    if "stream_stats" not in res.metadata:
-        res.warnings.extend(check_cavitation(res, threshold))
-    else:   # streamed or kept in part: the column statistics have every column
-        lows = res.metadata["stream_stats"]["min"]
-        res.warnings.extend(f"{k} falls below the gas-release pressure {threshold / 1e6:.3g} MPa "
-                            f"absolute (fluid.gas_release_pressure; lowest {lows[k] / 1e6:.3g} "
-                            f"MPa): the line model is not valid there"
-                            for k in watched_pressures(res)
-                            if k in lows.index and lows[k] < threshold)
-    if window:
-        res.metadata["metrics_window"] = metrics_window(res)
-    res.metadata["total_wall_time"] = _time.perf_counter() - tic
-
-
 def scenario_names(rig: Rig) -> list[str]:
     """Every experiment a rig can run by name: the built-in ones and the rig's own.
 
@@ -859,503 +795,3 @@ def hold_other_axes(rig: Rig, axes: dict, driven: str | None) -> list:
             out.append(comp.StepCommand(name=f"{ax.name}.command", quantity="current",
                                         connections={"command": ax.current}))
     return out
-
-
-def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
-             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
-             progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-             stream_columns=None, **options) -> SimulationResult:
-    """Run a scenario on a rig, from its solved steady state.
-
-    Parameters
-    ----------
-    rig : Rig, str or None   A parsed rig, a path to a rig TOML file, or None for the
-                             embedded default (the 2005 paper's rig)
-    scenario : str or Experiment  A name (one of :data:`SCENARIOS` or the rig's own
-                             ``[scenario.NAME]``) or an experiment object (:class:`Experiment`);
-                             None: the rig's ``rig.scenario``, else "open-loop-step"
-    t_end : float            Simulated time, [s] (the scenario's default when None)
-    dt_out : float           Output sampling interval, [s]
-    solver : str             "auto" (the compiled C core where a C compiler exists, else
-                             "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
-                             (reference Python path); see :func:`hydroline.engine.integrate`
-    progress : callable      Called with the fraction done
-    rtol : float             Relative tolerance of the integrator (default 1e-6: the default
-                             scenario's port pressures and piston velocity then lie within
-                             6e-3 % of their excursion from a 1e-10 reference, benchmarks/), [-]
-    atol_scale : float       Absolute tolerance as a fraction of each state's typical
-                             magnitude, [-]
-    stream_to : path         Stream the time series to this CSV file in constant memory (long
-                             runs); ``data`` then holds the last row only and
-                             ``metadata["stream_stats"]`` per-column min/max/mean/rms
-    stream_columns : list    Columns to stream (all when None)
-    options                  Further keywords of :func:`hydroline.engine.integrate`
-                             (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
-
-    Returns
-    -------
-    SimulationResult  (``.data`` has every signal and state; ``.metadata`` the scenario,
-    the disturbance time, the actuator's hydraulic natural frequency)
-    """
-    tic = _time.perf_counter()
-    if not isinstance(rig, Rig):
-        rig = load_rig(rig)
-    scenario = scenario or default_scenario(rig)
-    key = _model_key(rig, scenario, t_end)
-    if key in _MODELS:
-        circuit, sc, net, ss = _MODELS[key]
-    else:
-        circuit = build_circuit(rig)
-        sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
-        if sc.position_guess is not None:
-            circuit = build_circuit(rig, sc.position_guess)
-        net = circuit.network(sc.commands)
-    kept = options.get("keep_columns")   # bounded memory: only these columns stay in memory
-    check_output_size(sc.t_end, dt_out, len(kept) if kept is not None and stream_to is None
-                      else len(net.signal_names) + len(net.state_names),
-                      stream_to=stream_to if kept is None or stream_to is not None else None,
-                      name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
-    if key not in _MODELS:
-        ss = rest_state(net)
-        _remember_model(key, (circuit, sc, net, ss))
-    ss = replace(ss, x=ss.x.copy(), p=ss.p.copy())
-    res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver, progress=progress,
-                    rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
-                    stream_columns=stream_columns, **options)
-    describe_run(res, rig, circuit, net, sc, ss, tic,
-                 window=stream_to is None or options.get("keep_columns") is not None)
-    return res
-
-
-def rest_state(net, x_guess=None):
-    """The network's steady state before the run; a failure is said in terms of the rig's
-    parameters (:func:`hydroline.rigs.parameters.steady_state_hint`).
-
-    Parameters
-    ----------
-    net : Network     The rig's network with the experiment's commands
-    x_guess : array   Start for the solver, [SI]; the components' guesses when None
-
-    Returns
-    -------
-    SteadyState
-
-    Raises
-    ------
-    SteadyStateError  Naming the balance that does not close and the parameters to look at
-    """
-    try:
-        return solve_steady_state(net, t0=0.0, x_guess=x_guess)
-    except SteadyStateError as e:   # say it in terms of the rig's parameters
-        if getattr(e, "state", None) is None:
-            raise
-        raise SteadyStateError(f"steady state not found before the run: "
-                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
-                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
-                               e.state, e.residual) from None
-
-
-def watched_pressures(res: SimulationResult) -> list[str]:
-    """Pressure signals watched for cavitation: every axis's ports and chambers (from the
-    handles in ``res.metadata["axes"]``) and the shared nodes (:data:`WATCHED_NODES`); the
-    template's signals (:data:`WATCHED_PRESSURES`) for a result without handles.
-
-    Parameters
-    ----------
-    res : SimulationResult  A run
-    """
-    axes = res.metadata.get("axes") or {}
-    if not axes:
-        return list(WATCHED_PRESSURES)
-    out = []
-    for ax in axes.values():
-        out += [s for s in (ax.supply_pressure, ax.return_pressure, ax.bottom_pressure,
-                            ax.top_pressure) if s not in out]
-    return out + [s for s in WATCHED_NODES if s not in out]
-
-
-#: Recent (scenario, t_end, rig values) -> (circuit, scenario, network, steady state): a
-#: repeated run of the same rig in one process reuses its model, compiled library and rest
-#: state (built anew otherwise).
-_MODELS: dict = {}
-_MODELS_KEPT = 8
-
-
-def _model_key(rig: Rig, scenario, t_end):
-    """Key of a run's model in :data:`_MODELS` (None: not cached: a table file may change, or
-    an experiment object)."""
-    if not isinstance(scenario, str) or any(k.endswith(".file") for k in rig.values):
-        return None
-    return (scenario, t_end, repr(sorted(rig.values.items())))
-
-
-def _remember_model(key, model) -> None:
-    if key is None:
-        return
-    if len(_MODELS) >= _MODELS_KEPT:
-        _MODELS.pop(next(iter(_MODELS)))
-    _MODELS[key] = model
-
-
-def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
-    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md
-    8), giving the time of the first crossing.
-
-    Parameters
-    ----------
-    res : SimulationResult
-    threshold : float      Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
-    """
-    out = []
-    for k in watched_pressures(res):
-        if k not in res:
-            continue
-        p = res[k]
-        i = int(np.argmin(p))
-        if p[i] < threshold:
-            below = res.t[p < threshold]
-            what = ("cavitate (below 0 Pa absolute)" if threshold <= 0 else
-                    f"release gas (below the gas-release pressure {threshold / 1e6:.3g} MPa "
-                    f"absolute, fluid.gas_release_pressure)")
-            out.append(f"{k} falls below {threshold / 1e6:.3g} MPa absolute from t = "
-                       f"{below[0] * 1e3:.1f} ms (lowest {p[i] / 1e6:.3g} MPa at "
-                       f"{res.t[i] * 1e3:.1f} ms): the oil would {what} there and the line model "
-                       f"is not valid; raise the return/back pressure or shorten the hose")
-    return out
-
-
-def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, float, str]:
-    """The part of a run the metrics are taken over: ``(t_start, t_end, why_it_ends)``.
-
-    It starts at the disturbance (the valve step; 0 for the closed-loop sine) and ends when the
-    piston arrives at the stop it moves *toward* -- the end stop on the side of its first
-    clear displacement (more than ``margin``) after the disturbance -- or at the end of the run
-    if it never gets there. What follows an arrival is a second transient (the flow stops),
-    not the response to the step. A piston that starts resting on one stop and moves away from
-    it does not end the window there.
-
-    Parameters
-    ----------
-    res : SimulationResult  With ``piston_position`` [m] and metadata ``t_disturbance`` [s],
-                            ``stroke`` [m]
-    margin : float          Distance from a stop that counts as arrived, [m]
-
-    Returns
-    -------
-    tuple  ``(t_start [s], t_end [s], reason)``; ``reason`` is "stop" (the piston reached the
-           stop it moves toward) or "end" (the run ended first)
-    """
-    t0 = float(res.metadata.get("t_disturbance", 0.0))
-    t = res.t
-    axes = res.metadata.get("axes") or {}
-    pairs = [(ax.position, ax.stroke) for ax in axes.values()] or \
-        [("piston_position", res.metadata.get("stroke", np.inf))]
-    end, reason = float(t[-1]), "end"
-    for signal, stroke in pairs:     # the first axis to arrive at the stop it moves toward
-        if signal not in res:
-            continue
-        x = res[signal]
-        half = stroke / 2
-        after = t >= t0
-        x0 = float(np.interp(t0, t, x))
-        moved = np.flatnonzero(after & (np.abs(x - x0) > margin))
-        if moved.size == 0 or not np.isfinite(half):
-            continue
-        direction = math.copysign(1.0, x[moved[0]] - x0)
-        arrived = np.flatnonzero(after & (direction * x >= half - margin) & (t > t[moved[0]] - 1e-12))
-        if arrived.size and float(t[arrived[0]]) < end:
-            end, reason = float(t[arrived[0]]), "stop"
-    return t0, end, reason
-
-
-def _window_note(t0, t1, reason, start):
-    if reason == "stop":
-        return (f"metrics from {start} at {t0 * 1e3:.0f} ms to {t1 * 1e3:.0f} ms, when the piston "
-                f"reaches the stop it moves toward")
-    return (f"metrics from {start} at {t0 * 1e3:.0f} ms to the end of the run at {t1 * 1e3:.0f} ms "
-            f"(the piston has not reached a stop)")
-
-
-def _cycle_ripple(t, p, t0, t1, frequency):
-    """Peak-to-peak [Pa] of ``p`` in each full command cycle within ``[t0, t1]``."""
-    period = 1.0 / frequency
-    out = []
-    k = 0
-    # t ascends: each cycle's samples t0 + k T <= t <= t0 + (k + 1) T are one slice (a mask
-    # over the whole trace per cycle made a 600 s run's summary take ~40 s)
-    while t0 + (k + 1) * period <= t1 + 1e-9:
-        i = int(np.searchsorted(t, t0 + k * period, side="left"))
-        j = int(np.searchsorted(t, t0 + (k + 1) * period, side="right"))
-        if j - i >= 2:
-            out.append(float(np.ptp(p[i:j])))
-        k += 1
-    return out
-
-
-def ripple_metrics(ripple) -> dict:
-    """A port's summary entries under a sine command from its peak-to-peak pressure ripple
-    per full command cycle (the largest one as the amplitude; no oscillation frequency or
-    settling time).
-
-    Parameters
-    ----------
-    ripple : list of float   Peak-to-peak pressure of each full cycle in the window, [Pa]
-
-    Returns
-    -------
-    dict  ``frequency_hz``, ``amplitude_mpa``, ``ripple_pp_mpa``, ``ripple_pp_mpa_per_cycle``,
-          ``settling_time_s`` and ``amplitude_note`` (why there is no amplitude)
-    """
-    top = max(ripple) if ripple else None
-    return {"frequency_hz": None,
-            "amplitude_mpa": None if top is None else top / 2e6,
-            "ripple_pp_mpa": None if top is None else top / 1e6,
-            "ripple_pp_mpa_per_cycle": [r / 1e6 for r in ripple],
-            "settling_time_s": None,
-            "amplitude_note": "" if ripple else "the window holds no full command cycle"}
-
-
-def summarize(res: SimulationResult, settling_band=SETTLING_BAND) -> dict:
-    """The summary of a run (what ``hydroline simulate`` prints and ``summary.json`` holds):
-    its experiment's :meth:`Experiment.summary`.
-
-    Open-loop step (and a user's own experiment): per port (``"supply"``, ``"return"``) the
-    metrics of :func:`hydroline.traces.metrics.pressure_metrics` over :func:`metrics_window`:
-    frequency [Hz], two-sided oscillation amplitude [MPa], first excursion [MPa], steady
-    change [MPa], peak-to-peak [MPa], settling time [s] in ``settling_band`` (by default
-    +-2 % of the final absolute pressure; measured or estimated, with its method, note, band
-    and half-width ``settling_band_mpa``), and a note where an amplitude cannot be given.
-
-    Closed-loop sine (no step, a forced response): per port the peak-to-peak ripple in each
-    full command cycle (``ripple_pp_mpa_per_cycle``, its maximum ``ripple_pp_mpa``);
-    ``amplitude_mpa`` is half that maximum, ``frequency_hz`` and ``settling_time_s`` are None;
-    the tracking error (reference minus position) as rms and max [mm].
-
-    Also: ``actuator_natural_frequency_hz``, ``wall_time_s``, ``metrics_window_s``,
-    ``metrics_window_note``, ``warnings``. A multi-axis rig gives these per axis under
-    ``"axes"``. The result is not modified.
-
-    Parameters
-    ----------
-    res : SimulationResult  A run of :func:`simulate`
-    settling_band : SettlingBand or str  The port pressures' settling band
-                            (:meth:`hydroline.traces.metrics.SettlingBand.parse`: "2%" of the
-                            final absolute pressure, the default, or e.g. "5% of change")
-
-    Returns
-    -------
-    dict
-    """
-    settling_band = SettlingBand.parse(settling_band)
-    exp = res.metadata.get("experiment")
-    if exp is not None:
-        # (an experiment of a user's own that overrides summary(result) keeps the default band)
-        return exp.summary(res) if settling_band == SETTLING_BAND else \
-            exp.summary(res, settling_band=settling_band)
-    scenario = res.metadata.get("scenario")
-    return _summary(res, "the valve step" if scenario == "open-loop-step"
-                    else "the start of the command", sine=scenario == "closed-loop-sine",
-                    settling_band=settling_band)
-
-
-def _summary(res: SimulationResult, window_start: str, sine: bool,
-             settling_band=SETTLING_BAND) -> dict:
-    """Summary of a run (:func:`summarize`); ``sine``: ripple per command cycle and tracking
-    error instead of step metrics (single-axis rigs)."""
-    t0, t1, reason = metrics_window(res)
-    m = res.t <= t1
-    t = res.t[m]
-    axes = res.metadata.get("axes") or {}
-    if len(axes) > 1:
-        return _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine,
-                               settling_band)
-    ax = next(iter(axes.values()), None)
-    out = {}
-    for side, key in (("supply", ax.supply_pressure if ax else "supply_port_pressure"),
-                      ("return", ax.return_pressure if ax else "return_port_pressure")):
-        p = res[key][m]
-        if sine:
-            out[side] = ripple_metrics(_cycle_ripple(t, p, t0, t1,
-                                                     res.metadata["command_frequency_hz"]))
-        else:
-            out[side] = pressure_metrics(t, p, t0, t1, settling_band)
-    out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
-    out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
-    if sine:
-        err = (res[ax.reference_signal if ax else "position_reference"]
-               - res[ax.position if ax else "piston_position"])[m]
-        out["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
-        out["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
-    out["metrics_window_s"] = [t0, t1]
-    out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
-    if not sine:
-        out["settling_band"] = settling_band.describe()
-    out["warnings"] = list(res.warnings)
-    return out
-
-
-class SineSummaryStream:
-    """The closed-loop sine's summary (:func:`summarize`) computed chunk by chunk as a long run
-    goes, in constant memory: pass :meth:`update` as ``observe`` to
-    :func:`hydroline.simulation.integrate` (through :func:`simulate`), then call :meth:`summary`.
-
-    Same numbers as :func:`summarize` on the whole trace: the metrics window of
-    :func:`metrics_window` (its end found as the rows arrive), per port the peak-to-peak in each
-    full command cycle, the tracking error's rms and max up to the window's end.
-
-    Parameters
-    ----------
-    t_disturbance : float   Start of the metrics window, [s]
-    stroke : float          Full stroke, [m]
-    frequency : float       Command frequency, [Hz]
-    supply, ret, position, reference : str   Signal names: port pressures [Pa], piston
-                            position and its reference [m]
-    margin : float          Distance from a stop that counts as arrived, [m]
-    window_start : str      What the metrics window starts at (its note)
-    """
-
-    def __init__(self, t_disturbance, stroke, frequency, supply="supply_port_pressure",
-                 ret="return_port_pressure", position="piston_position",
-                 reference="position_reference", margin=1e-3,
-                 window_start=ClosedLoopSine.window_start):
-        self.t0, self.half, self.margin = float(t_disturbance), stroke / 2, margin
-        self.window_start = window_start
-        self.period = 1.0 / frequency
-        self.names = (supply, ret, position, reference)
-        self.index = None
-        self.prev = None          # last row before this chunk (t, x): x0 by interpolation
-        self.x0 = self.direction = self.t_moved = None
-        self.t_end, self.arrived = None, False
-        self.cycles = {}          # k -> [min supply, max supply, min return, max return, rows]
-        self.n = 0
-        self.sumsq = 0.0
-        self.err_max = 0.0
-
-    def update(self, t, table, columns):
-        """Take in one block of output rows (pass as ``observe`` to :func:`simulate`).
-
-        Parameters
-        ----------
-        t : ndarray         Ascending output times, [s]
-        table : ndarray     One row per time: signals and states side by side, [SI]
-        columns : list[str] Names of the table's columns
-        """
-        if self.arrived or len(t) == 0:
-            return
-        if self.index is None:
-            self.index = [list(columns).index(k) for k in self.names]
-        # one pass over the rows gathers the four columns (contiguous: each later pass is cheap)
-        ps, pr, x, ref = np.ascontiguousarray(table[:, self.index].T)
-        end = len(t)
-        if self.x0 is None and t[-1] >= self.t0:   # the piston's position at the disturbance
-            tt, xx = (t, x) if self.prev is None else (np.r_[self.prev[0], t], np.r_[self.prev[1], x])
-            self.x0 = float(np.interp(self.t0, tt, xx))
-        if self.x0 is not None and math.isfinite(self.half):
-            after = t >= self.t0
-            if self.direction is None:
-                moved = np.flatnonzero(after & (np.abs(x - self.x0) > self.margin))
-                if moved.size:
-                    self.direction = math.copysign(1.0, x[moved[0]] - self.x0)
-                    self.t_moved = float(t[moved[0]])
-            if self.direction is not None:
-                hit = np.flatnonzero(after & (self.direction * x >= self.half - self.margin)
-                                     & (t > self.t_moved - 1e-12))
-                if hit.size:   # the window ends here: rows after it are not the sine's response
-                    end = int(hit[0]) + 1
-                    self.arrived = True
-        t, ps, pr = t[:end], ps[:end], pr[:end]
-        err = ref[:end] - x[:end]
-        self.n += end
-        # (not np.dot: BLAS's threads on a busy machine took ~8 ms per 20 000 rows)
-        self.sumsq += float(np.sum(err * err))
-        self.err_max = max(self.err_max, float(np.max(np.abs(err))))
-        k = max(int(np.floor((t[0] - self.t0) / self.period)) - 1, 0)
-        while self.t0 + k * self.period <= t[-1]:   # (same bounds as _cycle_ripple)
-            i = int(np.searchsorted(t, self.t0 + k * self.period, side="left"))
-            j = int(np.searchsorted(t, self.t0 + (k + 1) * self.period, side="right"))
-            if j > i:
-                c = self.cycles.setdefault(k, [np.inf, -np.inf, np.inf, -np.inf, 0])
-                c[0], c[1] = min(c[0], ps[i:j].min()), max(c[1], ps[i:j].max())
-                c[2], c[3] = min(c[2], pr[i:j].min()), max(c[3], pr[i:j].max())
-                c[4] += j - i
-            k += 1
-        self.prev = (t[-1], x[end - 1])
-        self.t_end = float(t[-1])
-
-    def summary(self, res: SimulationResult) -> dict:
-        """The summary dict of :func:`summarize` (closed-loop sine), from the rows seen and the
-        run's metadata and warnings.
-
-        Parameters
-        ----------
-        res : SimulationResult  The run (need not hold the trace: its metadata and warnings)
-
-        Returns
-        -------
-        dict
-        """
-        t0, t1 = self.t0, self.t_end
-        reason = "stop" if self.arrived else "end"
-        out = {}
-        for side, lo in (("supply", 0), ("return", 2)):
-            ripple = []
-            k = 0
-            while t0 + (k + 1) * self.period <= t1 + 1e-9:
-                c = self.cycles.get(k)
-                if c is not None and c[4] >= 2:
-                    ripple.append(float(c[lo + 1] - c[lo]))
-                k += 1
-            out[side] = ripple_metrics(ripple)
-        out["actuator_natural_frequency_hz"] = float(res.metadata["actuator_natural_frequency_hz"])
-        out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
-        out["tracking_error_rms_mm"] = float(np.sqrt(self.sumsq / max(self.n, 1)) * 1e3)
-        out["tracking_error_max_mm"] = float(self.err_max * 1e3)
-        out["metrics_window_s"] = [t0, t1]
-        out["metrics_window_note"] = _window_note(t0, t1, reason, self.window_start)
-        out["warnings"] = list(res.warnings)
-        return out
-
-
-def _summarize_axes(res, axes, t0, t1, m, reason, window_start, sine=False,
-                    settling_band=SETTLING_BAND):
-    """Per-axis summary of a multi-axis run: port metrics, position disturbance, w_h.
-
-    ``position_disturbance_mm`` is the largest excursion of the piston from where it stood at
-    the disturbance, over the metrics window, for every axis but the stepped one (null there:
-    it moves on purpose; ``position_change_mm`` gives its travel), [mm]. ``sine``: per axis
-    the ripple per command cycle instead of the step metrics, and the tracking error
-    (reference minus position, rms and max [mm]), as :func:`_summary` gives a single axis.
-    """
-    t = res.t[m]
-    i0 = int(np.searchsorted(res.t, t0))
-    driven = res.metadata.get("driven_axes", [res.metadata.get("stepped_axis")])
-    out = {"axes": {}}
-    for name, ax in axes.items():
-        x = res[ax.position][m]
-        dev = float(np.max(np.abs(x[i0:] - x[i0])) * 1e3) if len(x) > i0 else 0.0
-        ports = (("supply", ax.supply_pressure), ("return", ax.return_pressure))
-        if sine:
-            f = res.metadata["command_frequency_hz"]
-            entry = {side: ripple_metrics(_cycle_ripple(t, res[key][m], t0, t1, f))
-                     for side, key in ports}
-            err = (res[ax.reference_signal] - res[ax.position])[m]
-            entry["tracking_error_rms_mm"] = float(np.sqrt(np.mean(err**2)) * 1e3)
-            entry["tracking_error_max_mm"] = float(np.max(np.abs(err)) * 1e3)
-        else:
-            entry = {side: pressure_metrics(t, res[key][m], t0, t1, settling_band)
-                     for side, key in ports}
-        entry["position_disturbance_mm"] = None if name in driven else dev
-        if name in driven:
-            entry["position_change_mm"] = float((x[-1] - x[i0]) * 1e3)
-        entry["actuator_natural_frequency_hz"] = float(
-            res.metadata["axis_natural_frequency_hz"][name])
-        out["axes"][name] = entry
-    out["wall_time_s"] = float(res.metadata.get("total_wall_time", res.wall_time))
-    out["metrics_window_s"] = [t0, t1]
-    out["metrics_window_note"] = _window_note(t0, t1, reason, window_start)
-    out["settling_band"] = settling_band.describe()
-    out["warnings"] = list(res.warnings)
-    return out
-
-
-SimulationResult.summarizer = staticmethod(summarize)   # what a result's repr shows

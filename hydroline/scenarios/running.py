@@ -1,0 +1,304 @@
+"""Running an experiment on a rig: :func:`simulate` builds the network of the rig with the
+experiment's command components, solves its steady state before the disturbance, integrates,
+checks validity (pressures below the gas-release pressure) and returns a
+:class:`~hydroline.engine.SimulationResult` whose ``metadata`` holds what the summary needs.
+
+A :class:`Simulation` keeps the models it built (circuit, network, compiled library, rest
+state), so that a repeated run of the same rig reuses them; :func:`simulate` runs on the
+module's :data:`DEFAULT_SIMULATION`.
+"""
+from __future__ import annotations
+
+import time as _time
+from dataclasses import replace
+
+import numpy as np
+
+from ..limits import check_output_size
+from ..rigs import Rig, load_rig
+from ..rigs.parameters import ATMOSPHERIC_PRESSURE, steady_state_hint
+from ..engine import SimulationResult, SteadyStateError, integrate, solve_steady_state
+from ..system import build_circuit
+from .experiments import Experiment, Scenario, build_scenario, default_scenario
+from .summaries import metrics_window
+
+__all__ = ["simulate", "Simulation", "DEFAULT_SIMULATION", "describe_run", "rest_state",
+           "watched_pressures", "check_cavitation", "CAVITATION_PRESSURE", "WATCHED_NODES",
+           "WATCHED_PRESSURES"]
+
+#: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
+#: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
+#: from a vented tank holds its dissolved air) the oil releases gas and the linear line model
+#: no longer holds, [Pa].
+CAVITATION_PRESSURE = ATMOSPHERIC_PRESSURE
+#: Shared nodes watched besides every axis's ports and chambers (from its handles), where the
+#: circuit has them: the HSM nodes of the template rig and of ``two_axis``.
+WATCHED_NODES = ("supply.manifold_pressure", "return.manifold_pressure")
+#: What is watched in a result without axis handles (the template rig's signals).
+WATCHED_PRESSURES = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
+                     "top_chamber_pressure") + WATCHED_NODES
+
+
+
+def describe_run(res: SimulationResult, rig: Rig, circuit, net, sc: "Scenario", ss, tic: float,
+                 window: bool = True) -> None:
+    """Fill a finished run's metadata and warnings as :func:`simulate` gives them (the
+    experiment, its axes, natural frequencies, gas-release warnings, metrics window); also
+    used by :func:`hydroline.studies.sweep.simulate_shared`, whose variants run on a model
+    shared among them.
+
+    Parameters
+    ----------
+    res : SimulationResult   The run (modified)
+    rig : Rig                Parameters (SI)
+    circuit : Circuit        The rig's circuit (axis handles)
+    net : Network            The run's network (its components give stroke and w_h)
+    sc : Scenario            The experiment's commands and times
+    ss : SteadyState         The rest state the run started from
+    tic : float              ``time.perf_counter()`` at the run's start, [s]
+    window : bool            Take the metrics window (False for a streamed run)
+    """
+    res.steady_state = ss
+    first = next(iter(circuit.axes.values()))
+    act = net.component(first.actuator)
+    exp = sc.experiment
+    driven = exp.driven_axes(circuit.axes)
+    res.metadata.update(exp.metadata())
+    res.metadata.update(scenario=sc.name, t_disturbance=sc.t_disturbance, rig=rig.source,
+                        stroke=act.stroke, axes=circuit.axes, experiment=exp,
+                        driven_axes=driven, stepped_axis=driven[0] if driven else first.name,
+                        actuator_natural_frequency_hz=act.hydraulic_natural_frequency(0.0),
+                        axis_natural_frequency_hz={
+                            n: net.component(a.actuator).hydraulic_natural_frequency(0.0)
+                            for n, a in circuit.axes.items()},
+                        total_wall_time=_time.perf_counter() - tic,
+                        steady_state_residual=ss.residual, n_states=len(net.state_names))
+    threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
+    if "stream_stats" not in res.metadata:
+        res.warnings.extend(check_cavitation(res, threshold))
+    else:   # streamed or kept in part: the column statistics have every column
+        lows = res.metadata["stream_stats"]["min"]
+        res.warnings.extend(f"{k} falls below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                            f"absolute (fluid.gas_release_pressure; lowest {lows[k] / 1e6:.3g} "
+                            f"MPa): the line model is not valid there"
+                            for k in watched_pressures(res)
+                            if k in lows.index and lows[k] < threshold)
+    if window:
+        res.metadata["metrics_window"] = metrics_window(res)
+    res.metadata["total_wall_time"] = _time.perf_counter() - tic
+
+
+class Simulation:
+    """Runs experiments on rigs and keeps the models of its recent runs: a repeated run of the
+    same rig, scenario and ``t_end`` in one process reuses its circuit, network, compiled
+    library and rest state (built anew otherwise). :func:`simulate` runs on
+    :data:`DEFAULT_SIMULATION`; an object of one's own keeps its models apart.
+
+    Parameters
+    ----------
+    models_kept : int   How many recent models are kept (the oldest goes first)
+    """
+
+    def __init__(self, models_kept: int = 8):
+        self.models_kept = models_kept
+        #: (scenario, t_end, rig values) -> (circuit, scenario, network, steady state)
+        self.models: dict = {}
+
+    @staticmethod
+    def model_key(rig: Rig, scenario, t_end):
+        """Key of a run's model in :attr:`models` (None: not kept: a table file may change, or
+        an experiment object).
+
+        Parameters
+        ----------
+        rig : Rig                     Parameters (SI)
+        scenario : str or Experiment  The experiment
+        t_end : float                 Simulated time, [s] (None: the experiment's own)
+        """
+        if not isinstance(scenario, str) or any(k.endswith(".file") for k in rig.values):
+            return None
+        return (scenario, t_end, repr(sorted(rig.values.items())))
+
+    def remember(self, key, model) -> None:
+        """Keep ``model`` under ``key`` (:meth:`model_key`; None: not kept), forgetting the
+        oldest beyond :attr:`models_kept`.
+
+        Parameters
+        ----------
+        key : tuple    From :meth:`model_key`
+        model : tuple  (circuit, scenario, network, steady state)
+        """
+        if key is None:
+            return
+        if len(self.models) >= self.models_kept:
+            self.models.pop(next(iter(self.models)))
+        self.models[key] = model
+
+    def run(self, rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
+            t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
+            progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
+            stream_columns=None, **options) -> SimulationResult:
+        """Run a scenario on a rig, from its solved steady state, reusing this simulation's
+        recent models (:func:`simulate` runs on :data:`DEFAULT_SIMULATION`).
+
+        Parameters
+        ----------
+        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns :
+            As :func:`simulate` (the same keywords and defaults; ``options`` too): the rig,
+            the experiment, simulated time [s], output step [s], the integrator and its
+            tolerances [-], the streamed output
+
+        Returns
+        -------
+        SimulationResult  As :func:`simulate`
+        """
+        tic = _time.perf_counter()
+        if not isinstance(rig, Rig):
+            rig = load_rig(rig)
+        scenario = scenario or default_scenario(rig)
+        key = self.model_key(rig, scenario, t_end)
+        if key in self.models:
+            circuit, sc, net, ss = self.models[key]
+        else:
+            circuit = build_circuit(rig)
+            sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+            if sc.position_guess is not None:
+                circuit = build_circuit(rig, sc.position_guess)
+            net = circuit.network(sc.commands)
+        kept = options.get("keep_columns")   # bounded memory: only these columns stay in memory
+        check_output_size(sc.t_end, dt_out, len(kept) if kept is not None and stream_to is None
+                          else len(net.signal_names) + len(net.state_names),
+                          stream_to=stream_to if kept is None or stream_to is not None else None,
+                          name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")
+        if key not in self.models:
+            ss = rest_state(net)
+            self.remember(key, (circuit, sc, net, ss))
+        ss = replace(ss, x=ss.x.copy(), p=ss.p.copy())
+        res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver,
+                        progress=progress, rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
+                        stream_columns=stream_columns, **options)
+        describe_run(res, rig, circuit, net, sc, ss, tic,
+                     window=stream_to is None or options.get("keep_columns") is not None)
+        return res
+
+
+#: The simulation :func:`simulate` (and ``hydroline.simulate``) runs on: its model cache.
+DEFAULT_SIMULATION = Simulation()
+
+
+def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
+             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
+             progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
+             stream_columns=None, **options) -> SimulationResult:
+    """Run a scenario on a rig, from its solved steady state, on :data:`DEFAULT_SIMULATION`
+    (a repeated run of the same rig reuses its model: :class:`Simulation`).
+
+    Parameters
+    ----------
+    rig : Rig, str or None   A parsed rig, a path to a rig TOML file, or None for the
+                             embedded default (the 2005 paper's rig)
+    scenario : str or Experiment  A name (one of
+                             :data:`~hydroline.scenarios.experiments.SCENARIOS` or the rig's own
+                             ``[scenario.NAME]``) or an experiment object
+                             (:class:`~hydroline.scenarios.experiments.Experiment`); None: the
+                             rig's ``rig.scenario``, else "open-loop-step"
+    t_end : float            Simulated time, [s] (the scenario's default when None)
+    dt_out : float           Output sampling interval, [s]
+    solver : str             "auto" (the compiled C core where a C compiler exists, else
+                             "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
+                             (reference Python path); see :func:`hydroline.engine.integrate`
+    progress : callable      Called with the fraction done
+    rtol : float             Relative tolerance of the integrator (default 1e-6: the default
+                             scenario's port pressures and piston velocity then lie within
+                             6e-3 % of their excursion from a 1e-10 reference, benchmarks/), [-]
+    atol_scale : float       Absolute tolerance as a fraction of each state's typical
+                             magnitude, [-]
+    stream_to : path         Stream the time series to this CSV file in constant memory (long
+                             runs); ``data`` then holds the last row only and
+                             ``metadata["stream_stats"]`` per-column min/max/mean/rms
+    stream_columns : list    Columns to stream (all when None)
+    options                  Further keywords of :func:`hydroline.engine.integrate`
+                             (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
+
+    Returns
+    -------
+    SimulationResult  (``.data`` has every signal and state; ``.metadata`` the scenario,
+    the disturbance time, the actuator's hydraulic natural frequency)
+    """
+    return DEFAULT_SIMULATION.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
+                                  progress=progress, rtol=rtol, atol_scale=atol_scale,
+                                  stream_to=stream_to, stream_columns=stream_columns, **options)
+
+
+def rest_state(net, x_guess=None):
+    """The network's steady state before the run; a failure is said in terms of the rig's
+    parameters (:func:`hydroline.rigs.parameters.steady_state_hint`).
+
+    Parameters
+    ----------
+    net : Network     The rig's network with the experiment's commands
+    x_guess : array   Start for the solver, [SI]; the components' guesses when None
+
+    Returns
+    -------
+    SteadyState
+
+    Raises
+    ------
+    SteadyStateError  Naming the balance that does not close and the parameters to look at
+    """
+    try:
+        return solve_steady_state(net, t0=0.0, x_guess=x_guess)
+    except SteadyStateError as e:   # say it in terms of the rig's parameters
+        if getattr(e, "state", None) is None:
+            raise
+        raise SteadyStateError(f"steady state not found before the run: "
+                               f"{steady_state_hint(e.state)}; the solver stopped with a scaled "
+                               f"residual of {e.residual:.3g} 1/s at '{e.state}'",
+                               e.state, e.residual) from None
+
+
+def watched_pressures(res: SimulationResult) -> list[str]:
+    """Pressure signals watched for cavitation: every axis's ports and chambers (from the
+    handles in ``res.metadata["axes"]``) and the shared nodes (:data:`WATCHED_NODES`); the
+    template's signals (:data:`WATCHED_PRESSURES`) for a result without handles.
+
+    Parameters
+    ----------
+    res : SimulationResult  A run
+    """
+    axes = res.metadata.get("axes") or {}
+    if not axes:
+        return list(WATCHED_PRESSURES)
+    out = []
+    for ax in axes.values():
+        out += [s for s in (ax.supply_pressure, ax.return_pressure, ax.bottom_pressure,
+                            ax.top_pressure) if s not in out]
+    return out + [s for s in WATCHED_NODES if s not in out]
+
+
+def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:
+    """One warning per watched pressure that falls below ``threshold`` absolute (docs/model.md
+    8), giving the time of the first crossing.
+
+    Parameters
+    ----------
+    res : SimulationResult
+    threshold : float      Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
+    """
+    out = []
+    for k in watched_pressures(res):
+        if k not in res:
+            continue
+        p = res[k]
+        i = int(np.argmin(p))
+        if p[i] < threshold:
+            below = res.t[p < threshold]
+            what = ("cavitate (below 0 Pa absolute)" if threshold <= 0 else
+                    f"release gas (below the gas-release pressure {threshold / 1e6:.3g} MPa "
+                    f"absolute, fluid.gas_release_pressure)")
+            out.append(f"{k} falls below {threshold / 1e6:.3g} MPa absolute from t = "
+                       f"{below[0] * 1e3:.1f} ms (lowest {p[i] / 1e6:.3g} MPa at "
+                       f"{res.t[i] * 1e3:.1f} ms): the oil would {what} there and the line model "
+                       f"is not valid; raise the return/back pressure or shorten the hose")
+    return out
