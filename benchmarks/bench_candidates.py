@@ -209,7 +209,7 @@ int main(void) {
 def c_eval_cost(sc, z0):
     """ns per hl_f and hl_jac call of the generated C, built with the core's flags."""
     gen = compiled.generate(sc.net.compile())
-    cc = compiled._compiler()
+    cc = compiled.toolchain.compiler()
     if cc is None:
         return None
     fmt = lambda a: ",".join(repr(float(v)) for v in a) or "0"  # noqa: E731

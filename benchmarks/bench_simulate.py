@@ -120,7 +120,7 @@ def main(argv=None):
     print(f"* = simulate()'s default tolerances (rtol {default_rtol:g}, atol_scale {default_atol:g})")
     print("first call = fresh interpreter: import + build + steady state + integration "
           "(compiled: empty cache / library cached on disk)")
-    print(f"compiler: {compiled._compiler()}  flags: {' '.join(compiled.CFLAGS + compiled.native_flags())}")
+    print(f"compiler: {compiled.toolchain.compiler()}  flags: {' '.join(compiled.CFLAGS + compiled.native_flags())}")
 
 
 if __name__ == "__main__":

@@ -58,9 +58,9 @@ def test_structure_record_key_holds_the_compiler_flags(monkeypatch):
                                time=0.1, connections={"command": "u"})],
                   warn_lost_flows=False)
     functions = scaled_functions(net.compile())
-    key = compiled._structure_record_key(functions)
-    monkeypatch.setattr(compiled, "CFLAGS", [*compiled.CFLAGS, "-fno-inline"])
-    assert compiled._structure_record_key(functions) != key
+    key = compiled.records.structure_record_key(functions)
+    monkeypatch.setattr(compiled.toolchain, "CFLAGS", [*compiled.CFLAGS, "-fno-inline"])
+    assert compiled.records.structure_record_key(functions) != key
 
 
 def test_compiled_libraries_are_bounded_least_recently_used_first(monkeypatch, tmp_path):
@@ -315,8 +315,8 @@ def test_a_model_record_that_does_not_fit_is_rebuilt(monkeypatch, tmp_path, misf
     if not compiled.available():
         pytest.skip("no C compiler")
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(compiled, "_LIBS", {})
-    monkeypatch.setattr(compiled, "_MODELS", {})
+    monkeypatch.setattr(compiled.toolchain, "_LIBS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
     library = compiled.native_model(oscillator_network(omega=219.0)).library_path
     path = _written(tmp_path, "models")
     key = json.loads(path.read_text())["key"]
@@ -328,7 +328,7 @@ def test_a_model_record_that_does_not_fit_is_rebuilt(monkeypatch, tmp_path, misf
     else:
         record["jac_row"] = [r + 2 for r in record["jac_row"]]
     cache.store_table("models", key, record)                 # with a checksum that fits it
-    monkeypatch.setattr(compiled, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         res = integrate(oscillator_network(omega=219.0), np.zeros(2), 0.05, solver="compiled")

@@ -296,7 +296,7 @@ def test_streaming_writes_every_row_and_keeps_statistics(tmp_path):
 
 def test_without_compiler_auto_falls_back_to_cvodes(monkeypatch, tmp_path):
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(compiled, "_compiler", lambda: None)
+    monkeypatch.setattr(compiled.toolchain, "compiler", lambda: None)
     net = oscillator_network(omega=123.0)   # a fresh network object: nothing built yet
     with pytest.warns(RuntimeWarning, match="compiled core unavailable"):
         res = integrate(net, np.zeros(2), 0.01, solver="auto")
@@ -357,8 +357,8 @@ def _oscillator_peak(zeta=0.05):
 
 def _fresh_process_cache(monkeypatch):
     """Forget the libraries and models this process has loaded, as a new process would."""
-    monkeypatch.setattr(compiled, "_LIBS", {})
-    monkeypatch.setattr(compiled, "_MODELS", {})
+    monkeypatch.setattr(compiled.toolchain, "_LIBS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
 
 
 @needs_cc
@@ -489,7 +489,7 @@ def test_unusable_cache_directory_falls_back(monkeypatch, tmp_path):
 
 def test_cache_key_holds_the_cpu_instruction_set():
     # -march=native code is CPU-specific: the key must change with the CPU's feature flags
-    ident = compiled._cpu_id()
+    ident = compiled.toolchain._cpu_id()
     assert ident
     try:
         flags = [ln for ln in open("/proc/cpuinfo") if ln.lower().startswith(("flags", "features"))]

@@ -171,8 +171,8 @@ def test_model_loaded_from_its_record_builds_no_graph_and_integrates_as_built(mo
     native = compiled.native_model(built)      # records it under its definition (if new)
     ss = solve_steady_state(built)
     res = integrate(built, ss.x, 0.02, p=ss.p, solver="compiled", **kw)
-    monkeypatch.setattr(compiled, "_LIBS", {})
-    monkeypatch.setattr(compiled, "_MODELS", {})
+    monkeypatch.setattr(compiled.toolchain, "_LIBS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
 
     def no_graph(self):
         raise AssertionError("CasADi graph built for a model known by its definition")
@@ -243,7 +243,7 @@ def test_a_component_changed_after_its_graph_is_never_recorded_by_definition(mon
     fresh = retuned()
     assert compiled.native_model(fresh).found_by == "structure"
     assert compiled_rhs_is_the_components(fresh)
-    monkeypatch.setattr(compiled, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
     again = retuned()
     assert compiled.native_model(again).found_by == "definition"
     assert compiled_rhs_is_the_components(again)

@@ -1,0 +1,489 @@
+"""The native model: a network's compiled library with its constants (:class:`NativeModel`,
+found by its record or written as C and built, :func:`native_model`) and one integrator
+instance in C (:class:`NativeSolver`).
+"""
+from __future__ import annotations
+
+import ctypes
+import time
+
+import numpy as np
+
+from ..cache import cache_dir
+from .records import (definition_key, forget_record, known_model, known_structure,
+                      model_fingerprint, remember_model, remember_structure,
+                      structure_record_key)
+from .toolchain import CompilerUnavailable, library_check, library_location, load_library
+
+__all__ = ["native_model", "NativeModel", "NativeSolver", "needs_build"]
+
+
+class _RecordMismatch(Exception):
+    """A model or structure record of the cache does not fit the model it was found for: the
+    record is discarded and the model built without records."""
+
+
+
+def _ptr(a):
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+class NativeModel:
+    """A network's compiled library and its constants.
+
+    Attributes
+    ----------
+    generated : GeneratedModel   Source, hash key, constants, sizes
+    lib : ctypes.CDLL            The loaded library
+    library_path : Path          Where the library is cached
+    build_time : float           Seconds spent generating (and, on a cache miss, compiling)
+    found_by : str               "definition", "graph", "structure" or "generated" (below)
+
+    Parameters
+    ----------
+    network : Network   The assembled model (:class:`hydroline.engine.Network`)
+    """
+
+    def __init__(self, network):
+        tic = time.perf_counter()
+        self.network = network
+        key, found, full, record = self._locate(network)
+        try:
+            self._load(full, record is not None)
+        except _RecordMismatch as e:   # a record that does not fit: without records
+            forget_record(record, key, why=str(e))
+            key, found, full, record = self._locate(network, records=False)
+            self._load(full, False)
+        self.n, self.n_signals = int(self._sizes[0]), int(self._sizes[3])
+        # (the dense Jacobian's row and column indices, each component's state block, and
+        # the order limits found, by Jacobian: made on first use)
+        self._jac_index = self._blocks = None
+        self._limits_seen: dict = {}
+        remember_model(key, self.generated, self.library_path)
+        #: How the model was found: "definition" (its record, found before any graph was
+        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
+        #: describe itself), "structure" (a known structure: constants read from the
+        #: graph) or "generated" (C written)
+        self.found_by = found
+        self.build_time = time.perf_counter() - tic
+
+    def _locate(self, network, records: bool = True):
+        """Find the model's record (``records``), else generate its C; sets ``generated``
+        and ``library_path``. Returns (key of its model record, how it was found, the
+        library's source or a callable that makes it, the record used as (table kind, key)
+        or None)."""
+        # the model's record: under its definition (known before any graph is built) where
+        # the network can describe itself, else under its graph's fingerprint; also where
+        # the graph was built before (components changed since would not be in it)
+        key = definition_key(network)
+        gen, tag = known_model(key, network) if records else (None, None)
+        found, record = "definition", ("models", key)
+        if gen is None:   # not known: build the graph
+            from . import codegen
+
+            if getattr(network, "has_graph", True):
+                key = None
+            model = network.compile()
+            if key is None:
+                key, found = model_fingerprint(model), "graph"
+                record = ("models", key)
+                gen, tag = known_model(key, network) if records else (None, None)
+            if gen is None:   # other numbers: is the structure known?
+                functions = codegen.scaled_functions(model)
+                record = ("structures", structure_record_key(functions))
+                gen, tag = (known_structure(functions, record[1], network) if records
+                            else (None, None))
+                found = "structure"
+                if gen is None:   # a new structure: write its C
+                    found, record = "generated", None
+                    gen = codegen.generate(model, functions)
+                    path, full = library_location(gen)
+                    remember_structure(functions, gen, path)
+        self.generated = gen
+        if tag is not None:          # known: its C is regenerated only to rebuild a library
+            path = cache_dir() / f"hl_{tag}.so"
+
+            def full():
+                from . import codegen
+
+                made, source = library_location(codegen.generate(network.compile()))
+                if made != path:
+                    raise _RecordMismatch(f"it names the library {path.name}, which is not "
+                                          f"this model's")
+                return source
+        self.library_path = path
+        return key, found, full, record
+
+    def _load(self, full, from_record: bool) -> None:
+        """Load (or build) the library and check that it fits the model's sizes; a misfit
+        of a model found by its record is that record's fault (:class:`_RecordMismatch`)."""
+        self.cache_hit = self.library_path.exists()
+        self.lib = load_library(self.library_path, full)
+        sizes = (ctypes.c_longlong * 7)()
+        self.lib.hl_sizes(sizes)
+        g = self.generated
+        if tuple(sizes)[:5] != (g.n_states, max(g.n_parameters, 1), max(len(g.constants), 1),
+                                max(g.n_signals, 1), max(g.jac_nnz, 1)):
+            if from_record:
+                raise _RecordMismatch(f"the library it names, {self.library_path.name}, does "
+                                      f"not fit the model")
+            raise CompilerUnavailable(f"compiled library at {self.library_path} does not fit "
+                                      f"the model (sizes {tuple(sizes)[:5]})")
+        self._sizes = tuple(sizes)
+
+    def dense_jacobian(self, jnz) -> np.ndarray:
+        """The Jacobian as a dense matrix from its nonzeros (``generated.jac_colind`` /
+        ``jac_row`` order, as :meth:`NativeSolver.scaled_jacobian_nonzeros` gives them).
+
+        Parameters
+        ----------
+        jnz : ndarray   Nonzeros, [1/s]
+        """
+        g = self.generated
+        if self._jac_index is None:
+            self._jac_index = (np.asarray(g.jac_row, dtype=np.intp),
+                               np.repeat(np.arange(self.n), np.diff(g.jac_colind)))
+        J = np.zeros((self.n, self.n))
+        J[self._jac_index] = jnz[:g.jac_nnz]
+        return J
+
+    def order_limits(self, jnz) -> tuple:
+        """Largest step of each NDF order 1-5 on this model's fast modes (:mod:`.stability`),
+        from the eigenvalues of each component's own block of the scaled Jacobian with
+        nonzeros ``jnz`` (remembered by those numbers).
+
+        Parameters
+        ----------
+        jnz : ndarray   Nonzeros of the scaled Jacobian, [1/s]
+
+        Returns
+        -------
+        tuple  (h_1, ..., h_5), [s] (inf: no limit)
+        """
+        from .stability import block_eigenvalues, order_step_limits
+
+        if self._blocks is None:
+            net = self.network
+            self._blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
+                            if sl.stop - sl.start >= 2]
+        if not (self._blocks and self.generated.jac_nnz):
+            return (np.inf,) * 5
+        key = jnz.tobytes()
+        limits = self._limits_seen.get(key)
+        if limits is None:
+            limits = order_step_limits(block_eigenvalues(self.dense_jacobian(jnz), self._blocks))
+            if len(self._limits_seen) >= 64:
+                self._limits_seen.clear()
+            self._limits_seen[key] = limits
+        return limits
+
+    def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
+               fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1,
+               order_limits: bool = True):
+        """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None).
+
+        Parameters
+        ----------
+        p : ndarray           Runtime parameters, [SI] (the network's when None)
+        rtol : float          Relative tolerance, [-]
+        atol : float          Absolute tolerance on the scaled states, [-]
+        max_step : float      Largest step, [s] (0: none)
+        fixed_step : float    > 0: fixed-step BDF without error control, [s]
+        max_order : int       Highest BDF order (1-5)
+        newton_coef : float   Newton tolerance relative to the error-test tolerance, [-]
+        order_limits : bool   Keep each NDF order 3-5 below the step where the model's
+                              lightly damped fast modes would make it unstable
+                              (:mod:`.stability`; False: the orders are chosen by accuracy
+                              alone, as before)
+        """
+        return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef,
+                            order_limits)
+
+
+class NativeSolver:
+    """One integrator instance in C (state kept between calls, for chunked/streamed runs).
+
+    Parameters
+    ----------
+    model : NativeModel The compiled library and its constants
+    p : ndarray         Runtime parameters, [SI]
+    rtol : float        Relative tolerance, [-]
+    atol : float        Absolute tolerance on the scaled states (fraction of each state's
+                        typical magnitude), [-]
+    max_step : float    Largest step, [s] (0: none)
+    fixed_step : float  > 0: fixed-step BDF of order max_order without error control, [s]
+    max_order : int     Highest BDF order (1-5)
+    newton_coef : float Newton convergence tolerance relative to the error-test tolerance, [-]
+    order_limits : bool Stability limits of the NDF orders 3-5 on the model's fast modes
+                        (:mod:`.stability`), set before the first step
+    """
+
+    #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
+    #: control instead of hanging in C, where Ctrl-C cannot reach it).
+    max_steps_per_call = 5_000_000
+
+    def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
+                 newton_coef, order_limits: bool = True):
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
+        self.model = model
+        lib = model.lib
+        self._lib = lib
+        net = model.network
+        p = net.parameter_values if p is None else p
+        self.p = self._checked_parameters(p)
+        c = model.generated.constants
+        self._c = np.ascontiguousarray(c if c.size else np.zeros(1))
+        self._scale = np.ascontiguousarray(np.asarray(net.state_scales, dtype=float))
+        self._t_bound = None
+        # () : not yet set (before the first step); None: none (fixed step, or not asked)
+        self._limits = () if order_limits and not fixed_step > 0 else None
+        self._start = None
+        self._jnz = None                                  # (scaled_jacobian's buffer)
+        self._h = lib.hl_new()
+        lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
+                     max_step, fixed_step, int(max_order), newton_coef)
+        lib.hl_set_max_steps(self._h, self.max_steps_per_call)
+
+    def _checked_parameters(self, p) -> np.ndarray:
+        p = np.atleast_1d(np.array(p, dtype=float))   # a copy: the caller may change its own
+        n_p = len(self.model.network.parameter_values)
+        if p.shape != (n_p,):
+            raise ValueError(f"parameter vector p must have {n_p} entries, got {p.size}")
+        return p if p.size else np.zeros(1)
+
+    def __del__(self):
+        h, self._h = getattr(self, "_h", None), None
+        if h:
+            self._lib.hl_free(h)
+
+    def set_parameters(self, p):
+        """Use other runtime parameters from the next step on (a sampled controller's hold);
+        the same numbers as now change nothing (callers may pass p at every segment).
+
+        Parameters
+        ----------
+        p : ndarray   Runtime parameters, [SI]
+        """
+        p = self._checked_parameters(p)
+        if p.tobytes() == self.p.tobytes():
+            return
+        self.p = p
+        self._lib.hl_set_parameters(self._h, _ptr(self.p))
+
+    def start(self, t0: float, x0, t_bound: float):
+        """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0).
+
+        Parameters
+        ----------
+        t0 : float        Segment start, [s]
+        x0 : ndarray      States there, [SI]
+        t_bound : float   Segment end, [s]
+        """
+        x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
+        if x0.shape != (self.model.n,):
+            raise ValueError(f"initial state x0 must have {self.model.n} entries, got {x0.size}")
+        if not (t_bound > t0):
+            raise ValueError(f"segment end t_bound must be after t0 [s], got {t0!r}, {t_bound!r}")
+        self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
+        self._t_bound = float(t_bound)
+        self._start = (float(t0), x0)
+
+    def _set_order_limits(self, t0: float, x0) -> None:
+        """Cap each NDF order's step where it would be unstable on the model's lightly damped
+        fast modes (:meth:`NativeModel.order_limits`, from the Jacobian at (t0, x0)); kept for
+        the solver's life (a hose's modes are linear)."""
+        self._limits = self.model.order_limits(self.scaled_jacobian_nonzeros(t0, x0))
+        arr = np.ascontiguousarray(self._limits, dtype=float)
+        self._lib.hl_set_order_limits(self._h, _ptr(arr))
+
+    @property
+    def order_limits(self) -> tuple:
+        """Largest step of each order 1-5, [s] (inf: none), set before the first step, from
+        the Jacobian at that segment's start (empty before; None in fixed-step mode)."""
+        return self._limits
+
+    def advance(self, t_out, signals: bool = True, table: bool = False, out=None):
+        """Integrate through the output times (ascending, within the segment).
+
+        Parameters
+        ----------
+        t_out : ndarray   Output times, [s]
+        signals : bool    Also return every signal at those times
+        table : bool      One array, signals then states, instead of a pair
+        out : ndarray     Where to write the rows: C-contiguous float64, one row per output
+                          time of (signals then) states, e.g. a slice of a run's whole table
+                          (no array made, nothing copied afterwards); None: a new array, [SI]
+
+        Returns
+        -------
+        (X, Y) : states [n_out, n_states] and signals [n_out, n_signals] (None if not asked), SI;
+                 with ``table=True`` one array [n_out, n_signals + n_states] (signals first)
+        """
+        t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
+        if self._t_bound is None:
+            raise RuntimeError("call start(t0, x0, t_bound) before advance()")
+        if self._limits == () and t_out.size and t_out[-1] > self._start[0]:
+            self._set_order_limits(*self._start)   # once per solver, before its first step
+        slack = 1e-9 * max(1.0, abs(self._t_bound))   # grid times rounded onto the segment end
+        if t_out.size and (t_out[-1] > self._t_bound + slack or np.any(np.diff(t_out) < 0)):
+            raise ValueError(f"output times must ascend and lie within the segment "
+                             f"(t_bound = {self._t_bound:g} s)")
+        n, ny = self.model.n, self.model.n_signals
+        ld = (ny if signals else 0) + n
+        if out is None:
+            block = np.empty((len(t_out), ld))
+        else:
+            block = out
+            if not (isinstance(out, np.ndarray) and out.dtype == np.float64
+                    and out.shape == (len(t_out), ld) and out.flags.c_contiguous
+                    and out.flags.writeable):
+                raise ValueError(f"out must be a writeable C-contiguous float64 array of shape "
+                                 f"{(len(t_out), ld)}")
+        X = block[:, ld - n:]
+        Y = block[:, :ny] if signals else None
+        done = ctypes.c_int(0)
+        rc = self._lib.hl_advance(self._h, len(t_out), _ptr(t_out), _ptr(X),
+                                  _ptr(Y) if signals else None, ctypes.byref(done), ld)
+        if rc != 0:
+            x, t = self.state()
+            names = self.model.network.state_names
+            bad = self._lib.hl_last_nonfinite(self._h)
+            why = {-1: "step size fell below the resolution of t",
+                   -2: "singular iteration matrix",
+                   -3: "Newton iteration failed in fixed-step mode",
+                   -4: f"the derivative of state {names[bad] if 0 <= bad < len(names) else bad!r} "
+                       f"is not finite (NaN or inf) there",
+                   -5: f"no progress after {self.max_steps_per_call} steps"}
+            raise RuntimeError(f"compiled integrator failed at t = {t:.6g} s: {why.get(rc, rc)}")
+        if done.value != len(t_out):
+            raise RuntimeError(f"compiled integrator stopped after {done.value} of "
+                               f"{len(t_out)} output times")
+        if not np.all(np.isfinite(X)):
+            raise RuntimeError("compiled integrator produced non-finite states")
+        return block if table else (X, Y)
+
+    def state(self):
+        """Current (x [SI], t [s])."""
+        x = np.empty(self.model.n)
+        t = ctypes.c_double()
+        self._lib.hl_get_state(self._h, _ptr(x), ctypes.byref(t))
+        return x, t.value
+
+    def stats(self) -> dict:
+        """Steps, f and Jacobian evaluations, LU factorizations, rejected steps, ..."""
+        s = (ctypes.c_longlong * 7)()
+        self._lib.hl_stats(self._h, s)
+        keys = ("nsteps", "nfevals", "njevals", "nlu", "nrejected", "nnewton_fail", "ndense_lu")
+        return {k: int(v) for k, v in zip(keys, s)}
+
+    def reset_stats(self):
+        """Set the counters of :meth:`stats` to zero."""
+        self._lib.hl_reset_stats(self._h)
+
+    def scaled_jacobian_nonzeros(self, t: float, x, out=None) -> np.ndarray:
+        """d(dz/dt)/dz at (t, x) in the scaled states z = x/scale: the nonzeros in the
+        compressed-column order of ``model.generated.jac_colind`` / ``jac_row``, [1/s].
+
+        Parameters
+        ----------
+        t : float         Time, [s]
+        x : ndarray       States, [SI]
+        out : ndarray     Array to fill, [1/s] (made when None)
+        """
+        x = np.ascontiguousarray(np.asarray(x, dtype=float))
+        if x.shape != (self.model.n,):
+            raise ValueError(f"state x must have {self.model.n} entries, got {x.size}")
+        g = self.model.generated
+        if out is None or len(out) < max(g.jac_nnz, 1):
+            out = np.empty(max(g.jac_nnz, 1))
+        self._lib.hl_scaled_jacobian(self._h, float(t), x.ctypes.data, out.ctypes.data)
+        return out[:g.jac_nnz]
+
+    def scaled_jacobian(self, t: float, x) -> np.ndarray:
+        """d(dz/dt)/dz at (t, x), dense, in the scaled states z = x/scale, [1/s].
+
+        Parameters
+        ----------
+        t : float         Time, [s]
+        x : ndarray       States, [SI]
+        """
+        self._jnz = self.scaled_jacobian_nonzeros(t, x, self._jnz)
+        return self.model.dense_jacobian(self._jnz)
+
+    def signals(self, t: float, x) -> np.ndarray:
+        """Every signal at (t, x) from the compiled code, in ``network.signal_names`` order,
+        [SI]. Ends the segment in progress (:meth:`start` begins the next); :meth:`stats`
+        counts the start's two evaluations of f.
+
+        Parameters
+        ----------
+        t : float       Time, [s]
+        x : ndarray     States, [SI]
+        """
+        self.start(t, x, t + max(1.0, abs(t)))
+        _, y = self.advance([t])       # an output at the segment's start: no step taken
+        return y[0]
+
+    def rhs(self, t: float, x) -> np.ndarray:
+        """dx/dt at (t, x) from the compiled code, [SI/s].
+
+        Parameters
+        ----------
+        t : float       Time, [s]
+        x : ndarray     States, [SI]
+        """
+        x = np.ascontiguousarray(np.asarray(x, dtype=float))
+        if x.shape != (self.model.n,):
+            raise ValueError(f"state x must have {self.model.n} entries, got {x.size}")
+        dx = np.empty(self.model.n)
+        self._lib.hl_rhs(self._h, float(t), x.ctypes.data, dx.ctypes.data)
+        return dx
+
+
+
+def needs_build(network) -> bool:
+    """Whether running ``network`` on the compiled core would first write and compile a new
+    library (its definition and its structure unknown to the cache, or the library missing):
+    what a command estimates before a run. Looked up as :class:`NativeModel` does, without
+    writing C; the CasADi graph is built (on ``network``) where the definition is unknown.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Returns
+    -------
+    bool  True when the first run will compile (seconds to minutes, by the model's size)
+    """
+    if network.__dict__.get("_native_model") is not None:
+        return False
+    _, tag = known_model(definition_key(network), network)
+    if tag is None:
+        model = network.compile()
+        _, tag = known_model(model_fingerprint(model), network)
+        if tag is None:
+            from . import codegen
+
+            functions = codegen.scaled_functions(model)
+            _, tag = known_structure(functions, structure_record_key(functions), network)
+    return tag is None or not library_check(cache_dir() / f"hl_{tag}.so")[0]
+
+
+def native_model(network) -> NativeModel:
+    """The network's :class:`NativeModel`, built once per network object.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Raises
+    ------
+    CompilerUnavailable   No C compiler, or it failed
+    UnsupportedOperation  The graph holds an operation the C writer does not know
+    """
+    nm = network.__dict__.get("_native_model")
+    if nm is None:
+        nm = NativeModel(network)
+        network.__dict__["_native_model"] = nm
+    return nm

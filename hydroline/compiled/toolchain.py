@@ -1,0 +1,333 @@
+"""The tool chain of the compiled core: the system C compiler, its flags for this machine, and
+the cache of compiled libraries (each verified against its build record before it is loaded,
+the least recently used pruned beyond :data:`MAX_LIBRARIES`).
+
+Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH; without one,
+:func:`load_library` raises :class:`CompilerUnavailable`.
+"""
+from __future__ import annotations
+
+import ctypes
+import functools
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from ..cache import cache_dir, discard_entry, least_recently_used, mark_used
+from .generated import GeneratedModel
+
+__all__ = ["CompilerUnavailable", "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
+           "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
+           "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE"]
+
+#: Flags for the system compiler (no -ffast-math: the integrator relies on IEEE semantics;
+#: -fno-math-errno only lets sqrt compile to one instruction; -ffp-contract=fast lets a*b+c
+#: be one fused multiply-add, rounded once, which ISO C mode otherwise forbids: 0.86x the CPU
+#: of an integration, mostly in the sparse back-solves, same error, benchmarks/README.md).
+#: The library is built for this machine's CPU (``-march=native``, dropped where the compiler
+#: refuses it, or where ``$HYDROLINE_PORTABLE_BUILD`` is set to anything but ``0``: see
+#: :func:`native_flags`), so the cache key includes the CPU model and the flags.
+CFLAGS = ["-O3", "-fno-math-errno", "-ffp-contract=fast", "-shared", "-fPIC", "-std=c99"]
+NATIVE_FLAGS = ["-march=native"]
+#: Environment variable that asks for a portable build (no ``-march=native``: baseline x86-64,
+#: no fused multiply-add on that target), e.g. for a cache shared by different CPUs
+PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
+BDF_SOURCE = Path(__file__).with_name("bdf.c")
+_LIBS: dict = {}
+#: Most compiled libraries kept in the cache directory (one per network structure and
+#: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
+#: (a removed one is compiled again when its structure comes back), [-]
+MAX_LIBRARIES = 200
+
+
+class CompilerUnavailable(RuntimeError):
+    """No working C compiler: the compiled core cannot be built on this machine."""
+
+
+
+def compiler() -> str | None:
+    """The C compiler's path: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH; None
+    without one."""
+    cc = os.environ.get("CC")
+    if cc and shutil.which(cc):
+        return shutil.which(cc)
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def available() -> bool:
+    """True when a C compiler is on the PATH (the compiled core can be built)."""
+    return compiler() is not None
+
+
+@functools.lru_cache(maxsize=None)
+def _cpu_id() -> str:
+    """This CPU's model and instruction-set flags: ``-march=native`` code built on one CPU may
+    not run on another (a cache on a shared home directory), so both enter the cache key."""
+    keep = ("model name", "flags", "features", "cpu model", "isa")
+    lines = []
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                key = line.split(":", 1)[0].strip().lower()
+                if key in keep and line not in lines:
+                    lines.append(line)
+                elif not line.strip() and lines:
+                    break    # the first processor's block is enough
+    except OSError:
+        pass
+    return "".join(lines) or (platform.machine() + platform.processor())
+
+
+@functools.lru_cache(maxsize=None)
+def _bdf_source() -> str:
+    return BDF_SOURCE.read_text()
+
+
+def native_flags() -> list[str]:
+    """The CPU-specific compiler flags of a build: :data:`NATIVE_FLAGS`, or none when
+    ``$HYDROLINE_PORTABLE_BUILD`` is set (and not ``0``). Read at each build, so a process
+    can build both kinds; their libraries and records have separate cache keys."""
+    portable = os.environ.get(PORTABLE_ENV, "").strip() not in ("", "0")
+    return [] if portable else list(NATIVE_FLAGS)
+
+
+def build_settings() -> str:
+    """What a library's machine code depends on besides its source: the compiler flags, the
+    platform and this CPU."""
+    return " ".join(CFLAGS + native_flags()) + sys.platform + _cpu_id()
+
+
+def _library_key(full: str) -> str:
+    """A library's cache key: SHA-256 (hex) of its source and the build settings; its file is
+    named by the first 32 digits, its build record holds all 64."""
+    return hashlib.sha256((full + build_settings()).encode()).hexdigest()
+
+
+def library_location(gen: GeneratedModel) -> tuple[Path, str]:
+    """Where a generated model's library is cached, and the library's whole source (the
+    model's C with the integrator).
+
+    Parameters
+    ----------
+    gen : GeneratedModel   The model's C source (:func:`hydroline.compiled.codegen.generate`)
+
+    Returns
+    -------
+    tuple  (path of the library in the cache directory, its source)
+    """
+    full = gen.source + "\n" + _bdf_source()
+    return cache_dir() / f"hl_{_library_key(full)[:32]}.so", full
+
+
+def _digest(path: Path) -> tuple[int, str]:
+    """(size [bytes], SHA-256) of a file."""
+    data = path.read_bytes()
+    return len(data), hashlib.sha256(data).hexdigest()
+
+
+def _record_path(path: Path) -> Path:
+    return path.with_suffix(".sha256")
+
+
+def library_check(path: Path) -> tuple[bool, str]:
+    """Whether the cached library at ``path`` is the file its build recorded (size, SHA-256,
+    and the key it was built for, of which its name is the start). Checked before the
+    library is loaded: a truncated, overwritten or foreign file mapped into the process
+    would crash it (SIGBUS, SIGSEGV) instead of raising.
+
+    Parameters
+    ----------
+    path : Path   The library in the cache directory
+
+    Returns
+    -------
+    tuple  (True, "") when it is; (False, "") when there is nothing to check (no library;
+           no record, or a record of the format before keys: a quiet miss); (False, why)
+           when it fails its record (to be said in a warning)
+    """
+    try:
+        size = path.stat().st_size
+        fields = _record_path(path).read_text().split()
+    except (OSError, UnicodeDecodeError):
+        return False, ""
+    if len(fields) == 2:
+        return False, ""
+    if len(fields) != 3 or not fields[0].isdigit():
+        return False, "its build record is damaged"
+    if fields[2][:32] != path.stem[3:]:
+        return False, "its build record was made for another library"
+    try:
+        if int(fields[0]) != size or _digest(path) != (size, fields[1]):
+            return False, "its content does not match its build record's size and SHA-256"
+    except OSError:
+        return False, ""
+    return True, ""
+
+
+def _discard(path: Path) -> None:
+    for p in (path, _record_path(path)):
+        try:
+            p.unlink()
+        except OSError:
+            pass
+
+
+def _compile(cc: str, full: str, path: Path) -> None:
+    """Compile the library source into ``path`` and record its size, hash and key next to it
+    (atomic renames; one builder per key at a time; a cached file that fails verification is
+    rebuilt)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = open(path.with_suffix(".lock"), "w")
+    try:
+        try:
+            import fcntl
+            fcntl.flock(lock, fcntl.LOCK_EX)    # other processes wait for this build
+        except ImportError:                     # no fcntl (Windows): concurrent builds are harmless
+            pass
+        if library_check(path)[0]:             # built by another process meanwhile
+            return
+        _discard(path)                          # damaged or unrecorded: build it anew
+        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+            src = Path(tmp) / "model.c"
+            src.write_text(full)
+            out = Path(tmp) / "model.so"
+            proc = subprocess.run([cc, *CFLAGS, *native_flags(), "-o", str(out), str(src),
+                                   "-lm"], capture_output=True, text=True)
+            if proc.returncode != 0 and native_flags():   # a compiler without -march=native
+                proc = subprocess.run([cc, *CFLAGS, "-o", str(out), str(src), "-lm"],
+                                      capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
+            size, digest = _digest(out)
+            record = Path(tmp) / "model.sha256"
+            record.write_text(f"{size} {digest} {_library_key(full)}\n")
+            os.replace(record, _record_path(path))   # the record first: a reader that sees the
+            os.replace(out, path)                     # library can always verify it
+    finally:
+        lock.close()
+
+
+def prune_libraries(max_libraries: int | None = None) -> int:
+    """Remove the least recently used compiled libraries (``hl_*.so`` with their build record
+    and lock file) beyond ``max_libraries``, down to 90 % of it (the newest always stays;
+    :func:`hydroline.cache.least_recently_used`, as the cache's tables). Errors are ignored
+    (another process may prune at the same time; a library still loaded elsewhere stays
+    usable there, and is compiled again when next needed).
+
+    Parameters
+    ----------
+    max_libraries : int   Libraries kept at most, [-] (:data:`MAX_LIBRARIES` when None)
+
+    Returns
+    -------
+    int  Libraries removed, [-]
+    """
+    keep = MAX_LIBRARIES if max_libraries is None else max(int(max_libraries), 0)
+    libs = []
+    try:
+        with os.scandir(cache_dir()) as it:
+            for e in it:
+                if e.name.startswith("hl_") and e.name.endswith(".so"):
+                    try:
+                        libs.append((e.stat().st_mtime, Path(e.path)))
+                    except OSError:
+                        continue
+    except OSError:
+        return 0
+    removed = 0
+    for path in least_recently_used(libs, keep, at_least=1):   # (the newest stays)
+        try:
+            path.unlink()
+        except OSError:
+            continue
+        removed += 1
+        _LIBS.pop(str(path), None)
+        for other in (_record_path(path), path.with_suffix(".lock")):
+            try:
+                other.unlink()
+            except OSError:
+                pass
+    return removed
+
+
+def load_library(path: Path, full) -> ctypes.CDLL:
+    """Load the model's library from the cache, compiling it on a miss.
+
+    The cached file is verified against the size, hash and key recorded at its build before
+    it is loaded; one that fails (truncated, overwritten, another library, a damaged record)
+    is discarded with one :class:`~hydroline.cache.CacheWarning` naming it and rebuilt. Any
+    failure to compile, store or load it (no compiler, a cache directory that cannot be
+    written) raises :class:`CompilerUnavailable`, so callers can fall back to another solver.
+
+    Parameters
+    ----------
+    path : Path               The library in the cache directory (:func:`library_location`)
+    full : str or callable    The library source, or a callable that makes it (only a
+                              rebuild needs it)
+
+    Returns
+    -------
+    ctypes.CDLL  The loaded library, its functions declared
+    """
+    if str(path) in _LIBS:
+        return _LIBS[str(path)]
+    cc = compiler()
+    verified = False
+    for attempt in (0, 1):
+        try:
+            verified, why = library_check(path)
+            if not verified:
+                if why:
+                    discard_entry(path, _record_path(path), why=why)
+                if cc is None:
+                    raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
+                _compile(cc, full() if callable(full) else full, path)
+                prune_libraries()               # a library more: the oldest beyond the bound go
+            else:
+                mark_used(path)                 # (a library's last use, for the pruning)
+            lib = ctypes.CDLL(str(path))
+            _declare(lib)
+            break
+        except (OSError, AttributeError) as e:   # AttributeError: a symbol is missing
+            if attempt == 0 and path.is_file() and cc is not None:
+                if verified:    # a cached library that passes its record but not the loader
+                    discard_entry(path, _record_path(path), why=f"it cannot be loaded: {e}")
+                else:
+                    _discard(path)
+                continue        # build it anew
+            raise CompilerUnavailable(f"compiled library unusable at {path}: {e}") from None
+    _LIBS[str(path)] = lib
+    return lib
+
+
+def _declare(lib):
+    dp = ctypes.POINTER(ctypes.c_double)
+    llp = ctypes.POINTER(ctypes.c_longlong)
+    vp = ctypes.c_void_p
+    lib.hl_sizes.argtypes = [llp]
+    lib.hl_new.restype = vp
+    lib.hl_free.argtypes = [vp]
+    lib.hl_setup.argtypes = [vp, dp, dp, dp, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+                             ctypes.c_double, ctypes.c_int, ctypes.c_double]
+    lib.hl_set_parameters.argtypes = [vp, dp]
+    lib.hl_init.argtypes = [vp, ctypes.c_double, dp, ctypes.c_double]
+    lib.hl_advance.argtypes = [vp, ctypes.c_int, dp, dp, dp, ctypes.POINTER(ctypes.c_int),
+                               ctypes.c_longlong]
+    lib.hl_get_state.argtypes = [vp, dp, dp]
+    lib.hl_stats.argtypes = [vp, llp]
+    lib.hl_reset_stats.argtypes = [vp]
+    # called in tight loops (steady state): raw addresses, no per-call pointer objects
+    lib.hl_rhs.argtypes = [vp, ctypes.c_double, vp, vp]
+    lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, vp, vp]
+    lib.hl_last_nonfinite.argtypes = [vp]
+    lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
+    lib.hl_set_order_limits.argtypes = [vp, dp]
