@@ -62,8 +62,8 @@ __all__ = ["extend", "instantiate", "has_circuit_edits", "COMPOSE_TABLES"]
 #: The tables of a rig file that compose a circuit; the builder never sees the last two.
 COMPOSE_TABLES = ("circuit", "remove", "subcircuit")
 #: What ``[remove]`` takes: key -> what its list names.
-REMOVE_KEYS = {"components": "component names (or a sub-circuit instance's prefix)",
-               "terms": "flow terms as \"component.term\""}
+REMOVE_KEYS = {"components": "component names (a sub-circuit instance's prefix: all of its)",
+               "terms": "flow terms, \"component.term\""}
 #: Keys of an instance's table besides its members' changes.
 INSTANCE_KEYS = ("subcircuit", "ports")
 #: Deepest nesting of sub-circuits (a group placing a group placing ...).
@@ -91,11 +91,13 @@ def _quoted(name: str) -> str:
 
 
 def _hint(name: str, known) -> str:
-    """`` (did you mean 'x'?)`` for a close name among ``known``, else how many there are."""
-    close = difflib.get_close_matches(name, list(known), n=1)
+    """`` (did you mean 'x'?)`` for a close name among ``known``, else the first few names."""
+    known = list(known)
+    close = difflib.get_close_matches(name, known, n=1)
     if close:
         return f" (did you mean '{close[0]}'?)"
-    return f" ({len(known)} components)" if known else ""
+    more = f", ... {len(known) - 6} more" if len(known) > 6 else ""
+    return f" (components: {', '.join(known[:6])}{more})" if known else ""
 
 
 def _table(value, where: str, example: str) -> dict:
@@ -219,7 +221,7 @@ def instantiate(prefix: str, table: dict, groups: dict, nesting: tuple = ()) -> 
     for m, change in changes.items():
         if m not in members:
             raise CircuitError(f"{where}.{m}: sub-circuit '{gname}' has no component '{m}'"
-                               f"{_hint(m, members)} (its components: {', '.join(members)})")
+                               f"{_hint(m, members)}")
         _table(change, f"{where}.{m}", f"{m} = {{ <parameter> = \"<value with unit>\" }}")
 
     def signal(s):
@@ -250,7 +252,7 @@ def _remove(components: dict, remove, connections: dict) -> list:
     for key, names in remove.items():
         if key not in REMOVE_KEYS:
             raise CircuitError(f"remove.{key}: [remove] takes "
-                               + "; ".join(f"{k} ({v})" for k, v in REMOVE_KEYS.items()))
+                               + " and ".join(f"{k} = [...], {v}" for k, v in REMOVE_KEYS.items()))
         if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
             raise CircuitError(f"remove.{key}: expected a list of {REMOVE_KEYS[key]}, got {names!r}")
     for name in remove.get("components", []):
