@@ -1,18 +1,19 @@
 """Rig descriptions: TOML files whose quantities carry units, parsed into SI (a parameter set).
 
 ``load_rig()`` gives the embedded default, the 2005 paper's rig (``ayalew2005.toml``);
-``load_rig(path)`` reads a user's file, which may give only what differs (``base`` key, see
-below) or a complete description. Parameters are addressed by their dotted path in the file,
+``load_rig(path)`` reads a user's file, which may give only what differs from a base (``[rig]
+base =`` a shipped rig's name, ``"default"`` for the embedded one, or a rig file's path relative
+to the file; :func:`compose_rig`) or a complete description. Parameters are addressed by their dotted path in the file,
 e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with units.
 
 Optional ``[supply.pressure_profile]`` / ``[return.pressure_profile]`` tables make the pump or
 tank pressure vary in time (step, sine, ramp about ``<side>.pressure``, or a CSV table of the
 absolute pressure); see :func:`hydroline.system.pressure_profile`.
 
-A rig is either the template (the tables above, ``[rig] base = "default"`` to start from the
-embedded one) or a circuit (``[circuit.<name>]`` components, see :mod:`hydroline.circuit`);
-a table the rig's kind does not read (a ``[supply]`` table in a circuit rig) is refused by
-name, as is a ``base`` other than ``"default"``.
+A rig is either the template (the tables above) or a circuit (``[circuit.<name>]`` components,
+see :mod:`hydroline.circuit`; a file extending a circuit rig may remove, change and add
+components and place sub-circuits, :mod:`hydroline.circuit.compose`); a table the rig's kind
+does not read (a ``[supply]`` table in a circuit rig) is refused by name.
 
 An optional ``[connections]`` table rewires component ports to other signals, e.g.
 ``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
