@@ -57,7 +57,7 @@ import difflib
 
 from .types import COMPONENT_TYPES, CircuitError
 
-__all__ = ["extend", "instantiate", "has_circuit_edits", "COMPOSE_TABLES"]
+__all__ = ["extend", "instantiate", "change_component", "has_circuit_edits", "COMPOSE_TABLES"]
 
 #: The tables of a rig file that compose a circuit; the builder never sees the last two.
 COMPOSE_TABLES = ("circuit", "remove", "subcircuit")
@@ -76,11 +76,13 @@ def has_circuit_edits(tree: dict) -> bool:
 
     Parameters
     ----------
-    tree : dict   The file's TOML tables as read
+    tree : dict
+        The file's TOML tables as read
 
     Returns
     -------
     bool
+        Whether the tables hold a circuit or edit one
     """
     return any(k in tree for k in COMPOSE_TABLES)
 
@@ -121,13 +123,22 @@ def change_component(current: dict, change: dict, where: str) -> dict:
 
     Parameters
     ----------
-    current : dict  The component's table as written (type, values, ports, terms)
-    change : dict   What changes
-    where : str     The changing table, for a message (``circuit.servovalve``)
+    current : dict
+        The component's table as written (type, values, ports, terms)
+    change : dict
+        What changes
+    where : str
+        The changing table, for a message (``circuit.servovalve``)
 
     Returns
     -------
-    dict  A new table
+    dict
+        A new table
+
+    Raises
+    ------
+    CircuitError
+        One line, where ``change`` gives another type
     """
     if "type" in change and change["type"] != current.get("type"):
         raise CircuitError(f"{where}.type: {change['type']!r} would change the type of the "
@@ -186,16 +197,26 @@ def instantiate(prefix: str, table: dict, groups: dict, nesting: tuple = ()) -> 
 
     Parameters
     ----------
-    prefix : str     The instance's name: its components are ``<prefix>.<member>``
-    table : dict     The instance's table: ``subcircuit``, ``ports`` (group port -> outside
-                     signal), and per member a table of changed values
-    groups : dict    Sub-circuit name -> definition (``[subcircuit.<name>]`` tables)
-    nesting : tuple  The groups being placed around this one (a group may not place itself)
+    prefix : str
+        The instance's name: its components are ``<prefix>.<member>``
+    table : dict
+        The instance's table: ``subcircuit``, ``ports`` (group port -> outside signal), and
+        per member a table of changed values
+    groups : dict
+        Sub-circuit name -> definition (``[subcircuit.<name>]`` tables)
+    nesting : tuple
+        The groups being placed around this one (a group may not place itself)
 
     Returns
     -------
-    dict  Component name -> table (type, values, ports with the signals joined), in the
-          group's order
+    dict
+        Component name -> table (type, values, ports with the signals joined), in the
+        group's order
+
+    Raises
+    ------
+    CircuitError
+        One line naming the instance's table: an unknown group or member, a port not joined
     """
     where = f"circuit.{_quoted(prefix)}"
     gname = table.get("subcircuit")
@@ -339,18 +360,22 @@ def extend(base: dict, tree: dict) -> dict:
 
     Parameters
     ----------
-    base : dict   The base rig's tables, composed (``{}`` for a file without a base)
-    tree : dict   The file's tables as read (its ``[rig] base`` is ignored here)
+    base : dict
+        The base rig's tables, composed (``{}`` for a file without a base)
+    tree : dict
+        The file's tables as read (its ``[rig] base`` is ignored here)
 
     Returns
     -------
-    dict  Rig tables: ``[circuit.<name>]`` tables only of components (with a type), the
-          sub-circuit definitions under ``subcircuit`` (for a file that extends this one),
-          no ``[remove]``
+    dict
+        Rig tables: ``[circuit.<name>]`` tables only of components (with a type), the
+        sub-circuit definitions under ``subcircuit`` (for a file that extends this one),
+        no ``[remove]``
 
     Raises
     ------
-    CircuitError  One line naming the table at fault
+    CircuitError
+        One line naming the table at fault
     """
     settings = {k: v for k, v in tree.items() if k not in COMPOSE_TABLES}
     if isinstance(settings.get("rig"), dict):
