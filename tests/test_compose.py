@@ -154,6 +154,27 @@ terms = ["supply.junction.axis2", "return.junction.axis2"]
     assert not [c for c in circuit.components if c.name.startswith("axis2.")]
 
 
+def test_a_rig_written_back_reads_back(tmp_path):
+    """Rig.to_toml writes dotted names as nested tables ([circuit.axis1.supply_hose]): read
+    as the same components, and an edit may name them either way."""
+    rig = load_rig("two_axis")
+    again = load_rig(_file(tmp_path, rig.to_toml(), "written.toml"))
+    assert again.values == rig.values and list(again.values) == list(rig.values)
+    edited = load_rig(_file(tmp_path, '[rig]\nbase = "written.toml"\n'
+                                      '[circuit.axis2.actuator]\nmoving_mass = "20 kg"\n'))
+    assert edited["circuit.axis2.actuator.moving_mass"] == 20.0
+
+
+def test_the_bases_connections_of_a_removed_component_go_with_it(tmp_path):
+    _file(tmp_path, '[rig]\nbase = "two_axis"\n[connections]\n'
+                    '"axis2.servovalve.supply_pressure" = "pump_pressure"\n', "ideal.toml")
+    path = _file(tmp_path, '[rig]\nbase = "ideal.toml"\n[remove]\ncomponents = ["axis2"]\n'
+                           'terms = ["supply.junction.axis2", "return.junction.axis2"]\n')
+    rig = load_rig(path)
+    assert not [k for k in rig.values if k.startswith("connections.")]
+    assert list(build_circuit(rig).axes) == ["axis1"]
+
+
 def test_nested_sub_circuits(tmp_path):
     """A group placing a group: names nest (pair.left.r), ports pass through both."""
     path = _file(tmp_path, """
@@ -290,6 +311,9 @@ BAD_EDITS = [
      ("taking out 'return.check_valve' leaves port", "re-point it")),
     ('[remove]\ncomponents = ["actuator"]\n', ("taking out 'actuator' leaves port",)),
     ('[remove]\ncomponents = ["supply.section2"]\n', ("'supply.section2'", "nothing at its other end")),
+    ('[remove]\ncomponents = ["supply.accumulator"]\n',
+     ("leaves port 'accumulator' of 'supply.junction'",
+      'drop the term ([remove] terms = ["supply.junction.accumulator"])')),
     ('[remove]\ncomponents = ["filter"]\n', ("remove.components: no component 'filter' in the base rig",)),
     ('[remove]\nterms = ["supply.junction.axis9"]\n', ("no flow term 'axis9'", "section2, accumulator")),
     ('[remove]\nparts = ["load"]\n', ("remove.parts: [remove] takes components = [...]",)),

@@ -54,10 +54,13 @@ from __future__ import annotations
 
 import copy
 import difflib
+import json
 
 from .types import COMPONENT_TYPES, CircuitError
+from .wiring import HYDRAULIC
 
-__all__ = ["extend", "instantiate", "change_component", "has_circuit_edits", "COMPOSE_TABLES"]
+__all__ = ["extend", "instantiate", "change_component", "components_by_name", "has_circuit_edits",
+           "COMPOSE_TABLES"]
 
 #: The tables of a rig file that compose a circuit; the builder never sees the last two.
 COMPOSE_TABLES = ("circuit", "remove", "subcircuit")
@@ -88,8 +91,15 @@ def has_circuit_edits(tree: dict) -> bool:
 
 
 def _quoted(name: str) -> str:
-    """``name`` as a TOML key in a table header (quoted when it holds a dot)."""
-    return name if name.replace("_", "").replace("-", "").isalnum() else f'"{name}"'
+    """``name`` as a TOML key in a table header (quoted, escaped, when not a bare key)."""
+    bare = name.replace("_", "").replace("-", "")
+    return name if bare.isascii() and bare.isalnum() else json.dumps(name, ensure_ascii=False)
+
+
+def _shown(value) -> str:
+    """A value as a one-line message shows it (its repr, cut at 60 characters)."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
 
 
 def _hint(name: str, known) -> str:
@@ -104,8 +114,57 @@ def _hint(name: str, known) -> str:
 
 def _table(value, where: str, example: str) -> dict:
     if not isinstance(value, dict):
-        raise CircuitError(f"{where}: expected a table, e.g. {example}; got {value!r}")
+        raise CircuitError(f"{where}: expected a table, e.g. {example}; got {_shown(value)}")
     return value
+
+
+def components_by_name(tables: dict, known=(), where: str = "circuit") -> dict:
+    """Component name -> table of a ``[circuit]`` (or sub-circuit) tree, whether a dotted
+    name is written quoted (``[circuit."axis1.valve"]``) or as nested tables
+    (``[circuit.axis1.valve]``, as :meth:`hydroline.rigs.Rig.to_toml` writes it).
+
+    A table is a component's when it has a ``type`` or ``subcircuit``, holds a value that is
+    not a table, or is named in ``known``; a table holding only tables is a level of names.
+
+    Parameters
+    ----------
+    tables : dict
+        The tree as read
+    known : iterable of str
+        Component names already in the rig (an edit of one may hold only its ports)
+    where : str
+        The tree's path, for a message
+
+    Returns
+    -------
+    dict
+        Component name -> its table, in the order written
+
+    Raises
+    ------
+    CircuitError
+        One line: a value that is not a component's table, a component given twice
+    """
+    known, out = set(known), {}
+
+    def walk(tree, prefix):
+        for key, value in tree.items():
+            name = f"{prefix}{key}"
+            if not isinstance(value, dict):
+                raise CircuitError(f"{where}.{_quoted(name)}: expected a component's table, "
+                                   f"e.g. [{where}.{_quoted(name)}] type = \"...\"; got "
+                                   f"{_shown(value)}")
+            if (name in known or "type" in value or "subcircuit" in value
+                    or any(not isinstance(v, dict) for v in value.values()) or not value):
+                if name in out:
+                    raise CircuitError(f"{where}.{_quoted(name)}: given twice (as a quoted "
+                                       f"name and as nested tables); give it once")
+                out[name] = value
+            else:
+                walk(value, name + ".")
+
+    walk(tables, "")
+    return out
 
 
 def _merge(into: dict, new: dict) -> dict:
@@ -171,15 +230,8 @@ def _group_parts(gname: str, group: dict) -> tuple[list, dict]:
     ports = group.get("ports", [])
     if not (isinstance(ports, list) and all(isinstance(p, str) and p for p in ports)):
         raise CircuitError(f"{where}.ports: the group's ports are a list of signal names, e.g. "
-                           f"ports = [\"supply_pressure\", \"return_pressure\"]; got {ports!r}")
-    members = {}
-    for m, t in group.items():
-        if m == "ports":
-            continue
-        if not isinstance(t, dict):
-            raise CircuitError(f"{where}.{m}: a sub-circuit holds its ports and component tables "
-                               f"([{where}.{_quoted(m)}] with a type); got {t!r}")
-        members[m] = t
+                           f"ports = [\"supply_pressure\", \"return_pressure\"]; got {_shown(ports)}")
+    members = components_by_name({m: t for m, t in group.items() if m != "ports"}, (), where)
     if not members:
         raise CircuitError(f"{where}: a sub-circuit without components; give them as "
                            f"[{where}.<name>] tables with a type")
@@ -222,7 +274,7 @@ def instantiate(prefix: str, table: dict, groups: dict, nesting: tuple = ()) -> 
     gname = table.get("subcircuit")
     if not isinstance(gname, str) or gname not in groups:
         known = ", ".join(groups) or "none defined: add [subcircuit.<name>] tables"
-        raise CircuitError(f"{where}.subcircuit: no sub-circuit {gname!r} (sub-circuits: "
+        raise CircuitError(f"{where}.subcircuit: no sub-circuit {_shown(gname)} (sub-circuits: "
                            f"{known})")
     if gname in nesting or len(nesting) >= MAX_NESTING:
         raise CircuitError(f"{where}.subcircuit: sub-circuit '{gname}' places itself "
@@ -232,16 +284,17 @@ def instantiate(prefix: str, table: dict, groups: dict, nesting: tuple = ()) -> 
                     f"ports = {{ {gports[0] if gports else 'port'} = \"signal\" }}")
     for p in joined:
         if p not in gports:
-            raise CircuitError(f"{where}.ports.{p}: sub-circuit '{gname}' has no port '{p}' "
+            raise CircuitError(f"{where}.ports.{_quoted(p)}: sub-circuit '{gname}' has no port {p!r} "
                                f"(ports: {', '.join(gports) or 'none'})")
     for p in gports:
         if not isinstance(joined.get(p), str) or not joined.get(p):
             raise CircuitError(f"{where}.ports: port '{p}' of sub-circuit '{gname}' is not "
                                f"joined: give ports = {{ {p} = \"<signal>\", ... }}")
-    changes = {k: v for k, v in table.items() if k not in INSTANCE_KEYS}
+    changes = components_by_name({k: v for k, v in table.items() if k not in INSTANCE_KEYS},
+                                 members, where)
     for m, change in changes.items():
         if m not in members:
-            raise CircuitError(f"{where}.{m}: sub-circuit '{gname}' has no component '{m}'"
+            raise CircuitError(f"{where}.{_quoted(m)}: sub-circuit '{gname}' has no component {m!r}"
                                f"{_hint(m, members)}")
         _table(change, f"{where}.{m}", f"{m} = {{ <parameter> = \"<value with unit>\" }}")
 
@@ -263,24 +316,26 @@ def instantiate(prefix: str, table: dict, groups: dict, nesting: tuple = ()) -> 
     return out
 
 
-def _remove(components: dict, remove, connections: dict) -> list:
-    """Take out what ``[remove]`` lists (in place); the ports taken away, as (what was
-    removed, its type, port, signal)."""
+def _remove(components: dict, remove, connections: dict, own_connections) -> list:
+    """Take out what ``[remove]`` lists (in place), with the base's ``[connections]`` entries
+    of removed components; the ports taken away, as (what was removed, its type, port,
+    signal)."""
     if remove is None:
         return []
     _table(remove, "remove", "[remove] components = [\"return.check_valve\"]")
     gone, taken = [], set()
     for key, names in remove.items():
         if key not in REMOVE_KEYS:
-            raise CircuitError(f"remove.{key}: [remove] takes "
+            raise CircuitError(f"remove.{_quoted(key)}: [remove] takes "
                                + " and ".join(f"{k} = [...], {v}" for k, v in REMOVE_KEYS.items()))
         if not (isinstance(names, list) and all(isinstance(n, str) for n in names)):
-            raise CircuitError(f"remove.{key}: expected a list of {REMOVE_KEYS[key]}, got {names!r}")
+            raise CircuitError(f"remove.{key}: expected a list of {REMOVE_KEYS[key]}, got "
+                               f"{_shown(names)}")
     for name in remove.get("components", []):
         hit = [name] if name in components else \
             [c for c in components if c.startswith(name + ".")]
         if not hit:
-            raise CircuitError(f"remove.components: no component '{name}' in the base rig"
+            raise CircuitError(f"remove.components: no component {name!r} in the base rig"
                                f"{_hint(name, components)}")
         for c in hit:
             table = components.pop(c)
@@ -291,22 +346,24 @@ def _remove(components: dict, remove, connections: dict) -> list:
         cname, _, term = ref.rpartition(".")
         table = components.get(cname)
         if table is None:
-            raise CircuitError(f"remove.terms: no component '{cname}' in the base rig"
+            raise CircuitError(f"remove.terms: no component {cname!r} in the base rig"
                                f"{_hint(cname, components)} (a term is \"component.term\")")
         terms = table.get("terms")
         if not isinstance(terms, dict) or term not in terms:
             have = ", ".join(terms) if isinstance(terms, dict) else "none"
-            raise CircuitError(f"remove.terms: component '{cname}' has no flow term '{term}' "
+            raise CircuitError(f"remove.terms: component {cname!r} has no flow term {term!r} "
                                f"(terms: {have})")
         table = components[cname] = copy.deepcopy(table)
         del table["terms"][term]
         if term in (table.get("ports") or {}):
             gone.append((f"the term '{term}' of '{cname}'", None, term, table["ports"].pop(term)))
-    for target in connections:
+    for target in list(connections):
         cname = target.rpartition(".")[0]
-        if cname in taken:
-            raise CircuitError(f"connections.{target}: component '{cname}' is removed "
+        if cname in taken and target in own_connections:
+            raise CircuitError(f"connections.{target}: component {cname!r} is removed "
                                f"([remove] components); drop this connection")
+        if cname in taken:
+            del connections[target]
     return gone
 
 
@@ -331,6 +388,13 @@ def _experiment_driven(ctype_name, port: str) -> bool:
         found[1].quantity == "current" or port == "reference")
 
 
+def _unread_signal_output(ctype_name, port: str) -> bool:
+    """True for an output of a signal (position, force, ...) that may go unread; an oil
+    port left alone is a cut line."""
+    found = _static_port(ctype_name, port)
+    return found is not None and found[0] == "out" and found[1].quantity not in HYDRAULIC
+
+
 def _check_dangling(components: dict, gone: list):
     """Refuse a port left with nothing at its other end by a removal (one line)."""
     named = {}
@@ -345,13 +409,18 @@ def _check_dangling(components: dict, gone: list):
         produced = _static_port(ctype, rport)
         lost_source = produced is not None and produced[0] == "out" and all(
             (_static_port(components[n].get("type"), p) or ("?",))[0] == "in" for n, p in left)
-        if (len(left) == 1 or lost_source) and not all(
+        alone = len(left) == 1 and not _unread_signal_output(components[left[0][0]].get("type"),
+                                                             left[0][1])
+        if (alone or lost_source) and not all(
                 _experiment_driven(components[n].get("type"), p) for n, p in left):
             n, p = left[0]
+            terms = components[n].get("terms")
+            drop = (f"drop the term ([remove] terms = [\"{n}.{p}\"])"
+                    if isinstance(terms, dict) and p in terms else f"remove {n!r} too")
             raise CircuitError(
-                f"remove: taking out {what} leaves port '{p}' of '{n}' (signal '{sig}') with "
+                f"remove: taking out {what} leaves port {p!r} of {n!r} (signal {sig!r}) with "
                 f"nothing at its other end; re-point it ([circuit.{_quoted(n)}] ports = "
-                f"{{ {p} = \"<signal>\" }}) or remove '{n}' too")
+                f"{{ {_quoted(p)} = \"<signal>\" }}) or {drop}")
 
 
 def extend(base: dict, tree: dict) -> dict:
@@ -385,19 +454,25 @@ def extend(base: dict, tree: dict) -> dict:
     if "remove" in tree and not components:
         raise CircuitError("remove: there is nothing to remove from: [remove] takes components "
                            "out of the rig named by [rig] base, a circuit rig")
-    connections = out.get("connections") if isinstance(out.get("connections"), dict) else {}
-    gone = _remove(components, tree.get("remove"), connections)
+    connections = dict(out["connections"]) if isinstance(out.get("connections"), dict) else {}
+    if connections:
+        out["connections"] = connections
+    own_connections = tree.get("connections") if isinstance(tree.get("connections"), dict) else {}
+    gone = _remove(components, tree.get("remove"), connections, own_connections)
     groups = _groups(base, tree)
-    own = _table(tree.get("circuit", {}), "circuit", "[circuit.pump] type = \"pressure_source\"")
+    own = components_by_name(_table(tree.get("circuit", {}), "circuit",
+                                    "[circuit.pump] type = \"pressure_source\""), components)
     changes = []
     for name, table in own.items():
-        _table(table, f"circuit.{_quoted(name)}",
-               f"[circuit.{_quoted(name)}] type = \"...\" with its values and ports")
         if "subcircuit" in table:
+            if "type" in table:
+                raise CircuitError(f"circuit.{_quoted(name)}: either a component (type = ...) "
+                                   f"or a sub-circuit's instance (subcircuit = ...), not both")
             for member, mt in instantiate(name, table, groups).items():
                 if member in components:
-                    raise CircuitError(f"circuit.{_quoted(name)}: its component '{member}' is "
-                                       f"already in the rig")
+                    raise CircuitError(f"circuit.{_quoted(name)}: its component {member!r} is "
+                                       f"already in the rig (to place it anew, remove the base's "
+                                       f"first: [remove] components = [\"{name}\"])")
                 components[member] = mt
         elif name in components or "type" not in table:
             changes.append(name)
@@ -405,9 +480,11 @@ def extend(base: dict, tree: dict) -> dict:
             components[name] = copy.deepcopy(table)
     for name in changes:
         if name not in components:
+            stem, _, last = name.rpartition(".")
+            shown = stem if last in ("ports", "terms") and stem else name
             raise CircuitError(
-                f"circuit.{_quoted(name)}: no component '{name}' to change"
-                f"{_hint(name, components)}; a new component needs type = \"...\" (one of "
+                f"circuit.{_quoted(name)}: no component {shown!r} to change"
+                f"{_hint(shown, components)}; a new component needs type = \"...\" (one of "
                 f"{', '.join(COMPONENT_TYPES)})")
         components[name] = change_component(components[name], own[name], f"circuit.{_quoted(name)}")
     _check_dangling(components, gone)

@@ -3,8 +3,9 @@
 ``load_rig()`` gives the embedded default, the 2005 paper's rig (``ayalew2005.toml``);
 ``load_rig(path)`` reads a user's file, which may give only what differs from a base (``[rig]
 base =`` a shipped rig's name, ``"default"`` for the embedded one, or a rig file's path relative
-to the file; :func:`compose_rig`) or a complete description. Parameters are addressed by their dotted path in the file,
-e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with units.
+to the file; :func:`compose_rig`) or a complete description. Parameters are addressed by their
+dotted path in the file, e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with
+units.
 
 Optional ``[supply.pressure_profile]`` / ``[return.pressure_profile]`` tables make the pump or
 tank pressure vary in time (step, sine, ramp about ``<side>.pressure``, or a CSV table of the
@@ -526,8 +527,10 @@ def template_circuit(tree: dict, source: str) -> dict:
 
     Raises
     ------
-    RigError  Always for now: the template's expansion into circuit tables is not wired here
-              yet; the paper's rig is shipped as a circuit (``ayalew2005_circuit``)
+    RigError  Always for now: the template's expansion into circuit tables
+              (``hydroline/rigs/template.py``, issue 27 item 1) is to be called here, the one
+              place a template base meets circuit edits; until then the paper's rig is named
+              by its circuit (``ayalew2005_circuit``)
     """
     raise RigError(f"rig.base: {_short(source)} is a template rig ([supply], [servovalve], ...); "
                    f"circuit edits ([circuit.*], [remove], [subcircuit.*]) extend a circuit "
@@ -549,7 +552,7 @@ def _read_base(base, source: str) -> tuple[dict, str]:
     slash, relative to that file; its relative table files anchored to its folder."""
     names = shipped_rigs()
     if not isinstance(base, str) or not base.strip() or base != base.strip():
-        raise RigError(f"rig.base: {base!r} names no rig: give a shipped rig's name "
+        raise RigError(f"rig.base: {repr(base)[:60]} names no rig: give a shipped rig's name "
                        f"({', '.join(names)}; \"default\" is {DEFAULT_RIG[:-5]}) or a rig "
                        f"file's path ending in .toml")
     if base in ("default", DEFAULT_RIG):
