@@ -261,6 +261,23 @@ def test_paper_rig_with_a_filter_before_the_valve(tmp_path):
     assert dp[rest][-1] == pytest.approx(1e9 * res["filter_flow"][rest][-1], rel=1e-9)
 
 
+def test_the_shipped_paper_circuit_is_the_tested_one_with_the_templates_experiments():
+    """hydroline/rigs/ayalew2005_circuit.toml: the components and values of
+    tests/data/ayalew2005_circuit.toml (whose run tests/test_circuit.py checks against the
+    template's), plus what the template's experiments and controller need, as the template."""
+    shipped, tested = load_rig("ayalew2005_circuit"), load_rig(DATA / "ayalew2005_circuit.toml")
+    template = load_rig()
+    mine = {k: v for k, v in shipped.values.items() if k.startswith("circuit.")}
+    theirs = {k: v for k, v in tested.values.items() if k.startswith("circuit.")}
+    extra = set(mine) - set(theirs)
+    assert set(theirs) <= set(mine) and all(mine[k] == theirs[k] for k in theirs)
+    assert all(mine[k] == 0.0 for k in extra), extra          # zeros the defaults give too
+    for k, v in template.values.items():
+        if k.split(".")[0] in ("scenario", "controller", "fluid"):
+            assert shipped[k] == v, k
+    assert shipped["rig.line_method"] == template["rig.line_method"]
+
+
 # ---------------------------------------------------------------- bases by name and path
 
 def test_base_by_relative_and_absolute_path_and_chains(tmp_path):
