@@ -163,9 +163,7 @@ def test_circuit_value_outside_plausible_range_refused_and_overridable(tmp_path)
     from hydroline.system import build_circuit
 
     text = (PACKAGE / "rigs" / shipped_rig("two_axis")).read_text()
-    written = 'stroke = "102 mm"                    # [paper]'
-    assert text.count(written) == 2
-    bad = text.replace(written, 'stroke = "100 m"   # a slip of unit', 1)   # axis 1's
+    bad = text + '\n[circuit."axis1.actuator"]\nstroke = "100 m"   # a slip of unit\n'   # axis 1's
     rig_file = tmp_path / "slip.toml"
     rig_file.write_text(bad)
     with pytest.raises(ValueError, match=r"^circuit\.axis1\.actuator\.stroke: '100 m' is outside "

@@ -18,9 +18,9 @@ RUN = os.environ.get("HYDROLINE_RUN_TUTORIALS") == "1"
 
 
 def test_every_issue_topic_has_a_tutorial():
-    """(a) paper study ... (f) line models: one script each, each with a sphinx-gallery title."""
+    """(a) paper study ... (f) line models, (g) own component: one script each, each with a sphinx-gallery title."""
     letters = sorted(p.name.split("_")[1] for p in TUTORIALS)
-    assert letters == ["a", "b", "c", "d", "e", "f"]
+    assert letters == ["a", "b", "c", "d", "e", "f", "g"]
     for p in TUTORIALS:
         head = p.read_text().split('"""')[1].strip().splitlines()
         assert len(head) >= 2 and set(head[1]) == {"="} and len(head[1]) >= len(head[0]), p.name

@@ -1,18 +1,20 @@
 """Rig descriptions: TOML files whose quantities carry units, parsed into SI (a parameter set).
 
 ``load_rig()`` gives the embedded default, the 2005 paper's rig (``ayalew2005.toml``);
-``load_rig(path)`` reads a user's file, which may give only what differs (``base`` key, see
-below) or a complete description. Parameters are addressed by their dotted path in the file,
-e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with units.
+``load_rig(path)`` reads a user's file, which may give only what differs from a base (``[rig]
+base =`` a shipped rig's name, ``"default"`` for the embedded one, or a rig file's path relative
+to the file; :func:`compose_rig`) or a complete description. Parameters are addressed by their
+dotted path in the file, e.g. ``supply.section2.length``; :meth:`Rig.set` changes one with
+units.
 
 Optional ``[supply.pressure_profile]`` / ``[return.pressure_profile]`` tables make the pump or
 tank pressure vary in time (step, sine, ramp about ``<side>.pressure``, or a CSV table of the
 absolute pressure); see :func:`hydroline.system.pressure_profile`.
 
-A rig is either the template (the tables above, ``[rig] base = "default"`` to start from the
-embedded one) or a circuit (``[circuit.<name>]`` components, see :mod:`hydroline.circuit`);
-a table the rig's kind does not read (a ``[supply]`` table in a circuit rig) is refused by
-name, as is a ``base`` other than ``"default"``.
+A rig is either the template (the tables above) or a circuit (``[circuit.<name>]`` components,
+see :mod:`hydroline.circuit`; a file extending a circuit rig may remove, change and add
+components and place sub-circuits, :mod:`hydroline.circuit.compose`); a table the rig's kind
+does not read (a ``[supply]`` table in a circuit rig) is refused by name.
 
 An optional ``[connections]`` table rewires component ports to other signals, e.g.
 ``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
@@ -24,6 +26,7 @@ cut off or crossed, a servovalve's P not above its T) is refused in one line
 from __future__ import annotations
 
 import copy
+import difflib
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -387,14 +390,28 @@ def shipped_rig(name: str) -> str | None:
     return fname if resources.files(__name__).joinpath(fname).is_file() else None
 
 
+def shipped_rigs() -> list[str]:
+    """The names of the rigs shipped with the package (``"two_axis"``, ...), sorted.
+
+    Returns
+    -------
+    list of str  Names without ``.toml``, as ``load_rig`` and ``[rig] base`` take them
+    """
+    return sorted(p.name[:-5] for p in resources.files(__name__).iterdir()
+                  if p.name.endswith(".toml"))
+
+
+def _read_shipped(fname: str) -> tuple[dict, str]:
+    return tomllib.loads(resources.files(__name__).joinpath(fname).read_text()), f"embedded:{fname}"
+
+
 def _read_toml(path) -> tuple[dict, str]:
     if path is None:
-        text = resources.files(__name__).joinpath(DEFAULT_RIG).read_text()
-        return tomllib.loads(text), f"embedded:{DEFAULT_RIG}"
+        return _read_shipped(DEFAULT_RIG)
     p = Path(path)
     shipped = None if p.is_file() else shipped_rig(str(path))
     if shipped is not None and p.suffix != ".toml":   # a shipped rig's name, e.g. "two_axis"
-        return tomllib.loads(resources.files(__name__).joinpath(shipped).read_text()), f"embedded:{shipped}"
+        return _read_shipped(shipped)
     if not p.is_file():   # a file name is a file: not silently the shipped rig of that name
         hint = (f" (the shipped rig of that name is '{Path(shipped).stem}', without .toml)"
                 if shipped is not None else "")
@@ -419,8 +436,10 @@ def load_rig(path=None) -> Rig:
     """Load a rig file (the embedded default when ``path`` is None); a rig shipped with the
     package may be named instead of a path (``load_rig("two_axis")``).
 
-    A file with ``[rig] base = "default"`` starts from the embedded rig and overrides only
-    what it lists.
+    A file with ``[rig] base = "<shipped rig>"`` (``"default"``: the embedded rig) or ``base =
+    "<path>.toml"`` (relative to the file) starts from that rig and changes only what it
+    lists; a circuit file may also remove components and place sub-circuits
+    (:mod:`hydroline.circuit.compose`).
 
     Parameters
     ----------
@@ -429,36 +448,138 @@ def load_rig(path=None) -> Rig:
 
     Returns
     -------
-    Rig  Parameters in SI, with the raw values as written
+    Rig  Parameters in SI, with the raw values as written (a base's, the sub-circuits'
+         components written out)
 
     Raises
     ------
-    RigError  One line: file missing or unreadable, bad TOML, or a parameter's bad value/unit
+    RigError  One line: file missing or unreadable, bad TOML, a parameter's bad value/unit,
+              a base not found or naming itself, an edit of no component
     """
     tree, source = _read_toml(path)
+    try:
+        tree = compose_rig(tree, source)
+    except RecursionError:
+        raise RigError(f"{source}: nested too deeply to be a rig file") from None
+    tree.pop("subcircuit", None)          # placed: its components are in [circuit]
     raw = _flatten(tree)
-    if "rig.base" in raw:
-        _check_base(raw)
-    if raw.get("rig.base") in ("default", DEFAULT_RIG):
-        base = load_rig(None)
-        for k, v in sorted(raw.items(), key=lambda kv: not kv[0].endswith(".type")):
-            if k != "rig.base":
-                base.set(k, v)
-        base.source = source
-        return base
     values = {k: _parse(k, v, raw) for k, v in raw.items()}
     return Rig(values, raw, source)
 
 
-def _check_base(raw: dict):
-    """RigError unless ``rig.base`` names the rig a file may start from: the embedded
-    template (``"default"``), and only for a template rig."""
-    base = raw["rig.base"]
-    if base not in ("default", DEFAULT_RIG):
-        raise RigError(f"rig.base: {base!r} is not a rig to start from: give \"default\" (the "
-                       f"embedded {DEFAULT_RIG}; the file then changes only what it lists) or "
-                       f"leave base out")
-    if any(k.startswith("circuit.") for k in raw):
-        raise RigError("rig.base: a circuit rig ([circuit.<name>] tables) does not start from "
-                       "the template rig, whose tables it would not use; leave base out and "
-                       "give every component as a [circuit.<name>] table")
+#: Longest chain of bases (a base's base ...), [files].
+MAX_BASE_DEPTH = 16
+
+
+def compose_rig(tree: dict, source: str, chain: tuple = ()) -> dict:
+    """A rig file's tables with its ``[rig] base`` resolved (recursively), its circuit edits
+    applied and its sub-circuits placed (:func:`hydroline.circuit.compose.extend`).
+
+    Parameters
+    ----------
+    tree : dict     The file's TOML tables as read
+    source : str    Where they came from (a path, or ``embedded:<name>.toml``)
+    chain : tuple   The files extending this one (a base may not name one of them)
+
+    Returns
+    -------
+    dict  The composed tables, without ``[rig] base`` and ``[remove]``; sub-circuit
+          definitions kept under ``subcircuit``
+
+    Raises
+    ------
+    RigError  One line naming the base or the edit at fault
+    """
+    from ..circuit.compose import extend, has_circuit_edits   # (the circuit layer is below)
+    from ..circuit.types import CircuitError
+    rig = tree.get("rig")
+    base = rig.get("base") if isinstance(rig, dict) else None
+    try:
+        if base is None:
+            return extend({}, tree)
+        if len(chain) >= MAX_BASE_DEPTH:
+            raise RigError(f"rig.base: more than {MAX_BASE_DEPTH} bases in a chain ({source})")
+        base_tree, base_source = _read_base(base, source)
+        seen = [_identity(s) for s in chain + (source,)]
+        if _identity(base_source) in seen:
+            loop = chain[seen.index(_identity(base_source)):] + (source, base_source)
+            raise RigError(f"rig.base: a cycle of bases: {' -> '.join(map(_short, loop))}")
+        base_tree = compose_rig(base_tree, base_source, chain + (source,))
+        if has_circuit_edits(tree) and "circuit" not in base_tree:
+            base_tree = template_circuit(base_tree, base_source)
+        return extend(base_tree, tree)
+    except CircuitError as e:
+        raise RigError(str(e)) from None
+
+
+def template_circuit(tree: dict, source: str) -> dict:
+    """The tables of a template rig (``[supply]``, ``[servovalve]``, ...) as circuit tables
+    (``[circuit.<name>]``): what a file with circuit edits extends when its base is a template.
+
+    Parameters
+    ----------
+    tree : dict    The template rig's tables, composed
+    source : str   Where they came from
+
+    Returns
+    -------
+    dict  The same rig's tables as a circuit rig's
+
+    Raises
+    ------
+    RigError  Always for now: the template's expansion into circuit tables
+              (``hydroline/rigs/template.py``, issue 27 item 1) is to be called here, the one
+              place a template base meets circuit edits; until then the paper's rig is named
+              by its circuit (``ayalew2005_circuit``)
+    """
+    raise RigError(f"rig.base: {_short(source)} is a template rig ([supply], [servovalve], ...); "
+                   f"circuit edits ([circuit.*], [remove], [subcircuit.*]) extend a circuit "
+                   f"rig: use base = \"ayalew2005_circuit\" (the paper's rig as a circuit)")
+
+
+def _identity(source: str) -> str:
+    return source if source.startswith("embedded:") else str(Path(source).resolve())
+
+
+def _short(source: str) -> str:
+    """A rig's source as a message names it: a shipped rig by name, a file by its path."""
+    return source[len("embedded:"):-len(".toml")] if source.startswith("embedded:") else source
+
+
+def _read_base(base, source: str) -> tuple[dict, str]:
+    """(tables, source) of the rig ``[rig] base`` names in the file at ``source``: a shipped
+    rig's name (``"default"``: the embedded rig), or a path ending in ``.toml`` or holding a
+    slash, relative to that file; its relative table files anchored to its folder."""
+    names = shipped_rigs()
+    if not isinstance(base, str) or not base.strip() or base != base.strip():
+        raise RigError(f"rig.base: {repr(base)[:60]} names no rig: give a shipped rig's name "
+                       f"({', '.join(names)}; \"default\" is {DEFAULT_RIG[:-5]}) or a rig "
+                       f"file's path ending in .toml")
+    if base in ("default", DEFAULT_RIG):
+        return _read_shipped(DEFAULT_RIG)
+    if not any(ch in base for ch in "/\\") and not base.endswith(".toml"):
+        if base not in names:
+            close = difflib.get_close_matches(base, names, n=1)
+            hint = f" (did you mean '{close[0]}'?)" if close else ""
+            raise RigError(f"rig.base: {base!r} is no shipped rig ({', '.join(names)}){hint}; "
+                           f"a rig file's path ends in .toml (relative to the file naming it)")
+        return _read_shipped(f"{base}.toml")
+    here = Path(__file__).parent if source.startswith("embedded:") else Path(source).parent
+    path = Path(base) if Path(base).is_absolute() else here / base
+    if not path.is_file():
+        hint = (f" (the shipped rig of that name is '{Path(base).stem}', without .toml)"
+                if Path(base).stem in names and "/" not in base else "")
+        raise RigError(f"rig.base: rig file not found: {path} (relative to {_short(source)}){hint}")
+    tree, found = _read_toml(path)
+    return _anchor_files(tree, path.parent), found
+
+
+def _anchor_files(tree, folder: Path):
+    """``tree`` with every relative ``file = "..."`` (a table command, a pressure profile)
+    made absolute against ``folder``, the folder of the file that wrote it."""
+    if not isinstance(tree, dict):
+        return tree
+    out = {k: _anchor_files(v, folder) for k, v in tree.items()}
+    if isinstance(out.get("file"), str) and not Path(out["file"]).is_absolute():
+        out["file"] = str(folder / out["file"])
+    return out
