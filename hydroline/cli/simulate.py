@@ -44,8 +44,10 @@ def register(sub):
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout "
                    "(and write the files only when --out is given)")
     p.add_argument("--dt-out", help="interval of the rows written to results.csv, with unit, "
-                   "e.g. '1 ms' (default: every 0.1 ms output row; the summary always uses "
-                   "the full output)")
+                   "e.g. '1 ms' (default: every 0.1 ms output row, or on a long run the finest "
+                   "of 0.2, 0.5, 1, 2, 5 ms, ... that keeps the file under about 200 MB, with "
+                   "a note; '0.1 ms' writes every row; the summary always uses every 0.1 ms "
+                   "row)")
     p.add_argument("--format", default="csv", choices=tuple(RESULT_FILES),
                    help="time-series file: csv (results.csv, units in the header; default), "
                    "parquet (results.parquet, units in its metadata: pandas.read_parquet(...)"
@@ -109,6 +111,54 @@ def output_grid(t_end: float, dt_out: float | None):
     return h, every, n // every + 1 + (n % every != 0)
 
 
+#: Most bytes a run writes without being asked (no --dt-out): beyond it the written rows are
+#: decimated (:func:`written_interval`), [B]. Counted at the CSV's bound of
+#: :data:`hydroline.limits.CSV_BYTES_PER_VALUE` per value for every format, so that each
+#: format holds the same rows (Parquet and MAT files are then about half of it).
+WRITE_BYTES = 200e6
+
+
+def written_interval(t_end: float, n_columns: int, limit: float | None = None):
+    """The interval of the rows a run writes when --dt-out is not given: every output row
+    (None) while the file stays within ``limit``, else the finest of 0.2, 0.5, 1, 2, 5, 10 ms,
+    ... (multiples of :data:`DT_OUT`) that does.
+
+    Parameters
+    ----------
+    t_end : float
+        Simulated time, [s].
+    n_columns : int
+        Columns written (time, signals and states), [-].
+    limit : float
+        Most bytes to write, [B] (None: :data:`WRITE_BYTES`).
+
+    Returns
+    -------
+    float or None
+        The interval, [s]; None: every :data:`DT_OUT` row.
+    """
+    from ..limits import CSV_BYTES_PER_VALUE
+
+    limit = WRITE_BYTES if limit is None else limit
+
+    def size(dt):
+        return (int(round(t_end / dt)) + 1) * n_columns * CSV_BYTES_PER_VALUE
+
+    if size(DT_OUT) <= limit:
+        return None
+    decade = 1
+    while True:
+        for step in (2, 5, 10):
+            every = step * decade
+            if size(every * DT_OUT) <= limit or every * DT_OUT >= t_end:
+                return every * DT_OUT
+        decade *= 10
+
+
+def _bytes(n: float) -> str:
+    return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
+
+
 def run(args) -> int:
     """Run ``hydroline simulate``: a scenario on a rig from its solved steady state; the
     summary printed (or as JSON), results.csv, summary.json and pressures.png written.
@@ -137,7 +187,7 @@ def run(args) -> int:
 
 
 def _prepare(args, write, figures) -> int:
-    from ..limits import check_output_size
+    from ..limits import CSV_BYTES_PER_VALUE, MAX_TABLE_BYTES, check_output_size, output_estimate
     from ..rigs import load_rig
     from ..rigs.parameters import defaults_used
     from ..scenarios import build_scenario, default_scenario, scenario_names
@@ -160,24 +210,36 @@ def _prepare(args, write, figures) -> int:
         raise ValueError(f"--dt-out: {args.dt_out} is longer than the run ({duration:g} s): "
                          f"results.csv would hold only its first and last rows; give at most "
                          f"{duration:g} s")
-    h, every, rows = output_grid(duration, dt_out)
     circuit, network = run_network(rig, scenario, duration)
-    long_run = round(duration / h) + 1 > LONG_ROWS and len(circuit.axes) == 1
     columns = 1 + len(network.signal_names) + len(network.state_names)
+    fmt = getattr(args, "format", "csv")
+    if dt_out is None and write:   # a long run: the rows written decimated, and said so
+        dt_out = written_interval(duration, columns)
+        if dt_out is not None:
+            full = (int(round(duration / DT_OUT)) + 1) * columns * CSV_BYTES_PER_VALUE
+            kept = (int(round(duration / dt_out)) + 1) * columns * CSV_BYTES_PER_VALUE
+            print(f"hydroline simulate: note: {duration:g} s at every {DT_OUT * 1e3:g} ms row "
+                  f"would write up to {_bytes(full)}; writing every {dt_out * 1e3:g} ms row to "
+                  f"{RESULT_FILES[fmt]} (up to {_bytes(kept)} as CSV); the summary uses every "
+                  f"row; --dt-out '{DT_OUT * 1e3:g} ms' writes them all", file=sys.stderr)
+    h, every, rows = output_grid(duration, dt_out)
+    long_run = round(duration / h) + 1 > LONG_ROWS and len(circuit.axes) == 1
     name = "--t-end" if args.t_end else f"scenario.{scenario}.t_end"
     out = None
-    fmt = getattr(args, "format", "csv")
     if write:
         out = out_dir(args.out if args.out is not None else "hydroline-out",
                       (RESULT_FILES[fmt],) + OUTPUT_FILES[1:])
-    if long_run and write and fmt != "csv":
-        raise ValueError(f"--format {fmt}: a run of {round(duration / h) + 1:,} output rows is "
-                         f"streamed to CSV; give --format csv, or --dt-out to write fewer rows "
-                         f"(at most {LONG_ROWS:,})")
-    if long_run:   # (streamed: memory bounded; the disk checked when it writes)
+    if long_run:   # (memory bounded: streamed, or only the written rows kept)
+        if write and fmt != "csv":   # the rows written are kept until the file is written
+            est = output_estimate(duration, h * every, columns - 1)
+            if est.memory_bytes > MAX_TABLE_BYTES:
+                raise ValueError(f"--format {fmt}: {est.rows:,} rows x {columns} columns would "
+                                 f"take {est.memory_bytes / 1e9:.1f} GB in memory before "
+                                 f"{RESULT_FILES[fmt]} is written; give a larger --dt-out, or "
+                                 f"--format csv (streamed to the file as the run goes)")
         if write:
-            check_output_size(duration, h * every, columns - 1, stream_to=out / "results.csv",
-                              name=name)
+            check_output_size(duration, h * every, columns - 1,
+                              stream_to=out / RESULT_FILES[fmt], name=name)
     else:
         check_output_size(duration, h, columns - 1, csv_folder=out, name=name)
     note_cost("simulate", network, args.solver, duration, rows, columns, streamed=long_run,
@@ -229,11 +291,16 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             else:
                 options = dict(keep_columns=keep)
             if write:
-                options.update(stream_to=temp("results.csv"), stream_every=every,
-                               preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):],
+                options.update(preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):],
                                preview_rows=PREVIEW_ROWS)
-                if stream is not None:
-                    del options["keep_columns"]
+                if fmt == "csv":   # written as the run goes
+                    options.update(stream_to=temp("results.csv"), stream_every=every)
+                    if stream is not None:
+                        del options["keep_columns"]
+                else:   # the rows written kept, the file written at the end
+                    written = WrittenRows(every)
+                    observers = [written.update] + ([stream.update] if stream else [])
+                    options["observe"] = _each(observers)
         res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
                        progress=progress_printer("simulating", not args.json), **options)
         if stream is not None:
@@ -253,6 +320,9 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         if write:   # replaced together, or none (previous results kept)
             if not long_run:
                 getattr(res, f"to_{fmt}")(temp(RESULT_FILES[fmt]), every=every)
+            elif fmt != "csv":
+                getattr(written.result(res.metadata["units"]), f"to_{fmt}")(
+                    temp(RESULT_FILES[fmt]))
             with open(temp("summary.json"), "w") as f:
                 dump_json(json_summary(summary), f)
             if single:
@@ -307,6 +377,77 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     return 0
 
 
+class WrittenRows:
+    """The rows a long run writes to a Parquet or MAT file, kept as the run goes: every
+    ``every``-th output row and the last (as results.csv's streamed rows), every column.
+    Pass :meth:`update` as ``observe`` to :func:`hydroline.simulate`.
+
+    Parameters
+    ----------
+    every : int
+        Keep every n-th output row, [-].
+    """
+
+    def __init__(self, every: int):
+        self.every = max(int(every), 1)
+        self.rows, self.parts, self.columns, self.last = 0, [], None, None
+
+    def update(self, t, table, columns) -> None:
+        """Take in one block of output rows.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Times of the block, [s].
+        table : numpy.ndarray
+            Its rows, one column per name in ``columns``, [SI].
+        columns : list[str]
+            The column names.
+        """
+        import numpy as np
+
+        if not len(t):
+            return
+        t, table = np.asarray(t), np.asarray(table)
+        keep = (np.arange(self.rows, self.rows + len(t)) % self.every) == 0
+        self.rows += len(t)
+        self.columns = columns
+        if keep.any():
+            self.parts.append((t[keep], table[keep]))
+        # the run's last row is written too: held until a later block shows it was not
+        self.last = None if keep[-1] else (t[-1:], table[-1:].copy())
+
+    def result(self, units: dict):
+        """The rows kept, and the run's last row, as a :class:`hydroline.SimulationResult`
+        that writes them.
+
+        Parameters
+        ----------
+        units : dict
+            Column -> SI unit (the run's ``metadata["units"]``).
+
+        Returns
+        -------
+        SimulationResult
+        """
+        import numpy as np
+
+        from ..engine import SimulationResult
+
+        parts = self.parts + ([self.last] if self.last is not None else [])
+        return SimulationResult(times=np.concatenate([p[0] for p in parts]),
+                                table=np.vstack([p[1] for p in parts]),
+                                columns=list(self.columns), metadata={"units": units})
+
+
+def _each(observers):
+    """One ``observe`` callable that calls each of ``observers`` in turn."""
+    def observe(t, table, columns):
+        for f in observers:
+            f(t, table, columns)
+    return observe
+
+
 def _sine_summary_stream(rig, scenario, t_end):
     """The summary accumulator of a long closed-loop sine on a single-axis rig (t_end [s],
     None: the experiment's own); None for any other experiment."""
@@ -320,36 +461,6 @@ def _sine_summary_stream(rig, scenario, t_end):
     return SineSummaryStream(exp.t_disturbance, ax.stroke, float(exp.frequency),
                              ax.supply_pressure, ax.return_pressure, ax.position,
                              ax.reference_signal, window_start=exp.window_start)
-
-
-def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
-    """Refuse a streamed run whose CSV would not fit on the disk (one line, ValueError), and
-    say on stderr what one that writes more than ~1 GB or takes minutes will cost."""
-    from ..scenarios import build_scenario
-    from ..system import build_circuit
-    from ..limits import check_output_size
-
-    circuit = build_circuit(rig)
-    sc = build_scenario(rig, scenario, duration, axes=circuit.axes)
-    net = circuit.network(sc.commands)
-    columns = 1 + len(net.signal_names) + len(net.state_names)
-    check_output_size(duration, step, columns - 1, stream_to=out / "results.csv", name=name)
-    size = rows * columns * 15.0   # "%.9g" and a comma: ~15 bytes a number
-    seconds = duration / INTEGRATION_SPEED + size / CSV_RATE
-    if size < 1e9 and seconds < 120:
-        return
-    hint = ("; --dt-out 10 ms would write 1/100 of it" if dt_out is None
-            else "; a larger --dt-out writes less")
-    print(f"hydroline simulate: {duration:g} s simulated, {rows:,} rows x {columns} columns to "
-          f"results.csv: about {_size(size)} and {_duration(seconds)}{hint}", file=sys.stderr)
-
-
-def _size(n):
-    return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
-
-
-def _duration(s):
-    return f"{s / 60:.0f} min" if s >= 120 else f"{s:.0f} s"
 
 
 def plot_axes(res, summary, path, title=""):

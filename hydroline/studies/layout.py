@@ -248,18 +248,44 @@ class LayoutStudy:
                 cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y)
         return pd.DataFrame(cols)
 
-    #: The files :meth:`save` writes, by role.
+    #: The files :meth:`save` writes, by role (the traces as CSV; see :meth:`file_names`).
     FILES = {"csv": "layout.csv", "traces": "layout_traces.csv", "figure": "layout.png"}
+    #: The formats the traces may be written in (as ``hydroline simulate --format``).
+    TRACE_FORMATS = ("csv", "parquet", "mat")
 
-    def save(self, folder, temp=None) -> dict:
+    @classmethod
+    def file_names(cls, traces_format: str = "csv") -> dict:
+        """The files :meth:`save` writes, by role, with the traces in ``traces_format``.
+
+        Parameters
+        ----------
+        traces_format : str  "csv", "parquet" or "mat"
+
+        Returns
+        -------
+        dict  role ("csv", "traces", "figure") -> file name
+        """
+        if traces_format not in cls.TRACE_FORMATS:
+            raise ValueError(f"traces format: one of {', '.join(cls.TRACE_FORMATS)}, got "
+                             f"{traces_format!r}")
+        return {**cls.FILES, "traces": f"layout_traces.{traces_format}"}
+
+    def save(self, folder, temp=None, traces_format: str = "csv") -> dict:
         """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder.
 
         Parameters
         ----------
-        folder : path      Output folder (created)
-        temp : callable    ``temp(name) -> path`` to write each file to first (e.g. the CLI's
-                           atomic writer, which renames them all at the end); the final names
-                           are returned either way
+        folder : path        Output folder (created)
+        temp : callable      ``temp(name) -> path`` to write each file to first (e.g. the CLI's
+                             atomic writer, which renames them all at the end); the final names
+                             are returned either way
+        traces_format : str  The traces as "csv" (``layout_traces.csv``, columns ``time_s``
+                             and ``{supply,return}_port_pressure_pa@L=<length>m``), "parquet"
+                             or "mat" (``layout_traces.parquet`` / ``.mat``: a column or
+                             variable ``time`` [s] and one per trace,
+                             ``{supply,return}_port_pressure@L=<length>m`` [Pa] (in MAT
+                             ``..._L_<length>m``), their units in the file as ``hydroline
+                             simulate --format`` writes them)
 
         Returns
         -------
@@ -267,10 +293,22 @@ class LayoutStudy:
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        self.files = {role: folder / name for role, name in self.FILES.items()}
-        where = {role: (temp(name) if temp else folder / name) for role, name in self.FILES.items()}
+        names = self.file_names(traces_format)
+        self.files = {role: folder / name for role, name in names.items()}
+        where = {role: (temp(name) if temp else folder / name) for role, name in names.items()}
         self.table().to_csv(where["csv"], index=False)
-        self.traces().to_csv(where["traces"], index=False)
+        traces = self.traces()
+        if traces_format == "csv":
+            traces.to_csv(where["traces"], index=False)
+        else:   # written as a run's time series are (units in the file)
+            from ..engine import SimulationResult
+
+            columns = [c for c in traces.columns if c != "time_s"]
+            names = [c.replace("_pa@", "@") for c in columns]   # the unit in the file instead
+            result = SimulationResult(times=traces["time_s"].to_numpy(),
+                                      table=traces[columns].to_numpy(), columns=names,
+                                      metadata={"units": dict.fromkeys(names, "Pa")})
+            getattr(result, f"to_{traces_format}")(where["traces"])
         self.plot(where["figure"])
         return self.files
 
