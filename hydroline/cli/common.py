@@ -224,12 +224,16 @@ def progress_printer(label, enabled=True):
     """
     if not enabled or not sys.stderr.isatty():
         return None
+    drawn = [None]   # the line last drawn: a repeated one (100 % twice) is not drawn again
 
     def show(frac):
+        frac = min(max(float(frac), 0.0), 1.0)
         n = int(frac * 30)
-        sys.stderr.write(f"\r{label} [{'#' * n}{'.' * (30 - n)}] {frac * 100:5.1f} %")
-        if frac >= 1:
-            sys.stderr.write("\n")
+        line = f"{label} [{'#' * n}{'.' * (30 - n)}] {frac * 100:5.1f} %"
+        if line == drawn[0] or (drawn[0] is not None and drawn[0].endswith("100.0 %")):
+            return   # (the bar is finished: its line ended)
+        drawn[0] = line
+        sys.stderr.write(f"\r{line}" + ("\n" if frac >= 1 else ""))
         sys.stderr.flush()
 
     return show

@@ -95,6 +95,27 @@ FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chambe
                   "top_chamber_pressure", "piston_velocity", "piston_position")
 
 
+def speed_against_real_time(simulated: float, wall: float) -> str:
+    """How fast a run went against the time it simulated, in words: ``"10.1x faster than
+    real time"`` or ``"3.2x slower than real time"``.
+
+    Parameters
+    ----------
+    simulated : float
+        Simulated time, [s]
+    wall : float
+        Wall-clock time it took, [s]
+
+    Returns
+    -------
+    str
+    """
+    ratio = simulated / max(wall, 1e-9)
+    if ratio >= 1.0:
+        return f"{ratio:.1f}x faster than real time"
+    return f"{1.0 / max(ratio, 1e-12):.1f}x slower than real time"
+
+
 def output_grid(t_end: float, dt_out: float | None):
     """(integration output interval [s], write every n-th row, rows written) for --dt-out.
 
@@ -341,7 +362,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, steady-state residual {res.steady_state.residual:.1e} 1/s, "
           f"wall time {summary['wall_time_s']:.2f} s "
-          f"({res.t[-1] / max(res.wall_time, 1e-9):.1f}x real time in the integrator)")
+          f"(the integrator: {speed_against_real_time(res.t[-1], res.wall_time)})")
     print(f"  {summary['metrics_window_note']}")
     if scenario == "closed-loop-sine":
         rows = [[f"{side} port", summary[side].get("ripple_pp_mpa"),
@@ -465,7 +486,8 @@ def _sine_summary_stream(rig, scenario, t_end):
 
 def plot_axes(res, summary, path, title=""):
     """Per-axis figure of a multi-axis run: valve supply and return port pressures [MPa] and
-    piston position change [mm] of every axis against time [ms]; the metrics window shaded.
+    piston position change [mm] of every axis against time (ms, s, ... by the run's length);
+    grey, as in every figure, is outside the metrics window.
 
     Parameters
     ----------
@@ -476,13 +498,15 @@ def plot_axes(res, summary, path, title=""):
     """
     import numpy as np
 
-    from ..plotting import figure_title, new_figure, save_png
+    from ..plotting import (figure_title, new_figure, outside_window_handle, save_png,
+                            shade_outside_window, time_axis)
 
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
     fig = new_figure((9, 9))
     ax = fig.subplots(3, 1, sharex=True)
-    t = res.t * 1e3
+    factor, unit = time_axis(res.t[-1] - res.t[0])
+    t = res.t * factor
     i0 = int(np.searchsorted(res.t, t0))
     for name, a in axes.items():
         ax[0].plot(t, res[a.supply_pressure] / 1e6, label=name)
@@ -491,11 +515,15 @@ def plot_axes(res, summary, path, title=""):
         ax[2].plot(t, (x - x[i0]) * 1e3, label=name)
     for a_, lab in zip(ax, ("Supply port [MPa]", "Return port [MPa]", "Position change [mm]")):
         a_.set_ylabel(lab)
-        a_.axvspan(t0 * 1e3, t1 * 1e3, color="0.93", zorder=0)
-        a_.legend(loc="best", fontsize=8)
+        shaded = shade_outside_window(a_, t0, t1, res.t[0], res.t[-1], factor)
+        handles, _ = a_.get_legend_handles_labels()
+        if shaded and a_ is ax[0]:   # (said once)
+            handles.append(outside_window_handle())
+        a_.legend(handles=handles, loc="best", fontsize=8)
         a_.grid(alpha=0.3)
+        a_.set_xlim(t[0], t[-1])
     ax[2].set_yscale("symlog", linthresh=1e-4)
-    ax[2].set_xlabel("time [ms]")
+    ax[2].set_xlabel(f"time [{unit}]")
     fig.suptitle(figure_title(title), fontsize=10)
     fig.tight_layout()
     save_png(fig, path, dpi=110)
