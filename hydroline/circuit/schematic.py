@@ -676,7 +676,7 @@ def draw_schematic(circuit, path=None, title: str = "") -> Schematic:
             import matplotlib
 
             with matplotlib.rc_context({"svg.fonttype": "none"}):   # text stays text
-                fig.savefig(path, format="svg")
+                fig.savefig(path, format="svg", metadata={"Date": None})
         else:
             save_png(fig, path, dpi=130)
     return s
