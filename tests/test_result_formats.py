@@ -73,8 +73,9 @@ def test_written_interval_by_hand():
     assert written_interval(20.0, 168) == pytest.approx(5e-4)
     # 600 s: 5 ms 120001 x 168 x 17 = 343 MB, 10 ms 60001 x 168 x 17 = 171 MB
     assert written_interval(600.0, 168) == pytest.approx(1e-2)
-    # a limit below one row's worth: the interval stops at the run's length
-    assert written_interval(1.0, 168, limit=1.0) == pytest.approx(1.0)
+    # a limit below one row's worth: the interval stops at the run's length, or at 1 s
+    assert written_interval(0.5, 168, limit=1.0) == pytest.approx(0.5)
+    assert written_interval(1e30, 168) == pytest.approx(1.0)
 
 
 def test_a_default_run_over_the_limit_writes_fewer_rows_and_says_so(written, tmp_path,

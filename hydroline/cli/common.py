@@ -284,7 +284,7 @@ def run_network(rig, scenario: str, duration: float):
 
 
 def note_cost(command, network, solver, duration, rows, columns, *, streamed=False, write=False,
-              dt_out=None, variants=1, workers=1) -> None:
+              dt_out=None, variants=1, workers=1, file="results.csv") -> None:
     """One note on stderr before a run estimated (:func:`hydroline.limits.run_cost`) to take
     more than a few seconds or a few hundred MB: the model's size, the output and the
     estimate, so that a long run is not taken for a hang.
@@ -302,6 +302,7 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
     dt_out : float      --dt-out [s], or None (for the hint)
     variants : int      Runs of the model (a sweep's variants), [-]
     workers : int       Processes running them side by side, [-]
+    file : str          The file the rows are written to, for the note
     """
     from .. import compiled
     from ..limits import run_cost
@@ -329,7 +330,7 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
     if variants > 1:
         what += f" per variant, {variants} variants"
     else:
-        what += f", {rows:,} rows x {columns} columns" + (" to results.csv" if write else "")
+        what += f", {rows:,} rows x {columns} columns" + (f" to {file}" if write else "")
     hint = ""
     if estimate.write_seconds > 0.5 * estimate.seconds:
         hint = ("; --dt-out 10 ms would write 1/100 of it" if dt_out is None

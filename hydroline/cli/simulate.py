@@ -137,12 +137,16 @@ def output_grid(t_end: float, dt_out: float | None):
 #: :data:`hydroline.limits.CSV_BYTES_PER_VALUE` per value for every format, so that each
 #: format holds the same rows (Parquet and MAT files are then about half of it).
 WRITE_BYTES = 200e6
+#: Coarsest interval a long run's written rows are decimated to by default, [s]: a run whose
+#: file would pass :data:`WRITE_BYTES` even so (days of simulated time) writes more, and is
+#: refused when it would not fit on the disk.
+COARSEST_WRITTEN = 1.0
 
 
 def written_interval(t_end: float, n_columns: int, limit: float | None = None):
     """The interval of the rows a run writes when --dt-out is not given: every output row
     (None) while the file stays within ``limit``, else the finest of 0.2, 0.5, 1, 2, 5, 10 ms,
-    ... (multiples of :data:`DT_OUT`) that does.
+    ... (multiples of :data:`DT_OUT`) that does, at most :data:`COARSEST_WRITTEN`.
 
     Parameters
     ----------
@@ -170,14 +174,14 @@ def written_interval(t_end: float, n_columns: int, limit: float | None = None):
     decade = 1
     while True:
         for step in (2, 5, 10):
-            every = step * decade
-            if size(every * DT_OUT) <= limit or every * DT_OUT >= t_end:
-                return every * DT_OUT
+            dt = step * decade * DT_OUT
+            if size(dt) <= limit or dt >= min(t_end, COARSEST_WRITTEN) * (1 - 1e-9):
+                return min(dt, COARSEST_WRITTEN)
         decade *= 10
 
 
 def _bytes(n: float) -> str:
-    return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
+    return f"{n / 1e9:.3g} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
 
 
 def run(args) -> int:
@@ -234,15 +238,9 @@ def _prepare(args, write, figures) -> int:
     circuit, network = run_network(rig, scenario, duration)
     columns = 1 + len(network.signal_names) + len(network.state_names)
     fmt = getattr(args, "format", "csv")
+    decimated = None
     if dt_out is None and write:   # a long run: the rows written decimated, and said so
-        dt_out = written_interval(duration, columns)
-        if dt_out is not None:
-            full = (int(round(duration / DT_OUT)) + 1) * columns * CSV_BYTES_PER_VALUE
-            kept = (int(round(duration / dt_out)) + 1) * columns * CSV_BYTES_PER_VALUE
-            print(f"hydroline simulate: note: {duration:g} s at every {DT_OUT * 1e3:g} ms row "
-                  f"would write up to {_bytes(full)}; writing every {dt_out * 1e3:g} ms row to "
-                  f"{RESULT_FILES[fmt]} (up to {_bytes(kept)} as CSV); the summary uses every "
-                  f"row; --dt-out '{DT_OUT * 1e3:g} ms' writes them all", file=sys.stderr)
+        dt_out = decimated = written_interval(duration, columns)
     h, every, rows = output_grid(duration, dt_out)
     long_run = round(duration / h) + 1 > LONG_ROWS and len(circuit.axes) == 1
     name = "--t-end" if args.t_end else f"scenario.{scenario}.t_end"
@@ -263,8 +261,15 @@ def _prepare(args, write, figures) -> int:
                               stream_to=out / RESULT_FILES[fmt], name=name)
     else:
         check_output_size(duration, h, columns - 1, csv_folder=out, name=name)
+    if decimated is not None:
+        full = (int(round(duration / DT_OUT)) + 1) * columns * CSV_BYTES_PER_VALUE
+        kept = rows * columns * CSV_BYTES_PER_VALUE
+        print(f"hydroline simulate: note: {duration:g} s at every {DT_OUT * 1e3:g} ms row "
+              f"would write up to {_bytes(full)}; writing every {decimated * 1e3:g} ms row to "
+              f"{RESULT_FILES[fmt]} (up to {_bytes(kept)} as CSV); the summary uses every "
+              f"row; --dt-out '{DT_OUT * 1e3:g} ms' writes them all", file=sys.stderr)
     note_cost("simulate", network, args.solver, duration, rows, columns, streamed=long_run,
-              write=write, dt_out=dt_out)
+              write=write, dt_out=dt_out, file=RESULT_FILES[fmt])
     defaults = defaults_used(rig, scenario)
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
