@@ -350,7 +350,7 @@ def schematic(circuit, title: str = "") -> Schematic:
     # -- the lines ---------------------------------------------------------------------------
     nets = {}
     for node, ends in at_node.items():
-        nets[node] = _route(node, ends, placed, kinds, node_at, units, ends_of, lanes)
+        nets[node] = _route(node, ends, placed, node_at, lanes)
     # a junction is the dot where its node's lines meet
     for name, kind in kinds.items():
         if kind != "junction" or name in placed:
@@ -496,7 +496,7 @@ def _controller_inputs(comps, kinds, placed, place, producer, ctrl, cyl, yv, sig
                                              ((x, y_top), (x, yv + 0.3))]))
 
 
-def _route(node, ends, placed, kinds, node_at, units, ends_of, lanes) -> Net:
+def _route(node, ends, placed, node_at, lanes) -> Net:
     """The line of one node: each port to the node's vertical line (its x), straight along
     its lane where nothing is in the way, else around below; dots where three lines meet."""
     net = Net(node, list(ends))
