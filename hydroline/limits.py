@@ -190,7 +190,8 @@ class RunCost:
         -------
         str  Wall time and memory, and the part the compiled core's first build takes
         """
-        text = f"about {_duration(self.seconds)} and {_size(self.memory_bytes)}"
+        text = f"about {_duration(self.seconds)}" + (
+            f" and {_size(self.memory_bytes)}" if self.memory_bytes > 0 else "")
         if self.build_seconds > 0.5 * self.seconds:
             text += (f" ({_duration(self.build_seconds)} of it compiling the model's C core, "
                      f"once: later runs of this model structure reuse it)")

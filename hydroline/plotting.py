@@ -4,7 +4,10 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["plot_result", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
-           "column_envelope", "figure_title", "TITLE_CHARACTERS"]
+           "column_envelope", "figure_title", "TITLE_CHARACTERS", "time_axis", "format_time",
+           "shade_outside_window", "outside_window_handle", "metrics_window_of",
+           "OUTSIDE_WINDOW_COLOR", "OUTSIDE_TRACE_COLOR", "OUTSIDE_WINDOW_LABEL",
+           "ratio_unit", "place_value_labels", "wrap_title"]
 
 #: The paper's Figs. 10-12: valve port pressures, chamber pressures, piston velocity.
 PRESSURE_PANELS = (
@@ -113,6 +116,30 @@ def figure_title(text: str) -> str:
     return text if len(text) <= TITLE_CHARACTERS else text[:TITLE_CHARACTERS - 3] + "..."
 
 
+def wrap_title(text: str, width: float, fontsize: float = 12.0) -> str:
+    """A figure's title (:func:`figure_title`) broken into lines that fit the figure's width
+    (at ~0.55 em a character).
+
+    Parameters
+    ----------
+    text : str
+        The title
+    width : float
+        The figure's width, [inch]
+    fontsize : float
+        The title's size, [points]
+
+    Returns
+    -------
+    str
+        The title, lines joined by newlines.
+    """
+    import textwrap
+
+    characters = max(int(0.95 * width * 72 / (0.55 * fontsize)), 20)
+    return "\n".join(textwrap.wrap(figure_title(text), characters)) or figure_title(text)
+
+
 def save_png(fig, path, dpi: int = 100) -> None:
     """Write a figure as PNG with light compression (zlib level 1: about 10 % larger files
     than Matplotlib's default level 6, and ~30 ms less per figure at 110 dpi).
@@ -127,15 +154,131 @@ def save_png(fig, path, dpi: int = 100) -> None:
 
 
 def _figure(n):
-    fig = new_figure((8, 2.4 * n + 0.6))
+    fig = new_figure((8, 2.4 * n + 1.0))
     return fig, fig.subplots(n, 1, sharex=True, squeeze=False)
 
 
-def _window_end(result):
-    """End of the metrics window (piston clear of its stops), [s]; None when it is the end."""
+#: The one meaning of grey in every figure: the part of a run outside its metrics window (before
+#: the disturbance, after the piston reached its stop), shaded in this colour.
+OUTSIDE_WINDOW_COLOR = "0.9"
+#: Traces outside the metrics window are drawn in this grey.
+OUTSIDE_TRACE_COLOR = "0.6"
+#: What the grey means, for the figures' legends.
+OUTSIDE_WINDOW_LABEL = "grey: outside the metrics window"
+
+
+def time_axis(duration: float):
+    """The unit a time axis is drawn in, chosen by the length shown: ms up to 2 s, s up to
+    20 min, min up to 2 h, then h.
+
+    Parameters
+    ----------
+    duration : float
+        Length of the time axis, [s]
+
+    Returns
+    -------
+    tuple
+        (factor from s, unit): the axis shows ``t * factor`` [unit].
+    """
+    duration = abs(float(duration))
+    if duration <= 2.0:
+        return 1e3, "ms"
+    if duration <= 1200.0:
+        return 1.0, "s"
+    if duration <= 7200.0:
+        return 1 / 60, "min"
+    return 1 / 3600, "h"
+
+
+def format_time(t: float, unit: str) -> str:
+    """A time for a figure's text in the unit of its axis, e.g. ``"113 ms"``, ``"0.113 s"``.
+
+    Parameters
+    ----------
+    t : float
+        Time, [s]
+    unit : str
+        "ms", "s", "min" or "h" (:func:`time_axis`)
+
+    Returns
+    -------
+    str
+    """
+    factor = {"ms": 1e3, "s": 1.0, "min": 1 / 60, "h": 1 / 3600}[unit]
+    return f"{t * factor:.3g} {unit}"
+
+
+def shade_outside_window(ax, t0, t1, t_start: float, t_end: float, factor: float = 1.0) -> bool:
+    """Shade in grey (:data:`OUTSIDE_WINDOW_COLOR`) the parts of ``[t_start, t_end]`` outside
+    the metrics window ``[t0, t1]``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The panel
+    t0 : float
+        Start of the metrics window, [s] (None: the start)
+    t1 : float
+        Its end, [s] (None: the end)
+    t_start : float
+        First time shown, [s]
+    t_end : float
+        Last time shown, [s]
+    factor : float
+        The axis's factor from s, [axis unit/s] (:func:`time_axis`)
+
+    Returns
+    -------
+    bool
+        True when something was shaded.
+    """
+    shaded = False
+    for a, b in ((t_start, t0), (t1, t_end)):
+        if a is not None and b is not None and b > a:
+            ax.axvspan(a * factor, b * factor, color=OUTSIDE_WINDOW_COLOR, zorder=0, lw=0)
+            shaded = True
+    return shaded
+
+
+def outside_window_handle(text: str = OUTSIDE_WINDOW_LABEL):
+    """A legend entry for the grey of :func:`shade_outside_window`.
+
+    Parameters
+    ----------
+    text : str
+        The entry's text
+
+    Returns
+    -------
+    matplotlib.patches.Patch
+    """
+    from matplotlib.patches import Patch
+
+    return Patch(facecolor=OUTSIDE_WINDOW_COLOR, edgecolor="0.75", label=text)
+
+
+def metrics_window_of(result):
+    """The metrics window of a run's figure: ``(t0, t1, reason)`` from its metadata, t1 None
+    when the window runs to the end; None when the run has none.
+
+    Parameters
+    ----------
+    result : SimulationResult or Traces
+        The run
+
+    Returns
+    -------
+    tuple or None
+        (start [s], end [s] or None, "stop" or "end").
+    """
     window = result.metadata.get("metrics_window")
-    t1 = window[1] if window is not None and window[2] == "stop" else None
-    return t1 if t1 is not None and t1 < result.t[-1] else None
+    if window is None:
+        return None
+    t0, t1, reason = window
+    if t1 is not None and (reason != "stop" or not t1 < result.t[-1]):
+        t1 = None
+    return t0, t1, reason
 
 
 def _limits(values, margin=0.08):
@@ -144,17 +287,21 @@ def _limits(values, margin=0.08):
     return lo - pad, hi + pad
 
 
-#: Left and right edges of :func:`plot_result`'s panels, [fraction of the figure's width].
-PANEL_LEFT, PANEL_RIGHT = 0.11, 0.98
+#: Left and right edges of :func:`plot_result`'s panels, [fraction of the figure's width]
+#: (the right margin holds half the last tick label).
+PANEL_LEFT, PANEL_RIGHT = 0.11, 0.96
 
 
 def plot_result(result, signals=None, path=None, title=None):
     """Plot a simulation result; panels of the paper's Figs. 10-12 by default.
 
-    When the piston reaches a stop before the end (the open-loop step), the part after it
-    -- a second transient, outside the metrics window -- is drawn in grey on a shaded
-    background, and every panel's y-range is set by the metrics window, so the oscillation
-    after the step (what the paper's Figs. 10-12 show) fills the panel.
+    Grey means outside the metrics window, in this as in every figure (the legend says so):
+    the time before the disturbance is shaded, and when the piston reaches a stop before the
+    end (the open-loop step) the part after it -- a second transient -- is drawn in grey on a
+    shaded background. Every panel's y-range is set by the metrics window, so that the
+    oscillation after the step (what the paper's Figs. 10-12 show) fills the panel; a grey
+    trace that ends off that range has its end value written at the panel's edge. The time
+    axis is in ms, s, min or h by the run's length (:func:`time_axis`).
 
     Parameters
     ----------
@@ -167,6 +314,8 @@ def plot_result(result, signals=None, path=None, title=None):
     -------
     matplotlib.figure.Figure
     """
+    from matplotlib.lines import Line2D
+
     panels = PRESSURE_PANELS if signals is None else tuple((s, (s,), 1.0) for s in signals)
     series = {k: result[k] for k in result.columns}
     if signals is None and "position_reference" in result:   # closed loop: tracking
@@ -178,51 +327,207 @@ def plot_result(result, signals=None, path=None, title=None):
     dpi = 110
     # pixel columns of a panel: each line is drawn through its extremes per column
     columns = int(np.ceil(fig.get_figwidth() * (PANEL_RIGHT - PANEL_LEFT) * dpi))
-    t_ms = result.t * 1e3
-    t1 = _window_end(result)
+    factor, unit = time_axis(result.t[-1] - result.t[0])
+    ts = result.t * factor
+    window = metrics_window_of(result)
+    t_window, t1 = (window[0], window[1]) if window is not None else (None, None)
     inside = result.t <= t1 if t1 is not None else np.ones(len(result.t), bool)
     k1 = int(np.count_nonzero(inside))
-    t0 = result.metadata.get("t_disturbance")
+    t_step = result.metadata.get("t_disturbance")
     for ax, (label, keys, scale) in zip(axes[:, 0], panels):
-        shown = []
+        shown, greyed = [], []
         for k in keys:
             if k in series:
                 y = series[k] * scale
-                i = column_envelope(t_ms[:k1], y[:k1], t_ms[0], t_ms[-1], columns)
-                ax.plot(t_ms[i], y[i], lw=1.0, label=k.replace("_", " "))
+                i = column_envelope(ts[:k1], y[:k1], ts[0], ts[-1], columns)
+                ax.plot(ts[i], y[i], lw=1.0, label=k.replace("_", " "))
                 if t1 is not None:   # after the stop: grey, and not in the y-range
-                    i = k1 - 1 + column_envelope(t_ms[k1 - 1:], y[k1 - 1:], t_ms[0], t_ms[-1],
+                    i = k1 - 1 + column_envelope(ts[k1 - 1:], y[k1 - 1:], ts[0], ts[-1],
                                                  columns)
-                    ax.plot(t_ms[i], y[i], lw=0.8, color="0.6")
+                    ax.plot(ts[i], y[i], lw=0.8, color=OUTSIDE_TRACE_COLOR)
+                    greyed.append((k, y[-1]))
                 shown.append(y[:k1])
         if t1 is not None and shown:
-            ax.set_ylim(*_limits(np.concatenate(shown)))
+            lo, hi = _limits(np.concatenate(shown))
+            ax.set_ylim(lo, hi)
+            _off_scale_ends(ax, greyed, lo, hi, label, len(keys) > 1)
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
         if len(shown) > 1:   # one curve: the axis label names it (and "best" costs a draw)
             ax.legend(loc="best", fontsize=8)
+    shaded = False
     for ax in axes[:, 0]:
-        if t0:
-            ax.axvline(t0 * 1e3, color="0.6", lw=0.8, ls=":")
+        if t_step:
+            ax.axvline(t_step * factor, color="k", lw=0.8, ls=":")
+        if window is not None:
+            shaded = shade_outside_window(ax, t_window, t1, result.t[0], result.t[-1], factor)
         if t1 is not None:
-            ax.axvspan(t1 * 1e3, t_ms[-1], color="0.88", zorder=0, lw=0)
-            ax.axvline(t1 * 1e3, color="r", lw=0.8, ls=":")
-        ax.set_xlim(t_ms[0], t_ms[-1])
+            ax.axvline(t1 * factor, color="r", lw=0.8, ls=":")
+        ax.set_xlim(ts[0], ts[-1])
+    handles = []
+    if shaded:
+        handles.append(outside_window_handle(
+            OUTSIDE_WINDOW_LABEL + (" (after the stop: not in the y-range)"
+                                    if t1 is not None else "")))
+    if t_step:
+        handles.append(Line2D([], [], color="k", lw=0.8, ls=":",
+                              label=f"disturbance ({format_time(t_step, unit)})"))
     if t1 is not None:
-        axes[0, 0].annotate(f"piston at its stop ({t1 * 1e3:.0f} ms): outside the metrics window,\n"
-                            "greyed, not in the y-range", (t1 * 1e3, 0.98),
-                            xycoords=("data", "axes fraction"), xytext=(4, 0),
-                            textcoords="offset points", fontsize=8, color="r", ha="left", va="top",
-                            bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="none", alpha=0.85))
-    axes[-1, 0].set_xlabel("time [ms]")
+        handles.append(Line2D([], [], color="r", lw=0.8, ls=":",
+                              label=f"piston at its stop ({format_time(t1, unit)})"))
+    axes[-1, 0].set_xlabel(f"time [{unit}]")
     height = fig.get_figheight()   # fixed margins, [inch]: tight_layout would draw twice
     default = f"hydroline: {result.metadata.get('scenario', 'simulation')}"
     fig.suptitle(figure_title(title or default), y=1 - 0.1 / height, va="top")
-    fig.subplots_adjust(left=PANEL_LEFT, right=PANEL_RIGHT, top=1 - 0.5 / height,
-                        bottom=0.5 / height, hspace=0.12)
+    rows = 0
+    if handles:   # (in two columns: one line of three entries is wider than the figure)
+        ncol = min(len(handles), 2)
+        rows = -(-len(handles) // ncol)
+        fig.legend(handles=handles, loc="upper center", ncol=ncol, fontsize=8,
+                   frameon=False, bbox_to_anchor=(0.5, 1 - 0.38 / height))
+    fig.subplots_adjust(left=PANEL_LEFT, right=PANEL_RIGHT,
+                        top=1 - (0.5 + 0.2 * rows) / height, bottom=0.5 / height, hspace=0.12)
     if path:
         save_png(fig, path, dpi=dpi)
     return fig
+
+
+def _off_scale_ends(ax, greyed, lo, hi, label, named):
+    """Write at a panel's top or bottom edge the end value of each grey trace that ends off
+    the y-range ``[lo, hi]`` (else it would vanish from the panel)."""
+    unit = label[label.rfind("[") + 1:-1] if label.endswith("]") else ""
+    above = [(k, v) for k, v in greyed if v > hi]
+    below = [(k, v) for k, v in greyed if v < lo]
+    for side, items in ((1.0, above), (0.0, below)):
+        if not items:
+            continue
+        text = "; ".join((f"{k.replace('_', ' ')} " if named else "") + f"{v:.3g} {unit}"
+                         for k, v in items)
+        arrow = "\u2191" if side else "\u2193"
+        ax.text(0.995, side - 0.03 if side else 0.03, f"{arrow} at the end, off scale: {text}",
+                transform=ax.transAxes, ha="right", va="top" if side else "bottom",
+                fontsize=7, color="0.35",
+                bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
+
+
+#: Where :func:`place_value_labels` tries a label, in order: offset from its point [points]
+#: and alignment (right, below-right, left, above, below, and further out).
+LABEL_SPOTS = (((5, 4), "left", "bottom"), ((5, -4), "left", "top"),
+               ((-5, 4), "right", "bottom"), ((-5, -4), "right", "top"),
+               ((0, 7), "center", "bottom"), ((0, -7), "center", "top"),
+               ((9, 0), "left", "center"), ((-9, 0), "right", "center"),
+               ((5, 13), "left", "bottom"), ((5, -13), "left", "top"),
+               ((-5, 13), "right", "bottom"), ((-5, -13), "right", "top"))
+
+
+def place_value_labels(ax, labels, avoid=(), fontsize: float = 7):
+    """Write value labels beside their points where none overlaps another, a marker, a line
+    of the panel, its legend or the panel's edge: each label takes the first free spot of
+    :data:`LABEL_SPOTS`; when none is free, the one overlapping least, a line counting a
+    quarter of a marker, a label or the edge (a label across a line stays readable). Call it
+    when the panel's limits and legend are set.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The panel (its figure on a canvas)
+    labels : list
+        ``(x, y, text, color)`` per label, x and y in data units
+    avoid : sequence
+        More display-space boxes (``matplotlib.transforms.Bbox``) to
+        keep clear of, [pixels]
+    fontsize : float
+        Size of the labels, [points]
+
+    Returns
+    -------
+    list
+        The ``matplotlib.text.Annotation`` of each label.
+    """
+    from matplotlib.transforms import Bbox
+
+    fig = ax.figure
+    renderer = fig.canvas.get_renderer()
+    fig.draw_without_rendering()   # the legend's place and the limits as they will be drawn
+    frame = ax.get_window_extent(renderer)
+    boxes = list(avoid)
+    legend = ax.get_legend()
+    if legend is not None:
+        boxes.append(legend.get_window_extent(renderer))
+    segments = []   # points along the lines: a quarter of the weight
+    px = fig.dpi / 72.0
+    for line in ax.get_lines():   # markers and (sampled) segments
+        xy = ax.transData.transform(np.column_stack(line.get_data()).astype(float))
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        if not len(xy):
+            continue
+        r = max(line.get_markersize(), 2.0) * px / 2 if line.get_marker() not in (None, "None", "") \
+            else 1.5 * px
+        for (x0, y0), (x1, y1) in zip(xy[:-1], xy[1:]):
+            n = int(min(max(np.hypot(x1 - x0, y1 - y0) / (4 * px), 1), 200))
+            for f in np.linspace(0, 1, n + 1)[1:-1]:
+                x, y = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
+                segments.append(Bbox([[x - 1.5 * px, y - 1.5 * px],
+                                      [x + 1.5 * px, y + 1.5 * px]]))
+        for x, y in xy:
+            boxes.append(Bbox([[x - r, y - r], [x + r, y + r]]))
+
+    def overlap(a, b):
+        w = min(a.x1, b.x1) - max(a.x0, b.x0)
+        h = min(a.y1, b.y1) - max(a.y0, b.y0)
+        return w * h if w > 0 and h > 0 else 0.0
+
+    placed = []
+    for x, y, text, color in labels:
+        best = None
+        for offset, ha, va in LABEL_SPOTS:
+            t = ax.annotate(text, (x, y), textcoords="offset points", xytext=offset,
+                            fontsize=fontsize, color=color, ha=ha, va=va)
+            box = t.get_window_extent(renderer)
+            outside = (max(frame.x0 - box.x0, 0) + max(box.x1 - frame.x1, 0)
+                       + max(frame.y0 - box.y0, 0) + max(box.y1 - frame.y1, 0)) * box.height
+            cost = (outside + sum(overlap(box, b) for b in boxes)
+                    + 0.25 * sum(overlap(box, b) for b in segments))
+            if best is None or cost < best[0]:
+                if best is not None:
+                    best[1].remove()
+                best = (cost, t, box)
+            else:
+                t.remove()
+            if cost == 0:
+                break
+        boxes.append(best[2])
+        placed.append(best[1])
+    return placed
+
+
+def ratio_unit(numerator: str, denominator: str) -> str:
+    """The unit of a ratio of two quantities, as a figure's label writes it: ``"-"`` when they
+    are the same, a compound unit in parentheses (``ratio_unit("m/s", "mA")`` is
+    ``"(m/s)/mA"``, ``ratio_unit("Pa", "m^3/s")`` is ``"Pa/(m^3/s)"``).
+
+    Parameters
+    ----------
+    numerator : str
+        Unit of the output, e.g. "Pa"
+    denominator : str
+        Unit of the input, e.g. "m^3/s"
+
+    Returns
+    -------
+    str
+    """
+    if numerator == denominator:
+        return "-"
+
+    def grouped(u):
+        return f"({u})" if any(c in u for c in "/* ") else u
+
+    return f"{grouped(numerator)}/{grouped(denominator)}"
+
+
+#: SI unit of a line's port quantity, by the last word of the port's name.
+PORT_UNITS = {"pressure": "Pa", "flow": "m^3/s"}
 
 
 def plot_line_response(line, models, f, form, path=None, title=None):
@@ -239,7 +544,8 @@ def plot_line_response(line, models, f, form, path=None, title=None):
 
     Returns
     -------
-    matplotlib.figure.Figure  Magnitude [SI] and phase [deg] of the four entries against
+    matplotlib.figure.Figure  Magnitude (in its own unit: Pa/(m^3/s), (m^3/s)/Pa or - for the
+                              form's entries) and phase [deg] of the four entries against
                               frequency [Hz]
     """
     from .lines.line import FORM_PORTS
@@ -259,7 +565,9 @@ def plot_line_response(line, models, f, form, path=None, title=None):
                 am.semilogy(f, np.abs(H[:, i, j]), "--", lw=1.0, label=k)
                 ap.plot(f, np.degrees(np.angle(H[:, i, j])), "--", lw=1.0)
             am.set_title(f"{outs[i]} / {ins[j]}", fontsize=9)
-            am.set_ylabel("|H| [SI]")
+            unit = ratio_unit(PORT_UNITS[outs[i].rsplit("_", 1)[-1]],
+                              PORT_UNITS[ins[j].rsplit("_", 1)[-1]])
+            am.set_ylabel(f"|H| [{unit}]")
             ap.set_ylabel("phase [deg]")
             am.grid(True, alpha=0.3)
             ap.grid(True, alpha=0.3)

@@ -187,3 +187,123 @@ def test_figure_process_import_skips_only_help_text():
     assert out["skipped"][0] == out["plain"][0]                   # the same pixels
     assert out["plain"][1:] == ["True", "True", "True"]
     assert out["skipped"][1:] == ["True", "True", "False"]        # Line2D.set: not written
+
+
+# ---- what the figures say (issue 26 item 6) ---------------------------------------------------
+
+def test_time_axis_unit_follows_the_length_shown():
+    from hydroline.plotting import format_time, time_axis
+
+    assert time_axis(0.25) == (1e3, "ms") and time_axis(2.0) == (1e3, "ms")
+    assert time_axis(20.0) == (1.0, "s") and time_axis(600.0) == (1.0, "s")
+    assert time_axis(3600.0) == (pytest.approx(1 / 60), "min")
+    assert time_axis(86400.0) == (pytest.approx(1 / 3600), "h")
+    assert format_time(0.113, "ms") == "113 ms" and format_time(0.113, "s") == "0.113 s"
+
+
+def test_ratio_units_of_the_magnitude_labels():
+    from hydroline.plotting import ratio_unit
+
+    assert ratio_unit("Pa", "Pa") == "-"
+    assert ratio_unit("Pa", "m^3/s") == "Pa/(m^3/s)"
+    assert ratio_unit("m^3/s", "Pa") == "(m^3/s)/Pa"
+    assert ratio_unit("m/s", "mA") == "(m/s)/mA"
+
+
+def _step_run(t_end, n=4001):
+    """A synthetic open-loop step: the valve steps at 10 ms, the piston reaches its stop at
+    113 ms; after it the bottom chamber pressure climbs to 20 MPa, off the window's range."""
+    t = np.linspace(0.0, t_end, n)
+    after = t > 0.113
+    p = 20.7e6 - 1e6 * np.sin(2 * np.pi * 40 * t) * (t > 0.01)
+    bottom = np.where(after, 20e6, 12e6 + 0.5e6 * np.sin(2 * np.pi * 40 * t))
+    meta = {"metrics_window": (0.01, 0.113, "stop"), "t_disturbance": 0.01,
+            "scenario": "open-loop-step"}
+    return Traces(t, {"supply_port_pressure": p, "return_port_pressure": p / 10,
+                      "bottom_chamber_pressure": bottom, "top_chamber_pressure": bottom / 2,
+                      "piston_velocity": np.where(after, 0.0, 1.0)}, meta)
+
+
+def _texts(fig):
+    out = [t.get_text() for t in fig.texts]
+    for ax in fig.axes:
+        out += [t.get_text() for t in ax.texts]
+        out.append(ax.get_xlabel())
+    for legend in fig.legends:
+        out += [t.get_text() for t in legend.get_texts()]
+    return out
+
+
+def test_a_long_step_run_is_drawn_in_seconds_with_grey_explained():
+    """A 20 s run: the time axis in s, every tick label inside the figure (none clipped),
+    the legend saying what grey means, and the grey chamber pressure that ends off the
+    window's y-range written at the panel's edge (else it would vanish)."""
+    from hydroline.plotting import OUTSIDE_WINDOW_LABEL, plot_result
+
+    fig = plot_result(_step_run(20.0))
+    texts = _texts(fig)
+    assert "time [s]" in texts and "time [ms]" not in texts
+    assert any(t.startswith(OUTSIDE_WINDOW_LABEL) for t in texts)
+    assert any("piston at its stop (0.113 s)" in t for t in texts)
+    assert any("off scale" in t and "20 MPa" in t for t in texts)
+    renderer = fig.canvas.get_renderer()
+    fig.draw(renderer)
+    frame = fig.bbox
+    for ax in fig.axes:
+        for label in ax.get_xticklabels() + ax.get_yticklabels():
+            if label.get_visible() and label.get_text():
+                box = label.get_window_extent(renderer)
+                assert frame.x0 <= box.x0 and box.x1 <= frame.x1, label.get_text()
+
+
+def test_value_labels_overlap_nothing():
+    """Crowded points (two curves meeting, points at the panel's right edge): each label
+    keeps clear of the others, of every marker and of the panel's edges."""
+    from hydroline.plotting import place_value_labels
+
+    fig = new_figure((5, 3))
+    ax = fig.subplots()
+    L = np.array([0.0, 0.75, 1.52, 2.29, 3.05])
+    a, b = np.array([0.0, 0.56, 0.97, 1.02, 1.00]), np.array([0.0, 0.65, 0.89, 0.93, 0.94])
+    ax.plot(L, a, "o-")
+    ax.plot(L, b, "o-")
+    ax.set_xlim(-0.2, 3.4)
+    ax.set_ylim(-0.07, 1.2)
+    labels = [(x, y, f"{y:.2f}", "C0") for x, y in zip(L, a)] + \
+             [(x, y, f"{y:.2f}", "C1") for x, y in zip(L, b)]
+    placed = place_value_labels(ax, labels)
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in placed]
+    frame = ax.get_window_extent(renderer)
+    for i, box in enumerate(boxes):
+        assert frame.contains(box.x0, box.y0) and frame.contains(box.x1, box.y1)
+        assert not any(box.overlaps(other) for other in boxes[i + 1:])
+        for line in ax.get_lines():
+            for x, y in ax.transData.transform(np.column_stack(line.get_data())):
+                assert not box.contains(x, y)
+
+
+def test_the_progress_bar_ends_once(monkeypatch):
+    """The integrator reports 100 % after its last chunk and again at the segment's end: the
+    bar's last line is drawn once."""
+    import io
+
+    from hydroline.cli.common import progress_printer
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    err = Terminal()
+    monkeypatch.setattr(sys, "stderr", err)
+    show = progress_printer("simulating")
+    for f in (0.0, 0.5, 1.0, 1.0):
+        show(f)
+    assert err.getvalue().count("100.0 %") == 1 and err.getvalue().endswith("100.0 %\n")
+
+
+def test_speed_is_said_as_faster_or_slower_than_real_time():
+    from hydroline.cli.simulate import speed_against_real_time
+
+    assert speed_against_real_time(1.0, 0.1) == "10.0x faster than real time"
+    assert speed_against_real_time(0.25, 1.0) == "4.0x slower than real time"

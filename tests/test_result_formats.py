@@ -59,3 +59,71 @@ def test_matlab_names_are_valid_and_distinct():
     assert len(set(names)) == len(names) and all(len(n) <= 63 for n in names)
     assert all(n[0].isalpha() and n.replace("_", "").isalnum() for n in names)
     assert names[-1] != "units"          # 'units' and 'names' hold the structs
+
+
+# ---- a long run's written rows (issue 26 item 2) ----------------------------------------------
+
+def test_written_interval_by_hand():
+    """The default interval of the written rows: every 0.1 ms row while the file stays within
+    200 MB at 17 bytes a value, else the first of 0.2, 0.5, 1, 2, 5, 10 ms ... that does."""
+    from hydroline.cli.simulate import written_interval
+
+    assert written_interval(0.25, 168) is None            # 2501 x 168 x 17 B = 7.1 MB
+    # 20 s: 0.1 ms 571 MB, 0.2 ms 286 MB, 0.5 ms 40001 x 168 x 17 = 114 MB
+    assert written_interval(20.0, 168) == pytest.approx(5e-4)
+    # 600 s: 5 ms 120001 x 168 x 17 = 343 MB, 10 ms 60001 x 168 x 17 = 171 MB
+    assert written_interval(600.0, 168) == pytest.approx(1e-2)
+    # a limit below one row's worth: the interval stops at the run's length, or at 1 s
+    assert written_interval(0.5, 168, limit=1.0) == pytest.approx(0.5)
+    assert written_interval(1e30, 168) == pytest.approx(1.0)
+
+
+def test_a_default_run_over_the_limit_writes_fewer_rows_and_says_so(written, tmp_path,
+                                                                    monkeypatch, capsys):
+    """With the limit set just below the 30 ms run's file, the default run writes every
+    second row (0.2 ms) and says so on stderr, with how to get every row."""
+    from hydroline.cli import simulate as cli_simulate
+
+    full = pd.read_csv(written["csv"])
+    monkeypatch.setattr(cli_simulate, "WRITE_BYTES", len(full) * full.shape[1] * 17 - 1)
+    assert main(["simulate", "--t-end", "30 ms", "--json", "--out", str(tmp_path)]) == 0
+    err = capsys.readouterr().err
+    assert "every 0.2 ms row" in err and "--dt-out '0.1 ms' writes them all" in err
+    half = pd.read_csv(tmp_path / "results.csv")
+    assert len(half) == 151                                # 0, 0.2 ms, ..., 30 ms
+    pd.testing.assert_frame_equal(half, full.iloc[::2].reset_index(drop=True))
+
+
+def test_a_long_run_writes_the_same_rows_to_mat(written, tmp_path, monkeypatch):
+    """A run the CLI treats as long (threshold lowered) keeps the rows it writes to a MAT
+    file as it goes: every 7th of the 301 rows, 0 ... 294, and the last, 300."""
+    from hydroline.cli import simulate as cli_simulate
+
+    monkeypatch.setattr(cli_simulate, "LONG_ROWS", 100)
+    assert main(["simulate", "--t-end", "30 ms", "--json", "--format", "mat", "--dt-out",
+                 "0.7 ms", "--out", str(tmp_path)]) == 0
+    mat = loadmat(tmp_path / "results.mat", squeeze_me=True)
+    full = pd.read_csv(written["csv"])
+    rows = list(range(0, 295, 7)) + [300]
+    np.testing.assert_array_equal(mat["time"], full["time [s]"].to_numpy()[rows])
+    # the long run integrates in chunks: equal to the in-memory run within its tolerance
+    np.testing.assert_allclose(mat["supply_port_pressure"],
+                               full["supply_port_pressure [Pa]"].to_numpy()[rows], rtol=1e-6)
+    assert str(mat["units"]["supply_port_pressure"]) == "Pa"
+
+
+def test_layout_traces_in_each_format(tmp_path):
+    """``hydroline layout --format parquet|mat``: the traces of layout_traces.csv, the units
+    in the file."""
+    args = ["layout", "--lengths", "0", "--t-end", "20 ms", "--json"]
+    for fmt in ("csv", "parquet", "mat"):
+        assert main(args + ["--format", fmt, "--out", str(tmp_path / fmt)]) == 0
+    csv = pd.read_csv(tmp_path / "csv" / "layout_traces.csv")
+    pq = pd.read_parquet(tmp_path / "parquet" / "layout_traces.parquet")
+    assert pq.attrs["units"] == {"time": "s", "supply_port_pressure@L=0m": "Pa",
+                                 "return_port_pressure@L=0m": "Pa"}
+    np.testing.assert_array_equal(pq.to_numpy(), csv.to_numpy())
+    mat = loadmat(tmp_path / "mat" / "layout_traces.mat", squeeze_me=True)
+    assert str(mat["units"]["supply_port_pressure_L_0m"]) == "Pa"
+    np.testing.assert_array_equal(mat["supply_port_pressure_L_0m"],
+                                  csv["supply_port_pressure_pa@L=0m"])

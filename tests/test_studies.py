@@ -661,6 +661,15 @@ def test_layout_on_circuit_rig_varies_the_named_hoses():
         _quarter_wave_hz(rig, "axis1.return_hose", 1.524), rel=0.08)
     c = math.sqrt(rig["circuit.axis1.supply_hose.bulk_modulus"] / rig["fluid.density"])
     assert study.table()["supply_round_trip_ms"][0] == pytest.approx(2 * 1.524 / c * 1e3, rel=0.02)
+    # the traces (file and figure) are those of the reported axis's ports (they were looked
+    # up as the single-axis rig's supply_port_pressure: a KeyError)
+    res = study.results[0]
+    traces = study.traces()
+    np.testing.assert_array_equal(traces["supply_port_pressure_pa@L=1.524m"],
+                                  res["axis1.supply_port_pressure"])
+    np.testing.assert_array_equal(traces["return_port_pressure_pa@L=1.524m"],
+                                  res["axis1.return_port_pressure"])
+    assert study.plot() is not None
 
 
 def test_layout_on_circuit_rig_without_sections_is_one_line_naming_the_rig(capsys):

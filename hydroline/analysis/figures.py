@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import figure_title
+from ..plotting import figure_title, ratio_unit
 
 __all__ = ["plot_bode", "plot_fit", "plot_friction", "SIGNAL_DISPLAY"]
 
@@ -117,10 +117,10 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
                     transform=am.transAxes, fontsize=8, color=color, ha="left", va="bottom")
         if f_top is not None:
             for ax in (am, ap):
-                ax.axvline(f_top, color="0.5", lw=1.0, ls="-.",
+                ax.axvline(f_top, color="C4", lw=1.0, ls="-.",
                            label=f"highest retained mode, {f_top:.0f} Hz" if ax is am else None)
         am.set_title(f"{o_label} / {in_label}", fontsize=10)
-        am.set_ylabel(f"|H| [dB re 1 {o_unit}/{in_unit}]")
+        am.set_ylabel(f"|H| [dB re 1 {ratio_unit(o_unit, in_unit)}]")
         ap.set_ylabel("phase [deg]")
         ap.set_xlabel("frequency [Hz]")
         for ax in (am, ap):
@@ -153,9 +153,14 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     -------
     matplotlib.figure.Figure
     """
+    from ..plotting import time_axis
+
     plt = _plt()
     names = list(measured)
     rms, start_rms, worse = rms or {}, start_rms or {}, worse or {}
+    t = np.asarray(t, dtype=float)
+    tf, unit_t = time_axis(t[-1] - t[0] if len(t) else 0.0)
+    ts = t * tf
     fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.3 * len(names) + 0.8), sharex=True,
                              squeeze=False)
     for ax, k in zip(axes[:, 0], names):
@@ -164,15 +169,15 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
         def with_rms(text, table):
             return f"{text} (rms {table[k] * factor:.3g} {unit})" if k in table else text
 
-        ax.plot(t * 1e3, measured[k] * factor, ".", ms=2, color="0.45", label="measured")
+        ax.plot(ts, measured[k] * factor, ".", ms=2, color="k", label="measured")
         if k in initial:
-            ax.plot(t * 1e3, initial[k] * factor, ":", color="C1", lw=1.0,
+            ax.plot(ts, initial[k] * factor, ":", color="C1", lw=1.0,
                     label=with_rms("initial model", start_rms))
         if k in fitted:
-            ax.plot(t * 1e3, fitted[k] * factor, "-", color="C0", lw=1.2,
+            ax.plot(ts, fitted[k] * factor, "-", color="C0", lw=1.2,
                     label=with_rms("fitted model", rms))
         for j, (a, b) in enumerate(windows or []):
-            ax.axvspan(a * 1e3, b * 1e3, color="C3", alpha=0.15, lw=0,
+            ax.axvspan(a * tf, b * tf, color="C3", alpha=0.15, lw=0,
                        label="left out: not resolved by the sampling" if j == 0 else None)
         if k in worse:
             ax.text(0.01, 0.03, _wrap(f"fitted worse than the start here: {worse[k]}", 110),
@@ -180,7 +185,7 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
         ax.set_ylabel(f"{label} [{unit}]", fontsize=8)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="best")
-    axes[-1, 0].set_xlabel("time [ms]")
+    axes[-1, 0].set_xlabel(f"time [{unit_t}]")
     fig.suptitle(figure_title(title or "hydroline fit: measured vs fitted"))
     fig.tight_layout()
     if path:

@@ -1,4 +1,8 @@
-"""Text and picture of a circuit: components, connections, causality (``hydroline circuit``)."""
+"""Text and picture of a circuit: components, connections, causality (``hydroline circuit``).
+
+The picture here is the graph of the circuit's signals (``--png``); the hydraulic schematic
+with ISO 1219-1 symbols (``--schematic``) is :mod:`hydroline.circuit.schematic`.
+"""
 from __future__ import annotations
 
 from .builder import Circuit

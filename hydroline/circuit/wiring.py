@@ -46,7 +46,7 @@ from collections import Counter
 
 from .types import CircuitError
 
-__all__ = ["check_wiring", "check_self_loops", "WiringWarning", "HYDRAULIC"]
+__all__ = ["check_wiring", "check_self_loops", "WiringWarning", "HYDRAULIC", "hydraulic_nodes"]
 
 #: Signal quantities of the oil (the other quantities are signals only).
 HYDRAULIC = ("pressure", "flow")
@@ -163,6 +163,37 @@ class _Circuit:
                 if end is not None and end.pressure and self.side_of(c.signal(end.pressure)) == side:
                     out.append(float("inf"))
         return out
+
+
+def hydraulic_nodes(parts) -> dict:
+    """Where each component meets the oil: the node (a pressure signal) of each of its ends,
+    as the wiring checks find them (a flow junction at the node where its flows meet).
+
+    Parameters
+    ----------
+    parts : list
+        The circuit's components.
+
+    Returns
+    -------
+    dict
+        Component name -> {end name: node}, in the order of ``parts`` and of each component's
+        :meth:`~hydroline.engine.Component.hydraulic_ends`; the node None for a junction whose
+        flows meet at no one node. A component that declares no ends is not in it.
+    """
+    g = _Circuit(parts)
+    out = {}
+    for c in g.parts:
+        ends = {}
+        for name, end in g.ends[c.name].items():
+            if end.pressure is not None:
+                ends[name] = c.signal(end.pressure)
+            else:
+                nodes = g.junction_node(c, end)
+                ends[name] = min(nodes) if nodes else None
+        if ends:
+            out[c.name] = ends
+    return out
 
 
 def _fmt_levels(levels) -> str:

@@ -224,12 +224,16 @@ def progress_printer(label, enabled=True):
     """
     if not enabled or not sys.stderr.isatty():
         return None
+    drawn = [None]   # the line last drawn: a repeated one (100 % twice) is not drawn again
 
     def show(frac):
+        frac = min(max(float(frac), 0.0), 1.0)
         n = int(frac * 30)
-        sys.stderr.write(f"\r{label} [{'#' * n}{'.' * (30 - n)}] {frac * 100:5.1f} %")
-        if frac >= 1:
-            sys.stderr.write("\n")
+        line = f"{label} [{'#' * n}{'.' * (30 - n)}] {frac * 100:5.1f} %"
+        if line == drawn[0] or (drawn[0] is not None and drawn[0].endswith("100.0 %")):
+            return   # (the bar is finished: its line ended)
+        drawn[0] = line
+        sys.stderr.write(f"\r{line}" + ("\n" if frac >= 1 else ""))
         sys.stderr.flush()
 
     return show
@@ -280,7 +284,7 @@ def run_network(rig, scenario: str, duration: float):
 
 
 def note_cost(command, network, solver, duration, rows, columns, *, streamed=False, write=False,
-              dt_out=None, variants=1, workers=1) -> None:
+              dt_out=None, variants=1, workers=1, file="results.csv") -> None:
     """One note on stderr before a run estimated (:func:`hydroline.limits.run_cost`) to take
     more than a few seconds or a few hundred MB: the model's size, the output and the
     estimate, so that a long run is not taken for a hang.
@@ -298,6 +302,7 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
     dt_out : float      --dt-out [s], or None (for the hint)
     variants : int      Runs of the model (a sweep's variants), [-]
     workers : int       Processes running them side by side, [-]
+    file : str          The file the rows are written to, for the note
     """
     from .. import compiled
     from ..limits import run_cost
@@ -325,7 +330,7 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
     if variants > 1:
         what += f" per variant, {variants} variants"
     else:
-        what += f", {rows:,} rows x {columns} columns" + (" to results.csv" if write else "")
+        what += f", {rows:,} rows x {columns} columns" + (f" to {file}" if write else "")
     hint = ""
     if estimate.write_seconds > 0.5 * estimate.seconds:
         hint = ("; --dt-out 10 ms would write 1/100 of it" if dt_out is None

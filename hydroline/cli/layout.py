@@ -57,6 +57,10 @@ def register(sub):
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
     p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")
+    p.add_argument("--format", default="csv", choices=LayoutStudy.TRACE_FORMATS,
+                   help="the traces' file: csv (layout_traces.csv; default), parquet "
+                   "(layout_traces.parquet, units in its metadata) or mat (layout_traces.mat "
+                   "for MATLAB, one variable per trace, the struct 'units')")
     p.add_argument("--json", action="store_true",
                    help="print only the JSON document on stdout: {schema_version, rig, "
                    "scenario, sections, axis, conclusion, wall_time_s, rows: [{section2_length_m, "
@@ -116,7 +120,9 @@ def run(args) -> int:
         raise ValueError(f"--t-end must be > 0 s, got {args.t_end!r}")
     sides = ("supply", "return") if args.side == "both" else (args.side,)
     # the folder is checked before the study runs, not after it
-    out = out_dir(args.out, tuple(LayoutStudy.FILES.values())) if args.out else None
+    fmt = getattr(args, "format", "csv")
+    names = LayoutStudy.file_names(fmt)
+    out = out_dir(args.out, tuple(names.values())) if args.out else None
     sections = layout_sections(rig, args.sections, sides)   # refused before any run
     study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
                    scenario=args.scenario, t_end=t_end, solver=args.solver,
@@ -124,7 +130,7 @@ def run(args) -> int:
     files = {}
     if args.out:   # all three files replaced together, or none (a failed write keeps the old)
         with atomic_outputs(out) as temp:
-            files = study.save(out, temp)
+            files = study.save(out, temp, traces_format=fmt)
     if args.json:
         dump_json(json_document(study))
         return 0
@@ -178,5 +184,5 @@ def run(args) -> int:
     if files:
         print(f"  wrote {files['csv']}, {files['traces']}, {files['figure']}")
     else:
-        print("  (--out DIR writes layout.csv, layout_traces.csv and the figure layout.png)")
+        print(f"  (--out DIR writes layout.csv, {names['traces']} and the figure layout.png)")
     return 0

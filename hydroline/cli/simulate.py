@@ -44,8 +44,10 @@ def register(sub):
     p.add_argument("--json", action="store_true", help="print the summary as JSON on stdout "
                    "(and write the files only when --out is given)")
     p.add_argument("--dt-out", help="interval of the rows written to results.csv, with unit, "
-                   "e.g. '1 ms' (default: every 0.1 ms output row; the summary always uses "
-                   "the full output)")
+                   "e.g. '1 ms' (default: every 0.1 ms output row, or on a long run the finest "
+                   "of 0.2, 0.5, 1, 2, 5 ms, ... that keeps the file under about 200 MB, with "
+                   "a note; '0.1 ms' writes every row; the summary always uses every 0.1 ms "
+                   "row)")
     p.add_argument("--format", default="csv", choices=tuple(RESULT_FILES),
                    help="time-series file: csv (results.csv, units in the header; default), "
                    "parquet (results.parquet, units in its metadata: pandas.read_parquet(...)"
@@ -93,6 +95,27 @@ FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chambe
                   "top_chamber_pressure", "piston_velocity", "piston_position")
 
 
+def speed_against_real_time(simulated: float, wall: float) -> str:
+    """How fast a run went against the time it simulated, in words: ``"10.1x faster than
+    real time"`` or ``"3.2x slower than real time"``.
+
+    Parameters
+    ----------
+    simulated : float
+        Simulated time, [s]
+    wall : float
+        Wall-clock time it took, [s]
+
+    Returns
+    -------
+    str
+    """
+    ratio = simulated / max(wall, 1e-9)
+    if ratio >= 1.0:
+        return f"{ratio:.1f}x faster than real time"
+    return f"{1.0 / max(ratio, 1e-12):.1f}x slower than real time"
+
+
 def output_grid(t_end: float, dt_out: float | None):
     """(integration output interval [s], write every n-th row, rows written) for --dt-out.
 
@@ -107,6 +130,58 @@ def output_grid(t_end: float, dt_out: float | None):
     h = dt_out / every
     n = int(round(t_end / h))
     return h, every, n // every + 1 + (n % every != 0)
+
+
+#: Most bytes a run writes without being asked (no --dt-out): beyond it the written rows are
+#: decimated (:func:`written_interval`), [B]. Counted at the CSV's bound of
+#: :data:`hydroline.limits.CSV_BYTES_PER_VALUE` per value for every format, so that each
+#: format holds the same rows (Parquet and MAT files are then about half of it).
+WRITE_BYTES = 200e6
+#: Coarsest interval a long run's written rows are decimated to by default, [s]: a run whose
+#: file would pass :data:`WRITE_BYTES` even so (days of simulated time) writes more, and is
+#: refused when it would not fit on the disk.
+COARSEST_WRITTEN = 1.0
+
+
+def written_interval(t_end: float, n_columns: int, limit: float | None = None):
+    """The interval of the rows a run writes when --dt-out is not given: every output row
+    (None) while the file stays within ``limit``, else the finest of 0.2, 0.5, 1, 2, 5, 10 ms,
+    ... (multiples of :data:`DT_OUT`) that does, at most :data:`COARSEST_WRITTEN`.
+
+    Parameters
+    ----------
+    t_end : float
+        Simulated time, [s].
+    n_columns : int
+        Columns written (time, signals and states), [-].
+    limit : float
+        Most bytes to write, [B] (None: :data:`WRITE_BYTES`).
+
+    Returns
+    -------
+    float or None
+        The interval, [s]; None: every :data:`DT_OUT` row.
+    """
+    from ..limits import CSV_BYTES_PER_VALUE
+
+    limit = WRITE_BYTES if limit is None else limit
+
+    def size(dt):
+        return (int(round(t_end / dt)) + 1) * n_columns * CSV_BYTES_PER_VALUE
+
+    if size(DT_OUT) <= limit:
+        return None
+    decade = 1
+    while True:
+        for step in (2, 5, 10):
+            dt = step * decade * DT_OUT
+            if size(dt) <= limit or dt >= min(t_end, COARSEST_WRITTEN) * (1 - 1e-9):
+                return min(dt, COARSEST_WRITTEN)
+        decade *= 10
+
+
+def _bytes(n: float) -> str:
+    return f"{n / 1e9:.3g} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
 
 
 def run(args) -> int:
@@ -137,7 +212,7 @@ def run(args) -> int:
 
 
 def _prepare(args, write, figures) -> int:
-    from ..limits import check_output_size
+    from ..limits import CSV_BYTES_PER_VALUE, MAX_TABLE_BYTES, check_output_size, output_estimate
     from ..rigs import load_rig
     from ..rigs.parameters import defaults_used
     from ..scenarios.experiments import build_scenario, default_scenario, scenario_names
@@ -160,28 +235,41 @@ def _prepare(args, write, figures) -> int:
         raise ValueError(f"--dt-out: {args.dt_out} is longer than the run ({duration:g} s): "
                          f"results.csv would hold only its first and last rows; give at most "
                          f"{duration:g} s")
-    h, every, rows = output_grid(duration, dt_out)
     circuit, network = run_network(rig, scenario, duration)
-    long_run = round(duration / h) + 1 > LONG_ROWS and len(circuit.axes) == 1
     columns = 1 + len(network.signal_names) + len(network.state_names)
+    fmt = getattr(args, "format", "csv")
+    decimated = None
+    if dt_out is None and write:   # a long run: the rows written decimated, and said so
+        dt_out = decimated = written_interval(duration, columns)
+    h, every, rows = output_grid(duration, dt_out)
+    long_run = round(duration / h) + 1 > LONG_ROWS and len(circuit.axes) == 1
     name = "--t-end" if args.t_end else f"scenario.{scenario}.t_end"
     out = None
-    fmt = getattr(args, "format", "csv")
     if write:
         out = out_dir(args.out if args.out is not None else "hydroline-out",
                       (RESULT_FILES[fmt],) + OUTPUT_FILES[1:])
-    if long_run and write and fmt != "csv":
-        raise ValueError(f"--format {fmt}: a run of {round(duration / h) + 1:,} output rows is "
-                         f"streamed to CSV; give --format csv, or --dt-out to write fewer rows "
-                         f"(at most {LONG_ROWS:,})")
-    if long_run:   # (streamed: memory bounded; the disk checked when it writes)
+    if long_run:   # (memory bounded: streamed, or only the written rows kept)
+        if write and fmt != "csv":   # the rows written are kept until the file is written
+            est = output_estimate(duration, h * every, columns - 1)
+            if est.memory_bytes > MAX_TABLE_BYTES:
+                raise ValueError(f"--format {fmt}: {est.rows:,} rows x {columns} columns would "
+                                 f"take {est.memory_bytes / 1e9:.1f} GB in memory before "
+                                 f"{RESULT_FILES[fmt]} is written; give a larger --dt-out, or "
+                                 f"--format csv (streamed to the file as the run goes)")
         if write:
-            check_output_size(duration, h * every, columns - 1, stream_to=out / "results.csv",
-                              name=name)
+            check_output_size(duration, h * every, columns - 1,
+                              stream_to=out / RESULT_FILES[fmt], name=name)
     else:
         check_output_size(duration, h, columns - 1, csv_folder=out, name=name)
+    if decimated is not None:
+        full = (int(round(duration / DT_OUT)) + 1) * columns * CSV_BYTES_PER_VALUE
+        kept = rows * columns * CSV_BYTES_PER_VALUE
+        print(f"hydroline simulate: note: {duration:g} s at every {DT_OUT * 1e3:g} ms row "
+              f"would write up to {_bytes(full)}; writing every {decimated * 1e3:g} ms row to "
+              f"{RESULT_FILES[fmt]} (up to {_bytes(kept)} as CSV); the summary uses every "
+              f"row; --dt-out '{DT_OUT * 1e3:g} ms' writes them all", file=sys.stderr)
     note_cost("simulate", network, args.solver, duration, rows, columns, streamed=long_run,
-              write=write, dt_out=dt_out)
+              write=write, dt_out=dt_out, file=RESULT_FILES[fmt])
     defaults = defaults_used(rig, scenario)
     if defaults:   # every key that changes the result is given or reported (once)
         print("hydroline simulate: note: not in the rig, defaults used: "
@@ -230,11 +318,16 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
             else:
                 options = dict(keep_columns=keep)
             if write:
-                options.update(stream_to=temp("results.csv"), stream_every=every,
-                               preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):],
+                options.update(preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):],
                                preview_rows=PREVIEW_ROWS)
-                if stream is not None:
-                    del options["keep_columns"]
+                if fmt == "csv":   # written as the run goes
+                    options.update(stream_to=temp("results.csv"), stream_every=every)
+                    if stream is not None:
+                        del options["keep_columns"]
+                else:   # the rows written kept, the file written at the end
+                    written = WrittenRows(every)
+                    observers = [written.update] + ([stream.update] if stream else [])
+                    options["observe"] = _each(observers)
         res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
                        progress=progress_printer("simulating", not args.json), **options)
         if stream is not None:
@@ -254,6 +347,9 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
         if write:   # replaced together, or none (previous results kept)
             if not long_run:
                 getattr(res, f"to_{fmt}")(temp(RESULT_FILES[fmt]), every=every)
+            elif fmt != "csv":
+                getattr(written.result(res.metadata["units"]), f"to_{fmt}")(
+                    temp(RESULT_FILES[fmt]))
             with open(temp("summary.json"), "w") as f:
                 dump_json(json_summary(summary), f)
             if single:
@@ -272,7 +368,7 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, steady-state residual {res.steady_state.residual:.1e} 1/s, "
           f"wall time {summary['wall_time_s']:.2f} s "
-          f"({res.t[-1] / max(res.wall_time, 1e-9):.1f}x real time in the integrator)")
+          f"(the integrator: {speed_against_real_time(res.t[-1], res.wall_time)})")
     print(f"  {summary['metrics_window_note']}")
     if scenario == "closed-loop-sine":
         rows = [[f"{side} port", summary[side].get("ripple_pp_mpa"),
@@ -308,6 +404,77 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures) ->
     return 0
 
 
+class WrittenRows:
+    """The rows a long run writes to a Parquet or MAT file, kept as the run goes: every
+    ``every``-th output row and the last (as results.csv's streamed rows), every column.
+    Pass :meth:`update` as ``observe`` to :func:`hydroline.simulate`.
+
+    Parameters
+    ----------
+    every : int
+        Keep every n-th output row, [-].
+    """
+
+    def __init__(self, every: int):
+        self.every = max(int(every), 1)
+        self.rows, self.parts, self.columns, self.last = 0, [], None, None
+
+    def update(self, t, table, columns) -> None:
+        """Take in one block of output rows.
+
+        Parameters
+        ----------
+        t : numpy.ndarray
+            Times of the block, [s].
+        table : numpy.ndarray
+            Its rows, one column per name in ``columns``, [SI].
+        columns : list[str]
+            The column names.
+        """
+        import numpy as np
+
+        if not len(t):
+            return
+        t, table = np.asarray(t), np.asarray(table)
+        keep = (np.arange(self.rows, self.rows + len(t)) % self.every) == 0
+        self.rows += len(t)
+        self.columns = columns
+        if keep.any():
+            self.parts.append((t[keep], table[keep]))
+        # the run's last row is written too: held until a later block shows it was not
+        self.last = None if keep[-1] else (t[-1:], table[-1:].copy())
+
+    def result(self, units: dict):
+        """The rows kept, and the run's last row, as a :class:`hydroline.SimulationResult`
+        that writes them.
+
+        Parameters
+        ----------
+        units : dict
+            Column -> SI unit (the run's ``metadata["units"]``).
+
+        Returns
+        -------
+        SimulationResult
+        """
+        import numpy as np
+
+        from ..engine import SimulationResult
+
+        parts = self.parts + ([self.last] if self.last is not None else [])
+        return SimulationResult(times=np.concatenate([p[0] for p in parts]),
+                                table=np.vstack([p[1] for p in parts]),
+                                columns=list(self.columns), metadata={"units": units})
+
+
+def _each(observers):
+    """One ``observe`` callable that calls each of ``observers`` in turn."""
+    def observe(t, table, columns):
+        for f in observers:
+            f(t, table, columns)
+    return observe
+
+
 def _sine_summary_stream(rig, scenario, t_end):
     """The summary accumulator of a long closed-loop sine on a single-axis rig (t_end [s],
     None: the experiment's own); None for any other experiment."""
@@ -324,6 +491,7 @@ def _sine_summary_stream(rig, scenario, t_end):
                              ax.reference_signal, window_start=exp.window_start)
 
 
+<<<<<<< HEAD
 def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
     """Refuse a streamed run whose CSV would not fit on the disk (one line, ValueError), and
     say on stderr what one that writes more than ~1 GB or takes minutes will cost."""
@@ -354,9 +522,12 @@ def _duration(s):
     return f"{s / 60:.0f} min" if s >= 120 else f"{s:.0f} s"
 
 
+=======
+>>>>>>> figs26
 def plot_axes(res, summary, path, title=""):
     """Per-axis figure of a multi-axis run: valve supply and return port pressures [MPa] and
-    piston position change [mm] of every axis against time [ms]; the metrics window shaded.
+    piston position change [mm] of every axis against time (ms, s, ... by the run's length);
+    grey, as in every figure, is outside the metrics window.
 
     Parameters
     ----------
@@ -367,13 +538,15 @@ def plot_axes(res, summary, path, title=""):
     """
     import numpy as np
 
-    from ..plotting import figure_title, new_figure, save_png
+    from ..plotting import (figure_title, new_figure, outside_window_handle, save_png,
+                            shade_outside_window, time_axis)
 
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
     fig = new_figure((9, 9))
     ax = fig.subplots(3, 1, sharex=True)
-    t = res.t * 1e3
+    factor, unit = time_axis(res.t[-1] - res.t[0])
+    t = res.t * factor
     i0 = int(np.searchsorted(res.t, t0))
     for name, a in axes.items():
         ax[0].plot(t, res[a.supply_pressure] / 1e6, label=name)
@@ -382,11 +555,15 @@ def plot_axes(res, summary, path, title=""):
         ax[2].plot(t, (x - x[i0]) * 1e3, label=name)
     for a_, lab in zip(ax, ("Supply port [MPa]", "Return port [MPa]", "Position change [mm]")):
         a_.set_ylabel(lab)
-        a_.axvspan(t0 * 1e3, t1 * 1e3, color="0.93", zorder=0)
-        a_.legend(loc="best", fontsize=8)
+        shaded = shade_outside_window(a_, t0, t1, res.t[0], res.t[-1], factor)
+        handles, _ = a_.get_legend_handles_labels()
+        if shaded and a_ is ax[0]:   # (said once)
+            handles.append(outside_window_handle())
+        a_.legend(handles=handles, loc="best", fontsize=8)
         a_.grid(alpha=0.3)
+        a_.set_xlim(t[0], t[-1])
     ax[2].set_yscale("symlog", linthresh=1e-4)
-    ax[2].set_xlabel("time [ms]")
+    ax[2].set_xlabel(f"time [{unit}]")
     fig.suptitle(figure_title(title), fontsize=10)
     fig.tight_layout()
     save_png(fig, path, dpi=110)

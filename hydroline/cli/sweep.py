@@ -125,6 +125,9 @@ class _Progress:
         eta = f", ETA {(total - done) / rate:.0f} s" if rate > 0 and done < total else ""
         text = f"{done}/{total} variants, {failed} failed, {now - self.start:.0f} s{eta}"
         if self.tty:
+            if getattr(self, "finished", False):
+                return   # (the bar's last line is drawn once)
+            self.finished = done >= total
             n = int(30 * done / total)
             sys.stderr.write(f"\rsweep [{'#' * n}{'.' * (30 - n)}] {text}   ")
             if done >= total:

@@ -166,7 +166,10 @@ class Simulation:
                 circuit = build_circuit(rig, sc.position_guess)
             net = circuit.network(sc.commands)
         kept = options.get("keep_columns")   # bounded memory: only these columns stay in memory
-        check_output_size(sc.t_end, dt_out, len(kept) if kept is not None and stream_to is None
+        # (a streamed file holds every stream_every-th row: its size on the disk is that of those)
+        written = dt_out * max(int(options.get("stream_every", 1)), 1) if stream_to is not None \
+            else dt_out
+        check_output_size(sc.t_end, written, len(kept) if kept is not None and stream_to is None
                           else len(net.signal_names) + len(net.state_names),
                           stream_to=stream_to if kept is None or stream_to is not None else None,
                           name="t_end" if t_end is not None else f"scenario.{sc.name}.t_end")

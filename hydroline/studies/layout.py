@@ -236,31 +236,80 @@ class LayoutStudy:
             rows.append(row)
         return pd.DataFrame(rows)
 
+    def port_pressure(self, res, side: str) -> np.ndarray:
+        """A run's valve port pressure on one side: the reported axis's on a multi-axis rig.
+
+        Parameters
+        ----------
+        res : SimulationResult
+            One run of the study
+        side : str
+            "supply" or "return"
+
+        Returns
+        -------
+        numpy.ndarray
+            The pressure at every output time, [Pa].
+        """
+        axes = res.metadata.get("axes") or {}
+        if self.axis is not None and self.axis in axes:
+            return res[getattr(axes[self.axis], f"{side}_pressure")]
+        return res[f"{side}_port_pressure"]
+
     def traces(self) -> "pandas.DataFrame":
         """Port pressures of every run on the common output grid: ``time_s`` and
-        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa]."""
+        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa] (on a
+        multi-axis rig those of the reported :attr:`axis`)."""
         import pandas as pd
 
         t = self.results[0].t
         cols = {"time_s": t}
         for L, res in zip(self.lengths, self.results):
             for side in SIDES:
-                y = res[f"{side}_port_pressure"]
+                y = self.port_pressure(res, side)
                 cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y)
         return pd.DataFrame(cols)
 
-    #: The files :meth:`save` writes, by role.
+    #: The files :meth:`save` writes, by role (the traces as CSV; see :meth:`file_names`).
     FILES = {"csv": "layout.csv", "traces": "layout_traces.csv", "figure": "layout.png"}
+    #: The formats the traces may be written in (as ``hydroline simulate --format``).
+    TRACE_FORMATS = ("csv", "parquet", "mat")
 
-    def save(self, folder, temp=None) -> dict:
+    @classmethod
+    def file_names(cls, traces_format: str = "csv") -> dict:
+        """The files :meth:`save` writes, by role, with the traces in ``traces_format``.
+
+        Parameters
+        ----------
+        traces_format : str
+            "csv", "parquet" or "mat"
+
+        Returns
+        -------
+        dict
+            role ("csv", "traces", "figure") -> file name.
+        """
+        if traces_format not in cls.TRACE_FORMATS:
+            raise ValueError(f"traces format: one of {', '.join(cls.TRACE_FORMATS)}, got "
+                             f"{traces_format!r}")
+        return {**cls.FILES, "traces": f"layout_traces.{traces_format}"}
+
+    def save(self, folder, temp=None, traces_format: str = "csv") -> dict:
         """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder.
 
         Parameters
         ----------
-        folder : path      Output folder (created)
-        temp : callable    ``temp(name) -> path`` to write each file to first (e.g. the CLI's
-                           atomic writer, which renames them all at the end); the final names
-                           are returned either way
+        folder : path        Output folder (created)
+        temp : callable      ``temp(name) -> path`` to write each file to first (e.g. the CLI's
+                             atomic writer, which renames them all at the end); the final names
+                             are returned either way
+        traces_format : str  The traces as "csv" (``layout_traces.csv``, columns ``time_s``
+                             and ``{supply,return}_port_pressure_pa@L=<length>m``), "parquet"
+                             or "mat" (``layout_traces.parquet`` / ``.mat``: a column or
+                             variable ``time`` [s] and one per trace,
+                             ``{supply,return}_port_pressure@L=<length>m`` [Pa] (in MAT
+                             ``..._L_<length>m``), their units in the file as ``hydroline
+                             simulate --format`` writes them)
 
         Returns
         -------
@@ -268,17 +317,31 @@ class LayoutStudy:
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        self.files = {role: folder / name for role, name in self.FILES.items()}
-        where = {role: (temp(name) if temp else folder / name) for role, name in self.FILES.items()}
+        names = self.file_names(traces_format)
+        self.files = {role: folder / name for role, name in names.items()}
+        where = {role: (temp(name) if temp else folder / name) for role, name in names.items()}
         self.table().to_csv(where["csv"], index=False)
-        self.traces().to_csv(where["traces"], index=False)
+        traces = self.traces()
+        if traces_format == "csv":
+            traces.to_csv(where["traces"], index=False)
+        else:   # written as a run's time series are (units in the file)
+            from ..engine import SimulationResult
+
+            columns = [c for c in traces.columns if c != "time_s"]
+            names = [c.replace("_pa@", "@") for c in columns]   # the unit in the file instead
+            result = SimulationResult(times=traces["time_s"].to_numpy(),
+                                      table=traces[columns].to_numpy(), columns=names,
+                                      metadata={"units": dict.fromkeys(names, "Pa")})
+            getattr(result, f"to_{traces_format}")(where["traces"])
         self.plot(where["figure"])
         return self.files
 
     def plot(self, path=None, title=None):
         """Port-pressure traces of every length stacked (the paper's Figs. 13-14: supply left,
         return right; dotted: step and piston stop, green dashed: a measured settling
-        time) above frequency and amplitude against length.
+        time; grey, as in every figure, outside the metrics window, said in the legend)
+        above frequency and amplitude against length, each point labelled with its value
+        where the label overlaps nothing (:func:`hydroline.plotting.place_value_labels`).
 
         Parameters
         ----------
@@ -289,35 +352,44 @@ class LayoutStudy:
         -------
         matplotlib.figure.Figure (written as PNG to ``path`` when given)
         """
-        from ..plotting import figure_title, new_figure, save_png
+        from matplotlib.lines import Line2D
+
+        from ..plotting import (OUTSIDE_TRACE_COLOR, OUTSIDE_WINDOW_LABEL, metrics_window_of,
+                                new_figure, outside_window_handle, place_value_labels,
+                                save_png, shade_outside_window, time_axis, wrap_title)
 
         n = len(self.lengths)
-        fig = new_figure((11, 1.7 * n + 4.0))
+        fig = new_figure((11, 1.7 * n + 4.4))
         outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
         gs = outer[0].subgridspec(n, 2, hspace=0.12)
         first, lims = {}, {}
+        factor, unit = time_axis(max(res.t[-1] - res.t[0] for res in self.results))
+        shaded = stopped = measured = False
         for r, (L, res) in enumerate(zip(self.lengths, self.results)):
-            t_ms = res.t * 1e3
+            t_s = res.t * factor
             t0 = res.metadata.get("t_disturbance", 0.0)
-            window = res.metadata.get("metrics_window")
-            t1 = window[1] if window and window[2] == "stop" else None
+            window = metrics_window_of(res)
+            t1 = window[1] if window is not None else None
             for c, side in enumerate(SIDES):
                 ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
                 first.setdefault("x", ax)
                 first.setdefault(side, ax)
-                y = res[f"{side}_port_pressure"] / 1e6
+                y = self.port_pressure(res, side) / 1e6
                 k1 = int(np.count_nonzero(res.t <= t1)) if t1 else y.size
-                ax.plot(t_ms[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
+                ax.plot(t_s[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
                 lims.setdefault(side, []).extend([float(np.min(y[:k1])), float(np.max(y[:k1]))])
-                if t1 and t1 < res.t[-1]:   # after the far stop: grey, outside the metrics
-                    ax.plot(t_ms[k1 - 1:], y[k1 - 1:], lw=0.7, color="0.6")
-                    ax.axvspan(t1 * 1e3, t_ms[-1], color="0.9", zorder=0, lw=0)
-                    ax.axvline(t1 * 1e3, color="0.5", lw=0.7, ls=":")
-                ax.axvline(t0 * 1e3, color="0.7", lw=0.7, ls=":")
+                if t1:   # after the far stop: grey, outside the metrics
+                    ax.plot(t_s[k1 - 1:], y[k1 - 1:], lw=0.7, color=OUTSIDE_TRACE_COLOR)
+                    ax.axvline(t1 * factor, color="r", lw=0.7, ls=":")
+                    stopped = True
+                if window is not None:
+                    shaded |= shade_outside_window(ax, window[0], t1, res.t[0], res.t[-1], factor)
+                ax.axvline(t0 * factor, color="k", lw=0.7, ls=":")
                 ts = self.summaries[r][side].get("settling_time_s")
                 if ts is not None and self.summaries[r][side].get("settling_method") == "measured":
-                    ax.axvline((t0 + ts) * 1e3, color="C2", lw=0.8, ls="--")   # (an estimate
+                    ax.axvline((t0 + ts) * factor, color="C2", lw=0.8, ls="--")   # (an estimate
                     # lies past the stop, where the trace shows the stop's own transient)
+                    measured = True
                 ax.grid(True, alpha=0.3)
                 label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
                 ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
@@ -327,7 +399,8 @@ class LayoutStudy:
                 if r < n - 1:
                     ax.tick_params(labelbottom=False)
                 else:
-                    ax.set_xlabel("time [ms]")
+                    ax.set_xlabel(f"time [{unit}]")
+                    ax.set_xlim(t_s[0], t_s[-1])
         for side, values in lims.items():   # y-range from the metrics windows only
             lo, hi = min(values), max(values)
             pad = 0.08 * (hi - lo) if hi > lo else 0.05
@@ -335,6 +408,7 @@ class LayoutStudy:
         sub = outer[1].subgridspec(1, 2, wspace=0.25)
         ax_f, ax_a = fig.add_subplot(sub[0, 0]), fig.add_subplot(sub[0, 1])
         tab = self.table().sort_values("section2_length_m")
+        values = {"f": [], "a": []}   # value labels, placed when the panels are laid out
         for side, color in (("supply", "C0"), ("return", "C3")):
             ax_f.plot(tab["section2_length_m"], tab[f"{side}_frequency_hz"], "o-", color=color,
                       label=side)
@@ -344,13 +418,10 @@ class LayoutStudy:
                       color=color, alpha=0.6, ms=4, label=f"{side}: first excursion |p - p0|")
             for L, fv, av in zip(tab["section2_length_m"], tab[f"{side}_frequency_hz"],
                                  tab[f"{side}_amplitude_mpa"]):
-                dy = 6 if side == "supply" else -11
                 if np.isfinite(fv):
-                    ax_f.annotate(f"{fv:.0f}", (L, fv), textcoords="offset points",
-                                  xytext=(4, dy), fontsize=7, color=color)
+                    values["f"].append((L, fv, f"{fv:.0f}", color))
                 if np.isfinite(av):
-                    ax_a.annotate(f"{av:.2f}", (L, av), textcoords="offset points",
-                                  xytext=(4, dy), fontsize=7, color=color)
+                    values["a"].append((L, av, f"{av:.2f}", color))
             c = self.wave_speeds.get(side)
             if c and side in self.sides and max(self.lengths) > 0:
                 lo = min([L for L in self.lengths if L > 0] + [max(self.lengths)])
@@ -359,12 +430,18 @@ class LayoutStudy:
                           label=f"{side}: c/(4L) of section II alone")
         ax_f.set_ylabel("oscillation frequency [Hz]")
         ax_a.set_ylabel("port pressure [MPa]")
+        longest = max(max(self.lengths), 1e-3)
         for ax in (ax_f, ax_a):
             ax.set_xlabel("section II length [m]")
             ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7)
-            ax.set_xlim(left=-0.05 * max(max(self.lengths), 1e-3))
-        ax_a.set_ylim(bottom=0)
+            # room on the right for the labels of the longest section's points
+            ax.set_xlim(-0.06 * longest, 1.1 * longest)
+        ax_f.legend(fontsize=7, loc="upper right")
+        ax_a.legend(fontsize=7, loc="lower right")
+        lo, hi = ax_a.get_ylim()   # from 0 (markers at 0 whole), room above the top labels
+        ax_a.set_ylim(-0.06 * hi, 1.08 * hi)
+        lo, hi = ax_f.get_ylim()
+        ax_f.set_ylim(lo - 0.06 * (hi - lo), hi + 0.06 * (hi - lo))
         flat = sorted({L for L, s in zip(self.lengths, self.summaries)
                        if any(s[side]["frequency_hz"] is None for side in SIDES)})
         if flat:
@@ -373,9 +450,26 @@ class LayoutStudy:
         what = (f"sections II of {' and '.join(self.sides)} set" if not self.sections or
                 set(self.sections) == {f"{s}.section2" for s in self.sides} else
                 f"{', '.join(self.sections)} set" + (f"; ports of {self.axis}" if self.axis else ""))
-        fig.suptitle(figure_title(title or f"Section II layout study: {self.scenario} on "
-                                  f"{self.rig_name} ({what})"), fontsize=11, y=0.995)
-        fig.subplots_adjust(left=0.07, right=0.98, top=0.955, bottom=0.05)
+        height = fig.get_figheight()
+        text = wrap_title(title or f"Section II layout study: {self.scenario} on "
+                          f"{self.rig_name} ({what})", fig.get_figwidth(), 11)
+        fig.suptitle(text, fontsize=11, y=1 - 0.08 / height, va="top")
+        extra = 0.2 * text.count("\n")   # [inch] below a title of more lines
+        handles = [outside_window_handle(OUTSIDE_WINDOW_LABEL + (
+            " (after the piston's stop: not in the y-range)" if stopped else ""))] \
+            if shaded else []
+        handles.append(Line2D([], [], color="k", lw=0.7, ls=":", label="valve step"))
+        if stopped:
+            handles.append(Line2D([], [], color="r", lw=0.7, ls=":", label="piston at its stop"))
+        if measured:
+            handles.append(Line2D([], [], color="C2", lw=0.8, ls="--",
+                                  label="settled (measured settling time)"))
+        fig.legend(handles=handles, loc="upper center", ncol=len(handles), fontsize=8,
+                   frameon=False, bbox_to_anchor=(0.5, 1 - (0.3 + extra) / height))
+        fig.subplots_adjust(left=0.07, right=0.98, top=1 - (0.85 + extra) / height,
+                            bottom=0.05)
+        place_value_labels(ax_f, values["f"])
+        place_value_labels(ax_a, values["a"])
         if path is not None:
             save_png(fig, path, dpi=110)
         return fig
