@@ -491,39 +491,6 @@ def _sine_summary_stream(rig, scenario, t_end):
                              ax.reference_signal, window_start=exp.window_start)
 
 
-<<<<<<< HEAD
-def _say_cost(rig, scenario, duration, rows, dt_out, out, step, name):
-    """Refuse a streamed run whose CSV would not fit on the disk (one line, ValueError), and
-    say on stderr what one that writes more than ~1 GB or takes minutes will cost."""
-    from ..scenarios.experiments import build_scenario
-    from ..system import build_circuit
-    from ..limits import check_output_size
-
-    circuit = build_circuit(rig)
-    sc = build_scenario(rig, scenario, duration, axes=circuit.axes)
-    net = circuit.network(sc.commands)
-    columns = 1 + len(net.signal_names) + len(net.state_names)
-    check_output_size(duration, step, columns - 1, stream_to=out / "results.csv", name=name)
-    size = rows * columns * 15.0   # "%.9g" and a comma: ~15 bytes a number
-    seconds = duration / INTEGRATION_SPEED + size / CSV_RATE
-    if size < 1e9 and seconds < 120:
-        return
-    hint = ("; --dt-out 10 ms would write 1/100 of it" if dt_out is None
-            else "; a larger --dt-out writes less")
-    print(f"hydroline simulate: {duration:g} s simulated, {rows:,} rows x {columns} columns to "
-          f"results.csv: about {_size(size)} and {_duration(seconds)}{hint}", file=sys.stderr)
-
-
-def _size(n):
-    return f"{n / 1e9:.1f} GB" if n >= 1e9 else f"{n / 1e6:.0f} MB"
-
-
-def _duration(s):
-    return f"{s / 60:.0f} min" if s >= 120 else f"{s:.0f} s"
-
-
-=======
->>>>>>> figs26
 def plot_axes(res, summary, path, title=""):
     """Per-axis figure of a multi-axis run: valve supply and return port pressures [MPa] and
     piston position change [mm] of every axis against time (ms, s, ... by the run's length);
