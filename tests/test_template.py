@@ -2,12 +2,14 @@
 equals the run of the hand-wired template build it replaced (numbers recorded from that build),
 and its expansion into circuit tables is the circuit file of the same rig
 (tests/data/ayalew2005_circuit.toml), component by component."""
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import hydroline
+from hydroline.engine.component import Component, HydraulicEnd, Port, parameter
 
 DATA = Path(__file__).parent / "data"
 
@@ -73,3 +75,90 @@ def test_default_rig_run_equals_the_hand_wired_template_build():
         assert res.t[i] == pytest.approx(t, abs=1e-9)
         for k, v in row.items():
             assert abs(res[k][i] - v) < 1e-4 * SPAN[k], (t, k, res[k][i], v)
+
+
+@dataclass(kw_only=True)
+class Capillary(Component):
+    """Laminar flow through a long thin bore (Hagen-Poiseuille): q = dp pi d^4 / (128 mu L),
+    mu = rho nu of the rig's oil, which the component takes from its context."""
+
+    length: float = parameter(1.0, "m", "bore length", positive=True, plausible=(1e-3, 100.0))
+    diameter: float = parameter(1e-3, "m", "bore", positive=True, plausible=(1e-5, 0.1))
+    fluid: object = None
+
+    context = ("fluid",)
+    conducts = True
+    inputs = {"inlet_pressure": Port("pressure"), "outlet_pressure": Port("pressure")}
+    outputs = {"flow": Port("flow")}
+
+    def hydraulic_ends(self):
+        return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
+                "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
+
+    def outputs_of(self, t, x, u, p):
+        mu = self.fluid.density * self.fluid.kinematic_viscosity
+        return {"flow": (u["inlet_pressure"] - u["outlet_pressure"]) * np.pi
+                * self.diameter ** 4 / (128 * mu * self.length)}
+
+
+CAPILLARY_RIG = """
+[fluid]
+density = "870 kg/m^3"
+kinematic_viscosity = "32 cSt"
+bulk_modulus = "1.5 GPa"
+
+[circuit.pump]
+type = "pressure_source"
+pressure = "10 MPa"
+ports = { pressure = "p_pump" }
+
+[circuit.inlet]
+type = "capillary"
+length = "2 m"
+diameter = "1 mm"
+ports = { inlet_pressure = "p_pump", outlet_pressure = "p_node", flow = "q_in" }
+
+[circuit.node]
+type = "volume"
+volume = "0.1 L"
+terms = { inflow = 1, outflow = -1 }
+ports = { inflow = "q_in", outflow = "q_out", pressure = "p_node" }
+
+[circuit.outlet]
+type = "capillary"
+length = "2 m"
+diameter = "1 mm"
+ports = { inlet_pressure = "p_node", outlet_pressure = "p_tank", flow = "q_out" }
+
+[circuit.tank]
+type = "pressure_source"
+pressure = "1 MPa"
+ports = { pressure = "p_tank" }
+"""
+
+
+def test_a_new_component_type_takes_the_fluid_without_touching_the_builder(monkeypatch, tmp_path):
+    """A component declaring ``context = ("fluid",)`` is handed the rig's oil by the builder
+    (registered as a type, nothing else), as is a volume given no bulk modulus. Two equal
+    capillaries in series hold the node between them at the mean of 10 and 1 MPa, and carry
+    q = 4.5 MPa pi (1 mm)^4 / (128 * 870 kg/m^3 * 32 cSt * 2 m) = 0.1190 L/min."""
+    from hydroline.circuit import COMPONENT_TYPES, ComponentType
+    from hydroline.engine import solve_steady_state
+    from hydroline.rigs import load_rig
+    from hydroline.system import build_circuit
+
+    monkeypatch.setitem(COMPONENT_TYPES, "capillary",
+                        ComponentType("capillary", Capillary, "laminar capillary"))
+    f = tmp_path / "capillary.toml"
+    f.write_text(CAPILLARY_RIG)
+    circuit = build_circuit(load_rig(f))
+    cap, node = circuit.component("inlet"), circuit.component("node")
+    assert cap.fluid.density == 870.0 and cap.fluid.kinematic_viscosity == pytest.approx(32e-6)
+    assert node.bulk_modulus == 1.5e9
+    net = circuit.network()
+    ss = solve_steady_state(net)
+    s = net.signals_at(0.0, ss.x, ss.p)
+    q = 4.5e6 * np.pi * 1e-3 ** 4 / (128 * 870 * 32e-6 * 2)
+    assert q * 6e4 == pytest.approx(0.1190, abs=1e-4)            # [L/min], the hand value
+    assert s["p_node"] == pytest.approx(5.5e6, rel=1e-9)
+    assert s["q_in"] == pytest.approx(q, rel=1e-9) and s["q_out"] == pytest.approx(q, rel=1e-9)
