@@ -162,3 +162,61 @@ def test_a_new_component_type_takes_the_fluid_without_touching_the_builder(monke
     assert q * 6e4 == pytest.approx(0.1190, abs=1e-4)            # [L/min], the hand value
     assert s["p_node"] == pytest.approx(5.5e6, rel=1e-9)
     assert s["q_in"] == pytest.approx(q, rel=1e-9) and s["q_out"] == pytest.approx(q, rel=1e-9)
+
+
+def test_template_expands_into_the_paper_rigs_circuit_file():
+    """The template's expansion is tests/data/ayalew2005_circuit.toml component by component:
+    same names, types, ports and flow terms, and every declared parameter equal (a value the
+    file leaves out taken at its declared default, as the builder does): e.g. each chamber's
+    volume at mid-stroke 10 cm^3 + 4.83 cm^2 * 51 mm = 34.633 cm^3, written out in the file."""
+    from hydroline.circuit import COMPONENT_TYPES, circuit_specs
+    from hydroline.rigs import load_rig
+    from hydroline.rigs.template import expand
+
+    default, circuit = load_rig(), load_rig(DATA / "ayalew2005_circuit.toml")
+    # the calibrated values follow the default rig's (recalibrated now and then)
+    for sec in ("supply.section1", "supply.section2", "return.section1", "return.section2"):
+        for k in ("length", "diameter", "bulk_modulus"):
+            circuit.set(f"circuit.{sec}.{k}", default.raw[f"{sec}.{k}"])
+    for side in ("supply", "return"):
+        circuit.set(f"circuit.{side}.manifold.resistance", default.raw[f"{side}.manifold.resistance"])
+    circuit.set("circuit.supply.pump.pressure", default.raw["supply.pressure"])
+    circuit.set("circuit.return.tank.pressure", default.raw["return.pressure"])
+    circuit.set("circuit.actuator.moving_mass", default.raw["actuator.moving_mass"])
+    circuit.set("circuit.actuator.bulk_modulus", default.raw["actuator.bulk_modulus"])
+    template = {s.name: s for s in expand(default)}
+    written = {s.name: s for s in circuit_specs(circuit)}
+    assert sorted(template) == sorted(written)
+    assert template["actuator"].params["bottom_volume"] == pytest.approx(34.633e-6, rel=1e-12)
+    for name, t in template.items():
+        w = written[name]
+        assert (t.type, t.ports, t.terms) == (w.type, w.ports, w.terms), name
+        for key, decl in COMPONENT_TYPES[t.type].declarations().items():
+            a, b = t.params.get(key, decl.default), w.params.get(key, decl.default)
+            if isinstance(a, str) or a is None:
+                assert a == b, (name, key)
+            else:
+                assert np.allclose(a, b, rtol=1e-12, atol=0), (name, key, a, b)
+
+
+def test_template_values_reaching_the_builder_are_named_by_their_template_paths():
+    """A template value the builder checks (its component's declaration) is named as the rig
+    file wrote it, not as a circuit path: a bore of 0 allowed past its plausible range is
+    refused by the hose's bound; a supply pressure allowed above its range passes on to the
+    pump, the hoses and the actuator whose values derive from it."""
+    from hydroline.rigs import RigError, load_rig
+    from hydroline.system import build_circuit
+
+    rig = load_rig()
+    rig.set("rig.allow_implausible", ["supply.section1.diameter"])
+    rig.set("supply.section1.diameter", "0 mm")
+    with pytest.raises(RigError, match=r"^supply\.section1\.diameter: must be > 0 \[m\], got "
+                                       r"'0 mm' \(component 'supply\.section1', hose\)$"):
+        build_circuit(rig)
+    rig = load_rig()
+    rig.set("rig.allow_implausible", ["supply.pressure"])
+    rig.set("supply.pressure", "150 MPa")
+    circuit = build_circuit(rig)
+    assert circuit.component("supply.pump").pressure == 150e6
+    assert circuit.component("supply.section2").nominal_pressure == 150e6
+    assert circuit.component("actuator").nominal_pressure == pytest.approx(0.5 * (150e6 + 1.5e6))
