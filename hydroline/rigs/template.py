@@ -99,10 +99,12 @@ class Side:
 SIDES = {s.name: s for s in (
     Side("supply", "supply.pump", "pump_pressure", "pump_flow", "supply.manifold_inlet_pressure",
          "supply.section2_inflow", toward_valve=True, check_valve=False,
-         node_terms=(("inflow", "manifold", 1), ("valve", "port", -1), ("accumulator", "accumulator", -1))),
+         node_terms=(("inflow", "manifold", 1), ("valve", "port", -1),
+                     ("accumulator", "accumulator", -1))),
     Side("return", "return.tank", "tank_pressure", "tank_flow", "return.section1_inlet_pressure",
          "return.section2_outflow", toward_valve=False, check_valve=True,
-         node_terms=(("valve", "port", 1), ("accumulator", "accumulator", -1), ("outflow", "manifold", -1))),
+         node_terms=(("valve", "port", 1), ("accumulator", "accumulator", -1),
+                     ("outflow", "manifold", -1))),
 )}
 
 #: The valve and the piston: component -> ports (the template's one axis).
@@ -138,7 +140,8 @@ def section_present(rig: Rig, section: str) -> bool:
     """
     length = rig.get(f"{section}.length", 0.0)
     if length < 0:
-        raise RigError(f"{section}.length: must be >= 0 m (0 removes the section), got {length!r} m")
+        raise RigError(f"{section}.length: must be >= 0 m (0 removes the section), "
+                       f"got {length!r} m")
     return length > 0
 
 
@@ -239,9 +242,9 @@ def _side(rig: Rig, given: dict, side: Side, profile) -> list:
                                        ports, table=f"{n}.manifold",
                                        derived=frozenset(("compute",))))
         else:
-            forward = COMPONENT_TYPES["check_valve"].declarations()["forward_resistance"].default
-            params = {**check, "compute": "flow",
-                      "forward_resistance": loss["resistance"] + check.get("forward_resistance", forward)}
+            r_cv = check.get("forward_resistance", COMPONENT_TYPES["check_valve"].declarations()
+                             ["forward_resistance"].default)
+            params = {**check, "compute": "flow", "forward_resistance": loss["resistance"] + r_cv}
             specs.append(ComponentSpec(f"{n}.manifold", "check_valve", params, ports,
                                        table=f"{n}.check_valve",
                                        paths={"forward_resistance": f"{n}.manifold.resistance"},
