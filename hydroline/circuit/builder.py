@@ -404,20 +404,21 @@ def _check_declared(rig, spec: ComponentSpec, ctype, decls: dict, key: str, v, a
     """A component's parameter against its type's declaration (``decls``): bounds, then the
     plausible range (unless the path is in ``allowed`` or the value is derived); one line,
     CircuitError, naming the parameter's rig path."""
-    if key not in decls:
+    decl = decls.get(key)
+    if decl is None:
+        return
+    rule = decl.violation(v)
+    implausible = None if rule is not None or key in spec.derived else decl.implausible(v)
+    if rule is None and implausible is None:
         return
     path = spec.path(key)
-    unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
-    rule = decls[key].violation(v)
+    unit = f" [{decl.unit_text}]" if decl.unit_text else ""
     if rule is not None:
         raise CircuitError(f"{path}: must be {rule}{unit}, got {rig.raw.get(path, v)!r} "
                            f"(component '{spec.name}', {ctype.name})")
-    if key in spec.derived:
-        return
-    implausible = decls[key].implausible(v)
-    if implausible is not None and path not in allowed:
+    if path not in allowed:
         raise CircuitError(f"{path}: {rig.raw.get(path, v)!r} is outside its plausible range, "
-                           f"{implausible}{unit} ({decls[key].description}); if it is meant, "
+                           f"{implausible}{unit} ({decl.description}); if it is meant, "
                            f"add \"{path}\" to [rig] allow_implausible")
 
 
@@ -556,21 +557,22 @@ def _add_to_others(specs: list, types: list, params: dict):
 
 
 def _make(spec: ComponentSpec, ctype, params: dict, decls: dict, context: _Context):
-    """The component of a spec: its type's factory (or class) given every declared parameter
-    (the declared default where none is given), what it takes from the rig around it, and its
+    """The component of a spec: its type's factory given every declared parameter (the
+    declared default where none is given), or its class given the parameters the spec gives
+    (the class has the same defaults); then what it takes from the rig around it, and its
     flow terms."""
     kwargs = {}
-    for key, decl in decls.items():
-        if key in params:
-            v = params[key]
-            kwargs[key] = tuple(v) if decl.unit.startswith("list:") and isinstance(v, list) else v
-        elif decl.default is not None:
-            kwargs[key] = decl.default
-        elif not decl.optional and ctype.factory is not None:
-            raise CircuitError(f"{spec.path(key)}: not given; a {ctype.name} needs it "
-                               f"({decl.description})")
-    for key, v in params.items():
-        kwargs.setdefault(key, v)        # not declared (a template's pressure waveform)
+    for key, v in params.items():       # (a list of quantities: a tuple, as declared)
+        kwargs[key] = tuple(v) if isinstance(v, list) and key in decls else v
+    if ctype.factory is not None:
+        for key, decl in decls.items():
+            if key in kwargs:
+                continue
+            if decl.default is not None:
+                kwargs[key] = decl.default
+            elif not decl.optional:
+                raise CircuitError(f"{spec.path(key)}: not given; a {ctype.name} needs it "
+                                   f"({decl.description})")
     for key in ctype.needs:
         kwargs[key] = context[key]
     if ctype.takes_terms:

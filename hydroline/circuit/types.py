@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Callable
 
 from .. import components as comp
@@ -226,10 +227,11 @@ class ComponentType:
     parameters : dict     Extra file parameters (name -> Parameter) a factory turns into the
                           component's own ones, or declarations replacing the class's
     hidden : tuple        Component fields not given in the file (set by the factory)
-    factory : callable    ``factory(name=..., **parameters, **context)`` -> the component;
-                          None: the class itself. It gets every declared parameter (the
-                          declared default where the file gives none) and, for a type with
-                          flow terms (a ``terms`` field), ``terms``
+    factory : callable    ``factory(name=..., **parameters, **context)`` -> the component,
+                          given every declared parameter (the declared default where the
+                          file gives none); None: the class itself, given the parameters the
+                          file gives. Either gets ``terms`` for a type with flow terms (a
+                          ``terms`` field)
     context : tuple       What it takes from the rig around it (names of :data:`CONTEXT`),
                           handed by keyword; None: the component class's ``context``
     levels : tuple        A command's values, in the SI unit and plausible range of its
@@ -245,6 +247,10 @@ class ComponentType:
     context: tuple | None = None
     levels: tuple = ()
 
+    def __post_init__(self):
+        # what the declarations give, made once per type (a build asks for each component)
+        object.__setattr__(self, "_declared", {})
+
     @property
     def needs(self) -> tuple:
         """What the type takes from the rig around it (names of :data:`CONTEXT`)."""
@@ -254,7 +260,11 @@ class ComponentType:
     @property
     def takes_terms(self) -> bool:
         """True for a type summing signed flow terms (its component has a ``terms`` field)."""
-        return any(f.name == "terms" for f in dataclasses.fields(self.component))
+        known = self._declared.get("terms")
+        if known is None:
+            known = self._declared["terms"] = any(f.name == "terms"
+                                                  for f in dataclasses.fields(self.component))
+        return known
 
     def make(self, name: str, **kwargs):
         """The component: its factory (or class) called with ``name`` and ``kwargs``.
@@ -267,26 +277,32 @@ class ComponentType:
         return (self.factory or self.component)(name=name, **kwargs)
 
     def declarations(self, values: dict | None = None) -> dict:
-        """Every parameter a file may give for this type, name -> Parameter; a command's
-        levels (initial, final, offset, amplitude, slope) in the SI unit and plausible range
-        of its ``quantity`` (:data:`QUANTITY_PLAUSIBLE`).
+        """Every parameter a file may give for this type, name -> Parameter (a read-only
+        mapping); a command's levels (initial, final, offset, amplitude, slope) in the SI unit
+        and plausible range of its ``quantity`` (:data:`QUANTITY_PLAUSIBLE`).
 
         Parameters
         ----------
         values : dict  The component's values as given (its ``quantity``); None: the defaults
         """
-        own = {k: v for k, v in self.component.parameters().items() if k not in self.hidden}
-        out = {**own, **self.parameters}
-        q = (values or {}).get("quantity", "current")
-        if self.levels and q in QUANTITY_UNIT:
-            unit, top = QUANTITY_UNIT[q], QUANTITY_PLAUSIBLE[q]
-            for key in self.levels + ("slope",):
-                if key in out:
-                    rate = key == "slope"
-                    top_k = top / FASTEST_RAMP if rate else top
-                    out[key] = dataclasses.replace(out[key], unit=unit + "/s" if rate else unit,
-                                                   plausible=(-top_k, top_k))
-        return out
+        q = (values or {}).get("quantity", "current") if self.levels else None
+        known = self._declared.get(("parameters", q))
+        if known is None:
+            own = {k: v for k, v in self.component.parameters().items() if k not in self.hidden}
+            known = {**own, **self.parameters}
+            if q in QUANTITY_UNIT:
+                unit, top = QUANTITY_UNIT[q], QUANTITY_PLAUSIBLE[q]
+                for key in self.levels + ("slope",):
+                    if key in known:
+                        rate = key == "slope"
+                        top_k = top / FASTEST_RAMP if rate else top
+                        known[key] = dataclasses.replace(
+                            known[key], unit=unit + "/s" if rate else unit,
+                            plausible=(-top_k, top_k))
+            known = MappingProxyType(known)
+            if len(self._declared) < 64:     # (bounded: a quantity may be any text)
+                self._declared[("parameters", q)] = known
+        return known
 
     def unit_of(self, key: str, values: dict) -> str | None:
         """SI unit of a parameter (a command's values take its ``quantity``'s); None if unknown.
