@@ -20,11 +20,13 @@ can violate (pressures absolute and positive, pre-charge below the line pressure
 inside the cylinder) are checked by :func:`hydroline.system.validate_rig` and cannot be
 overridden.
 
-Units, descriptions and plausible ranges of parameters that belong to a component live on the
-component's declaration (``parameter(..., plausible=(low, high))``, :class:`hydroline.engine.
-Parameter`); this table only adds how the template rig uses them (default, scope) and declares
-the template's own parameters (supply and tank pressure, dead volume, scenarios). Circuit files
-are checked against the same declarations (:func:`hydroline.circuit.builder`).
+Units, descriptions, plausible ranges and defaults of parameters that belong to a component
+live on the component's declaration (``parameter(default, ..., plausible=(low, high))``,
+:class:`hydroline.engine.Parameter`); this table only adds how the template rig uses them
+(scope; whether a rig must give one, or a default taken from another path) and declares the
+template's own parameters (supply and tank pressure, dead volume, scenarios). Circuit files and
+the circuit the template expands into (:mod:`hydroline.rigs.template`) are checked against the
+same declarations (:func:`hydroline.circuit.build_components`).
 """
 from __future__ import annotations
 
@@ -182,9 +184,10 @@ class DerivedTable(Mapping):
 
 
 #: path -> Parameter, for every numeric parameter of a rig (text parameters and the optional
-#: pressure profiles are checked where they are read, hydroline.system). Entries marked
-#: :class:`Declared` take unit, description and plausible range from the component's own
-#: declaration; the others exist only in the template rig (pressures, dead volume, scenarios).
+#: pressure profiles are checked where they are read, hydroline.rigs.template). Entries marked
+#: :class:`Declared` take unit, description, plausible range and (with
+#: :data:`COMPONENT_DEFAULT`) default from the component's own declaration; the others exist
+#: only in the template rig (pressures, dead volume, scenarios).
 PARAMETERS: Mapping = DerivedTable({
     "rig.allow_implausible": Parameter("str", None, None, "parameters allowed outside their "
                                        "plausible range", None),
