@@ -17,7 +17,7 @@ DATA = Path(__file__).parent / "data"
 
 
 def test_paper_rig_written_as_circuit_equals_the_template():
-    """The default rig (compact template, system._build) and the same rig written component by
+    """The default rig (compact template, rigs.template.expand) and the same rig written component by
     component in tests/data/ayalew2005_circuit.toml give the same run: port pressures and
     piston velocity of the 50 mA step within the solver tolerance (rtol 1e-6: 6e-3 % of the
     excursion, README), here 1e-4 of each trace's excursion."""

@@ -14,7 +14,7 @@ from hydroline.engine import Network
 from hydroline.rigs import load_rig
 from hydroline.scenarios import build_scenario, simulate, summarize
 from hydroline.engine import integrate, solve_steady_state
-from hydroline.system import build_network, hose_lines
+from hydroline.system import build_circuit, build_network, hose_lines
 from pathlib import Path
 
 
@@ -153,7 +153,7 @@ def test_linearised_natural_frequency_with_ideal_supply():
     rig.set("actuator.gravity", "0 m/s^2")
     for k in ("viscous_up", "viscous_down"):
         rig.set(f"friction.{k}", "0 N*s/m")
-    act = hydroline.system.make_actuator(rig, position_guess=0.0)
+    act = build_circuit(rig, position_guess=0.0).component("actuator")   # the rig's, at mid-stroke
     parts = [
         comp.PressureSource(name="supply", pressure=20.7e6, connections={"pressure": "supply_port_pressure"}),
         comp.PressureSource(name="tank", pressure=1e6, connections={"pressure": "return_port_pressure"}),

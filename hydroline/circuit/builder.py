@@ -36,15 +36,15 @@ import numpy as np
 
 from .. import components as comp
 from ..fluid import Fluid
-from ..lines import DEFAULT_LINE_METHOD, Line, ModalLine
 from ..engine import Network, NetworkError
 from ..engine.network import connection_table
-from .types import COMPONENT_TYPES, QUANTITY_UNIT, CircuitError
+from .types import COMPONENT_TYPES, CONTEXT, QUANTITY_UNIT, RIG_SETTINGS, CircuitError
 from .wiring import check_self_loops, check_wiring
 
-__all__ = ["Axis", "Circuit", "axes_of", "check_circuit", "check_circuit_value",
-           "check_component_name", "circuit_components", "circuit_names", "has_circuit",
-           "parse_circuit_value", "rewire", "MAX_NAME_LENGTH"]
+__all__ = ["Axis", "Circuit", "ComponentSpec", "axes_of", "build_components", "check_circuit",
+           "check_circuit_value", "check_component_name", "circuit_components",
+           "circuit_names", "circuit_specs", "has_circuit", "parse_circuit_value", "rewire",
+           "rig_fluid", "MAX_NAME_LENGTH"]
 
 PREFIX = "circuit."
 #: Longest component name, [characters]: a name labels messages, result columns and figures.
@@ -113,7 +113,7 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
                                f"signal, e.g. \"supply_port_pressure\"; got {raw_value!r}")
         return raw_value
     if key.startswith("terms."):
-        if ctype.name not in ("volume", "junction"):
+        if not ctype.takes_terms:
             raise CircuitError(f"{path}: component '{name}' ({ctype.name}) has no flow terms "
                                f"(only a volume or a junction sums signed flows)")
         if raw_value not in (1, -1):
@@ -340,34 +340,86 @@ def rewire(parts: list, overrides: dict, allow_unknown: bool = False):
         c.connections = dict(c.connections, **{port: signal})
 
 
-def _fluid(rig) -> Fluid:
+def rig_fluid(rig) -> Fluid:
+    """The rig's oil (``[fluid]``: density, kinematic viscosity, bulk modulus).
+
+    Parameters
+    ----------
+    rig : Rig   Parameters (SI)
+
+    Returns
+    -------
+    Fluid
+
+    Raises
+    ------
+    CircuitError  One line naming the fluid parameter at fault
+    """
     try:
         return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"])
     except ValueError as e:
         raise CircuitError(f"fluid: {e}") from None
 
 
-def _table(values: dict, name: str, sub: str) -> dict:
-    head = f"{PREFIX}{name}.{sub}."
-    return {k[len(head):]: v for k, v in values.items() if k.startswith(head)}
+@dataclass
+class ComponentSpec:
+    """One component of a circuit before it is made: what a ``[circuit.<name>]`` table says.
+
+    Attributes
+    ----------
+    name : str          Component name
+    type : str          Its type, a key of :data:`~hydroline.circuit.types.COMPONENT_TYPES`
+    params : dict       Parameter -> value as given, [SI]; the others take the type's defaults
+    ports : dict        Port -> the signal it is joined to
+    terms : dict        Flow term -> sign (+1 in, -1 out), for a volume or a junction
+    table : str         Where the component is written, for messages: ``circuit.<name>``
+                        (a circuit file), or a template rig's section (``supply.section1``)
+    paths : dict        Parameter -> the rig path its value was written at, where that is not
+                        ``<table>.<parameter>`` (a template value read from another section)
+    derived : frozenset Parameters computed from other values (a hose's nominal pressure from
+                        the supply pressure): held to their bounds, not to their plausible
+                        range (the values they come from are)
+    """
+
+    name: str
+    type: str
+    params: dict = field(default_factory=dict)
+    ports: dict = field(default_factory=dict)
+    terms: dict = field(default_factory=dict)
+    table: str = ""
+    paths: dict = field(default_factory=dict)
+    derived: frozenset = frozenset()
+
+    def path(self, key: str) -> str:
+        """The rig path of a parameter, as messages name it.
+
+        Parameters
+        ----------
+        key : str   Parameter name
+        """
+        return self.paths.get(key) or f"{self.table or PREFIX + self.name}.{key}"
 
 
-def _check_declared(rig, name: str, ctype, decls: dict, key: str, v, allowed) -> None:
+def _check_declared(rig, spec: ComponentSpec, ctype, decls: dict, key: str, v, allowed) -> None:
     """A component's parameter against its type's declaration (``decls``): bounds, then the
-    plausible range (unless the path is in ``allowed``); one line, CircuitError, naming it."""
-    if key not in decls:
+    plausible range (unless the path is in ``allowed`` or the value is derived); one line,
+    CircuitError, naming the parameter's rig path."""
+    decl = decls.get(key)
+    if decl is None:
         return
-    head = f"{PREFIX}{name}."
-    unit = f" [{decls[key].unit_text}]" if decls[key].unit_text else ""
-    rule = decls[key].violation(v)
+    rule = decl.violation(v)
+    implausible = None if rule is not None or key in spec.derived else decl.implausible(v)
+    if rule is None and implausible is None:
+        return
+    path = spec.path(key)
+    unit = f" [{decl.unit_text}]" if decl.unit_text else ""
     if rule is not None:
-        raise CircuitError(f"{head}{key}: must be {rule}{unit}, got "
-                           f"{rig.raw.get(head + key, v)!r} (component '{name}', {ctype.name})")
-    implausible = decls[key].implausible(v)
-    if implausible is not None and f"{head}{key}" not in allowed:
-        raise CircuitError(f"{head}{key}: {rig.raw.get(head + key, v)!r} is outside its "
-                           f"plausible range, {implausible}{unit} ({decls[key].description}); "
-                           f"if it is meant, add \"{head}{key}\" to [rig] allow_implausible")
+        raise CircuitError(f"{path}: must be {rule}{unit}, got {rig.raw.get(path, v)!r} "
+                           f"(component '{spec.name}', {ctype.name})")
+    if path not in allowed:
+        raise CircuitError(f"{path}: {rig.raw.get(path, v)!r} is outside its plausible range, "
+                           f"{implausible}{unit} ({decl.description}); if it is meant, "
+                           f"add \"{path}\" to [rig] allow_implausible")
 
 
 def _component_params(values: dict, name: str) -> dict:
@@ -396,8 +448,49 @@ def check_circuit_value(rig, path: str) -> None:
     ctype = COMPONENT_TYPES[rig.values[f"{PREFIX}{name}.type"]]
     if path in rig.values and "." not in key:
         params = _component_params(rig.values, name)
-        _check_declared(rig, name, ctype, ctype.declarations(params), key, rig.values[path],
+        spec = ComponentSpec(name, ctype.name, params, table=PREFIX + name)
+        _check_declared(rig, spec, ctype, ctype.declarations(params), key, rig.values[path],
                         set(rig.get("rig.allow_implausible") or []))
+
+
+def circuit_specs(rig) -> list[ComponentSpec]:
+    """The components of a rig's ``[circuit.*]`` tables, in file order, before they are made.
+
+    Parameters
+    ----------
+    rig : Rig   A rig whose values hold a circuit (SI)
+
+    Returns
+    -------
+    list of ComponentSpec
+
+    Raises
+    ------
+    CircuitError  When the rig has no ``[circuit.<name>]`` table with a type
+    """
+    values = rig.values
+    names = circuit_names(values)
+    if not names:
+        raise CircuitError(f"rig {rig.source}: no [circuit.<name>] table with a type")
+    specs = {n: ComponentSpec(n, values[f"{PREFIX}{n}.type"], table=PREFIX + n) for n in names}
+    for path, v in values.items():      # one pass: each value to the component holding it
+        if not path.startswith(PREFIX):
+            continue
+        parts = path[len(PREFIX):].split(".")
+        for i in range(len(parts) - 1, 0, -1):   # the longest component name it starts with
+            spec = specs.get(".".join(parts[:i]))
+            if spec is not None:
+                break
+        else:
+            continue
+        key = parts[i:]
+        if len(key) == 1 and key[0] != "type":
+            spec.params[key[0]] = v
+        elif len(key) == 2 and key[0] == "ports":
+            spec.ports[key[1]] = v
+        elif len(key) == 2 and key[0] == "terms":
+            spec.terms[key[1]] = v
+    return list(specs.values())
 
 
 def circuit_components(rig, overrides: dict | None = None) -> Circuit:
@@ -413,51 +506,150 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     -------
     Circuit
     """
-    fluid = _fluid(rig)
-    values = rig.values
-    names = circuit_names(values)
-    if not names:
-        raise CircuitError(f"rig {rig.source}: no [circuit.<name>] table with a type")
-    specs = {}
+    return build_components(rig, circuit_specs(rig), overrides)
+
+
+#: How the builder reads each :data:`~hydroline.circuit.types.CONTEXT` entry from a rig.
+_CONTEXT_READERS = {
+    "fluid": rig_fluid,
+    "modes_per_section": lambda rig: int(rig.get("rig.modes_per_section",
+                                                 RIG_SETTINGS["modes_per_section"].default)),
+    "line_method": lambda rig: rig.get("rig.line_method", RIG_SETTINGS["line_method"].default),
+    "folder": lambda rig: None if rig.source.startswith("embedded:") else Path(rig.source).parent,
+}
+assert set(_CONTEXT_READERS) == set(CONTEXT)
+
+
+class _Context:
+    """What components take from the rig around them, each read once when first asked for."""
+
+    def __init__(self, rig):
+        self.rig, self.known = rig, {}
+
+    def __getitem__(self, key):
+        if key not in self.known:
+            reader = _CONTEXT_READERS.get(key)
+            if reader is None:
+                raise CircuitError(f"context {key!r}: not something a circuit gives its "
+                                   f"components (known: {', '.join(CONTEXT)})")
+            self.known[key] = reader(self.rig)
+        return self.known[key]
+
+
+def _add_to_others(specs: list, types: list, params: dict):
+    """Values components add to others' parameters before they are made (a component class's
+    ``adds_to``: a load's mass to the moving mass of the actuator whose position it reads)."""
+    for spec, ctype in zip(specs, types):
+        for own, port, target in getattr(ctype.component, "adds_to", ()):
+            value = params[spec.name].get(own)
+            signal = spec.ports.get(port)
+            if not value or signal is None:
+                continue
+            for other, otype in zip(specs, types):
+                if other is spec or not any(sig == signal and p in otype.component.outputs
+                                            for p, sig in other.ports.items()):
+                    continue
+                decl = otype.declarations().get(target)
+                if decl is not None:
+                    host = params[other.name]
+                    host[target] = host.get(target, decl.default) + value
+                    break
+
+
+def _make(spec: ComponentSpec, ctype, params: dict, decls: dict, context: _Context):
+    """The component of a spec: its type's factory given every declared parameter (the
+    declared default where none is given), or its class given the parameters the spec gives
+    (the class has the same defaults); then what it takes from the rig around it, and its
+    flow terms."""
+    kwargs = {}
+    for key, v in params.items():       # (a list of quantities: a tuple, as declared)
+        kwargs[key] = tuple(v) if isinstance(v, list) and key in decls else v
+    if ctype.factory is not None:
+        for key, decl in decls.items():
+            if key in kwargs:
+                continue
+            if decl.default is not None:
+                kwargs[key] = decl.default
+            elif not decl.optional:
+                raise CircuitError(f"{spec.path(key)}: not given; a {ctype.name} needs it "
+                                   f"({decl.description})")
+    for key in ctype.needs:
+        kwargs[key] = context[key]
+    if ctype.takes_terms:
+        if not spec.terms:
+            raise CircuitError(f"{spec.table}.terms: a {ctype.name} needs its flow terms, e.g. "
+                               f"terms = {{ inflow = 1, outflow = -1 }}")
+        kwargs["terms"] = dict(spec.terms)
+    try:
+        return ctype.make(spec.name, **kwargs)
+    except CircuitError:
+        raise
+    except (ValueError, TypeError) as e:
+        text = str(e)
+        key = text.split(":", 1)[0]
+        if key in decls:                 # "diameter: must be > 0": named by its rig path
+            raise CircuitError(f"{spec.path(key)}{text[len(key):]}") from None
+        raise CircuitError(f"{spec.table} ({ctype.name}): {text}") from None
+
+
+def build_components(rig, specs: list, overrides: dict | None = None, *, wiring: bool = True,
+                     port_path: str = "circuit.{component}.ports.{port}",
+                     label: str = "circuit") -> Circuit:
+    """The circuit of component specs: each value held to its declaration, each component
+    made by its type with what it takes from the rig, each port checked, then the circuit's
+    own checks (:func:`check_circuit`).
+
+    Parameters
+    ----------
+    rig : Rig          The rig the specs come from (values as written, ``[rig]`` settings,
+                       the oil, ``allow_implausible``)
+    specs : list       :class:`ComponentSpec`, in the order the network takes them (its
+                       state order)
+    overrides : dict   "component.port" -> signal, applied after the ports (the rig's
+                       ``[connections]``)
+    wiring : bool      Run :func:`check_circuit` (the network's and the wiring checks)
+    port_path : str    How its messages name a port (``{component}``, ``{port}``)
+    label : str        What a message of the network's checks starts with
+
+    Returns
+    -------
+    Circuit
+
+    Raises
+    ------
+    CircuitError  One line naming the component, and its parameter or port, at fault
+    """
+    overrides = dict(overrides or {})
     allowed = set(rig.get("rig.allow_implausible") or [])
-    for name in names:
-        ctype = COMPONENT_TYPES[values[f"{PREFIX}{name}.type"]]
-        params = _component_params(values, name)
-        decls = ctype.declarations(params)   # (a command's levels: its quantity's range)
-        for key, v in params.items():   # the declared bounds, with the value as written
-            _check_declared(rig, name, ctype, decls, key, v, allowed)
-        specs[name] = (ctype, params, _table(values, name, "ports"), _table(values, name, "terms"))
-    # the load mass rides on the actuator whose position it reads (Load's docstring)
-    for name, (ctype, params, ports, _) in specs.items():
-        if ctype.name == "load" and params.get("mass"):
-            act = [n for n, (t, _, p, _) in specs.items()
-                   if t.name == "actuator" and p.get("position") == ports.get("position")]
-            if act:
-                ap = specs[act[0]][1]
-                ap["moving_mass"] = ap.get("moving_mass", comp.Actuator.parameters()["moving_mass"].default) \
-                    + params["mass"]
+    types, decls = [], []
+    for spec in specs:
+        ctype = COMPONENT_TYPES[spec.type]
+        d = ctype.declarations(spec.params)   # (a command's levels: its quantity's range)
+        for key, v in spec.params.items():   # the declared bounds, with the value as written
+            _check_declared(rig, spec, ctype, d, key, v, allowed)
+        types.append(ctype)
+        decls.append(d)
+    params = {spec.name: dict(spec.params) for spec in specs}
+    _add_to_others(specs, types, params)
+    context = _Context(rig)
     parts = []
-    for name, (ctype, params, ports, terms) in specs.items():
-        try:
-            c = _make(rig, fluid, name, ctype, dict(params), terms)
-        except CircuitError:
-            raise
-        except (ValueError, TypeError) as e:
-            raise CircuitError(f"circuit.{name} ({ctype.name}): {e}") from None
+    for spec, ctype, d in zip(specs, types, decls):
+        c = _make(spec, ctype, params[spec.name], d, context)
         have = list(c.inputs) + list(c.outputs)
-        for port in ports:
+        for port in spec.ports:
             if port not in have:
-                raise CircuitError(f"circuit.{name}.ports.{port}: component '{name}' ({ctype.name}) "
-                                   f"has no port '{port}' (ports: {', '.join(have)})")
+                raise CircuitError(f"{spec.table}.ports.{port}: component '{spec.name}' "
+                                   f"({ctype.name}) has no port '{port}' (ports: {', '.join(have)})")
         for port in have:
-            if port not in ports:
-                raise CircuitError(f"circuit.{name}.ports.{port}: port '{port}' of component "
-                                   f"'{name}' is not connected (list it in ports = {{...}})")
-        c.connections = dict(ports)
+            if port not in spec.ports:
+                raise CircuitError(f"{spec.table}.ports.{port}: port '{port}' of component "
+                                   f"'{spec.name}' is not connected (list it in ports = {{...}})")
+        c.connections = dict(spec.ports)
         parts.append(c)
-    rewire(parts, overrides or {}, allow_unknown=True)
-    circuit = Circuit(parts, axes_of(parts), rig.source, dict(overrides or {}))
-    check_circuit(parts, overrides or {}, "circuit.{component}.ports.{port}", "circuit")
+    rewire(parts, overrides, allow_unknown=True)
+    circuit = Circuit(parts, axes_of(parts), rig.source, overrides)
+    if wiring:
+        check_circuit(parts, overrides, port_path, label)
     return circuit
 
 
@@ -523,39 +715,3 @@ def experiment_placeholders(parts: list) -> list:
                 out.append(comp.StepCommand(name=f"experiment:{sig}", quantity=spec.quantity,
                                             connections={"command": sig}))
     return out
-
-
-def _make(rig, fluid, name, ctype, params, terms):
-    cls = ctype.component
-    if ctype.name == "hose":
-        line = Line(params["length"], params["diameter"], fluid, params.get("bulk_modulus"))
-        modes = params.get("modes", rig.get("rig.modes_per_section", 6))
-        if int(modes) != modes or modes < 1:
-            raise CircuitError(f"circuit.{name}.modes: must be an integer >= 1, got {modes!r}")
-        model = ModalLine(line, int(modes), params.get("form", "PQ"),
-                          method=params.get("method", rig.get("rig.line_method", DEFAULT_LINE_METHOD)))
-        return comp.HoseSection(name=name, model=model,
-                                nominal_pressure=params.get("nominal_pressure", 1e7))
-    if ctype.name == "accumulator":
-        conn = Line(params.pop("connection_length"), params.pop("connection_diameter"), fluid)
-        kind = params.pop("model", "version-II")
-        modes = params.pop("modes", rig.get("rig.modes_per_section", 6))
-        if kind == "modal":
-            return cls(name=name, connection_model=ModalLine(conn, int(modes), "PP"), **params)
-        return cls(name=name, resistance=conn.resistance, inertance=conn.inertance, **params)
-    if ctype.name in ("volume", "junction"):
-        if not terms:
-            raise CircuitError(f"circuit.{name}.terms: a {ctype.name} needs its flow terms, e.g. "
-                               f"terms = {{ inflow = 1, outflow = -1 }}")
-        if ctype.name == "volume":
-            params.setdefault("bulk_modulus", fluid.bulk_modulus)
-        return cls(name=name, terms=dict(terms), **params)
-    if ctype.name == "servovalve" and "laps" in params:
-        params["laps"] = tuple(params["laps"])
-    if ctype.name == "table_command":
-        path = Path(params.pop("file"))
-        if not path.is_absolute() and not rig.source.startswith("embedded:"):
-            path = Path(rig.source).parent / path
-        q = params.get("quantity", "current")
-        return cls.from_csv_with_units(path, QUANTITY_UNIT[q], name=name, quantity=q)
-    return cls(name=name, **params)

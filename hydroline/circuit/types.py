@@ -4,20 +4,29 @@ Each type names a component class of :mod:`hydroline.components` (whose dataclas
 declare unit, bounds, description and default, see :class:`hydroline.engine.Parameter`) or a
 small factory over one (a hose from its length and bore, an accumulator from its connection
 passage). Rig schemas, rig validation, circuit-file parsing and ``hydroline circuit`` read
-these tables; nothing else repeats a unit or a bound.
+these tables; nothing else repeats a unit, a bound or a default.
+
+What a component takes from the rig around it besides its own parameters (the oil, the rig's
+modes per hose section, ...: :data:`CONTEXT`) is declared by its type (``context``, else the
+component class's ``context``), and the builder hands each by name: a new component that
+needs the fluid declares ``context = ("fluid",)`` and a ``fluid`` field, nothing else.
 """
 from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Callable
 
 from .. import components as comp
 from ..engine.component import Parameter
-from ..lines import LINE_METHODS
+from ..lines import DEFAULT_LINE_METHOD, LINE_METHODS, Line, ModalLine
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
-           "ACCUMULATOR_CONNECTION_PARAMETERS", "CircuitError", "QUANTITY_UNIT",
-           "QUANTITY_PLAUSIBLE", "FASTEST_RAMP", "parameter_reference"]
+           "ACCUMULATOR_CONNECTION_PARAMETERS", "RIG_SETTINGS", "CONTEXT", "CircuitError",
+           "QUANTITY_UNIT", "QUANTITY_PLAUSIBLE", "FASTEST_RAMP", "parameter_reference",
+           "make_hose", "make_accumulator", "make_volume", "make_table_command"]
 
 
 class CircuitError(ValueError):
@@ -46,6 +55,27 @@ FLUID_PARAMETERS = {
                                      plausible=(3e-7, 1e-2)),
     "bulk_modulus": Parameter("Pa", "beta of the oil (M2)", 0.0, exclusive_minimum=True,
                               plausible=(1e8, 5e9)),
+}
+
+#: The rig-wide settings a component may take (``[rig]``, see :data:`CONTEXT`), with their
+#: defaults: declared here once.
+RIG_SETTINGS = {
+    "modes_per_section": Parameter("-", "modes per hose section (M8)", 1.0, default=6,
+                                   plausible=(1, 40)),
+    "line_method": Parameter("str", "modal line of every hose: exact residues or the paper's "
+                             "Yang-Tobler corrections", choices=LINE_METHODS,
+                             default=DEFAULT_LINE_METHOD),
+}
+
+#: What a component may take from the rig around it: name -> what the circuit builder hands
+#: it under that keyword (a type's ``context``, or its component class's ``context``).
+CONTEXT = {
+    "fluid": "the rig's oil, a hydroline.fluid.Fluid ([fluid]: density, kinematic viscosity, "
+             "bulk modulus)",
+    "modes_per_section": "[rig] modes_per_section, an int [-]",
+    "line_method": "[rig] line_method, one of " + ", ".join(LINE_METHODS),
+    "folder": "the folder of the rig file, a pathlib.Path (None for a rig shipped with the "
+              "package): files a component names are read relative to it",
 }
 
 #: A hose section (docs/model.md 2): the line (M2-M4) and its modal model (M8-M15).
@@ -78,8 +108,111 @@ ACCUMULATOR_CONNECTION_PARAMETERS = {
                        plausible=(1, 40)),
 }
 
-_COMMAND_KEYS = {"step_command": ("initial", "final"), "sine_command": ("offset", "amplitude"),
-                 "ramp_command": ("initial",), "table_command": ()}
+def _integer_modes(modes, modes_per_section) -> int:
+    """A line's modes: its own, else the rig's; ValueError naming ``modes`` unless a whole
+    number >= 1."""
+    n = modes_per_section if modes is None else modes
+    if int(n) != n or n < 1:
+        raise ValueError(f"modes: must be an integer >= 1, got {n!r}")
+    return int(n)
+
+
+def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=None, modes=None,
+              method=None, fluid, modes_per_section, line_method):
+    """A hose section from its dimensions: the modal line (M8-M15) of a
+    :class:`~hydroline.lines.Line` of the rig's oil (the ``hose`` type's factory).
+
+    Parameters
+    ----------
+    name : str                 Component name
+    length : float             L, [m]
+    diameter : float           Bore, [m]
+    form : str                 Causal form ("PQ", "QP", "PP", "QQ")
+    nominal_pressure : float   Mean pressure: state scale and steady-state guess, [Pa]
+    bulk_modulus : float       Effective bulk modulus of oil and wall, [Pa]; the oil's when None
+    modes : int                Modes of the line; ``modes_per_section`` when None
+    method : str               Modal line method; ``line_method`` when None
+    fluid : Fluid              The rig's oil
+    modes_per_section : int    The rig's modes per hose section
+    line_method : str          The rig's modal line method
+
+    Returns
+    -------
+    HoseSection
+    """
+    line = Line(length, diameter, fluid, bulk_modulus)
+    model = ModalLine(line, _integer_modes(modes, modes_per_section), form,
+                      method=line_method if method is None else method)
+    return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure)
+
+
+def make_accumulator(*, name, connection_length, connection_diameter, model, modes=None, fluid,
+                     modes_per_section, **params):
+    """A piston accumulator on its connection passage (M18): version II (the passage's R_a and
+    I_a) or a modal PP line (the ``accumulator`` type's factory).
+
+    Parameters
+    ----------
+    name : str                   Component name
+    connection_length : float    Length of the passage node -> accumulator, [m]
+    connection_diameter : float  Its bore, [m]
+    model : str                  "version-II" or "modal"
+    modes : int                  Modes of the modal passage; ``modes_per_section`` when None
+    fluid : Fluid                The rig's oil
+    modes_per_section : int      The rig's modes per hose section
+    **params                     The accumulator's own parameters (capacity, ...)
+
+    Returns
+    -------
+    PistonAccumulator
+    """
+    conn = Line(connection_length, connection_diameter, fluid)
+    if model == "modal":
+        line = ModalLine(conn, _integer_modes(modes, modes_per_section), "PP")
+        return comp.PistonAccumulator(name=name, connection_model=line, **params)
+    return comp.PistonAccumulator(name=name, resistance=conn.resistance, inertance=conn.inertance,
+                                  **params)
+
+
+def make_volume(*, name, bulk_modulus=None, fluid, **params):
+    """A lumped oil volume whose bulk modulus is the rig's oil's unless given (the ``volume``
+    type's factory).
+
+    Parameters
+    ----------
+    name : str             Component name
+    bulk_modulus : float   beta of the oil in it, [Pa]; the fluid's when None
+    fluid : Fluid          The rig's oil
+    **params               The volume's other parameters (volume, terms, ...)
+
+    Returns
+    -------
+    HydraulicVolume
+    """
+    return comp.HydraulicVolume(name=name, bulk_modulus=fluid.bulk_modulus if bulk_modulus is None
+                                else bulk_modulus, **params)
+
+
+def make_table_command(*, name, file, quantity, folder):
+    """A command from a CSV table with units in its header (the ``table_command`` type's
+    factory).
+
+    Parameters
+    ----------
+    name : str        Component name
+    file : str        CSV file, relative to ``folder`` unless absolute
+    quantity : str    What the command drives (its values in that quantity's SI unit)
+    folder : Path     The rig file's folder; None: ``file`` as given
+
+    Returns
+    -------
+    TableCommand
+    """
+    path = Path(file)
+    if folder is not None and not path.is_absolute():
+        path = Path(folder) / path
+    return comp.TableCommand.from_csv_with_units(path, QUANTITY_UNIT[quantity], name=name,
+                                                 quantity=quantity)
 
 
 @dataclass(frozen=True)
@@ -92,8 +225,17 @@ class ComponentType:
     component : type      Component class built
     description : str     One line for ``hydroline circuit`` and the docs
     parameters : dict     Extra file parameters (name -> Parameter) a factory turns into the
-                          component's own ones
-    hidden : tuple        Component fields not given in the file (set by the builder)
+                          component's own ones, or declarations replacing the class's
+    hidden : tuple        Component fields not given in the file (set by the factory)
+    factory : callable    ``factory(name=..., **parameters, **context)`` -> the component,
+                          given every declared parameter (the declared default where the
+                          file gives none); None: the class itself, given the parameters the
+                          file gives. Either gets ``terms`` for a type with flow terms (a
+                          ``terms`` field)
+    context : tuple       What it takes from the rig around it (names of :data:`CONTEXT`),
+                          handed by keyword; None: the component class's ``context``
+    levels : tuple        A command's values, in the SI unit and plausible range of its
+                          ``quantity`` (:data:`QUANTITY_PLAUSIBLE`; ``slope`` per second)
     """
 
     name: str
@@ -101,28 +243,66 @@ class ComponentType:
     description: str
     parameters: dict = field(default_factory=dict)
     hidden: tuple = ()
+    factory: Callable | None = None
+    context: tuple | None = None
+    levels: tuple = ()
+
+    def __post_init__(self):
+        # what the declarations give, made once per type (a build asks for each component)
+        object.__setattr__(self, "_declared", {})
+
+    @property
+    def needs(self) -> tuple:
+        """What the type takes from the rig around it (names of :data:`CONTEXT`)."""
+        return tuple(self.context if self.context is not None
+                     else getattr(self.component, "context", ()))
+
+    @property
+    def takes_terms(self) -> bool:
+        """True for a type summing signed flow terms (its component has a ``terms`` field)."""
+        known = self._declared.get("terms")
+        if known is None:
+            known = self._declared["terms"] = any(f.name == "terms"
+                                                  for f in dataclasses.fields(self.component))
+        return known
+
+    def make(self, name: str, **kwargs):
+        """The component: its factory (or class) called with ``name`` and ``kwargs``.
+
+        Parameters
+        ----------
+        name : str   Component name
+        **kwargs     Its parameters, context and terms
+        """
+        return (self.factory or self.component)(name=name, **kwargs)
 
     def declarations(self, values: dict | None = None) -> dict:
-        """Every parameter a file may give for this type, name -> Parameter; a command's
-        levels (initial, final, offset, amplitude, slope) in the SI unit and plausible range
-        of its ``quantity`` (:data:`QUANTITY_PLAUSIBLE`).
+        """Every parameter a file may give for this type, name -> Parameter (a read-only
+        mapping); a command's levels (initial, final, offset, amplitude, slope) in the SI unit
+        and plausible range of its ``quantity`` (:data:`QUANTITY_PLAUSIBLE`).
 
         Parameters
         ----------
         values : dict  The component's values as given (its ``quantity``); None: the defaults
         """
-        own = {k: v for k, v in self.component.parameters().items() if k not in self.hidden}
-        out = {**own, **self.parameters}
-        q = (values or {}).get("quantity", "current")
-        if self.name in _COMMAND_KEYS and q in QUANTITY_UNIT:
-            unit, top = QUANTITY_UNIT[q], QUANTITY_PLAUSIBLE[q]
-            for key in _COMMAND_KEYS[self.name] + ("slope",):
-                if key in out:
-                    rate = key == "slope"
-                    top_k = top / FASTEST_RAMP if rate else top
-                    out[key] = dataclasses.replace(out[key], unit=unit + "/s" if rate else unit,
-                                                   plausible=(-top_k, top_k))
-        return out
+        q = (values or {}).get("quantity", "current") if self.levels else None
+        known = self._declared.get(("parameters", q))
+        if known is None:
+            own = {k: v for k, v in self.component.parameters().items() if k not in self.hidden}
+            known = {**own, **self.parameters}
+            if q in QUANTITY_UNIT:
+                unit, top = QUANTITY_UNIT[q], QUANTITY_PLAUSIBLE[q]
+                for key in self.levels + ("slope",):
+                    if key in known:
+                        rate = key == "slope"
+                        top_k = top / FASTEST_RAMP if rate else top
+                        known[key] = dataclasses.replace(
+                            known[key], unit=unit + "/s" if rate else unit,
+                            plausible=(-top_k, top_k))
+            known = MappingProxyType(known)
+            if len(self._declared) < 64:     # (bounded: a quantity may be any text)
+                self._declared[("parameters", q)] = known
+        return known
 
     def unit_of(self, key: str, values: dict) -> str | None:
         """SI unit of a parameter (a command's values take its ``quantity``'s); None if unknown.
@@ -136,10 +316,12 @@ class ComponentType:
         return None if decl is None else decl.unit
 
 
-def _cmd(cls, **extra):
-    return {"quantity": Parameter("str", "what the command drives", choices=tuple(QUANTITY_UNIT),
-                                  default="current"), **extra}
-
+_FLUID = ("fluid",)
+_LINES = ("fluid", "modes_per_section", "line_method")
+#: A volume's bulk modulus: the oil's unless given.
+_VOLUME_BULK_MODULUS = dataclasses.replace(
+    comp.HydraulicVolume.parameters()["bulk_modulus"], optional=True, default=None,
+    description="beta of the oil in it; the fluid's when absent")
 
 COMPONENT_TYPES = {t.name: t for t in (
     ComponentType("pressure_source", comp.PressureSource,
@@ -147,25 +329,29 @@ COMPONENT_TYPES = {t.name: t for t in (
     ComponentType("pump", comp.Pump, "positive-displacement pump, fixed or pressure compensated"),
     ComponentType("relief_valve", comp.ReliefValve, "pressure-relief valve, cracking + linear override"),
     ComponentType("hose", comp.HoseSection, "hose section, modal transmission line (M8-M15)",
-                  parameters=HOSE_PARAMETERS, hidden=("nominal_pressure",)),
+                  parameters=HOSE_PARAMETERS, hidden=("nominal_pressure",), factory=make_hose,
+                  context=_LINES),
     ComponentType("resistance", comp.LinearResistance, "linear flow resistance dp = R q (M1)"),
     ComponentType("check_valve", comp.CheckValve, "check valve, small forward / large reverse R"),
-    ComponentType("volume", comp.HydraulicVolume, "lumped oil volume, dp/dt = beta/V sum q"),
+    ComponentType("volume", comp.HydraulicVolume, "lumped oil volume, dp/dt = beta/V sum q",
+                  parameters={"bulk_modulus": _VOLUME_BULK_MODULUS}, factory=make_volume,
+                  context=_FLUID),
     ComponentType("junction", comp.FlowJunction, "volume-free node, flow = sum of signed flows"),
     ComponentType("accumulator", comp.PistonAccumulator, "gas-charged piston accumulator (M16-M18)",
                   parameters=ACCUMULATOR_CONNECTION_PARAMETERS,
-                  hidden=("resistance", "inertance", "connection_model")),
+                  hidden=("resistance", "inertance", "connection_model"),
+                  factory=make_accumulator, context=("fluid", "modes_per_section")),
     ComponentType("servovalve", comp.Servovalve, "four-way two-stage servovalve (M19-M21)"),
     ComponentType("actuator", comp.Actuator, "double-ended actuator, compressible chambers (M22-M23)"),
     ComponentType("friction", comp.StribeckFriction, "piston friction, Stribeck or LuGre (M24)"),
     ComponentType("load", comp.Load, "specimen spring/damper and applied force on the rod"),
     ComponentType("position_controller", comp.PositionController, "P/PID position controller"),
-    ComponentType("step_command", comp.StepCommand, "step command", _cmd(comp.StepCommand)),
-    ComponentType("sine_command", comp.SineCommand, "sine command", _cmd(comp.SineCommand)),
-    ComponentType("ramp_command", comp.RampCommand, "ramp command", _cmd(comp.RampCommand)),
+    ComponentType("step_command", comp.StepCommand, "step command", levels=("initial", "final")),
+    ComponentType("sine_command", comp.SineCommand, "sine command", levels=("offset", "amplitude")),
+    ComponentType("ramp_command", comp.RampCommand, "ramp command", levels=("initial",)),
     ComponentType("table_command", comp.TableCommand, "command from a CSV table",
-                  _cmd(comp.TableCommand, file=Parameter("str", "CSV with units in its header")),
-                  hidden=("times", "values")),
+                  {"file": Parameter("str", "CSV with units in its header")},
+                  hidden=("times", "values"), factory=make_table_command, context=("folder",)),
 )}
 
 
@@ -203,7 +389,7 @@ def parameter_reference() -> str:
             unit = {"-": "-", "str": "text"}.get(d.unit, d.unit)
             plausible = "-" if d.plausible is None else " ... ".join(
                 "" if v is None else f"{v:g}" for v in d.plausible)
-            if name in _COMMAND_KEYS and key in _COMMAND_KEYS[name] + ("slope",):
+            if key in t.levels + ("slope",) and t.levels:
                 unit, plausible = "of quantity", "by quantity"
             lines.append(f"| `{key}` | {unit} | {d.rule()} | {plausible} | {_fmt_default(d)} "
                          f"| {d.description} |")

@@ -72,9 +72,11 @@ class HoseSection(Component):
         #: (matrix, row, column) of each nonzero entry, when they are runtime parameters
         self.coefficient_pattern = None
         if COEFFICIENTS_AS_PARAMETERS:
-            self.coefficient_pattern = tuple(
-                (name, int(i), int(j)) for name in _MATRICES
-                for i, j in zip(*np.nonzero(np.asarray(getattr(m, name), dtype=float))))
+            pattern = []
+            for name in _MATRICES:
+                rows, cols = np.nonzero(np.asarray(getattr(m, name), dtype=float))
+                pattern += zip([name] * len(rows), rows.tolist(), cols.tolist())
+            self.coefficient_pattern = tuple(pattern)
         scale_p, scale_q = max(self.nominal_pressure, 1e5), 1e-4
         self._states = []
         for name in m.state_names:

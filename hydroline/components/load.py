@@ -14,8 +14,8 @@ class Load(Component):
     """Force of the load on the piston, positive down (opposing +x).
 
     ``F = k (x - x_free) + b v + F_applied`` (and ``F_step`` after ``step_time``). The load
-    mass is rigidly attached and is part of the actuator's ``moving_mass`` (the rig builder
-    adds it), so its weight is in (M23)'s ``m g``.
+    mass is rigidly attached and is part of the moving mass of the actuator whose position
+    it reads (``adds_to``: the circuit builder adds it), so its weight is in (M23)'s ``m g``.
 
     Parameters
     ----------
@@ -48,6 +48,7 @@ class Load(Component):
     inputs = {"position": Port("position", "piston position"),
               "velocity": Port("velocity", "piston velocity")}
     outputs = {"load_force": Port("force", "force of the load, positive down")}
+    adds_to = (("mass", "position", "moving_mass"),)
 
     def __post_init__(self):
         self.check_parameters()

@@ -275,6 +275,16 @@ class Component:
     source_ends = ()
     #: Zero-order-hold period of a sampled component, [s]; None for a continuous one
     sample_time = None
+    #: What the component takes from the rig around it besides its parameters, by name
+    #: (``hydroline.circuit.types.CONTEXT``: "fluid", "modes_per_section", "line_method",
+    #: "folder"): the circuit builder passes each as the keyword argument of that name (a
+    #: component that needs the oil declares ``context = ("fluid",)`` and a ``fluid`` field)
+    context = ()
+    #: Values the component adds to another component's parameter before either is made:
+    #: ``(own parameter, own input port, the other's parameter)``, the other being the one
+    #: that outputs the signal of that port (a load's mass rides on the actuator whose
+    #: position it reads)
+    adds_to = ()
 
     # ---- parameters ----------------------------------------------------------------------
     @classmethod

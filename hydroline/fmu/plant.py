@@ -24,6 +24,7 @@ from ..analysis.linearize import INPUTS as LINEAR_INPUTS
 from ..analysis.linearize import linear_network
 from ..components import CheckValve, LinearResistance
 from ..rigs import Rig, RigError
+from ..rigs.parameters import PARAMETERS
 from ..scenarios.experiments import SCENARIOS, build_scenario
 from ..engine import SteadyStateError, solve_steady_state
 from ..system import build_circuit, build_network
@@ -198,7 +199,7 @@ def _bind(plant: Plant, sym) -> list:
     if "actuator.bulk_modulus" in s:
         put(act, "bulk_modulus", s["actuator.bulk_modulus"])
     if "load.mass" in s:
-        mass = act.moving_mass - rig.get("load.mass", 0.0) + s["load.mass"]
+        mass = act.moving_mass - rig.get("load.mass", PARAMETERS["load.mass"].default) + s["load.mass"]
         put(act, "moving_mass", mass)
         put(act, "stop_damping", 2.0 * ca.sqrt(act.stop_stiffness * mass))   # as Actuator derives it
     load = net.component("load")
@@ -212,13 +213,13 @@ def _bind(plant: Plant, sym) -> list:
     if "supply.manifold.resistance" in s:
         put(net.component("supply.manifold"), "resistance", s["supply.manifold.resistance"])
     r_hsm = s.get("return.manifold.resistance", rig.get("return.manifold.resistance"))
-    r_cv = s.get("return.check_valve.forward_resistance",
-                 rig.get("return.check_valve.forward_resistance", 0.0))
+    path = "return.check_valve.forward_resistance"
+    r_cv = s.get(path, rig.get(path, PARAMETERS[path].default))
     manifold = net.component("return.manifold")
     if isinstance(manifold, LinearResistance):
         put(manifold, "resistance", r_hsm)
         put(net.component("return.check_valve"), "forward_resistance", r_cv)
-    else:   # section II removed: manifold loss and check valve are one check valve (system.py)
+    else:   # section II removed: manifold loss and check valve are one check valve (rigs/template.py)
         put(manifold, "forward_resistance", r_hsm + r_cv)
     return undo
 

@@ -9,12 +9,13 @@ units.
 
 Optional ``[supply.pressure_profile]`` / ``[return.pressure_profile]`` tables make the pump or
 tank pressure vary in time (step, sine, ramp about ``<side>.pressure``, or a CSV table of the
-absolute pressure); see :func:`hydroline.system.pressure_profile`.
+absolute pressure); see :func:`hydroline.rigs.template.pressure_profile`.
 
-A rig is either the template (the tables above) or a circuit (``[circuit.<name>]`` components,
-see :mod:`hydroline.circuit`; a file extending a circuit rig may remove, change and add
-components and place sub-circuits, :mod:`hydroline.circuit.compose`); a table the rig's kind
-does not read (a ``[supply]`` table in a circuit rig) is refused by name.
+A rig is either the template (the tables above; it expands into a circuit,
+:mod:`hydroline.rigs.template`) or a circuit (``[circuit.<name>]`` components, see
+:mod:`hydroline.circuit`; a file extending a rig may remove, change and add components and
+place sub-circuits, :mod:`hydroline.circuit.compose`); a table the rig's kind does not read (a
+``[supply]`` table in a circuit rig) is refused by name.
 
 An optional ``[connections]`` table rewires component ports to other signals, e.g.
 ``"servovalve.supply_pressure" = "pump_pressure"`` connects the valve straight to the pump
@@ -78,11 +79,12 @@ COMPONENT_SECTIONS = {
 
 def declarations(section: str) -> dict:
     """The declared parameters (:class:`hydroline.engine.Parameter`) of a template-rig section
-    that maps onto a component type or the fluid, key -> Parameter; {} for other sections.
+    that maps onto a component type, the fluid or the rig-wide settings components take,
+    key -> Parameter; {} for other sections.
 
     Parameters
     ----------
-    section : str   Section of the template rig, e.g. ``"fluid"``, ``"actuator"``
+    section : str   Section of the template rig, e.g. ``"fluid"``, ``"actuator"``, ``"rig"``
 
     Returns
     -------
@@ -90,9 +92,11 @@ def declarations(section: str) -> dict:
     """
     known = _DECLARATIONS.get(section)
     if known is None:     # the component classes' declarations do not change: made once
-        from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS
+        from ..circuit.types import COMPONENT_TYPES, FLUID_PARAMETERS, RIG_SETTINGS
         if section == "fluid":
             known = dict(FLUID_PARAMETERS)
+        elif section == "rig":
+            known = dict(RIG_SETTINGS)
         elif section not in COMPONENT_SECTIONS:
             known = {}
         else:

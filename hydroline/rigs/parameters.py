@@ -20,11 +20,13 @@ can violate (pressures absolute and positive, pre-charge below the line pressure
 inside the cylinder) are checked by :func:`hydroline.system.validate_rig` and cannot be
 overridden.
 
-Units, descriptions and plausible ranges of parameters that belong to a component live on the
-component's declaration (``parameter(..., plausible=(low, high))``, :class:`hydroline.engine.
-Parameter`); this table only adds how the template rig uses them (default, scope) and declares
-the template's own parameters (supply and tank pressure, dead volume, scenarios). Circuit files
-are checked against the same declarations (:func:`hydroline.circuit.builder`).
+Units, descriptions, plausible ranges and defaults of parameters that belong to a component
+live on the component's declaration (``parameter(default, ..., plausible=(low, high))``,
+:class:`hydroline.engine.Parameter`); this table only adds how the template rig uses them
+(scope; whether a rig must give one, or a default taken from another path) and declares the
+template's own parameters (supply and tank pressure, dead volume, scenarios). Circuit files and
+the circuit the template expands into (:mod:`hydroline.rigs.template`) are checked against the
+same declarations (:func:`hydroline.circuit.build_components`).
 """
 from __future__ import annotations
 
@@ -32,7 +34,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-__all__ = ["Parameter", "Declared", "DerivedTable", "PARAMETERS", "REQUIRED", "ATMOSPHERIC_PRESSURE",
+__all__ = ["Parameter", "Declared", "DerivedTable", "PARAMETERS", "REQUIRED", "COMPONENT_DEFAULT",
+           "ATMOSPHERIC_PRESSURE",
            "check_ranges", "check_consistency", "defaults_used", "allowed_implausible",
            "steady_state_hint", "MIN_GAS_FRACTION"]
 
@@ -42,6 +45,10 @@ MIN_GAS_FRACTION = 1e-3
 
 #: Marks a parameter without a default: a rig must give it.
 REQUIRED = "required"
+
+#: Marks a :class:`Declared` parameter whose default is its component's declared one (a rig
+#: that does not give it leaves the component's default in place: declared there, once).
+COMPONENT_DEFAULT = "component default"
 
 #: Standard atmosphere, [Pa]: the default gas-release pressure (oil that stood in a vented
 #: tank holds air dissolved at this pressure and starts releasing it below, Henry's law).
@@ -100,7 +107,7 @@ class Declared:
     Attributes
     ----------
     default : object      As for :class:`Parameter`: a number [unit], a dotted path, None or
-                          :data:`REQUIRED`
+                          :data:`REQUIRED`; :data:`COMPONENT_DEFAULT`: the declaration's
     scope : str           As for :class:`Parameter`: when the parameter changes a run
     zero_allowed : bool   As for :class:`Parameter`: 0 is accepted below the range
     integer : bool        As for :class:`Parameter`: the value must be a whole number
@@ -132,8 +139,9 @@ def _resolve(path: str, entry) -> Parameter:
     if decl is None or decl.plausible is None:
         raise AssertionError(f"{path}: no declaration with a plausible range on its component")
     low, high = decl.plausible
+    default = decl.default if entry.default == COMPONENT_DEFAULT else entry.default
     return Parameter(decl.unit.replace("list:", ""), low, high, decl.description,
-                     entry.default, entry.scope, entry.zero_allowed, entry.integer, entry.inherited)
+                     default, entry.scope, entry.zero_allowed, entry.integer, entry.inherited)
 
 
 class DerivedTable(Mapping):
@@ -176,13 +184,14 @@ class DerivedTable(Mapping):
 
 
 #: path -> Parameter, for every numeric parameter of a rig (text parameters and the optional
-#: pressure profiles are checked where they are read, hydroline.system). Entries marked
-#: :class:`Declared` take unit, description and plausible range from the component's own
-#: declaration; the others exist only in the template rig (pressures, dead volume, scenarios).
+#: pressure profiles are checked where they are read, hydroline.rigs.template). Entries marked
+#: :class:`Declared` take unit, description, plausible range and (with
+#: :data:`COMPONENT_DEFAULT`) default from the component's own declaration; the others exist
+#: only in the template rig (pressures, dead volume, scenarios).
 PARAMETERS: Mapping = DerivedTable({
     "rig.allow_implausible": Parameter("str", None, None, "parameters allowed outside their "
                                        "plausible range", None),
-    "rig.modes_per_section": Parameter("-", 1, 40, "modes per hose section (M8)", 6, integer=True),
+    "rig.modes_per_section": Declared(COMPONENT_DEFAULT, integer=True),
     "fluid.density": Declared(),
     "fluid.kinematic_viscosity": Declared(),
     "fluid.bulk_modulus": Declared(),
@@ -215,16 +224,16 @@ PARAMETERS: Mapping = DerivedTable({
                                              scope="modal-accumulator", integer=True,
                                              inherited=True),
     }),
-    "return.check_valve.reverse_resistance": Declared(default=1e13),
-    "return.check_valve.forward_resistance": Declared(default=0.0),
+    "return.check_valve.reverse_resistance": Declared(COMPONENT_DEFAULT),
+    "return.check_valve.forward_resistance": Declared(COMPONENT_DEFAULT),
     "servovalve.rated_current": Declared(),
     "servovalve.rated_flow": Declared(),
     "servovalve.rated_pressure_drop": Declared(),
     "servovalve.max_opening": Declared(),
     "servovalve.natural_frequency": Declared(),
     "servovalve.damping_ratio": Declared(),
-    "servovalve.laps": Declared(default=[0.0, 0.0, 0.0, 0.0]),
-    "servovalve.laminar_pressure": Declared(default=1e5),
+    "servovalve.laps": Declared(COMPONENT_DEFAULT),
+    "servovalve.laminar_pressure": Declared(COMPONENT_DEFAULT),
     "actuator.area": Parameter("m^2", 1e-6, 1.0, "piston area, both sides", None),
     "actuator.bottom_area": Declared(default=None),
     "actuator.top_area": Declared(default=None),
@@ -232,29 +241,29 @@ PARAMETERS: Mapping = DerivedTable({
     "actuator.dead_volume": Parameter("m^3", 1e-8, 1e-2, "dead volume per chamber"),
     "actuator.bulk_modulus": Declared(),
     "actuator.moving_mass": Declared(),
-    "actuator.initial_position": Declared(default=0.0),
-    "actuator.gravity": Declared(default=9.81),
-    "actuator.internal_leakage": Declared(default=0.0),
-    "actuator.external_leakage": Declared(default=0.0),
-    "friction.viscous_up": Declared(default=0.0),
-    "friction.viscous_down": Declared(default=0.0),
-    "friction.coulomb_up": Declared(default=0.0),
-    "friction.coulomb_down": Declared(default=0.0),
-    "friction.static_up": Declared(default=0.0),
-    "friction.static_down": Declared(default=0.0),
-    "friction.stribeck_velocity": Declared(default=0.01),
-    "friction.stribeck_exponent": Declared(default=2.0),
-    "friction.regularization_velocity": Declared(default=1e-4),
-    "friction.bristle_stiffness": Declared(default=1e7, scope="lugre"),
-    "friction.bristle_damping": Declared(default=1e3, scope="lugre"),
-    "load.mass": Declared(default=0.0),
-    "load.stiffness": Declared(default=0.0),
-    "load.damping": Declared(default=0.0),
-    "load.applied_force": Declared(default=0.0),
-    "load.free_position": Declared(default=0.0, scope="load-spring"),
+    "actuator.initial_position": Declared(COMPONENT_DEFAULT),
+    "actuator.gravity": Declared(COMPONENT_DEFAULT),
+    "actuator.internal_leakage": Declared(COMPONENT_DEFAULT),
+    "actuator.external_leakage": Declared(COMPONENT_DEFAULT),
+    "friction.viscous_up": Declared(COMPONENT_DEFAULT),
+    "friction.viscous_down": Declared(COMPONENT_DEFAULT),
+    "friction.coulomb_up": Declared(COMPONENT_DEFAULT),
+    "friction.coulomb_down": Declared(COMPONENT_DEFAULT),
+    "friction.static_up": Declared(COMPONENT_DEFAULT),
+    "friction.static_down": Declared(COMPONENT_DEFAULT),
+    "friction.stribeck_velocity": Declared(COMPONENT_DEFAULT),
+    "friction.stribeck_exponent": Declared(COMPONENT_DEFAULT),
+    "friction.regularization_velocity": Declared(COMPONENT_DEFAULT),
+    "friction.bristle_stiffness": Declared(COMPONENT_DEFAULT, scope="lugre"),
+    "friction.bristle_damping": Declared(COMPONENT_DEFAULT, scope="lugre"),
+    "load.mass": Declared(COMPONENT_DEFAULT),
+    "load.stiffness": Declared(COMPONENT_DEFAULT),
+    "load.damping": Declared(COMPONENT_DEFAULT),
+    "load.applied_force": Declared(COMPONENT_DEFAULT),
+    "load.free_position": Declared(COMPONENT_DEFAULT, scope="load-spring"),
     "controller.proportional_gain": Declared(scope=_SINE),
-    "controller.integral_gain": Declared(default=0.0, scope=_SINE),
-    "controller.derivative_gain": Declared(default=0.0, scope=_SINE),
+    "controller.integral_gain": Declared(COMPONENT_DEFAULT, scope=_SINE),
+    "controller.derivative_gain": Declared(COMPONENT_DEFAULT, scope=_SINE),
     "controller.current_limit": Declared(default="servovalve.rated_current", scope=_SINE),
     "controller.sample_time": Declared(default=None, scope=_SINE),
     f"scenario.{_STEP}.current": Parameter("A", -5.0, 5.0, "step current",
@@ -279,6 +288,11 @@ PARAMETERS: Mapping = DerivedTable({
     f"scenario.{_SINE}.initial_position": Parameter("m", -5.0, 5.0, "initial piston position",
                                                     0.0, scope=_SINE),
 }, _resolve)
+
+
+def _value(rig, path: str):
+    """A rig's value at ``path``, else its default (:data:`PARAMETERS`), [SI]."""
+    return rig.get(path, PARAMETERS[path].default)
 
 
 def _error(message):
@@ -418,9 +432,9 @@ def check_consistency(rig, scenario: str | None = None):
     p_s, p_t = rig.get("supply.pressure"), rig.get("return.pressure")
     mass = rig.get("actuator.moving_mass")
     if None not in (a_b, a_t, p_s, p_t, mass):
-        g = rig.get("actuator.gravity", 9.81)
-        load = rig.get("load.mass", 0.0)
-        weight = (mass + load) * g - rig.get("load.applied_force", 0.0)
+        g = _value(rig, "actuator.gravity")
+        load = _value(rig, "load.mass")
+        weight = (mass + load) * g - _value(rig, "load.applied_force")
         capacity = p_s * a_b - p_t * a_t
         if weight > capacity > 0:
             path = "load.mass" if load > 0 else "actuator.moving_mass"
@@ -478,7 +492,7 @@ def _in_scope(rig, p: Parameter, path: str, scenario: str | None) -> bool:
     if p.scope == "lugre":
         return rig.get("friction.model") == "lugre"
     if p.scope == "load-spring":
-        return rig.get("load.stiffness", 0.0) != 0
+        return _value(rig, "load.stiffness") != 0
     if p.scope == "modal-accumulator":
         return rig.get(f"{side}.accumulator.model") == "modal"
     return True
@@ -520,7 +534,7 @@ def defaults_used(rig, scenario: str | None = None) -> list[tuple[str, str]]:
 
 
 def _fmt_value(v):
-    if isinstance(v, list):
+    if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_fmt(x) for x in v) + "]"
     return _fmt(v)
 
