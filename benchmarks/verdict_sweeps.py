@@ -10,8 +10,10 @@ Sweeps (on the default rig with the exact-pole line and Merritt's actuator pair,
 Between neighbours it checks the issue's done-when: the amplitude moves by no more than the
 traces' own max |dp| (over the common metrics window) plus 10 kPa, and no "no oscillation"
 beside an amplitude above 0.05 MPa. It prints one line per variant (frequency, amplitude and
-settling time per port, and the near-verdict notes) and, per sweep, the violations. No
-assertions; ``tests/test_settling_verdicts.py`` checks a few of these neighbours in the suite.
+settling time per port, and the near-verdict notes) and, per sweep, the violations, the worst
+neighbour jump (how far |dA| lies above or below the traces' max |dp| + 10 kPa) and the
+largest amplitude beside a 'no oscillation'. No assertions; ``tests/test_settling_verdicts.py``
+checks a few of these neighbours in the suite.
 
 Usage::
 
@@ -84,6 +86,8 @@ def main():
             continue
         print(f"\n== {name} ({len(variants)} variants)")
         previous, bad, near = None, [], 0
+        worst = None        # (excess of |dA| over dp + 10 kPa [MPa], description)
+        beside = None       # (largest amplitude beside 'no oscillation' [MPa], description)
         for label, changes in variants:
             s, traces = run(rig, changes)
             cells = []
@@ -103,17 +107,31 @@ def main():
                     a0, a1 = s0[side]["amplitude_mpa"], s[side]["amplitude_mpa"]
                     n = min(tr0[side].size, traces[side].size)
                     dp = float(np.max(np.abs(traces[side][:n] - tr0[side][:n]))) / 1e6
-                    if a0 is not None and a1 is not None and abs(a1 - a0) > dp + 0.01:
-                        bad.append(f"{label0} -> {label} {side}: amplitude {a0:.3f} -> {a1:.3f} "
-                                   f"MPa, traces differ by {dp:.3f} MPa")
+                    if a0 is not None and a1 is not None:
+                        jump = (f"{label0} -> {label} {side}: amplitude {a0:.3f} -> {a1:.3f} MPa, "
+                                f"traces differ by {dp:.3f} MPa")
+                        excess = abs(a1 - a0) - (dp + 0.01)
+                        if worst is None or excess > worst[0]:
+                            worst = (excess, jump)
+                        if excess > 0:
+                            bad.append(jump)
                     for quiet, other in ((s0, s), (s, s0)):
-                        if quiet[side]["frequency_hz"] is None and \
-                                (other[side]["amplitude_mpa"] or 0.0) > 0.05:
-                            bad.append(f"{label0} / {label} {side}: 'no oscillation' beside "
-                                       f"{other[side]['amplitude_mpa']:.3f} MPa")
+                        if quiet[side]["frequency_hz"] is None:
+                            a = other[side]["amplitude_mpa"] or 0.0
+                            if beside is None or a > beside[0]:
+                                beside = (a, f"{label0} / {label} {side}")
+                            if a > 0.05:
+                                bad.append(f"{label0} / {label} {side}: 'no oscillation' beside "
+                                           f"{a:.3f} MPa")
             previous = (s, traces, label)
         total += len(bad)
         print(f"  -> {len(bad)} violations; {near} port readings flagged near the verdict")
+        if worst is not None:
+            print(f"     worst neighbour jump: |dA| {worst[0] * 1e3:+.1f} kPa over (dp + 10 kPa): "
+                  f"{worst[1]}")
+        if beside is not None:
+            print(f"     largest amplitude beside 'no oscillation': {beside[0]:.3f} MPa "
+                  f"({beside[1]})")
         for line in bad:
             print(f"     {line}")
     print(f"\n{total} violations in all ({time.perf_counter() - tic:.0f} s)")

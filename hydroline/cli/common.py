@@ -357,7 +357,8 @@ def add_settling_band_option(parser):
 def amplitude_cell(metrics: dict):
     """A port's amplitude for a table: [MPa], "...^" where the ringing lasts fewer than
     :data:`hydroline.traces.metrics.VERDICT_MARGIN` periods above 1 % of the excursion (near
-    the 'no oscillation' verdict, where the amplitude jumps to 0), None when there is none.
+    the 'no oscillation' verdict, where the amplitude is a share of the swing that fades to 0
+    at the verdict), None when there is none.
 
     Parameters
     ----------

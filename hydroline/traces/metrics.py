@@ -35,7 +35,13 @@ interpolation (so nonuniform solver output is fine):
    monotone response has no such maximum: None. Where the candidates of steps 2-4 all
    fail, the dominant peak of the spectrum of the rate of change (sample differences, same
    taper and test) is tried last: a ringing short or small beside a large slow drift (a
-   short hose's, after a valve step) stands out there.
+   short hose's, after a valve step) stands out there. Where the deviation's spectrum has
+   no genuine peak at all (a drift's spectrum falls from 0 Hz on), every further genuine
+   peak of the rate's spectrum that stands 10 times above its median follows, highest
+   first: a drift that bends has sidelobes there as high as a short ringing's peak, and
+   which of near-equal peaks is the highest must not decide whether the ringing is seen.
+   Such a further peak must keep its refinement in step 3 (no fallback to the peak as it
+   is): it is weaker evidence than the dominant one.
 2. *Harmonic check.* If the spectrum also has a genuine peak within 8 % of ``1/k`` of the
    dominant frequency (k = 2..5) at least 10 % as high, that lower peak is the first
    candidate for the fundamental (the largest such k first); the dominant peak is the last
@@ -54,13 +60,17 @@ interpolation (so nonuniform solver output is fine):
    (a burst of a few periods right after the step, which the demodulation sees only from
    one period on), the spectral peak's frequency is checked as it is.
 4. *Oscillating or not.* The envelope of the fundamental (the demodulated amplitude divided
-   by the filter's gain for the fitted decay rate) must stay above 1 % of the largest
-   deviation ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``.
+   by the filter's gain for the fitted decay rate) must lie above 1 % of the largest
+   deviation ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``
+   (the time it lies above, the demodulation's first period counted, linear between its
+   points: for a decaying envelope the time to its last crossing; a later lobe that
+   rises through 1 % adds its time above, from 0, instead of moving the end at once).
    For the step response of a second-order system this reports damping ratios up to
    about 0.46 with the default ``min_cycles = 1.5`` (ratio 0.45: 1.5 cycles of overshoot and
    undershoot above 1 %). No candidate passing: None. The verdict is a threshold: a ringing
-   that dies within a few periods is near it, where its amplitude jumps to 0
-   (:func:`pressure_metrics` says so below :data:`VERDICT_MARGIN` periods).
+   that dies within a few periods is near it, and :func:`pressure_metrics` fades its
+   amplitude linearly to 0 there (from :data:`VERDICT_MARGIN` periods down to 1.5), so that
+   the amplitude does not jump at the verdict.
 5. *Zero crossings.* The mean interval between crossings in the same direction, over all
    crossings whose lobes reach 0.1 % of the largest, is the period; for a damped sinusoid
    about a constant it is exactly ``1 / f_d = 2 pi / omega_d``. Crossings of, in turn,
@@ -88,7 +98,8 @@ from .peaks import find_peaks, local_maxima, peak_prominence   # scipy.signal's,
 
 __all__ = ["oscillation_frequency", "oscillation_amplitude", "oscillation_baseline", "overshoot",
            "first_excursion", "peak_to_peak", "settling_time", "port_settling", "pressure_metrics",
-           "SettlingBand", "SETTLING_BAND", "AMPLITUDE_MIN_PERIODS", "VERDICT_MARGIN"]
+           "SettlingBand", "SETTLING_BAND", "AMPLITUDE_MIN_PERIODS", "VERDICT_MARGIN",
+           "VERDICT_PERIODS", "ringing_weight"]
 
 #: Fraction of the post-step interval, at its end, that defines the final value.
 TAIL_FRACTION = 0.2
@@ -329,14 +340,25 @@ def _settling_time(levels, t_step, band):
 # --------------------------------------------------------------------------- frequency
 
 def _spectral_candidates(ts, ps, p_final, min_cycles):
-    """Coarse fundamental frequencies [Hz] from the spectrum of the deviation, best first
-    (a generator: the second spectrum is taken only when the first's candidates are used up).
+    """Coarse fundamental frequencies from the spectrum of the deviation, best first, as
+    ``(frequency [Hz], further)`` (a generator: the second spectrum is taken only when the
+    first's candidates are used up); ``further`` marks the rate spectrum's peaks after its
+    dominant one.
 
     The subharmonics of the dominant peak that pass the harmonic check (largest k first),
     then the dominant peak itself; then the dominant peak of the spectrum of the rate of
     change (the deviation's sample differences), where it is another frequency: a short
-    ringing beside a large slow drift stands out there. Empty when neither spectrum has a
-    genuine peak in range that stands 10 times above its median.
+    ringing beside a large slow drift stands out there. Where the deviation's spectrum has
+    no candidate at all (a drift whose spectrum falls from 0 Hz on and hides everything),
+    every genuine peak of the rate's spectrum that stands 10 times above its median follows
+    the dominant one, highest first: the sidelobes of the drift's bends stand there about as
+    high as a short ringing's peak, and which of several near-equal peaks is the highest
+    must not decide whether the ringing is tried. (Beside a deviation peak that fails, a slow
+    waveform cut short by the window or dying fast, the rate's further peaks are that
+    waveform's harmonics, which would pass for it.) A further peak must hold its own
+    under the demodulation (:func:`_oscillating_fundamental` with ``refined``): a kink in
+    a drift has such peaks too. Empty when neither spectrum has a genuine peak in range
+    that stands 10 times above its median.
 
     The genuine peaks are the local maxima in range with a prominence of at least
     :data:`_PEAK_PROMINENCE` of the highest value in range (as
@@ -368,19 +390,24 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     if hi < lo:
         return
     candidates = _peak_candidates(spectrum, freq, lo, hi)
-    yield from candidates
+    for f in candidates:
+        yield f, False
     # (the rate's spectrum only where the caller asks for more: most traces do not)
     rate[rate.size - m:] *= _taper(m)
-    for f in _peak_candidates(np.abs(_rfft(rate, nfft)), freq, lo, hi, subharmonics=False):
+    rates = _peak_candidates(np.abs(_rfft(rate, nfft)), freq, lo, hi, subharmonics=False,
+                             every=not candidates)
+    for i, f in enumerate(rates):
         if all(abs(f / g - 1.0) > _SUBHARMONIC_TOL for g in candidates):
-            yield f
+            yield f, i > 0
 
 
-def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True):
+def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True, every=False):
     """:func:`_spectral_candidates` of one amplitude spectrum ``spectrum`` at frequencies
     ``freq`` [Hz], searched within bins ``lo .. hi``: the subharmonics of its dominant peak
     that pass the harmonic check (largest k first; none where ``subharmonics`` is False),
-    then the dominant peak; empty when it has no genuine peak in range."""
+    then the dominant peak, then (where ``every`` is True) every other genuine peak that
+    stands 10 times above the median, highest first; empty when it has no genuine peak in
+    range."""
     highest = float(np.max(spectrum[lo:hi + 1]))
     if highest <= 0.0:
         return []
@@ -410,10 +437,18 @@ def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True):
     # a peak of noise stands a few times above the spectrum's median (the largest of N
     # Rayleigh-distributed bins: about sqrt(2 ln N) / 0.83, ~6 for 1e5 bins); a ringing's
     # stands far above it (every 8th bin: the 8x zero padding makes neighbours alike)
-    if main is None or spectrum[main] < _ABOVE_NOISE * float(np.median(spectrum[lo:hi + 1:8])):
+    noise = _ABOVE_NOISE * float(np.median(spectrum[lo:hi + 1:8]))
+    if main is None or spectrum[main] < noise:
         return []
     f_main, h_main = float(freq[main]), spectrum[main]
     candidates = [f_main]
+    if every:
+        # the genuine peaks below the dominant one, down to the noise criterion
+        for k in order[int(np.flatnonzero(order == main)[0]) + 1:]:
+            if spectrum[k] < noise or spectrum[k] - floor < threshold:
+                break
+            if genuine(int(k)):
+                candidates.append(float(freq[k]))
     for k in range(2, _MAX_SUBHARMONIC + 1 if subharmonics else 2):
         near = order[np.abs(freq[order] - f_main / k) <= _SUBHARMONIC_TOL * f_main / k]
         sub = best(near, _SUBHARMONIC_HEIGHT * h_main)
@@ -680,32 +715,52 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering, memo=None):
     return float(sum(e * w for e, w in zip(estimates, weights)) / sum(weights))
 
 
-def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles):
-    """``(frequency [Hz], periods [-])``: the demodulated frequency near ``coarse`` and how
-    many periods after ``t_step`` its envelope stays above 1 % of ``largest`` (inf: until the
-    window's end), if that is at least ``min_cycles`` (a coherent oscillation), else None.
-    Where the refined
+def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles,
+                             refined=False):
+    """``(frequency [Hz], periods [-])``: the demodulated frequency near ``coarse`` and for
+    how many periods after ``t_step`` its envelope lies above 1 % of ``largest`` (inf: still
+    at the window's end; :func:`_time_above`, the demodulation's first period counted), if
+    that is at least ``min_cycles`` (a coherent oscillation), else None. Where the refined
     frequency wanders off (more than 50 %), the spectral peak's ``coarse`` itself is
     checked: a burst of a few periods right after the step, which the demodulation sees
-    only from one period on, can pull the phase slope off to a later, slower component."""
+    only from one period on, can pull the phase slope off to a later, slower component;
+    with ``refined`` (a further spectral peak, weaker evidence) that candidate fails
+    instead."""
     fitted = _fit_fundamental(ts, ps, p_final, coarse)
     if fitted is not None and not (math.isfinite(fitted[0]) and fitted[0] > 0
                                    and abs(fitted[0] / coarse - 1.0) <= 0.5):
+        if refined:
+            return None
         fitted = _fit_fundamental(ts, ps, p_final, coarse, passes=0)
     if fitted is None:
         return None
     frequency, centres, envelope, incoherence = fitted
     if not (incoherence <= _MAX_INCOHERENCE):
         return None
-    above = np.flatnonzero(envelope >= OSCILLATION_THRESHOLD * largest)
-    if above.size == 0:
+    floor = OSCILLATION_THRESHOLD * largest
+    if not np.any(envelope >= floor):
         return None
-    cycles = frequency * (centres[above[-1]] - t_step)
+    cycles = frequency * ((centres[0] - t_step) + _time_above(centres, envelope, floor))
     if cycles < min_cycles:
         return None
     # (a ringing still above the threshold at the demodulation's last point lasts as long as
     # the window does: not close to the verdict's edge)
-    return float(frequency), (math.inf if above[-1] == centres.size - 1 else float(cycles))
+    return float(frequency), (math.inf if envelope[-1] >= floor else float(cycles))
+
+
+def _time_above(times, values, level):
+    """How long the piecewise-linear ``values(times)`` lies at or above ``level``, [s].
+
+    For a decaying envelope it is the time to its last crossing of ``level``; where a later
+    lobe rises to the level (two components beating), it counts the lobe's time above it,
+    which grows from 0 as the lobe's top passes the level: unlike the time of the last
+    crossing, it does not jump there."""
+    a, b = values[:-1] - level, values[1:] - level
+    h = np.diff(times)
+    share = np.where((a >= 0) & (b >= 0), 1.0, 0.0)
+    cross = (a >= 0) != (b >= 0)
+    share[cross] = np.maximum(a[cross], b[cross]) / np.abs(a[cross] - b[cross])
+    return float(np.dot(share, h))
 
 
 def oscillation_frequency(t, p, t_step, min_cycles=1.5):
@@ -768,8 +823,9 @@ def _frequency_and_periods(levels, t_step, min_cycles):
     largest = float(np.max(np.abs(ps - p_final)))
     if largest == 0.0 or largest <= 1e-12 * float(np.max(np.abs(ps))):
         return None, None
-    for coarse in _spectral_candidates(ts, ps, p_final, min_cycles):
-        found = _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles)
+    for coarse, further in _spectral_candidates(ts, ps, p_final, min_cycles):
+        found = _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles,
+                                         refined=further)
         if found is None:
             continue
         frequency, periods = found
@@ -797,15 +853,44 @@ def _frequency_and_periods(levels, t_step, min_cycles):
 #   settling time    when the pressure stays within +-2 % of its final absolute pressure
 #                    (:func:`port_settling`, :class:`SettlingBand`).
 
+#: Fewest periods a ringing must stay above 1 % of its excursion to count as an oscillation
+#: (the 'no oscillation' verdict of :func:`pressure_metrics`), [-].
+VERDICT_PERIODS = 1.5
 #: A ringing that stays above 1 % of its excursion for fewer periods than this is close to
-#: the 'no oscillation' verdict (1.5 periods), where the amplitude jumps to 0: its
-#: amplitude note says so, [-].
+#: the 'no oscillation' verdict: :func:`pressure_metrics` fades its amplitude linearly from
+#: its whole swing here to 0 at :data:`VERDICT_PERIODS`, and its note says so, [-].
 VERDICT_MARGIN = 3.0
 #: Fewest periods of the oscillation the metrics window must hold for an amplitude, [-]: the
 #: baseline is a centred mean over one period, so a swing is measured only where a period of
 #: signal exists on both sides of the half period it belongs to.
 AMPLITUDE_MIN_PERIODS = 2.0
 _BASELINE_SAMPLES = 64      # uniform grid of the baseline and amplitude, per period
+
+
+def ringing_weight(periods):
+    """The share of its swing that a ringing's reported amplitude keeps, by how long it rings.
+
+    A ringing that stays above 1 % of its excursion for ``periods`` periods after the
+    disturbance keeps its whole swing from :data:`VERDICT_MARGIN` (3) periods on; below
+    that the share falls linearly to 0 at :data:`VERDICT_PERIODS` (1.5), the 'no
+    oscillation' verdict, so that the amplitude fades continuously into the verdict instead
+    of jumping to 0 there (:func:`pressure_metrics`).
+
+    Parameters
+    ----------
+    periods : float or None
+        Periods after the disturbance that the ringing stays above 1 % of its excursion,
+        [-]; inf where it does so to the window's end, None where it does not ring
+
+    Returns
+    -------
+    float
+        The share, in [0, 1], [-]
+    """
+    if periods is None:
+        return 0.0
+    share = (float(periods) - VERDICT_PERIODS) / (VERDICT_MARGIN - VERDICT_PERIODS)
+    return min(1.0, max(0.0, share))
 
 
 @dataclass(frozen=True)
@@ -1442,7 +1527,9 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
         ``frequency_hz``         oscillation frequency, [Hz] (:func:`oscillation_frequency`);
                                  None: no oscillation, or too few periods to tell
         ``amplitude_mpa``        oscillation amplitude, two-sided about the drifting baseline,
-                                 [MPa] (:func:`oscillation_amplitude`); 0.0 with a note when no
+                                 [MPa] (:func:`oscillation_amplitude`), times
+                                 :func:`ringing_weight` (below :data:`VERDICT_MARGIN` periods of
+                                 ringing it fades to 0 at the verdict); 0.0 with a note when no
                                  oscillation is detected, None when the window is too short
         ``first_excursion_mpa``  largest ``|p - p0|``, [MPa] (:func:`first_excursion`)
         ``steady_change_mpa``    settled level minus the pre-step level ``p0``, [MPa]: the
@@ -1455,11 +1542,11 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
         ``amplitude_note``       "" when frequency and amplitude were measured, else why not
                                  (no oscillation; the window holds too few periods), or that
                                  the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
-                                 above 1 %: near the 'no oscillation' verdict, where the
-                                 amplitude jumps to 0
-        ``ringing_periods``      for how many periods after the step the oscillation stays
-                                 above 1 % of the excursion, [-]; None where it does so to
-                                 the window's end, or does not ring
+                                 above 1 %: near the 'no oscillation' verdict, the amplitude
+                                 faded (the share and the whole swing are given)
+        ``ringing_periods``      for how many periods after the step the oscillation's
+                                 envelope lies above 1 % of the excursion, [-]; None where it
+                                 still does at the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
@@ -1467,7 +1554,7 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
     settling_band = SettlingBand.parse(settling_band)
     duration = t_end - t_step
     levels = _levels(t, p, t_step)
-    frequency, periods = _frequency_and_periods(levels, t_step, 1.5)
+    frequency, periods = _frequency_and_periods(levels, t_step, VERDICT_PERIODS)
     note = ""
     amplitude = 0.0
     base = None
@@ -1480,19 +1567,23 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
                     f"{AMPLITUDE_MIN_PERIODS:g}")
         else:
             note = ("no oscillation: the pressure does not ring (no coherent oscillation above "
-                    f"{OSCILLATION_THRESHOLD:.0%} of its excursion for 1.5 periods)")
+                    f"{OSCILLATION_THRESHOLD:.0%} of its excursion for {VERDICT_PERIODS:g} "
+                    "periods)")
     elif duration * frequency < AMPLITUDE_MIN_PERIODS:
         amplitude = None
         note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * frequency:.1f} periods of "
                 f"the {frequency:.3g} Hz oscillation; an amplitude needs {AMPLITUDE_MIN_PERIODS:g}")
     else:
         base = _baseline(t, p, t_step, frequency, t_end)
-        amplitude = _amplitude(t, p, t_step, frequency, t_end, base)
+        swing = _amplitude(t, p, t_step, frequency, t_end, base)
+        # near the verdict the amplitude fades into it (ringing_weight) instead of jumping
+        amplitude = swing * ringing_weight(periods)
         if periods < VERDICT_MARGIN:
-            note = (f"rings for only {periods:.1f} periods above {OSCILLATION_THRESHOLD:.0%} of "
-                    f"its excursion, near the 'no oscillation' verdict (1.5 periods): a "
-                    f"slightly more damped or weaker ringing reads amplitude 0 (a discrete "
-                    f"event)")
+            note = (f"rings for only {periods:.2f} periods above {OSCILLATION_THRESHOLD:.0%} of "
+                    f"its excursion, near the 'no oscillation' verdict ({VERDICT_PERIODS:g} "
+                    f"periods): the amplitude is {ringing_weight(periods):.0%} of its "
+                    f"{_mpa(swing)} swing, fading linearly from {VERDICT_MARGIN:g} periods to 0 "
+                    f"at the verdict")
     ts, ps = levels[0], levels[1]       # _post_step(t, p, t_step)
     p0 = float(ps[0])
     if frequency is not None and duration * frequency >= 1.0:
