@@ -16,6 +16,7 @@ import math
 from importlib import resources
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hydroline import components as comp
@@ -224,15 +225,40 @@ def test_a_template_table_on_a_circuit_base_is_refused(tmp_path):
         load_rig(path)
 
 
-def test_a_circuit_rig_cannot_start_from_the_template(tmp_path):
-    """Circuit tables on the template base: refused until the template expands into circuit
-    tables (rigs.template_circuit); the paper's circuit is the base to name meanwhile."""
-    path = _rig_file(tmp_path, TWO_AXIS.replace("[rig]\n", '[rig]\nbase = "default"\n', 1))
-    with pytest.raises(RigError, match=r"^rig\.base: ayalew2005 is a template rig .* use base = "
-                       r"\"ayalew2005_circuit\""):
-        load_rig(path)
+def test_circuit_edits_on_the_template_base(tmp_path):
+    """Circuit tables on the template base edit the template's expansion (its components
+    under their template names): a hose's length changed as a circuit edit is the same rig as
+    the template value changed, and as the paper's circuit with that edit."""
+    from hydroline.scenarios.experiments import build_scenario
+    from hydroline.scenarios.running import rest_state
+    from hydroline.system import build_circuit
+
+    def rest(text):
+        rig = load_rig(_rig_file(tmp_path, text))
+        circuit = build_circuit(rig)
+        net = circuit.network(build_scenario(rig, "open-loop-step", None,
+                                             axes=circuit.axes).commands)
+        return net.state_names, rest_state(net).x
+
+    names, x = rest('[rig]\nbase = "default"\n[circuit."supply.section2"]\nlength = "1 m"\n')
+    for text in ('[rig]\nbase = "default"\n[supply.section2]\nlength = "1 m"\n',
+                 '[rig]\nbase = "ayalew2005_circuit"\n[circuit."supply.section2"]\n'
+                 'length = "1 m"\n'):
+        other_names, other_x = rest(text)
+        assert other_names == names
+        np.testing.assert_allclose(other_x, x, rtol=1e-9, atol=1e-6)
     path = _rig_file(tmp_path, '[rig]\nbase = "default"\n[supply]\npressure = "20 MPa"\n')
     assert load_rig(path)["supply.pressure"] == 20e6     # the template's own base still works
+
+
+def test_a_template_with_a_pressure_profile_takes_no_circuit_edits(tmp_path):
+    _rig_file(tmp_path, '[rig]\nbase = "default"\n[supply.pressure_profile]\n'
+              'type = "step"\ntime = "20 ms"\nfinal = "19 MPa"\n', name="base.toml")
+    path = _rig_file(tmp_path, '[rig]\nbase = "base.toml"\n[circuit."supply.section2"]\n'
+                     'length = "1 m"\n')
+    with pytest.raises(RigError, match=r"^supply\.pressure_profile: a template rig with a "
+                       r"pressure profile .* cannot take circuit edits"):
+        load_rig(path)
 
 
 def test_flow_terms_on_a_component_without_them_are_refused(tmp_path):

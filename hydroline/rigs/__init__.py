@@ -516,9 +516,18 @@ def compose_rig(tree: dict, source: str, chain: tuple = ()) -> dict:
         raise RigError(str(e)) from None
 
 
+#: The tables a template rig has and a circuit rig does not (they become ``[circuit.*]``).
+TEMPLATE_TABLES = ("supply", "return", "servovalve", "actuator", "friction", "load")
+
+
 def template_circuit(tree: dict, source: str) -> dict:
     """The tables of a template rig (``[supply]``, ``[servovalve]``, ...) as circuit tables
     (``[circuit.<name>]``): what a file with circuit edits extends when its base is a template.
+
+    The template is expanded as it is built (:func:`hydroline.rigs.template.expand`): the same
+    components, ports and values, each value written with its unit. Values the template
+    derives (the chambers' volumes at mid-stroke, the hoses' nominal pressures) are written as
+    the numbers they come to.
 
     Parameters
     ----------
@@ -527,18 +536,43 @@ def template_circuit(tree: dict, source: str) -> dict:
 
     Returns
     -------
-    dict  The same rig's tables as a circuit rig's
+    dict  The same rig's tables as a circuit rig's: ``[circuit.*]`` and the template's
+          ``[rig]``, ``[fluid]``, ``[controller]``, ``[scenario.*]``, ``[connections]``
 
     Raises
     ------
-    RigError  Always for now: the template's expansion into circuit tables
-              (``hydroline/rigs/template.py``, issue 27 item 1) is to be called here, the one
-              place a template base meets circuit edits; until then the paper's rig is named
-              by its circuit (``ayalew2005_circuit``)
+    RigError  A template with a pressure profile (its waveform is not written out as a
+              circuit's), or one line naming a bad value of the template
     """
-    raise RigError(f"rig.base: {_short(source)} is a template rig ([supply], [servovalve], ...); "
-                   f"circuit edits ([circuit.*], [remove], [subcircuit.*]) extend a circuit "
-                   f"rig: use base = \"ayalew2005_circuit\" (the paper's rig as a circuit)")
+    from ..circuit.types import COMPONENT_TYPES
+    from .template import expand
+    for side in ("supply", "return"):
+        if isinstance(tree.get(side), dict) and "pressure_profile" in tree[side]:
+            raise RigError(f"{side}.pressure_profile: a template rig with a pressure profile "
+                           f"({_short(source)}) cannot take circuit edits; extend "
+                           f"\"ayalew2005_circuit\" and give the pump a waveform instead")
+    raw = _flatten(tree)
+    rig = Rig({k: _parse(k, v, raw) for k, v in raw.items()}, raw, source)
+    circuit = {}
+    for spec in expand(rig):
+        ctype = COMPONENT_TYPES[spec.type]
+        table = {"type": spec.type}
+        for key, v in spec.params.items():
+            unit = ctype.unit_of(key, spec.params)
+            if isinstance(v, (str, bool)) or unit in (None, "-", "str"):
+                table[key] = v
+            elif isinstance(v, (list, tuple)):
+                table[key] = [f"{float(x)!r} {unit.removeprefix('list:')}" for x in v]
+            else:
+                table[key] = f"{float(v)!r} {unit}"
+        if spec.ports:
+            table["ports"] = dict(spec.ports)
+        if spec.terms:
+            table["terms"] = dict(spec.terms)
+        circuit[spec.name] = table
+    out = {k: v for k, v in tree.items() if k not in TEMPLATE_TABLES}
+    out["circuit"] = circuit
+    return out
 
 
 def _identity(source: str) -> str:
