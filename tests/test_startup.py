@@ -155,7 +155,7 @@ def test_lazy_analysis_names_are_the_functions():
             "import hydroline\n"
             "assert callable(linearize) and not isinstance(linearize, types.ModuleType)\n"
             "assert hydroline.analysis.linearize is linearize\n"
-            "assert hydroline.simulate.__module__ == 'hydroline.scenarios'\n")
+            "assert hydroline.simulate.__module__ == 'hydroline.scenarios.running'\n")
     subprocess.run([sys.executable, "-c", code], check=True)
 
 
