@@ -33,7 +33,7 @@ from ..rigs import Rig, RigError, load_rig
 __all__ = ["envelope", "EnvelopeResult", "envelope_points", "vendor_parameters", "CURVE_KEYS", "HarmonicCommand", "SineRig",
            "PeriodicResponse", "analytic_envelope", "constant_supply_circuit", "largest_passing",
            "harmonic_distortion", "clipped_sine_gain", "fundamental", "periodic_change", "diagnose", "LIMITS",
-           "EnvelopeRunner", "default_frequencies"]
+           "EnvelopeRunner", "default_frequencies", "envelope_figure", "LIMIT_COLOURS"]
 
 #: What limits the envelope at a frequency (``limited_by``): the stroke (the amplitude reaches
 #: half the stroke), the valve at its limit for want of flow (spool at its opening or current
@@ -528,7 +528,7 @@ def vendor_parameters(rig: SineRig, axis: str | None = None) -> dict:
     -------
     dict  stroke [m], area [m^2], mass [kg], supply_pressure, return_pressure [Pa],
           rated_flow [m^3/s], rated_pressure_drop [Pa], load_force (friction's Coulomb and
-          gravity, the worse direction) [N], viscous (friction) [N s/m]
+          gravity, the worse direction) [N], viscous (friction) [N s/m], coulomb [N]
     """
     from ..components import Load
 
@@ -544,7 +544,7 @@ def vendor_parameters(rig: SineRig, axis: str | None = None) -> dict:
     return dict(stroke=act.stroke, area=min(act.bottom_area, act.top_area), mass=mass,
                 supply_pressure=p_s, return_pressure=p_t, rated_flow=valve.rated_flow,
                 rated_pressure_drop=valve.rated_pressure_drop,
-                load_force=coulomb + abs(mass * act.gravity), viscous=viscous)
+                load_force=coulomb + abs(mass * act.gravity), viscous=viscous, coulomb=coulomb)
 
 
 def clipped_sine_gain(distortion: float, samples: int = 2048) -> float:
@@ -586,7 +586,7 @@ def clipped_sine_gain(distortion: float, samples: int = 2048) -> float:
 def analytic_envelope(frequencies, stroke: float, area: float, mass: float,
                       supply_pressure: float, return_pressure: float, rated_flow: float,
                       rated_pressure_drop: float, load_force: float = 0.0,
-                      viscous: float = 0.0, distortion: float = 0.0) -> dict:
+                      viscous: float = 0.0, distortion: float = 0.0, coulomb: float = 0.0) -> dict:
     """The vendor's performance curve from a constant supply: the least of the stroke limit
     ``x = stroke/2``, the flow limit ``v = Q(p_L)/A`` with ``Q(p_L) = Q_N sqrt((p_s - p_t -
     p_L)/dp_N)`` at the load pressure at peak velocity ``p_L = (F + c v)/A`` and the force
@@ -607,11 +607,14 @@ def analytic_envelope(frequencies, stroke: float, area: float, mass: float,
                                friction, weight), [N]
     viscous : float            Viscous friction coefficient, [N s/m]
     distortion : float         Displacement THD allowed, [-] (0: the vendor's pure sine)
+    coulomb : float            Coulomb friction, [N] (the force's fundamental: mass times
+                               acceleration in quadrature with the friction's fundamental,
+                               ``c v + 4 F_c / pi``)
 
     Returns
     -------
     dict  ``frequency_hz``, ``displacement_amplitude_m``, ``velocity_amplitude_m_s``,
-          ``acceleration_amplitude_m_s2``, ``force_amplitude_n`` (m a), ``limited_by``
+          ``acceleration_amplitude_m_s2``, ``force_amplitude_n`` (mass and friction), ``limited_by``
           ("stroke", "valve", "force") per frequency; ``flow_limited_velocity_m_s`` [m/s]
     """
     f = np.asarray(frequencies, dtype=float)
@@ -630,7 +633,8 @@ def analytic_envelope(frequencies, stroke: float, area: float, mass: float,
     return {"frequency_hz": f.tolist(), "displacement_amplitude_m": x.tolist(),
             "velocity_amplitude_m_s": (w * x).tolist(),
             "acceleration_amplitude_m_s2": (w**2 * x).tolist(),
-            "force_amplitude_n": (mass * w**2 * x).tolist(),
+            "force_amplitude_n": np.hypot(mass * w**2 * x,
+                                          viscous * w * x + 4 / np.pi * coulomb).tolist(),
             "limited_by": [("stroke", "valve", "force")[i] for i in k],
             "flow_limited_velocity_m_s": v_clip, "distortion": distortion}
 
@@ -846,6 +850,73 @@ class EnvelopeResult:
             row.update({f"analytic.{key}": self.analytic[key][k] for key in CURVE_KEYS})
             rows.append(row)
         return rows
+
+
+#: Shading of each limiting mechanism in the figure.
+LIMIT_COLOURS = {"stroke": "#c6dbef", "valve": "#d9f0d3", "supply_dip": "#fdd0a2",
+                 "return_rise": "#fcbba1", "force": "#dadaeb", "gas_release": "#fa9fb5",
+                 "distortion": "#fee391", "none": "#f0f0f0"}
+
+
+def envelope_figure(result: EnvelopeResult, path=None):
+    """Displacement, velocity, acceleration and force amplitude against frequency on log-log
+    axes: the envelope with the lines (solid), from the constant supply (dashed), the
+    analytic one (dotted); the band of each test frequency shaded by what limits the
+    envelope with the lines there.
+
+    Parameters
+    ----------
+    result : EnvelopeResult   From :func:`envelope`
+    path : str or Path        PNG to write (None: not written)
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.patches import Patch
+
+    from ..plotting import new_figure, save_png, wrap_title
+
+    f = np.asarray(result.frequency_hz, dtype=float)
+    fig = new_figure((11, 8))
+    axes = fig.subplots(2, 2, sharex=True).ravel()
+    quantities = (("displacement_amplitude_m", "displacement amplitude [mm]", 1e3),
+                  ("velocity_amplitude_m_s", "velocity amplitude [m/s]", 1.0),
+                  ("acceleration_amplitude_m_s2", "acceleration amplitude [m/s²]", 1.0),
+                  ("force_amplitude_n", "force amplitude [kN]", 1e-3))
+    edges = np.sqrt(f[1:] * f[:-1]) if len(f) > 1 else np.array([])
+    lo = np.r_[f[0] / (edges[0] / f[0]) if len(edges) else f[0] / 1.2, edges]
+    hi = np.r_[edges, f[-1] * (f[-1] / edges[-1]) if len(edges) else f[-1] * 1.2]
+    used = []
+    for ax, (key, label, scale) in zip(axes, quantities):
+        for k, point in enumerate(result.hoses):
+            ax.axvspan(lo[k], hi[k], color=LIMIT_COLOURS.get(point["limited_by"], "#ffffff"),
+                       lw=0, zorder=0)
+            used.append(point["limited_by"])
+        curves = [(result.hoses, "-", "C0", "with the lines")]
+        if result.constant_supply:
+            curves.append((result.constant_supply, "--", "C1", "constant supply"))
+        for pts, style, colour, name in curves:
+            y = np.array([p[key] for p in pts], dtype=float) * scale
+            ax.loglog(f[:len(y)], np.where(y > 0, y, np.nan), style, color=colour, marker="o",
+                      ms=3, label=name)
+        y = np.array(result.analytic[key], dtype=float) * scale
+        ax.loglog(f, y, ":", color="k", label="analytic (constant supply)")
+        ax.set_ylabel(label)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in axes[2:]:
+        ax.set_xlabel("frequency [Hz]")
+    handles, labels = axes[0].get_legend_handles_labels()
+    handles += [Patch(color=LIMIT_COLOURS[m], label=f"limited by {m.replace('_', ' ')}")
+                for m in LIMITS if m in used]
+    fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=8, frameon=False)
+    fig.suptitle(wrap_title(f"Performance envelope, {result.rig}, axis {result.axis}: position "
+                            f"THD <= {result.distortion * 100:g} % (shading: what limits the "
+                            f"envelope with the lines)", 11, 11), fontsize=11)
+    fig.subplots_adjust(bottom=0.14, top=0.9, hspace=0.08, wspace=0.22)
+    if path is not None:
+        save_png(fig, path, dpi=110)
+    return fig
 
 
 def envelope(rig: "Rig | str | None" = None, frequencies=None, *, points: int = 20,
