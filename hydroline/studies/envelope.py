@@ -678,7 +678,8 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
     ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
     ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
     and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
-    ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one)
+    ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
+    ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
     """
     top = min(srig.limits[n]["stroke"] for n in srig.driven) / 2 * (1 - stroke_margin)
     warm = {"x": None, "gains": {n: 1.0 + 0j for n in srig.driven}}
@@ -706,6 +707,15 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
             limited = "stroke" if x >= top * (1 - 1e-9) else "none"
         else:
             limited = diagnose(bad[0], srig, bad[1], distortion)
+        note = ""
+        if bad is not None:
+            tr, ax0 = bad[0].traces, srig.axes[srig.driven[0]]
+            note = (bad[0].warnings[0] if limited == "gas_release" else
+                    f"at {x_fail * 1e3:.3g} mm: supply port {tr[ax0.supply_pressure].min() / 1e6:.3g}"
+                    f"-{tr[ax0.supply_pressure].max() / 1e6:.3g} MPa, return port "
+                    f"{tr[ax0.return_pressure].min() / 1e6:.3g}-"
+                    f"{tr[ax0.return_pressure].max() / 1e6:.3g} MPa, distortion "
+                    f"{max(bad[0].distortion.values()) * 100:.2g} %")
         w = 2 * np.pi * f
         name = srig.driven[0]
         ax = srig.axes[name]
@@ -713,7 +723,7 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
                  "velocity_amplitude_m_s": w * x if good else 0.0,
                  "acceleration_amplitude_m_s2": w * w * x if good else 0.0,
                  "force_amplitude_n": good[0].force[name] if good else 0.0,
-                 "limited_by": limited, "failing_amplitude_m": x_fail,
+                 "limited_by": limited, "limit_note": note, "failing_amplitude_m": x_fail,
                  "distortion": good[0].distortion[name] if good else None,
                  "command_gain": abs(good[0].command[name]) / x if good else None,
                  "command_phase_deg": math.degrees(np.angle(good[0].command[name])) if good
