@@ -36,6 +36,7 @@ SUBCOMMANDS = [
     "friction_id",
     "layout",
     "sweep",
+    "envelope",
     "circuit",
     "export_fmu",
 ]
