@@ -67,3 +67,16 @@ def test_yang_tobler_and_qq_refuse_a_viscoelastic_wall():
         ModalLine(line, 6, "QQ", method="residue")
     with pytest.raises(ValueError, match="as many"):
         Line(**HOSE, creep_compliances=(5e-10,), retardation_times=())
+
+
+def test_line_response_shows_elastic_and_viscoelastic(tmp_path, capsys):
+    import json
+    from hydroline.cli import main
+    rc = main(["line-response", "--length", "3.048 m", "--diameter", "14.15 mm",
+               "--bulk-modulus", "194.5 MPa", "--creep-compliance", "5e-10 1/Pa",
+               "--retardation-time", "20 ms", "--no-step", "--json", "--out", str(tmp_path)])
+    assert rc == 0
+    report = json.loads(capsys.readouterr().out)
+    assert {r["method"] for r in report["resonances"]} == {"residue"}
+    assert max(abs(r["frequency_error_pct"]) for r in report["resonances"]) < 1.0
+    assert (tmp_path / "line_response.png").is_file()
