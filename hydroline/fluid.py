@@ -8,7 +8,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive"]
+__all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive",
+           "entrained_air_bulk_modulus", "oil_compliance", "cavity_volume_fraction",
+           "ATMOSPHERE"]
+
+#: Standard atmosphere, the pressure at which ``Fluid.air_content`` is stated, [Pa] absolute.
+ATMOSPHERE = 101325.0
 
 
 def require_positive(name: str, value: float, unit: str) -> float:
@@ -61,6 +66,18 @@ class Fluid:
         Kinematic viscosity nu, [m^2/s].
     bulk_modulus : float
         Isentropic bulk modulus of the pure (air-free) oil, [Pa].
+    air_content : float
+        Volume fraction of entrained (undissolved) free air at atmospheric pressure
+        (:data:`ATMOSPHERE`), in [0, 1), [-]; 0: air-free oil (M40).
+    air_polytropic_exponent : float
+        Polytropic exponent n of the entrained air, 1 (isothermal) ... 1.4 (adiabatic), [-] (M40).
+    cavity_pressure : float or None
+        Absolute pressure p_cav held by a gas/vapour cavity, [Pa]: below it chambers and
+        volumes open a cavity (M42); None: no cavity model (pressures may fall below it, as
+        before; the run warns).
+    cavity_pressure_drop : float
+        Regularisation of the cavity (M42): the pressure falls this much below ``cavity_pressure``
+        per unit cavity volume fraction (0 would be an ideal constant-pressure cavity), [Pa].
 
     Raises
     ------
@@ -79,12 +96,38 @@ class Fluid:
     density: float
     kinematic_viscosity: float
     bulk_modulus: float
+    air_content: float = 0.0
+    air_polytropic_exponent: float = 1.0
+    cavity_pressure: float | None = None
+    cavity_pressure_drop: float = 1e3
 
     def __post_init__(self):
         object.__setattr__(self, "density", _positive("density", self.density, "kg/m^3"))
         object.__setattr__(self, "kinematic_viscosity",
                            _positive("kinematic_viscosity", self.kinematic_viscosity, "m^2/s"))
         object.__setattr__(self, "bulk_modulus", _positive("bulk_modulus", self.bulk_modulus, "Pa"))
+        a = float(self.air_content)
+        if not 0.0 <= a < 1.0:
+            raise ValueError(f"air_content must lie in [0, 1) [-], got {self.air_content!r}")
+        object.__setattr__(self, "air_content", a)
+        n = float(self.air_polytropic_exponent)
+        if not 1.0 <= n <= 5.0 / 3.0:
+            raise ValueError(f"air_polytropic_exponent must lie in [1, 1.667] [-], "
+                             f"got {self.air_polytropic_exponent!r}")
+        object.__setattr__(self, "air_polytropic_exponent", n)
+        if self.cavity_pressure is not None:
+            pc = float(self.cavity_pressure)
+            if not 0.0 <= pc < 1e7:
+                raise ValueError(f"cavity_pressure must lie in [0, 1e7) [Pa] absolute, "
+                                 f"got {self.cavity_pressure!r}")
+            object.__setattr__(self, "cavity_pressure", pc)
+        object.__setattr__(self, "cavity_pressure_drop",
+                           _positive("cavity_pressure_drop", self.cavity_pressure_drop, "Pa"))
+
+    @property
+    def plain(self) -> bool:
+        """True for air-free oil without a cavity model: every compliance is ``V/beta`` (M22)."""
+        return self.air_content == 0.0 and self.cavity_pressure is None
 
     @property
     def dynamic_viscosity(self) -> float:
@@ -156,3 +199,130 @@ def effective_bulk_modulus(oil_bulk_modulus: float, wall_bulk_modulus: float | N
             "pressure", pressure, "Pa")
         compliance += air_fraction / beta_air
     return 1.0 / compliance
+
+
+def entrained_air_bulk_modulus(pressure, oil_bulk_modulus: float, air_content: float,
+                               polytropic_exponent: float = 1.0,
+                               reference_pressure: float = ATMOSPHERE):
+    """Effective bulk modulus of oil with entrained free air at an absolute pressure (M40).
+
+    A fixed mass of mixture holds, at the reference (atmospheric) pressure ``p0``, the air
+    volume fraction ``a``; the oil is compressed with its constant modulus ``K_L``, the air
+    polytropically (``p V^n`` constant), and no air dissolves or comes out of solution
+    (Merritt 1967, section 2.6; the "model based on the definition of the bulk modulus" of
+    Gholizadeh, Burton & Schoenau 2011). Per unit mixture volume at ``p0``::
+
+        v_L(p) = (1 - a) exp(-(p - p0)/K_L),    v_g(p) = a (p0/p)^(1/n)
+        K_eff(p) = -v dp/dv = (v_L + v_g) / (v_L/K_L + v_g/(n p))
+
+    Evaluates on numbers and on CasADi expressions (:mod:`hydroline.engine.ops`).
+
+    Parameters
+    ----------
+    pressure : float or CasADi expression
+        Absolute pressure p > 0, [Pa].
+    oil_bulk_modulus : float
+        K_L of the air-free oil (with its wall where the caller lumps one in), [Pa].
+    air_content : float
+        a, free-air volume fraction at ``reference_pressure``, [-].
+    polytropic_exponent : float
+        n of the air, [-].
+    reference_pressure : float
+        p0, the pressure at which ``air_content`` is stated, [Pa] absolute.
+
+    Returns
+    -------
+    float or CasADi expression
+        K_eff(p), [Pa]; ``oil_bulk_modulus`` itself (the same object) when ``air_content`` is 0.
+
+    Examples
+    --------
+    1 % of isothermal air in 1.5 GPa oil at 1 MPa: ``v_L = 0.99 exp(-0.000599) = 0.989407``,
+    ``v_g = 0.01 * 0.101325``, ``K_eff = 0.990420/(0.989407/1.5e9 + 0.00101325/1e6)``
+    = 592.05 MPa; at 20 MPa the air is 5.1e-5 of the volume and K_eff is 1.494 GPa:
+
+    >>> round(float(entrained_air_bulk_modulus(1e6, 1.5e9, 0.01)) / 1e6, 2)
+    592.05
+    >>> round(float(entrained_air_bulk_modulus(20e6, 1.5e9, 0.01)) / 1e9, 3)
+    1.494
+    """
+    if not air_content:
+        return oil_bulk_modulus
+    from .engine import ops      # here: the lines import this module without the engine
+
+    a, n, p0, K = air_content, polytropic_exponent, reference_pressure, oil_bulk_modulus
+    v_l = (1.0 - a) * ops.exp(-(pressure - p0) / K)
+    v_g = a * ops.power(p0 / pressure, 1.0 / n)
+    return (v_l + v_g) / (v_l / K + v_g / (n * pressure))
+
+
+def cavity_volume_fraction(pressure, cavity_pressure: float, pressure_drop: float):
+    """Gas/vapour cavity volume over the chamber volume at an absolute pressure (M42).
+
+    Zero at and above ``p_cav``; below it the cavity compliance per unit volume rises as a
+    smoothstep over ``delta`` to ``1/delta`` and stays there, so the pressure falls ``delta``
+    per unit cavity fraction (a stiff plateau regularising the ideal constant-pressure
+    cavity; the model is C1 in p). With ``x = (p_cav - p)/delta``::
+
+        -dphi/dp = (3 x^2 - 2 x^3)/delta,  phi = x^3 - x^4/2   for 0 <= x <= 1
+        -dphi/dp = 1/delta,                phi = x - 1/2       for x > 1
+
+    Parameters
+    ----------
+    pressure : float or CasADi expression
+        Absolute pressure, [Pa].
+    cavity_pressure : float
+        p_cav, [Pa] absolute.
+    pressure_drop : float
+        delta, [Pa].
+
+    Returns
+    -------
+    float or CasADi expression
+        phi >= 0, [-].
+
+    Examples
+    --------
+    >>> float(cavity_volume_fraction(2e3, 1e3, 1e3)), float(cavity_volume_fraction(-1e3, 1e3, 1e3))
+    (0.0, 1.5)
+    """
+    from .engine import ops
+
+    x = ops.fmax((cavity_pressure - pressure) / pressure_drop, 0.0)
+    xs = ops.fmin(x, 1.0)
+    return xs**3 - 0.5 * xs**4 + ops.fmax(x - 1.0, 0.0)
+
+
+def oil_compliance(volume, pressure, bulk_modulus: float, fluid: "Fluid | None"):
+    """``dV_oil/dp`` of a chamber of oil, entrained air and a cavity: ``V/K_eff(p) + V dphi/dp``
+    (M40, M42), the denominator of every chamber pressure equation (M22, M41), [m^3/Pa].
+
+    Parameters
+    ----------
+    volume : float or CasADi expression
+        Chamber volume V, [m^3].
+    pressure : float or CasADi expression
+        Its absolute pressure, [Pa].
+    bulk_modulus : float
+        The chamber's oil bulk modulus (the component's), [Pa].
+    fluid : Fluid or None
+        The rig's oil: its air content and cavity model; None or a :attr:`Fluid.plain` fluid:
+        ``V/beta``.
+
+    Returns
+    -------
+    float or CasADi expression
+        The compliance, [m^3/Pa].
+    """
+    if fluid is None or fluid.plain:
+        return volume / bulk_modulus
+    from .engine import ops
+
+    K = entrained_air_bulk_modulus(ops.fmax(pressure, 1e3), bulk_modulus, fluid.air_content,
+                                   fluid.air_polytropic_exponent)
+    c = volume / K
+    if fluid.cavity_pressure is not None:
+        d = fluid.cavity_pressure_drop
+        x = ops.fmin(ops.fmax((fluid.cavity_pressure - pressure) / d, 0.0), 1.0)
+        c = c + volume / d * (3.0 * x**2 - 2.0 * x**3)          # -dphi/dp, the cavity
+    return c

@@ -356,7 +356,11 @@ def rig_fluid(rig) -> Fluid:
     CircuitError  One line naming the fluid parameter at fault
     """
     try:
-        return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"])
+        extra = {k: rig[f"fluid.{k}"] for k in ("air_content", "air_polytropic_exponent",
+                                                  "cavity_pressure", "cavity_pressure_drop")
+                 if rig.get(f"fluid.{k}") is not None}
+        return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"],
+                     **extra)
     except ValueError as e:
         raise CircuitError(f"fluid: {e}") from None
 

@@ -21,6 +21,7 @@ from typing import Callable
 
 from .. import components as comp
 from ..engine.component import Parameter
+from ..fluid import entrained_air_bulk_modulus
 from ..lines import DEFAULT_LINE_METHOD, LINE_METHODS, Line, ModalLine
 
 __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMETERS",
@@ -55,6 +56,23 @@ FLUID_PARAMETERS = {
                                      plausible=(3e-7, 1e-2)),
     "bulk_modulus": Parameter("Pa", "beta of the oil (M2)", 0.0, exclusive_minimum=True,
                               plausible=(1e8, 5e9)),
+    # entrained air (M40): Merritt (1967) 2.6; Gholizadeh, Burton & Schoenau (2011). Mineral
+    # oil in service carries ~0.1-1 % free air at atmospheric pressure, up to ~10 % when foaming
+    "air_content": Parameter("-", "free-air volume fraction at 1 atm; K_eff(p) of oil + air "
+                             "in every chamber, volume and line (M40, M41, M43)", 0.0, 1.0,
+                             default=0.0, plausible=(0.0, 0.2)),
+    "air_polytropic_exponent": Parameter("-", "n of the entrained air: 1 isothermal ... 1.4 "
+                                         "adiabatic (M40)", 1.0, 5.0 / 3.0, default=1.0,
+                                         plausible=(1.0, 1.4)),
+    # cavitation (M42): vapour pressure of mineral oil ~1e1-1e3 Pa at 40 degC, gas release
+    # (air saturation) up to 1 atm (Totten, Handbook of Hydraulic Fluid Technology, 2000;
+    # Wylie & Streeter, Fluid Transients, 1993, ch. 8 for the cavity treatment)
+    "cavity_pressure": Parameter("Pa", "absolute pressure of a gas/vapour cavity; below it "
+                                 "chambers and volumes open a cavity (M42); absent: none",
+                                 0.0, 1e7, optional=True, plausible=(0.0, 2e5)),
+    "cavity_pressure_drop": Parameter("Pa", "regularisation: pressure fall per unit cavity "
+                                      "volume fraction (M42)", 0.0, exclusive_minimum=True,
+                                      default=1e3, plausible=(1.0, 1e5)),
 }
 
 #: The rig-wide settings a component may take (``[rig]``, see :data:`CONTEXT`), with their
@@ -117,6 +135,27 @@ def _integer_modes(modes, modes_per_section) -> int:
     return int(n)
 
 
+def line_bulk_modulus(fluid, bulk_modulus, pressure):
+    """Bulk modulus of a line's oil at its mean pressure (M43): the given one (the fluid's when
+    None) with the fluid's entrained air at ``pressure`` (M40); unchanged for air-free oil.
+
+    Parameters
+    ----------
+    fluid : Fluid            The rig's oil
+    bulk_modulus : float     The line's oil-and-wall modulus, [Pa]; None: the fluid's
+    pressure : float         The line's mean (nominal) absolute pressure, [Pa]
+
+    Returns
+    -------
+    float or None  [Pa]; ``bulk_modulus`` itself when the oil carries no air
+    """
+    if not fluid.air_content:
+        return bulk_modulus
+    base = fluid.bulk_modulus if bulk_modulus is None else bulk_modulus
+    return float(entrained_air_bulk_modulus(pressure, base, fluid.air_content,
+                                            fluid.air_polytropic_exponent))
+
+
 def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=None, modes=None,
               method=None, fluid, modes_per_section, line_method):
     """A hose section from its dimensions: the modal line (M8-M15) of a
@@ -129,7 +168,9 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
     diameter : float           Bore, [m]
     form : str                 Causal form ("PQ", "QP", "PP", "QQ")
     nominal_pressure : float   Mean pressure: state scale and steady-state guess, [Pa]
-    bulk_modulus : float       Effective bulk modulus of oil and wall, [Pa]; the oil's when None
+    bulk_modulus : float       Effective bulk modulus of oil and wall, [Pa]; the oil's when None;
+                               with entrained air (``fluid.air_content``), the mixture's at
+                               ``nominal_pressure`` (M40, M43)
     modes : int                Modes of the line; ``modes_per_section`` when None
     method : str               Modal line method; ``line_method`` when None
     fluid : Fluid              The rig's oil
@@ -140,7 +181,7 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
     -------
     HoseSection
     """
-    line = Line(length, diameter, fluid, bulk_modulus)
+    line = Line(length, diameter, fluid, line_bulk_modulus(fluid, bulk_modulus, nominal_pressure))
     model = ModalLine(line, _integer_modes(modes, modes_per_section), form,
                       method=line_method if method is None else method)
     return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure)
@@ -166,7 +207,9 @@ def make_accumulator(*, name, connection_length, connection_diameter, model, mod
     -------
     PistonAccumulator
     """
-    conn = Line(connection_length, connection_diameter, fluid)
+    conn = Line(connection_length, connection_diameter, fluid,
+                line_bulk_modulus(fluid, None, params.get(
+                    "nominal_pressure", comp.PistonAccumulator.parameters()["nominal_pressure"].default)))
     if model == "modal":
         line = ModalLine(conn, _integer_modes(modes, modes_per_section), "PP")
         return comp.PistonAccumulator(name=name, connection_model=line, **params)
@@ -190,7 +233,7 @@ def make_volume(*, name, bulk_modulus=None, fluid, **params):
     HydraulicVolume
     """
     return comp.HydraulicVolume(name=name, bulk_modulus=fluid.bulk_modulus if bulk_modulus is None
-                                else bulk_modulus, **params)
+                                else bulk_modulus, fluid=fluid, **params)
 
 
 def make_table_command(*, name, file, quantity, folder):

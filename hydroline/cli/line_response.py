@@ -54,6 +54,12 @@ def register(sub):
     p.add_argument("--density", default="870 kg/m^3", help="oil density (default 870 kg/m^3)")
     p.add_argument("--viscosity", default="32 cSt", help="kinematic viscosity (default 32 cSt)")
     p.add_argument("--oil-bulk-modulus", default="1.5 GPa", help="oil bulk modulus (default 1.5 GPa)")
+    p.add_argument("--creep-compliance", default=None,
+                   help="viscoelastic wall (M44): creep compliances J_k of the Kelvin-Voigt "
+                        "elements, comma-separated, e.g. '2e-10 1/Pa,1e-10 1/Pa' (default: "
+                        "an elastic wall); the figure then also shows the elastic line")
+    p.add_argument("--retardation-time", default=None,
+                   help="their retardation times tau_k, e.g. '5 ms,50 ms'")
     p.add_argument("--modes", type=int, default=6, help="number of modes (default 6)")
     p.add_argument("--form", default="PQ", type=str.upper, choices=FORMS)
     p.add_argument("--method", default="both", choices=("yang-tobler", "residue", "both"),
@@ -217,8 +223,14 @@ def run(args) -> int:
                   quantity(args.viscosity, "m^2/s", "--viscosity"),
                   quantity(args.oil_bulk_modulus, "Pa", "--oil-bulk-modulus"))
     beta = quantity(args.bulk_modulus, "Pa", "--bulk-modulus") if args.bulk_modulus else None
-    line = Line(quantity(args.length, "m", "--length"), quantity(args.diameter, "m", "--diameter"),
-                fluid, beta)
+    creep = tuple(quantity(v, "1/Pa", "--creep-compliance")
+                  for v in (args.creep_compliance or "").split(",") if v.strip())
+    times = tuple(quantity(v, "s", "--retardation-time")
+                  for v in (args.retardation_time or "").split(",") if v.strip())
+    elastic = Line(quantity(args.length, "m", "--length"), quantity(args.diameter, "m", "--diameter"),
+                   fluid, beta)
+    line = Line(elastic.length, elastic.diameter, fluid, beta, creep, times) if creep or times \
+        else elastic
     if args.step_periods < 1:
         raise ValueError(f"--step-periods must be an integer >= 1, got {args.step_periods!r}")
     if not 1 <= args.modes <= MAX_MODES:
@@ -230,16 +242,21 @@ def run(args) -> int:
                          f"{args.step_periods}")
     out = out_dir(args.out)           # checked before the responses are computed
     methods = ("yang-tobler", "residue") if args.method == "both" else (args.method,)
+    if line.viscoelastic and args.method == "both":
+        methods = ("residue",)          # the Yang-Tobler line has an elastic wall only
     n = args.modes
     models = _models(line, n, args.form, methods, args.method != "both")
+    curves = {f"modal {k}, n={n}": v for k, v in models.items()}
+    if line.viscoelastic:               # elastic vs viscoelastic (M44), on the figure
+        curves[f"elastic wall, modal residue, n={n}"] = ModalLine(elastic, n, args.form,
+                                                                  method="residue")
     # frequency axis: up to the scan limit of compare_resonances, so every tabulated
     # resonance is on the plot
     f_top = resonance_f_max(line, args.form, n)
     f = np.linspace(f_top / 4000, f_top, 4000)
     with atomic_outputs(out) as temp:   # the figures replaced together, or none
         png = out / "line_response.png"
-        plot_line_response(line, {f"modal {k}, n={n}": v for k, v in models.items()}, f, args.form,
-                       path=temp(png.name))
+        plot_line_response(line, curves, f, args.form, path=temp(png.name))
         report = {"line": {"length_m": line.length, "diameter_m": line.diameter,
                            "wave_speed_m_s": line.wave_speed, "dissipation_number": line.dissipation_number,
                            "impedance_pa_s_m3": line.impedance}, "form": args.form, "resonances": []}

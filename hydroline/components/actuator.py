@@ -7,6 +7,7 @@ import numpy as np
 
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
+from ..fluid import Fluid, cavity_volume_fraction, oil_compliance
 
 __all__ = ["Actuator"]
 
@@ -35,6 +36,9 @@ class Actuator(Component):
                                        centre values, [-]
     initial_position : float           Guess of x_p for the steady-state solver, [m]
     nominal_pressure : float           Guess of the chamber pressures, [Pa]
+    fluid : Fluid or None              The rig's oil: its entrained air (M40) and cavity
+                                       model (M42) enter the chamber compliances (M41);
+                                       None or air-free oil without a cavity model: (M22)
 
     Ports: inputs ``bottom_flow`` (q_b, into the bottom chamber), ``top_flow`` (q_t, out of
     the top chamber) [m^3/s], ``friction_force``, ``load_force`` [N] (both opposing upward
@@ -72,7 +76,9 @@ class Actuator(Component):
                                         plausible=(-5.0, 5.0))
     nominal_pressure: float = parameter(1e7, "Pa", "chamber pressure scale and guess", positive=True,
                                         plausible=(1e3, 1e8))
+    fluid: Fluid | None = None
 
+    context = ("fluid",)
     inputs = {"bottom_flow": Port("flow", "q_b into the bottom chamber"),
               "top_flow": Port("flow", "q_t out of the top chamber"),
               "friction_force": Port("force", "friction on the piston, opposing +x when > 0"),
@@ -144,17 +150,45 @@ class Actuator(Component):
         Vb = ops.fmax(self.bottom_volume + Ab * xp, self.min_volume_fraction * self.bottom_volume)
         Vt = ops.fmax(self.top_volume - At * xp, self.min_volume_fraction * self.top_volume)
         qi = self.internal_leakage * (pt - pb)
-        beta = self.bulk_modulus
+        net_b = u["bottom_flow"] - Ab * vp + qi - self.external_leakage * pb
+        net_t = -u["top_flow"] + At * vp - qi - self.external_leakage * pt
+        if self.fluid is None or self.fluid.plain:
+            beta = self.bulk_modulus
+            dpb, dpt = beta / Vb * net_b, beta / Vt * net_t                         # (M22)
+        else:                                                                      # (M41)
+            dpb = net_b / oil_compliance(Vb, pb, self.bulk_modulus, self.fluid)
+            dpt = net_t / oil_compliance(Vt, pt, self.bulk_modulus, self.fluid)
         return {
-            "bottom_pressure": beta / Vb * (u["bottom_flow"] - Ab * vp + qi
-                                            - self.external_leakage * pb),           # (M22)
-            "top_pressure": beta / Vt * (-u["top_flow"] + At * vp - qi
-                                         - self.external_leakage * pt),
+            "bottom_pressure": dpb,
+            "top_pressure": dpt,
             "position": vp,                                                          # (M23)
             "velocity": (Ab * pb - At * pt - u["load_force"] - u["friction_force"]
                          - self.moving_mass * self.gravity + self.stop_force(xp, vp))
             / self.moving_mass,
         }
+
+    def cavity_volumes(self, x):
+        """Gas/vapour cavity volume in each chamber (M42), [m^3].
+
+        Parameters
+        ----------
+        x : dict   States (arrays of a run allowed), local name -> value [SI]
+
+        Returns
+        -------
+        dict  ``{"bottom chamber": V_cav, "top chamber": V_cav}``, [m^3]; empty without a
+              cavity model
+        """
+        if self.fluid is None or self.fluid.cavity_pressure is None:
+            return {}
+        pc, d = self.fluid.cavity_pressure, self.fluid.cavity_pressure_drop
+        xp = np.asarray(x["position"], dtype=float)
+        Vb = np.maximum(self.bottom_volume + self.bottom_area * xp,
+                        self.min_volume_fraction * self.bottom_volume)
+        Vt = np.maximum(self.top_volume - self.top_area * xp,
+                        self.min_volume_fraction * self.top_volume)
+        return {"bottom chamber": Vb * cavity_volume_fraction(np.asarray(x["bottom_pressure"]), pc, d),
+                "top chamber": Vt * cavity_volume_fraction(np.asarray(x["top_pressure"]), pc, d)}
 
     def initial_guess(self):
         return {"bottom_pressure": self.nominal_pressure, "top_pressure": self.nominal_pressure,

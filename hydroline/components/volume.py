@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
+from ..fluid import Fluid, cavity_volume_fraction, oil_compliance
 
 __all__ = ["HydraulicVolume"]
 
@@ -22,6 +23,9 @@ class HydraulicVolume(Component):
     bulk_modulus : float    beta of the oil in it, [Pa]
     terms : dict            Input port name -> sign (+1 into the volume, -1 out of it)
     nominal_pressure : float  Guess for the steady-state solver, [Pa]
+    fluid : Fluid or None   The rig's oil: entrained air (M40) and a cavity (M42) make the
+                            compliance ``V/K_eff(p) + V dphi/dp`` (M41); None or air-free oil
+                            without a cavity model: ``V/beta``
 
     Ports: the flow terms [m^3/s]; output ``pressure`` [Pa]. State ``pressure``.
     """
@@ -33,6 +37,7 @@ class HydraulicVolume(Component):
     terms: dict = field(default_factory=dict)
     nominal_pressure: float = parameter(1e7, "Pa", "guess for the steady state", positive=True,
                                         plausible=(1e3, 1e8))
+    fluid: Fluid | None = None
 
     feedthrough = False
     conducts = True
@@ -57,7 +62,26 @@ class HydraulicVolume(Component):
         net = 0.0
         for k, s in self.terms.items():
             net = net + s * u[k]
-        return {"pressure": self.bulk_modulus / self.volume * net}
+        if self.fluid is None or self.fluid.plain:
+            return {"pressure": self.bulk_modulus / self.volume * net}
+        return {"pressure": net / oil_compliance(self.volume, x["pressure"],      # (M41)
+                                                 self.bulk_modulus, self.fluid)}
+
+    def cavity_volumes(self, x):
+        """Gas/vapour cavity volume in the node (M42), [m^3].
+
+        Parameters
+        ----------
+        x : dict   States (arrays of a run allowed), local name -> value [SI]
+
+        Returns
+        -------
+        dict  ``{"volume": V_cav}``, [m^3]; empty without a cavity model
+        """
+        if self.fluid is None or self.fluid.cavity_pressure is None:
+            return {}
+        return {"volume": self.volume * cavity_volume_fraction(
+            x["pressure"], self.fluid.cavity_pressure, self.fluid.cavity_pressure_drop)}
 
     def initial_guess(self):
         return {"pressure": self.nominal_pressure}

@@ -85,7 +85,8 @@ def check_modes(n_modes) -> int:
 def _gamma_squared(line: Line, s):
     """Gamma(s)^2 of the dissipative model (M6), analytic in s off the negative real axis."""
     kappa = line.radius * np.sqrt(s / line.fluid.kinematic_viscosity)
-    return (s * line.wave_time) ** 2 * bessel_ratio(kappa)
+    g = (s * line.wave_time) ** 2 * bessel_ratio(kappa)
+    return g * line.wall_factor(s) if line.viscoelastic else g      # (M44)
 
 
 def dissipative_root(line: Line, theta: float, guess: complex | None = None,

@@ -114,6 +114,14 @@ class Line:
     bulk_modulus : float or None
         Effective bulk modulus beta_e of the oil in this line (oil, wall and air in series,
         see :func:`hydroline.effective_bulk_modulus`), [Pa]; the fluid's when None.
+    creep_compliances : tuple of float
+        Viscoelastic wall (M44): the Kelvin-Voigt elements' creep compliances J_k of the
+        line's volume, ``(1/V) dV/dp`` retarded, [1/Pa]; for a thin wall of material creep
+        compliance J_k' this is ``alpha d/e J_k'`` (Covas et al. 2004). Empty: an elastic wall
+        (``bulk_modulus`` is then the whole compliance); with elements, ``bulk_modulus`` is
+        the instantaneous (high-frequency) one.
+    retardation_times : tuple of float
+        The elements' retardation times tau_k, [s]; as many as ``creep_compliances``.
 
     Raises
     ------
@@ -142,6 +150,8 @@ class Line:
     diameter: float
     fluid: Fluid
     bulk_modulus: float | None = None
+    creep_compliances: tuple = ()
+    retardation_times: tuple = ()
 
     def __post_init__(self):
         object.__setattr__(self, "length", require_positive("length", self.length, "m"))
@@ -150,6 +160,62 @@ class Line:
             raise ValueError(f"fluid must be a hydroline.Fluid, got {type(self.fluid).__name__}")
         beta = self.fluid.bulk_modulus if self.bulk_modulus is None else self.bulk_modulus
         object.__setattr__(self, "bulk_modulus", require_positive("bulk_modulus", beta, "Pa"))
+        J = tuple(require_positive("creep_compliances", j, "1/Pa") for j in self.creep_compliances)
+        T = tuple(require_positive("retardation_times", t, "s") for t in self.retardation_times)
+        if len(J) != len(T):
+            raise ValueError(f"creep_compliances [1/Pa] and retardation_times [s] must be as many; "
+                             f"got {len(J)} and {len(T)}")
+        if len(set(T)) != len(T):
+            raise ValueError(f"retardation_times [s] must differ from one another, got {T}")
+        object.__setattr__(self, "creep_compliances", J)
+        object.__setattr__(self, "retardation_times", T)
+
+    # ---- viscoelastic wall (M44) --------------------------------------------------------
+    @property
+    def viscoelastic(self) -> bool:
+        """True when the wall has Kelvin-Voigt elements (M44)."""
+        return bool(self.creep_compliances)
+
+    def wall_factor(self, s):
+        """``W(s) = beta_e/beta(s) = 1 + beta_e sum_k J_k/(1 + s tau_k)`` (M44), [-].
+
+        The line's compliance per volume is ``W(s)/beta_e``: 1 for an elastic wall, rising to
+        ``1 + beta_e sum J_k`` at DC.
+
+        Parameters
+        ----------
+        s : complex or array_like
+            Laplace variable, [1/s].
+
+        Returns
+        -------
+        complex ndarray
+            W(s), same shape as ``s``, [-].
+        """
+        s = np.asarray(s, dtype=complex)
+        w = np.ones_like(s)
+        for J, tau in zip(self.creep_compliances, self.retardation_times):
+            w = w + self.bulk_modulus * J / (1.0 + s * tau)
+        return w
+
+    def wall_factor_derivative(self, s):
+        """``dW/ds = -beta_e sum_k J_k tau_k/(1 + s tau_k)^2`` (M44), [s].
+
+        Parameters
+        ----------
+        s : complex or array_like
+            Laplace variable, [1/s].
+
+        Returns
+        -------
+        complex ndarray
+            W'(s), same shape as ``s``, [s].
+        """
+        s = np.asarray(s, dtype=complex)
+        d = np.zeros_like(s)
+        for J, tau in zip(self.creep_compliances, self.retardation_times):
+            d = d - self.bulk_modulus * J * tau / (1.0 + s * tau) ** 2
+        return d
 
     # ---- derived parameters (M2)-(M4) -------------------------------------------------
     @property
@@ -206,6 +272,8 @@ class Line:
     def propagation(self, s, friction: str = "dissipative", alpha: float = 1.0, beta: float = 1.0):
         """Propagation operator Gamma(s) and characteristic impedance Zc(s), (M6) or (M7).
 
+        A viscoelastic wall (M44) multiplies Gamma by ``sqrt(W(s))`` and divides Zc by it.
+
         Parameters
         ----------
         s : complex or array_like
@@ -236,6 +304,9 @@ class Line:
             factor = np.sqrt(alpha**2 + 32.0 * alpha * beta * nu / (s * self.diameter**2))
         else:
             raise ValueError(f"friction must be 'dissipative' or 'linear'; got {friction!r}")
+        if self.viscoelastic:      # series impedance unchanged, shunt compliance W/beta_e (M44)
+            w = np.sqrt(self.wall_factor(s))
+            return s * self.wave_time * factor * w, self.impedance * factor / w
         return s * self.wave_time * factor, self.impedance * factor
 
     def transfer(self, s, form: str = "PQ", friction: str = "dissipative",

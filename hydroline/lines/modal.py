@@ -367,6 +367,9 @@ class ModalLine(StateSpaceLine):
             return
         if method != "yang-tobler":
             raise ValueError(f"method must be one of {', '.join(LINE_METHODS)}; got {method!r}")
+        if line.viscoelastic:
+            raise ValueError("a viscoelastic wall (M44) needs method 'residue' (the Yang-Tobler "
+                             "line has the linear-friction numerators of an elastic wall)")
         self.alpha, self.beta = _resolve_corrections(line, self.n_modes, self.form, corrections)
         build = {"PQ": self._build_pq, "QP": self._build_qp,
                  "PP": self._build_pp, "QQ": self._build_qq}[self.form]

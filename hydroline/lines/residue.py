@@ -100,7 +100,7 @@ from .memo import LineMemo
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
-           "viscous_poles", "exact_moments", "column_branches", "tail_groups"]
+           "viscous_poles", "retardation_poles", "exact_moments", "column_branches", "tail_groups"]
 
 #: PP and QQ forms, fallback only (:func:`_single_tail_blocks`, used if the passive fit
 #: fails): damping ratio of the single pseudo-mode per output that stands for the dropped
@@ -183,6 +183,9 @@ def propagation_derivative(line: Line, s):
     line : Line             The line
     s : array_like complex  Laplace variable off the origin, [1/s]
 
+    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
+    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
+
     Returns
     -------
     (Gamma [-], Zc [Pa s/m^3], dGamma/ds [s]) : complex arrays, principal square roots as in
@@ -195,7 +198,12 @@ def propagation_derivative(line: Line, s):
     B = i0 / i2
     sq = np.sqrt(B)
     dB = (i1 / i2) * (1.0 - B) + 2.0 * B / kappa
-    return s * tau * sq, line.impedance * sq, tau * sq * (1.0 + kappa * dB / (4.0 * B))
+    G, Zc, dG = s * tau * sq, line.impedance * sq, tau * sq * (1.0 + kappa * dB / (4.0 * B))
+    if line.viscoelastic:        # (M44): Gamma sqrt(W), Zc/sqrt(W), same branch for both
+        w = np.sqrt(line.wall_factor(s))
+        dG = dG * w + G * line.wall_factor_derivative(s) / (2.0 * w)
+        G, Zc = G * w, Zc / w
+    return G, Zc, dG
 
 
 def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
@@ -341,6 +349,8 @@ def exact_moments(line: Line, form: str = "PQ"):
     form = check_form(form)
     tau, Z0, Dn = line.wave_time, line.impedance, line.dissipation_number
     g1, g2 = 8.0 * Dn * tau, 4.0 / 3.0 * tau**2
+    if line.viscoelastic:
+        return _viscoelastic_moments(line, form, g1, g2)
     if form in ("PQ", "QP"):
         sech = np.array([1.0, -g1 / 2.0])
         ztanh = np.array([Z0 * g1 / tau, Z0 * (g2 - g1**2 / 3.0) / tau])
@@ -358,6 +368,117 @@ def exact_moments(line: Line, form: str = "PQ"):
         M = [[coth, -csch], [csch, -coth]]
     M = np.array(M)
     return M[..., 0], M[..., 1]
+
+
+def _viscoelastic_moments(line: Line, form: str, g1: float, g2: float):
+    """:func:`exact_moments` of a line with a viscoelastic wall (M44): ``Gamma^2`` times
+    ``W = W0 + W1 s + ...`` (``g1 W0``, ``g2 W0 + g1 W1``) and ``Zc = Z0 Gamma/(s tau W)``."""
+    tau, Z0 = line.wave_time, line.impedance
+    W0 = float(line.wall_factor(0.0).real)
+    W1 = float(line.wall_factor_derivative(0.0).real)
+    g1, g2 = g1 * W0, g2 * W0 + g1 * W1
+    if form in ("PQ", "QP"):
+        sech = np.array([1.0, -g1 / 2.0])
+        ztanh = Z0 / (tau * W0) * np.array([g1, g2 - g1**2 / 3.0 - g1 * W1 / W0])
+        tanhz = np.array([0.0, tau * W0 / Z0])
+        M = ([[sech, -ztanh], [tanhz, sech]] if form == "PQ" else
+             [[ztanh, sech], [sech, -tanhz]])
+    elif form == "PP":
+        base = tau / Z0 * np.array([W0 / g1, W1 / g1 - W0 * g2 / g1**2])
+        coth = base + np.array([0.0, tau * W0 / (3.0 * Z0)])
+        csch = base - np.array([0.0, tau * W0 / (6.0 * Z0)])
+        M = [[coth, -csch], [csch, -coth]]
+    else:
+        raise ValueError("a viscoelastic wall (M44) is modelled in the PQ, QP and PP forms, "
+                         "not QQ")
+    M = np.array(M)
+    return M[..., 0], M[..., 1]
+
+
+def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
+                      n_roots: int = VISCOUS_ROOTS_PER_CLUSTER):
+    """Real poles of a line with a viscoelastic wall (M44), beside the zeros of I2 and beside
+    the retardation rates ``1/tau_k``, [1/s].
+
+    ``Gamma^2 = (s tau)^2 B(s) W(s)`` is real on the negative real axis with poles at the
+    viscous rates ``nu j_{2,m}^2/r^2`` and at ``1/tau_k``; beside each, on the side where it
+    tends to ``-infinity``, every mode's ``Gamma^2 = -theta^2`` has a real root. Between two
+    consecutive singular rates ``F = Gamma^2 + theta^2`` is sampled on a grid that is
+    geometric toward both ends (offsets 1e-15 ... 1/2 of the gap) and every sign change is
+    bisected, for the modes 1..n_roots of the form; each root is assigned to its nearest
+    singular rate (in log).
+
+    Parameters
+    ----------
+    line : Line          The line, with its wall elements
+    form : str           Causal form: "PQ", "QP" or "PP"
+    rate_limit : float   Largest viscous cluster rate kept, [1/s] (None: the first only)
+    n_roots : int        Modes of the form, [-]
+
+    Returns
+    -------
+    (viscous, wall) : real poles s < 0 [1/s]: a flat array beside the viscous rates, and a
+    list with one array per wall element
+    """
+    form = check_form(form)
+    nu, r = line.fluid.kinematic_viscosity, line.radius
+    vis = nu * _bessel_zeros(2, MAX_VISCOUS_CLUSTERS) ** 2 / r**2
+    if rate_limit is not None:
+        vis = vis[: max(1, int(np.sum(vis <= rate_limit)))]
+    else:
+        vis = vis[:1]
+    wall = np.array([1.0 / t for t in line.retardation_times])
+    sing = np.sort(np.concatenate((vis, wall)))
+    edges = np.concatenate(([0.0], sing, [sing[-1] * 1.5]))
+    q = modal_angles(n_roots, form) ** 2
+    u = 10.0 ** -np.arange(15.0, 0.0, -0.5)
+    u = np.unique(np.concatenate((u, [0.5], 1.0 - u)))
+
+    def F(rate):                  # Gamma^2 + theta^2 for rates (..., 1) and all theta
+        with np.errstate(invalid="ignore", divide="ignore"):
+            g = propagation_derivative(line, -rate + 0j)[0] ** 2
+        return g.real + q
+
+    roots = []
+    with np.errstate(invalid="ignore", divide="ignore"):
+        for lo_edge, hi_edge in zip(edges[:-1], edges[1:]):
+            roots += _real_roots_between(line, lo_edge, hi_edge, u, q, F)
+    return _assign_real_roots(roots, sing, wall)
+
+
+def _real_roots_between(line, lo_edge, hi_edge, u, q, F):
+    """Roots of Gamma^2 + theta^2 (every theta of ``q``) between two singular rates, [1/s]."""
+    grid = lo_edge + (hi_edge - lo_edge) * u
+    Fg = F(grid[:, None])                                   # (points, modes)
+    change = np.nonzero(np.sign(Fg[:-1]) != np.sign(Fg[1:]))
+    if not change[0].size:
+        return []
+    i, k = change
+    lo, hi = grid[i], grid[i + 1]
+    f_lo = Fg[i, k]
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        f_mid = propagation_derivative(line, -mid + 0j)[0] ** 2
+        f_mid = f_mid.real + q[k]
+        left = np.sign(f_mid) == np.sign(f_lo)
+        lo, f_lo = np.where(left, mid, lo), np.where(left, f_mid, f_lo)
+        hi = np.where(left, hi, mid)
+        if np.all(hi - lo <= 1e-15 * hi):
+            break
+    x = 0.5 * (lo + hi)
+    # a pole of F (sign change across infinity) is no root: |F| must be small there
+    scale = np.abs(Fg[i, k]) + np.abs(Fg[i + 1, k])
+    ok = np.abs(propagation_derivative(line, -x + 0j)[0] ** 2 + q[k]) < 1e-6 * scale
+    return [x[ok]]
+
+
+def _assign_real_roots(roots, sing, wall):
+    """Real roots (rates) split by their nearest singular rate: viscous, and per wall element."""
+    roots = np.concatenate(roots) if roots else np.zeros(0)
+    near = np.argmin(np.abs(np.log(roots[:, None]) - np.log(sing[None, :])), axis=1)
+    is_wall = np.isin(sing[near], wall)
+    return (-roots[~is_wall],
+            [-roots[is_wall & (sing[near] == w)] for w in wall])
 
 
 def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
@@ -965,6 +1086,8 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
     # the same line (a CLI run, a fit's next evaluation) skips the root finding and fitting
     key = (f"{_SOURCE_TAG}|{form}|{n}|{line.length!r}|{line.diameter!r}|"
            f"{line.fluid.density!r}|{line.fluid.kinematic_viscosity!r}|{line.wave_time!r}")
+    if line.viscoelastic:
+        key += f"|{line.creep_compliances!r}|{line.retardation_times!r}"
 
     def decode(stored):
         A, B, C, names = (np.array(stored["A"], dtype=float), np.array(stored["B"], dtype=float),
@@ -1026,7 +1149,10 @@ def _realise(line: Line, n: int, form: str):
 
     # V: real-axis poles slower than the first dropped mode, one lumped pole per entry
     theta_next = modal_angles(n + 1, form)[-1]
-    sv = viscous_poles(line, form, rate_limit=theta_next / tau)
+    if line.viscoelastic:      # (M44): viscous and wall roots found together
+        sv, wall_roots = retardation_poles(line, form, rate_limit=theta_next / tau)
+    else:
+        sv = viscous_poles(line, form, rate_limit=theta_next / tau)
     Rv = modal_residues(line, sv, form).real
     rates = -sv.ravel()
     for o in range(2):
@@ -1042,6 +1168,31 @@ def _realise(line: Line, n: int, form: str):
             blocks.append((np.array([[-lam]]), Bv, Cv, [f"viscous_{end}{j + 1}.{kind}"]))
             rem0[o, j] -= V0
             rem1[o, j] -= -V0 / lam
+
+    # W: a viscoelastic wall's real roots beside each retardation rate (M44), one lumped
+    # pole per element and entry, DC gain and first moment those of the cluster
+    if line.viscoelastic:
+        for e, sr in enumerate(wall_roots):
+            if not sr.size:
+                continue
+            rates = -sr
+            Rr = modal_residues(line, sr, form).real
+            for o in range(2):
+                for j in range(2):
+                    res = Rr[:, o, j]
+                    V0, V1 = np.sum(res / rates), -np.sum(res / rates**2)
+                    if V0 == 0.0:
+                        continue
+                    lam = _lumped_rate(V0, V1, rates, res / rates)
+                    Bw = np.zeros((1, 2))
+                    Bw[0, j] = lam * V0
+                    Cw = np.zeros((2, 1))
+                    Cw[o, 0] = 1.0
+                    end, kind = ends[o]
+                    blocks.append((np.array([[-lam]]), Bw, Cw,
+                                   [f"wall{e + 1}_{end}{j + 1}.{kind}"]))
+                    rem0[o, j] -= V0
+                    rem1[o, j] -= -V0 / lam
 
     # T: dropped modes; exact DC gain and first moment
     if form in ("PQ", "QP"):      # well-damped grouped pseudo-modes, fitted and bounded

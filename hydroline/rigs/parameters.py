@@ -195,6 +195,10 @@ PARAMETERS: Mapping = DerivedTable({
     "fluid.density": Declared(),
     "fluid.kinematic_viscosity": Declared(),
     "fluid.bulk_modulus": Declared(),
+    "fluid.air_content": Declared(COMPONENT_DEFAULT),
+    "fluid.air_polytropic_exponent": Declared(COMPONENT_DEFAULT),
+    "fluid.cavity_pressure": Declared(default=None),
+    "fluid.cavity_pressure_drop": Declared(COMPONENT_DEFAULT),
     "fluid.gas_release_pressure": Parameter(
         "Pa", 0.0, 1e6, "absolute pressure below which dissolved air leaves the oil (the line "
         "model no longer holds)", ATMOSPHERIC_PRESSURE),

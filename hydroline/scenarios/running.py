@@ -23,8 +23,8 @@ from .experiments import Experiment, Scenario, build_scenario, default_scenario
 from .summaries import metrics_window
 
 __all__ = ["simulate", "Simulation", "DEFAULT_SIMULATION", "describe_run", "rest_state",
-           "watched_pressures", "check_cavitation", "CAVITATION_PRESSURE", "WATCHED_NODES",
-           "WATCHED_PRESSURES"]
+           "watched_pressures", "check_cavitation", "cavity_warnings", "CAVITATION_PRESSURE",
+           "WATCHED_NODES", "WATCHED_PRESSURES"]
 
 #: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
 #: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
@@ -83,6 +83,7 @@ def describe_run(res: SimulationResult, rig: Rig, circuit, net, sc: "Scenario", 
                             f"MPa): the line model is not valid there"
                             for k in watched_pressures(res)
                             if k in lows.index and lows[k] < threshold)
+    res.warnings.extend(cavity_warnings(res, net))
     if window:
         res.metadata["metrics_window"] = metrics_window(res)
     res.metadata["total_wall_time"] = _time.perf_counter() - tic
@@ -278,6 +279,40 @@ def watched_pressures(res: SimulationResult) -> list[str]:
         out += [s for s in (ax.supply_pressure, ax.return_pressure, ax.bottom_pressure,
                             ax.top_pressure) if s not in out]
     return out + [s for s in WATCHED_NODES if s not in out]
+
+
+def cavity_warnings(res: SimulationResult, net) -> list[str]:
+    """One warning per chamber or volume in which a gas/vapour cavity opened (M42): when, and
+    how large it grew (from the run's state columns; none for a run that did not keep them).
+
+    Parameters
+    ----------
+    res : SimulationResult   The run
+    net : Network            Its network (components with ``cavity_volumes``)
+
+    Returns
+    -------
+    list[str]  One line each
+    """
+    out = []
+    for c in net.components:
+        fluid = getattr(c, "fluid", None)
+        if fluid is None or fluid.cavity_pressure is None or not hasattr(c, "cavity_volumes"):
+            continue
+        cols = {s.name: f"{c.name}.{s.name}" for s in c.states}
+        if not all(k in res for k in cols.values()):
+            continue
+        for where, v in c.cavity_volumes({k: res[col] for k, col in cols.items()}).items():
+            v = np.asarray(v, dtype=float)
+            i = int(np.argmax(v))
+            if v[i] <= 0:
+                continue
+            first = res.t[np.argmax(v > 0)]
+            out.append(f"{c.name} {where}: a gas/vapour cavity opened below "
+                       f"fluid.cavity_pressure = {fluid.cavity_pressure / 1e3:.3g} kPa absolute "
+                       f"from t = {first * 1e3:.1f} ms; largest {v[i] * 1e6:.3g} cm^3 at "
+                       f"{res.t[i] * 1e3:.1f} ms, {v[-1] * 1e6:.3g} cm^3 at the end (M42)")
+    return out
 
 
 def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSURE) -> list[str]:

@@ -1,0 +1,165 @@
+"""Entrained air (M40, M41, M43) and gas/vapour cavities (M42): hand-derived numbers,
+conservation of the oil volume, and the default (air-free, no cavity) left unchanged."""
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate, optimize
+
+from hydroline.fluid import (ATMOSPHERE, Fluid, cavity_volume_fraction, entrained_air_bulk_modulus,
+                             oil_compliance)
+from hydroline.components import Actuator, HydraulicVolume
+
+K_OIL = 1.5e9
+
+
+def test_effective_modulus_hand_values():
+    # a = 1 %, isothermal, at 1 atm: 1/K = 0.99/1.5e9 + 0.01/101325 = 9.93519e-8 -> 10.065 MPa
+    assert entrained_air_bulk_modulus(ATMOSPHERE, K_OIL, 0.01) == pytest.approx(
+        1.0 / (0.99 / 1.5e9 + 0.01 / 101325.0), rel=1e-12)
+    assert entrained_air_bulk_modulus(ATMOSPHERE, K_OIL, 0.01) / 1e6 == pytest.approx(10.065, abs=1e-3)
+    # adiabatic air (n = 1.4) at 1 atm: 1/K = 0.99/1.5e9 + 0.01/(1.4*101325) -> 14.054 MPa
+    assert entrained_air_bulk_modulus(ATMOSPHERE, K_OIL, 0.01, 1.4) / 1e6 == pytest.approx(14.054, abs=1e-3)
+    # 1 MPa: v_L = 0.99 exp(-898675/1.5e9) = 0.9894071, v_g = 0.01*0.101325
+    vl, vg = 0.99 * math.exp(-(1e6 - 101325.0) / 1.5e9), 0.00101325
+    assert entrained_air_bulk_modulus(1e6, K_OIL, 0.01) == pytest.approx(
+        (vl + vg) / (vl / 1.5e9 + vg / 1e6), rel=1e-12)
+    assert entrained_air_bulk_modulus(1e6, K_OIL, 0.01) / 1e6 == pytest.approx(592.05, abs=0.01)
+    # 0.1 % of air at 20 MPa: the air is 5.07e-6 of the volume, K within 0.2 % of the oil's
+    k20 = entrained_air_bulk_modulus(20e6, K_OIL, 0.001)
+    assert 0.99 * K_OIL < k20 < K_OIL
+    # no air: the oil's modulus itself (the same object: nothing computed)
+    k = 1.234e9
+    assert entrained_air_bulk_modulus(5e6, k, 0.0) is k
+
+
+def test_closed_volume_compression_matches_the_mixture_law():
+    """Compress a fixed mass of oil + 2 % air from 1 atm to 99 % of its volume and back by
+    integrating dp/dV = -K_eff(p)/V; the end pressure solves the mixture's volume law
+    v_L(p) + v_g(p) = V/V0 (M40), and the release returns to 1 atm (the mass is conserved)."""
+    a, n = 0.02, 1.2
+
+    def rhs(V, p):
+        return [-entrained_air_bulk_modulus(p[0], K_OIL, a, n) / V]
+
+    V0, V1 = 1.0, 0.99
+    down = integrate.solve_ivp(rhs, (V0, V1), [ATMOSPHERE], rtol=1e-11, atol=1e-3)
+    p1 = down.y[0, -1]
+
+    def law(p):
+        return ((1 - a) * math.exp(-(p - ATMOSPHERE) / K_OIL) + a * (ATMOSPHERE / p) ** (1 / n)
+                - V1 / V0)
+
+    assert p1 == pytest.approx(optimize.brentq(law, ATMOSPHERE, 1e8, xtol=1e-6), rel=1e-8)
+    up = integrate.solve_ivp(rhs, (V1, V0), [p1], rtol=1e-11, atol=1e-3)
+    assert up.y[0, -1] == pytest.approx(ATMOSPHERE, rel=1e-8)
+
+
+def test_symbolic_and_numeric_modulus_agree():
+    import casadi as ca
+    p = ca.SX.sym("p")
+    f = ca.Function("k", [p], [entrained_air_bulk_modulus(p, K_OIL, 0.005, 1.4)])
+    for pv in (2e5, 3e6, 2e7):
+        assert float(f(pv)) == pytest.approx(entrained_air_bulk_modulus(pv, K_OIL, 0.005, 1.4),
+                                             rel=1e-13)
+
+
+def test_default_fluid_leaves_every_compliance_unchanged():
+    plain = Fluid(870.0, 3.2e-5, 1.5e9)
+    assert plain.plain and oil_compliance(2e-5, 1e7, 1.4e9, plain) == 2e-5 / 1.4e9
+    kw = dict(name="a", bottom_area=4.83e-4, top_area=4.83e-4, bottom_volume=3.5e-5,
+              top_volume=3.5e-5, bulk_modulus=1.4e9, moving_mass=16.0, stroke=0.102)
+    x = {"bottom_pressure": 1.2e7, "top_pressure": 8e6, "position": 0.01, "velocity": 0.3}
+    u = {"bottom_flow": 1e-4, "top_flow": 9e-5, "friction_force": 10.0, "load_force": 0.0}
+    ref = Actuator(**kw).derivatives(0.0, x, u, {})
+    assert Actuator(**kw, fluid=plain).derivatives(0.0, x, u, {}) == ref     # bit-identical
+    vol = dict(name="v", volume=1e-5, bulk_modulus=1.5e9, terms={"q": 1})
+    assert (HydraulicVolume(**vol, fluid=plain).derivatives(0.0, {"pressure": 1e6}, {"q": 1e-5}, {})
+            == HydraulicVolume(**vol).derivatives(0.0, {"pressure": 1e6}, {"q": 1e-5}, {}))
+    # with air, the chamber's rate is the flow over V/K_eff(p) (M41)
+    airy = Fluid(870.0, 3.2e-5, 1.5e9, air_content=0.01)
+    d = Actuator(**kw, fluid=airy).derivatives(0.0, x, u, {})
+    Vb = 3.5e-5 + 4.83e-4 * 0.01
+    assert d["bottom_pressure"] == pytest.approx(
+        entrained_air_bulk_modulus(1.2e7, 1.4e9, 0.01) / Vb * (1e-4 - 4.83e-4 * 0.3), rel=1e-12)
+
+
+def test_rig_hose_takes_the_mixture_modulus_at_its_mean_pressure():
+    from hydroline.circuit.types import line_bulk_modulus
+    plain, airy = Fluid(870.0, 3.2e-5, 1.5e9), Fluid(870.0, 3.2e-5, 1.5e9, air_content=0.005)
+    assert line_bulk_modulus(plain, 194.5e6, 2e7) == 194.5e6
+    assert line_bulk_modulus(plain, None, 2e7) is None
+    assert line_bulk_modulus(airy, 194.5e6, 2e7) == pytest.approx(
+        entrained_air_bulk_modulus(2e7, 194.5e6, 0.005), rel=1e-15)
+
+
+def test_cavity_fraction_and_its_compliance():
+    pc, d = 5e3, 1e3
+    # phi = x^3 - x^4/2 (x <= 1), x - 1/2 beyond; x = (pc - p)/d
+    assert cavity_volume_fraction(pc + 1.0, pc, d) == 0.0
+    assert cavity_volume_fraction(pc - 0.5 * d, pc, d) == pytest.approx(0.125 - 0.03125)
+    assert cavity_volume_fraction(pc - 3 * d, pc, d) == pytest.approx(2.5)
+    # its compliance in oil_compliance is -dphi/dp (central differences, C1 at both joints)
+    fl = Fluid(870.0, 3.2e-5, 1.5e9, cavity_pressure=pc, cavity_pressure_drop=d)
+    for p in (pc - 0.3 * d, pc - d, pc - 2 * d, pc + 10.0):
+        h = 1e-3
+        dphi = (cavity_volume_fraction(p - h, pc, d) - cavity_volume_fraction(p + h, pc, d)) / (2 * h)
+        assert oil_compliance(1.0, p, 1.5e9, fl) - 1.0 / 1.5e9 == pytest.approx(dphi, rel=1e-6, abs=1e-12)
+
+
+def test_closed_volume_emptied_and_refilled_conserves_oil():
+    """A 10 cm^3 volume at 1 MPa loses 1 cm^3 (10 %) in 0.1 s and gets it back: the pressure
+    stops at the cavity pressure less delta*(phi + 1/2) instead of going negative, the oil
+    balance V/K (p0 - p) + V phi(p) = withdrawn volume holds throughout (M42), and the
+    refilled volume returns to 1 MPa."""
+    fl = Fluid(870.0, 3.2e-5, 1.5e9, cavity_pressure=5e3, cavity_pressure_drop=1e3)
+    vol = HydraulicVolume(name="v", volume=1e-5, bulk_modulus=1.5e9, terms={"q": 1}, fluid=fl)
+    q = 1e-5                                 # [m^3/s], 0.1 s -> 1e-6 m^3
+
+    def rhs(t, x):
+        return [vol.derivatives(t, {"pressure": x[0]}, {"q": -q if t < 0.1 else q}, {})["pressure"]]
+
+    sol = integrate.solve_ivp(rhs, (0.0, 0.2), [1e6], method="LSODA", rtol=1e-9, atol=1e-3,
+                              max_step=1e-3, dense_output=True)
+    t = np.linspace(0, 0.1, 11)
+    p = sol.sol(t)[0]
+    drawn = q * t
+    balance = 1e-5 / 1.5e9 * (1e6 - p) + 1e-5 * cavity_volume_fraction(p, 5e3, 1e3)
+    # to the integrator's tolerance: 1e-3 Pa times the cavity's compliance V/delta = 1e-8 m^3/Pa
+    assert np.abs(balance - drawn).max() < 1e-4 * drawn[-1]
+    # phi = 0.1 - 6.6e-4 (the oil's own expansion) at the end, inside the smoothstep
+    # (phi < 1/2): p = 5 kPa - x 1 kPa with x^3 - x^4/2 = phi, x = 0.511
+    phi = 0.1 - (1e6 - 4.49e3) / 1.5e9
+    x = optimize.brentq(lambda x: x**3 - x**4 / 2 - phi, 0.0, 1.0)
+    assert p[-1] == pytest.approx(5e3 - 1e3 * x, rel=1e-4)
+    assert p.min() > 0
+    # refilled: back to 1 MPa, within the balance's 1e-4 of the drawn volume over the oil's
+    # compliance V/K (1e-10 m^3 / 6.7e-15 m^3/Pa = 15 kPa)
+    assert abs(sol.sol(0.2)[0] - 1e6) < 1e-4 * 1e-6 / (1e-5 / 1.5e9)
+
+
+def test_reproducer_chambers_stay_above_zero_and_conserve_oil():
+    """/work/shared/repro/p3_11 (valve of 10x rated flow): without a cavity model the top
+    chamber falls to -6.9 MPa absolute; with ``fluid.cavity_pressure`` it stays positive, and
+    the chamber's oil balance ``int q_in dt = dV + int V/K dp - int V dphi`` closes to a small
+    fraction of the cavity volume; the run's warning gives the cavity's size."""
+    from hydroline import load_rig, simulate
+    from hydroline.system import build_circuit
+
+    rig = load_rig(None).set("servovalve.rated_flow", "190 L/min").set(
+        "fluid.cavity_pressure", "5 kPa")
+    res = simulate(rig, t_end=0.1, solver="cvodes", dt_out=5e-6)
+    act = build_circuit(rig).component("actuator")
+    t, p, xp = res.t, res["actuator.top_pressure"], res["actuator.position"]
+    assert p.min() > 0 and res["actuator.bottom_pressure"].min() > 0
+    V = act.top_volume - act.top_area * xp
+    phi = cavity_volume_fraction(p, 5e3, 1e3)
+    q_in = -res["top_chamber_flow"]
+    cum = integrate.cumulative_trapezoid
+    balance = (cum(q_in, t, initial=0) - (V - V[0]) - cum(V / act.bulk_modulus * np.gradient(p, t), t, initial=0)
+               + cum(V * np.gradient(phi, t), t, initial=0))
+    cavity = (V * phi).max()
+    assert cavity > 5e-6                                  # a real cavity: > 5 cm^3
+    assert np.abs(balance).max() < 0.02 * cavity          # sampled at 5 us: trapezoid error
+    warned = [w for w in res.warnings if "cavity opened" in w]
+    assert warned and f"largest {cavity * 1e6:.3g} cm^3" in warned[0]

@@ -1,0 +1,82 @@
+"""Viscoelastic hose wall (M44): Kelvin-Voigt creep elements in the exact line model and in
+the residue modal line."""
+import numpy as np
+import pytest
+
+from hydroline import MINERAL_OIL
+from hydroline.lines import Line, ModalLine
+from hydroline.lines.compare import compare_resonances
+
+HOSE = dict(length=3.048, diameter=0.01415, fluid=MINERAL_OIL, bulk_modulus=194.5e6)
+
+
+def test_wall_factor_by_hand():
+    line = Line(**HOSE, creep_compliances=(2e-10, 1e-10), retardation_times=(0.005, 0.05))
+    # W(0) = 1 + beta (J1 + J2) = 1 + 194.5e6 * 3e-10 = 1.05835; W(j/tau1) = 1 + bJ1/(1+j) + bJ2/(1+10j)
+    assert line.wall_factor(0.0).real == pytest.approx(1.05835, rel=1e-12)
+    s = 1j / 0.005
+    assert line.wall_factor(s) == pytest.approx(1 + 194.5e6 * (2e-10 / (1 + 1j) + 1e-10 / (1 + 10j)))
+    # the static wave speed falls by sqrt(W0): Gamma/s at s -> 0 (lossless part) grows by it
+    h = 1e-6
+    assert (line.wall_factor(h) - line.wall_factor(-h)).real / (2 * h) == pytest.approx(
+        line.wall_factor_derivative(0.0).real, rel=1e-6)
+
+
+def test_vanishing_creep_recovers_the_elastic_line():
+    elastic = Line(**HOSE)
+    s = 2j * np.pi * np.logspace(-1, 3, 50)
+    for form in ("PQ", "QP", "PP", "QQ"):
+        tiny = Line(**HOSE, creep_compliances=(1e-30,), retardation_times=(0.01,))
+        assert np.allclose(tiny.transfer(s, form), elastic.transfer(s, form), rtol=1e-12, atol=0)
+        # no elements: the elastic line itself, bit for bit
+        assert np.array_equal(Line(**HOSE, creep_compliances=(), retardation_times=()).transfer(s, form),
+                              elastic.transfer(s, form))
+
+
+def test_creep_lowers_and_damps_the_resonances():
+    """A wall that creeps 5 % more at DC (W0 = 1.05) has its quarter-wave resonance between
+    c/(4L) and c/(4L sqrt(W0)), and a lower peak (the wall dissipates)."""
+    el = Line(**HOSE)
+    ve = Line(**HOSE, creep_compliances=(0.05 / 194.5e6,), retardation_times=(0.02,))
+    m_el, m_ve = ModalLine(el, 6, "PQ"), ModalLine(ve, 6, "PQ")
+    r_el = compare_resonances(el, m_el, 1)[0]
+    r_ve = compare_resonances(ve, m_ve, 1)[0]
+    assert r_el.exact_frequency_hz / np.sqrt(1.05) < r_ve.exact_frequency_hz < r_el.exact_frequency_hz
+    assert r_ve.exact_magnitude < r_el.exact_magnitude
+
+
+@pytest.mark.parametrize("wall", [((5e-10,), (0.02,)), ((2e-10, 1e-10), (0.005, 0.05))])
+@pytest.mark.parametrize("form", ["PQ", "PP"])
+def test_residue_line_matches_its_exact_model(form, wall):
+    """The residue realisation of the viscoelastic line: its modal poles and residues are the
+    exact model's, so its resonances lie within 1 % (frequency) and 3 % (peak) of the exact
+    viscoelastic four-pole (the issue's bounds), and it is stable."""
+    line = Line(**HOSE, creep_compliances=wall[0], retardation_times=wall[1])
+    m = ModalLine(line, 6, form, method="residue")
+    assert np.max(m.eigenvalues().real) < 0
+    for r in compare_resonances(line, m, 5):
+        assert abs(r.frequency_error_pct) < 1.0
+        assert abs(r.magnitude_error_pct) < 3.0
+
+
+def test_yang_tobler_and_qq_refuse_a_viscoelastic_wall():
+    line = Line(**HOSE, creep_compliances=(5e-10,), retardation_times=(0.02,))
+    with pytest.raises(ValueError, match="residue"):
+        ModalLine(line, 6, "PQ", method="yang-tobler")
+    with pytest.raises(ValueError, match="QQ"):
+        ModalLine(line, 6, "QQ", method="residue")
+    with pytest.raises(ValueError, match="as many"):
+        Line(**HOSE, creep_compliances=(5e-10,), retardation_times=())
+
+
+def test_line_response_shows_elastic_and_viscoelastic(tmp_path, capsys):
+    import json
+    from hydroline.cli import main
+    rc = main(["line-response", "--length", "3.048 m", "--diameter", "14.15 mm",
+               "--bulk-modulus", "194.5 MPa", "--creep-compliance", "5e-10 1/Pa",
+               "--retardation-time", "20 ms", "--no-step", "--json", "--out", str(tmp_path)])
+    assert rc == 0
+    report = json.loads(capsys.readouterr().out)
+    assert {r["method"] for r in report["resonances"]} == {"residue"}
+    assert max(abs(r["frequency_error_pct"]) for r in report["resonances"]) < 1.0
+    assert (tmp_path / "line_response.png").is_file()
