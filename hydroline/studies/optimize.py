@@ -470,7 +470,7 @@ def _starts(problem: _Problem, count: int, seed: int, baseline_z) -> list:
 
 
 def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
-           maxiter: int, baseline_z) -> tuple:
+           maxiter: int, baseline_z, local_runs: int = 2) -> tuple:
     """Run the method; returns (converged, message)."""
     variables = problem.variables
     cont = [i for i, v in enumerate(variables) if not v.discrete]
@@ -479,9 +479,14 @@ def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
         if method == "local":
             zs = _starts(problem, starts, seed, baseline_z)
             rows = problem.rows(zs)
-            best = min(range(len(zs)), key=lambda k: problem.rank(rows[k]))
-            res = _local(problem, zs[best], {}, step, maxiter)
-            return bool(res.success), f"SLSQP: {res.message}"
+            order = sorted(range(len(zs)), key=lambda k: problem.rank(rows[k]))
+            results = []
+            for k in order[:max(1, local_runs)]:    # multistart: the best few starts
+                res = _local(problem, zs[k], {}, step, maxiter)
+                results.append(res)
+            converged = all(r.success for r in results)
+            return converged, "; ".join(f"SLSQP from start {k + 1}: {r.message}"
+                                        for k, r in zip(order, results))
         fixed = None
         grid = math.prod(len(variables[i].choices) for i in disc)
         if not cont and grid <= problem.ev.budget - len(problem.ev.used):
@@ -695,7 +700,7 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
 
 def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
              scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
-             method: str = "auto", starts: int | None = None,
+             method: str = "auto", starts: int | None = None, local_runs: int = 2,
              max_evaluations: int | None = None, maxiter: int = 30, step: float = 1e-3,
              seed: int = 0, workers: int = 1, scheduler=None, out=None, resume: bool = False,
              figure: bool = True, runner=None, progress=None) -> OptimizeResult:
@@ -714,7 +719,9 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
     solver : str               See :func:`hydroline.engine.integrate`
     method : str               "auto" (local without choices, global with), "local", "global"
     starts : int               Space-filling starting points of the local method (default
-                               2 per continuous variable), [-]
+                               3 + 2 per continuous variable), [-]
+    local_runs : int           SLSQP runs, from the best starting points (the base rig's
+                               among them), [-]
     max_evaluations : int      Evaluations allowed (default 40 + 30 per variable), [-]
     maxiter : int              SLSQP iterations at most, [-]
     step : float               Forward-difference step in the scaled variables (range = 1), [-]
@@ -768,7 +775,7 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         raise RigError("--method local: the local method takes continuous variables only; "
                        "--choose needs --method global (or auto)")
     n_cont = sum(not v.discrete for v in variables)
-    starts = 2 * n_cont if starts is None else int(starts)
+    starts = 3 + 2 * n_cont if starts is None else int(starts)
     budget = 40 + 30 * len(variables) if max_evaluations is None else int(max_evaluations)
     if budget < 2 or starts < 0:
         raise RigError(f"--max-evaluations must be >= 2 and --starts >= 0, got {budget}, "
@@ -816,7 +823,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
             problem = _Problem(variables, minimize, constraints, ev, scale)
             bz = [v.scaled(rig.values.get(v.paths[0])) for v in variables]
             baseline_z = None if any(z is None for z in bz) else bz
-            converged, message = _solve(problem, method, starts, seed, step, maxiter, baseline_z)
+            converged, message = _solve(problem, method, starts, seed, step, maxiter, baseline_z,
+                                        local_runs)
     finally:
         if journal is not None:
             journal.close()
@@ -857,7 +865,7 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         baseline=baseline, baseline_objective=f0, baseline_metrics=all_metrics(base_row),
         constraints=[c.describe() for c in constraints],
         variables=[f"{v.name} = {v.describe()}" for v in variables], history=history,
-        rig=_with_values(rig, optimum, units), scenario=scenario)
+        rig=_with_values(rig, optimum, units), scenario=scenario, files=files)
     if out is not None:
         _write_outputs(result, rig, units, out, figure, t_end, solver, axes)
     result.wall_time = _time.perf_counter() - tic
