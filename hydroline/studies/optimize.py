@@ -112,10 +112,12 @@ class Variable:
 
     @property
     def name(self) -> str:
+        """The paths joined by ``+``."""
         return "+".join(self.paths)
 
     @property
     def discrete(self) -> bool:
+        """True for a list of choices, False for a range."""
         return self.choices is not None
 
     def value(self, z: float):
@@ -228,6 +230,7 @@ class Constraint:
     bound: float
 
     def describe(self) -> str:
+        """The constraint as text, ``METRIC<=VALUE``."""
         return f"{self.metric}{self.sense}{self.bound:g}"
 
     def margin(self, value: float) -> float:
