@@ -30,12 +30,13 @@ _LAZY = {
     "stability_margins": ("hydroline.analysis", "stability_margins"),
     "layout": ("hydroline.studies", "layout"),
     "sweep": ("hydroline.studies", "sweep"),
+    "optimize": ("hydroline.studies", "optimize"),
 }
 
 __all__ = ["Fluid", "MINERAL_OIL", "effective_bulk_modulus", "Rig", "load_rig", "simulate",
            "summarize", "scenarios", "analysis", "studies", "linearize", "bode_analysis",
            "bode_data", "frequency_response_data", "stability_margins", "layout", "sweep",
-           "__version__"]
+           "optimize", "__version__"]
 
 
 def __getattr__(name):

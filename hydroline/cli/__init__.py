@@ -37,6 +37,7 @@ SUBCOMMANDS = [
     "layout",
     "sweep",
     "envelope",
+    "optimize",
     "circuit",
     "export_fmu",
 ]

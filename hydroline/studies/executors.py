@@ -29,7 +29,7 @@ from collections import deque
 
 from ..rigs import RigError
 
-__all__ = ["run_serial", "run_processes", "run_dask", "dask_client", "die_with_parent",
+__all__ = ["run_serial", "run_processes", "run_dask", "worker_pool", "dask_client", "die_with_parent",
            "quiet_resource_tracker", "failure_reason", "MAX_ATTEMPTS", "MAX_WORKERS",
            "WINDOW_PER_WORKER"]
 
@@ -293,6 +293,40 @@ def _run_process_pool(tasks, workers, runner, record, failed_row):
                                       "running this variant (crash or out of memory)"))
                 else:
                     pending.appendleft((index, values))
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+
+@contextlib.contextmanager
+def worker_pool(workers: int, runner):
+    """W local worker processes that keep ``runner`` (and the models it builds) for as long as
+    the pool is open: for a study that sends its variants in rounds, each decided by the
+    last (an optimiser's batches), where :func:`run_processes` would start new workers (and
+    build the models anew) per round. The workers end with this process (as in
+    :func:`run_processes`); a dying worker is not retried: its variant's future raises.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes, [-]
+    runner : callable
+        Picklable ``runner(index, values) -> row``, sent once per worker
+
+    Yields
+    ------
+    callable
+        ``submit(index, values) -> concurrent.futures.Future`` of the variant's row
+    """
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = _mp_context()
+    if os.name == "posix":
+        quiet_resource_tracker()
+    with _main_module_hidden():
+        pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+                                   initargs=(runner, os.getpid()))
+        try:
+            yield lambda index, values: pool.submit(_pool_task, index, values)
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
 

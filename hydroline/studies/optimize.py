@@ -1,0 +1,950 @@
+"""Constrained design optimisation of a rig with its hoses' dynamics in the loop (issue 28).
+
+Which section II length, bore, accumulator capacity or pre-charge, which controller gain
+minimise a metric of the port pressures (``supply.amplitude_mpa``, ...) subject to others
+(``supply.frequency_hz>=30``)? Every evaluation is a variant of the sweep
+(:class:`hydroline.studies.sweep.VariantRunner`: the rig with its numbers changed, run on the
+model shared by every variant of its structure -- the numbers are runtime parameters, nothing
+is recompiled), recorded in a results file as it finishes and read back on ``resume``.
+
+Variables and problem
+---------------------
+* ``vary``: ``PATH=LOW..HIGH`` with units (``"supply.section2.length=0.5 m..4 m"``), values
+  read as ``hydroline sweep`` reads them (:func:`hydroline.studies.design.parse_parameter`,
+  ``PATH1+PATH2`` moves both); inside the optimiser scaled to [0, 1].
+* ``choose``: ``PATH=V1,V2,...`` discrete values (``"supply.section2.diameter=12.7 mm,
+  19.05 mm,25.4 mm"``, e.g. SAE 100R2 bores), an index inside the optimiser.
+* ``minimize``: a metric name (:func:`metric_names`): the sweep's row columns with dots
+  (``supply.amplitude_mpa``, ``return.first_excursion_mpa``, ``supply.frequency_hz``,
+  ``tracking_error_rms_mm``; per axis ``axis2.supply.amplitude_mpa``,
+  ``axis2.position_disturbance_mm``) or a cost proxy (:data:`COST_METRICS`).
+* ``subject_to``: ``"METRIC<=VALUE"`` / ``"METRIC>=VALUE"``, VALUE in the unit the metric's
+  name ends with.
+
+Methods
+-------
+Continuous variables only (``method="local"``, the default then): a few space-filling starting
+points (Latin hypercube, :mod:`scipy.stats.qmc`, seeded) and the base rig's point, then
+SLSQP (:func:`scipy.optimize.minimize`) from the best of them, the constraints as inequality
+constraints, gradients by forward differences of ``step`` in the scaled variables, each
+gradient's points evaluated as one batch (in parallel on ``workers`` processes or Dask).
+With discrete choices, or ``method="global"`` (rough objectives): every combination where
+the choices alone are varied and their grid fits the budget, else differential evolution
+(:func:`scipy.optimize.differential_evolution`, integrality for the choices, each generation
+one batch) on the objective plus a penalty on the constraints' violation; then SLSQP on the
+continuous variables at the best choice. The optimum reported is the best feasible point
+evaluated (the least violating where none is).
+
+Results file and resume
+-----------------------
+With ``out=DIR`` every evaluation's row (the sweep's row: inputs in SI, every metric) is
+appended to ``DIR/optimize.jsonl`` (:class:`hydroline.studies.journal.Journal`). ``resume=True``
+reads it back (same rig, scenario, end time, solver and varied paths; another objective or
+constraint may be asked of the same evaluations) and the optimiser, deterministic for its
+seed, replays the recorded points without running them and goes on where it stopped.
+"""
+from __future__ import annotations
+
+import math
+import re
+import time as _time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..rigs import Rig, RigError, load_rig
+from ..scenarios.experiments import default_scenario, scenario_names
+from .design import parse_parameter, parse_parameters
+from .executors import MAX_WORKERS, call_runner, dask_client, failure_reason, worker_pool
+from .journal import FORMAT_VERSION, Journal, check_same_sweep, read_journal, rig_hash
+from .sweep import SweepFileError, VariantRunner, check_levels, failed_row, metric_columns
+
+__all__ = ["optimize", "OptimizeResult", "Variable", "Constraint", "parse_variables",
+           "parse_constraint", "metric_names", "cost_metrics", "COST_METRICS",
+           "OPTIMIZE_JOURNAL", "optimised_rig_text", "optimize_figure", "BudgetExhausted"]
+
+#: Cost proxies computed from the rig's numbers (no simulation): the sum of every hose
+#: section's length [m] and of every accumulator's gas capacity [L].
+COST_METRICS = ("total_hose_length_m", "accumulator_volume_l")
+#: File name of the results file inside ``out``.
+OPTIMIZE_JOURNAL = "optimize.jsonl"
+#: Scaled objective given to the optimiser for a failed evaluation (the base rig's is 1).
+FAILED_OBJECTIVE = 1e3
+#: Weight of the constraints' scaled violation in the merit of the global method, [-].
+PENALTY = 1e3
+#: A constraint is met within this scaled tolerance and active within ACTIVE_TOLERANCE, [-].
+FEASIBILITY_TOLERANCE = 1e-6
+ACTIVE_TOLERANCE = 1e-3
+_HOSE_LENGTH = re.compile(r"^(supply|return)\.section\d+\.length$")
+_CONSTRAINT = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|<|>)\s*(\S.*?)\s*$")
+
+
+class BudgetExhausted(Exception):
+    """The evaluations allowed (``max_evaluations``) are used up; the optimiser stops there.
+
+    Parameters
+    ----------
+    *args : str
+        The message
+    """
+
+
+# --------------------------------------------------------------------------- the problem
+
+@dataclass(frozen=True)
+class Variable:
+    """One design variable: rig path(s) set together, a range or a list of choices (SI).
+
+    Attributes
+    ----------
+    paths : tuple[str]   Rig paths that take the same value
+    unit : str           Their SI unit
+    low, high : float    Bounds of a continuous variable, [unit] (None for choices)
+    choices : tuple      Values of a discrete variable, [unit] (None for a range)
+    """
+
+    paths: tuple
+    unit: str
+    low: float | None = None
+    high: float | None = None
+    choices: tuple | None = None
+
+    @property
+    def name(self) -> str:
+        """The paths joined by ``+``."""
+        return "+".join(self.paths)
+
+    @property
+    def discrete(self) -> bool:
+        """True for a list of choices, False for a range."""
+        return self.choices is not None
+
+    def value(self, z: float):
+        """The SI value at ``z``: a range's [0, 1] (clipped), a choice's index (rounded).
+
+        Parameters
+        ----------
+        z : float   Scaled coordinate, [-]
+        """
+        if self.discrete:
+            return self.choices[int(np.clip(round(float(z)), 0, len(self.choices) - 1))]
+        return self.low + float(np.clip(z, 0.0, 1.0)) * (self.high - self.low)
+
+    def scaled(self, value) -> float | None:
+        """The scaled coordinate of an SI value; None where it is out of range (not a choice).
+
+        Parameters
+        ----------
+        value : float   [unit]
+        """
+        if self.discrete:
+            return float(self.choices.index(value)) if value in self.choices else None
+        if value is None or not self.low <= value <= self.high:
+            return None
+        return (value - self.low) / (self.high - self.low)
+
+    def describe(self) -> str:
+        """The range or choices as text with the unit."""
+        u = "" if self.unit in ("-", "str") else f" {self.unit}"
+        if self.discrete:
+            return "{" + ", ".join(f"{v:g}{u}" if isinstance(v, float) else str(v)
+                                   for v in self.choices) + "}"
+        return f"{self.low:g}{u} .. {self.high:g}{u}"
+
+
+def parse_variables(vary=(), choose=(), rig: Rig | None = None) -> list[Variable]:
+    """Design variables from ``--vary PATH=LOW..HIGH`` and ``--choose PATH=V1,V2,...``.
+
+    Values are read as ``hydroline sweep --set`` reads them
+    (:func:`hydroline.studies.design.parse_parameter`: units as in the rig file, circuit
+    paths in the unit their component declares) and checked against the parameters' bounds
+    and plausible ranges (:func:`hydroline.studies.sweep.check_levels`).
+
+    Parameters
+    ----------
+    vary : sequence of str     ``"PATH=LOW..HIGH"``
+    choose : sequence of str   ``"PATH=V1,V2,..."``
+    rig : Rig                  The base rig
+
+    Returns
+    -------
+    list[Variable]  The ranges first, then the choices, in the order given
+
+    Raises
+    ------
+    RigError  One line naming the option and path.
+    """
+    params, out = [], []
+    for text in vary:
+        path, eq, spec = str(text).partition("=")
+        low, sep, high = spec.partition("..")
+        if not (eq and sep and path.strip() and low.strip() and high.strip()):
+            raise RigError(f"--vary {text!r}: expected PATH=LOW..HIGH with units, e.g. "
+                           f"'supply.section2.length=0.5 m..4 m'")
+        p = parse_parameter(path, [low, high], rig)
+        if p.unit == "str":
+            raise RigError(f"--vary {p.name}: a text parameter has no range; give its values "
+                           f"with --choose")
+        lo, hi = p.levels
+        if not lo < hi:
+            raise RigError(f"--vary {p.name}: LOW must be below HIGH, got {low.strip()}.."
+                           f"{high.strip()} ({lo:g}..{hi:g} {p.unit})")
+        params.append(p)
+        out.append(Variable(p.paths, p.unit, float(lo), float(hi)))
+    for text in choose:
+        path, eq, spec = str(text).partition("=")
+        if not (eq and path.strip() and spec.strip()):
+            raise RigError(f"--choose {text!r}: expected PATH=V1,V2,... with units, e.g. "
+                           f"'supply.section2.diameter=12.7 mm,19.05 mm'")
+        p = parse_parameter(path, spec, rig)
+        if p.levels is None:
+            raise RigError(f"--choose {p.name}: give the values (V1,V2,...), not a distribution")
+        choices = tuple(dict.fromkeys(p.levels))
+        if len(choices) < 2:
+            raise RigError(f"--choose {p.name}: give at least two different values")
+        params.append(p)
+        out.append(Variable(p.paths, p.unit, choices=choices))
+    if not out:
+        raise RigError("nothing to optimise: give at least one --vary PATH=LOW..HIGH or "
+                       "--choose PATH=V1,V2,...")
+    parse_parameters(params, rig)       # a path given twice
+    if rig is not None:
+        check_levels(rig, params)       # bounds and choices the rig can take
+    return out
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """``metric <= bound`` or ``metric >= bound``.
+
+    Attributes
+    ----------
+    metric : str   Metric name (:func:`metric_names`)
+    sense : str    "<=" or ">="
+    bound : float  [the metric's unit, the end of its name]
+    """
+
+    metric: str
+    sense: str
+    bound: float
+
+    def describe(self) -> str:
+        """The constraint as text, ``METRIC<=VALUE``."""
+        return f"{self.metric}{self.sense}{self.bound:g}"
+
+    def margin(self, value: float) -> float:
+        """How far ``value`` is inside the constraint, scaled by the bound (>= 0: met), [-].
+
+        Parameters
+        ----------
+        value : float   The metric, [its unit] (NaN: failed, -inf returned)
+        """
+        if not math.isfinite(value):
+            return -math.inf
+        scale = abs(self.bound) if self.bound != 0 else 1.0
+        d = self.bound - value if self.sense == "<=" else value - self.bound
+        return d / scale
+
+
+def parse_constraint(text) -> Constraint:
+    """A :class:`Constraint` from ``"METRIC<=VALUE"`` or ``"METRIC>=VALUE"``.
+
+    Parameters
+    ----------
+    text : str or Constraint   VALUE a plain number in the unit the metric's name ends with
+
+    Raises
+    ------
+    RigError  One line naming ``--subject-to`` and the text.
+    """
+    if isinstance(text, Constraint):
+        return text
+    m = _CONSTRAINT.match(str(text))
+    if not m:
+        raise RigError(f"--subject-to {text!r}: expected 'METRIC<=VALUE' or 'METRIC>=VALUE', "
+                       f"e.g. 'supply.frequency_hz>=30'")
+    try:
+        bound = float(m.group(3))
+    except ValueError:
+        bound = math.nan
+    if not math.isfinite(bound):
+        raise RigError(f"--subject-to {text!r}: VALUE must be a finite plain number in the "
+                       f"unit the metric's name ends with (_mpa, _hz, _s, _mm, _m, _l)")
+    sense = {"<": "<=", ">": ">="}.get(m.group(2), m.group(2))
+    return Constraint(m.group(1), sense, bound)
+
+
+def metric_names(axes=(), scenario: str = "open-loop-step") -> list[str]:
+    """The metrics an optimisation can minimise or constrain.
+
+    Parameters
+    ----------
+    axes : sequence of str   The rig's servo axes
+    scenario : str           Scenario name (closed-loop-sine adds the tracking errors)
+
+    Returns
+    -------
+    list[str]  The sweep's metric columns (:func:`hydroline.studies.sweep.metric_columns`)
+               with a dot after the side (``supply.amplitude_mpa``; per axis
+               ``axis2.supply.amplitude_mpa`` as they are), then :data:`COST_METRICS`
+    """
+    single = len(list(axes)) <= 1
+    names = []
+    for c in metric_columns(axes, scenario):
+        side, _, rest = c.partition("_")
+        names.append(f"{side}.{rest}" if single and side in ("supply", "return") else c)
+    return names + list(COST_METRICS)
+
+
+def _column(name: str, axes) -> str:
+    """The sweep row's column of a metric name."""
+    side, dot, rest = name.partition(".")
+    if len(list(axes)) <= 1 and dot and side in ("supply", "return"):
+        return f"{side}_{rest}"
+    return name
+
+
+def cost_metrics(values: dict) -> dict:
+    """The cost proxies of a rig's values: :data:`COST_METRICS`.
+
+    Parameters
+    ----------
+    values : dict   Rig path -> SI value (``Rig.values``, with the variant's values over it)
+
+    Returns
+    -------
+    dict  ``total_hose_length_m``: every hose section's length (template
+          ``<side>.section<n>.length``, circuit components of type "hose"), [m];
+          ``accumulator_volume_l``: every accumulator's gas capacity, [L]
+    """
+    types = {k[:-5]: v for k, v in values.items()
+             if k.startswith("circuit.") and k.endswith(".type")}
+    hose = capacity = 0.0
+    for k, v in values.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            continue
+        section, _, key = k.rpartition(".")
+        if key == "length" and (_HOSE_LENGTH.match(k) or types.get(section) == "hose"):
+            hose += float(v)
+        elif key == "capacity" and (types.get(section) == "accumulator" or
+                                    (not k.startswith("circuit.")
+                                     and section.endswith(".accumulator"))):
+            capacity += float(v)
+    return {"total_hose_length_m": hose, "accumulator_volume_l": capacity * 1e3}
+
+
+# --------------------------------------------------------------------------- evaluations
+
+def _key(values: dict) -> tuple:
+    return tuple(sorted((p, repr(float(v)) if isinstance(v, (int, float)) else str(v))
+                        for p, v in values.items()))
+
+
+class _Evaluations:
+    """Every evaluation of one optimisation: rows by their inputs (from the results file
+    too), run in batches, appended to the results file, counted against the budget."""
+
+    def __init__(self, batch, paths, base_values, axes, journal, old_rows, budget):
+        self.batch, self.paths, self.base_values, self.axes = batch, paths, base_values, axes
+        self.journal, self.budget = journal, budget
+        self.rows = {_key({p: r.get(p) for p in paths}): r for r in old_rows.values()}
+        self.next_index = max(old_rows, default=-1) + 1
+        self.used: dict = {}          # key -> row, in the order the optimiser asked
+        self.computed = 0
+        self.progress = None
+
+    def __call__(self, points: list[dict]) -> list[dict]:
+        keys = [_key(v) for v in points]
+        new = [k for k in dict.fromkeys(keys) if k not in self.used]
+        if len(self.used) + len(new) > self.budget:
+            raise BudgetExhausted(f"{self.budget} evaluations used")
+        todo = [(k, v) for k, v in dict(zip(keys, points)).items() if k not in self.rows]
+        if todo:
+            tasks = [(self.next_index + j, v) for j, (_, v) in enumerate(todo)]
+            self.next_index += len(tasks)
+            rows = self.batch(tasks)
+            for (k, _), row in zip(todo, rows):
+                self.rows[k] = row
+                self.computed += 1
+                if self.journal is not None:
+                    self.journal.append(row)
+        for k in new:
+            self.used[k] = self.rows[k]
+            if self.progress is not None:
+                self.progress(len(self.used), self.budget)
+        return [self.rows[k] for k in keys]
+
+    def metric(self, row: dict, name: str) -> float:
+        """A metric of a row (NaN where the variant failed or the metric does not exist)."""
+        if name in COST_METRICS:
+            return cost_metrics({**self.base_values,
+                                 **{p: row[p] for p in self.paths if p in row}})[name]
+        if row.get("error"):
+            return math.nan
+        v = row.get(_column(name, self.axes))
+        return math.nan if v is None else float(v)
+
+
+class _Problem:
+    """The scaled problem the SciPy methods see: z -> rows -> objective, constraints."""
+
+    def __init__(self, variables, objective, constraints, evaluations, scale):
+        self.variables, self.objective_name = variables, objective
+        self.constraints, self.ev, self.scale = constraints, evaluations, scale
+
+    def point(self, z) -> dict:
+        return {p: v.value(zi) for v, zi in zip(self.variables, z) for p in v.paths}
+
+    def rows(self, zs) -> list[dict]:
+        return self.ev([self.point(z) for z in zs])
+
+    def objective(self, row) -> float:
+        f = self.ev.metric(row, self.objective_name) / self.scale
+        return f if math.isfinite(f) else FAILED_OBJECTIVE
+
+    def margins(self, row) -> np.ndarray:
+        m = np.array([c.margin(self.ev.metric(row, c.metric)) for c in self.constraints])
+        return np.where(np.isfinite(m), m, -FAILED_OBJECTIVE)
+
+    def merit(self, row) -> float:
+        violation = float(np.sum(np.maximum(0.0, -self.margins(row))))
+        return self.objective(row) + PENALTY * violation
+
+    def rank(self, row) -> tuple:
+        """Sort key of the best point: feasible first, then the objective (or violation)."""
+        failed = not math.isfinite(self.ev.metric(row, self.objective_name))
+        violation = float(np.sum(np.maximum(0.0, -self.margins(row))))
+        feasible = violation <= FEASIBILITY_TOLERANCE * max(1, len(self.constraints))
+        return (failed, not feasible, violation if not feasible else 0.0, self.objective(row))
+
+
+def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
+    """SLSQP over the continuous coordinates (``fixed``: index -> z of the discrete ones)."""
+    from scipy.optimize import minimize
+
+    cont = [i for i, v in enumerate(problem.variables) if not v.discrete]
+    n = len(problem.variables)
+
+    def full(zc):
+        z = np.empty(n)
+        for i, zi in fixed.items():
+            z[i] = zi
+        z[cont] = np.clip(zc, 0.0, 1.0)
+        return z
+
+    grads: dict = {}
+
+    def gradients(zc):
+        zc = np.clip(np.asarray(zc, dtype=float), 0.0, 1.0)
+        key = zc.tobytes()
+        if key not in grads:
+            hs = np.array([step if zi + step <= 1.0 else -step for zi in zc])
+            pts = [zc] + [zc + h * e for h, e in zip(hs, np.eye(len(zc)))]
+            rows = problem.rows([full(p) for p in pts])
+            f = np.array([problem.objective(r) for r in rows])
+            c = np.array([problem.margins(r) for r in rows]).reshape(len(rows), -1)
+            grads[key] = ((f[1:] - f[0]) / hs, ((c[1:] - c[0]) / hs[:, None]).T)
+        return grads[key]
+
+    def fun(zc):
+        return problem.objective(problem.rows([full(zc)])[0])
+
+    def cons(zc):
+        return problem.margins(problem.rows([full(zc)])[0])
+
+    constraints = ([{"type": "ineq", "fun": cons, "jac": lambda zc: gradients(zc)[1]}]
+                   if problem.constraints else [])
+    res = minimize(fun, np.asarray(z0, dtype=float), jac=lambda zc: gradients(zc)[0],
+                   method="SLSQP", bounds=[(0.0, 1.0)] * len(cont), constraints=constraints,
+                   options={"maxiter": maxiter, "ftol": 1e-6})
+    return res
+
+
+def _starts(problem: _Problem, count: int, seed: int, baseline_z) -> list:
+    from scipy.stats import qmc
+
+    cont = [i for i, v in enumerate(problem.variables) if not v.discrete]
+    pts = qmc.LatinHypercube(d=len(cont), seed=seed).random(count) if count else []
+    zs = [np.asarray(p, dtype=float) for p in pts]
+    if baseline_z is not None:
+        zs.insert(0, np.asarray([baseline_z[i] for i in cont], dtype=float))
+    return zs
+
+
+def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
+           maxiter: int, baseline_z, local_runs: int = 2) -> tuple:
+    """Run the method; returns (converged, message)."""
+    variables = problem.variables
+    cont = [i for i, v in enumerate(variables) if not v.discrete]
+    disc = [i for i, v in enumerate(variables) if v.discrete]
+    try:
+        if method == "local":
+            zs = _starts(problem, starts, seed, baseline_z)
+            rows = problem.rows(zs)
+            order = sorted(range(len(zs)), key=lambda k: problem.rank(rows[k]))
+            results = []
+            for k in order[:max(1, local_runs)]:    # multistart: the best few starts
+                res = _local(problem, zs[k], {}, step, maxiter)
+                results.append(res)
+            converged = all(r.success for r in results)
+            return converged, "; ".join(f"SLSQP from start {k + 1}: {r.message}"
+                                        for k, r in zip(order, results))
+        fixed = None
+        grid = math.prod(len(variables[i].choices) for i in disc)
+        if not cont and grid <= problem.ev.budget - len(problem.ev.used):
+            import itertools
+
+            zs = [np.asarray(z, dtype=float) for z in
+                  itertools.product(*(range(len(v.choices)) for v in variables))]
+            problem.rows(zs)
+            return True, f"every one of the {grid} combinations of the choices evaluated"
+        from scipy.optimize import differential_evolution
+
+        bounds = [(0.0, 1.0) if not v.discrete else (0, len(v.choices) - 1) for v in variables]
+        popsize = max(4, 8 // max(1, len(variables)) + 3)
+        per_generation = popsize * len(variables)
+        left = problem.ev.budget - len(problem.ev.used) - (8 * (len(cont) + 1) if cont else 0)
+        generations = max(1, left // per_generation - 1)
+
+        def merits(Z):
+            Z = np.atleast_2d(Z.T if Z.ndim == 2 else Z[None, :])
+            return np.array([problem.merit(r) for r in problem.rows(list(Z))])
+
+        de = differential_evolution(
+            merits, bounds, integrality=[v.discrete for v in variables], vectorized=True,
+            updating="deferred", popsize=popsize, maxiter=generations, seed=seed, polish=False,
+            tol=1e-3, init="latinhypercube")
+        message = f"differential evolution: {de.message}"
+        converged = bool(de.success)
+        if cont:
+            used = list(problem.ev.used.values())
+            best = min(used, key=problem.rank)
+            zb = [variables[i].scaled(best[variables[i].paths[0]]) for i in range(len(variables))]
+            fixed = {i: zb[i] for i in disc}
+            res = _local(problem, [zb[i] for i in cont], fixed, step, maxiter)
+            message += f"; SLSQP at the best choice: {res.message}"
+            converged = converged and bool(res.success)
+        return converged, message
+    except BudgetExhausted as e:
+        return False, f"stopped: {e}"
+
+
+# --------------------------------------------------------------------------- the result
+
+@dataclass
+class OptimizeResult:
+    """The outcome of :func:`optimize`.
+
+    Attributes
+    ----------
+    optimum : dict            Rig path -> SI value of the best point
+    objective : float         The objective there, [its unit]
+    objective_name : str      The metric minimised
+    metrics : dict            Every metric there (:func:`metric_names`), [their units]
+    evaluations : int         Points this optimisation evaluated (from the results file too)
+    n_computed : int          Of those, run by this call
+    feasible : bool           The optimum meets every constraint
+    active_constraints : list Constraints at their bound at the optimum (``METRIC<=VALUE``)
+    at_bounds : list          Variables at a bound of their range (``PATH=low``/``=high``)
+    converged : bool          The method ended by its convergence test (not by the budget)
+    message : str             What the method said
+    method : str              "local" or "global"
+    baseline : dict           Rig path -> SI value of the base rig
+    baseline_objective : float The objective of the base rig, [its unit]
+    baseline_metrics : dict   Every metric of the base rig
+    constraints : list[str]   The constraints, as text
+    variables : list[str]     The variables with their ranges or choices, as text
+    history : list[dict]      Per evaluation in order: ``evaluation``, ``objective``,
+                              ``feasible``, ``error``
+    rig : Rig                 The base rig with the optimum set
+    scenario : str            The scenario every evaluation ran
+    wall_time : float         [s]
+    files : dict              "journal", "rig", "json", "figure" -> Path written
+    """
+
+    optimum: dict
+    objective: float
+    objective_name: str
+    metrics: dict
+    evaluations: int
+    n_computed: int
+    feasible: bool
+    active_constraints: list
+    at_bounds: list
+    converged: bool
+    message: str
+    method: str
+    baseline: dict
+    baseline_objective: float
+    baseline_metrics: dict
+    constraints: list
+    variables: list
+    history: list
+    rig: Rig
+    scenario: str
+    wall_time: float = 0.0
+    files: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        """The JSON document: ``optimum`` (PATH: SI value), ``objective``, ``metrics``,
+        ``evaluations``, ``feasible``, ``active_constraints``, ``converged`` and the rest of
+        the attributes but ``rig`` (files as text)."""
+        def plain(v):
+            if isinstance(v, float) and not math.isfinite(v):
+                return None
+            if isinstance(v, dict):
+                return {k: plain(x) for k, x in v.items()}
+            if isinstance(v, list):
+                return [plain(x) for x in v]
+            return v.item() if isinstance(v, np.generic) else v
+
+        d = {k: getattr(self, k) for k in (
+            "optimum", "objective", "objective_name", "metrics", "evaluations", "n_computed",
+            "feasible", "active_constraints", "at_bounds", "converged", "message", "method",
+            "baseline", "baseline_objective", "baseline_metrics", "constraints", "variables",
+            "scenario", "wall_time", "history")}
+        d["files"] = {k: str(p) for k, p in self.files.items()}
+        return plain(d)
+
+
+def optimised_rig_text(rig: Rig, optimum: dict, units: dict, why: str) -> str:
+    """The rig file of the optimum: the base rig's TOML (:meth:`Rig.to_toml`) with each
+    changed value set and commented ``# optimised for WHY (was OLD)``.
+
+    Parameters
+    ----------
+    rig : Rig       The base rig
+    optimum : dict  Rig path -> SI value
+    units : dict    Rig path -> SI unit
+    why : str       What it was optimised for (the objective and constraints)
+
+    Returns
+    -------
+    str  TOML text
+    """
+    opt = _with_values(rig, optimum, units)
+    lines, section = [], ""
+    for line in opt.to_toml().splitlines():
+        if line.startswith("[") and line.endswith("]"):
+            section = line[1:-1]
+        key = line.partition(" = ")[0]
+        path = f"{section}.{key}" if section else key
+        if " = " in line and path in optimum:
+            old = rig.raw.get(path)
+            was = f" (was {old})" if old is not None else ""
+            line = f"{line}   # optimised for {why}{was}"
+        lines.append(line)
+    return "\n".join(lines) + "\n"
+
+
+def _with_values(rig: Rig, values: dict, units: dict) -> Rig:
+    r = rig.copy()
+    for path, v in values.items():
+        unit = units[path]
+        r.set(path, v if unit in ("-", "str") else f"{float(v)!r} {unit}")
+    return r
+
+
+def optimize_figure(result: OptimizeResult, traces=None, path=None):
+    """The report figure: baseline and optimum port pressures (where ``traces`` are given),
+    the objective per evaluation and the best feasible one so far.
+
+    Parameters
+    ----------
+    result : OptimizeResult
+    traces : dict   "baseline"/"optimum" -> (t [s], supply [Pa], return [Pa]), or None
+    path : path     PNG file to write (None: only return the figure)
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from ..plotting import new_figure, save_png, wrap_title
+
+    n = 3 if traces else 1
+    fig = new_figure((8, 2.5 * n + 1.0))
+    axs = fig.subplots(n, 1, squeeze=False)[:, 0]
+    if traces:
+        for ax, k, side in ((axs[0], 1, "supply"), (axs[1], 2, "return")):
+            for label, style in (("baseline", "C7"), ("optimum", "C0")):
+                if label in traces:
+                    t, *p = traces[label]
+                    ax.plot(t, np.asarray(p[k - 1]) / 1e6, color=style, lw=1.0, label=label)
+            ax.set_ylabel(f"{side} port [MPa]")
+            ax.set_xlabel("time [s]")
+            ax.legend(loc="best", fontsize=8)
+    ax = axs[-1]
+    k = [h["evaluation"] for h in result.history]
+    f = np.array([np.nan if h["objective"] is None else h["objective"] for h in result.history])
+    ok = np.array([h["feasible"] for h in result.history], dtype=bool)
+    ax.plot(np.array(k)[ok], f[ok], "o", ms=3, color="C0", label="feasible")
+    ax.plot(np.array(k)[~ok], f[~ok], "x", ms=4, color="C3", label="infeasible")
+    best, run = [], math.inf
+    for fi, oki in zip(f, ok):
+        if oki and math.isfinite(fi):
+            run = min(run, fi)
+        best.append(run if math.isfinite(run) else np.nan)
+    ax.step(k, best, where="post", color="k", lw=1.2, label="best feasible so far")
+    ax.axhline(result.baseline_objective, color="C7", ls="--", lw=0.8, label="baseline")
+    ax.set_xlabel("evaluation")
+    ax.set_ylabel(result.objective_name)
+    ax.legend(loc="best", fontsize=8)
+    what = ", ".join(f"{p} = {v:.4g}" for p, v in result.optimum.items())
+    fig.suptitle(wrap_title(f"minimise {result.objective_name}: {what} "
+                            f"({result.evaluations} evaluations)", 8, 10), fontsize=10)
+    fig.tight_layout()
+    if path is not None:
+        save_png(fig, path)
+    return fig
+
+
+# --------------------------------------------------------------------------- the study
+
+def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
+             scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
+             method: str = "auto", starts: int | None = None, local_runs: int = 2,
+             max_evaluations: int | None = None, maxiter: int = 30, step: float = 1e-3,
+             seed: int = 0, workers: int = 1, scheduler=None, out=None, resume: bool = False,
+             figure: bool = True, runner=None, progress=None) -> OptimizeResult:
+    """Minimise a metric of a rig over its parameters, subject to constraints on others.
+
+    Parameters
+    ----------
+    vary : sequence of str     ``"PATH=LOW..HIGH"`` continuous variables with units
+    rig : Rig, str or None     The base rig (None: the embedded 2005 paper's rig)
+    choose : sequence of str   ``"PATH=V1,V2,..."`` discrete variables with units
+    minimize : str             The metric (:func:`metric_names`); one (a Pareto front of
+                               several is not offered yet)
+    subject_to : sequence      ``"METRIC<=VALUE"`` / ``"METRIC>=VALUE"``
+    scenario : str             Scenario name (None: the rig's, else open-loop-step)
+    t_end : float              Simulated time per evaluation, [s] (the scenario's when None)
+    solver : str               See :func:`hydroline.engine.integrate`
+    method : str               "auto" (local without choices, global with), "local", "global"
+    starts : int               Space-filling starting points of the local method (default
+                               3 + 2 per continuous variable), [-]
+    local_runs : int           SLSQP runs, from the best starting points (the base rig's
+                               among them), [-]
+    max_evaluations : int      Evaluations allowed (default 40 + 30 per variable), [-]
+    maxiter : int              SLSQP iterations at most, [-]
+    step : float               Forward-difference step in the scaled variables (range = 1), [-]
+    seed : int                 Seed of the starting points and of differential evolution
+    workers : int              Local worker processes (or workers of ``scheduler="local"``)
+    scheduler : str or Client  None, "local" or "tcp://host:port" (as :func:`sweep`)
+    out : path                 Folder for optimize.jsonl, optimum.toml, optimize.json and
+                               optimize.png; None keeps everything in memory
+    resume : bool              Continue from the results file in ``out``
+    figure : bool              Write optimize.png (two more runs: baseline and optimum traces)
+    runner : callable          ``runner(index, values) -> row`` instead of the rig's
+                               simulation (:class:`~hydroline.studies.sweep.VariantRunner`);
+                               a surrogate or analytic model with the sweep's row columns
+    progress : callable        ``progress(evaluations, budget)`` after each new evaluation
+
+    Returns
+    -------
+    OptimizeResult
+
+    Raises
+    ------
+    ValueError (RigError, SweepFileError) on bad input, one line naming it.
+    """
+    tic = _time.perf_counter()
+    if not isinstance(rig, Rig):
+        rig = load_rig(rig)
+    scenario = scenario or default_scenario(rig)
+    if scenario not in scenario_names(rig):
+        raise RigError(f"--scenario: unknown scenario {scenario!r} (known: "
+                       f"{', '.join(scenario_names(rig))})")
+    if t_end is not None and not t_end > 0:
+        raise RigError(f"--t-end must be > 0 s, got {t_end!r}")
+    if isinstance(minimize, (list, tuple)):
+        if len(minimize) != 1:
+            raise RigError("--minimize: give one metric (a Pareto front of several is not "
+                           "offered yet)")
+        minimize = minimize[0]
+    if method not in ("auto", "local", "global"):
+        raise RigError(f"--method must be auto, local or global, got {method!r}")
+    variables = parse_variables(vary, choose, rig)
+    constraints = [parse_constraint(c) for c in subject_to]
+    axes = _axes(rig)
+    known = metric_names(axes, scenario)
+    for name, option in [(minimize, "--minimize")] + [(c.metric, "--subject-to")
+                                                       for c in constraints]:
+        if name not in known:
+            raise RigError(f"{option}: unknown metric {name!r} (known: {', '.join(known)})")
+    if method == "auto":
+        method = "global" if any(v.discrete for v in variables) else "local"
+    if method == "local" and any(v.discrete for v in variables):
+        raise RigError("--method local: the local method takes continuous variables only; "
+                       "--choose needs --method global (or auto)")
+    n_cont = sum(not v.discrete for v in variables)
+    starts = 3 + 2 * n_cont if starts is None else int(starts)
+    budget = 40 + 30 * len(variables) if max_evaluations is None else int(max_evaluations)
+    if budget < 2 or starts < 0:
+        raise RigError(f"--max-evaluations must be >= 2 and --starts >= 0, got {budget}, "
+                       f"{starts}")
+    if not 0 < step < 0.5:
+        raise RigError(f"step must be within 0 ... 0.5 (scaled variables), got {step!r}")
+    workers = int(workers or 1)
+    if not 1 <= workers <= MAX_WORKERS:
+        raise RigError(f"--workers must be within 1 ... {MAX_WORKERS} [-], got {workers}")
+    units = {p: v.unit for v in variables for p in v.paths}
+    paths = list(units)
+    if runner is None:
+        runner = VariantRunner(rig, scenario, t_end, solver, units, axes)
+
+    header = {"hydroline_sweep": FORMAT_VERSION, "rig": rig.source, "rig_sha256": rig_hash(rig),
+              "scenario": scenario, "t_end_s": t_end, "solver": solver,
+              "design": {"kind": "optimize", "seed": None, "parameters": paths}}
+    journal, old_rows, files = None, {}, {}
+    if out is not None:
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        jpath = files["journal"] = out / OPTIMIZE_JOURNAL
+        old_header, old_rows = read_journal(jpath)
+        if old_header is not None and not resume:
+            raise SweepFileError(f"{jpath} exists: pass --resume to continue (or reuse) that "
+                                 f"optimisation's evaluations, or choose another --out")
+        if old_header is not None:
+            check_same_sweep(jpath, old_header, header)
+        journal = Journal(jpath, None if old_header is not None else header)
+    elif resume:
+        raise RigError("--resume needs --out DIR (the folder of the optimisation to continue)")
+
+    client = cluster = None
+    owned = False
+    if scheduler is not None:
+        client, cluster, owned = dask_client(scheduler, workers)
+    try:
+        with _executor(runner, workers, client, scenario, axes) as batch:
+            ev = _Evaluations(batch, paths, dict(rig.values), axes, journal, old_rows, budget)
+            ev.progress = progress
+            baseline = {p: rig.values.get(p) for p in paths}
+            base_row = ev([baseline])[0]
+            f0 = ev.metric(base_row, minimize)
+            scale = abs(f0) if math.isfinite(f0) and f0 != 0 else 1.0
+            problem = _Problem(variables, minimize, constraints, ev, scale)
+            bz = [v.scaled(rig.values.get(v.paths[0])) for v in variables]
+            baseline_z = None if any(z is None for z in bz) else bz
+            converged, message = _solve(problem, method, starts, seed, step, maxiter, baseline_z,
+                                        local_runs)
+    finally:
+        if journal is not None:
+            journal.close()
+        if owned:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+    used = list(ev.used.values())
+    best = min(used, key=problem.rank)
+    optimum = {p: best[p] for p in paths}
+    history = []
+    for k, row in enumerate(used):
+        f = ev.metric(row, minimize)
+        history.append({"evaluation": k + 1, "objective": f if math.isfinite(f) else None,
+                        "feasible": bool(np.all(problem.margins(row) >= -FEASIBILITY_TOLERANCE)),
+                        "error": row.get("error")})
+    margins = problem.margins(best)
+    at_bounds = []
+    for v in variables:
+        if not v.discrete:
+            z = v.scaled(best[v.paths[0]])
+            if z is not None and z <= 1e-6:
+                at_bounds.append(f"{v.name}=low")
+            elif z is not None and z >= 1 - 1e-6:
+                at_bounds.append(f"{v.name}=high")
+
+    def all_metrics(row):
+        return {m: (lambda x: x if math.isfinite(x) else None)(ev.metric(row, m)) for m in known}
+
+    result = OptimizeResult(
+        optimum=optimum, objective=ev.metric(best, minimize), objective_name=minimize,
+        metrics=all_metrics(best), evaluations=len(used), n_computed=ev.computed,
+        feasible=bool(np.all(margins >= -FEASIBILITY_TOLERANCE)) and not best.get("error"),
+        active_constraints=[c.describe() for c, m in zip(constraints, margins)
+                            if abs(m) <= ACTIVE_TOLERANCE],
+        at_bounds=at_bounds, converged=converged, message=message, method=method,
+        baseline=baseline, baseline_objective=f0, baseline_metrics=all_metrics(base_row),
+        constraints=[c.describe() for c in constraints],
+        variables=[f"{v.name} = {v.describe()}" for v in variables], history=history,
+        rig=_with_values(rig, optimum, units), scenario=scenario, files=files)
+    if out is not None:
+        _write_outputs(result, rig, units, out, figure, t_end, solver, axes)
+    result.wall_time = _time.perf_counter() - tic
+    return result
+
+
+def _axes(rig: Rig) -> list[str]:
+    from ..system import build_circuit
+
+    try:
+        return list(build_circuit(rig).axes)
+    except Exception:       # the base rig does not build: its evaluation says why
+        return []
+
+
+class _executor:
+    """``batch(tasks) -> rows`` in this process, on a worker pool or on Dask, for the
+    optimisation's duration (the workers keep their shared models between batches)."""
+
+    def __init__(self, runner, workers, client, scenario, axes):
+        self.runner, self.workers, self.client = runner, workers, client
+        self.scenario, self.axes = scenario, axes
+        self._pool = None
+
+    def __enter__(self):
+        if self.client is not None:
+            runner_f = self.client.scatter(self.runner, broadcast=True)
+            return lambda tasks: self._gather([self.client.submit(
+                call_runner, runner_f, i, v, pure=False) for i, v in tasks], tasks)
+        if self.workers > 1:
+            self._pool = worker_pool(self.workers, self.runner)
+            submit = self._pool.__enter__()
+            return lambda tasks: self._gather([submit(i, v) for i, v in tasks], tasks)
+        return lambda tasks: [self.runner(i, v) for i, v in tasks]
+
+    def _gather(self, futures, tasks):
+        rows = []
+        for fut, (i, v) in zip(futures, tasks):
+            try:
+                rows.append(fut.result())
+            except Exception as e:      # a worker that died: that evaluation failed
+                rows.append(failed_row(i, v, failure_reason(e), self.scenario, self.axes))
+        return rows
+
+    def __exit__(self, *exc):
+        if self._pool is not None:
+            return self._pool.__exit__(*exc)
+        return False
+
+
+def _write_outputs(result: OptimizeResult, rig: Rig, units: dict, out: Path, figure: bool,
+                   t_end, solver, axes) -> None:
+    """optimum.toml, optimize.json and optimize.png in ``out``."""
+    import json
+
+    why = result.objective_name + "".join(f", {c}" for c in result.constraints)
+    (out / "optimum.toml").write_text(optimised_rig_text(rig, result.optimum, units, why))
+    result.files["rig"] = out / "optimum.toml"
+    if figure:
+        traces = {}
+        try:
+            from ..scenarios.running import simulate
+
+            for label, r in (("baseline", rig), ("optimum", result.rig)):
+                res = simulate(r, result.scenario, t_end, solver=solver)
+                sides = []
+                for side in ("supply", "return"):
+                    ax = (res.metadata.get("axes") or {})
+                    name = (getattr(next(iter(ax.values())), f"{side}_pressure")
+                            if len(ax) > 1 else f"{side}_port_pressure")
+                    sides.append(np.asarray(res[name]))
+                traces[label] = (np.asarray(res.t), *sides)
+        except Exception:       # a surrogate runner, or a rig that does not build: no traces
+            traces = None
+        optimize_figure(result, traces, out / "optimize.png")
+        result.files["figure"] = out / "optimize.png"
+    result.files["json"] = out / "optimize.json"
+    with open(out / "optimize.json", "w") as fh:
+        json.dump(result.to_dict(), fh, indent=1)

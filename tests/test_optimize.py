@@ -1,0 +1,169 @@
+"""Issue 28: ``hydroline optimize`` -- constrained design optimisation on the sweep's runner.
+
+The optimiser's code path is checked on analytic objectives (a runner returning the sweep's
+row columns from a formula, optimum known by hand, compared with a brute-force grid as the
+issue asks); one small problem runs the real default rig (a short run, few evaluations).
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from hydroline.cli import main
+from hydroline.rigs import load_rig
+from hydroline.studies.journal import SweepFileError
+from hydroline.studies.optimize import (COST_METRICS, cost_metrics, metric_names, optimize,
+                                        parse_constraint)
+
+L_BEST, D_BEST, C_BEST = 1.7, 0.0159, 2e-3
+
+
+class Analytic:
+    """A runner with the sweep's row columns from formulas: the supply amplitude a bowl of
+    minimum 0.5 MPa at L = 1.7 m, C = 2 L, d = 15.9 mm; the supply frequency 100 Hz m / L."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def __call__(self, index, values):
+        self.calls += 1
+        L = values.get("supply.section2.length", 3.048)
+        C = values.get("supply.accumulator.capacity", C_BEST)
+        d = values.get("supply.section2.diameter", D_BEST)
+        amp = 0.5 + (L - L_BEST) ** 2 + ((C - C_BEST) / 1e-3) ** 2 + ((d - D_BEST) / 1e-3) ** 2
+        return {"variant": index, **values, "supply_amplitude_mpa": amp,
+                "supply_frequency_hz": 100.0 / L, "error": None}
+
+
+def amplitude(L, C=C_BEST):
+    return 0.5 + (L - L_BEST) ** 2 + ((C - C_BEST) / 1e-3) ** 2
+
+
+def test_1d_within_one_percent_of_a_fine_grid_in_a_fifth_of_its_evaluations():
+    grid = np.linspace(0.5, 4.0, 60)
+    best = min(amplitude(L) for L in grid)
+    runner = Analytic()
+    r = optimize(["supply.section2.length=0.5 m..4 m"], minimize="supply.amplitude_mpa",
+                 runner=runner, max_evaluations=len(grid) // 5, starts=2, local_runs=1)
+    assert r.objective <= best * 1.01
+    assert r.evaluations <= len(grid) // 5 and runner.calls == r.evaluations
+    assert abs(r.optimum["supply.section2.length"] - L_BEST) < 0.05
+    assert r.feasible and r.converged and r.at_bounds == []
+
+
+def test_2d_active_constraint_found_and_reported():
+    # frequency = 100/L >= 80 Hz  ->  L <= 1.25 m: the optimum L = 1.25 m, C = 2 L
+    La, Ca = np.linspace(0.5, 4.0, 30), np.linspace(0.2e-3, 4e-3, 30)
+    feasible = [amplitude(L, C) for L in La for C in Ca if 100.0 / L >= 80.0]
+    best = min(feasible)
+    r = optimize(["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"],
+                 minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+                 runner=Analytic(), max_evaluations=len(La) * len(Ca) // 5)
+    assert r.feasible and r.metrics["supply.frequency_hz"] >= 80.0 - 1e-6
+    assert r.objective <= best * 1.01
+    assert r.active_constraints == ["supply.frequency_hz>=80"]
+    assert abs(r.optimum["supply.section2.length"] - 1.25) < 1e-3
+    assert abs(r.optimum["supply.accumulator.capacity"] - C_BEST) < 0.05e-3
+
+
+def test_discrete_choice_and_continuous_variable_global_method():
+    r = optimize(["supply.section2.length=0.5 m..4 m"],
+                 choose=["supply.section2.diameter=12.7 mm,15.9 mm,19.05 mm"],
+                 minimize="supply.amplitude_mpa", runner=Analytic(), max_evaluations=120)
+    assert r.method == "global"
+    assert r.optimum["supply.section2.diameter"] == pytest.approx(D_BEST)
+    assert r.objective == pytest.approx(0.5, abs=0.005)
+
+
+def test_choices_alone_are_all_evaluated():
+    runner = Analytic()
+    r = optimize(choose=["supply.section2.diameter=12.7 mm,15.9 mm,19.05 mm"],
+                 minimize="supply.amplitude_mpa", runner=runner)
+    assert runner.calls == 4        # the base rig and the three bores
+    assert r.optimum["supply.section2.diameter"] == pytest.approx(D_BEST) and r.converged
+
+
+def test_every_evaluation_journaled_and_resumed_without_rerunning(tmp_path):
+    args = (["supply.section2.length=0.5 m..4 m"],)
+    kw = dict(minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+              out=tmp_path, figure=False)
+    first = optimize(*args, runner=Analytic(), **kw)
+    lines = (tmp_path / "optimize.jsonl").read_text().splitlines()
+    assert len(lines) == 1 + first.n_computed
+    with pytest.raises(SweepFileError, match="--resume"):
+        optimize(*args, runner=Analytic(), **kw)
+    again = Analytic()
+    second = optimize(*args, runner=again, resume=True, **kw)
+    assert again.calls == 0 and second.n_computed == 0
+    assert second.optimum == first.optimum and second.evaluations == first.evaluations
+    doc = json.loads((tmp_path / "optimize.json").read_text())
+    assert {"optimum", "objective", "metrics", "evaluations", "feasible",
+            "active_constraints", "converged"} <= set(doc)
+    text = (tmp_path / "optimum.toml").read_text()
+    assert "optimised for supply.amplitude_mpa, supply.frequency_hz>=80" in text
+    back = load_rig(str(tmp_path / "optimum.toml"))
+    assert back.values["supply.section2.length"] == pytest.approx(
+        first.optimum["supply.section2.length"])
+
+
+def test_cost_proxies_by_hand():
+    # the 2005 rig: four sections of 3.048 m, two accumulators of 1 L
+    c = cost_metrics(load_rig(None).values)
+    assert c["total_hose_length_m"] == pytest.approx(4 * 3.048)
+    assert c["accumulator_volume_l"] == pytest.approx(2.0)
+    assert set(COST_METRICS) <= set(metric_names())
+    r = optimize(["supply.section2.length=0.5 m..4 m"], minimize="total_hose_length_m",
+                 subject_to=["supply.frequency_hz<=100"], runner=Analytic())
+    # shortest hose with 100/L <= 100 Hz: L = 1 m, total 3 x 3.048 m + 1 m
+    assert r.optimum["supply.section2.length"] == pytest.approx(1.0, abs=1e-3)
+    assert r.objective == pytest.approx(3 * 3.048 + 1.0, abs=1e-3)
+
+
+def test_real_rig_one_variable_respects_constraint_and_beats_baseline():
+    # on [2.5, 3.5] m the supply amplitude falls with the length and the frequency too:
+    # frequency >= 38 Hz bounds the length near 3.2 m (baseline 3.048 m: 40 Hz, 1.0 MPa)
+    r = optimize(["supply.section2.length=2.5 m..3.5 m"], minimize="supply.amplitude_mpa",
+                 subject_to=["supply.frequency_hz>=38"], starts=1, local_runs=1,
+                 max_evaluations=14, maxiter=4)
+    L = r.optimum["supply.section2.length"]
+    assert 2.5 <= L <= 3.5
+    assert r.feasible and r.metrics["supply.frequency_hz"] >= 38.0 - 1e-6
+    assert r.objective <= r.baseline_objective
+    assert r.evaluations <= 14
+
+
+@pytest.mark.parametrize("argv, needles", [
+    (["--vary", "supply.section2.length=1 m", "--minimize", "supply.amplitude_mpa"],
+     ("--vary", "LOW..HIGH")),
+    (["--vary", "supply.section2.length=3 m..1 m", "--minimize", "supply.amplitude_mpa"],
+     ("--vary supply.section2.length", "LOW must be below HIGH")),
+    (["--vary", "supply.section2.length=1..3", "--minimize", "supply.amplitude_mpa"],
+     ("supply.section2.length",)),
+    (["--vary", "supply.section2.length=1 m..3 m", "--minimize", "supply.amplitude"],
+     ("--minimize", "supply.amplitude", "supply.amplitude_mpa")),
+    (["--vary", "supply.section2.length=1 m..3 m", "--minimize", "supply.amplitude_mpa",
+      "--subject-to", "supply.frequency_hz=>30"], ("--subject-to",)),
+    (["--vary", "supply.section2.length=1 m..3 m"], ("--minimize",)),
+    (["--minimize", "supply.amplitude_mpa"], ("--vary",)),
+    (["--choose", "supply.section2.diameter=12.7 mm", "--minimize", "supply.amplitude_mpa"],
+     ("--choose supply.section2.diameter", "two")),
+    (["--choose", "supply.section2.diameter=12.7 mm,19 mm", "--method", "local",
+      "--minimize", "supply.amplitude_mpa"], ("--method local",)),
+])
+def test_cli_bad_input_is_one_line_exit_2(capsys, argv, needles):
+    rc = main(["optimize", *argv])
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert rc == 2, err
+    assert len(lines) == 1 and "Traceback" not in err, err
+    for n in needles:
+        assert n in lines[0], err
+
+
+def test_constraint_syntax():
+    c = parse_constraint(" supply.frequency_hz >= 30 ")
+    assert (c.metric, c.sense, c.bound) == ("supply.frequency_hz", ">=", 30.0)
+    assert c.margin(33.0) == pytest.approx(0.1) and c.margin(math.nan) == -math.inf
