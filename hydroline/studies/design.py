@@ -52,12 +52,15 @@ def parameter_unit(path: str, rig: Rig | None = None) -> str:
 
     Parameters
     ----------
-    path : str   Dotted rig path
-    rig : Rig    The rig the path belongs to (needed for circuit paths)
+    path : str
+        Dotted rig path
+    rig : Rig
+        The rig the path belongs to (needed for circuit paths)
 
     Raises
     ------
-    RigError  (one line) for a path the rig does not know or that cannot be swept.
+    RigError
+        (one line) for a path the rig does not know or that cannot be swept.
     """
     path = path.strip()
     if path.startswith("circuit."):
@@ -122,9 +125,11 @@ class Distribution:
 
     Attributes
     ----------
-    kind : str       One of :data:`DISTRIBUTIONS`
-    args : tuple     Its arguments in SI units (``lognormal``'s SIGMA dimensionless,
-                     ``choice``'s the values), [unit of the parameter]
+    kind : str
+        One of :data:`DISTRIBUTIONS`
+    args : tuple
+        Its arguments in SI units (``lognormal``'s SIGMA dimensionless,
+        ``choice``'s the values), [unit of the parameter]
     """
 
     kind: str
@@ -135,7 +140,8 @@ class Distribution:
 
         Parameters
         ----------
-        rng : numpy.random.Generator   The sweep's random generator (seeded: reproducible)
+        rng : numpy.random.Generator
+            The sweep's random generator (seeded: reproducible)
         """
         a = self.args
         if self.kind == "uniform":
@@ -157,7 +163,8 @@ class Distribution:
 
         Parameters
         ----------
-        unit : str   The parameter's SI unit, shown after each value ("-", "str": none)
+        unit : str
+            The parameter's SI unit, shown after each value ("-", "str": none)
         """
         u = "" if unit in ("-", "str") else f" {unit}"
         if self.kind == "lognormal":
@@ -177,11 +184,16 @@ class Parameter:
 
     Attributes
     ----------
-    paths : tuple[str]           Rig paths that take the same value
-    unit : str                   Their SI unit ("-" dimensionless, "str" text)
-    levels : tuple               Factorial levels in SI (None for a distribution)
-    distribution : Distribution  For random designs (None for levels)
-    spec : str                   The values as given (for the results file's header)
+    paths : tuple[str]
+        Rig paths that take the same value
+    unit : str
+        Their SI unit ("-" dimensionless, "str" text)
+    levels : tuple
+        Factorial levels in SI (None for a distribution)
+    distribution : Distribution
+        For random designs (None for levels)
+    spec : str
+        The values as given (for the results file's header)
     """
 
     paths: tuple
@@ -221,14 +233,16 @@ def parse_parameter(path, values, rig: Rig | None = None) -> Parameter:
 
     Parameters
     ----------
-    path : str     Rig path(s), joined by ``+`` to set several to the same value
+    path : str
+        Rig path(s), joined by ``+`` to set several to the same value
     values : str, list or Distribution
                    Text in the syntax of the module docstring (``"150 MPa,220 MPa"``,
                    ``"uniform(150 MPa, 220 MPa)"``), a list of quantities (strings with
                    units, pint Quantities, plain numbers for dimensionless parameters), or a
                    :class:`Distribution` already in SI units
-    rig : Rig      The rig swept (needed for ``circuit.<component>.<parameter>`` paths, whose
-                   unit the component's type declares)
+    rig : Rig
+        The rig swept (needed for ``circuit.<component>.<parameter>`` paths, whose
+        unit the component's type declares)
 
     Returns
     -------
@@ -330,8 +344,10 @@ def parse_parameters(parameters, rig: Rig | None = None) -> list[Parameter]:
 
     Parameters
     ----------
-    parameters : list or dict   As :func:`hydroline.studies.sweep` takes them
-    rig : Rig                   The rig swept (units of circuit paths)
+    parameters : list or dict
+        As :func:`hydroline.studies.sweep` takes them
+    rig : Rig
+        The rig swept (units of circuit paths)
     """
     out = []
     if isinstance(parameters, dict):
@@ -369,8 +385,10 @@ class Design:
     Parameters
     ----------
     parameters : list[Parameter]
-    samples : int    Number of random variants; None for the full factorial
-    seed : int       Seed of the random design (variant i uses ``default_rng([seed, i])``)
+    samples : int
+        Number of random variants; None for the full factorial
+    seed : int
+        Seed of the random design (variant i uses ``default_rng([seed, i])``)
     """
 
     parameters: list
@@ -410,7 +428,8 @@ class Design:
 
         Parameters
         ----------
-        i : int   Variant number, 0 <= i < len(design)
+        i : int
+            Variant number, 0 <= i < len(design)
         """
         if not 0 <= i < len(self):
             raise IndexError(f"variant {i} out of range 0..{len(self) - 1}")

@@ -89,7 +89,8 @@ def parse_lengths(lengths) -> list[float]:
 
     Returns
     -------
-    list[float]  [m]
+    list[float]
+        [m]
 
     Raises
     ------
@@ -124,20 +125,29 @@ class LayoutStudy:
 
     Attributes
     ----------
-    lengths : list[float]      Section II lengths, [m]
-    summaries : list[dict]     :func:`hydroline.studies.settling.port_summary` of each run
-                               (``summarize`` with ``settling_method``/``settling_note``)
-    results : list             The :class:`~hydroline.engine.SimulationResult` of each run
-    sides : tuple              Which sections II were set ("supply", "return")
+    lengths : list[float]
+        Section II lengths, [m]
+    summaries : list[dict]
+        :func:`hydroline.studies.settling.port_summary` of each run
+        (``summarize`` with ``settling_method``/``settling_note``)
+    results : list
+        The :class:`~hydroline.engine.SimulationResult` of each run
+    sides : tuple
+        Which sections II were set ("supply", "return")
     scenario : str
     rig_name : str
-    wall_time : float          Wall time of the whole study, [s]
-    wave_speeds : dict         side -> wave speed c of its section II (M2), [m/s]
-    files : dict               What :meth:`save` wrote
-    sections : tuple           The hose sections whose length was set (template rig:
-                               ``supply.section2``, ...; circuit rig: component names)
-    axis : str                 The servo axis whose port pressures the study reports (a
-                               multi-axis rig; None on a single-axis rig)
+    wall_time : float
+        Wall time of the whole study, [s]
+    wave_speeds : dict
+        side -> wave speed c of its section II (M2), [m/s]
+    files : dict
+        What :meth:`save` wrote
+    sections : tuple
+        The hose sections whose length was set (template rig:
+        ``supply.section2``, ...; circuit rig: component names)
+    axis : str
+        The servo axis whose port pressures the study reports (a
+        multi-axis rig; None on a single-axis rig)
     """
 
     lengths: list
@@ -256,14 +266,17 @@ class LayoutStudy:
 
         Parameters
         ----------
-        folder : path      Output folder (created)
-        temp : callable    ``temp(name) -> path`` to write each file to first (e.g. the CLI's
-                           atomic writer, which renames them all at the end); the final names
-                           are returned either way
+        folder : path
+            Output folder (created)
+        temp : callable
+            ``temp(name) -> path`` to write each file to first (e.g. the CLI's
+            atomic writer, which renames them all at the end); the final names
+            are returned either way
 
         Returns
         -------
-        dict  role ("csv", "traces", "figure") -> path
+        dict
+            role ("csv", "traces", "figure") -> path
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
@@ -281,8 +294,10 @@ class LayoutStudy:
 
         Parameters
         ----------
-        path : str or Path   Write the figure there (PNG) when given
-        title : str          Figure title
+        path : str or Path
+            Write the figure there (PNG) when given
+        title : str
+            Figure title
 
         Returns
         -------
@@ -440,11 +455,13 @@ def conclusion(study: "LayoutStudy") -> str:
 
     Parameters
     ----------
-    study : LayoutStudy   A finished layout study
+    study : LayoutStudy
+        A finished layout study
 
     Returns
     -------
-    str  One sentence
+    str
+        One sentence
     """
     recs = {r["section2_length_m"]: r for r in study.records()}
     hoses = sorted(L for L in recs if L > 0)
@@ -542,23 +559,28 @@ def layout_sections(rig: Rig, sections=None, sides=SIDES) -> tuple:
 
     Parameters
     ----------
-    rig : Rig                 The rig
-    sections : str or sequence  Hose sections by name, comma-separated or a sequence: on a
-                              template rig ``supply.section2``, ``return.section1``, ...; on
-                              a circuit rig its hose components (``axis1.supply_hose``;
-                              a ``circuit.`` prefix is allowed). None: the sections II of
-                              ``sides`` (template rigs, and circuit rigs with hoses named
-                              ``supply.section2`` / ``return.section2``)
-    sides : sequence          "supply" and/or "return", for the default
+    rig : Rig
+        The rig
+    sections : str or sequence
+        Hose sections by name, comma-separated or a sequence: on a
+        template rig ``supply.section2``, ``return.section1``, ...; on
+        a circuit rig its hose components (``axis1.supply_hose``;
+        a ``circuit.`` prefix is allowed). None: the sections II of
+        ``sides`` (template rigs, and circuit rigs with hoses named
+        ``supply.section2`` / ``return.section2``)
+    sides : sequence
+        "supply" and/or "return", for the default
 
     Returns
     -------
-    tuple[str]  Section names (circuit component names without ``circuit.``)
+    tuple[str]
+        Section names (circuit component names without ``circuit.``)
 
     Raises
     ------
-    RigError  One line naming the rig: a section it does not have, or a circuit rig whose
-              hoses the study cannot tell (name them with ``--sections``).
+    RigError
+        One line naming the rig: a section it does not have, or a circuit rig whose
+        hoses the study cannot tell (name them with ``--sections``).
     """
     from ..circuit import has_circuit
 
@@ -652,30 +674,41 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
 
     Parameters
     ----------
-    rig : Rig, str or None   The rig (None: the embedded 2005 paper's rig; a shipped rig may
-                             be named)
-    lengths : sequence or str  Section lengths, [m] (numbers are metres; strings may carry
-                             units, "10 ft"); 0 removes a template rig's section
-                             (close-coupled manifold)
-    sides : sequence         Which sections II take the length: "supply", "return" or both
-                             (when ``sections`` is None)
-    sections : str or sequence  The hose sections that take the length (see
-                             :func:`layout_sections`): a circuit rig's hose components, e.g.
-                             "axis1.supply_hose,axis1.return_hose"; None: the sections II
-    axis : str               Multi-axis rig: the axis whose port pressures are reported (None:
-                             the axis the first section belongs to by name, else the stepped)
-    scenario : str           One of :func:`hydroline.scenarios.scenario_names`; None: the rig's
-                             ``rig.scenario``, else "open-loop-step" (the paper's)
-    t_end : float            Simulated time, [s]; the scenario's default when None
-    solver : str             See :func:`hydroline.engine.integrate`
-    progress : callable      ``progress(done, total)`` after each length
-    settling_band : SettlingBand or str  The port pressures' settling band
-                             (:meth:`hydroline.traces.metrics.SettlingBand.parse`; default +-2 %
-                             of the final absolute pressure)
+    rig : Rig, str or None
+        The rig (None: the embedded 2005 paper's rig; a shipped rig may
+        be named)
+    lengths : sequence or str
+        Section lengths, [m] (numbers are metres; strings may carry
+        units, "10 ft"); 0 removes a template rig's section
+        (close-coupled manifold)
+    sides : sequence
+        Which sections II take the length: "supply", "return" or both
+        (when ``sections`` is None)
+    sections : str or sequence
+        The hose sections that take the length (see
+        :func:`layout_sections`): a circuit rig's hose components, e.g.
+        "axis1.supply_hose,axis1.return_hose"; None: the sections II
+    axis : str
+        Multi-axis rig: the axis whose port pressures are reported (None:
+        the axis the first section belongs to by name, else the stepped)
+    scenario : str
+        One of :func:`hydroline.scenarios.scenario_names`; None: the rig's
+        ``rig.scenario``, else "open-loop-step" (the paper's)
+    t_end : float
+        Simulated time, [s]; the scenario's default when None
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    progress : callable
+        ``progress(done, total)`` after each length
+    settling_band : SettlingBand or str
+        The port pressures' settling band
+        (:meth:`hydroline.traces.metrics.SettlingBand.parse`; default +-2 %
+        of the final absolute pressure)
 
     Returns
     -------
-    LayoutStudy  (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
+    LayoutStudy
+        (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
     ``plot()``/``save(folder)`` the figure and CSV files)
     """
     from ..scenarios import default_scenario
@@ -751,7 +784,8 @@ def layout_sections_available(rig: Rig) -> list[str]:
 
     Parameters
     ----------
-    rig : Rig   The rig
+    rig : Rig
+        The rig
     """
     from ..circuit import circuit_names, has_circuit
 
