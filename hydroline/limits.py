@@ -115,6 +115,7 @@ def check_output_size(t_end: float, dt_out: float, n_columns: int, *, stream_to=
     Returns
     -------
     OutputEstimate
+        Rows, columns and bytes in memory [B] and as CSV [B]
     """
     est = output_estimate(t_end, dt_out, n_columns)
     if stream_to is None and est.memory_bytes > MAX_TABLE_BYTES:
@@ -178,7 +179,8 @@ class RunCost:
     ----------
     build_seconds : float
         Writing and compiling the model's C core (0 when cached), [s]
-    integrate_seconds : float Integration of all variants, [s]
+    integrate_seconds : float
+        Integration of all variants, [s]
     write_seconds : float
         Writing the CSV, [s]
     memory_bytes : float
@@ -250,6 +252,7 @@ def run_cost(n_states: int, t_end: float, rows: float = 0, columns: int = 0, *,
     Returns
     -------
     RunCost
+        Build, integration and writing time [s] and peak memory [B].
     """
     n = float(n_states)
     build_s = BUILD_SECONDS + (n / BUILD_STATES) ** 3 if build else 0.0

@@ -7,18 +7,23 @@ they are read with the unit that :data:`hydroline.rigs.SCHEMA` gives the path, s
 number is refused wherever a unit matters.
 
 Value syntax (the text after ``PATH=`` of ``hydroline sweep --set``)
--------------------------------------------------------------------
-``150 MPa,178 MPa,220 MPa``      levels of a full factorial (one value: a constant override)
-``linspace(150 MPa, 220 MPa, 8)`` 8 evenly spaced levels, ends included
-``uniform(LOW, HIGH)``           random: uniform on [LOW, HIGH]
-``loguniform(LOW, HIGH)``        random: log-uniform on [LOW, HIGH] (LOW > 0)
-``normal(MEAN, STD)``            random: Gaussian (not truncated; a variant drawn outside
-                                 the physical range fails with its reason, e.g. a negative
-                                 bulk modulus)
-``lognormal(MEDIAN, SIGMA)``     random: ``MEDIAN * exp(SIGMA * z)``, z standard normal;
-                                 SIGMA is a plain number (the standard deviation of ln X)
-``triangular(LOW, MODE, HIGH)``  random: triangular
-``choice(V1, V2, ...)``          random: one of the values, equally likely
+---------------------------------------------------------------------
+
+=================================  ===========================================================
+text                               values
+=================================  ===========================================================
+``150 MPa,178 MPa,220 MPa``        levels of a full factorial (one value: a constant override)
+``linspace(150 MPa, 220 MPa, 8)``  8 evenly spaced levels, ends included
+``uniform(LOW, HIGH)``             random: uniform on [LOW, HIGH]
+``loguniform(LOW, HIGH)``          random: log-uniform on [LOW, HIGH] (LOW > 0)
+``normal(MEAN, STD)``              random: Gaussian (not truncated; a variant drawn outside
+                                   the physical range fails with its reason, e.g. a negative
+                                   bulk modulus)
+``lognormal(MEDIAN, SIGMA)``       random: ``MEDIAN * exp(SIGMA * z)``, z standard normal;
+                                   SIGMA is a plain number (the standard deviation of ln X)
+``triangular(LOW, MODE, HIGH)``    random: triangular
+``choice(V1, V2, ...)``            random: one of the values, equally likely
+=================================  ===========================================================
 
 A full factorial takes every combination of the levels; the first parameter varies slowest,
 and variant ``i`` is the mixed-radix number of the level indices. A random design
@@ -57,10 +62,15 @@ def parameter_unit(path: str, rig: Rig | None = None) -> str:
     rig : Rig
         The rig the path belongs to (needed for circuit paths)
 
+    Returns
+    -------
+    str
+        The SI unit, "-" for a dimensionless and "str" for a text parameter.
+
     Raises
     ------
     RigError
-        (one line) for a path the rig does not know or that cannot be swept.
+        One line, for a path the rig does not know or that cannot be swept.
     """
     path = path.strip()
     if path.startswith("circuit."):
@@ -142,6 +152,11 @@ class Distribution:
         ----------
         rng : numpy.random.Generator
             The sweep's random generator (seeded: reproducible)
+
+        Returns
+        -------
+        float or object
+            The drawn value, [unit of the parameter] (``choice``: one of its values).
         """
         a = self.args
         if self.kind == "uniform":
@@ -165,6 +180,11 @@ class Distribution:
         ----------
         unit : str
             The parameter's SI unit, shown after each value ("-", "str": none)
+
+        Returns
+        -------
+        str
+            The text.
         """
         u = "" if unit in ("-", "str") else f" {unit}"
         if self.kind == "lognormal":
@@ -204,10 +224,17 @@ class Parameter:
 
     @property
     def name(self) -> str:
+        """The paths joined by ``+`` (as given on the command line)."""
         return "+".join(self.paths)
 
     def describe(self) -> str:
-        """The parameter's levels or distribution as text, with its unit."""
+        """The parameter's levels or distribution as text, with its unit.
+
+        Returns
+        -------
+        str
+            E.g. ``150 MPa, 220 MPa`` or ``uniform(150 MPa, 220 MPa)``.
+        """
         if self.distribution is not None:
             return self.distribution.describe(self.unit)
         u = "" if self.unit in ("-", "str") else f" {self.unit}"
@@ -236,10 +263,10 @@ def parse_parameter(path, values, rig: Rig | None = None) -> Parameter:
     path : str
         Rig path(s), joined by ``+`` to set several to the same value
     values : str, list or Distribution
-                   Text in the syntax of the module docstring (``"150 MPa,220 MPa"``,
-                   ``"uniform(150 MPa, 220 MPa)"``), a list of quantities (strings with
-                   units, pint Quantities, plain numbers for dimensionless parameters), or a
-                   :class:`Distribution` already in SI units
+        Text in the syntax of the module docstring (``"150 MPa,220 MPa"``,
+        ``"uniform(150 MPa, 220 MPa)"``), a list of quantities (strings with units, pint
+        Quantities, plain numbers for dimensionless parameters), or a :class:`Distribution`
+        already in SI units
     rig : Rig
         The rig swept (needed for ``circuit.<component>.<parameter>`` paths, whose
         unit the component's type declares)
@@ -247,10 +274,12 @@ def parse_parameter(path, values, rig: Rig | None = None) -> Parameter:
     Returns
     -------
     Parameter
+        The paths, their SI unit and the levels or distribution.
 
     Raises
     ------
-    RigError / UnitError (ValueError), one line naming the path and its unit.
+    RigError, UnitError
+        (ValueErrors) One line naming the path and its unit.
     """
     paths = _parse_paths(path, rig)
     unit = parameter_unit(paths[0], rig)
@@ -348,6 +377,11 @@ def parse_parameters(parameters, rig: Rig | None = None) -> list[Parameter]:
         As :func:`hydroline.studies.sweep` takes them
     rig : Rig
         The rig swept (units of circuit paths)
+
+    Returns
+    -------
+    list[Parameter]
+        The parameters, in the order given.
     """
     out = []
     if isinstance(parameters, dict):
@@ -385,6 +419,7 @@ class Design:
     Parameters
     ----------
     parameters : list[Parameter]
+        The varied parameters (:func:`parse_parameters`).
     samples : int
         Number of random variants; None for the full factorial
     seed : int
@@ -413,6 +448,7 @@ class Design:
 
     @property
     def kind(self) -> str:
+        """"factorial" or "random"."""
         return "factorial" if self.samples is None else "random"
 
     def __len__(self) -> int:
@@ -430,6 +466,11 @@ class Design:
         ----------
         i : int
             Variant number, 0 <= i < len(design)
+
+        Returns
+        -------
+        dict
+            Rig path -> value, [SI]
         """
         if not 0 <= i < len(self):
             raise IndexError(f"variant {i} out of range 0..{len(self) - 1}")
@@ -456,7 +497,13 @@ class Design:
         return (self.variant(i) for i in range(len(self)))
 
     def describe(self) -> str:
-        """The design as text: full factorial (its sizes) or random samples (count, seed)."""
+        """The design as text: full factorial (its sizes) or random samples (count, seed).
+
+        Returns
+        -------
+        str
+            E.g. ``full factorial 3 x 2 = 6 variants`` or ``16 random variants (seed 1)``.
+        """
         if self.samples is None:
             if len(self._sizes) == 1:
                 return f"full factorial, {len(self)} variants"
@@ -465,7 +512,14 @@ class Design:
         return f"{self.samples} random variants (seed {self.seed})"
 
     def header(self) -> dict:
-        """What identifies the design in a results file (N excluded: samples extend)."""
+        """What identifies the design in a results file (N excluded: samples extend).
+
+        Returns
+        -------
+        dict
+            JSON-ready: the kind, the seed and each parameter's paths, unit, levels or
+            distribution.
+        """
         return {"kind": self.kind, "seed": self.seed if self.samples is not None else None,
                 "parameters": [{"paths": list(p.paths), "unit": p.unit,
                                 "levels": None if p.levels is None else list(p.levels),

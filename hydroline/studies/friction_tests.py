@@ -84,6 +84,7 @@ def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: f
     Parameters
     ----------
     rig : Rig, str or None
+        The rig (None: the embedded default).
     currents : list[float]
         Current steps [A]; +-(1, 3, 10, 25) % of rated when None
     t_run : float
@@ -104,7 +105,8 @@ def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: f
 
     Returns
     -------
-    (steady, sine) : lists of Measurements
+    steady, sine : list of Measurements
+        The open-loop runs (slow runs included) and the closed-loop sine records.
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     ax = select_axis(rig, axis)

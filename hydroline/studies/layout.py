@@ -90,11 +90,12 @@ def parse_lengths(lengths) -> list[float]:
     Returns
     -------
     list[float]
-        [m]
+        The lengths, [m]
 
     Raises
     ------
-    UnitError / RigError (ValueError), one line naming ``--lengths``.
+    UnitError, RigError
+        (ValueErrors) One line naming ``--lengths``.
     """
     items = [s.strip() for s in lengths.split(",")] if isinstance(lengths, str) else list(lengths)
     if not items or any(isinstance(s, str) and not s for s in items):
@@ -135,7 +136,9 @@ class LayoutStudy:
     sides : tuple
         Which sections II were set ("supply", "return")
     scenario : str
+        The scenario run for every length.
     rig_name : str
+        The rig's name (its file, or the embedded rig's).
     wall_time : float
         Wall time of the whole study, [s]
     wave_speeds : dict
@@ -210,15 +213,20 @@ class LayoutStudy:
                           + " (every metric: .table(); the traces: .traces())")
 
     def table(self) -> "pandas.DataFrame":
-        """One row per length: section2_length_m, {supply,return}_{frequency_hz,
-        amplitude_mpa, settling_time_s, settling_band_mpa, first_excursion_mpa,
-        steady_change_mpa, peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
-        settling_band (in words),
-        flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
-        {supply,return}_round_trip_ms (2 L / c of that section II),
-        {supply,return}_valve_bound_mpa (the most the valve's flow rise can put into that
-        section's quarter-wave swing, docs/model.md M26), wall_time_s, warnings
-        (NaN where a metric does not exist)."""
+        """The metrics as a table, one row per length.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``section2_length_m``, ``{supply,return}_{frequency_hz, amplitude_mpa,
+            settling_time_s, settling_band_mpa, first_excursion_mpa, steady_change_mpa,
+            peak_to_peak_mpa, settling_method, settling_note, amplitude_note}``,
+            ``settling_band`` (in words), ``flow_rise_time_ms`` (10-90 % rise of the valve's
+            supply-port flow after the step), ``{supply,return}_round_trip_ms`` (2 L / c of
+            that section II), ``{supply,return}_valve_bound_mpa`` (the most the valve's flow
+            rise can put into that section's quarter-wave swing, docs/model.md M26),
+            ``wall_time_s``, ``warnings``; NaN where a metric does not exist.
+        """
         import pandas as pd     # here: a sweep's worker imports this module, never a table
 
         rows = []
@@ -246,8 +254,13 @@ class LayoutStudy:
         return pd.DataFrame(rows)
 
     def traces(self) -> "pandas.DataFrame":
-        """Port pressures of every run on the common output grid: ``time_s`` and
-        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa]."""
+        """Port pressures of every run on the common output grid.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``time_s`` [s] and ``{supply,return}_port_pressure_pa@L=<length>m`` [Pa].
+        """
         import pandas as pd
 
         t = self.results[0].t
@@ -301,7 +314,8 @@ class LayoutStudy:
 
         Returns
         -------
-        matplotlib.figure.Figure (written as PNG to ``path`` when given)
+        matplotlib.figure.Figure
+            The figure (written as PNG to ``path`` when given).
         """
         from ..plotting import figure_title, new_figure, save_png
 
@@ -708,8 +722,8 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     Returns
     -------
     LayoutStudy
-        (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
-    ``plot()``/``save(folder)`` the figure and CSV files)
+        The runs and their metrics: ``records()`` is the ``--json`` list, ``table()`` a
+        DataFrame, ``plot()`` and ``save(folder)`` the figure and CSV files.
     """
     from ..scenarios import default_scenario
 
@@ -779,13 +793,17 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
 
 
 def layout_sections_available(rig: Rig) -> list[str]:
-    """Every hose section of the rig by name (template: ``supply.section1`` ...; circuit: its
-    hose components).
+    """Every hose section of the rig by name.
 
     Parameters
     ----------
     rig : Rig
         The rig
+
+    Returns
+    -------
+    list[str]
+        Template rig: ``supply.section1`` ...; circuit rig: its hose components.
     """
     from ..circuit import circuit_names, has_circuit
 

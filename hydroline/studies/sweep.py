@@ -128,14 +128,18 @@ def metric_columns(axes=(), scenario: str = "open-loop-step") -> list[str]:
 
 
 def settling_columns(axes=()) -> list[str]:
-    """The text columns that say how each settling time was obtained ("measured",
-    "estimated" or ""): :data:`SETTLING_COLUMNS`, or ``<axis>.<side>.settling_method`` per
-    axis of a multi-axis rig.
+    """The text columns that say how each settling time was obtained.
 
     Parameters
     ----------
     axes : sequence of str
         The rig's servo axes
+
+    Returns
+    -------
+    list[str]
+        :data:`SETTLING_COLUMNS`, or ``<axis>.<side>.settling_method`` per axis of a
+        multi-axis rig; their values are "measured", "estimated" or "".
     """
     axes = list(axes)
     if len(axes) <= 1:
@@ -144,8 +148,7 @@ def settling_columns(axes=()) -> list[str]:
 
 
 def row_columns(design: Design, axes=(), scenario: str = "open-loop-step") -> list[str]:
-    """Every column of a sweep's table, in order: ``variant``, the inputs, the metrics, the
-    settling methods, ``warnings``, ``error``.
+    """Every column of a sweep's table, in order.
 
     Parameters
     ----------
@@ -155,6 +158,11 @@ def row_columns(design: Design, axes=(), scenario: str = "open-loop-step") -> li
         The rig's servo axes
     scenario : str
         Scenario name
+
+    Returns
+    -------
+    list[str]
+        ``variant``, the inputs, the metrics, the settling methods, ``warnings``, ``error``.
     """
     return ["variant", *design.columns, *metric_columns(axes, scenario), *settling_columns(axes),
             "warnings", "error"]
@@ -244,6 +252,11 @@ def failed_row(index: int, values: dict, reason: str, scenario: str = "open-loop
         Scenario name
     axes : sequence of str
         The rig's servo axes (for the per-axis columns)
+
+    Returns
+    -------
+    dict
+        Column -> value: the inputs, None for every metric, ``error`` the reason.
     """
     row = _empty_row(index, values, axes, scenario)
     row["error"] = reason
@@ -378,6 +391,7 @@ class VariantRunner:
         Returns
         -------
         SimulationResult
+            The run, with the metadata and warnings ``simulate`` gives.
         """
         if not self.share_models or self.solver not in ("auto", "compiled") or \
                 any(k.endswith(".file") for k in rig.values):     # a table file may change
@@ -402,7 +416,7 @@ def graph_signature(network):
     Returns
     -------
     str or tuple
-        hashable
+        A hashable signature.
     """
     from ..engine.fingerprint import components_signature
 
@@ -439,7 +453,8 @@ class SharedModel:
         variant)
     circuit : Circuit
         The rig's circuit (axis handles)
-    scenario : Scenario The experiment's commands and times
+    scenario : Scenario
+        The experiment's commands and times
     values : dict
         Rig values (SI) of the variant it was built for
 
@@ -449,8 +464,9 @@ class SharedModel:
         Runtime parameters of that variant, [SI]
     hoses : dict
         Hose section name -> its component (matrix entries in p)
-    hose_entries : dict Hose section name -> indices of its entries in p, in the order of
-                        its :meth:`~hydroline.components.HoseSection.runtime_parameters`
+    hose_entries : dict
+        Hose section name -> indices of its entries in p, in the order of its
+        :meth:`~hydroline.components.HoseSection.runtime_parameters`
     rest : ndarray
         The last variant's solved rest state, [SI] (None before the first)
     """
@@ -476,14 +492,18 @@ class SharedModel:
         self.rest = None
 
     def changed_hoses(self, rig: Rig):
-        """The hose sections whose length, bore or bulk modulus (:data:`HOSE_KEYS`) differ in
-        ``rig``; None when anything else differs (or the rig describes its circuit, whose
-        hoses are read otherwise).
+        """The hose sections whose length, bore or bulk modulus (:data:`HOSE_KEYS`) differ.
 
         Parameters
         ----------
         rig : Rig
             A variant
+
+        Returns
+        -------
+        list[str] or None
+            The sections; None when anything else differs (or the rig describes its circuit,
+            whose hoses are read otherwise).
         """
         from ..circuit import has_circuit
 
@@ -594,10 +614,16 @@ def _simulate_parameters() -> tuple:
 
 
 def simulate_defaults() -> dict:
-    """:func:`hydroline.scenarios.simulate`'s default output step [s], relative tolerance
-    [-] and absolute tolerance scale [-] (``dt_out``, ``rtol``, ``atol_scale``): a shared
-    model's run integrates as ``simulate()`` does (read from its signature, so that the two
-    cannot drift apart)."""
+    """:func:`hydroline.scenarios.simulate`'s default output step and tolerances.
+
+    A shared model's run integrates as ``simulate()`` does: the defaults are read from its
+    signature, so that the two cannot drift apart.
+
+    Returns
+    -------
+    dict
+        ``dt_out`` [s], ``rtol`` [-] and ``atol_scale`` [-].
+    """
     return dict(_simulate_parameters())
 
 
@@ -631,7 +657,7 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     Returns
     -------
     SimulationResult
-        with the metadata and warnings ``simulate`` gives
+        The run, with the metadata and warnings ``simulate`` gives.
     """
     from ..components.hose import coefficients_as_parameters
     from ..limits import check_output_size
@@ -801,6 +827,7 @@ class SweepResult:
 
     @property
     def n_failed(self) -> int:
+        """Number of failed variants, [-]"""
         return int(self.table["error"].notna().sum())
 
 
@@ -892,11 +919,13 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
     Returns
     -------
     SweepResult
-        (a multi-axis rig's rows have per-axis columns, :func:`metric_columns`)
+        The table of rows (a multi-axis rig's rows have per-axis columns,
+        :func:`metric_columns`), the design and the files written.
 
     Raises
     ------
-    ValueError (RigError, UnitError, SweepFileError) on bad input, one line naming it.
+    ValueError
+        (RigError, UnitError, SweepFileError) On bad input, one line naming it.
     """
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):

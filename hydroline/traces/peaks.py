@@ -100,8 +100,11 @@ def find_peaks(x, prominence: float | None = None, distance: float | None = None
 
     Returns
     -------
-    (peaks, properties) : indices of the peaks, ascending; dict with ``"prominences"`` when
-    a prominence was asked for (as :func:`scipy.signal.find_peaks`)
+    peaks : ndarray of int
+        Indices of the peaks, ascending, [-]
+    properties : dict
+        With ``"prominences"`` when a prominence was asked for (as
+        :func:`scipy.signal.find_peaks`).
     """
     x = np.asarray(x, dtype=float)
     peaks = local_maxima(x)
