@@ -81,12 +81,29 @@ NUMPYDOC_MODULES = [line.strip() for line in (ROOT / "docs" / "numpydoc_modules.
 
 
 def _owner_module(what, name, obj):
-    """The module a documented object belongs to (its own name for a module)."""
+    """The module that wrote a documented object's docstring (its own name for a module).
+
+    A method without a docstring of its own shows its base class's (autodoc inherits it): that
+    docstring is the base's module's, converted or not (a component's ``outputs_of`` shows the
+    engine's ``Component.outputs_of``)."""
     if what == "module":
         return name
     mod = getattr(obj, "__module__", None)
     if mod is None:                        # properties, attributes: take the dotted name
         mod = name.rsplit(".", 2)[0]
+    func = obj.fget if isinstance(obj, property) else getattr(obj, "__func__", obj)
+    if what in ("method", "property") and getattr(func, "__doc__", None) is None:
+        import importlib
+
+        cls_path, _, attr = name.rpartition(".")
+        modname, _, clsname = cls_path.rpartition(".")
+        try:
+            cls = getattr(importlib.import_module(modname), clsname)
+        except (ImportError, AttributeError, ValueError):
+            return mod
+        for base in getattr(cls, "__mro__", ())[1:]:
+            if attr in base.__dict__:
+                return base.__module__
     return mod
 
 
