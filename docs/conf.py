@@ -4,8 +4,9 @@ Build locally (after ``pip install -e '.[docs]'``)::
 
     sphinx-build -W -b html docs docs/_build/html
 
-Tutorials (``docs/tutorials/*.py``) are executed by sphinx-gallery during the build (about
-30 s on two cores; unchanged tutorials are not run again), and their printed output and
+Tutorials (``docs/tutorials/*.py``) are executed by sphinx-gallery during the build (the
+same work as running the six scripts, about a minute of two idle cores with an empty
+hydroline cache; unchanged tutorials are not run again), and their printed output and
 figures are embedded; a tutorial that fails fails the build. ``HYDROLINE_DOCS_EXECUTE=0``
 renders them without running them. ``tests/test_tutorials.py`` checks a built site
 (``HYDROLINE_DOCS_BUILT=docs/_build/html``): every tutorial ran, printed, and shows its
