@@ -42,7 +42,14 @@ _TOUCH_AFTER = 3600.0
 
 
 def cache_dir() -> Path:
-    """Directory of the cache (created on demand by its writers)."""
+    """Directory of the cache (created on demand by its writers).
+
+    Returns
+    -------
+    pathlib.Path
+        ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
+        ``~/.cache/hydroline``.
+    """
     env = os.environ.get("HYDROLINE_CACHE_DIR")
     if env:
         return Path(env)
@@ -51,8 +58,21 @@ def cache_dir() -> Path:
 
 
 def source_tag(*paths) -> str:
-    """A short hash of source files: part of a cache key, so that a change of the code that
-    computes a table makes its old entries unused."""
+    """A short hash of source files.
+
+    Part of a cache key, so that a change of the code that computes a table makes its old
+    entries unused.
+
+    Parameters
+    ----------
+    *paths : str or Path
+        The source files.
+
+    Returns
+    -------
+    str
+        16 hexadecimal digits of the SHA-256 of the files' contents.
+    """
     h = hashlib.sha256()
     for p in paths:
         h.update(Path(p).read_bytes())
@@ -60,7 +80,15 @@ def source_tag(*paths) -> str:
 
 
 class CacheWarning(UserWarning):
-    """A cache entry failed its check (altered, another key's, damaged) and is computed again."""
+    """A cache entry failed its check (altered, another key's, damaged) and is computed again.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the file and what is wrong with it.
+    **kwargs : dict
+        None taken (as ``UserWarning``).
+    """
 
 
 def _table_path(kind: str, key: str) -> Path:
@@ -74,12 +102,15 @@ def table_checksum(key: str, value) -> str:
 
     Parameters
     ----------
-    key : str       Everything the value depends on
-    value : object  JSON value (lists, dicts, numbers, strings)
+    key : str
+        Everything the value depends on
+    value : object
+        JSON value (lists, dicts, numbers, strings)
 
     Returns
     -------
-    str  64 hexadecimal digits
+    str
+        64 hexadecimal digits
     """
     return _checksum(key, json.dumps(value).encode())
 
@@ -107,12 +138,15 @@ def load_table(kind: str, key: str):
 
     Parameters
     ----------
-    kind : str   Sub-directory of the cache naming the table, e.g. ``"correction_factors"``
-    key : str    Everything the value depends on (inputs, :func:`source_tag` of the code)
+    kind : str
+        Sub-directory of the cache naming the table, e.g. ``"correction_factors"``
+    key : str
+        Everything the value depends on (inputs, :func:`source_tag` of the code)
 
     Returns
     -------
-    object or None  The stored JSON value (lists, dicts, numbers, strings)
+    object or None
+        The stored JSON value (lists, dicts, numbers, strings)
     """
     path = _table_path(kind, key)
     try:
@@ -157,9 +191,12 @@ def discard_table(kind: str, key: str, why: str) -> None:
 
     Parameters
     ----------
-    kind : str   Sub-directory of the cache naming the table, e.g. ``"models"``
-    key : str    The key it is stored under
-    why : str    What is wrong with it (part of the warning)
+    kind : str
+        Sub-directory of the cache naming the table, e.g. ``"models"``
+    key : str
+        The key it is stored under
+    why : str
+        What is wrong with it (part of the warning)
     """
     discard_entry(_table_path(kind, key), why=why)
 
@@ -170,8 +207,10 @@ def discard_entry(*paths, why: str) -> None:
 
     Parameters
     ----------
-    *paths : Path   The entry's files (a table's file; a library and its build record)
-    why : str       What is wrong with it (part of the warning)
+    *paths : Path
+        The entry's files (a table's file; a library and its build record)
+    why : str
+        What is wrong with it (part of the warning)
     """
     for p in paths:
         try:
@@ -188,9 +227,12 @@ def store_table(kind: str, key: str, value) -> None:
 
     Parameters
     ----------
-    kind : str      Sub-directory of the cache naming the table, e.g. ``"correction_factors"``
-    key : str       Everything the value depends on (inputs, :func:`source_tag` of the code)
-    value : object  JSON-serialisable value (lists, dicts, numbers, strings)
+    kind : str
+        Sub-directory of the cache naming the table, e.g. ``"correction_factors"``
+    key : str
+        Everything the value depends on (inputs, :func:`source_tag` of the code)
+    value : object
+        JSON-serialisable value (lists, dicts, numbers, strings)
     """
     path = _table_path(kind, key)
     try:
@@ -219,12 +261,15 @@ def prune_tables(kind: str, max_entries: int | None = None) -> int:
 
     Parameters
     ----------
-    kind : str          Sub-directory of the cache naming the table
-    max_entries : int   Entries kept at most, [-] (:data:`MAX_ENTRIES` when None)
+    kind : str
+        Sub-directory of the cache naming the table
+    max_entries : int
+        Entries kept at most, [-] (:data:`MAX_ENTRIES` when None)
 
     Returns
     -------
-    int  Files removed, [-]
+    int
+        Files removed, [-]
     """
     max_entries = MAX_ENTRIES if max_entries is None else int(max_entries)
     entries, stale = [], []
@@ -260,13 +305,17 @@ def least_recently_used(entries, max_entries: int, at_least: int = 0) -> list:
 
     Parameters
     ----------
-    entries : list      (modification time [s since the epoch], path) of each entry
-    max_entries : int   Entries kept at most, [-]
-    at_least : int      Newest entries always kept, [-]
+    entries : list
+        (modification time [s since the epoch], path) of each entry
+    max_entries : int
+        Entries kept at most, [-]
+    at_least : int
+        Newest entries always kept, [-]
 
     Returns
     -------
-    list  paths, least recently used first
+    list
+        Paths of the entries to remove, least recently used first.
     """
     if len(entries) <= max_entries:
         return []
@@ -280,8 +329,10 @@ def mark_used(path, mtime: float | None = None) -> None:
 
     Parameters
     ----------
-    path : str or Path   The file
-    mtime : float        Its modification time when known, [s since the epoch] (else read)
+    path : str or Path
+        The file
+    mtime : float
+        Its modification time when known, [s since the epoch] (else read)
     """
     try:
         if mtime is None:

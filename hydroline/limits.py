@@ -33,10 +33,14 @@ class OutputEstimate:
 
     Attributes
     ----------
-    rows : int          Output samples (a float when beyond 1e15), t_end / dt_out + 1, [-]
-    columns : int       Signals and states (plus time), [-]
-    memory_bytes : int  The table in memory (float64; the result frame doubles it briefly), [B]
-    csv_bytes : int     The table as CSV, [B]
+    rows : int
+        Output samples (a float when beyond 1e15), t_end / dt_out + 1, [-]
+    columns : int
+        Signals and states (plus time), [-]
+    memory_bytes : int
+        The table in memory (float64; the result frame doubles it briefly), [B]
+    csv_bytes : int
+        The table as CSV, [B]
     """
 
     rows: int
@@ -49,7 +53,8 @@ class OutputEstimate:
 
         Returns
         -------
-        str  Rows, columns, the size in memory and as CSV (B, kB, MB, ...)
+        str
+            Rows, columns, the size in memory and as CSV (B, kB, MB, ...)
         """
         return (f"{self.rows:.3g} rows x {self.columns} columns = {_size(self.memory_bytes)} in "
                 f"memory, {_size(self.csv_bytes)} as CSV")
@@ -69,13 +74,17 @@ def output_estimate(t_end: float, dt_out: float, n_columns: int) -> OutputEstima
 
     Parameters
     ----------
-    t_end : float     Simulated time, [s]
-    dt_out : float    Output step, [s] (<= 0: unbounded rows)
-    n_columns : int   Signals and states, without time, [-]
+    t_end : float
+        Simulated time, [s]
+    dt_out : float
+        Output step, [s] (<= 0: unbounded rows)
+    n_columns : int
+        Signals and states, without time, [-]
 
     Returns
     -------
-    OutputEstimate  Rows, columns and bytes in memory [B] and as CSV [B]
+    OutputEstimate
+        Rows, columns and bytes in memory [B] and as CSV [B]
     """
     rows = t_end / dt_out + 1 if dt_out > 0 else math.inf
     rows = int(rows) if rows < 1e15 else rows      # huge: a float, for the message
@@ -89,17 +98,24 @@ def check_output_size(t_end: float, dt_out: float, n_columns: int, *, stream_to=
 
     Parameters
     ----------
-    t_end : float        Simulated time, [s]
-    dt_out : float       Output step, [s]
-    n_columns : int      Signals and states, [-]
-    stream_to : path     The CSV the run streams to (memory is then constant; only the disk
-                         is checked), or None (the table is kept in memory)
-    csv_folder : path    Where the run's CSV will be written (its free space is checked)
-    name : str           The option or key that set ``t_end``, for the message
+    t_end : float
+        Simulated time, [s]
+    dt_out : float
+        Output step, [s]
+    n_columns : int
+        Signals and states, [-]
+    stream_to : path
+        The CSV the run streams to (memory is then constant; only the disk
+        is checked), or None (the table is kept in memory)
+    csv_folder : path
+        Where the run's CSV will be written (its free space is checked)
+    name : str
+        The option or key that set ``t_end``, for the message
 
     Returns
     -------
     OutputEstimate
+        Rows, columns and bytes in memory [B] and as CSV [B]
     """
     est = output_estimate(t_end, dt_out, n_columns)
     if stream_to is None and est.memory_bytes > MAX_TABLE_BYTES:
@@ -161,10 +177,14 @@ class RunCost:
 
     Attributes
     ----------
-    build_seconds : float     Writing and compiling the model's C core (0 when cached), [s]
-    integrate_seconds : float Integration of all variants, [s]
-    write_seconds : float     Writing the CSV, [s]
-    memory_bytes : float      Peak memory: the compiler's or the table's, [B]
+    build_seconds : float
+        Writing and compiling the model's C core (0 when cached), [s]
+    integrate_seconds : float
+        Integration of all variants, [s]
+    write_seconds : float
+        Writing the CSV, [s]
+    memory_bytes : float
+        Peak memory: the compiler's or the table's, [B]
     """
 
     build_seconds: float
@@ -188,7 +208,8 @@ class RunCost:
 
         Returns
         -------
-        str  Wall time and memory, and the part the compiled core's first build takes
+        str
+            Wall time and memory, and the part the compiled core's first build takes
         """
         text = f"about {_duration(self.seconds)}" + (
             f" and {_size(self.memory_bytes)}" if self.memory_bytes > 0 else "")
@@ -210,19 +231,29 @@ def run_cost(n_states: int, t_end: float, rows: float = 0, columns: int = 0, *,
 
     Parameters
     ----------
-    n_states : int     States of the model, [-]
-    t_end : float      Simulated time of one variant, [s]
-    rows : float       Output rows of one variant, [-]
-    columns : int      Output columns (time, signals and states), [-]
-    build : bool       The compiled core is built first (:func:`hydroline.compiled.needs_build`)
-    in_memory : bool   The table is kept in memory (False: streamed to a file)
-    csv : bool         The table is written as CSV
-    variants : int     Runs of the same model (a sweep), [-]
-    workers : int      Processes running them side by side, [-]
+    n_states : int
+        States of the model, [-]
+    t_end : float
+        Simulated time of one variant, [s]
+    rows : float
+        Output rows of one variant, [-]
+    columns : int
+        Output columns (time, signals and states), [-]
+    build : bool
+        The compiled core is built first (:func:`hydroline.compiled.needs_build`)
+    in_memory : bool
+        The table is kept in memory (False: streamed to a file)
+    csv : bool
+        The table is written as CSV
+    variants : int
+        Runs of the same model (a sweep), [-]
+    workers : int
+        Processes running them side by side, [-]
 
     Returns
     -------
     RunCost
+        Build, integration and writing time [s] and peak memory [B].
     """
     n = float(n_states)
     build_s = BUILD_SECONDS + (n / BUILD_STATES) ** 3 if build else 0.0

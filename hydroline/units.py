@@ -84,7 +84,15 @@ _DIMENSIONLESS = {"", "-", "1", "dimensionless"}
 
 
 class UnitError(ValueError):
-    """A value that cannot be read as a quantity of the expected unit."""
+    """A value that cannot be read as a quantity of the expected unit.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the parameter and the expected unit.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 #: Longest quantity text read, [characters]: a quantity is a number and a unit, not a
@@ -195,7 +203,8 @@ def parse_quantity(value, unit: str, name: str = "value") -> float:
 
     Returns
     -------
-    float  The value expressed in ``unit``, [unit]
+    float
+        The value expressed in ``unit``, [unit]
 
     Raises
     ------
@@ -280,15 +289,20 @@ def format_quantity(value_si: float, unit: str, display_unit: str | None = None,
 
     Parameters
     ----------
-    value_si : float    The value in ``unit``, [unit]
-    unit : str          The unit ``value_si`` is in, e.g. ``"Pa"``, [-]
-    display_unit : str  The unit to show, e.g. ``"MPa"``, ``"bar"``, ``"L/min"``; None shows
-                        ``unit``, [-]
-    digits : int        Significant digits, >= 1, [-]
+    value_si : float
+        The value in ``unit``, [unit]
+    unit : str
+        The unit ``value_si`` is in, e.g. ``"Pa"``, [-]
+    display_unit : str
+        The unit to show, e.g. ``"MPa"``, ``"bar"``, ``"L/min"``; None shows
+        ``unit``, [-]
+    digits : int
+        Significant digits, >= 1, [-]
 
     Returns
     -------
-    str  ``"<number> <display_unit>"``, the number with ``digits`` significant digits
+    str
+        ``"<number> <display_unit>"``, the number with ``digits`` significant digits
 
     Examples
     --------
@@ -319,12 +333,14 @@ def split_header(col) -> tuple[str, str | None]:
 
     Parameters
     ----------
-    col : str   A column header (anything ``str()`` accepts), e.g. ``"time [ms]"``
+    col : str
+        A column header (anything ``str()`` accepts), e.g. ``"time [ms]"``
 
     Returns
     -------
-    tuple  ``(name, unit)``: the header's name and the unit text between the brackets, or
-           None when it has none
+    tuple
+        ``(name, unit)``: the header's name and the unit text between the brackets, or
+        None when it has none
     """
     text = str(col).strip()
     if "[" not in text or not text.endswith("]"):
@@ -338,19 +354,26 @@ def csv_column(raw, col, unit: str, src: str, example: str | None = None):
 
     Parameters
     ----------
-    raw : pandas.DataFrame  The table as read
-    col : str               Column header, e.g. ``"time [ms]"``
-    unit : str              SI unit the column must convert to (dimension check)
-    src : str               File name, for the messages
-    example : str           Name to suggest in the no-unit message (the header's name if None)
+    raw : pandas.DataFrame
+        The table as read
+    col : str
+        Column header, e.g. ``"time [ms]"``
+    unit : str
+        SI unit the column must convert to (dimension check)
+    src : str
+        File name, for the messages
+    example : str
+        Name to suggest in the no-unit message (the header's name if None)
 
     Returns
     -------
-    ndarray  The values in ``unit``
+    ndarray
+        The values, [unit]
 
     Raises
     ------
-    ValueError  One line naming the file, the column and, for a bad value, its row
+    ValueError
+        One line naming the file, the column and, for a bad value, its row
     """
     import numpy as np
     import pandas as pd

@@ -337,3 +337,31 @@ def test_a_model_record_that_does_not_fit_is_rebuilt(monkeypatch, tmp_path, misf
     assert res.metadata["solver"] == "compiled"
     assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
     assert cache.load_table("models", key)["library"] == library.stem[3:]   # recorded anew
+
+
+def test_kept_in_memory_is_per_thread_and_restored_after_overlapping_blocks():
+    """Overlapping ``kept_in_memory`` blocks in two threads (a sweep on a Dask cluster of
+    threads) leave the on-disk cache in use afterwards; inside, only their own thread skips it."""
+    import threading
+
+    from hydroline.lines import memo
+
+    inside, leave = threading.Barrier(3), threading.Event()
+    seen = {}
+
+    def variant(name):
+        with memo.kept_in_memory():
+            inside.wait()                       # both threads inside at once
+            seen[name] = memo._DISK.store
+            leave.wait()
+
+    threads = [threading.Thread(target=variant, args=(n,)) for n in ("a", "b")]
+    for t in threads:
+        t.start()
+    inside.wait()
+    seen["main"] = memo._DISK.store             # this thread is in no block
+    leave.set()
+    for t in threads:
+        t.join()
+    assert seen == {"a": False, "b": False, "main": True}
+    assert memo._DISK.store is True

@@ -38,8 +38,27 @@ UNIT = re.compile(r"\[[^\]]+\]")
 NUMERIC = re.compile(r"\b(float|complex|array_like|array|ndarray)\b")
 
 
+def _inherits_its_docstring(cls, mname: str, member) -> bool:
+    """True for a method that overrides a documented method of a base class without writing a
+    docstring of its own: it reads the base's, which is checked in the base's module (a
+    component's ``outputs_of`` documents nothing the engine's ``Component.outputs_of`` does
+    not; the API reference shows it as the base's module writes it)."""
+    func = member.fget if isinstance(member, property) else getattr(member, "__func__", member)
+    if getattr(func, "__doc__", None) is not None:
+        return False
+    for base in cls.__mro__[1:]:
+        inherited = base.__dict__.get(mname)
+        if inherited is None:
+            continue
+        inherited = inherited.fget if isinstance(inherited, property) else \
+            getattr(inherited, "__func__", inherited)
+        return bool(getattr(inherited, "__doc__", None))
+    return False
+
+
 def _public_members(module):
-    """(qualified name, object, kind) of the public API a module defines itself."""
+    """(qualified name, object, kind) of the public API a module defines itself (a method that
+    inherits its docstring is the base's: :func:`_inherits_its_docstring`)."""
     out = []
     for name, obj in vars(module).items():
         if name.startswith("_") or getattr(obj, "__module__", None) != module.__name__:
@@ -49,7 +68,7 @@ def _public_members(module):
         elif inspect.isclass(obj):
             out.append((f"{module.__name__}.{name}", obj, "class"))
             for mname, member in vars(obj).items():
-                if mname.startswith("_"):
+                if mname.startswith("_") or _inherits_its_docstring(obj, mname, member):
                     continue
                 qual = f"{module.__name__}.{name}.{mname}"
                 if isinstance(member, property):
@@ -213,3 +232,27 @@ def test_some_examples_reproduce_exact_model_numbers():
 
     for obj in (effective_bulk_modulus, Line, correction_factors, ModalLine):
         assert ">>>" in (inspect.getdoc(obj) or ""), obj.__qualname__
+
+
+def test_an_override_is_checked_unless_it_reads_its_base_docstring():
+    """A method without a docstring that overrides a documented one is the base's to check;
+    one with its own docstring, or overriding nothing documented, is checked here."""
+    class Base:
+        def law(self, dp):
+            """Base law. (Checked in the base's module.)"""
+
+    class Own(Base):
+        def law(self, dp):
+            return dp
+
+        def extra(self, dp):
+            return dp
+
+    class Written(Base):
+        def law(self, dp):
+            """Its own law."""
+            return dp
+
+    assert _inherits_its_docstring(Own, "law", vars(Own)["law"])
+    assert not _inherits_its_docstring(Own, "extra", vars(Own)["extra"])
+    assert not _inherits_its_docstring(Written, "law", vars(Written)["law"])

@@ -6,19 +6,19 @@ One header row of ``name [unit]`` columns, one row per sample; any unit of the r
 dimension is accepted (``time [ms]``, ``valve_current [mA]``, ``supply_port_pressure [MPa]``,
 ``piston_position [mm]``). Pressures are absolute (see :mod:`hydroline.units`).
 
-==========================  ============  ==========================================
-column                      unit (SI)     meaning
-==========================  ============  ==========================================
-``time``                    s             strictly increasing (required)
-``valve_current``           A             servovalve coil current, drives the model (required)
-``supply_port_pressure``    Pa            valve P port
-``return_port_pressure``    Pa            valve T port
-``bottom_chamber_pressure`` Pa            actuator bottom chamber
-``top_chamber_pressure``    Pa            actuator top chamber
-``piston_position``         m             from mid-stroke, up +
-``piston_velocity``         m/s           up +
-``external_force``          N             load force on the rod, positive down (friction ID)
-==========================  ============  ==========================================
+============================  ============  =====================================================
+column                        unit (SI)     meaning
+============================  ============  =====================================================
+``time``                      s             strictly increasing (required)
+``valve_current``             A             servovalve coil current, drives the model (required)
+``supply_port_pressure``      Pa            valve P port
+``return_port_pressure``      Pa            valve T port
+``bottom_chamber_pressure``   Pa            actuator bottom chamber
+``top_chamber_pressure``      Pa            actuator top chamber
+``piston_position``           m             from mid-stroke, up +
+``piston_velocity``           m/s           up +
+``external_force``            N             load force on the rod, positive down (friction ID)
+============================  ============  =====================================================
 
 At least one measured signal besides the current is needed; columns with other names are
 ignored (and listed). Bad data -- a missing column, a column without a unit, time not
@@ -104,7 +104,15 @@ MEASURABLE = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pr
 
 
 class DataError(ValueError):
-    """Measured data that cannot be used; the message is one line naming file, column, row."""
+    """Measured data that cannot be used; the message is one line naming file, column, row.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the file, column and row.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 @dataclass
@@ -113,9 +121,12 @@ class Measurements:
 
     Attributes
     ----------
-    data : pandas.DataFrame   Columns named as in :data:`COLUMNS` (no units), SI
-    source : str              Where it came from
-    ignored : list[str]       Columns that were not understood
+    data : pandas.DataFrame
+        Columns named as in :data:`COLUMNS` (no units), SI
+    source : str
+        Where it came from
+    ignored : list[str]
+        Columns that were not understood
     """
 
     data: pd.DataFrame
@@ -124,6 +135,7 @@ class Measurements:
 
     @property
     def t(self) -> np.ndarray:
+        """Sample times, [s]"""
         return self.data["time"].to_numpy()
 
     @property
@@ -136,7 +148,8 @@ class Measurements:
 
         Parameters
         ----------
-        path : str or Path  CSV file to write
+        path : str or Path
+            CSV file to write
         """
         self.data.rename(columns={c: f"{c} [{COLUMNS[c]}]" for c in self.data}).to_csv(path, index=False)
 
@@ -183,17 +196,22 @@ def read_measurements(path, required=("time", "valve_current"), need_signal: boo
 
     Parameters
     ----------
-    path : str or Path      CSV, ``.parquet`` or ``.mat`` file
-    required : tuple[str]   Columns that must be present
-    need_signal : bool      Require at least one of :data:`MEASURABLE`
+    path : str or Path
+        CSV, ``.parquet`` or ``.mat`` file
+    required : tuple[str]
+        Columns that must be present
+    need_signal : bool
+        Require at least one of :data:`MEASURABLE`
 
     Returns
     -------
-    Measurements  (SI units)
+    Measurements
+        The record, in SI units.
 
     Raises
     ------
-    DataError  one line naming the file, column and row
+    DataError
+        one line naming the file, column and row
     """
     src = str(path)
     if not Path(path).is_file():
@@ -241,11 +259,13 @@ def noise_level(y) -> float:
 
     Parameters
     ----------
-    y : array_like  The measured trace, uniformly sampled, [unit of y]
+    y : array_like
+        The measured trace, uniformly sampled, [unit of y]
 
     Returns
     -------
-    float  Noise standard deviation, [unit of y]
+    float
+        Noise standard deviation, [unit of y]
     """
     y = np.asarray(y, dtype=float)
     if len(y) < 5:
@@ -270,12 +290,15 @@ def command_table(t, values) -> tuple:
 
     Parameters
     ----------
-    t : array_like        Sample times, strictly increasing, [s]
-    values : array_like   Sampled command, [SI unit of the command]
+    t : array_like
+        Sample times, strictly increasing, [s]
+    values : array_like
+        Sampled command, [SI unit of the command]
 
     Returns
     -------
-    (times, values) : ndarray, ndarray  The table, [s] and [SI unit of the command]
+    (times, values) : ndarray, ndarray
+        The table, [s] and [SI unit of the command]
     """
     t = np.asarray(t, dtype=float)
     v = np.asarray(values, dtype=float)
@@ -309,9 +332,21 @@ def parameter_unit(rig: Rig, path: str) -> str:
 
     Parameters
     ----------
-    rig : Rig    The rig
-    path : str   Rig path: a template parameter (``supply.section2.bulk_modulus``) or a circuit
-                 component's (``circuit.axis2.supply_hose.bulk_modulus``)
+    rig : Rig
+        The rig
+    path : str
+        Rig path: a template parameter (``supply.section2.bulk_modulus``) or a circuit
+        component's (``circuit.axis2.supply_hose.bulk_modulus``)
+
+    Returns
+    -------
+    str
+        The parameter's SI unit (e.g. ``Pa``).
+
+    Raises
+    ------
+    RigError
+        One line naming the path, when it is not a fittable number of the rig.
     """
     section, _, key = path.rpartition(".")
     unit = SCHEMA.get(section, {}).get(key)
@@ -363,14 +398,24 @@ STARTS = ("auto", "rest", "hold")
 
 
 def start_mode(rig: Rig, meas: Measurements, start: str = "auto", axis: str | None = None) -> str:
-    """"hold" or "rest": how a record's model starts (module docstring).
+    """How a record's model starts, "hold" or "rest" (module docstring).
 
     Parameters
     ----------
-    rig : Rig              The rig
-    meas : Measurements    The record
-    start : str            "auto", "rest" or "hold"
-    axis : str             The axis the record is of (None: the first)
+    rig : Rig
+        The rig
+    meas : Measurements
+        The record
+    start : str
+        "auto", "rest" or "hold"
+    axis : str
+        The axis the record is of (None: the first)
+
+    Returns
+    -------
+    str
+        "hold" (the measured initial position held) or "rest" (the steady state at the
+        first current).
     """
     if start not in STARTS:
         raise ValueError(f"start must be one of {', '.join(STARTS)}; got {start!r}")
@@ -415,19 +460,27 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     Parameters
     ----------
     rig : Rig
-    meas : Measurements   The record (its ``valve_current`` drives the model)
-    signals : list[str]   Signals to return (the record's measured ones when None)
-    rtol : float          Relative tolerance of the integrator, [-]
-    start : str           "auto" (module docstring), "rest" (steady state at the first
-                          current) or "hold" (the measured initial position held)
-    axis : str            The axis the record is of (None: the first): its valve current is
-                          driven, the record's columns are its signals, the others hold
-    atol_scale : float    Absolute tolerance as a fraction of each state's typical magnitude
-                          (None: ``rtol``), [-]
+        The rig.
+    meas : Measurements
+        The record (its ``valve_current`` drives the model)
+    signals : list[str]
+        Signals to return (the record's measured ones when None)
+    rtol : float
+        Relative tolerance of the integrator, [-]
+    start : str
+        "auto" (module docstring), "rest" (steady state at the first
+        current) or "hold" (the measured initial position held)
+    axis : str
+        The axis the record is of (None: the first): its valve current is
+        driven, the record's columns are its signals, the others hold
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's typical magnitude
+        (None: ``rtol``), [-]
 
     Returns
     -------
-    dict  signal -> array at ``meas.t``, [SI]
+    dict
+        Signal -> array at ``meas.t``, [SI]
     """
     signals = meas.signals if signals is None else list(signals)
     t = meas.t
@@ -464,11 +517,13 @@ def unresolved_samples(traces) -> np.ndarray:
 
     Parameters
     ----------
-    traces : dict   Channel -> noise-free model trace at the record's sample times, [SI]
+    traces : dict
+        Channel -> noise-free model trace at the record's sample times, [SI]
 
     Returns
     -------
-    ndarray of bool  True at the unresolved samples
+    numpy.ndarray of bool
+        True at the unresolved samples, [-]
     """
     traces = [np.asarray(y, dtype=float) for y in traces.values()]
     n = len(traces[0]) if traces else 0
@@ -484,12 +539,15 @@ def sample_spans(t, mask) -> list:
 
     Parameters
     ----------
-    t : array_like      Sample times, [s]
-    mask : array_like   True for the samples to gather, one per sample, [-]
+    t : array_like
+        Sample times, [s]
+    mask : array_like
+        True for the samples to gather, one per sample, [-]
 
     Returns
     -------
-    list of (float, float)  [s]
+    list of tuple
+        ``(first, last)`` time of each run of gathered samples, [s]
     """
     m = np.r_[False, np.asarray(mask, dtype=bool), False]
     edges = np.flatnonzero(np.diff(m.astype(int)))
@@ -502,35 +560,58 @@ class FitResult:
 
     Attributes
     ----------
-    names : list[str]          Rig paths
-    units : list[str]          Their SI units
-    start, estimate : ndarray  Starting and fitted values, [SI]
-    ci_low, ci_high : ndarray  Confidence interval bounds, [SI]
-    std_log : ndarray          Standard errors of ln(value), [-] (~ relative standard errors),
-                               the integration term included
-    correlation : ndarray      Correlation matrix of the estimates, [-]
-    confidence : float         Confidence level of the intervals, [-]
-    sigma : dict               Channel -> noise level used as weight, [SI]
-    rms : dict                 Channel -> rms residual at the optimum over the samples
-                               fitted, [SI]
-    residual_variance : float  s^2 = SSR/(N - k) of the weighted residuals, [-]
-    n_data : int               Residuals used
-    n_evaluations : int        Model runs
+    names : list[str]
+        Rig paths
+    units : list[str]
+        Their SI units
+    start, estimate : ndarray
+        Starting and fitted values, [SI]
+    ci_low, ci_high : ndarray
+        Confidence interval bounds, [SI]
+    std_log : ndarray
+        Standard errors of ln(value), [-] (~ relative standard errors),
+        the integration term included
+    correlation : ndarray
+        Correlation matrix of the estimates, [-]
+    confidence : float
+        Confidence level of the intervals, [-]
+    sigma : dict
+        Channel -> noise level used as weight, [SI]
+    rms : dict
+        Channel -> rms residual at the optimum over the samples
+        fitted, [SI]
+    residual_variance : float
+        s^2 = SSR/(N - k) of the weighted residuals, [-]
+    n_data : int
+        Residuals used
+    n_evaluations : int
+        Model runs
     success : bool
+        Whether the optimiser converged.
     message : str
-    fitted, initial : dict     Channel -> model trace at the optimum / at the start, [SI]
-                               (channels with a free offset shown with it)
-    rig : Rig                  The calibrated rig
-    offsets : dict             Channel -> fitted sensor offset, measured minus model, [SI]
-    start_rms : dict           Channel -> rms residual at the start over the same samples, [SI]
-    windows : list             (first, last) record times of the samples left out, [s]
-    integration_std_log : ndarray  Shift of ln(value) under the integration error of a
-                               simulated record (``record_rtol``), [-]
-    notes : list[str]          Why the result reads as it does: samples left out, a channel
-                               the fit made worse than the start, widened intervals
-    worse : dict               Channel -> why its fitted rms exceeds the start's (by more
-                               than ``WORSE`` of the start's rms or the noise level)
-    status : str               The optimiser's own message (``message`` adds the notes)
+        The optimiser's message and the notes.
+    fitted, initial : dict
+        Channel -> model trace at the optimum / at the start, [SI]
+        (channels with a free offset shown with it)
+    rig : Rig
+        The calibrated rig
+    offsets : dict
+        Channel -> fitted sensor offset, measured minus model, [SI]
+    start_rms : dict
+        Channel -> rms residual at the start over the same samples, [SI]
+    windows : list
+        (first, last) record times of the samples left out, [s]
+    integration_std_log : ndarray
+        Shift of ln(value) under the integration error of a
+        simulated record (``record_rtol``), [-]
+    notes : list[str]
+        Why the result reads as it does: samples left out, a channel
+        the fit made worse than the start, widened intervals
+    worse : dict
+        Channel -> why its fitted rms exceeds the start's (by more
+        than ``WORSE`` of the start's rms or the noise level)
+    status : str
+        The optimiser's own message (``message`` adds the notes)
     """
 
     names: list
@@ -561,7 +642,14 @@ class FitResult:
     status: str = ""
 
     def table(self) -> list:
-        """Rows (name, unit, start, estimate, ci_low, ci_high, relative std error)."""
+        """The fit as table rows, one per parameter.
+
+        Returns
+        -------
+        list of list
+            ``[name, unit, start, estimate, ci_low, ci_high, relative std error]``, the
+            values in the parameter's SI unit.
+        """
         return [[n, u, s, e, lo, hi, float(sd)] for n, u, s, e, lo, hi, sd in zip(
             self.names, self.units, self.start, self.estimate, self.ci_low, self.ci_high, self.std_log)]
 
@@ -572,7 +660,8 @@ class FitResult:
 
         Returns
         -------
-        dict  Numbers in the parameters' own (SI) units
+        dict
+            Numbers in the parameters' own (SI) units
         """
         shift = self.integration_std_log if self.integration_std_log is not None else \
             np.zeros(len(self.names))
@@ -597,12 +686,14 @@ class FitResult:
 
         Parameters
         ----------
-        data_source : str  Where the measured data came from, named in the header
-                           ("measured data" when empty)
+        data_source : str
+            Where the measured data came from, named in the header
+            ("measured data" when empty)
 
         Returns
         -------
-        str  The rig file's text
+        str
+            The rig file's text
         """
         head = [f"# Calibrated by 'hydroline fit' from {data_source or 'measured data'} "
                 f"({self.n_data} residuals, {100 * self.confidence:g} % confidence intervals):"]
@@ -630,36 +721,51 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
 
     Parameters
     ----------
-    rig : Rig, str or None       Starting rig
-    meas : Measurements          The record
-    params : list[str]           Rig paths to fit (positive numbers)
-    signals : list[str]          Channels compared (all measured ones when None)
-    confidence : float           Level of the intervals, [-]
-    max_evaluations : int        Cap on least-squares function evaluations
-    bound_factor : float         Each parameter stays within start/factor ... start*factor, [-]
-    sigma : dict                 Channel -> noise level [SI]; estimated from the data when None
-    start : str                  How the model starts: "auto", "rest" or "hold" (see
-                                 :func:`simulate_record`)
-    offsets : list[str]          Channels with a free constant sensor offset, profiled out
-                                 of the residuals (one degree of freedom each). Default:
-                                 ``piston_position`` when the model holds the measured initial
-                                 position (its noisy initial value would otherwise bias the
-                                 fit), none otherwise
-    progress : callable          Called with (evaluations, cost) after each model run
-    axis : str                   The axis the record is of (None: the first); the record's
-                                 columns (``piston_position``, ...) are its signals
-    unresolved : str             "window": leave out the samples the record's sampling does not
-                                 resolve in the model's traces (:func:`unresolved_samples`, a
-                                 stop impact), at the start and again at the optimum (the fit is
-                                 redone once if they moved); "keep": fit every sample
-    record_rtol : float          Integration tolerance a simulated record is accurate to
-                                 (``hydroline simulate``'s): the shift of the estimate under
-                                 that integration error is added in quadrature to each
-                                 standard error (negligible beside a sensor's noise), [-]
+    rig : Rig, str or None
+        Starting rig
+    meas : Measurements
+        The record
+    params : list[str]
+        Rig paths to fit (positive numbers)
+    signals : list[str]
+        Channels compared (all measured ones when None)
+    confidence : float
+        Level of the intervals, [-]
+    max_evaluations : int
+        Cap on least-squares function evaluations
+    bound_factor : float
+        Each parameter stays within start/factor ... start*factor, [-]
+    sigma : dict
+        Channel -> noise level [SI]; estimated from the data when None
+    start : str
+        How the model starts: "auto", "rest" or "hold" (see
+        :func:`simulate_record`)
+    offsets : list[str]
+        Channels with a free constant sensor offset, profiled out
+        of the residuals (one degree of freedom each). Default:
+        ``piston_position`` when the model holds the measured initial
+        position (its noisy initial value would otherwise bias the
+        fit), none otherwise
+    progress : callable
+        Called with (evaluations, cost) after each model run
+    axis : str
+        The axis the record is of (None: the first); the record's
+        columns (``piston_position``, ...) are its signals
+    unresolved : str
+        "window": leave out the samples the record's sampling does not
+        resolve in the model's traces (:func:`unresolved_samples`, a
+        stop impact), at the start and again at the optimum (the fit is
+        redone once if they moved); "keep": fit every sample
+    record_rtol : float
+        Integration tolerance a simulated record is accurate to
+        (``hydroline simulate``'s): the shift of the estimate under
+        that integration error is added in quadrature to each
+        standard error (negligible beside a sensor's noise), [-]
 
     Returns
     -------
     FitResult
+        Estimates, intervals, residuals and the calibrated rig.
     """
     from scipy.optimize import least_squares
     from scipy.stats import t as student_t
@@ -853,11 +959,13 @@ def residual_correlation(traces) -> tuple[float, float]:
 
     Parameters
     ----------
-    traces : list of arrays   Weighted residuals per channel, in time order, [-]
+    traces : list of arrays
+        Weighted residuals per channel, in time order, [-]
 
     Returns
     -------
-    (rho, inflation)  rho in [-1, 1] (0 for no data); inflation >= 1, [-]
+    (rho, inflation)
+        rho in [-1, 1] (0 for no data); inflation >= 1, [-]
     """
     num = den = 0.0
     for r in traces:

@@ -50,13 +50,17 @@ def state_space_response(A, B, C, D, f, scales=None):
 
     Parameters
     ----------
-    A, B, C, D : ndarray    State-space matrices, [SI]
-    f : array_like          Frequencies, [Hz]
-    scales : array_like     Typical state magnitudes to balance A before solving, [SI]
+    A, B, C, D : ndarray
+        State-space matrices, [SI]
+    f : array_like
+        Frequencies, [Hz]
+    scales : array_like
+        Typical state magnitudes to balance A before solving, [SI]
 
     Returns
     -------
-    complex ndarray, shape ``(len(f), n_outputs, n_inputs)``, [output unit / input unit]
+    ndarray
+        Complex response, shape ``(len(f), n_outputs, n_inputs)``, [output unit / input unit]
     """
     f = np.atleast_1d(np.asarray(f, dtype=float))
     return _response(A, B, C, D, 2j * np.pi * f, scales)
@@ -77,20 +81,35 @@ def _response(A, B, C, D, s, scales=None):
 
 
 def bandwidth(f, H, reference=None):
-    """-3 dB bandwidth: the first frequency at which ``|H|`` falls below ``|H_ref|/sqrt(2)``
-    (:func:`passband`'s first crossing; it also gives the "within 3 dB up to" reading).
+    """-3 dB bandwidth: the first frequency at which ``|H|`` falls below ``|H_ref|/sqrt(2)``.
+
+    This is :func:`passband`'s first crossing; :func:`passband` also gives the "within 3 dB
+    up to" reading.
 
     Parameters
     ----------
-    f : array_like      Increasing frequencies, [Hz]
-    H : array_like      Complex (or magnitude) response at f, [any unit]
-    reference : float   Reference gain |H_ref| [unit of H]; the gain at the lowest frequency
-                        when None (the response must be flat there: type 0, not an integrator)
+    f : array_like
+        Increasing frequencies, [Hz]
+    H : array_like
+        Complex (or magnitude) response at f, [any unit]
+    reference : float
+        Reference gain ``|H_ref|``, [unit of H]; the gain at the lowest frequency when None
+        (the response must be flat there: type 0, not an integrator).
 
     Returns
     -------
-    float or None  Bandwidth [Hz] (log-log interpolated; ``f[0]`` when already below there),
-    None if |H| stays above the level up to f[-1]
+    float or None
+        Bandwidth, [Hz] (log-log interpolated; ``f[0]`` when already below the level
+        there), None if ``|H|`` stays above the level up to ``f[-1]``.
+
+    Examples
+    --------
+    A first-order lag ``1/(1 + j f/f_c)`` falls to -3 dB at its corner ``f_c`` = 10 Hz:
+
+    >>> import numpy as np
+    >>> f = np.logspace(-2, 3, 5001)
+    >>> round(bandwidth(f, 1 / (1 + 1j * f / 10.0)), 2)
+    10.0
     """
     band = passband(f, H, reference)
     if band.first_crossing_hz is None and band.within_3db_up_to_hz is None and band.note:
@@ -111,18 +130,23 @@ class Passband:
 
     Attributes
     ----------
-    first_crossing_hz : float or None    First fall of the gain below -3 dB, [Hz] (None: none
-                                         in the range)
-    within_3db_up_to_hz : float or None  Last fall below -3 dB, after which the gain stays
-                                         below it to the end of the range: the gain is within
-                                         3 dB up to there, notches aside, [Hz] (None: within
-                                         3 dB to the end of the range)
-    notch : tuple or None                (frequency [Hz], depth [dB]) of the notch the first
-                                         crossing falls in -- a local minimum below -3 dB
-                                         that the gain climbs out of -- else None
-    note : str                           A notch or peak within ``NOTCH_MARGIN_DB`` of the
-                                         level (where a reading jumps), or ""
-    reference : float                    The gain the levels are relative to, [unit of H]
+    first_crossing_hz : float or None
+        First fall of the gain below -3 dB, [Hz] (None: none
+        in the range)
+    within_3db_up_to_hz : float or None
+        Last fall below -3 dB, after which the gain stays
+        below it to the end of the range: the gain is within
+        3 dB up to there, notches aside, [Hz] (None: within
+        3 dB to the end of the range)
+    notch : tuple or None
+        (frequency [Hz], depth [dB]) of the notch the first
+        crossing falls in -- a local minimum below -3 dB
+        that the gain climbs out of -- else None
+    note : str
+        A notch or peak within ``NOTCH_MARGIN_DB`` of the
+        level (where a reading jumps), or ""
+    reference : float
+        The gain the levels are relative to, [unit of H]
     """
 
     first_crossing_hz: float | None
@@ -156,15 +180,18 @@ def passband(f, H, reference=None) -> Passband:
 
     Parameters
     ----------
-    f : array_like      Increasing frequencies, [Hz]
-    H : array_like      Complex (or magnitude) response at f, [any unit]
-    reference : float   Reference gain |H_ref| [unit of H]; the gain at the lowest frequency
-                        when None
+    f : array_like
+        Increasing frequencies, [Hz]
+    H : array_like
+        Complex (or magnitude) response at f, [any unit]
+    reference : float
+        Reference gain ``|H_ref|``, [unit of H]; the gain at the lowest frequency when None.
 
     Returns
     -------
-    Passband  (crossings log-log interpolated between samples; None where the gain is below
-    -3 dB at ``f[0]`` too, see :func:`bandwidth`)
+    Passband
+        The crossings, log-log interpolated between samples; None where the gain is below
+        -3 dB at ``f[0]`` already (see :func:`bandwidth`).
     """
     f = np.asarray(f, dtype=float)
     g = np.abs(np.asarray(H))
@@ -227,11 +254,15 @@ class Resonance:
 
     Attributes
     ----------
-    frequency_hz : float     Undamped natural frequency |lambda|/2pi, [Hz]
-    damping_ratio : float    -Re(lambda)/|lambda|, [-]
-    strength : dict          Output name -> its resonance peak |residue|/|Re lambda| relative
-                             to the strongest pole in that channel, [-]
-    eigenvalue : complex     lambda, [1/s]
+    frequency_hz : float
+        Undamped natural frequency ``|lambda|/2pi``, [Hz]
+    damping_ratio : float
+        ``-Re(lambda)/|lambda|``, [-]
+    strength : dict
+        Output name -> its resonance peak ``|residue|/|Re lambda|`` relative to the strongest
+        pole in that channel, [-]
+    eigenvalue : complex
+        The pole ``lambda``, [1/s]
     """
 
     frequency_hz: float
@@ -241,6 +272,7 @@ class Resonance:
 
     @property
     def strongest_in(self) -> str:
+        """The output in which this resonance is strongest ("" when none is listed)."""
         return max(self.strength, key=self.strength.get) if self.strength else ""
 
 
@@ -254,16 +286,23 @@ def resonances(sys, input_name: str, outputs=None, f_max: float = 1000.0,
 
     Parameters
     ----------
-    sys : control.StateSpace   From :func:`~hydroline.analysis.linearize`
-    input_name : str           Input channel
-    outputs : list[str]        Output channels (all when None)
-    f_max : float              Highest natural frequency listed, [Hz]
-    max_damping : float        Highest damping ratio listed, [-]
-    min_strength : float       Threshold relative to the strongest pole, [-]
+    sys : control.StateSpace
+        From :func:`~hydroline.analysis.linearize`
+    input_name : str
+        Input channel
+    outputs : list[str]
+        Output channels (all when None)
+    f_max : float
+        Highest natural frequency listed, [Hz]
+    max_damping : float
+        Highest damping ratio listed, [-]
+    min_strength : float
+        Threshold relative to the strongest pole, [-]
 
     Returns
     -------
-    list[Resonance], by frequency
+    list[Resonance]
+        The listed poles, by frequency.
     """
     outputs = list(sys.output_labels) if outputs is None else list(outputs)
     scales = getattr(sys, "state_scales", np.ones(sys.nstates))
@@ -295,13 +334,20 @@ def resonances(sys, input_name: str, outputs=None, f_max: float = 1000.0,
 class LineCoupledModel:
     """The linearised rest of the network with its hoses cut out (module docstring).
 
-    Attributes
+    Made by :func:`line_coupled_model`.
+
+    Parameters
     ----------
-    hoses : list[HoseSection]     The cut hoses
-    inputs, outputs : list[str]   External channels u and y
-    A, B, C, D : ndarray          The rest: inputs ``[u, w]``, outputs ``[y, r]``, [SI]
-    scales : ndarray              Typical state magnitudes of the rest, [SI]
+    hoses : list[HoseSection]
+        The cut hoses.
+    inputs, outputs : list[str]
+        External channels u and y.
+    A, B, C, D : ndarray
+        The rest: inputs ``[u, w]``, outputs ``[y, r]``, [SI]
+    scales : ndarray
+        Typical state magnitudes of the rest, [SI]
     operating_point : SolvedOperatingPoint
+        The operating point the rest is linearised about.
     """
 
     def __init__(self, hoses, inputs, outputs, A, B, C, D, scales, operating_point):
@@ -315,12 +361,15 @@ class LineCoupledModel:
 
         Parameters
         ----------
-        s : array_like complex   Laplace variable, [1/s]
-        lines : str              "exact" (dissipative, M6) or "modal" (the network's models)
+        s : array_like complex
+            Laplace variable, [1/s]
+        lines : str
+            "exact" (dissipative, M6) or "modal" (the network's models)
 
         Returns
         -------
-        complex ndarray ``(len(s), 2 n_hoses, 2 n_hoses)``, [SI]
+        ndarray
+            Complex, shape ``(len(s), 2 n_hoses, 2 n_hoses)``, [SI]
         """
         s = np.atleast_1d(np.asarray(s, dtype=complex))
         n = 2 * len(self.hoses)
@@ -341,11 +390,13 @@ class LineCoupledModel:
 
         Parameters
         ----------
-        s : array_like complex   Laplace variable, [1/s]
+        s : array_like complex
+            Laplace variable, [1/s]
 
         Returns
         -------
-        complex ndarray ``(len(s), ny + nr, nu + nw)``, [SI]
+        ndarray
+            Complex, shape ``(len(s), ny + nr, nu + nw)``, [SI]
         """
         return _response(self.A, self.B, self.C, self.D, s, self.scales)
 
@@ -354,12 +405,15 @@ class LineCoupledModel:
 
         Parameters
         ----------
-        s : array_like complex   Laplace variable, [1/s]
-        lines : str              "exact" (dissipative, M6) or "modal" (the network's models)
+        s : array_like complex
+            Laplace variable, [1/s]
+        lines : str
+            "exact" (dissipative, M6) or "modal" (the network's models)
 
         Returns
         -------
-        complex ndarray ``(len(s), ny, nu)``, [output unit / input unit]
+        ndarray
+            Complex, shape ``(len(s), ny, nu)``, [output unit / input unit]
         """
         G = self.rest_response(s)
         L = self.line_matrix(s, lines)
@@ -375,12 +429,15 @@ class LineCoupledModel:
 
         Parameters
         ----------
-        f : array_like   Frequencies, [Hz]
-        lines : str      "exact" or "modal"
+        f : array_like
+            Frequencies, [Hz]
+        lines : str
+            "exact" or "modal"
 
         Returns
         -------
-        complex ndarray ``(len(f), n_outputs, n_inputs)``, [output unit / input unit]
+        ndarray
+            Complex, shape ``(len(f), n_outputs, n_inputs)``, [output unit / input unit]
         """
         f = np.atleast_1d(np.asarray(f, dtype=float))
         return self.response_s(2j * np.pi * f, lines)
@@ -390,12 +447,15 @@ class LineCoupledModel:
 
         Parameters
         ----------
-        s : array_like complex   Laplace variable, [1/s]
-        lines : str              "exact" (dissipative, M6) or "modal" (the network's models)
+        s : array_like complex
+            Laplace variable, [1/s]
+        lines : str
+            "exact" (dissipative, M6) or "modal" (the network's models)
 
         Returns
         -------
-        complex ndarray ``(len(s),)``, [-]
+        ndarray
+            Complex, shape ``(len(s),)``, [-]
         """
         G = self.rest_response(s)
         L = self.line_matrix(s, lines)
@@ -411,13 +471,19 @@ def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingP
 
     Parameters
     ----------
-    rig : Rig, str or None            The rig
-    operating_point : OperatingPoint  As for :func:`~hydroline.analysis.linearize`
-    inputs, outputs : sequence of str Channels (names as for ``linearize``)
-    friction : str                    "viscous" or "model" (as for ``linearize``)
-    solved : SolvedOperatingPoint     A solved operating point to reuse (then
-                                      ``operating_point`` and ``axis`` are ignored)
-    axis : str                        The axis (None: the first), as for ``linearize``
+    rig : Rig, str or None
+        The rig
+    operating_point : OperatingPoint
+        As for :func:`~hydroline.analysis.linearize`
+    inputs, outputs : sequence of str
+        Channels (names as for ``linearize``).
+    friction : str
+        "viscous" or "model" (as for ``linearize``)
+    solved : SolvedOperatingPoint
+        A solved operating point to reuse (then
+        ``operating_point`` and ``axis`` are ignored)
+    axis : str
+        The axis (None: the first), as for ``linearize``
 
     Returns
     -------
@@ -473,11 +539,13 @@ def highest_retained_mode(model: LineCoupledModel) -> float:
 
     Parameters
     ----------
-    model : LineCoupledModel  The model whose hoses are read (:func:`line_coupled_model`)
+    model : LineCoupledModel
+        The model whose hoses are read (:func:`line_coupled_model`)
 
     Returns
     -------
-    float  Frequency, [Hz] (inf when no hose has a modal model)
+    float
+        Frequency, [Hz] (inf when no hose has a modal model)
     """
     out = np.inf
     for h in model.hoses:
@@ -519,13 +587,17 @@ def exact_resonances(model: LineCoupledModel, modal: list, f_max: float | None =
     Parameters
     ----------
     model : LineCoupledModel
-    modal : list[Resonance]   Modal resonances (from :func:`resonances` on the full model)
-    f_max : float             Skip modal poles above this, [Hz]
+        The cut network (:func:`line_coupled_model`).
+    modal : list[Resonance]
+        Modal resonances (from :func:`resonances` on the full model).
+    f_max : float
+        Skip modal poles above this, [Hz]
 
     Returns
     -------
-    dict  modal eigenvalue -> (frequency [Hz], damping ratio [-]) of the exact-line pole, or
-    None where the search did not converge to a nearby pole
+    dict
+        Modal eigenvalue -> (frequency [Hz], damping ratio [-]) of the exact-line pole, or
+        None where the search did not converge to a nearby pole.
     """
     out = {}
 
@@ -554,8 +626,15 @@ def rated_velocity(rig: Rig, axis: str | None = None) -> float:
 
     Parameters
     ----------
-    rig : Rig    Parameters (SI)
-    axis : str   The axis (None: the first)
+    rig : Rig
+        Parameters (SI).
+    axis : str
+        The axis (None: the first).
+
+    Returns
+    -------
+    float
+        Rated piston velocity, [m/s]
     """
     from ..system import build_circuit
     from .linearize import select_axis
@@ -581,22 +660,33 @@ class BodeResult:
 
     Attributes
     ----------
-    f : ndarray               Frequencies, [Hz]
+    f : ndarray
+        Frequencies, [Hz]
     input : str
+        The input channel.
     outputs : list[str]
-    curves : dict             Variant label -> complex ``(len(f), len(outputs))``, [SI]
-    bandwidths : dict         Label -> {output: first -3 dB crossing [Hz] or None}; None
-                              also where |H| rises more than 3 dB above its low-frequency gain
-                              (resonant, not low-pass: e.g. the port pressures)
-    notes : dict              Label -> {output: why there is no bandwidth, or the notch the
-                              first crossing lies in and the notches near -3 dB}
-    passbands : dict          Label -> {output: :class:`Passband`} of the low-pass channels:
-                              first -3 dB crossing and "gain within 3 dB up to", and the notch
-    resonances : dict         Label -> list[Resonance] (modal and constant-supply models)
-    exact_poles : dict        Modal eigenvalue -> (frequency [Hz], damping [-]) of the
-                              exact-line pole next to it, or None
-    operating_points : dict   Label -> SolvedOperatingPoint
-    highest_mode_hz : float   Lowest, over the hoses, of the highest retained mode, [Hz]
+        The output channels.
+    curves : dict
+        Variant label -> complex ``(len(f), len(outputs))``, [SI]
+    bandwidths : dict
+        Label -> {output: first -3 dB crossing [Hz] or None}; None
+        also where ``|H|`` rises more than 3 dB above its low-frequency gain
+        (resonant, not low-pass: e.g. the port pressures)
+    notes : dict
+        Label -> {output: why there is no bandwidth, or the notch the
+        first crossing lies in and the notches near -3 dB}
+    passbands : dict
+        Label -> {output: :class:`Passband`} of the low-pass channels:
+        first -3 dB crossing and "gain within 3 dB up to", and the notch
+    resonances : dict
+        Label -> list[Resonance] (modal and constant-supply models)
+    exact_poles : dict
+        Modal eigenvalue -> (frequency [Hz], damping [-]) of the
+        exact-line pole next to it, or None
+    operating_points : dict
+        Label -> SolvedOperatingPoint
+    highest_mode_hz : float
+        Lowest, over the hoses, of the highest retained mode, [Hz]
     """
 
     f: np.ndarray
@@ -621,27 +711,37 @@ def bode_analysis(rig: Rig | str | None = None, operating_point: OperatingPoint 
     The -3 dB bandwidth of a channel is measured against its low-frequency gain and only for
     a low-pass response, read two ways (:func:`passband`): the first -3 dB crossing, marked
     when it lies in a notch the gain recovers from, and the frequency up to which the gain
-    stays within 3 dB, notches aside. Where |H| rises more than 3 dB above that gain anywhere in ``f``
+    stays within 3 dB, notches aside. Where ``|H|`` rises more than 3 dB above that gain anywhere in ``f``
     (the port pressures' line resonances, the chamber pressures' actuator resonance, or the
     piston velocity at rest, +16 dB at 172 Hz on the default rig) it is None with the note
     "resonant, not low-pass"; integrating outputs (piston position) have none either.
 
     Parameters
     ----------
-    rig : Rig, str or None             The rig
-    operating_point : OperatingPoint   See :func:`~hydroline.analysis.linearize`
-    input_name : str                   Input channel (:data:`~hydroline.analysis.linearize.INPUTS`)
-    outputs : sequence of str          Output signals
-    f : array_like                     Frequencies [Hz]; 1-500 Hz, 1200 log-spaced when None
-    compare : bool                     Add the constant-supply variant
-    exact : bool                       Add the exact-line variant
-    friction : str                     "viscous" or "model"
-    axis : str                         The axis whose valve drives (None: the first); its
-                                       position loop open, the other axes hold
+    rig : Rig, str or None
+        The rig
+    operating_point : OperatingPoint
+        See :func:`~hydroline.analysis.linearize`
+    input_name : str
+        Input channel (:data:`~hydroline.analysis.linearize.INPUTS`)
+    outputs : sequence of str
+        Output signals
+    f : array_like
+        Frequencies [Hz]; 1-500 Hz, 1200 log-spaced when None
+    compare : bool
+        Add the constant-supply variant
+    exact : bool
+        Add the exact-line variant
+    friction : str
+        "viscous" or "model"
+    axis : str
+        The axis whose valve drives (None: the first); its
+        position loop open, the other axes hold
 
     Returns
     -------
     BodeResult
+        The curves, bandwidths, resonances and operating points of every variant.
     """
     from .linearize import linearize
 

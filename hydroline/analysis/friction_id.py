@@ -61,12 +61,18 @@ class AxisMechanics:
 
     Attributes
     ----------
-    bottom_area, top_area : float   A_b, A_t, [m^2]
-    mass : float                    Moving mass, actuator and load, [kg]
-    gravity : float                 g along the axis (0: horizontal), [m/s^2]
-    stroke : float                  Full stroke, [m]
-    load : Load or None             The load on the piston (stiffness, damping, applied force)
-    stribeck_exponent : float       delta of (M24) of the axis's friction, [-]
+    bottom_area, top_area : float
+        A_b, A_t, [m^2]
+    mass : float
+        Moving mass, actuator and load, [kg]
+    gravity : float
+        g along the axis (0: horizontal), [m/s^2]
+    stroke : float
+        Full stroke, [m]
+    load : Load or None
+        The load on the piston (stiffness, damping, applied force)
+    stribeck_exponent : float
+        delta of (M24) of the axis's friction, [-]
     """
 
     bottom_area: float
@@ -82,8 +88,15 @@ class AxisMechanics:
 
         Parameters
         ----------
-        x : array   Piston position, [m]
-        v : array   Piston velocity, [m/s]
+        x : array
+            Piston position, [m]
+        v : array
+            Piston velocity, [m/s]
+
+        Returns
+        -------
+        ndarray
+            Load force, positive down, [N]
         """
         ld = self.load
         if ld is None:
@@ -96,12 +109,15 @@ def axis_mechanics(rig: Rig, axis: str | None = None) -> AxisMechanics:
 
     Parameters
     ----------
-    rig : Rig    Parameters (SI)
-    axis : str   The axis (None: the first)
+    rig : Rig
+        Parameters (SI)
+    axis : str
+        The axis (None: the first)
 
     Returns
     -------
     AxisMechanics
+        Areas, moving mass, gravity, stroke and load of the axis.
     """
     ax = select_axis(rig, axis)
     circuit = build_circuit(rig)
@@ -121,22 +137,29 @@ def newton_friction(meas: Measurements, rig: Rig, window: float = 2e-3,
 
     Parameters
     ----------
-    meas : Measurements   Record with the columns of :data:`FRICTION_COLUMNS`
-    rig : Rig             Areas, moving mass, gravity, load
-    window : float        Savitzky-Golay window of the derivatives, [s]: short enough to
-                          follow the actuator's resonance after a friction reversal (1-2 ms
-                          at 172 Hz), long enough to tame the noise of a measured position
-    stop_margin : float   Samples closer than this to an end stop are dropped, [m]
-    axis : str            The axis the record is of (None: the first)
-    mechanics : AxisMechanics  The axis's mechanics (from ``rig`` and ``axis`` when None)
+    meas : Measurements
+        Record with the columns of :data:`FRICTION_COLUMNS`
+    rig : Rig
+        Areas, moving mass, gravity, load
+    window : float
+        Savitzky-Golay window of the derivatives, [s]: short enough to
+        follow the actuator's resonance after a friction reversal (1-2 ms
+        at 172 Hz), long enough to tame the noise of a measured position
+    stop_margin : float
+        Samples closer than this to an end stop are dropped, [m]
+    axis : str
+        The axis the record is of (None: the first)
+    mechanics : AxisMechanics
+        The axis's mechanics (from ``rig`` and ``axis`` when None)
 
     Returns
     -------
-    pandas.DataFrame  columns time [s], velocity [m/s], acceleration [m/s^2],
-    friction_force [N] (opposing +v when > 0), on a uniform time grid; ``attrs`` hold the
-    white-noise level of the position (or measured velocity), ``signal_noise``, and the
-    filter that maps it into the velocity, ``velocity_filter`` (for
-    :func:`steady_velocity_point`)
+    pandas.DataFrame
+        Columns ``time`` [s], ``velocity`` [m/s], ``acceleration`` [m/s^2] and
+        ``friction_force`` [N] (opposing +v when > 0), on a uniform time grid; ``attrs`` hold
+        the white-noise level of the position (or measured velocity), ``signal_noise``, and
+        the filter that maps it into the velocity, ``velocity_filter`` (for
+        :func:`steady_velocity_point`).
     """
     from scipy.signal import savgol_coeffs, savgol_filter
 
@@ -193,17 +216,24 @@ def steady_velocity_point(nf: pd.DataFrame, tolerance: float = 0.02, min_samples
 
     Parameters
     ----------
-    nf : DataFrame        From :func:`newton_friction`
-    tolerance : float     Relative velocity band of the steady part, [-]
-    min_samples : int     Fewest samples for a point
-    min_fraction : float  The steady part must be at least this fraction of the record (a
-                          stick-slip run passes through v_ss only briefly), [-]
-    max_spread : float    No point when 4 sigma exceeds this fraction of |v_ss|: the noise
-                          would hide a stick-slip run (use a longer derivative window), [-]
+    nf : DataFrame
+        From :func:`newton_friction`
+    tolerance : float
+        Relative velocity band of the steady part, [-]
+    min_samples : int
+        Fewest samples for a point
+    min_fraction : float
+        The steady part must be at least this fraction of the record (a
+        stick-slip run passes through v_ss only briefly), [-]
+    max_spread : float
+        No point when 4 sigma exceeds this fraction of ``|v_ss|``: the noise
+        would hide a stick-slip run (use a longer derivative window), [-]
 
     Returns
     -------
-    (velocity [m/s], friction force [N], samples used) or None when there is no steady part
+    tuple or None
+        ``(velocity [m/s], friction force [N], samples used)``, or None when there is no
+        steady part.
     """
     v, F = nf["velocity"].to_numpy(), nf["friction_force"].to_numpy()
     if len(v) < min_samples:
@@ -235,18 +265,28 @@ class StribeckFit:
 
     Attributes
     ----------
-    viscous_up, viscous_down : float    F_v+-, [N s/m]
-    coulomb_up, coulomb_down : float    F_c+-, [N]
-    static_up, static_down : float      F_s+-, [N]
-    stribeck_velocity : float           C_s, [m/s]
-    stribeck_exponent : float           delta, [-] (held)
-    static_identified : bool            Slow steady-velocity points pinned F_s and C_s (see
-                                        :func:`fit_stribeck`); when False the rig's values stand
-    rms_up, rms_down : float            rms residual per direction, [N]
-    n_up, n_down : int                  Points per direction
-    std : dict                          Standard errors, [SI]: coefficients (``viscous_up``, ...)
-                                        and ``stribeck_velocity`` (0 when held)
-    static_note : str                   Why F_s, C_s are not identified ("" when they are)
+    viscous_up, viscous_down : float
+        F_v+-, [N s/m]
+    coulomb_up, coulomb_down : float
+        F_c+-, [N]
+    static_up, static_down : float
+        F_s+-, [N]
+    stribeck_velocity : float
+        C_s, [m/s]
+    stribeck_exponent : float
+        delta, [-] (held)
+    static_identified : bool
+        Slow steady-velocity points pinned F_s and C_s (see
+        :func:`fit_stribeck`); when False the rig's values stand
+    rms_up, rms_down : float
+        rms residual per direction, [N]
+    n_up, n_down : int
+        Points per direction
+    std : dict
+        Standard errors, [SI]: coefficients (``viscous_up``, ...)
+        and ``stribeck_velocity`` (0 when held)
+    static_note : str
+        Why F_s, C_s are not identified ("" when they are)
     """
 
     viscous_up: float
@@ -270,11 +310,13 @@ class StribeckFit:
 
         Parameters
         ----------
-        v : array_like  Piston velocity, [m/s]
+        v : array_like
+            Piston velocity, [m/s]
 
         Returns
         -------
-        ndarray  Friction force, opposing +v when > 0, [N]
+        ndarray
+            Friction force, opposing +v when > 0, [N]
         """
         v = np.asarray(v, dtype=float)
         up = v > 0
@@ -289,8 +331,14 @@ class StribeckFit:
 
         Parameters
         ----------
-        prefix : str   The friction's table: "friction" (template rig) or
-                       ``circuit.<component>`` (:func:`friction_table`)
+        prefix : str
+            The friction's table: "friction" (template rig) or
+            ``circuit.<component>`` (:func:`friction_table`)
+
+        Returns
+        -------
+        dict
+            Rig path -> value, [SI]
         """
         out = {f"{prefix}.{k}": getattr(self, k) for k in (
             "viscous_up", "viscous_down", "coulomb_up", "coulomb_down")}
@@ -305,8 +353,15 @@ class StribeckFit:
 
         Parameters
         ----------
-        rig : Rig      The rig
-        prefix : str   The friction's table (:func:`friction_table`)
+        rig : Rig
+            The rig
+        prefix : str
+            The friction's table (:func:`friction_table`)
+
+        Returns
+        -------
+        Rig
+            The calibrated copy.
         """
         out = rig.copy()
         for path, v in self.rig_values(prefix).items():
@@ -327,8 +382,15 @@ def friction_table(rig: Rig, axis: str | None = None) -> str:
 
     Parameters
     ----------
-    rig : Rig    The rig
-    axis : str   The axis (None: the first)
+    rig : Rig
+        The rig
+    axis : str
+        The axis (None: the first)
+
+    Returns
+    -------
+    str
+        The table's name.
     """
     ax = select_axis(rig, axis)
     if ax.friction and f"circuit.{ax.friction}.type" in rig.raw:
@@ -372,24 +434,35 @@ def fit_stribeck(v, F, stribeck_exponent: float = 2.0, stribeck_velocity: float 
 
     Parameters
     ----------
-    v : array_like                 Piston velocities, [m/s]
-    F : array_like                 Friction forces, opposing +v when > 0, [N]
-    stribeck_exponent : float      delta, held, [-]
-    stribeck_velocity : float      C_s [m/s]; fitted (common to both directions) when None
-    min_speed : float              Points slower than this are dropped (stick), [m/s]
-    weights : array_like           Relative weight of each point (a steady-velocity point that
-                                   averages n samples: n; a single sample: 1); all 1 when
-                                   None, [-]
-    steady : sequence of bool      Which points come from steady-velocity runs (only these
-                                   count as evidence near C_s); all when None
-    hump_sigmas : float            The hump F_s - F_c must exceed this many standard errors
-                                   of F_s, [-]
-    slow_factor : float            "Slow" means |v| < slow_factor * C_s, [-]
-    min_slow : int                 Slow steady points needed per direction
+    v : array_like
+        Piston velocities, [m/s]
+    F : array_like
+        Friction forces, opposing +v when > 0, [N]
+    stribeck_exponent : float
+        delta, held, [-]
+    stribeck_velocity : float
+        C_s [m/s]; fitted (common to both directions) when None
+    min_speed : float
+        Points slower than this are dropped (stick), [m/s]
+    weights : array_like
+        Relative weight of each point (a steady-velocity point that
+        averages n samples: n; a single sample: 1); all 1 when
+        None, [-]
+    steady : sequence of bool
+        Which points come from steady-velocity runs (only these
+        count as evidence near C_s); all when None
+    hump_sigmas : float
+        The hump F_s - F_c must exceed this many standard errors
+        of F_s, [-]
+    slow_factor : float
+        "Slow" means ``|v| < slow_factor * C_s``, [-]
+    min_slow : int
+        Slow steady points needed per direction
 
     Returns
     -------
     StribeckFit
+        The coefficients per direction, their standard errors and residuals.
     """
     from scipy.optimize import minimize_scalar
 
@@ -507,8 +580,10 @@ class FrictionIdentification:
 
     Attributes
     ----------
-    points : dict   Label -> (velocity [m/s], friction force [N]) arrays
+    points : dict
+        Label -> (velocity [m/s], friction force [N]) arrays
     fit : StribeckFit
+        The fitted curve (:func:`fit_stribeck`).
     """
 
     points: dict
@@ -522,24 +597,35 @@ def identify_friction(rig: Rig | str | None, steady=(), sine=(), window: float =
 
     Parameters
     ----------
-    rig : Rig, str or None            Areas, mass, load (and delta of M24)
-    steady : list[Measurements]       Open-loop runs at constant current, one point each
-    sine : list[Measurements]         Closed-loop sine records, every moving sample a point
-    window : float                    Derivative window, [s]
-    min_speed : float                 Slowest point used in the fit, [m/s]
-    stribeck_exponent : float         delta [-]; the rig's when None
-    sine_min_speed : float            Slowest sine sample used: near reversal the piston
-                                      sticks and Newton's law gives the applied force, [m/s]
-    axis : str                        The axis the records are of (None: the first); its
-                                      actuator, load and friction give the mechanics
-
-    Each steady run's point is weighted by the samples it averages, each sine sample by 1;
-    only steady points count as evidence for F_s and C_s (:func:`fit_stribeck`): a sine's
-    samples near C_s are reversals, where Newton's law lags.
+    rig : Rig, str or None
+        Areas, mass, load (and delta of M24)
+    steady : list[Measurements]
+        Open-loop runs at constant current, one point each
+    sine : list[Measurements]
+        Closed-loop sine records, every moving sample a point
+    window : float
+        Derivative window, [s]
+    min_speed : float
+        Slowest point used in the fit, [m/s]
+    stribeck_exponent : float
+        delta [-]; the rig's when None
+    sine_min_speed : float
+        Slowest sine sample used: near reversal the piston
+        sticks and Newton's law gives the applied force, [m/s]
+    axis : str
+        The axis the records are of (None: the first); its
+        actuator, load and friction give the mechanics
 
     Returns
     -------
     FrictionIdentification
+        The points and the fitted curve.
+
+    Notes
+    -----
+    Each steady run's point is weighted by the samples it averages, each sine sample by 1;
+    only steady points count as evidence for F_s and C_s (:func:`fit_stribeck`): a sine's
+    samples near C_s are reversals, where Newton's law lags.
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     mech = axis_mechanics(rig, axis)

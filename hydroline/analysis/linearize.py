@@ -99,16 +99,20 @@ def select_axis(rig: Rig, axis: str | None = None):
 
     Parameters
     ----------
-    rig : Rig    Parameters (SI)
-    axis : str   Axis name (``hydroline circuit RIG`` lists them)
+    rig : Rig
+        Parameters (SI)
+    axis : str
+        Axis name (``hydroline circuit RIG`` lists them)
 
     Returns
     -------
     hydroline.circuit.Axis
+        The signal and component names of the axis.
 
     Raises
     ------
-    ValueError  one line naming the axis and the rig's axes
+    ValueError
+        one line naming the axis and the rig's axes
     """
     axes = build_circuit(rig).axes
     if not axes:
@@ -121,13 +125,22 @@ def select_axis(rig: Rig, axis: str | None = None):
 
 
 def axis_signal(axis, name: str) -> str:
-    """The network signal of a channel on an axis: generic names (:data:`AXIS_SIGNALS`, e.g.
-    ``piston_velocity``) through the axis's handles, any other name as given.
+    """The network signal of a channel on an axis.
+
+    Generic names (:data:`AXIS_SIGNALS`, e.g. ``piston_velocity``) go through the axis's
+    handles, any other name is returned as given.
 
     Parameters
     ----------
-    axis : hydroline.circuit.Axis   The axis handles
-    name : str                      Channel name
+    axis : hydroline.circuit.Axis
+        The axis handles.
+    name : str
+        Channel name.
+
+    Returns
+    -------
+    str
+        The signal's name in the network.
     """
     return getattr(axis, AXIS_SIGNALS[name]) if name in AXIS_SIGNALS else name
 
@@ -139,13 +152,17 @@ def input_parameter(network: Network, axis, name: str) -> str:
 
     Parameters
     ----------
-    network : Network               A network of :func:`linear_network`
-    axis : hydroline.circuit.Axis   The axis
-    name : str                      Input name
+    network : Network
+        A network of :func:`linear_network`
+    axis : hydroline.circuit.Axis
+        The axis
+    name : str
+        Input name
 
     Returns
     -------
-    str  Runtime parameter name
+    str
+        Runtime parameter name
     """
     if name == "valve_current":
         return f"{VALVE_COMMAND}.final"
@@ -170,7 +187,15 @@ def input_parameter(network: Network, axis, name: str) -> str:
 
 
 class OperatingPointError(ValueError):
-    """An operating point that cannot be reached or held; one line naming the quantity."""
+    """An operating point that cannot be reached or held; one line naming the quantity.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the quantity.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 @dataclass
@@ -179,13 +204,17 @@ class OperatingPoint:
 
     Parameters
     ----------
-    piston_position : float   x_p from mid-stroke, up +, [m]; the holding current is solved
-                              for. None with ``valve_current`` given
-    piston_velocity : float   Steady piston velocity, [m/s] (0: at rest)
-    external_force : float    Load's applied force, positive down, [N]; the rig's
-                              ``load.applied_force`` when None
-    valve_current : float     Fixed valve current, [A]; then ``piston_position`` must be None
-                              and the piston rests where the load puts it
+    piston_position : float
+        x_p from mid-stroke, up +, [m]; the holding current is solved
+        for. None with ``valve_current`` given
+    piston_velocity : float
+        Steady piston velocity, [m/s] (0: at rest)
+    external_force : float
+        Load's applied force, positive down, [N]; the rig's
+        ``load.applied_force`` when None
+    valve_current : float
+        Fixed valve current, [A]; then ``piston_position`` must be None
+        and the piston rests where the load puts it
     """
 
     piston_position: float | None = 0.0
@@ -215,15 +244,24 @@ class SolvedOperatingPoint:
 
     Attributes
     ----------
-    network : Network         The open-loop network (valve current from ``command``)
-    x : ndarray               States, [SI]
-    p : ndarray               Runtime parameters (``command.final`` = valve current), [SI]
-    valve_current : float     [A]
-    signals : dict            Every signal at the point, [SI]
-    residual : float          max scaled |dx/dt| over the states at rest, [1/s]
-    supply : str              "lines" or "constant"
-    point : OperatingPoint    What was asked for
-    axis : hydroline.circuit.Axis  The axis linearised (its handles name the signals)
+    network : Network
+        The open-loop network (valve current from ``command``)
+    x : ndarray
+        States, [SI]
+    p : ndarray
+        Runtime parameters (``command.final`` = valve current), [SI]
+    valve_current : float
+        The valve current of the point, [A]
+    signals : dict
+        Every signal at the point, [SI]
+    residual : float
+        Largest scaled ``|dx/dt|`` over the states at rest, [1/s]
+    supply : str
+        "lines" or "constant"
+    point : OperatingPoint
+        What was asked for
+    axis : hydroline.circuit.Axis
+        The axis linearised (its handles name the signals)
     """
 
     network: Network
@@ -245,15 +283,20 @@ def axis_network(rig: Rig, commands: list, axis: str | None = None,
 
     Parameters
     ----------
-    rig : Rig               Parameters (SI)
-    commands : list         Components driving the axis's valve current signal
-                            (``select_axis(rig, axis).current``)
-    axis : str              The axis (None: the first)
-    position_guess : float  Its piston position for the steady-state solver's guess, [m]
+    rig : Rig
+        Parameters (SI)
+    commands : list
+        Components driving the axis's valve current signal
+        (``select_axis(rig, axis).current``)
+    axis : str
+        The axis (None: the first)
+    position_guess : float
+        Its piston position for the steady-state solver's guess, [m]
 
     Returns
     -------
     Network
+        The axis's network with the given commands.
     """
     ax = select_axis(rig, axis)
     first = next(iter(build_circuit(rig).axes))
@@ -275,19 +318,26 @@ def linear_network(rig: Rig, supply: str = "lines", valve_current: float = 0.0,
     Parameters
     ----------
     rig : Rig
-    supply : str              "lines" (the rig's hoses, HSM, accumulators) or "constant" (the
-                              valve ports held at ``supply.pressure``/``return.pressure``)
-    valve_current : float     Constant valve current, runtime parameter ``command.final``, [A]
-    position_guess : float    Piston position for the solver's guess, [m]
-    friction_force : float    When given, the axis's friction component is replaced by this
-                              constant force (runtime parameter ``<friction>.final``), [N]
-    axis : str                The axis driven by the valve current (None: the first); its
-                              position controller is left out, every other axis holds
-                              (:func:`hydroline.scenarios.hold_other_axes`)
+        Parameters (SI).
+    supply : str
+        "lines" (the rig's hoses, HSM, accumulators) or "constant" (the
+        valve ports held at ``supply.pressure``/``return.pressure``)
+    valve_current : float
+        Constant valve current, runtime parameter ``command.final``, [A]
+    position_guess : float
+        Piston position for the solver's guess, [m]
+    friction_force : float
+        When given, the axis's friction component is replaced by this
+        constant force (runtime parameter ``<friction>.final``), [N]
+    axis : str
+        The axis driven by the valve current (None: the first); its
+        position controller is left out, every other axis holds
+        (:func:`hydroline.scenarios.hold_other_axes`)
 
     Returns
     -------
     Network
+        The open-loop network, valve current from the ``command`` component.
     """
     if supply not in SUPPLIES:
         raise ValueError(f"supply must be one of {', '.join(SUPPLIES)}; got {supply!r}")
@@ -376,15 +426,21 @@ def solve_operating_point(rig: Rig | str | None = None, operating_point: Operati
 
     Parameters
     ----------
-    rig : Rig, str or None          The rig (None: the embedded default)
-    operating_point : OperatingPoint  Mid-stroke piston at rest under the rig's load when None
-    supply : str                    "lines" or "constant"
-    tol : float                     Required scaled residual, [1/s]
-    axis : str                      The axis (None: the first); the others hold
+    rig : Rig, str or None
+        The rig (None: the embedded default)
+    operating_point : OperatingPoint
+        Mid-stroke piston at rest under the rig's load when None
+    supply : str
+        "lines" or "constant"
+    tol : float
+        Required scaled residual, [1/s]
+    axis : str
+        The axis (None: the first); the others hold
 
     Returns
     -------
     SolvedOperatingPoint
+        The steady state, valve current and signals at the point.
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     op = operating_point or OperatingPoint()
@@ -506,15 +562,22 @@ def jacobians(network: Network, x, p, parameters, signals, t: float = 0.0):
     Parameters
     ----------
     network : Network
-    x : array                States, [SI]
-    p : array                Runtime parameters, [SI]
-    parameters : list[str]   Runtime parameter names (inputs)
-    signals : list[str]      Signal or state names (outputs)
-    t : float                Time, [s]
+        The network to linearise.
+    x : array
+        States, [SI]
+    p : array
+        Runtime parameters, [SI]
+    parameters : list[str]
+        Runtime parameter names (inputs)
+    signals : list[str]
+        Signal or state names (outputs)
+    t : float
+        Time, [s]
 
     Returns
     -------
-    (A, B, C, D) : ndarrays, SI units
+    A, B, C, D : ndarray
+        The state-space matrices, [SI]
     """
     model = network.compile()
     jp = [network.parameter_names.index(k) for k in parameters]
@@ -540,8 +603,15 @@ def friction_slope(friction, velocity: float) -> float:
 
     Parameters
     ----------
-    friction : StribeckFriction or None   The axis's friction component (None: no friction)
-    velocity : float                      Piston velocity, [m/s]
+    friction : StribeckFriction or None
+        The axis's friction component (None: no friction)
+    velocity : float
+        Piston velocity, [m/s]
+
+    Returns
+    -------
+    float
+        The viscous coefficient, [N s/m]
     """
     if friction is None:
         return 0.0
@@ -558,8 +628,10 @@ def check_names(inputs, outputs):
 
     Parameters
     ----------
-    inputs : sequence of str    Input names
-    outputs : sequence of str   Output names
+    inputs : sequence of str
+        Input names
+    outputs : sequence of str
+        Output names
     """
     for u in inputs:
         if u not in INPUTS:
@@ -600,13 +672,16 @@ def transfer_state(solved: SolvedOperatingPoint, net: Network):
 
     Parameters
     ----------
-    solved : SolvedOperatingPoint   The solved point
-    net : Network                   The other network; its states must all be in the
-                                    solved network
+    solved : SolvedOperatingPoint
+        The solved point
+    net : Network
+        The other network; its states must all be in the
+        solved network
 
     Returns
     -------
-    (x, p) : ndarrays  States and runtime parameters of ``net``, [SI]
+    (x, p) : ndarrays
+        States and runtime parameters of ``net``, [SI]
     """
     src = solved.network
     x = np.array([solved.x[src.state_names.index(n)] for n in net.state_names])
@@ -624,17 +699,24 @@ def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | No
 
     Parameters
     ----------
-    rig : Rig, str or None            The rig (None: the embedded default, the 2005 paper's)
-    operating_point : OperatingPoint  Default: piston at rest at mid-stroke, holding current
-                                      solved for (see the module docstring)
-    inputs : sequence of str          Names from :data:`INPUTS` ([A], [N], [Pa])
-    outputs : sequence of str         Signal names (e.g. ``piston_velocity`` [m/s]; the generic
-                                      names of :data:`AXIS_SIGNALS` are the axis's) or states
-    supply : str                      "lines" (the rig's hoses) or "constant" (ideal supply
-                                      and return pressures at the valve ports)
-    friction : str                    "viscous" (default) or "model" (literal Jacobian of M24)
-    axis : str                        The axis (None: the first); its valve current is the
-                                      input, its position loop open, the other axes hold
+    rig : Rig, str or None
+        The rig (None: the embedded default, the 2005 paper's)
+    operating_point : OperatingPoint
+        Default: piston at rest at mid-stroke, holding current
+        solved for (see the module docstring)
+    inputs : sequence of str
+        Names from :data:`INPUTS` ([A], [N], [Pa])
+    outputs : sequence of str
+        Signal names (e.g. ``piston_velocity`` [m/s]; the generic
+        names of :data:`AXIS_SIGNALS` are the axis's) or states
+    supply : str
+        "lines" (the rig's hoses) or "constant" (ideal supply
+        and return pressures at the valve ports)
+    friction : str
+        "viscous" (default) or "model" (literal Jacobian of M24)
+    axis : str
+        The axis (None: the first); its valve current is the
+        input, its position loop open, the other axes hold
 
     Returns
     -------

@@ -51,7 +51,7 @@ def _check(name, value, low=0.0, unit="-"):
 
 
 def valve_gain(frequency_ratio, damping_ratio):
-    """|G_v(j w)| of a second-order valve with unit static gain at ``w / w_v``, [-].
+    """``|G_v(j w)|`` of a second-order valve with unit static gain at ``w / w_v``, [-].
 
     Parameters
     ----------
@@ -146,7 +146,7 @@ def valve_bound(length, wave_speed, impedance, flow_change, valve_frequency,
     -------
     dict
         ``quarter_wave_hz`` c/(4L) [Hz], ``frequency_ratio`` f/f_v [-], ``water_hammer_pa``
-        Z0 |dQ| [Pa], ``mode_fraction`` (M26) [-], ``mode_amplitude_pa`` [Pa],
+        ``Z0 |dQ|`` [Pa], ``mode_fraction`` (M26) [-], ``mode_amplitude_pa`` [Pa],
         ``swing_fraction`` and ``swing_amplitude_pa`` (:func:`periodic_swing_fraction`) [-],
         [Pa].
     """

@@ -27,16 +27,32 @@ class PistonAccumulator(Component):
 
     Parameters
     ----------
-    capacity : float              V_0, gas volume at pre-charge, [m^3]
-    precharge_pressure : float    p_0, absolute, [Pa]
-    polytropic_exponent : float   m, 1 (isothermal) ... 1.4 (adiabatic N2), [-]
-    resistance : float            R_a of the connection (version II), [Pa s/m^3]
-    inertance : float             I_a of the connection (version II), [kg/m^4]
-    connection_model : StateSpaceLine  PP line model replacing (R_a, I_a); None for version II
-    nominal_pressure : float      Guess of the node pressure for the steady-state solver, [Pa]
-    stop_stiffness : float        Stiffness of the oil side once it is empty (piston on its
-                                  stop, V_g > V_0), None: that of a 1 % oil film, [Pa/m^3]
+    capacity : float
+        V_0, gas volume at pre-charge, [m^3]
+    precharge_pressure : float
+        p_0, absolute, [Pa]
+    polytropic_exponent : float
+        m, 1 (isothermal) ... 1.4 (adiabatic N2), [-]
+    resistance : float
+        R_a of the connection (version II), [Pa s/m^3]
+    inertance : float
+        I_a of the connection (version II), [kg/m^4]
+    connection_model : StateSpaceLine
+        PP line model replacing (R_a, I_a); None for version II
+    nominal_pressure : float
+        Guess of the node pressure for the steady-state solver, [Pa]
+    stop_stiffness : float
+        Stiffness of the oil side once it is empty (piston on its
+        stop, V_g > V_0), None: that of a 1 % oil film, [Pa/m^3]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: input ``pressure`` (node) [Pa]; output ``flow`` into the accumulator branch [m^3/s];
     signal ``gas_pressure`` is not a port (see :meth:`gas_pressure`).
     """
@@ -70,6 +86,8 @@ class PistonAccumulator(Component):
 
     @property
     def states(self):
+        """The states: ``gas_volume`` V_g [m^3], and the connection line's: ``flow`` [m^3/s]
+        (version II, (M18)) or the modal line's states."""
         st = [State("gas_volume", "m^3", self.capacity, "gas volume V_g")]
         if self.connection_model is None:
             st.append(State("flow", "m^3/s", 1e-4, "flow in the connection line, into the accumulator"))
@@ -78,7 +96,13 @@ class PistonAccumulator(Component):
         return st
 
     def hydraulic_ends(self):
-        """Its connection to the node, holding oil."""
+        """Its connection to the node, holding oil.
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"node": HydraulicEnd("pressure", ("flow",), compliant=True)}
 
     def runtime_parameters(self):
@@ -89,13 +113,16 @@ class PistonAccumulator(Component):
 
         Parameters
         ----------
-        gas_volume : float           Gas volume (number or CasADi symbol), [m^3]
-        reference_pressure : float   Pressure at the end of the isothermal charge (section 3),
-                                     [Pa]
+        gas_volume : float
+            Gas volume (number or CasADi symbol), [m^3]
+        reference_pressure : float
+            Pressure at the end of the isothermal charge (section 3),
+            [Pa]
 
         Returns
         -------
-        float  Gas pressure minus the stop's push beyond the capacity, [Pa]
+        float
+            Gas pressure minus the stop's push beyond the capacity, [Pa]
         """
         m, V0, p0 = self.polytropic_exponent, self.capacity, self.precharge_pressure
         K = reference_pressure * (V0 * p0 / reference_pressure) ** m
@@ -142,14 +169,18 @@ class PistonAccumulator(Component):
 
         Parameters
         ----------
-        x : dict   States at the steady state, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
-        p : dict   Runtime parameters, name -> value [SI]
+        x : dict
+            States at the steady state, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
 
         Returns
         -------
-        tuple or None  ``(new_x, new_p)``: the gas volume [m^3] and the reference pressure [Pa]
-                       to adopt; None when the accumulator is empty (piston on its stop)
+        tuple or None
+            ``(new_x, new_p)``: the gas volume [m^3] and the reference pressure [Pa]
+            to adopt; None when the accumulator is empty (piston on its stop)
         """
         p_g = float(self.gas_pressure(x["gas_volume"], p["reference_pressure"]))
         if p_g <= self.precharge_pressure:       # empty: piston on its stop, nothing to adopt

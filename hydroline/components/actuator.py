@@ -17,29 +17,50 @@ class Actuator(Component):
     """Chamber pressures (M22) and piston motion (M23), vertical, upward positive.
 
     ``x_p`` is measured from mid-stroke; the stops are at +-stroke/2, modelled as a stiff
-    spring-damper acting on the penetration. Chamber volumes ``V_b + A_b x_p`` and
-    ``V_t - A_t x_p`` are kept above ``min_volume_fraction`` of their centre values (docs/model.md 8).
+    spring-damper acting on the penetration (M27). Chamber volumes ``V_b + A_b x_p`` and
+    ``V_t - A_t x_p`` are kept above ``min_volume_fraction`` of their centre values (M37).
 
     Parameters
     ----------
-    bottom_area, top_area : float      A_b, A_t, [m^2]
-    bottom_volume, top_volume : float  V_b, V_t at centre incl. valve/manifold passages, [m^3]
-    bulk_modulus : float               beta_c of the oil in the chambers, [Pa]
-    moving_mass : float                Piston, rod and rigidly attached load, [kg]
-    stroke : float                     Full stroke, [m]
-    internal_leakage : float           C_i, [m^3/s/Pa]
-    external_leakage : float           C_e (each chamber), [m^3/s/Pa]
-    gravity : float                    g along the axis (0 for a horizontal actuator), [m/s^2]
-    stop_stiffness : float             End-stop contact stiffness, [N/m]
-    stop_damping : float               End-stop contact damping (None: critical), [N s/m]
-    min_volume_fraction : float        Floor of the chamber volumes, a fraction of their
-                                       centre values, [-]
-    initial_position : float           Guess of x_p for the steady-state solver, [m]
-    nominal_pressure : float           Guess of the chamber pressures, [Pa]
-    fluid : Fluid or None              The rig's oil: its entrained air (M40) and cavity
-                                       model (M42) enter the chamber compliances (M41);
-                                       None or air-free oil without a cavity model: (M22)
+    bottom_area, top_area : float
+        A_b, A_t, [m^2]
+    bottom_volume, top_volume : float
+        V_b, V_t at centre incl. valve/manifold passages, [m^3]
+    bulk_modulus : float
+        beta_c of the oil in the chambers, [Pa]
+    moving_mass : float
+        Piston, rod and rigidly attached load, [kg]
+    stroke : float
+        Full stroke, [m]
+    internal_leakage : float
+        C_i, [m^3/s/Pa]
+    external_leakage : float
+        C_e (each chamber), [m^3/s/Pa]
+    gravity : float
+        g along the axis (0 for a horizontal actuator), [m/s^2]
+    stop_stiffness : float
+        End-stop contact stiffness, [N/m]
+    stop_damping : float
+        End-stop contact damping (None: critical), [N s/m]
+    min_volume_fraction : float
+        Floor of the chamber volumes, a fraction of their
+        centre values, [-]
+    initial_position : float
+        Guess of x_p for the steady-state solver, [m]
+    nominal_pressure : float
+        Guess of the chamber pressures, [Pa]
+    fluid : Fluid or None
+        The rig's oil: its entrained air (M40) and cavity model (M42) enter the
+        chamber compliances (M41); None or air-free oil without a cavity model: (M22)
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: inputs ``bottom_flow`` (q_b, into the bottom chamber), ``top_flow`` (q_t, out of
     the top chamber) [m^3/s], ``friction_force``, ``load_force`` [N] (both opposing upward
     motion when positive); outputs ``bottom_pressure``, ``top_pressure`` [Pa],
@@ -95,12 +116,20 @@ class Actuator(Component):
             self.stop_damping = 2.0 * np.sqrt(self.stop_stiffness * self.moving_mass)
 
     def hydraulic_ends(self):
-        """The two chambers, each holding oil (M22)."""
+        """The two chambers, each holding oil (M22).
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",), compliant=True)
                 for end in ("bottom", "top")}
 
     @property
     def states(self):
+        """The states: ``bottom_pressure``, ``top_pressure`` [Pa], ``position`` [m],
+        ``velocity`` [m/s]."""
         return [State("bottom_pressure", "Pa", self.nominal_pressure),
                 State("top_pressure", "Pa", self.nominal_pressure),
                 State("position", "m", self.stroke / 2),
@@ -111,11 +140,13 @@ class Actuator(Component):
 
         Parameters
         ----------
-        position : float   Piston position from mid-stroke, positive up, [m]
+        position : float
+            Piston position from mid-stroke, positive up, [m]
 
         Returns
         -------
-        float  Hydraulic natural frequency ``w_h / (2 pi)``, [Hz]
+        float
+            Hydraulic natural frequency ``w_h / (2 pi)``, [Hz]
         """
         Vb = self.bottom_volume + self.bottom_area * position
         Vt = self.top_volume - self.top_area * position
@@ -126,16 +157,19 @@ class Actuator(Component):
         return {k: x[k] for k in ("bottom_pressure", "top_pressure", "position", "velocity")}
 
     def stop_force(self, x, v):
-        """Force of the end stops on the piston, positive up, [N].
+        """Force of the end stops on the piston (M27), positive up, [N].
 
         Parameters
         ----------
-        x : float   Piston position from mid-stroke, positive up (number or CasADi symbol), [m]
-        v : float   Piston velocity, positive up, [m/s]
+        x : float
+            Piston position from mid-stroke, positive up (number or CasADi symbol), [m]
+        v : float
+            Piston velocity, positive up, [m/s]
 
         Returns
         -------
-        float  Stop force (stiffness beyond +-stroke/2, damping while in contact), [N]
+        float
+            Stop force (stiffness beyond +-stroke/2, damping while in contact), [N]
         """
         half = self.stroke / 2
         over_top = ops.fmax(x - half, 0.0)

@@ -1,4 +1,4 @@
-"""Check valve: no dynamics, small forward and large reverse resistance (docs/model.md 1)."""
+"""Check valve: no dynamics, small forward and large reverse resistance (M28, docs/model.md 1)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,9 +21,20 @@ class CheckValve(OrientedResistance):
 
     Parameters
     ----------
-    forward_resistance : float   R_f in the free direction, [Pa s/m^3]
-    reverse_resistance : float   R_r against it (large), [Pa s/m^3]
-    transition_flow : float      q_t, width of the switch, [m^3/s]
+    forward_resistance : float
+        R_f in the free direction, [Pa s/m^3]
+    reverse_resistance : float
+        R_r against it (large), [Pa s/m^3]
+    transition_flow : float
+        q_t, width of the switch, [m^3/s]
+
+    Other Parameters
+    ----------------
+    name, connections, compute
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+    compute
+        Causality, as for :class:`~hydroline.components.resistance.OrientedResistance`.
     """
 
     forward_resistance: float = parameter(0.0, "Pa*s/m^3", "R_f in the free direction", minimum=0.0,
@@ -45,11 +56,13 @@ class CheckValve(OrientedResistance):
 
         Parameters
         ----------
-        dp : float   Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
+        dp : float
+            Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
 
         Returns
         -------
-        float  Flow from inlet to outlet, [m^3/s]
+        float
+            Flow from inlet to outlet, [m^3/s]
         """
         pt = self.forward_resistance * self.transition_flow
         dp_pos = ops.softplus(dp, pt)
@@ -61,11 +74,13 @@ class CheckValve(OrientedResistance):
 
         Parameters
         ----------
-        q : float   Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
+        q : float
+            Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
 
         Returns
         -------
-        float  Pressure drop, inlet minus outlet, [Pa]
+        float
+            Pressure drop, inlet minus outlet, [Pa]
         """
         qt = self.transition_flow
         q_pos = ops.softplus(q, qt)

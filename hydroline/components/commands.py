@@ -21,8 +21,9 @@ class _Command(Component):
 
     Parameters
     ----------
-    quantity : str   What the command drives: "current", "position", "pressure", "velocity",
-                     "force" or "flow" (its value then in [A], [m], [Pa], [m/s], [N], [m^3/s])
+    quantity : str
+        What the command drives: "current", "position", "pressure", "velocity",
+        "force" or "flow" (its value then in [A], [m], [Pa], [m/s], [N], [m^3/s])
     """
 
     quantity: str = parameter("current", "str", "what the command drives",
@@ -40,9 +41,21 @@ class StepCommand(_Command):
 
     Parameters
     ----------
-    initial : float   Value before the step, [SI unit of ``quantity``]
-    final : float     Value after the step, [SI unit of ``quantity``]
-    time : float      Time of the step, [s]
+    initial : float
+        Value before the step, [SI unit of ``quantity``]
+    final : float
+        Value after the step, [SI unit of ``quantity``]
+    time : float
+        Time of the step, [s]
+
+    Other Parameters
+    ----------------
+    name, connections, quantity
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+    quantity
+        What the command drives ("current", "position", ...), as for every command;
+        its values are in that quantity's SI unit.
     """
 
     initial: float = parameter(0.0, _VALUE, "value before the step, [unit of quantity]")
@@ -66,10 +79,23 @@ class SineCommand(_Command):
 
     Parameters
     ----------
-    offset : float      Mean value, [SI unit of ``quantity``]
-    amplitude : float   Amplitude, [SI unit of ``quantity``]
-    frequency : float   Frequency of the sine, [Hz]
-    start : float       Time the sine starts, [s]
+    offset : float
+        Mean value, [SI unit of ``quantity``]
+    amplitude : float
+        Amplitude, [SI unit of ``quantity``]
+    frequency : float
+        Frequency of the sine, [Hz]
+    start : float
+        Time the sine starts, [s]
+
+    Other Parameters
+    ----------------
+    name, connections, quantity
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+    quantity
+        What the command drives ("current", "position", ...), as for every command;
+        its values are in that quantity's SI unit.
     """
 
     offset: float = parameter(0.0, _VALUE, "mean value, [unit of quantity]")
@@ -105,10 +131,23 @@ class RampCommand(_Command):
 
     Parameters
     ----------
-    initial : float   Value before the ramp, [SI unit of ``quantity``]
-    slope : float     Rate of the ramp, [SI unit of ``quantity``/s]
-    start : float     Time the ramp starts, [s]
-    end : float       Time the ramp ends (held after), [s]
+    initial : float
+        Value before the ramp, [SI unit of ``quantity``]
+    slope : float
+        Rate of the ramp, [SI unit of ``quantity``/s]
+    start : float
+        Time the ramp starts, [s]
+    end : float
+        Time the ramp ends (held after), [s]
+
+    Other Parameters
+    ----------------
+    name, connections, quantity
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+    quantity
+        What the command drives ("current", "position", ...), as for every command;
+        its values are in that quantity's SI unit.
     """
 
     initial: float = parameter(0.0, _VALUE, "value before the ramp, [unit of quantity]")
@@ -141,8 +180,19 @@ class TableCommand(_Command):
 
     Parameters
     ----------
-    times : array_like    Times of the rows, increasing; a time twice is a jump, [s]
-    values : array_like   Values at those times, [SI unit of ``quantity``]
+    times : array_like
+        Times of the rows, increasing; a time twice is a jump, [s]
+    values : array_like
+        Values at those times, [SI unit of ``quantity``]
+
+    Other Parameters
+    ----------------
+    name, connections, quantity
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+    quantity
+        What the command drives ("current", "position", ...), as for every command;
+        its values are in that quantity's SI unit.
     """
 
     #: Longest table written as a sum of ramps, [rows].
@@ -200,16 +250,25 @@ class TableCommand(_Command):
 
         Parameters
         ----------
-        path : str or Path    CSV file with a header row, times in seconds
-        name : str            Component name
-        quantity : str        What the command is ("current", "position", "pressure", ...)
-        time_column : int     Column of the times [s] (index from 0)
-        value_column : int    Column of the values (index from 0)
-        value_scale : float   Factor from the file's values to SI, [SI unit/file unit]
+        path : str or Path
+            CSV file with a header row, times in seconds
+        name : str
+            Component name
+        quantity : str
+            What the command is ("current", "position", "pressure", ...)
+        time_column : int
+            Column of the times [s] (index from 0)
+        value_column : int
+            Column of the values (index from 0)
+        value_scale : float
+            Factor from the file's values to SI, [SI unit/file unit]
+        **kw : dict
+            Further arguments of the component (``connections``, ...).
 
         Returns
         -------
         TableCommand
+            The command through the file's rows.
         """
         import pandas as pd
 
@@ -223,14 +282,25 @@ class TableCommand(_Command):
 
         Parameters
         ----------
-        path : str or Path   CSV file, one header row, then (time, value) rows
-        unit : str           SI unit of the values, e.g. "Pa"; the header may give any unit of
-                             that dimension ("MPa", "bar", "psi"), [-]
-        name, quantity : str As for the component: its name and what the command is
+        path : str or Path
+            CSV file, one header row, then (time, value) rows
+        unit : str
+            SI unit of the values, e.g. "Pa"; the header may give any unit of
+            that dimension ("MPa", "bar", "psi"), [-]
+        name, quantity : str
+            As for the component: its name and what the command is.
+        **kw : dict
+            Further arguments of the component (``connections``, ...).
+
+        Returns
+        -------
+        TableCommand
+            The command through the file's rows, values in ``unit``.
 
         Raises
         ------
-        ValueError  one line naming the file and the column or row at fault
+        ValueError
+            One line naming the file and the column or row at fault.
         """
         return cls(name=name, quantity=quantity, **dict(zip(("times", "values"),
                                                               read_table_csv(path, unit))), **kw)
@@ -257,11 +327,13 @@ class TableCommand(_Command):
 
         Parameters
         ----------
-        t : float or array_like   Times, [s]
+        t : float or array_like
+            Times, [s]
 
         Returns
         -------
-        float or ndarray  Values, [SI unit of ``quantity``]
+        float or ndarray
+            Values, [SI unit of ``quantity``]
         """
         times, values = self.continuous
         tj, size = self.jumps
@@ -275,7 +347,13 @@ class TableCommand(_Command):
 
         Parameters
         ----------
-        t_end : float   End of the run, [s]
+        t_end : float
+            End of the run, [s]
+
+        Returns
+        -------
+        list[float]
+            The times, [s]
         """
         times, values = self.continuous
         out = [float(tj) for tj in self.jumps[0]]
@@ -286,7 +364,13 @@ class TableCommand(_Command):
         return sorted(set(out))
 
     def value_range(self):
-        """Smallest and largest value of the table, [unit]."""
+        """Smallest and largest value of the table, [unit].
+
+        Returns
+        -------
+        tuple of float
+            ``(smallest, largest)``, [SI unit of ``quantity``]
+        """
         return float(np.min(self.values)), float(np.max(self.values))
 
 
@@ -295,16 +379,20 @@ def read_table_csv(path, unit):
 
     Parameters
     ----------
-    path : str or Path   The file: header ``time [s], <name> [<unit>]``, then rows
-    unit : str           SI unit of the values, [-]
+    path : str or Path
+        The file: header ``time [s], <name> [<unit>]``, then rows
+    unit : str
+        SI unit of the values, [-]
 
     Returns
     -------
-    tuple(ndarray, ndarray)  times [s], values [unit]
+    tuple(ndarray, ndarray)
+        times [s], values [unit]
 
     Raises
     ------
-    ValueError  one line naming the file and what is wrong
+    ValueError
+        one line naming the file and what is wrong
     """
     import pandas as pd
 

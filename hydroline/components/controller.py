@@ -1,4 +1,4 @@
-"""Position controller of the servo loop: P or PID, current limited to +-rated (docs/model.md 1)."""
+"""Position controller of the servo loop: P or PID, current limited to +-rated (M30)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -20,12 +20,25 @@ class PositionController(Component):
 
     Parameters
     ----------
-    proportional_gain : float   Kp, [A/m]
-    integral_gain : float       Ki, [A/(m s)]
-    derivative_gain : float     Kd, [A s/m]
-    current_limit : float       [A] (the valve's rated current)
-    sample_time : float         [s]; None for a continuous controller
+    proportional_gain : float
+        Kp, [A/m]
+    integral_gain : float
+        Ki, [A/(m s)]
+    derivative_gain : float
+        Kd, [A s/m]
+    current_limit : float
+        [A] (the valve's rated current)
+    sample_time : float
+        [s]; None for a continuous controller
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: inputs ``reference`` and ``position`` [m], ``velocity`` [m/s]; output ``current`` [A].
     States: ``error_integral`` [m s] when Ki != 0.
     """
@@ -49,6 +62,7 @@ class PositionController(Component):
 
     @property
     def states(self):
+        """The states: ``error_integral`` [m s] when ``integral_gain`` is not 0, else none."""
         return [State("error_integral", "m s", 1e-3)] if self.integral_gain else []
 
     def runtime_parameters(self):
@@ -61,12 +75,15 @@ class PositionController(Component):
 
         Parameters
         ----------
-        x : dict   States, local name -> value [SI] (``error_integral`` [m s] when Ki != 0)
-        u : dict   Inputs ``reference``, ``position`` [m] and ``velocity`` [m/s]
+        x : dict
+            States, local name -> value [SI] (``error_integral`` [m s] when Ki != 0)
+        u : dict
+            Inputs ``reference``, ``position`` [m] and ``velocity`` [m/s]
 
         Returns
         -------
-        float  Coil current before the limit, [A]
+        float
+            Coil current before the limit, [A]
         """
         e = u["reference"] - u["position"]
         i = self.proportional_gain * e - self.derivative_gain * u["velocity"]
@@ -79,11 +96,13 @@ class PositionController(Component):
 
         Parameters
         ----------
-        i : float   Coil current (number or CasADi symbol), [A]
+        i : float
+            Coil current (number or CasADi symbol), [A]
 
         Returns
         -------
-        float  The current within +-``current_limit``, [A]
+        float
+            The current within +-``current_limit``, [A]
         """
         return ops.fmin(ops.fmax(i, -self.current_limit), self.current_limit)
 
@@ -103,13 +122,17 @@ class PositionController(Component):
 
         Parameters
         ----------
-        x : dict   States at the steady state, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
-        p : dict   Runtime parameters, name -> value [SI]
+        x : dict
+            States at the steady state, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
 
         Returns
         -------
-        tuple or None  ``({}, {"held_current": [A], "sampled": 1.0})``; None when continuous
+        tuple or None
+            ``({}, {"held_current": [A], "sampled": 1.0})``; None when continuous
         """
         if not self.sample_time:
             return None
@@ -120,11 +143,14 @@ class PositionController(Component):
 
         Parameters
         ----------
-        x : dict   States at the instant, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
+        x : dict
+            States at the instant, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
 
         Returns
         -------
-        dict  ``{"held_current": current}``, [A]
+        dict
+            ``{"held_current": current}``, [A]
         """
         return {"held_current": float(self.clip(self.law(x, u)))}

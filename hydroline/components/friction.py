@@ -15,7 +15,7 @@ class StribeckFriction(Component):
 
     ``F_f = F_v v + s(v) (F_c + (F_s - F_c) exp(-(|v|/C_s)^delta))`` where the coefficients
     are the "up" set for v > 0 and the "down" set for v < 0, and ``s(v) = tanh(v/v_reg)``
-    regularises sgn(v) near zero velocity so the integrator does not chatter.
+    regularises sgn(v) near zero velocity (M36) so the integrator does not chatter.
 
     ``model="lugre"`` is the stick-slip option: the LuGre bristle model (Canudas de Wit et al.,
     IEEE TAC 40 (1995) 419-425) with the same Stribeck curve as its steady state, bristle state
@@ -24,16 +24,33 @@ class StribeckFriction(Component):
 
     Parameters
     ----------
-    viscous_up, viscous_down : float       F_v+-, [N s/m]
-    coulomb_up, coulomb_down : float       F_c+-, [N]
-    static_up, static_down : float         F_s+-, [N]
-    stribeck_velocity : float              C_s, [m/s]
-    stribeck_exponent : float              delta, [-]
-    regularization_velocity : float        v_reg, [m/s]
-    model : str                            "stribeck" or "lugre"
-    bristle_stiffness : float              sigma0 (LuGre), [N/m]
-    bristle_damping : float                sigma1 (LuGre), [N s/m]
+    viscous_up, viscous_down : float
+        F_v+-, [N s/m]
+    coulomb_up, coulomb_down : float
+        F_c+-, [N]
+    static_up, static_down : float
+        F_s+-, [N]
+    stribeck_velocity : float
+        C_s, [m/s]
+    stribeck_exponent : float
+        delta, [-]
+    regularization_velocity : float
+        v_reg, [m/s]
+    model : str
+        "stribeck" or "lugre"
+    bristle_stiffness : float
+        sigma0 (LuGre), [N/m]
+    bristle_damping : float
+        sigma1 (LuGre), [N s/m]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: input ``velocity`` [m/s]; output ``friction_force`` [N], opposing +v when > 0.
     """
 
@@ -64,6 +81,7 @@ class StribeckFriction(Component):
 
     @property
     def states(self):
+        """The states: the LuGre ``bristle`` deflection [m] with ``model = "lugre"``, else none."""
         return [State("bristle", "m", 1e-5)] if self.model == "lugre" else []
 
     def _curve(self, v, up: bool):
@@ -81,12 +99,15 @@ class StribeckFriction(Component):
 
         Parameters
         ----------
-        v : float   Piston velocity, positive up (number or CasADi symbol), [m/s]
-        z : float   Bristle deflection (LuGre only; unused by "stribeck"), [m]
+        v : float
+            Piston velocity, positive up (number or CasADi symbol), [m/s]
+        z : float
+            Bristle deflection (LuGre only; unused by "stribeck"), [m]
 
         Returns
         -------
-        float  Friction force on the piston, opposing v, [N]
+        float
+            Friction force on the piston, opposing v, [N]
         """
         fv = self._pick(v, self.viscous_up, self.viscous_down)
         g = self._pick(v, self._curve(v, True), self._curve(v, False))

@@ -48,9 +48,19 @@ class HoseSection(Component):
 
     Parameters
     ----------
-    model : StateSpaceLine   The line model (e.g. ``ModalLine(line, 6, "PQ")``)
-    nominal_pressure : float Pressure level used for the steady-state solver's guess, [Pa]
+    model : StateSpaceLine
+        The line model (e.g. ``ModalLine(line, 6, "PQ")``)
+    nominal_pressure : float
+        Pressure level used for the steady-state solver's guess, [Pa]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: the form's inputs and outputs, named as in
     :data:`hydroline.lines.FORM_PORTS` (e.g. PQ: inputs ``upstream_pressure``,
     ``downstream_flow``; outputs ``downstream_pressure``, ``upstream_flow``).
@@ -87,10 +97,17 @@ class HoseSection(Component):
 
     @property
     def states(self):
+        """The states of the line model (its modes, or its segments), [SI]."""
         return self._states
 
     def hydraulic_ends(self):
-        """Its two ends, each holding oil (the line's compliance)."""
+        """Its two ends, each holding oil (the line's compliance).
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",), compliant=True)
                 for end in ("upstream", "downstream")}
 
@@ -100,8 +117,14 @@ class HoseSection(Component):
         return xv, uv
 
     def runtime_parameters(self):
-        """The line's matrix entries ``"<M><row>_<col>"`` where they are runtime parameters
-        (:data:`COEFFICIENTS_AS_PARAMETERS`), [SI units of the state-space model]; else none."""
+        """The line's matrix entries where they are runtime parameters, else none.
+
+        Returns
+        -------
+        dict
+            ``"<M><row>_<col>"`` -> entry, [SI units of the state-space model], when the
+            section was made under :class:`coefficients_as_parameters`; else empty.
+        """
         if self.coefficient_pattern is None:
             return {}
         return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])

@@ -1,4 +1,4 @@
-"""Flow junction: the continuity equation at a node without volume."""
+"""Flow junction: the continuity equation at a node without volume (M34)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -14,8 +14,17 @@ class FlowJunction(Component):
 
     Parameters
     ----------
-    terms : dict   Input port name -> sign (+1 or -1)
+    terms : dict
+        Input port name -> sign (+1 or -1)
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: inputs the terms [m^3/s]; output ``flow`` [m^3/s].
     """
 
@@ -28,7 +37,13 @@ class FlowJunction(Component):
         self.outputs = {"flow": Port("flow", "sum of the signed flows")}
 
     def hydraulic_ends(self):
-        """One node without its own pressure: the summed flows and the sum."""
+        """One node without its own pressure: the summed flows and the sum.
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"node": HydraulicEnd(None, ("flow", *self.terms))}
 
     def outputs_of(self, t, x, u, p):

@@ -1,4 +1,4 @@
-"""The load on the rod: specimen spring and damper, applied force (docs/model.md 4)."""
+"""The load on the rod: specimen spring and damper, applied force (M29, docs/model.md 4)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -19,14 +19,29 @@ class Load(Component):
 
     Parameters
     ----------
-    mass : float            Load mass, [kg] (added to the actuator's moving mass)
-    stiffness : float       Specimen stiffness k, [N/m]
-    damping : float         Specimen damping b, [N s/m]
-    free_position : float   x at which the specimen is unloaded, [m]
-    applied_force : float   Constant external force, positive down, [N]
-    step_time : float       Time of an optional step of the external force (None: none), [s]
-    step_force : float      The force step, positive down, [N]
+    mass : float
+        Load mass, [kg] (added to the actuator's moving mass)
+    stiffness : float
+        Specimen stiffness k, [N/m]
+    damping : float
+        Specimen damping b, [N s/m]
+    free_position : float
+        x at which the specimen is unloaded, [m]
+    applied_force : float
+        Constant external force, positive down, [N]
+    step_time : float
+        Time of an optional step of the external force (None: none), [s]
+    step_force : float
+        The force step, positive down, [N]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: inputs ``position`` [m], ``velocity`` [m/s]; output ``load_force`` [N].
     """
 

@@ -1,4 +1,4 @@
-"""Hydraulic pumps as flow sources: fixed displacement, or pressure compensated."""
+"""Hydraulic pumps as flow sources: fixed displacement, or pressure compensated (M31)."""
 from __future__ import annotations
 
 import math
@@ -23,13 +23,27 @@ class Pump(Component):
 
     Parameters
     ----------
-    displacement : float           D, volume per revolution, [m^3]
-    shaft_speed : float            omega, shaft speed (a file may give "1500 rpm"), [rad/s]
-    leakage : float                C_l, volumetric loss per pressure, [m^3/s/Pa]
-    control : str                  "fixed" or "pressure-compensated"
-    compensator_pressure : float   p_c, where destroking starts, [Pa]
-    deadhead_pressure : float      p_d > p_c, where the flow reaches zero, [Pa]
+    displacement : float
+        D, volume per revolution, [m^3]
+    shaft_speed : float
+        omega, shaft speed (a file may give "1500 rpm"), [rad/s]
+    leakage : float
+        C_l, volumetric loss per pressure, [m^3/s/Pa]
+    control : str
+        "fixed" or "pressure-compensated"
+    compensator_pressure : float
+        p_c, where destroking starts, [Pa]
+    deadhead_pressure : float
+        p_d > p_c, where the flow reaches zero, [Pa]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: inputs ``outlet_pressure``, ``inlet_pressure`` [Pa]; output ``flow`` delivered into
     the outlet node [m^3/s].
     """
@@ -59,7 +73,13 @@ class Pump(Component):
                              f"({self.compensator_pressure:g} Pa) [Pa], got {self.deadhead_pressure!r}")
 
     def hydraulic_ends(self):
-        """Inlet and outlet, the delivered flow passing from one to the other."""
+        """Inlet and outlet, the delivered flow passing from one to the other.
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
                 "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
@@ -73,7 +93,13 @@ class Pump(Component):
 
         Parameters
         ----------
-        dp : float   Outlet minus inlet pressure, [Pa]
+        dp : float
+            Outlet minus inlet pressure, [Pa]
+
+        Returns
+        -------
+        float
+            Flow delivered into the outlet node (M31), [m^3/s]
         """
         q = self.geometric_flow
         if self.control == "pressure-compensated":

@@ -1,4 +1,4 @@
-"""Pressure-relief valve: closed below its cracking pressure, then a linear override."""
+"""Pressure-relief valve: closed below its cracking pressure, then a linear override (M32)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,11 +22,23 @@ class ReliefValve(Component):
 
     Parameters
     ----------
-    cracking_pressure : float   p_c, drop across the valve at which it opens, [Pa]
-    flow_gradient : float       G = dq/dp above cracking, [m^3/s/Pa]
-    transition_pressure : float p_w, width of the smooth opening, [Pa]
-    leakage : float             G_l, leakage conductance, [m^3/s/Pa]
+    cracking_pressure : float
+        p_c, drop across the valve at which it opens, [Pa]
+    flow_gradient : float
+        G = dq/dp above cracking, [m^3/s/Pa]
+    transition_pressure : float
+        p_w, width of the smooth opening, [Pa]
+    leakage : float
+        G_l, leakage conductance, [m^3/s/Pa]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: inputs ``inlet_pressure``, ``outlet_pressure`` [Pa]; output ``flow`` from inlet to
     outlet [m^3/s].
     """
@@ -48,7 +60,13 @@ class ReliefValve(Component):
         self.check_parameters()
 
     def hydraulic_ends(self):
-        """Inlet (the protected node) and outlet (tank), the relieved flow passing between."""
+        """Inlet (the protected node) and outlet (tank), the relieved flow passing between.
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
                 "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
@@ -57,7 +75,13 @@ class ReliefValve(Component):
 
         Parameters
         ----------
-        dp : float   Inlet minus outlet pressure, [Pa]
+        dp : float
+            Inlet minus outlet pressure, [Pa]
+
+        Returns
+        -------
+        float
+            Flow from inlet to outlet (M32), [m^3/s]
         """
         y = dp - self.cracking_pressure
         pw = self.transition_pressure

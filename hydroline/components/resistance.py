@@ -14,11 +14,18 @@ class OrientedResistance(Component):
 
     Parameters
     ----------
-    compute : str   What the component outputs (its causality): "outlet" (inputs
-                    ``inlet_pressure``, ``flow``; output ``outlet_pressure = p_in - dp(q)``),
-                    "inlet" (inputs ``outlet_pressure``, ``flow``; output
-                    ``inlet_pressure = p_out + dp(q)``) or "flow" (inputs both pressures;
-                    output ``flow = q(p_in - p_out)``, the inverse law)
+    compute : str
+        What the component outputs (its causality): "outlet" (inputs
+        ``inlet_pressure``, ``flow``; output ``outlet_pressure = p_in - dp(q)``),
+        "inlet" (inputs ``outlet_pressure``, ``flow``; output
+        ``inlet_pressure = p_out + dp(q)``) or "flow" (inputs both pressures;
+        output ``flow = q(p_in - p_out)``, the inverse law)
+
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
     """
 
     compute: str = parameter("outlet", "str", "causality: what the component outputs",
@@ -40,7 +47,13 @@ class OrientedResistance(Component):
         self.outputs = {f"{self.compute}_pressure": Port("pressure", f"pressure at the {self.compute}")}
 
     def hydraulic_ends(self):
-        """Inlet and outlet, the flow passing through from one to the other."""
+        """Inlet and outlet, the flow passing through from one to the other.
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"inlet": HydraulicEnd("inlet_pressure", ("flow",)),
                 "outlet": HydraulicEnd("outlet_pressure", ("flow",))}
 
@@ -49,11 +62,13 @@ class OrientedResistance(Component):
 
         Parameters
         ----------
-        q : float   Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
+        q : float
+            Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
 
         Returns
         -------
-        float  Pressure drop, inlet minus outlet, [Pa]
+        float
+            Pressure drop, inlet minus outlet, [Pa]
         """
         raise NotImplementedError
 
@@ -62,11 +77,13 @@ class OrientedResistance(Component):
 
         Parameters
         ----------
-        dp : float   Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
+        dp : float
+            Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
 
         Returns
         -------
-        float  Flow from inlet to outlet, [m^3/s]
+        float
+            Flow from inlet to outlet, [m^3/s]
         """
         raise NotImplementedError
 
@@ -85,7 +102,16 @@ class LinearResistance(OrientedResistance):
 
     Parameters
     ----------
-    resistance : float   R, [Pa s/m^3]
+    resistance : float
+        R, [Pa s/m^3]
+
+    Other Parameters
+    ----------------
+    name, connections, compute
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+    compute
+        Causality, as for :class:`~hydroline.components.resistance.OrientedResistance`.
     """
 
     resistance: float = parameter(0.0, "Pa*s/m^3", "R of dp = R q (M1)", minimum=0.0,
@@ -102,11 +128,13 @@ class LinearResistance(OrientedResistance):
 
         Parameters
         ----------
-        q : float   Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
+        q : float
+            Flow from inlet to outlet (number or CasADi symbol), [m^3/s]
 
         Returns
         -------
-        float  Pressure drop, inlet minus outlet, [Pa]
+        float
+            Pressure drop, inlet minus outlet, [Pa]
         """
         return self.resistance * q                      # (M1)
 
@@ -115,10 +143,12 @@ class LinearResistance(OrientedResistance):
 
         Parameters
         ----------
-        dp : float   Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
+        dp : float
+            Pressure drop, inlet minus outlet (number or CasADi symbol), [Pa]
 
         Returns
         -------
-        float  Flow from inlet to outlet, [m^3/s]
+        float
+            Flow from inlet to outlet, [m^3/s]
         """
         return dp / self.resistance

@@ -29,13 +29,25 @@ class PressureSource(Component):
 
     Parameters
     ----------
-    pressure : float      Pressure (constant), or the waveform's value at t = 0 (may be
-                          omitted then), [Pa] (absolute)
-    waveform : Component  Command whose ``command`` output is the absolute pressure, [Pa];
-                          None for a constant
-    step_time : float     Time of an optional single step, [s]; None for none
-    step_to : float       Pressure after that step, [Pa]
+    pressure : float
+        Pressure (constant), or the waveform's value at t = 0 (may be
+        omitted then), [Pa] (absolute)
+    waveform : Component
+        Command whose ``command`` output is the absolute pressure, [Pa];
+        None for a constant
+    step_time : float
+        Time of an optional single step, [s]; None for none
+    step_to : float
+        Pressure after that step, [Pa]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: output ``pressure`` [Pa].
     """
 
@@ -74,7 +86,13 @@ class PressureSource(Component):
                              f"waveform's value at t = 0 ({start:g} Pa), or be omitted")
 
     def hydraulic_ends(self):
-        """Its port: a prescribed pressure (it takes any flow)."""
+        """Its port: a prescribed pressure (it takes any flow).
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"port": HydraulicEnd("pressure")}
 
     def waveform_value(self, t: float) -> float:
@@ -82,11 +100,13 @@ class PressureSource(Component):
 
         Parameters
         ----------
-        t : float   Time, [s]
+        t : float
+            Time, [s]
 
         Returns
         -------
-        float  Source pressure, [Pa]
+        float
+            Source pressure, [Pa]
         """
         if self.waveform is None:
             return float(self.pressure)

@@ -1,4 +1,4 @@
-"""A lumped hydraulic volume (a manifold node with compliance)."""
+"""A lumped hydraulic volume (a manifold node with compliance), (M33)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -19,14 +19,27 @@ class HydraulicVolume(Component):
 
     Parameters
     ----------
-    volume : float          V, [m^3]
-    bulk_modulus : float    beta of the oil in it, [Pa]
-    terms : dict            Input port name -> sign (+1 into the volume, -1 out of it)
-    nominal_pressure : float  Guess for the steady-state solver, [Pa]
-    fluid : Fluid or None   The rig's oil: entrained air (M40) and a cavity (M42) make the
-                            compliance ``V/K_eff(p) + V dphi/dp`` (M41); None or air-free oil
-                            without a cavity model: ``V/beta``
+    volume : float
+        V, [m^3]
+    bulk_modulus : float
+        beta of the oil in it, [Pa]
+    terms : dict
+        Input port name -> sign (+1 into the volume, -1 out of it)
+    nominal_pressure : float
+        Guess for the steady-state solver, [Pa]
+    fluid : Fluid or None
+        The rig's oil: entrained air (M40) and a cavity (M42) make the compliance
+        ``V/K_eff(p) + V dphi/dp`` (M41); None or air-free oil without a cavity model:
+        ``V/beta``
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Ports: the flow terms [m^3/s]; output ``pressure`` [Pa]. State ``pressure``.
     """
 
@@ -49,10 +62,17 @@ class HydraulicVolume(Component):
 
     @property
     def states(self):
+        """The state: ``pressure`` [Pa] of the oil in the volume."""
         return [State("pressure", "Pa", max(self.nominal_pressure, 1e5))]
 
     def hydraulic_ends(self):
-        """One node holding oil: its pressure and the flows into it."""
+        """One node holding oil: its pressure and the flows into it.
+
+        Returns
+        -------
+        dict
+            End name -> :class:`~hydroline.engine.component.HydraulicEnd`.
+        """
         return {"node": HydraulicEnd("pressure", tuple(self.terms), compliant=True)}
 
     def outputs_of(self, t, x, u, p):

@@ -60,11 +60,13 @@ def platform_folder(fmi: int = 2) -> str:
 
     Parameters
     ----------
-    fmi : int   FMI version, 2 or 3
+    fmi : int
+        FMI version, 2 or 3
 
     Returns
     -------
-    str  Folder name under ``binaries/`` in the FMU
+    str
+        Folder name under ``binaries/`` in the FMU
     """
     if fmi == 3:
         arch = {"amd64": "x86_64", "x86_64": "x86_64", "arm64": "aarch64", "aarch64": "aarch64",
@@ -113,12 +115,14 @@ def model_identifier(name: str) -> str:
 
     Parameters
     ----------
-    name : str   File stem, e.g. ``"servo-rig"``
+    name : str
+        File stem, e.g. ``"servo-rig"``
 
     Returns
     -------
-    str  The stem with every other character replaced by '_' (``hl_`` prefixed when it would
-         not start with a letter or '_')
+    str
+        The stem with every other character replaced by '_' (``hl_`` prefixed when it would
+        not start with a letter or '_')
     """
     ident = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in name)
     if not ident or not (ident[0].isalpha() or ident[0] == "_"):
@@ -415,25 +419,34 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
 
     Parameters
     ----------
-    rig : Rig, str or None   The rig (a path, or None for the embedded default)
-    out : path               The .fmu file to write; its stem is the modelIdentifier
-    fmi : int                FMI version: 2 (FMI 2.0) or 3 (FMI 3.0)
-    kind : str               "cs" (Co-Simulation: hydroline's BDF integrator between
-                             communication points), "me" (Model Exchange: the ODE, the
-                             importer integrates), or "both"
-    start : str              Scenario whose rest state the FMU starts from
-                             ("open-loop-step" or "closed-loop-sine", see
-                             :func:`hydroline.fmu.plant.rest_state`)
-    stop_time : float        DefaultExperiment stop time, [s] (the scenario's t_end if None)
+    rig : Rig, str or None
+        The rig (a path, or None for the embedded default)
+    out : path
+        The .fmu file to write; its stem is the modelIdentifier
+    fmi : int
+        FMI version: 2 (FMI 2.0) or 3 (FMI 3.0)
+    kind : str
+        "cs" (Co-Simulation: hydroline's BDF integrator between
+        communication points), "me" (Model Exchange: the ODE, the
+        importer integrates), or "both"
+    start : str
+        Scenario whose rest state the FMU starts from
+        ("open-loop-step" or "closed-loop-sine", see
+        :func:`hydroline.fmu.plant.rest_state`)
+    stop_time : float
+        DefaultExperiment stop time, [s] (the scenario's t_end if None)
 
     Returns
     -------
-    Path  The FMU written
+    Path
+        The FMU written
 
     Raises
     ------
-    ValueError             Bad arguments (one line)
-    CompilerUnavailable    No C compiler, or it failed
+    ValueError
+        Bad arguments (one line)
+    CompilerUnavailable
+        No C compiler, or it failed
     """
     if fmi not in FMI_VERSIONS:
         raise ValueError(f"--fmi: must be 2 (FMI 2.0) or 3 (FMI 3.0), got {fmi!r}")

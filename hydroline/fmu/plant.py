@@ -53,9 +53,12 @@ class Tunable:
 
     Attributes
     ----------
-    name : str          Rig path, also the FMU variable name
-    unit : str          SI unit
+    name : str
+        Rig path, also the FMU variable name
+    unit : str
+        SI unit
     description : str
+        What it is (the rig parameter's description).
     """
 
     name: str
@@ -87,15 +90,24 @@ class Plant:
 
     Attributes
     ----------
-    network : Network     Open-loop network; inputs are its runtime parameters
-    x : ndarray           Rest state, [SI]
-    p : ndarray           Runtime parameters at rest (inputs included), [SI]
-    inputs : dict         FMU input name -> index in p
-    tunables : list       The :class:`Tunable` entries, with their values in ``tunable_values``
-    tunable_values : ndarray  [SI]
-    start : str           Scenario whose rest state this is
-    residual : float      Scaled residual max |dz/dt| at the rest state, [1/s]
+    network : Network
+        Open-loop network; inputs are its runtime parameters
+    x : ndarray
+        Rest state, [SI]
+    p : ndarray
+        Runtime parameters at rest (inputs included), [SI]
+    inputs : dict
+        FMU input name -> index in p
+    tunables : list
+        The :class:`Tunable` entries, with their values in ``tunable_values``
+    tunable_values : ndarray
+        Values of the tunables, [SI]
+    start : str
+        Scenario whose rest state this is
+    residual : float
+        Scaled residual ``max |dz/dt|`` at the rest state, [1/s]
     rig : Rig
+        The rig the plant was built from.
     """
 
     network: object
@@ -125,12 +137,15 @@ def rest_state(rig: Rig, start: str = "open-loop-step") -> Plant:
 
     Parameters
     ----------
-    rig : Rig     Parameters (SI)
-    start : str   A scenario name (:data:`hydroline.scenarios.SCENARIOS`)
+    rig : Rig
+        Parameters (SI)
+    start : str
+        A scenario name (:data:`hydroline.scenarios.SCENARIOS`)
 
     Returns
     -------
     Plant
+        The open-loop network at its rest state, with its inputs and tunables.
     """
     if start not in SCENARIOS:
         raise ValueError(f"start: unknown scenario {start!r} (known: {', '.join(SCENARIOS)})")
@@ -234,11 +249,13 @@ def symbolic_model(plant: Plant):
 
     Parameters
     ----------
-    plant : Plant   The plant to export (network, inputs, outputs, tunable parameters)
+    plant : Plant
+        The plant to export (network, inputs, outputs, tunable parameters)
 
     Returns
     -------
-    object  The symbolic model (CasADi SX expressions and the network's names and scales)
+    object
+        The symbolic model (CasADi SX expressions and the network's names and scales)
     """
     net = plant.network
     n, m, k = len(net.state_names), len(net.parameter_names), len(plant.tunables)

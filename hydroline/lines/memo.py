@@ -3,29 +3,40 @@ kept in this process and in the on-disk cache (:mod:`hydroline.cache`): a later 
 same line skips the root finding, and a later process reads them in about a millisecond."""
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 
 from ..cache import load_table, store_table
 
 __all__ = ["LineMemo", "kept_in_memory"]
 
-#: False inside :class:`kept_in_memory`: the on-disk cache is neither read nor written.
-_STORE_ON_DISK = [True]
+
+class _DiskUse(threading.local):
+    """Per thread: False inside :class:`kept_in_memory`, where the on-disk cache is neither
+    read nor written. Per thread, because a sweep on a Dask cluster of threads runs variants
+    in several threads at once: one process-wide flag, saved and restored by overlapping
+    ``with`` blocks, was left False after the sweep, and every later line of the process was
+    solved again and never stored."""
+
+    store = True
+
+
+_DISK = _DiskUse()
 
 
 class kept_in_memory:
-    """Context manager: line numbers computed inside it are kept in this process's tables
-    only, neither looked up in nor written to the on-disk cache (:mod:`hydroline.cache`). A
-    sweep's worker meets thousands of lines (one per hose length) that no later run asks for
-    again: a file per line filled the cache directory (13 000 files after a few sweeps), and a
-    look-up that misses costs about as much as a solve."""
+    """Context manager: line numbers computed inside it (in this thread) are kept in this
+    process's tables only, neither looked up in nor written to the on-disk cache
+    (:mod:`hydroline.cache`). A sweep's worker meets thousands of lines (one per hose length)
+    that no later run asks for again: a file per line filled the cache directory (13 000 files
+    after a few sweeps), and a look-up that misses costs about as much as a solve."""
 
     def __enter__(self):
-        self._saved, _STORE_ON_DISK[0] = _STORE_ON_DISK[0], False
+        self._saved, _DISK.store = _DISK.store, False
         return self
 
     def __exit__(self, *exc):
-        _STORE_ON_DISK[0] = self._saved
+        _DISK.store = self._saved
         return False
 
 
@@ -70,7 +81,7 @@ class LineMemo:
             self.memory.move_to_end(key)
             return known
         value = None
-        if _STORE_ON_DISK[0]:
+        if _DISK.store:
             stored = load_table(self.kind, key)
             if stored is not None:
                 try:
@@ -79,7 +90,7 @@ class LineMemo:
                     value = None
         if value is None:
             value = compute()
-            if _STORE_ON_DISK[0]:
+            if _DISK.store:
                 store_table(self.kind, key, encode(value))
         self.memory[key] = value
         if len(self.memory) > self.kept:

@@ -7,18 +7,23 @@ they are read with the unit that :data:`hydroline.rigs.SCHEMA` gives the path, s
 number is refused wherever a unit matters.
 
 Value syntax (the text after ``PATH=`` of ``hydroline sweep --set``)
--------------------------------------------------------------------
-``150 MPa,178 MPa,220 MPa``      levels of a full factorial (one value: a constant override)
-``linspace(150 MPa, 220 MPa, 8)`` 8 evenly spaced levels, ends included
-``uniform(LOW, HIGH)``           random: uniform on [LOW, HIGH]
-``loguniform(LOW, HIGH)``        random: log-uniform on [LOW, HIGH] (LOW > 0)
-``normal(MEAN, STD)``            random: Gaussian (not truncated; a variant drawn outside
-                                 the physical range fails with its reason, e.g. a negative
-                                 bulk modulus)
-``lognormal(MEDIAN, SIGMA)``     random: ``MEDIAN * exp(SIGMA * z)``, z standard normal;
-                                 SIGMA is a plain number (the standard deviation of ln X)
-``triangular(LOW, MODE, HIGH)``  random: triangular
-``choice(V1, V2, ...)``          random: one of the values, equally likely
+---------------------------------------------------------------------
+
+=================================  ===========================================================
+text                               values
+=================================  ===========================================================
+``150 MPa,178 MPa,220 MPa``        levels of a full factorial (one value: a constant override)
+``linspace(150 MPa, 220 MPa, 8)``  8 evenly spaced levels, ends included
+``uniform(LOW, HIGH)``             random: uniform on [LOW, HIGH]
+``loguniform(LOW, HIGH)``          random: log-uniform on [LOW, HIGH] (LOW > 0)
+``normal(MEAN, STD)``              random: Gaussian (not truncated; a variant drawn outside
+                                   the physical range fails with its reason, e.g. a negative
+                                   bulk modulus)
+``lognormal(MEDIAN, SIGMA)``       random: ``MEDIAN * exp(SIGMA * z)``, z standard normal;
+                                   SIGMA is a plain number (the standard deviation of ln X)
+``triangular(LOW, MODE, HIGH)``    random: triangular
+``choice(V1, V2, ...)``            random: one of the values, equally likely
+=================================  ===========================================================
 
 A full factorial takes every combination of the levels; the first parameter varies slowest,
 and variant ``i`` is the mixed-radix number of the level indices. A random design
@@ -52,12 +57,20 @@ def parameter_unit(path: str, rig: Rig | None = None) -> str:
 
     Parameters
     ----------
-    path : str   Dotted rig path
-    rig : Rig    The rig the path belongs to (needed for circuit paths)
+    path : str
+        Dotted rig path
+    rig : Rig
+        The rig the path belongs to (needed for circuit paths)
+
+    Returns
+    -------
+    str
+        The SI unit, "-" for a dimensionless and "str" for a text parameter.
 
     Raises
     ------
-    RigError  (one line) for a path the rig does not know or that cannot be swept.
+    RigError
+        One line, for a path the rig does not know or that cannot be swept.
     """
     path = path.strip()
     if path.startswith("circuit."):
@@ -122,9 +135,11 @@ class Distribution:
 
     Attributes
     ----------
-    kind : str       One of :data:`DISTRIBUTIONS`
-    args : tuple     Its arguments in SI units (``lognormal``'s SIGMA dimensionless,
-                     ``choice``'s the values), [unit of the parameter]
+    kind : str
+        One of :data:`DISTRIBUTIONS`
+    args : tuple
+        Its arguments in SI units (``lognormal``'s SIGMA dimensionless,
+        ``choice``'s the values), [unit of the parameter]
     """
 
     kind: str
@@ -135,7 +150,13 @@ class Distribution:
 
         Parameters
         ----------
-        rng : numpy.random.Generator   The sweep's random generator (seeded: reproducible)
+        rng : numpy.random.Generator
+            The sweep's random generator (seeded: reproducible)
+
+        Returns
+        -------
+        float or object
+            The drawn value, [unit of the parameter] (``choice``: one of its values).
         """
         a = self.args
         if self.kind == "uniform":
@@ -157,7 +178,13 @@ class Distribution:
 
         Parameters
         ----------
-        unit : str   The parameter's SI unit, shown after each value ("-", "str": none)
+        unit : str
+            The parameter's SI unit, shown after each value ("-", "str": none)
+
+        Returns
+        -------
+        str
+            The text.
         """
         u = "" if unit in ("-", "str") else f" {unit}"
         if self.kind == "lognormal":
@@ -177,11 +204,16 @@ class Parameter:
 
     Attributes
     ----------
-    paths : tuple[str]           Rig paths that take the same value
-    unit : str                   Their SI unit ("-" dimensionless, "str" text)
-    levels : tuple               Factorial levels in SI (None for a distribution)
-    distribution : Distribution  For random designs (None for levels)
-    spec : str                   The values as given (for the results file's header)
+    paths : tuple[str]
+        Rig paths that take the same value
+    unit : str
+        Their SI unit ("-" dimensionless, "str" text)
+    levels : tuple
+        Factorial levels in SI (None for a distribution)
+    distribution : Distribution
+        For random designs (None for levels)
+    spec : str
+        The values as given (for the results file's header)
     """
 
     paths: tuple
@@ -192,10 +224,17 @@ class Parameter:
 
     @property
     def name(self) -> str:
+        """The paths joined by ``+`` (as given on the command line)."""
         return "+".join(self.paths)
 
     def describe(self) -> str:
-        """The parameter's levels or distribution as text, with its unit."""
+        """The parameter's levels or distribution as text, with its unit.
+
+        Returns
+        -------
+        str
+            E.g. ``150 MPa, 220 MPa`` or ``uniform(150 MPa, 220 MPa)``.
+        """
         if self.distribution is not None:
             return self.distribution.describe(self.unit)
         u = "" if self.unit in ("-", "str") else f" {self.unit}"
@@ -221,22 +260,26 @@ def parse_parameter(path, values, rig: Rig | None = None) -> Parameter:
 
     Parameters
     ----------
-    path : str     Rig path(s), joined by ``+`` to set several to the same value
+    path : str
+        Rig path(s), joined by ``+`` to set several to the same value
     values : str, list or Distribution
-                   Text in the syntax of the module docstring (``"150 MPa,220 MPa"``,
-                   ``"uniform(150 MPa, 220 MPa)"``), a list of quantities (strings with
-                   units, pint Quantities, plain numbers for dimensionless parameters), or a
-                   :class:`Distribution` already in SI units
-    rig : Rig      The rig swept (needed for ``circuit.<component>.<parameter>`` paths, whose
-                   unit the component's type declares)
+        Text in the syntax of the module docstring (``"150 MPa,220 MPa"``,
+        ``"uniform(150 MPa, 220 MPa)"``), a list of quantities (strings with units, pint
+        Quantities, plain numbers for dimensionless parameters), or a :class:`Distribution`
+        already in SI units
+    rig : Rig
+        The rig swept (needed for ``circuit.<component>.<parameter>`` paths, whose
+        unit the component's type declares)
 
     Returns
     -------
     Parameter
+        The paths, their SI unit and the levels or distribution.
 
     Raises
     ------
-    RigError / UnitError (ValueError), one line naming the path and its unit.
+    RigError, UnitError
+        (ValueErrors) One line naming the path and its unit.
     """
     paths = _parse_paths(path, rig)
     unit = parameter_unit(paths[0], rig)
@@ -330,8 +373,15 @@ def parse_parameters(parameters, rig: Rig | None = None) -> list[Parameter]:
 
     Parameters
     ----------
-    parameters : list or dict   As :func:`hydroline.studies.sweep` takes them
-    rig : Rig                   The rig swept (units of circuit paths)
+    parameters : list or dict
+        As :func:`hydroline.studies.sweep` takes them
+    rig : Rig
+        The rig swept (units of circuit paths)
+
+    Returns
+    -------
+    list[Parameter]
+        The parameters, in the order given.
     """
     out = []
     if isinstance(parameters, dict):
@@ -369,8 +419,11 @@ class Design:
     Parameters
     ----------
     parameters : list[Parameter]
-    samples : int    Number of random variants; None for the full factorial
-    seed : int       Seed of the random design (variant i uses ``default_rng([seed, i])``)
+        The varied parameters (:func:`parse_parameters`).
+    samples : int
+        Number of random variants; None for the full factorial
+    seed : int
+        Seed of the random design (variant i uses ``default_rng([seed, i])``)
     """
 
     parameters: list
@@ -395,6 +448,7 @@ class Design:
 
     @property
     def kind(self) -> str:
+        """"factorial" or "random"."""
         return "factorial" if self.samples is None else "random"
 
     def __len__(self) -> int:
@@ -410,7 +464,13 @@ class Design:
 
         Parameters
         ----------
-        i : int   Variant number, 0 <= i < len(design)
+        i : int
+            Variant number, 0 <= i < len(design)
+
+        Returns
+        -------
+        dict
+            Rig path -> value, [SI]
         """
         if not 0 <= i < len(self):
             raise IndexError(f"variant {i} out of range 0..{len(self) - 1}")
@@ -437,7 +497,13 @@ class Design:
         return (self.variant(i) for i in range(len(self)))
 
     def describe(self) -> str:
-        """The design as text: full factorial (its sizes) or random samples (count, seed)."""
+        """The design as text: full factorial (its sizes) or random samples (count, seed).
+
+        Returns
+        -------
+        str
+            E.g. ``full factorial 3 x 2 = 6 variants`` or ``16 random variants (seed 1)``.
+        """
         if self.samples is None:
             if len(self._sizes) == 1:
                 return f"full factorial, {len(self)} variants"
@@ -446,7 +512,14 @@ class Design:
         return f"{self.samples} random variants (seed {self.seed})"
 
     def header(self) -> dict:
-        """What identifies the design in a results file (N excluded: samples extend)."""
+        """What identifies the design in a results file (N excluded: samples extend).
+
+        Returns
+        -------
+        dict
+            JSON-ready: the kind, the seed and each parameter's paths, unit, levels or
+            distribution.
+        """
         return {"kind": self.kind, "seed": self.seed if self.samples is not None else None,
                 "parameters": [{"paths": list(p.paths), "unit": p.unit,
                                 "levels": None if p.levels is None else list(p.levels),

@@ -85,20 +85,29 @@ def virtual_friction_tests(rig: Rig | str | None = None, currents=None, t_run: f
     Parameters
     ----------
     rig : Rig, str or None
-    currents : list[float]   Current steps [A]; +-(1, 3, 10, 25) % of rated when None
-    t_run : float            Longest run, [s]
-    sine : bool              Also run the closed-loop sine
-    dt : float               Sampling interval, [s]
-    slow_currents : list     Current steps of the slow runs against the damper [A];
-                             +-(0.1, 0.14, 0.2, 0.3, 0.4) % of rated when None (about 2-9 mm/s
-                             on the default rig); () for none
-    damper : float           Damping of the slow runs' specimen, [N s/m]
-    axis : str               The axis tested (None: the first); the others hold. Its load
-                             takes the damper; the sine is the rig's ``closed-loop-sine`` on it
+        The rig (None: the embedded default).
+    currents : list[float]
+        Current steps [A]; +-(1, 3, 10, 25) % of rated when None
+    t_run : float
+        Longest run, [s]
+    sine : bool
+        Also run the closed-loop sine
+    dt : float
+        Sampling interval, [s]
+    slow_currents : list
+        Current steps of the slow runs against the damper [A];
+        +-(0.1, 0.14, 0.2, 0.3, 0.4) % of rated when None (about 2-9 mm/s
+        on the default rig); () for none
+    damper : float
+        Damping of the slow runs' specimen, [N s/m]
+    axis : str
+        The axis tested (None: the first); the others hold. Its load
+        takes the damper; the sine is the rig's ``closed-loop-sine`` on it
 
     Returns
     -------
-    (steady, sine) : lists of Measurements
+    steady, sine : list of Measurements
+        The open-loop runs (slow runs included) and the closed-loop sine records.
     """
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     ax = select_axis(rig, axis)

@@ -90,11 +90,13 @@ def parse_lengths(lengths) -> list[float]:
 
     Returns
     -------
-    list[float]  [m]
+    list[float]
+        The lengths, [m]
 
     Raises
     ------
-    UnitError / RigError (ValueError), one line naming ``--lengths``.
+    UnitError, RigError
+        (ValueErrors) One line naming ``--lengths``.
     """
     items = [s.strip() for s in lengths.split(",")] if isinstance(lengths, str) else list(lengths)
     if not items or any(isinstance(s, str) and not s for s in items):
@@ -125,20 +127,31 @@ class LayoutStudy:
 
     Attributes
     ----------
-    lengths : list[float]      Section II lengths, [m]
-    summaries : list[dict]     :func:`hydroline.studies.settling.port_summary` of each run
-                               (``summarize`` with ``settling_method``/``settling_note``)
-    results : list             The :class:`~hydroline.engine.SimulationResult` of each run
-    sides : tuple              Which sections II were set ("supply", "return")
+    lengths : list[float]
+        Section II lengths, [m]
+    summaries : list[dict]
+        :func:`hydroline.studies.settling.port_summary` of each run
+        (``summarize`` with ``settling_method``/``settling_note``)
+    results : list
+        The :class:`~hydroline.engine.SimulationResult` of each run
+    sides : tuple
+        Which sections II were set ("supply", "return")
     scenario : str
+        The scenario run for every length.
     rig_name : str
-    wall_time : float          Wall time of the whole study, [s]
-    wave_speeds : dict         side -> wave speed c of its section II (M2), [m/s]
-    files : dict               What :meth:`save` wrote
-    sections : tuple           The hose sections whose length was set (template rig:
-                               ``supply.section2``, ...; circuit rig: component names)
-    axis : str                 The servo axis whose port pressures the study reports (a
-                               multi-axis rig; None on a single-axis rig)
+        The rig's name (its file, or the embedded rig's).
+    wall_time : float
+        Wall time of the whole study, [s]
+    wave_speeds : dict
+        side -> wave speed c of its section II (M2), [m/s]
+    files : dict
+        What :meth:`save` wrote
+    sections : tuple
+        The hose sections whose length was set (template rig:
+        ``supply.section2``, ...; circuit rig: component names)
+    axis : str
+        The servo axis whose port pressures the study reports (a
+        multi-axis rig; None on a single-axis rig)
     """
 
     lengths: list
@@ -201,15 +214,20 @@ class LayoutStudy:
                           + " (every metric: .table(); the traces: .traces())")
 
     def table(self) -> "pandas.DataFrame":
-        """One row per length: section2_length_m, {supply,return}_{frequency_hz,
-        amplitude_mpa, settling_time_s, settling_band_mpa, first_excursion_mpa,
-        steady_change_mpa, peak_to_peak_mpa, settling_method, settling_note, amplitude_note},
-        settling_band (in words),
-        flow_rise_time_ms (10-90 % rise of the valve's supply-port flow after the step),
-        {supply,return}_round_trip_ms (2 L / c of that section II),
-        {supply,return}_valve_bound_mpa (the most the valve's flow rise can put into that
-        section's quarter-wave swing, docs/model.md M26), wall_time_s, warnings
-        (NaN where a metric does not exist)."""
+        """The metrics as a table, one row per length.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``section2_length_m``, ``{supply,return}_{frequency_hz, amplitude_mpa,
+            settling_time_s, settling_band_mpa, first_excursion_mpa, steady_change_mpa,
+            peak_to_peak_mpa, settling_method, settling_note, amplitude_note}``,
+            ``settling_band`` (in words), ``flow_rise_time_ms`` (10-90 % rise of the valve's
+            supply-port flow after the step), ``{supply,return}_round_trip_ms`` (2 L / c of
+            that section II), ``{supply,return}_valve_bound_mpa`` (the most the valve's flow
+            rise can put into that section's quarter-wave swing, docs/model.md M26),
+            ``wall_time_s``, ``warnings``; NaN where a metric does not exist.
+        """
         import pandas as pd     # here: a sweep's worker imports this module, never a table
 
         rows = []
@@ -257,9 +275,14 @@ class LayoutStudy:
         return res[f"{side}_port_pressure"]
 
     def traces(self) -> "pandas.DataFrame":
-        """Port pressures of every run on the common output grid: ``time_s`` and
-        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa] (on a
-        multi-axis rig those of the reported :attr:`axis`)."""
+        """Port pressures of every run on the common output grid (on a multi-axis rig those of
+        the reported :attr:`axis`).
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``time_s`` [s] and ``{supply,return}_port_pressure_pa@L=<length>m`` [Pa].
+        """
         import pandas as pd
 
         t = self.results[0].t
@@ -299,21 +322,24 @@ class LayoutStudy:
 
         Parameters
         ----------
-        folder : path        Output folder (created)
-        temp : callable      ``temp(name) -> path`` to write each file to first (e.g. the CLI's
-                             atomic writer, which renames them all at the end); the final names
-                             are returned either way
-        traces_format : str  The traces as "csv" (``layout_traces.csv``, columns ``time_s``
-                             and ``{supply,return}_port_pressure_pa@L=<length>m``), "parquet"
-                             or "mat" (``layout_traces.parquet`` / ``.mat``: a column or
-                             variable ``time`` [s] and one per trace,
-                             ``{supply,return}_port_pressure@L=<length>m`` [Pa] (in MAT
-                             ``..._L_<length>m``), their units in the file as ``hydroline
-                             simulate --format`` writes them)
+        folder : path
+            Output folder (created)
+        temp : callable
+            ``temp(name) -> path`` to write each file to first (e.g. the CLI's
+            atomic writer, which renames them all at the end); the final names
+            are returned either way
+        traces_format : str
+            The traces as "csv" (``layout_traces.csv``, columns ``time_s`` and
+            ``{supply,return}_port_pressure_pa@L=<length>m``), "parquet" or "mat"
+            (``layout_traces.parquet`` / ``.mat``: a column or variable ``time`` [s] and one
+            per trace, ``{supply,return}_port_pressure@L=<length>m`` [Pa] (in MAT
+            ``..._L_<length>m``), their units in the file as ``hydroline simulate --format``
+            writes them)
 
         Returns
         -------
-        dict  role ("csv", "traces", "figure") -> path
+        dict
+            role ("csv", "traces", "figure") -> path
         """
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
@@ -345,12 +371,15 @@ class LayoutStudy:
 
         Parameters
         ----------
-        path : str or Path   Write the figure there (PNG) when given
-        title : str          Figure title
+        path : str or Path
+            Write the figure there (PNG) when given
+        title : str
+            Figure title
 
         Returns
         -------
-        matplotlib.figure.Figure (written as PNG to ``path`` when given)
+        matplotlib.figure.Figure
+            The figure (written as PNG to ``path`` when given).
         """
         from matplotlib.lines import Line2D
 
@@ -535,11 +564,13 @@ def conclusion(study: "LayoutStudy") -> str:
 
     Parameters
     ----------
-    study : LayoutStudy   A finished layout study
+    study : LayoutStudy
+        A finished layout study
 
     Returns
     -------
-    str  One sentence
+    str
+        One sentence
     """
     recs = {r["section2_length_m"]: r for r in study.records()}
     hoses = sorted(L for L in recs if L > 0)
@@ -637,23 +668,28 @@ def layout_sections(rig: Rig, sections=None, sides=SIDES) -> tuple:
 
     Parameters
     ----------
-    rig : Rig                 The rig
-    sections : str or sequence  Hose sections by name, comma-separated or a sequence: on a
-                              template rig ``supply.section2``, ``return.section1``, ...; on
-                              a circuit rig its hose components (``axis1.supply_hose``;
-                              a ``circuit.`` prefix is allowed). None: the sections II of
-                              ``sides`` (template rigs, and circuit rigs with hoses named
-                              ``supply.section2`` / ``return.section2``)
-    sides : sequence          "supply" and/or "return", for the default
+    rig : Rig
+        The rig
+    sections : str or sequence
+        Hose sections by name, comma-separated or a sequence: on a
+        template rig ``supply.section2``, ``return.section1``, ...; on
+        a circuit rig its hose components (``axis1.supply_hose``;
+        a ``circuit.`` prefix is allowed). None: the sections II of
+        ``sides`` (template rigs, and circuit rigs with hoses named
+        ``supply.section2`` / ``return.section2``)
+    sides : sequence
+        "supply" and/or "return", for the default
 
     Returns
     -------
-    tuple[str]  Section names (circuit component names without ``circuit.``)
+    tuple[str]
+        Section names (circuit component names without ``circuit.``)
 
     Raises
     ------
-    RigError  One line naming the rig: a section it does not have, or a circuit rig whose
-              hoses the study cannot tell (name them with ``--sections``).
+    RigError
+        One line naming the rig: a section it does not have, or a circuit rig whose
+        hoses the study cannot tell (name them with ``--sections``).
     """
     from ..circuit import has_circuit
 
@@ -747,31 +783,42 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
 
     Parameters
     ----------
-    rig : Rig, str or None   The rig (None: the embedded 2005 paper's rig; a shipped rig may
-                             be named)
-    lengths : sequence or str  Section lengths, [m] (numbers are metres; strings may carry
-                             units, "10 ft"); 0 removes a template rig's section
-                             (close-coupled manifold)
-    sides : sequence         Which sections II take the length: "supply", "return" or both
-                             (when ``sections`` is None)
-    sections : str or sequence  The hose sections that take the length (see
-                             :func:`layout_sections`): a circuit rig's hose components, e.g.
-                             "axis1.supply_hose,axis1.return_hose"; None: the sections II
-    axis : str               Multi-axis rig: the axis whose port pressures are reported (None:
-                             the axis the first section belongs to by name, else the stepped)
-    scenario : str           One of :func:`hydroline.scenarios.scenario_names`; None: the rig's
-                             ``rig.scenario``, else "open-loop-step" (the paper's)
-    t_end : float            Simulated time, [s]; the scenario's default when None
-    solver : str             See :func:`hydroline.engine.integrate`
-    progress : callable      ``progress(done, total)`` after each length
-    settling_band : SettlingBand or str  The port pressures' settling band
-                             (:meth:`hydroline.traces.metrics.SettlingBand.parse`; default +-2 %
-                             of the final absolute pressure)
+    rig : Rig, str or None
+        The rig (None: the embedded 2005 paper's rig; a shipped rig may
+        be named)
+    lengths : sequence or str
+        Section lengths, [m] (numbers are metres; strings may carry
+        units, "10 ft"); 0 removes a template rig's section
+        (close-coupled manifold)
+    sides : sequence
+        Which sections II take the length: "supply", "return" or both
+        (when ``sections`` is None)
+    sections : str or sequence
+        The hose sections that take the length (see
+        :func:`layout_sections`): a circuit rig's hose components, e.g.
+        "axis1.supply_hose,axis1.return_hose"; None: the sections II
+    axis : str
+        Multi-axis rig: the axis whose port pressures are reported (None:
+        the axis the first section belongs to by name, else the stepped)
+    scenario : str
+        One of :func:`hydroline.scenarios.scenario_names`; None: the rig's
+        ``rig.scenario``, else "open-loop-step" (the paper's)
+    t_end : float
+        Simulated time, [s]; the scenario's default when None
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    progress : callable
+        ``progress(done, total)`` after each length
+    settling_band : SettlingBand or str
+        The port pressures' settling band
+        (:meth:`hydroline.traces.metrics.SettlingBand.parse`; default +-2 %
+        of the final absolute pressure)
 
     Returns
     -------
-    LayoutStudy  (``records()`` is the ``--json`` list, ``table()`` a DataFrame,
-    ``plot()``/``save(folder)`` the figure and CSV files)
+    LayoutStudy
+        The runs and their metrics: ``records()`` is the ``--json`` list, ``table()`` a
+        DataFrame, ``plot()`` and ``save(folder)`` the figure and CSV files.
     """
     from ..scenarios.experiments import default_scenario
 
@@ -841,12 +888,17 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
 
 
 def layout_sections_available(rig: Rig) -> list[str]:
-    """Every hose section of the rig by name (template: ``supply.section1`` ...; circuit: its
-    hose components).
+    """Every hose section of the rig by name.
 
     Parameters
     ----------
-    rig : Rig   The rig
+    rig : Rig
+        The rig
+
+    Returns
+    -------
+    list[str]
+        Template rig: ``supply.section1`` ...; circuit rig: its hose components.
     """
     from ..circuit import circuit_names, has_circuit
 

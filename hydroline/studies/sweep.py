@@ -103,18 +103,21 @@ def metric_columns(axes=(), scenario: str = "open-loop-step") -> list[str]:
 
     Parameters
     ----------
-    axes : sequence of str   The rig's servo axes (:attr:`hydroline.circuit.Circuit.axes`);
-                             with one axis or none, the single-axis columns
-                             :data:`METRIC_COLUMNS`
-    scenario : str           Scenario name (closed-loop-sine adds :data:`TRACKING_COLUMNS`)
+    axes : sequence of str
+        The rig's servo axes (:attr:`hydroline.circuit.Circuit.axes`);
+        with one axis or none, the single-axis columns
+        :data:`METRIC_COLUMNS`
+    scenario : str
+        Scenario name (closed-loop-sine adds :data:`TRACKING_COLUMNS`)
 
     Returns
     -------
-    list[str]  Single axis: :data:`METRIC_COLUMNS`; several: ``<axis>.<side>.<metric>`` for
-               each axis, side and :data:`PORT_METRICS` (frequencies [Hz], amplitudes,
-               excursions, changes, peak-to-peak [MPa], settling times [s]),
-               ``<axis>.position_disturbance_mm`` and ``<axis>.position_change_mm`` [mm],
-               then ``wall_time_s`` [s]
+    list[str]
+        Single axis: :data:`METRIC_COLUMNS`; several: ``<axis>.<side>.<metric>`` for
+        each axis, side and :data:`PORT_METRICS` (frequencies [Hz], amplitudes,
+        excursions, changes, peak-to-peak [MPa], settling times [s]),
+        ``<axis>.position_disturbance_mm`` and ``<axis>.position_change_mm`` [mm],
+        then ``wall_time_s`` [s]
     """
     axes = list(axes)
     if len(axes) <= 1:
@@ -126,13 +129,18 @@ def metric_columns(axes=(), scenario: str = "open-loop-step") -> list[str]:
 
 
 def settling_columns(axes=()) -> list[str]:
-    """The text columns that say how each settling time was obtained ("measured",
-    "estimated" or ""): :data:`SETTLING_COLUMNS`, or ``<axis>.<side>.settling_method`` per
-    axis of a multi-axis rig.
+    """The text columns that say how each settling time was obtained.
 
     Parameters
     ----------
-    axes : sequence of str   The rig's servo axes
+    axes : sequence of str
+        The rig's servo axes
+
+    Returns
+    -------
+    list[str]
+        :data:`SETTLING_COLUMNS`, or ``<axis>.<side>.settling_method`` per axis of a
+        multi-axis rig; their values are "measured", "estimated" or "".
     """
     axes = list(axes)
     if len(axes) <= 1:
@@ -141,14 +149,21 @@ def settling_columns(axes=()) -> list[str]:
 
 
 def row_columns(design: Design, axes=(), scenario: str = "open-loop-step") -> list[str]:
-    """Every column of a sweep's table, in order: ``variant``, the inputs, the metrics, the
-    settling methods, ``warnings``, ``error``.
+    """Every column of a sweep's table, in order.
 
     Parameters
     ----------
-    design : Design          The variants
-    axes : sequence of str   The rig's servo axes
-    scenario : str           Scenario name
+    design : Design
+        The variants
+    axes : sequence of str
+        The rig's servo axes
+    scenario : str
+        Scenario name
+
+    Returns
+    -------
+    list[str]
+        ``variant``, the inputs, the metrics, the settling methods, ``warnings``, ``error``.
     """
     return ["variant", *design.columns, *metric_columns(axes, scenario), *settling_columns(axes),
             "warnings", "error"]
@@ -186,12 +201,15 @@ def check_levels(rig: Rig, params) -> None:
 
     Parameters
     ----------
-    rig : Rig                   The base rig
-    params : list[Parameter]    The parsed parameters (:func:`~hydroline.studies.design.parse_parameters`)
+    rig : Rig
+        The base rig
+    params : list[Parameter]
+        The parsed parameters (:func:`~hydroline.studies.design.parse_parameters`)
 
     Raises
     ------
-    RigError  One line: ``PATH: <value> is outside its plausible range, ...``
+    RigError
+        One line: ``PATH: <value> is outside its plausible range, ...``
     """
     from ..circuit import CircuitError, check_circuit_value
     from ..rigs.parameters import check_ranges
@@ -225,11 +243,21 @@ def failed_row(index: int, values: dict, reason: str, scenario: str = "open-loop
 
     Parameters
     ----------
-    index : int              Variant number, [-]
-    values : dict            Rig path -> SI value
-    reason : str             Why it failed ("Type: message")
-    scenario : str           Scenario name
-    axes : sequence of str   The rig's servo axes (for the per-axis columns)
+    index : int
+        Variant number, [-]
+    values : dict
+        Rig path -> SI value
+    reason : str
+        Why it failed ("Type: message")
+    scenario : str
+        Scenario name
+    axes : sequence of str
+        The rig's servo axes (for the per-axis columns)
+
+    Returns
+    -------
+    dict
+        Column -> value: the inputs, None for every metric, ``error`` the reason.
     """
     row = _empty_row(index, values, axes, scenario)
     row["error"] = reason
@@ -282,20 +310,29 @@ class VariantRunner:
 
     Parameters
     ----------
-    rig : Rig            The base rig (not modified)
-    scenario : str       Scenario name (:func:`hydroline.scenarios.scenario_names`)
-    t_end : float        Simulated time, [s]; the scenario's default when None
-    solver : str         See :func:`hydroline.engine.integrate`
-    units : dict         Rig path -> SI unit (looked up in the rig when None)
-    axes : sequence      The rig's servo axes (names), for the row's columns
-    share_models : bool  Share one model among variants of one structure (False: every
-                         variant through :func:`hydroline.scenarios.simulate`)
+    rig : Rig
+        The base rig (not modified)
+    scenario : str
+        Scenario name (:func:`hydroline.scenarios.scenario_names`)
+    t_end : float
+        Simulated time, [s]; the scenario's default when None
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    units : dict
+        Rig path -> SI unit (looked up in the rig when None)
+    axes : sequence
+        The rig's servo axes (names), for the row's columns
+    share_models : bool
+        Share one model among variants of one structure (False: every
+        variant through :func:`hydroline.scenarios.simulate`)
 
     Attributes
     ----------
-    shared_runs : int    Variants run here on a model shared with an earlier variant, [-]
-    hose_runs : int      Of those, variants that differed only in hoses (no network built,
-                         :meth:`SharedModel.hose_parameters`), [-]
+    shared_runs : int
+        Variants run here on a model shared with an earlier variant, [-]
+    hose_runs : int
+        Of those, variants that differed only in hoses (no network built,
+        :meth:`SharedModel.hose_parameters`), [-]
     """
 
     #: Structures kept per runner (their networks and compiled libraries), [-].
@@ -349,11 +386,13 @@ class VariantRunner:
 
         Parameters
         ----------
-        rig : Rig   The variant
+        rig : Rig
+            The variant
 
         Returns
         -------
         SimulationResult
+            The run, with the metadata and warnings ``simulate`` gives.
         """
         if not self.share_models or self.solver not in ("auto", "compiled") or \
                 any(k.endswith(".file") for k in rig.values):     # a table file may change
@@ -372,11 +411,13 @@ def graph_signature(network):
 
     Parameters
     ----------
-    network : Network   The assembled model
+    network : Network
+        The assembled model
 
     Returns
     -------
-    str or tuple  hashable
+    str or tuple
+        A hashable signature.
     """
     from ..engine.fingerprint import components_signature
 
@@ -408,19 +449,27 @@ class SharedModel:
 
     Parameters
     ----------
-    network : Network   Built with the hoses' matrix entries in p (its p is swapped per
-                        variant)
-    circuit : Circuit   The rig's circuit (axis handles)
-    scenario : Scenario The experiment's commands and times
-    values : dict       Rig values (SI) of the variant it was built for
+    network : Network
+        Built with the hoses' matrix entries in p (its p is swapped per
+        variant)
+    circuit : Circuit
+        The rig's circuit (axis handles)
+    scenario : Scenario
+        The experiment's commands and times
+    values : dict
+        Rig values (SI) of the variant it was built for
 
     Attributes
     ----------
-    p : ndarray         Runtime parameters of that variant, [SI]
-    hoses : dict        Hose section name -> its component (matrix entries in p)
-    hose_entries : dict Hose section name -> indices of its entries in p, in the order of
-                        its :meth:`~hydroline.components.HoseSection.runtime_parameters`
-    rest : ndarray      The last variant's solved rest state, [SI] (None before the first)
+    p : ndarray
+        Runtime parameters of that variant, [SI]
+    hoses : dict
+        Hose section name -> its component (matrix entries in p)
+    hose_entries : dict
+        Hose section name -> indices of its entries in p, in the order of its
+        :meth:`~hydroline.components.HoseSection.runtime_parameters`
+    rest : ndarray
+        The last variant's solved rest state, [SI] (None before the first)
     """
 
     def __init__(self, network, circuit, scenario, values: dict):
@@ -444,13 +493,18 @@ class SharedModel:
         self.rest = None
 
     def changed_hoses(self, rig: Rig):
-        """The hose sections whose length, bore or bulk modulus (:data:`HOSE_KEYS`) differ in
-        ``rig``; None when anything else differs (or the rig describes its circuit, whose
-        hoses are read otherwise).
+        """The hose sections whose length, bore or bulk modulus (:data:`HOSE_KEYS`) differ.
 
         Parameters
         ----------
-        rig : Rig   A variant
+        rig : Rig
+            A variant
+
+        Returns
+        -------
+        list[str] or None
+            The sections; None when anything else differs (or the rig describes its circuit,
+            whose hoses are read otherwise).
         """
         from ..circuit import has_circuit
 
@@ -474,11 +528,13 @@ class SharedModel:
 
         Parameters
         ----------
-        rig : Rig   A variant
+        rig : Rig
+            A variant
 
         Returns
         -------
-        ndarray or None  Runtime parameters, [SI]
+        ndarray or None
+            Runtime parameters, [SI]
         """
         from ..lines import ModalLine
         from ..system import hose_lines, validate_rig
@@ -559,10 +615,16 @@ def _simulate_parameters() -> tuple:
 
 
 def simulate_defaults() -> dict:
-    """:func:`hydroline.scenarios.simulate`'s default output step [s], relative tolerance
-    [-] and absolute tolerance scale [-] (``dt_out``, ``rtol``, ``atol_scale``): a shared
-    model's run integrates as ``simulate()`` does (read from its signature, so that the two
-    cannot drift apart)."""
+    """:func:`hydroline.scenarios.simulate`'s default output step and tolerances.
+
+    A shared model's run integrates as ``simulate()`` does: the defaults are read from its
+    signature, so that the two cannot drift apart.
+
+    Returns
+    -------
+    dict
+        ``dt_out`` [s], ``rtol`` [-] and ``atol_scale`` [-].
+    """
     return dict(_simulate_parameters())
 
 
@@ -578,18 +640,25 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
 
     Parameters
     ----------
-    rig : Rig          The variant
-    scenario : str     Scenario name
-    t_end : float      Simulated time, [s] (the scenario's when None)
-    solver : str       "auto" or "compiled"
-    models : dict      signature -> :class:`SharedModel`, kept between calls (bounded by
-                       the caller, most recently used last)
-    counter : object   Its ``shared_runs`` (and ``hose_runs``, variants that needed no
-                       network build) are counted up where a model is shared
+    rig : Rig
+        The variant
+    scenario : str
+        Scenario name
+    t_end : float
+        Simulated time, [s] (the scenario's when None)
+    solver : str
+        "auto" or "compiled"
+    models : dict
+        signature -> :class:`SharedModel`, kept between calls (bounded by
+        the caller, most recently used last)
+    counter : object
+        Its ``shared_runs`` (and ``hose_runs``, variants that needed no
+        network build) are counted up where a model is shared
 
     Returns
     -------
-    SimulationResult  with the metadata and warnings ``simulate`` gives
+    SimulationResult
+        The run, with the metadata and warnings ``simulate`` gives.
     """
     from ..components.hose import coefficients_as_parameters
     from ..limits import check_output_size
@@ -641,25 +710,35 @@ def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-s
 
     Parameters
     ----------
-    rig : Rig          The base rig (not modified)
-    index : int        Variant number, [-]
-    values : dict      Rig path -> value in SI units (text for text parameters)
-    scenario : str     Scenario name, e.g. "open-loop-step", "closed-loop-sine", "position-step"
-    t_end : float      Simulated time, [s]; the scenario's default when None
-    solver : str       See :func:`hydroline.engine.integrate`
-    units : dict       Rig path -> SI unit (looked up in the rig when None)
-    axes : sequence    The rig's servo axes (names); several give per-axis columns
-    share_models : bool  Run on a model shared with earlier variants of this process's
-                       :class:`VariantRunner` (False: :func:`hydroline.scenarios.simulate`)
+    rig : Rig
+        The base rig (not modified)
+    index : int
+        Variant number, [-]
+    values : dict
+        Rig path -> value in SI units (text for text parameters)
+    scenario : str
+        Scenario name, e.g. "open-loop-step", "closed-loop-sine", "position-step"
+    t_end : float
+        Simulated time, [s]; the scenario's default when None
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    units : dict
+        Rig path -> SI unit (looked up in the rig when None)
+    axes : sequence
+        The rig's servo axes (names); several give per-axis columns
+    share_models : bool
+        Run on a model shared with earlier variants of this process's
+        :class:`VariantRunner` (False: :func:`hydroline.scenarios.simulate`)
 
     Returns
     -------
-    dict  ``variant``, the inputs, :func:`metric_columns` (frequencies [Hz], amplitudes,
-          first excursions, steady changes and peak-to-peak [MPa], settling times [s], wall
-          time [s]; None where a metric does not exist),
-          :func:`settling_columns` (how each settling time was obtained, as in the layout
-          study: :func:`hydroline.studies.settling.port_settling`), ``warnings`` (text, ""
-          when none) and ``error`` (None, or "Type: reason").
+    dict
+        ``variant``, the inputs, :func:`metric_columns` (frequencies [Hz], amplitudes,
+        first excursions, steady changes and peak-to-peak [MPa], settling times [s], wall
+        time [s]; None where a metric does not exist),
+        :func:`settling_columns` (how each settling time was obtained, as in the layout
+        study: :func:`hydroline.studies.settling.port_settling`), ``warnings`` (text, ""
+        when none) and ``error`` (None, or "Type: reason").
     """
     return VariantRunner(rig, scenario, t_end, solver, units, axes, share_models)(index, values)
 
@@ -678,22 +757,32 @@ class SweepResult:
 
     Attributes
     ----------
-    table : pandas.DataFrame  One row per finished variant, in variant order: ``variant``,
-                              the inputs (one column per rig path, SI units), the metrics
-                              (:attr:`metrics`), the settling methods, ``warnings`` and
-                              ``error``
-    design : Design           The variants
-    n_computed : int          Variants run by this call (the rest came from the results file)
-    wall_time : float         Wall time of this call, [s]
-    files : dict              "journal", "csv", "parquet" -> Path of the files written
-    complete : bool           Every variant of the design is in the table
-    notes : list[str]         What the user should know about the files: sweep.parquet not
-                              written (pyarrow missing), rows of the results file beyond
-                              this design left out of the table (a larger --samples earlier)
-    metrics : list[str]       The numeric metric columns (:func:`metric_columns`: per axis
-                              ``<axis>.<side>.<metric>`` on a multi-axis rig)
-    axes : list[str]          The rig's servo axes
-    scenario : str            The scenario every variant ran
+    table : pandas.DataFrame
+        One row per finished variant, in variant order: ``variant``,
+        the inputs (one column per rig path, SI units), the metrics
+        (:attr:`metrics`), the settling methods, ``warnings`` and
+        ``error``
+    design : Design
+        The variants
+    n_computed : int
+        Variants run by this call (the rest came from the results file)
+    wall_time : float
+        Wall time of this call, [s]
+    files : dict
+        "journal", "csv", "parquet" -> Path of the files written
+    complete : bool
+        Every variant of the design is in the table
+    notes : list[str]
+        What the user should know about the files: sweep.parquet not
+        written (pyarrow missing), rows of the results file beyond
+        this design left out of the table (a larger --samples earlier)
+    metrics : list[str]
+        The numeric metric columns (:func:`metric_columns`: per axis
+        ``<axis>.<side>.<metric>`` on a multi-axis rig)
+    axes : list[str]
+        The rig's servo axes
+    scenario : str
+        The scenario every variant ran
     """
 
     table: "pandas.DataFrame"
@@ -739,6 +828,7 @@ class SweepResult:
 
     @property
     def n_failed(self) -> int:
+        """Number of failed variants, [-]"""
         return int(self.table["error"].notna().sum())
 
 
@@ -786,41 +876,57 @@ def sweep(parameters, rig=None, *, samples: int | None = None, seed: int = 0,
 
     Parameters
     ----------
-    parameters : list or dict   What varies: ``["PATH=VALUES", ...]`` as on the command line
-                                (``"supply.section2.bulk_modulus=150 MPa,220 MPa"``; on a
-                                circuit rig ``"circuit.<component>.<parameter>=..."``, the
-                                unit the component declares), or ``{PATH: VALUES}`` with
-                                VALUES text, a list of quantities or a
-                                :class:`~hydroline.studies.Distribution`; the syntax (levels,
-                                ``linspace``, ``uniform``, ``normal``, ...) is in
-                                :mod:`hydroline.studies.design`
-    rig : Rig, str or None      The base rig (None: the embedded 2005 paper's rig; a shipped
-                                rig may be named, "two_axis")
-    samples : int               Random design of this many variants; None: full factorial
-    seed : int                  Seed of the random design, [-]
-    scenario : str              One of :func:`hydroline.scenarios.scenario_names`; None: the
-                                rig's ``rig.scenario``, else "open-loop-step"
-    t_end : float               Simulated time per variant, [s]; the scenario's when None
-    solver : str                See :func:`hydroline.engine.integrate`
-    workers : int               Local worker processes (default: the CPU count), or the
-                                number of workers of a ``scheduler="local"`` Dask cluster
-    scheduler : str or Client   None: local processes; "local": a local Dask cluster;
-                                "tcp://host:port": an existing Dask scheduler
-    out : path                  Folder for ``sweep.jsonl`` (every row as it finishes),
-                                ``sweep.csv`` and ``sweep.parquet``; None keeps it in memory
-    resume : bool               Continue the sweep in ``out``: keep its rows, run the rest
-    progress : callable         ``progress(done, total, failed)`` after each variant
-    callback : callable         ``callback(row)`` after each variant is recorded (an
-                                exception raised there stops the sweep; what is recorded
-                                stays recorded)
+    parameters : list or dict
+        What varies: ``["PATH=VALUES", ...]`` as on the command line
+        (``"supply.section2.bulk_modulus=150 MPa,220 MPa"``; on a
+        circuit rig ``"circuit.<component>.<parameter>=..."``, the
+        unit the component declares), or ``{PATH: VALUES}`` with
+        VALUES text, a list of quantities or a
+        :class:`~hydroline.studies.Distribution`; the syntax (levels,
+        ``linspace``, ``uniform``, ``normal``, ...) is in
+        :mod:`hydroline.studies.design`
+    rig : Rig, str or None
+        The base rig (None: the embedded 2005 paper's rig; a shipped
+        rig may be named, "two_axis")
+    samples : int
+        Random design of this many variants; None: full factorial
+    seed : int
+        Seed of the random design, [-]
+    scenario : str
+        One of :func:`hydroline.scenarios.scenario_names`; None: the
+        rig's ``rig.scenario``, else "open-loop-step"
+    t_end : float
+        Simulated time per variant, [s]; the scenario's when None
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    workers : int
+        Local worker processes (default: the CPU count), or the
+        number of workers of a ``scheduler="local"`` Dask cluster
+    scheduler : str or Client
+        None: local processes; "local": a local Dask cluster;
+        "tcp://host:port": an existing Dask scheduler
+    out : path
+        Folder for ``sweep.jsonl`` (every row as it finishes),
+        ``sweep.csv`` and ``sweep.parquet``; None keeps it in memory
+    resume : bool
+        Continue the sweep in ``out``: keep its rows, run the rest
+    progress : callable
+        ``progress(done, total, failed)`` after each variant
+    callback : callable
+        ``callback(row)`` after each variant is recorded (an
+        exception raised there stops the sweep; what is recorded
+        stays recorded)
 
     Returns
     -------
-    SweepResult  (a multi-axis rig's rows have per-axis columns, :func:`metric_columns`)
+    SweepResult
+        The table of rows (a multi-axis rig's rows have per-axis columns,
+        :func:`metric_columns`), the design and the files written.
 
     Raises
     ------
-    ValueError (RigError, UnitError, SweepFileError) on bad input, one line naming it.
+    ValueError
+        (RigError, UnitError, SweepFileError) On bad input, one line naming it.
     """
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):

@@ -26,14 +26,19 @@ def savgol_filter(x, window_length: int, polyorder: int, mode: str = "interp") -
 
     Parameters
     ----------
-    x : array_like          The signal, [any unit]
-    window_length : int     Odd number of samples, polyorder < window_length <= len(x)
-    polyorder : int         Degree of the polynomial
-    mode : str              "interp" (the only edge treatment)
+    x : array_like
+        The signal, [any unit]
+    window_length : int
+        Odd number of samples, polyorder < window_length <= len(x)
+    polyorder : int
+        Degree of the polynomial
+    mode : str
+        "interp" (the only edge treatment)
 
     Returns
     -------
-    ndarray  The smoothed signal, [unit of x]
+    ndarray
+        The smoothed signal, [unit of x]
     """
     _check_mode(mode, "interp")
     x = np.asarray(x, dtype=float)
@@ -112,13 +117,17 @@ def maximum_filter1d(x, size: int, mode: str = "nearest") -> np.ndarray:
 
     Parameters
     ----------
-    x : array_like   Evenly sampled signal, [any unit]
-    size : int       Window length, >= 1, [samples]
-    mode : str       Edge treatment; only ``"nearest"`` (edges repeated)
+    x : array_like
+        Evenly sampled signal, [any unit]
+    size : int
+        Window length, >= 1, [samples]
+    mode : str
+        Edge treatment; only ``"nearest"`` (edges repeated)
 
     Returns
     -------
-    ndarray  Filtered signal, as long as x, [unit of x]
+    ndarray
+        Filtered signal, as long as x, [unit of x]
     """
     _check_mode(mode, "nearest")
     return _running_extreme(x, size, np.maximum)
@@ -130,13 +139,17 @@ def minimum_filter1d(x, size: int, mode: str = "nearest") -> np.ndarray:
 
     Parameters
     ----------
-    x : array_like   Evenly sampled signal, [any unit]
-    size : int       Window length, >= 1, [samples]
-    mode : str       Edge treatment; only ``"nearest"`` (edges repeated)
+    x : array_like
+        Evenly sampled signal, [any unit]
+    size : int
+        Window length, >= 1, [samples]
+    mode : str
+        Edge treatment; only ``"nearest"`` (edges repeated)
 
     Returns
     -------
-    ndarray  Filtered signal, as long as x, [unit of x]
+    ndarray
+        Filtered signal, as long as x, [unit of x]
     """
     _check_mode(mode, "nearest")
     return _running_extreme(x, size, np.minimum)
@@ -148,13 +161,17 @@ def uniform_filter1d(x, size: int, mode: str = "nearest") -> np.ndarray:
 
     Parameters
     ----------
-    x : array_like   Evenly sampled signal, [any unit]
-    size : int       Window length, >= 1, [samples]
-    mode : str       Edge treatment; only ``"nearest"`` (edges repeated)
+    x : array_like
+        Evenly sampled signal, [any unit]
+    size : int
+        Window length, >= 1, [samples]
+    mode : str
+        Edge treatment; only ``"nearest"`` (edges repeated)
 
     Returns
     -------
-    ndarray  Filtered signal, as long as x, [unit of x]
+    ndarray
+        Filtered signal, as long as x, [unit of x]
     """
     _check_mode(mode, "nearest")
     size = int(size)

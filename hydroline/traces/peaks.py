@@ -22,11 +22,13 @@ def local_maxima(x) -> np.ndarray:
 
     Parameters
     ----------
-    x : array_like   Evenly sampled signal, [any unit]
+    x : array_like
+        Evenly sampled signal, [any unit]
 
     Returns
     -------
-    ndarray  Indices of the maxima, increasing, [samples]
+    ndarray
+        Indices of the maxima, increasing, [samples]
     """
     x = np.asarray(x, dtype=float)
     n = len(x)
@@ -57,12 +59,15 @@ def peak_prominence(x, peak: int) -> float:
 
     Parameters
     ----------
-    x : ndarray    The signal, float, [any unit]
-    peak : int     Index of a local maximum of ``x``, [samples]
+    x : ndarray
+        The signal, float, [any unit]
+    peak : int
+        Index of a local maximum of ``x``, [samples]
 
     Returns
     -------
-    float  Prominence, >= 0, [unit of x]
+    float
+        Prominence, >= 0, [unit of x]
     """
     h = x[peak]
     higher_left = np.flatnonzero(x[:peak] > h)
@@ -85,15 +90,21 @@ def find_peaks(x, prominence: float | None = None, distance: float | None = None
 
     Parameters
     ----------
-    x : array_like       The signal, [any unit]
-    prominence : float   Least prominence kept, [unit of x] (None: no condition)
-    distance : float     Least spacing of kept peaks, [samples]; where peaks are closer the
-                         higher one stays (None: no condition)
+    x : array_like
+        The signal, [any unit]
+    prominence : float
+        Least prominence kept, [unit of x] (None: no condition)
+    distance : float
+        Least spacing of kept peaks, [samples]; where peaks are closer the
+        higher one stays (None: no condition)
 
     Returns
     -------
-    (peaks, properties) : indices of the peaks, ascending; dict with ``"prominences"`` when
-    a prominence was asked for (as :func:`scipy.signal.find_peaks`)
+    peaks : ndarray of int
+        Indices of the peaks, ascending, [-]
+    properties : dict
+        With ``"prominences"`` when a prominence was asked for (as
+        :func:`scipy.signal.find_peaks`).
     """
     x = np.asarray(x, dtype=float)
     peaks = local_maxima(x)
