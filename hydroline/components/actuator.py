@@ -206,12 +206,14 @@ class Actuator(Component):
 
         Parameters
         ----------
-        x : dict   States (arrays of a run allowed), local name -> value [SI]
+        x : dict
+            States (arrays of a run allowed), local name -> value [SI]
 
         Returns
         -------
-        dict  ``{"bottom chamber": V_cav, "top chamber": V_cav}``, [m^3]; empty without a
-              cavity model
+        dict
+            ``{"bottom chamber": V_cav, "top chamber": V_cav}``, [m^3]; empty without a
+            cavity model
         """
         if self.fluid is None or self.fluid.cavity_pressure is None:
             return {}

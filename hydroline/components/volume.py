@@ -92,11 +92,13 @@ class HydraulicVolume(Component):
 
         Parameters
         ----------
-        x : dict   States (arrays of a run allowed), local name -> value [SI]
+        x : dict
+            States (arrays of a run allowed), local name -> value [SI]
 
         Returns
         -------
-        dict  ``{"volume": V_cav}``, [m^3]; empty without a cavity model
+        dict
+            ``{"volume": V_cav}``, [m^3]; empty without a cavity model
         """
         if self.fluid is None or self.fluid.cavity_pressure is None:
             return {}
