@@ -3,7 +3,7 @@
 ==============================
 
 A contributor's path on one example: an inline pressure filter, whose drop is a laminar part
-through the element's pores and a turbulent part in the housing's passages,
+through the element's pores and a turbulent part in the housing's passages::
 
     dp = R_l q + K_t q |q|.
 
