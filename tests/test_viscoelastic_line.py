@@ -45,18 +45,65 @@ def test_creep_lowers_and_damps_the_resonances():
     assert r_ve.exact_magnitude < r_el.exact_magnitude
 
 
-@pytest.mark.parametrize("wall", [((5e-10,), (0.02,)), ((2e-10, 1e-10), (0.005, 0.05))])
+#: the paper's pressure hose (13.43 mm): its second viscous rate nu j_{2,2}^2/r^2 = 50.28 1/s
+#: lies in the window (1/tau, (1 + beta_e J)/tau) = (50, 55.1) 1/s of a 20 ms element, where
+#: W < 0, so modes 1-3 have a complex pair of poles there instead of two real roots
+PAPER = dict(length=3.048, diameter=0.01343, fluid=MINERAL_OIL, bulk_modulus=203.8e6)
+WALLS = [(HOSE, (5e-10,), (0.02,)), (HOSE, (2e-10, 1e-10), (0.005, 0.05)),
+         (PAPER, (5e-10,), (0.02,)), (PAPER, (5e-10,), (0.002,)), (HOSE, (5e-10,), (0.005,))]
+
+
+@pytest.mark.parametrize("hose, J, tau", WALLS)
 @pytest.mark.parametrize("form", ["PQ", "PP"])
-def test_residue_line_matches_its_exact_model(form, wall):
+def test_residue_line_matches_its_exact_model(form, hose, J, tau):
     """The residue realisation of the viscoelastic line: its modal poles and residues are the
-    exact model's, so its resonances lie within 1 % (frequency) and 3 % (peak) of the exact
-    viscoelastic four-pole (the issue's bounds), and it is stable."""
-    line = Line(**HOSE, creep_compliances=wall[0], retardation_times=wall[1])
+    exact model's (with the complex wall poles, where a viscous rate lies in an element's
+    window), so its resonances lie within 0.1 % (frequency) and 1 % (peak) of the exact
+    viscoelastic four-pole, as the elastic residue line does (0.5 % on these lines; the
+    issue asks 1 % and 3 %), slow and fast elements alike, and it is stable."""
+    line = Line(**hose, creep_compliances=J, retardation_times=tau)
     m = ModalLine(line, 6, form, method="residue")
     assert np.max(m.eigenvalues().real) < 0
-    for r in compare_resonances(line, m, 5):
-        assert abs(r.frequency_error_pct) < 1.0
-        assert abs(r.magnitude_error_pct) < 3.0
+    for r in compare_resonances(line, m, 6):
+        assert abs(r.frequency_error_pct) < 0.1
+        assert abs(r.magnitude_error_pct) < 1.0
+
+
+def test_wall_poles_of_the_paper_hose_include_a_complex_pair():
+    """Between 1/tau = 50 1/s and the viscous rate 50.28 1/s, F = Gamma^2 + theta^2 of mode 1
+    stays negative on the real axis (no real root), so its two roots there are complex: a
+    root of the exact model (checked with :meth:`Line.propagation`, the four-pole's own
+    Gamma) off the axis."""
+    from hydroline.lines.residue import retardation_poles
+    line = Line(**PAPER, creep_compliances=(5e-10,), retardation_times=(0.02,))
+    x = np.linspace(50.0, 50.28, 2001)[1:-1]
+    assert np.all((line.propagation(-x + 0j)[0] ** 2).real + (np.pi / 2) ** 2 < 0)
+    _, wall = retardation_poles(line, "PQ", rate_limit=3300.0)
+    pairs = wall[0][wall[0].imag > 0]
+    assert pairs.size >= 1
+    G = line.propagation(pairs)[0]
+    thetas = np.pi * (np.arange(1, 31) - 0.5)
+    assert np.any(np.isclose(np.abs(G[:, None] ** 2 + thetas[None, :] ** 2), 0.0, atol=1e-6))
+
+
+@pytest.mark.parametrize("tau", [0.02, 0.002])
+def test_residue_line_smoothed_step_against_the_inverted_exact_model(tau):
+    """Blocked end, unit pressure step through the smooth filter that 6 modes resolve: the
+    residue line against the numerically inverted exact viscoelastic model within 1 % of the
+    step (the elastic line: 0.24 %); the exact step includes the wall (the elastic one
+    differs by several %)."""
+    from hydroline.cli.line_response import blocked_step_errors
+    from hydroline.lines.inverse_laplace import exact_step_response
+    from hydroline.cli.line_response import smooth_step_filter
+    line = Line(**PAPER, creep_compliances=(5e-10,), retardation_times=(tau,))
+    m = ModalLine(line, 6, "PQ", method="residue")
+    _, _, _, err = blocked_step_errors(line, {"r": m}, periods=8)
+    assert err["r"]["max_smooth_pct"] < 1.0
+    t = np.linspace(0.0, 32 * line.wave_time, 161)[1:]
+    W, _ = smooth_step_filter(line, 6)
+    ve = exact_step_response(line, t, "PQ", (0, 0), input_filter=W)
+    el = exact_step_response(Line(**PAPER), t, "PQ", (0, 0), input_filter=W)
+    assert np.abs(ve - el).max() > 0.02
 
 
 def test_yang_tobler_and_qq_refuse_a_viscoelastic_wall():
