@@ -127,3 +127,19 @@ def test_line_response_shows_elastic_and_viscoelastic(tmp_path, capsys):
     assert {r["method"] for r in report["resonances"]} == {"residue"}
     assert max(abs(r["frequency_error_pct"]) for r in report["resonances"]) < 1.0
     assert (tmp_path / "line_response.png").is_file()
+
+
+def test_line_response_legend_names_the_walls(tmp_path, monkeypatch):
+    """The figure tells the viscoelastic exact, viscoelastic modal and elastic curves apart."""
+    from hydroline.cli import main
+    from hydroline.cli import line_response
+    figures = []
+    real = line_response.plot_line_response
+    monkeypatch.setattr(line_response, "plot_line_response",
+                        lambda *a, **k: figures.append(real(*a, **k)) or figures[-1])
+    assert main(["line-response", "--length", "3.048 m", "--diameter", "13.43 mm",
+                 "--bulk-modulus", "203.8 MPa", "--creep-compliance", "5e-10 1/Pa",
+                 "--retardation-time", "20 ms", "--no-step", "--out", str(tmp_path)]) == 0
+    labels = [t.get_text() for t in figures[0].axes[0].get_legend().get_texts()]
+    assert labels == ["viscoelastic wall, exact (dissipative)", "elastic wall, exact (dissipative)",
+                      "viscoelastic wall, modal residue, n=6", "elastic wall, modal residue, n=6"]
