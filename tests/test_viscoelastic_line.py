@@ -143,3 +143,54 @@ def test_line_response_legend_names_the_walls(tmp_path, monkeypatch):
     labels = [t.get_text() for t in figures[0].axes[0].get_legend().get_texts()]
     assert labels == ["viscoelastic wall, exact (dissipative)", "elastic wall, exact (dissipative)",
                       "viscoelastic wall, modal residue, n=6", "elastic wall, modal residue, n=6"]
+
+
+def test_half_wave_resonance_follows_the_dynamic_wave_speed():
+    """The exact viscoelastic line's half-wave resonance (PP, 6.1 m: the two supply sections
+    of the paper's rig) sits where the phase speed at that frequency puts it:
+    ``f = f_elastic / Re sqrt(W(j omega))`` (Gamma = j omega L/c sqrt(W)), 38.205 -> 38.122 Hz
+    for J = 5e-10 1/Pa, tau = 20 ms, within 0.05 %."""
+    J, tau, beta = 5e-10, 0.02, PAPER["bulk_modulus"]
+    f = np.linspace(30.0, 50.0, 20001)
+
+    def peak(line):
+        return f[np.argmax(np.abs(line.transfer(2j * np.pi * f, "PP")[:, 0, 0]))]
+
+    hose = dict(PAPER, length=6.096)
+    f_el = peak(Line(**hose))
+    w = 2 * np.pi * f_el
+    hand = f_el / np.sqrt(1 + beta * J / (1 + 1j * w * tau)).real
+    assert peak(Line(**hose, creep_compliances=(J,), retardation_times=(tau,))) == pytest.approx(
+        hand, rel=5e-4)
+
+
+def _port_frequency(rig):
+    from hydroline import simulate
+    from hydroline.traces import oscillation_frequency
+    res = simulate(rig, "open-loop-step", t_end=0.08)
+    return oscillation_frequency(res.t, res["supply_port_pressure"], 0.01)
+
+
+def test_rig_hoses_take_a_viscoelastic_wall():
+    """``creep_compliances`` / ``retardation_times`` on the template's hose sections: a tiny
+    compliance (beta_e J = 2e-5) gives the elastic rig's supply-port oscillation (40 Hz, the
+    supply hoses' half wave) within 1e-4; a real one (5e-10 1/Pa, 20 ms) lowers it, but by
+    less than the static compliance would (``f / sqrt(1 + beta_e J)``, 38.1 Hz)."""
+    from hydroline import load_rig
+    base = load_rig(None)
+    f_el = _port_frequency(base.copy())
+
+    def walled(J, tau):
+        rig = base.copy()
+        for sec in ("supply.section1", "supply.section2"):
+            rig.set(f"{sec}.creep_compliances", [J]).set(f"{sec}.retardation_times", [tau])
+        return rig
+
+    assert _port_frequency(walled("1e-13 1/Pa", "20 ms")) == pytest.approx(f_el, rel=1e-4)
+    f_ve = _port_frequency(walled("5e-10 1/Pa", "20 ms"))
+    assert f_el / np.sqrt(1 + 203.8e6 * 5e-10) < f_ve < f_el * (1 - 3e-4)
+    # unequal lists: one line naming the parameter
+    from hydroline.system import build_circuit
+    bad = base.copy().set("supply.section2.creep_compliances", ["5e-10 1/Pa"])
+    with pytest.raises(ValueError, match="retardation_times"):
+        build_circuit(bad)
