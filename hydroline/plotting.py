@@ -530,17 +530,20 @@ def ratio_unit(numerator: str, denominator: str) -> str:
 PORT_UNITS = {"pressure": "Pa", "flow": "m^3/s"}
 
 
-def plot_line_response(line, models, f, form, path=None, title=None):
+def plot_line_response(line, models, f, form, path=None, title=None, references=None):
     """Magnitude and phase of every entry of a form: exact (dissipative) vs line models.
 
     Parameters
     ----------
     line : Line       The hose section, its exact (dissipative) transfer matrix the reference
+                      (labelled "viscoelastic wall, exact" for a viscoelastic wall, M44)
     models : dict     label -> model with ``transfer(s)``
     f : array         Frequencies, [Hz]
     form : str        Causality form of the two-port (a key of ``FORM_PORTS``)
     path : str        File to save the figure to (PNG, ...); None: not saved
     title : str       Figure title; None: the line's length, diameter and dissipation number
+    references : dict label -> further Line whose exact transfer matrix is drawn (thin, solid,
+                      grey), e.g. the elastic line beside a viscoelastic one; None: none
 
     Returns
     -------
@@ -554,13 +557,19 @@ def plot_line_response(line, models, f, form, path=None, title=None):
     s = 2j * np.pi * f
     exact = line.transfer(s, form)
     resp = {k: m.transfer(s) for k, m in models.items()}
+    refs = {k: ref.transfer(s, form) for k, ref in (references or {}).items()}
+    exact_label = ("viscoelastic wall, exact (dissipative)" if getattr(line, "viscoelastic", False)
+                   else "exact (dissipative)")
     fig = new_figure((11, 11))
     axes = fig.subplots(4, 2, sharex=True)
     for i in range(2):
         for j in range(2):
             am, ap = axes[2 * i, j], axes[2 * i + 1, j]
-            am.semilogy(f, np.abs(exact[:, i, j]), "k", lw=1.6, label="exact (dissipative)")
+            am.semilogy(f, np.abs(exact[:, i, j]), "k", lw=1.6, label=exact_label)
             ap.plot(f, np.degrees(np.angle(exact[:, i, j])), "k", lw=1.6)
+            for k, H in refs.items():
+                am.semilogy(f, np.abs(H[:, i, j]), "-", color="0.6", lw=0.9, label=k)
+                ap.plot(f, np.degrees(np.angle(H[:, i, j])), "-", color="0.6", lw=0.9)
             for k, H in resp.items():
                 am.semilogy(f, np.abs(H[:, i, j]), "--", lw=1.0, label=k)
                 ap.plot(f, np.degrees(np.angle(H[:, i, j])), "--", lw=1.0)

@@ -112,6 +112,17 @@ HOSE_PARAMETERS = {
                       choices=("PQ", "QP", "PP", "QQ"), default="PQ"),
     "nominal_pressure": Parameter("Pa", "mean pressure: state scale and steady-state guess",
                                   0.0, exclusive_minimum=True, default=1e7, plausible=(1e3, 1e8)),
+    # (M44) Kelvin-Voigt wall: J_k of the line's volume, alpha d/e J_k' for a thin wall of
+    # material compliance J_k' (Covas et al. 2004); hose data: dynamic vs static modulus
+    # (Johnston et al. 2010): beta_e sum J_k of 0.01 ... 1, J ~ 1e-12 ... 5e-9 1/Pa
+    "creep_compliances": Parameter("list:1/Pa", "viscoelastic wall (M44): creep compliances J_k "
+                                   "of the Kelvin-Voigt elements (Covas et al. 2004); none: an "
+                                   "elastic wall, bulk_modulus then the instantaneous one",
+                                   0.0, exclusive_minimum=True, default=(),
+                                   plausible=(1e-13, 1e-8)),
+    "retardation_times": Parameter("list:s", "retardation times tau_k of those elements (M44), "
+                                   "as many as creep_compliances", 0.0, exclusive_minimum=True,
+                                   default=(), plausible=(1e-5, 100.0)),
 }
 
 #: The accumulator's connection passage (M18): a short line from the node to the oil side.
@@ -157,7 +168,8 @@ def line_bulk_modulus(fluid, bulk_modulus, pressure):
 
 
 def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=None, modes=None,
-              method=None, fluid, modes_per_section, line_method):
+              method=None, creep_compliances=(), retardation_times=(), fluid, modes_per_section,
+              line_method):
     """A hose section from its dimensions: the modal line (M8-M15) of a
     :class:`~hydroline.lines.Line` of the rig's oil (the ``hose`` type's factory).
 
@@ -173,6 +185,9 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
                                ``nominal_pressure`` (M40, M43)
     modes : int                Modes of the line; ``modes_per_section`` when None
     method : str               Modal line method; ``line_method`` when None
+    creep_compliances : tuple  Viscoelastic wall (M44): creep compliances J_k, [1/Pa]; empty:
+                               an elastic wall
+    retardation_times : tuple  Their retardation times tau_k, [s]
     fluid : Fluid              The rig's oil
     modes_per_section : int    The rig's modes per hose section
     line_method : str          The rig's modal line method
@@ -181,7 +196,15 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
     -------
     HoseSection
     """
-    line = Line(length, diameter, fluid, line_bulk_modulus(fluid, bulk_modulus, nominal_pressure))
+    beta = line_bulk_modulus(fluid, bulk_modulus, nominal_pressure)
+    if creep_compliances or retardation_times:
+        if len(creep_compliances) != len(retardation_times):
+            raise ValueError(f"retardation_times [s]: as many as creep_compliances [1/Pa] "
+                             f"({len(creep_compliances)}), got {len(retardation_times)}")
+        line = Line(length, diameter, fluid, beta, tuple(creep_compliances),
+                    tuple(retardation_times))
+    else:
+        line = Line(length, diameter, fluid, beta)
     model = ModalLine(line, _integer_modes(modes, modes_per_section), form,
                       method=line_method if method is None else method)
     return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure)

@@ -176,7 +176,8 @@ def plot_step(line, t, exact, responses, path):
     fig = new_figure((9, 6.5))
     ay, ae = fig.subplots(2, 1, sharex=True)
     x = t / (4 * line.wave_time)
-    ay.plot(x, exact, "k", lw=1.4, label="exact (dissipative, inverse Laplace)")
+    ay.plot(x, exact, "k", lw=1.4, label=("viscoelastic wall, " if line.viscoelastic else "")
+            + "exact (dissipative, inverse Laplace)")
     for label, y in responses.items():
         ay.plot(x, y, "--", lw=1.0, label=label)
         ae.plot(x, 100 * (y - exact), lw=0.9, label=label)
@@ -246,8 +247,11 @@ def run(args) -> int:
         methods = ("residue",)          # the Yang-Tobler line has an elastic wall only
     n = args.modes
     models = _models(line, n, args.form, methods, args.method != "both")
-    curves = {f"modal {k}, n={n}": v for k, v in models.items()}
+    wall = "viscoelastic wall, " if line.viscoelastic else ""
+    curves = {f"{wall}modal {k}, n={n}": v for k, v in models.items()}
+    references = None
     if line.viscoelastic:               # elastic vs viscoelastic (M44), on the figure
+        references = {"elastic wall, exact (dissipative)": elastic}
         curves[f"elastic wall, modal residue, n={n}"] = ModalLine(elastic, n, args.form,
                                                                   method="residue")
     # frequency axis: up to the scan limit of compare_resonances, so every tabulated
@@ -256,7 +260,14 @@ def run(args) -> int:
     f = np.linspace(f_top / 4000, f_top, 4000)
     with atomic_outputs(out) as temp:   # the figures replaced together, or none
         png = out / "line_response.png"
-        plot_line_response(line, curves, f, args.form, path=temp(png.name))
+        extra = {}                      # viscoelastic wall: its title and the elastic line
+        if line.viscoelastic:
+            extra["references"] = references
+            extra["title"] = (f"{args.form} line: L = {line.length:g} m, d = {line.diameter * 1e3:g} mm, "
+                     f"Dn = {line.dissipation_number:.3g}; viscoelastic wall J = "
+                     + ", ".join(f"{J:.3g}" for J in line.creep_compliances) + " 1/Pa, tau = "
+                     + ", ".join(f"{1e3 * t:.3g}" for t in line.retardation_times) + " ms")
+        plot_line_response(line, curves, f, args.form, path=temp(png.name), **extra)
         report = {"line": {"length_m": line.length, "diameter_m": line.diameter,
                            "wave_speed_m_s": line.wave_speed, "dissipation_number": line.dissipation_number,
                            "impedance_pa_s_m3": line.impedance}, "form": args.form, "resonances": []}
@@ -278,7 +289,7 @@ def run(args) -> int:
             pq = models if args.form == "PQ" else _models(line, n, "PQ", list(models), False)
             t, exact, responses, errors = blocked_step_errors(line, pq, args.step_periods)
             step_png = out / "line_step_response.png"
-            plot_step(line, t, exact, {f"modal {k}, n={n}": y for k, y in responses.items()},
+            plot_step(line, t, exact, {f"{wall}modal {k}, n={n}": y for k, y in responses.items()},
                       temp(step_png.name))
             report["figures"].append(str(step_png))
             report["step_response"] = {"case": "blocked end (PQ, Q_d = 0), unit step of P_u; error of "

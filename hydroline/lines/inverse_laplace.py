@@ -38,6 +38,10 @@ real axis off the negative real s axis, and the principal square roots used by
 ``C \\ (-inf, 0]``.  The excess ``G(s) - s tau`` is evaluated without cancellation from
 ``I0/I2 - 1 = 2 I1/(kappa I2)`` (dissipative) or
 ``sqrt(alpha^2 + a/s) - alpha = (a/s)/(sqrt(alpha^2 + a/s) + alpha)`` (linear).
+A viscoelastic wall (M44) multiplies Gamma by ``sqrt(W(s))``, ``W = 1 + beta_e sum J_k/(1 +
+s tau_k)``: ``Im W < 0`` for ``Im s > 0`` too, so ``sqrt(I0/I2) sqrt(W)`` (two principal roots,
+as :meth:`Line.propagation` takes them) is analytic off the negative real axis as well, where
+W's poles ``-1/tau_k`` and zeros lie; W -> 1 at high frequency, so the travel time is L/c.
 """
 from __future__ import annotations
 
@@ -256,7 +260,14 @@ def _delay_and_excess(line: Line, friction: str, alpha: float, beta: float):
             rm1 = 2.0 * special.ive(1, ks) / (ks * special.ive(2, ks))
             k2 = np.where(small, kappa, 1.0) ** 2
             rm1 = np.where(small, 8.0 / k2 + 1.0 / 3.0 + k2 / 24.0, rm1)
-            return s * T * rm1 / (np.sqrt(1.0 + rm1) + 1.0)
+            if not line.viscoelastic:
+                return s * T * rm1 / (np.sqrt(1.0 + rm1) + 1.0)
+            root_b_m1 = rm1 / (np.sqrt(1.0 + rm1) + 1.0)          # sqrt(I0/I2) - 1
+            # (M44): Gamma = s T sqrt(I0/I2) sqrt(W); the high-frequency travel time is
+            # still T (W -> 1), sqrt(B) sqrt(W) - 1 = (sqrt(B) - 1) sqrt(W) + sqrt(W) - 1
+            W = line.wall_factor(s)
+            root_w = np.sqrt(W)
+            return s * T * (root_b_m1 * root_w + (W - 1.0) / (root_w + 1.0))
 
         return T, excess
     if friction == "linear":

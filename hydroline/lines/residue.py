@@ -397,16 +397,22 @@ def _viscoelastic_moments(line: Line, form: str, g1: float, g2: float):
 
 def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
                       n_roots: int = VISCOUS_ROOTS_PER_CLUSTER):
-    """Real poles of a line with a viscoelastic wall (M44), beside the zeros of I2 and beside
-    the retardation rates ``1/tau_k``, [1/s].
+    """Poles near the negative real axis of a line with a viscoelastic wall (M44), beside the
+    zeros of I2 and beside the retardation rates ``1/tau_k``, [1/s].
 
     ``Gamma^2 = (s tau)^2 B(s) W(s)`` is real on the negative real axis with poles at the
     viscous rates ``nu j_{2,m}^2/r^2`` and at ``1/tau_k``; beside each, on the side where it
-    tends to ``-infinity``, every mode's ``Gamma^2 = -theta^2`` has a real root. Between two
-    consecutive singular rates ``F = Gamma^2 + theta^2`` is sampled on a grid that is
-    geometric toward both ends (offsets 1e-15 ... 1/2 of the gap) and every sign change is
-    bisected, for the modes 1..n_roots of the form; each root is assigned to its nearest
-    singular rate (in log).
+    tends to ``-infinity``, every mode's ``F = Gamma^2 + theta^2`` has a root. Past a
+    retardation rate W < 0 up to its zero ``(1 + beta_e J_k)/tau_k``, so a viscous rate in
+    that window turns its roots toward the wall's: the interval between them has two roots
+    per mode, real if ``max F > 0`` there, else a complex pair near the axis (the low modes
+    when the two rates are close, e.g. 20 ms beside the viscous rate 50.3 1/s of a 13 mm
+    hose; found by Newton from the maximum of F, ``s = -x_m +- j sqrt(2 F_max/F'')``).
+    Between two consecutive singular rates F is sampled on a grid geometric toward both ends
+    (offsets 1e-15 ... 1/2 of the gap) and every sign change is bisected, for the modes
+    1..n_roots of the form. A real root goes with its nearest singular rate (in log); the
+    roots of an interval that both its ends claim go, real or complex, with its wall rate,
+    so that the large residues of opposite sign of such a pair are lumped together.
 
     Parameters
     ----------
@@ -417,8 +423,8 @@ def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = N
 
     Returns
     -------
-    (viscous, wall) : real poles s < 0 [1/s]: a flat array beside the viscous rates, and a
-    list with one array per wall element
+    (viscous, wall) : poles [1/s], complex arrays with both members of every complex pair:
+    the ones beside the viscous rates, and a list with one array per wall element
     """
     form = check_form(form)
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -439,20 +445,52 @@ def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = N
             g = propagation_derivative(line, -rate + 0j)[0] ** 2
         return g.real + q
 
-    roots = []
+    found, facing, owner = [], [], {float(w): e for e, w in enumerate(wall)}
     with np.errstate(invalid="ignore", divide="ignore"):
         for lo_edge, hi_edge in zip(edges[:-1], edges[1:]):
-            roots += _real_roots_between(line, lo_edge, hi_edge, u, q, F)
-    return _assign_real_roots(roots, sing, wall)
+            grid = lo_edge + (hi_edge - lo_edge) * u
+            x, k = _real_roots_between(line, grid, F(grid[:, None]), q)
+            found.append((x, k))
+            # ends that claim a root of every mode: a singular rate where Gamma^2 -> -inf
+            # (probed 1e-9 of the gap inside: closer, round-off may cross the singularity)
+            probe = F(lo_edge + (hi_edge - lo_edge) * np.array([[1e-9], [1.0 - 1e-9]]))[:, 0]
+            if edges[-1] > hi_edge and lo_edge > 0 and np.all(probe < 0.0):
+                facing.append((lo_edge, hi_edge, np.bincount(k, minlength=len(q))))
+                walls = [e for e in (lo_edge, hi_edge) if float(e) in owner]
+                if walls:        # a viscous rate in a wall's window: its roots are the wall's
+                    for e in (lo_edge, hi_edge):
+                        owner.setdefault(float(e), owner[float(walls[0])])
+        x = np.concatenate([f[0] for f in found])
+        k = np.concatenate([f[1] for f in found])
+        roots = list(-x)
+        # every singular rate claims one root per mode: a deficit is a complex pair, in a
+        # facing interval where this mode lacks its two real roots
+        deficit = len(sing) - np.bincount(k, minlength=len(q))
+        for lo_edge, hi_edge, count in facing:
+            lack = [m for m in range(len(q)) if count[m] < 2 and deficit[m] >= 2]
+            for m, p in zip(lack, _complex_pairs_between(line, lo_edge, hi_edge, q[lack])):
+                if p is not None:
+                    roots += [p, np.conj(p)]
+                    deficit[m] -= 2
+    if np.any(deficit >= 2):
+        import warnings
+        warnings.warn(f"viscoelastic wall (M44) of a {line.length:.4g} m line: complex wall "
+                      f"poles of {int(np.sum(deficit >= 2))} modes not found (a retardation rate "
+                      "inside the modal band or beta_e J > ~0.3); its residue line is less "
+                      "accurate (see docs/model.md, M44)", RuntimeWarning, stacklevel=4)
+    roots = np.array(roots, dtype=complex)
+    near = sing[np.argmin(np.abs(np.log(-roots.real[:, None]) - np.log(sing[None, :])), axis=1)]
+    group = np.array([owner.get(float(r), -1) for r in near])
+    return roots[group < 0], [roots[group == e] for e in range(len(wall))]
 
 
-def _real_roots_between(line, lo_edge, hi_edge, u, q, F):
-    """Roots of Gamma^2 + theta^2 (every theta of ``q``) between two singular rates, [1/s]."""
-    grid = lo_edge + (hi_edge - lo_edge) * u
-    Fg = F(grid[:, None])                                   # (points, modes)
+def _real_roots_between(line, grid, Fg, q):
+    """Real roots of Gamma^2 + theta^2 (every theta of ``q``) on a grid of rates between two
+    singular rates, where it takes the values ``Fg`` (points, modes): rates [1/s] and their
+    mode indices."""
     change = np.nonzero(np.sign(Fg[:-1]) != np.sign(Fg[1:]))
     if not change[0].size:
-        return []
+        return np.zeros(0), np.zeros(0, dtype=int)
     i, k = change
     lo, hi = grid[i], grid[i + 1]
     f_lo = Fg[i, k]
@@ -469,16 +507,51 @@ def _real_roots_between(line, lo_edge, hi_edge, u, q, F):
     # a pole of F (sign change across infinity) is no root: |F| must be small there
     scale = np.abs(Fg[i, k]) + np.abs(Fg[i + 1, k])
     ok = np.abs(propagation_derivative(line, -x + 0j)[0] ** 2 + q[k]) < 1e-6 * scale
-    return [x[ok]]
+    return x[ok], k[ok]
 
 
-def _assign_real_roots(roots, sing, wall):
-    """Real roots (rates) split by their nearest singular rate: viscous, and per wall element."""
-    roots = np.concatenate(roots) if roots else np.zeros(0)
-    near = np.argmin(np.abs(np.log(roots[:, None]) - np.log(sing[None, :])), axis=1)
-    is_wall = np.isin(sing[near], wall)
-    return (-roots[~is_wall],
-            [-roots[is_wall & (sing[near] == w)] for w in wall])
+def _complex_pairs_between(line, lo_edge, hi_edge, q, iterations=60):
+    """Complex roots (upper member) of ``F = Gamma^2 + theta^2`` for the modes ``q = theta^2``
+    whose real roots are missing between two singular rates a < b that both claim one, [1/s].
+
+    F has simple poles at ``-a`` and ``-b``; ``G = (s + a)(s + b) F`` has none there, so its
+    quadratic through ``s = -m``, ``-m +- j h`` (m the middle, h the half width) gives the
+    start, and Newton on G (``G' = (2 s + a + b) F + (s + a)(s + b) 2 Gamma Gamma'``)
+    polishes it. The root's real part may lie outside the interval (within one width).
+    """
+    a, b = lo_edge, hi_edge
+    mid, h = 0.5 * (a + b), 0.5 * (b - a)
+
+    def G_and_slope(s, qk):
+        Ga, _, dGa = propagation_derivative(line, np.atleast_1d(np.asarray(s, dtype=complex)))
+        F = Ga**2 + qk
+        P = (s + a) * (s + b)
+        return P * F, (2.0 * s + a + b) * F + P * 2.0 * Ga * dGa
+
+    nodes = np.array([-mid, -mid + 1j * h, -mid - 1j * h])
+    out = []
+    for qk in q:
+        g = G_and_slope(nodes, qk)[0]
+        # quadratic through the nodes in z = (s + mid)/h: g = c0 + c1 z + c2 z^2, z = 0, j, -j
+        c0 = g[0]
+        c2 = -(g[1] + g[2] - 2.0 * c0) / 2.0
+        c1 = (g[1] - g[2]) / 2j
+        z = np.roots([c2, c1, c0]) if abs(c2) > 0 else np.array([-c0 / c1])
+        z = z[np.argmax(z.imag)]
+        s = complex(-mid + h * z)
+        if s.imag <= 0:
+            s = complex(s.real, h)
+        for _ in range(iterations):
+            g, dg = G_and_slope(s, qk)
+            step = complex(g[0] / dg[0])
+            s = s - step
+            if abs(step) <= 1e-13 * abs(s):
+                break
+        Gs = propagation_derivative(line, np.array([s]))[0][0]
+        ok = (abs(Gs**2 + qk) <= 1e-8 * qk and s.imag > 1e-12 * abs(s)
+              and 2.0 * a - b < -s.real < 2.0 * b - a)
+        out.append(complex(s) if ok else None)
+    return out
 
 
 def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
@@ -1110,6 +1183,39 @@ _SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"),
                          Path(__file__).with_name("corrections.py"))
 
 
+def _lumped_pole_blocks(line: Line, poles, form: str, prefix: str, ends, rem0, rem1):
+    """One real pole per entry for a cluster of poles near the negative real axis (M44):
+    its DC gain and first moment those of the cluster (``sum -R/p``, ``sum -R/p^2`` over
+    every pole, complex pairs with both members), subtracted from ``rem0``, ``rem1``.
+
+    Returns
+    -------
+    list of (A, B, C, names) blocks of one state each, named ``{prefix}{end}{j}.{kind}``
+    """
+    poles = np.asarray(poles, dtype=complex)
+    if not poles.size:
+        return []
+    R = modal_residues(line, poles, form)
+    rates = -poles.real
+    out = []
+    for o in range(2):
+        for j in range(2):
+            res = R[:, o, j]
+            V0, V1 = float(np.sum(-res / poles).real), float(np.sum(-res / poles**2).real)
+            if V0 == 0.0:
+                continue
+            lam = _lumped_rate(V0, V1, rates, (-res / poles).real)
+            Bw = np.zeros((1, 2))
+            Bw[0, j] = lam * V0
+            Cw = np.zeros((2, 1))
+            Cw[o, 0] = 1.0
+            end, kind = ends[o]
+            out.append((np.array([[-lam]]), Bw, Cw, [f"{prefix}{end}{j + 1}.{kind}"]))
+            rem0[o, j] -= V0
+            rem1[o, j] -= -V0 / lam
+    return out
+
+
 def _realise(line: Line, n: int, form: str):
     """:func:`residue_realisation`'s matrices, computed."""
     ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
@@ -1149,50 +1255,29 @@ def _realise(line: Line, n: int, form: str):
 
     # V: real-axis poles slower than the first dropped mode, one lumped pole per entry
     theta_next = modal_angles(n + 1, form)[-1]
-    if line.viscoelastic:      # (M44): viscous and wall roots found together
+    if line.viscoelastic:      # (M44): viscous and wall roots, real and complex, together
         sv, wall_roots = retardation_poles(line, form, rate_limit=theta_next / tau)
+        blocks += _lumped_pole_blocks(line, sv, form, "viscous_", ends, rem0, rem1)
+        # W: the roots beside each retardation rate, one lumped pole per element and entry
+        for e, sr in enumerate(wall_roots):
+            blocks += _lumped_pole_blocks(line, sr, form, f"wall{e + 1}_", ends, rem0, rem1)
     else:
         sv = viscous_poles(line, form, rate_limit=theta_next / tau)
-    Rv = modal_residues(line, sv, form).real
-    rates = -sv.ravel()
-    for o in range(2):
-        for j in range(2):
-            res = Rv[..., o, j].ravel()
-            V0, V1 = np.sum(res / rates), -np.sum(res / rates**2)
-            lam = _lumped_rate(V0, V1, rates, res / rates)
-            Bv = np.zeros((1, 2))
-            Bv[0, j] = lam * V0
-            Cv = np.zeros((2, 1))
-            Cv[o, 0] = 1.0
-            end, kind = ends[o]
-            blocks.append((np.array([[-lam]]), Bv, Cv, [f"viscous_{end}{j + 1}.{kind}"]))
-            rem0[o, j] -= V0
-            rem1[o, j] -= -V0 / lam
-
-    # W: a viscoelastic wall's real roots beside each retardation rate (M44), one lumped
-    # pole per element and entry, DC gain and first moment those of the cluster
-    if line.viscoelastic:
-        for e, sr in enumerate(wall_roots):
-            if not sr.size:
-                continue
-            rates = -sr
-            Rr = modal_residues(line, sr, form).real
-            for o in range(2):
-                for j in range(2):
-                    res = Rr[:, o, j]
-                    V0, V1 = np.sum(res / rates), -np.sum(res / rates**2)
-                    if V0 == 0.0:
-                        continue
-                    lam = _lumped_rate(V0, V1, rates, res / rates)
-                    Bw = np.zeros((1, 2))
-                    Bw[0, j] = lam * V0
-                    Cw = np.zeros((2, 1))
-                    Cw[o, 0] = 1.0
-                    end, kind = ends[o]
-                    blocks.append((np.array([[-lam]]), Bw, Cw,
-                                   [f"wall{e + 1}_{end}{j + 1}.{kind}"]))
-                    rem0[o, j] -= V0
-                    rem1[o, j] -= -V0 / lam
+        Rv = modal_residues(line, sv, form).real
+        rates = -sv.ravel()
+        for o in range(2):
+            for j in range(2):
+                res = Rv[..., o, j].ravel()
+                V0, V1 = np.sum(res / rates), -np.sum(res / rates**2)
+                lam = _lumped_rate(V0, V1, rates, res / rates)
+                Bv = np.zeros((1, 2))
+                Bv[0, j] = lam * V0
+                Cv = np.zeros((2, 1))
+                Cv[o, 0] = 1.0
+                end, kind = ends[o]
+                blocks.append((np.array([[-lam]]), Bv, Cv, [f"viscous_{end}{j + 1}.{kind}"]))
+                rem0[o, j] -= V0
+                rem1[o, j] -= -V0 / lam
 
     # T: dropped modes; exact DC gain and first moment
     if form in ("PQ", "QP"):      # well-damped grouped pseudo-modes, fitted and bounded

@@ -54,7 +54,8 @@ class RigError(ValueError):
 #: ``time [unit]``, ``pressure [unit]`` columns, absolute, path relative to the rig file).
 _PROFILE = {"type": "str", "time": "s", "final": "Pa", "amplitude": "Pa", "frequency": "Hz",
             "start": "s", "end": "s", "slope": "Pa/s", "file": "str"}
-_LINE = {"length": "m", "diameter": "m", "bulk_modulus": "Pa", "modes": "-"}
+_LINE = {"length": "m", "diameter": "m", "bulk_modulus": "Pa", "modes": "-",
+         "creep_compliances": "list:1/Pa", "retardation_times": "list:s"}
 
 #: The sections of the template rig whose parameters a component declares (unit, bounds):
 #: section -> (component type of :mod:`hydroline.circuit.types`, keys; None for all).

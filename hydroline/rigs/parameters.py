@@ -215,6 +215,10 @@ PARAMETERS: Mapping = DerivedTable({
                                           inherited=True),
         "{side}.section2.modes": Declared(default="rig.modes_per_section", integer=True,
                                           inherited=True),
+        "{side}.section1.creep_compliances": Declared(COMPONENT_DEFAULT),
+        "{side}.section2.creep_compliances": Declared(COMPONENT_DEFAULT),
+        "{side}.section1.retardation_times": Declared(COMPONENT_DEFAULT),
+        "{side}.section2.retardation_times": Declared(COMPONENT_DEFAULT),
         "{side}.manifold.resistance": Declared(),
         "{side}.manifold.volume": Parameter("m^3", 1e-7, 1e-2, "manifold block oil volume, the "
                                             "node when section II is removed", 50e-6,

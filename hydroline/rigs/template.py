@@ -165,6 +165,10 @@ def make_line(rig: Rig, section: str, fluid) -> Line:
     """
     length, diameter = rig[f"{section}.length"], rig[f"{section}.diameter"]   # (named in full)
     try:
+        creep = tuple(rig.get(f"{section}.creep_compliances", ()) or ())
+        times = tuple(rig.get(f"{section}.retardation_times", ()) or ())
+        if creep or times:        # a viscoelastic wall (M44)
+            return Line(length, diameter, fluid, rig.get(f"{section}.bulk_modulus"), creep, times)
         return Line(length, diameter, fluid, rig.get(f"{section}.bulk_modulus"))
     except ValueError as e:   # Line names the parameter: "diameter: must be > 0 ..."
         raise RigError(f"{section}.{e}") from None
