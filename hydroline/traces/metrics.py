@@ -771,9 +771,9 @@ def _time_above(times, values, level):
     the band: the ring count is continuous, and its slope bounded, by construction."""
     if values.size < 2:
         return 0.0
-    # x = ln(values / level) + 1/2: the band is 0 <= x <= 1 (below it, values clipped to
-    # a neper under the band: x >= -1, which changes nothing that counts)
-    x = np.log(np.maximum(values, level * math.exp(-1.5)) / level)
+    # x = ln(values / level) + 1/2: the band is 0 <= x <= 1 (a zero of the envelope is
+    # taken as 1e-300 of the level: a segment from it spends no time in the band)
+    x = np.log(np.maximum(values / level, 1e-300))
     x += 0.5
     h = np.diff(times)
     a, b = x[:-1], x[1:]
