@@ -1571,8 +1571,10 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
                                  above 1 %: near the 'no oscillation' verdict, the amplitude
                                  faded (the share and the whole swing are given)
         ``ringing_periods``      for how many periods after the step the oscillation's
-                                 envelope lies above 1 % of the excursion, [-]; None where it
-                                 still does at the window's end, or does not ring
+                                 envelope lies above 1 % of the excursion (the threshold
+                                 softened over a neper about it, so that the count moves
+                                 continuously: :func:`oscillation_frequency`), [-]; None
+                                 where it still does at the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
