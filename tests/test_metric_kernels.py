@@ -119,3 +119,28 @@ def test_savgol_long_windows_equal_scipy(window):
     x = np.random.default_rng(window).normal(size=2000).cumsum() * 1e5 + 2e7
     np.testing.assert_allclose(filters.savgol_filter(x, window, 3),
                                scipy_savgol(x, window, 3, mode="interp"), rtol=1e-12)
+
+
+def test_ring_time_is_the_softened_threshold_integrated():
+    """``_time_above`` (the ring count's time above 1 %) against its definition integrated by
+    brute force: ``clip(ln(v / level) + 1/2, 0, 1)`` on an envelope interpolated
+    log-linearly, summed on 2000 sub-steps per segment; and against the closed form
+    ``ln(a / level) / sigma`` of an exponential decay through the band (the hard threshold's
+    time: the two halves of the ramp balance)."""
+    rng = np.random.default_rng(23)
+    level = 1.0
+    for _ in range(20):
+        times = np.cumsum(rng.uniform(0.1, 1.0, 30))
+        values = np.exp(rng.normal(0.0, 0.8, 30))        # about the level, every way through
+        sub = np.linspace(0.0, 1.0, 2001)
+        total = 0.0
+        for k in range(times.size - 1):
+            logs = np.log(values[k]) + sub * (np.log(values[k + 1]) - np.log(values[k]))
+            weight = np.clip(logs - np.log(level) + 0.5, 0.0, 1.0)
+            total += (times[k + 1] - times[k]) * float(np.mean(
+                0.5 * (weight[1:] + weight[:-1])))
+        assert metrics._time_above(times, values, level) == pytest.approx(total, rel=1e-6)
+    t = np.linspace(0.0, 1.0, 401)
+    for a, sigma in ((100.0, 8.0), (3.0, 2.0), (1.7, 5.0)):    # starting above the band
+        assert metrics._time_above(t, a * np.exp(-sigma * t), level) == pytest.approx(
+            np.log(a / level) / sigma, rel=1e-12)

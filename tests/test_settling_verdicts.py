@@ -290,6 +290,86 @@ def test_a_short_burst_beside_a_drift_fades_into_the_verdict():
     assert further >= 5, "the burst must stand below the bend's sidelobes in some traces"
 
 
+def test_a_burst_with_a_drifting_frequency_fades_continuously():
+    """The short hose's supply port (issue 23: sections II 0.09 / 0.10 m read 0.039 / 0.077
+    MPa): a burst of two or three swings on a pressure that falls at 8 MPa/s (the fall, not
+    the burst, sets the largest deviation and so the 1 % threshold), sampled at 10 kHz. Its
+    decay per period is raised in fine steps (3.6 down to 1.4 periods above 1 %) while its
+    frequency drifts from 640 to 730 Hz along the sweep: the ring count follows the closed
+    form and the amplitude fades into the verdict without a jump, as above."""
+    t = np.arange(0.0, 0.1121, 1e-4)
+    u = np.clip(t - T0, 0.0, None)
+    rate, a = 8e6, 0.07e6       # the fall [Pa/s], the burst [Pa]
+    # the final value: the mean of the window's last 20 %, where the fall is a straight line
+    # (the burst has died: exp(-40)), so its value half way
+    tail = t[-1] - 0.2 * (t[-1] - T0)
+    p_final = P - rate * ((tail + t[-1]) / 2 - T0)
+    fine = np.linspace(0.0, 0.004, 40_001)      # the largest deviation: near the step
+    n_steps = 43
+    traces, counts = [], []
+    for k, decay in enumerate(np.linspace(0.6, 1.6, n_steps)):
+        f = 640.0 + 90.0 * k / (n_steps - 1)
+        sigma = decay * f
+        traces.append(P - rate * u + a * np.exp(-sigma * u) * np.sin(2 * np.pi * f * u))
+        deviation = (P - rate * fine + a * np.exp(-sigma * fine) * np.sin(2 * np.pi * f * fine)
+                     - p_final)
+        counts.append(ring_count(a, sigma, f, float(np.max(np.abs(deviation)))))
+    amplitudes = check_fading_sweep(t, traces, counts)
+    assert counts[0] > 3 and counts[-1] < 1.5 and amplitudes[-1] == 0.0
+
+
+def test_a_later_lobe_at_the_threshold_moves_the_ring_count_by_its_share():
+    """What made the 0.09 / 0.10 m supply pair jump: within that centimetre a later, weaker
+    lobe of the burst rises through the 1 % threshold with a flat top. Counted with a hard
+    threshold, the ring count takes in the lobe's time above 1 % (most of a period) within a
+    step or two as the top passes 1 %; the threshold softened over a neper (docs/metrics.md)
+    moves it by at most the periods the envelope spends near 1 % times the change of its
+    logarithm. Here the lobe grows from 8 to 12 kPa (the threshold: 1 % of the fall's
+    0.73 MPa) in 16 steps while the burst's frequency drifts 690-730 Hz: per step the count
+    moves by at most ``f tau d(ln c) + n df / f``, where ``tau`` is how long the oscillation
+    lasts (until its analytic envelope falls below the band's foot, ``0.01 largest
+    e^(-1/2)``, plus the demodulation's one period of smoothing) and ``n df / f`` the count's
+    own scaling with the frequency it is read in; and the amplitude by no more than the
+    issue's bound (the traces' max |dp| + 10 kPa)."""
+    t = np.arange(0.0, 0.1121, 1e-4)
+    u = np.clip(t - T0, 0.0, None)
+    rate, a, centre, width = 8e6, 0.07e6, 3.8e-3, 1.2e-3
+
+    def lobe(c, u):
+        """The later lobe's envelope, [Pa]: flat-topped about ``centre``."""
+        return c * np.exp(-((u - centre) / width) ** 4)
+
+    def trace(c, f, u):
+        """Pressure [Pa]: the fall, the burst and the later lobe."""
+        return (P - rate * u + a * np.exp(-1.2 * f * u) * np.sin(2 * np.pi * f * u)
+                + lobe(c, u) * np.sin(2 * np.pi * f * (u - centre)))
+
+    fine = np.linspace(0.0, 0.02, 200_001)
+    tail = t[-1] - 0.2 * (t[-1] - T0)
+    p_final = P - rate * ((tail + t[-1]) / 2 - T0)      # as above
+    xs = np.linspace(0.0, 1.0, 17)
+    sizes, drives = 8e3 * 1.5 ** xs, 690.0 + 40.0 * xs
+    runs, lasting = [], []
+    for c, f in zip(sizes, drives):
+        p = trace(c, f, u)
+        runs.append((p, pressure_metrics(t, p, T0)))
+        # how long the oscillation lasts: its analytic envelope above the band's foot
+        floor = 0.01 * float(np.max(np.abs(trace(c, f, fine) - p_final))) * math.exp(-0.5)
+        envelope = a * np.exp(-1.2 * f * fine) + lobe(c, fine)
+        lasting.append(float(fine[np.flatnonzero(envelope >= floor)[-1]]))
+    counts = [m["ringing_periods"] for _, m in runs]
+    assert counts[0] < 3 < counts[-1]       # the lobe takes the count through 3 periods
+    for k in range(1, len(runs)):
+        (p0, m0), (p1, m1) = runs[k - 1], runs[k]
+        f0, f1 = m0["frequency_hz"], m1["frequency_hz"]
+        tau = max(lasting[k - 1], lasting[k]) + 1.0 / min(f0, f1)
+        bound = (max(f0, f1) * tau * math.log(sizes[k] / sizes[k - 1])
+                 + max(counts[k - 1], counts[k]) * abs(f1 - f0) / min(f0, f1))
+        assert abs(counts[k] - counts[k - 1]) <= bound, (k, counts[k - 1:k + 1], bound)
+        dp = float(np.max(np.abs(p1 - p0))) / 1e6
+        assert abs(m1["amplitude_mpa"] - m0["amplitude_mpa"]) <= dp + 0.01, k
+
+
 def test_near_the_verdict_the_amplitude_says_so():
     """A ringing that dies within a few periods (decay 2.2 per period: 1 % after ~2.3
     periods) keeps its share of the swing (ring count - 1.5) / 1.5, and its note says so."""

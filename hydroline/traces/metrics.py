@@ -62,9 +62,14 @@ interpolation (so nonuniform solver output is fine):
 4. *Oscillating or not.* The envelope of the fundamental (the demodulated amplitude divided
    by the filter's gain for the fitted decay rate) must lie above 1 % of the largest
    deviation ``max|p - p_final|`` for at least ``min_cycles`` periods after ``t_step``
-   (the time it lies above, the demodulation's first period counted, linear between its
-   points: for a decaying envelope the time to its last crossing; a later lobe that
-   rises through 1 % adds its time above, from 0, instead of moving the end at once).
+   (the demodulation's first period counted, then the time it lies above, the threshold
+   softened over one neper about it: an instant counts ``clip(ln(envelope / 1 %) + 1/2,
+   0, 1)`` of itself, the envelope log-linear between its points. For an envelope that
+   decays exponentially through 0.6-1.6 % this is the time to its crossing of 1 %
+   exactly; where the envelope lingers near 1 % (a burst's later lobe whose top passes
+   it), a change of the envelope by a factor ``1 + eps`` moves the count by at most
+   ``eps`` times the periods it spends in that band, where a hard threshold's count
+   jumps by all of them: :func:`_time_above`).
    For the step response of a second-order system this reports damping ratios up to
    about 0.46 with the default ``min_cycles = 1.5`` (ratio 0.45: 1.5 cycles of overshoot and
    undershoot above 1 %). No candidate passing: None. The verdict is a threshold: a ringing
@@ -719,7 +724,8 @@ def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycle
                              refined=False):
     """``(frequency [Hz], periods [-])``: the demodulated frequency near ``coarse`` and for
     how many periods after ``t_step`` its envelope lies above 1 % of ``largest`` (inf: still
-    at the window's end; :func:`_time_above`, the demodulation's first period counted), if
+    at the window's end; :func:`_time_above`, the threshold softened over a neper, the
+    demodulation's first period counted), if
     that is at least ``min_cycles`` (a coherent oscillation), else None. Where the refined
     frequency wanders off (more than 50 %), the spectral peak's ``coarse`` itself is
     checked: a burst of a few periods right after the step, which the demodulation sees
@@ -738,9 +744,10 @@ def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycle
     if not (incoherence <= _MAX_INCOHERENCE):
         return None
     floor = OSCILLATION_THRESHOLD * largest
-    if not np.any(envelope >= floor):
+    above = _time_above(centres, envelope, floor)
+    if not above > 0.0:
         return None
-    cycles = frequency * ((centres[0] - t_step) + _time_above(centres, envelope, floor))
+    cycles = frequency * ((centres[0] - t_step) + above)
     if cycles < min_cycles:
         return None
     # (a ringing still above the threshold at the demodulation's last point lasts as long as
@@ -749,17 +756,36 @@ def _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycle
 
 
 def _time_above(times, values, level):
-    """How long the piecewise-linear ``values(times)`` lies at or above ``level``, [s].
+    """How long the envelope ``values(times)`` lies above ``level`` [s], the threshold
+    softened over one neper (a factor e) about it: each instant counts
+    ``clip(ln(values / level) + 1/2, 0, 1)`` of itself (all of it above ``level e^(1/2)``,
+    none below ``level e^(-1/2)``), the envelope log-linear between its points.
 
-    For a decaying envelope it is the time to its last crossing of ``level``; where a later
-    lobe rises to the level (two components beating), it counts the lobe's time above it,
-    which grows from 0 as the lobe's top passes the level: unlike the time of the last
-    crossing, it does not jump there."""
-    a, b = values[:-1] - level, values[1:] - level
+    For an envelope that decays exponentially through the band, ``a exp(-sigma t)``, the
+    ramp's two halves balance: the result is the time to the crossing of ``level`` itself,
+    ``ln(a / level) / sigma``, as a hard threshold gives (the ring count's closed form holds).
+    Where the envelope lingers near the level (a later lobe whose top passes it, a burst's
+    tail that flattens there), a hard threshold's time jumps by the whole time the envelope
+    spends at it when the envelope moves by a hair; here a change of the envelope by a
+    factor ``(1 + eps)`` moves the result by at most ``eps`` times the time it spends within
+    the band: the ring count is continuous, and its slope bounded, by construction."""
+    if values.size < 2:
+        return 0.0
+    # x = ln(values / level) + 1/2: the band is 0 <= x <= 1 (a zero of the envelope is
+    # taken as 1e-300 of the level: a segment from it spends no time in the band)
+    x = np.log(np.maximum(values / level, 1e-300))
+    x += 0.5
     h = np.diff(times)
-    share = np.where((a >= 0) & (b >= 0), 1.0, 0.0)
-    cross = (a >= 0) != (b >= 0)
-    share[cross] = np.maximum(a[cross], b[cross]) / np.abs(a[cross] - b[cross])
+    a, b = x[:-1], x[1:]
+    # the mean of clip(x, 0, 1) over a segment where x is linear: (G(b) - G(a)) / (b - a),
+    # G the antiderivative (0 below 0, x^2 / 2 within the band, x - 1/2 above it)
+    ga = np.where(a <= 0.0, 0.0, np.where(a >= 1.0, a - 0.5, 0.5 * a * a))
+    gb = np.where(b <= 0.0, 0.0, np.where(b >= 1.0, b - 0.5, 0.5 * b * b))
+    d = b - a
+    flat = np.abs(d) < 1e-9
+    share = np.empty_like(d)
+    share[~flat] = (gb[~flat] - ga[~flat]) / d[~flat]
+    share[flat] = np.clip(0.5 * (a[flat] + b[flat]), 0.0, 1.0)
     return float(np.dot(share, h))
 
 
@@ -1545,8 +1571,10 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
                                  above 1 %: near the 'no oscillation' verdict, the amplitude
                                  faded (the share and the whole swing are given)
         ``ringing_periods``      for how many periods after the step the oscillation's
-                                 envelope lies above 1 % of the excursion, [-]; None where it
-                                 still does at the window's end, or does not ring
+                                 envelope lies above 1 % of the excursion (the threshold
+                                 softened over a neper about it, so that the count moves
+                                 continuously: :func:`oscillation_frequency`), [-]; None
+                                 where it still does at the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
