@@ -891,6 +891,12 @@ VERDICT_MARGIN = 3.0
 #: signal exists on both sides of the half period it belongs to.
 AMPLITUDE_MIN_PERIODS = 2.0
 _BASELINE_SAMPLES = 64      # uniform grid of the baseline and amplitude, per period
+#: A window holding fewer periods than this of an oscillation whose every lobe reaches 30 % of
+#: the largest (:func:`_rough_frequency`) is too short to read, not a 'no oscillation': the
+#: frequency finder (:func:`oscillation_frequency`) may miss a ringing that fills only ~2.5
+#: periods of the window (a supply section II of 5.05-5.1 m on the paper's rig, 25 Hz in
+#: 103 ms, read 'no oscillation' between 0.94 MPa at 5.0 m and 'too short' at 5.15 m), [-].
+SHORT_WINDOW_PERIODS = 4.0
 
 
 def ringing_weight(periods):
@@ -1588,11 +1594,11 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
     base = None
     if frequency is None:
         rough = _rough_frequency(t, p, t_step, t_end)
-        if rough is not None and duration * rough < AMPLITUDE_MIN_PERIODS + 0.5:
+        if rough is not None and duration * rough < SHORT_WINDOW_PERIODS:
             amplitude = None
             note = (f"the window ({duration * 1e3:.0f} ms) holds {duration * rough:.1f} periods of "
-                    f"an oscillation near {rough:.3g} Hz; frequency and amplitude need "
-                    f"{AMPLITUDE_MIN_PERIODS:g}")
+                    f"an oscillation near {rough:.3g} Hz: too few to measure its frequency "
+                    f"and amplitude (fewer than {SHORT_WINDOW_PERIODS:g})")
         else:
             note = ("no oscillation: the pressure does not ring (no coherent oscillation above "
                     f"{OSCILLATION_THRESHOLD:.0%} of its excursion for {VERDICT_PERIODS:g} "
