@@ -69,7 +69,9 @@ class Parameter:
                         off), or :data:`REQUIRED`
     scope : str         When the parameter changes a run: "always", a scenario name,
                         "close-coupled" (section II of zero length), "lugre" (friction model),
-                        "modal-accumulator", "load-spring" (a load stiffness given)
+                        "modal-accumulator", "load-spring" (a load stiffness given),
+                        "entrained-air" (a fluid.air_content given), "cavity" (a
+                        fluid.cavity_pressure given), "viscoelastic" (a hose wall given)
     zero_allowed : bool 0 is accepted below ``low`` (a length of 0 removes a hose section)
     integer : bool      The value must be a whole number
     inherited : bool    The default is a rig-wide setting by design (the modes of a section
@@ -195,10 +197,12 @@ PARAMETERS: Mapping = DerivedTable({
     "fluid.density": Declared(),
     "fluid.kinematic_viscosity": Declared(),
     "fluid.bulk_modulus": Declared(),
-    "fluid.air_content": Declared(COMPONENT_DEFAULT),
-    "fluid.air_polytropic_exponent": Declared(COMPONENT_DEFAULT),
+    # entrained air, cavities and viscoelastic walls: off unless the rig turns them on (their
+    # defaults are not reported as used by a rig without them)
+    "fluid.air_content": Declared(COMPONENT_DEFAULT, scope="entrained-air"),
+    "fluid.air_polytropic_exponent": Declared(COMPONENT_DEFAULT, scope="entrained-air"),
     "fluid.cavity_pressure": Declared(default=None),
-    "fluid.cavity_pressure_drop": Declared(COMPONENT_DEFAULT),
+    "fluid.cavity_pressure_drop": Declared(COMPONENT_DEFAULT, scope="cavity"),
     "fluid.gas_release_pressure": Parameter(
         "Pa", 0.0, 1e6, "absolute pressure below which dissolved air leaves the oil (the line "
         "model no longer holds)", ATMOSPHERIC_PRESSURE),
@@ -215,10 +219,10 @@ PARAMETERS: Mapping = DerivedTable({
                                           inherited=True),
         "{side}.section2.modes": Declared(default="rig.modes_per_section", integer=True,
                                           inherited=True),
-        "{side}.section1.creep_compliances": Declared(COMPONENT_DEFAULT),
-        "{side}.section2.creep_compliances": Declared(COMPONENT_DEFAULT),
-        "{side}.section1.retardation_times": Declared(COMPONENT_DEFAULT),
-        "{side}.section2.retardation_times": Declared(COMPONENT_DEFAULT),
+        "{side}.section1.creep_compliances": Declared(COMPONENT_DEFAULT, scope="viscoelastic"),
+        "{side}.section2.creep_compliances": Declared(COMPONENT_DEFAULT, scope="viscoelastic"),
+        "{side}.section1.retardation_times": Declared(COMPONENT_DEFAULT, scope="viscoelastic"),
+        "{side}.section2.retardation_times": Declared(COMPONENT_DEFAULT, scope="viscoelastic"),
         "{side}.manifold.resistance": Declared(),
         "{side}.manifold.volume": Parameter("m^3", 1e-7, 1e-2, "manifold block oil volume, the "
                                             "node when section II is removed", 50e-6,
@@ -503,6 +507,14 @@ def _in_scope(rig, p: Parameter, path: str, scenario: str | None) -> bool:
         return _value(rig, "load.stiffness") != 0
     if p.scope == "modal-accumulator":
         return rig.get(f"{side}.accumulator.model") == "modal"
+    if p.scope == "entrained-air":
+        return bool(rig.get("fluid.air_content"))
+    if p.scope == "cavity":
+        return rig.get("fluid.cavity_pressure") is not None
+    if p.scope == "viscoelastic":
+        section = path.rpartition(".")[0]
+        return bool(rig.get(f"{section}.creep_compliances") or
+                    rig.get(f"{section}.retardation_times"))
     return True
 
 
