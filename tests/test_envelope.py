@@ -160,3 +160,19 @@ def test_cli_json_and_files(tmp_path, capsys):
     assert doc["displacement_amplitude_m"][0] == pytest.approx(0.051, rel=0.02)
     assert doc["analytic"]["displacement_amplitude_m"] == [pytest.approx(0.051)]
     assert {p.name for p in out.iterdir()} == {"envelope.csv", "envelope.json", "envelope.png"}
+
+
+@pytest.mark.parametrize("starts", [(1e-4, 0.05), (0.04, 2e-4), (0.0123, 0.0124)])
+def test_bisection_grid_orders_two_searches(starts):
+    """Both curves' searches try the same grid (1 + rtol)**k whatever their start: the lower
+    threshold never gives the larger answer, and thresholds in one grid cell give one answer
+    (so a curve above another by a grid step is the thresholds', not the searches')."""
+    rtol = 0.02
+    t_low, t_high = 0.0123, 0.0123 * 1.005          # one grid cell apart at most
+    a = largest_passing(lambda v: (v <= t_low, None), starts[0], 1e-5, 0.05, rtol)[0]
+    b = largest_passing(lambda v: (v <= t_high, None), starts[1], 1e-5, 0.05, rtol)[0]
+    assert a <= b and b / a <= 1 + rtol + 1e-12
+    c = largest_passing(lambda v: (v <= t_low, None), starts[1], 1e-5, 0.05, rtol)[0]
+    assert c == a
+    k = math.log(a) / math.log1p(rtol)
+    assert abs(k - round(k)) < 1e-9                 # a grid value

@@ -146,12 +146,18 @@ def largest_passing(passes, start: float, low: float, high: float, rtol: float =
     ``start`` (steps of ``step``) and bisection on the logarithm, assuming it holds below some
     threshold and fails above.
 
+    The values tried are those of one fixed grid, ``(1 + rtol)**k`` (``low`` and ``high`` at
+    its ends), whatever ``start``: two searches (the lines' and the constant supply's) give
+    the same answer where their thresholds lie between the same two grid values, and one
+    threshold below the other never gives the larger answer.
+
     Parameters
     ----------
     passes : callable   ``passes(value) -> (bool, info)``
     start : float       First value tried (a neighbour's answer), [any unit]
     low, high : float   Search range, > 0, [unit]
-    rtol : float        Relative width of the final bracket, [-]
+    rtol : float        Ratio of neighbouring grid values less one: the final bracket's
+                        relative width, [-]
     step : float        Bracketing step factor, > 1, [-]
 
     Returns
@@ -160,39 +166,49 @@ def largest_passing(passes, start: float, low: float, high: float, rtol: float =
     ``info_pass`` None where even ``low`` fails), the smallest failing one (None where
     ``high`` passes) and what ``passes`` said of each
     """
-    start = min(max(start, low), high)
-    ok, info = passes(start)
+    grid = math.log1p(rtol)
+    k_low, k_high = math.floor(math.log(low) / grid), math.ceil(math.log(high) / grid)
+
+    def value(k):
+        return low if k <= k_low else high if k >= k_high else math.exp(k * grid)
+
+    def index(v):
+        return min(max(round(math.log(v) / grid), k_low), k_high)
+
+    dk = max(1, round(math.log(step) / grid))
+    k = index(min(max(start, low), high))
+    ok, info = passes(value(k))
     lo = hi = None
     if ok:
-        lo, lo_info = start, info
-        while lo < high:
-            v = min(lo * step, high)
-            ok, info = passes(v)
+        lo, lo_info = k, info
+        while lo < k_high:
+            k = min(lo + dk, k_high)
+            ok, info = passes(value(k))
             if not ok:
-                hi, hi_info = v, info
+                hi, hi_info = k, info
                 break
-            lo, lo_info = v, info
+            lo, lo_info = k, info
         if hi is None:
-            return lo, lo_info, None, None
+            return value(lo), lo_info, None, None
     else:
-        hi, hi_info = start, info
-        while hi > low:
-            v = max(hi / step, low)
-            ok, info = passes(v)
+        hi, hi_info = k, info
+        while hi > k_low:
+            k = max(hi - dk, k_low)
+            ok, info = passes(value(k))
             if ok:
-                lo, lo_info = v, info
+                lo, lo_info = k, info
                 break
-            hi, hi_info = v, info
+            hi, hi_info = k, info
         if lo is None:
-            return low, None, hi, hi_info
-    while hi / lo > 1.0 + rtol:
-        v = math.sqrt(lo * hi)
-        ok, info = passes(v)
+            return low, None, value(hi), hi_info
+    while hi - lo > 1:
+        k = (lo + hi) // 2
+        ok, info = passes(value(k))
         if ok:
-            lo, lo_info = v, info
+            lo, lo_info = k, info
         else:
-            hi, hi_info = v, info
-    return lo, lo_info, hi, hi_info
+            hi, hi_info = k, info
+    return value(lo), lo_info, value(hi), hi_info
 
 
 # ----------------------------------------------------------------------------- ideal supply
@@ -380,12 +396,27 @@ class SineRig:
         """
         n = self.SAMPLES
         p = self.p
-        for name in self.driven:
-            c = complex(command[name])
-            p[self.index[name, "sine_amplitude"]] = c.real
-            p[self.index[name, "cosine_amplitude"]] = c.imag
-            p[self.index[name, "frequency"]] = frequency
+
+        def set_command(phasors):
+            for name in self.driven:
+                c = complex(phasors[name])
+                p[self.index[name, "sine_amplitude"]] = c.real
+                p[self.index[name, "cosine_amplitude"]] = c.imag
+                p[self.index[name, "frequency"]] = frequency
+
         x = (self.rest.x if x0 is None else x0).copy()
+        if x0 is None and any(complex(command[name]).real != 0.0 for name in self.driven):
+            # From the rest state a sine reference leaves every derivative zero at t = 0 and at
+            # every whole and half period: the variable-step solver may step over the whole
+            # run and see nothing. A quarter period of the reference shifted a quarter
+            # period back (a_s sin + a_c cos -> a_c sin - a_s cos: nonzero at t = 0) ends
+            # at the reference's phase 0, where the run proper starts.
+            set_command({name: complex(complex(command[name]).imag, -complex(command[name]).real)
+                         for name in self.driven})
+            res = integrate(self.network, x, 0.25 / frequency, dt_out=0.25 / frequency, p=p,
+                            solver=self.solver, rtol=1e-6, atol_scale=1e-7)
+            x = np.array([res[s][-1] for s in self.network.state_names])
+        set_command(command)
         total, chunk = 0, 3 if x0 is None else 2
         drop = max(abs(ps - pt) for ps, pt in self.nominal.values())
         while True:
