@@ -167,3 +167,33 @@ def test_constraint_syntax():
     c = parse_constraint(" supply.frequency_hz >= 30 ")
     assert (c.metric, c.sense, c.bound) == ("supply.frequency_hz", ">=", 30.0)
     assert c.margin(33.0) == pytest.approx(0.1) and c.margin(math.nan) == -math.inf
+
+
+def test_two_objective_front_not_dominated_by_a_grid(tmp_path):
+    # amplitude 0.5 + (L - 1.7)^2 + (C/L - 2)^2 [MPa] against the accumulator volume C/L + 1
+    # (the return accumulator's 1 L): the front is L = 1.7 m, C = 0.2 ... 2 L, by hand
+    objectives = ["supply.amplitude_mpa", "accumulator_volume_l"]
+    r = optimize(["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"],
+                 minimize=objectives, runner=Analytic(), max_evaluations=60, out=tmp_path)
+    front = [(p["objectives"][objectives[0]], p["objectives"][objectives[1]]) for p in r.front]
+    assert len(front) >= 4
+    for (a, v), p in zip(front, r.front):
+        C = p["variables"]["supply.accumulator.capacity"]
+        assert v == pytest.approx(C * 1e3 + 1.0)
+        assert a == pytest.approx(0.5 + (p["variables"]["supply.section2.length"] - L_BEST) ** 2
+                                  + (C / 1e-3 - 2.0) ** 2)
+    # the ends: the amplitude's minimum (C = 2 L) and the smallest accumulator (0.2 L)
+    assert front[0][0] == pytest.approx(0.5, abs=0.005) and r.objective == front[0][0]
+    assert front[-1][1] == pytest.approx(1.2, abs=0.005)
+    grid = [(amplitude(L, C), C * 1e3 + 1.0) for L in np.linspace(0.5, 4.0, 30)
+            for C in np.linspace(0.2e-3, 4e-3, 30)]
+    # a grid point dominates a front point beyond tolerance where it is better in both
+    # objectives by more than 1 % of the point's value (a point off the front by more than
+    # that has front points, and grid points near them, better in both)
+    for a, v in front:
+        for ga, gv in grid:
+            assert not (ga < 0.99 * a and gv < 0.99 * v), ((a, v), (ga, gv))
+    doc = json.loads((tmp_path / "optimize.json").read_text())
+    assert len(doc["front"]) == len(front)
+    assert set(doc["front"][0]) == {"variables", "objectives"}
+    assert (tmp_path / "optimize.png").exists()
