@@ -63,7 +63,7 @@ from .sweep import SweepFileError, VariantRunner, check_levels, failed_row, metr
 __all__ = ["optimize", "OptimizeResult", "Variable", "Constraint", "parse_variables",
            "parse_constraint", "metric_names", "cost_metrics", "COST_METRICS",
            "OPTIMIZE_JOURNAL", "optimised_rig_text", "optimize_figure", "BudgetExhausted",
-           "pareto_front"]
+           "pareto_front", "objective_gradient"]
 
 #: Cost proxies computed from the rig's numbers (no simulation): the sum of every hose
 #: section's length [m] and of every accumulator's gas capacity [L].
@@ -424,6 +424,59 @@ class _Problem:
         return (failed, not feasible, violation if not feasible else 0.0, self.objective(row))
 
 
+def _forward_differences(problem: _Problem, zc, step: float, full) -> tuple:
+    """The gradients SLSQP is given: forward differences of ``step`` in the scaled continuous
+    coordinates ``zc`` (backward at the upper bound), the n + 1 points one batch; returns
+    (d objective / dz, d margins / dz as rows per constraint), both scaled."""
+    hs = np.array([step if zi + step <= 1.0 else -step for zi in zc])
+    pts = [zc] + [zc + h * e for h, e in zip(hs, np.eye(len(zc)))]
+    rows = problem.rows([full(p) for p in pts])
+    f = np.array([problem.objective(r) for r in rows])
+    c = np.array([problem.margins(r) for r in rows]).reshape(len(rows), -1)
+    return (f[1:] - f[0]) / hs, ((c[1:] - c[0]) / hs[:, None]).T
+
+
+def objective_gradient(vary, rig=None, *, minimize: str, at: dict | None = None,
+                       step: float = 1e-3, scenario: str | None = None,
+                       t_end: float | None = None, solver: str = "auto", runner=None) -> dict:
+    """The gradient of a metric as the local method sees it: forward differences of ``step``
+    of each range (the same code SLSQP's gradients come from), in SI units.
+
+    Parameters
+    ----------
+    vary : sequence of str   ``"PATH=LOW..HIGH"`` continuous variables with units
+    rig : Rig, str or None   The base rig (None: the embedded 2005 paper's rig)
+    minimize : str           The metric (:func:`metric_names`)
+    at : dict                Rig path -> SI value of the point (None: the base rig's values)
+    step : float             Forward-difference step in the scaled variables (range = 1), [-]
+    scenario : str           Scenario name (None: the rig's, else open-loop-step)
+    t_end : float            Simulated time per evaluation, [s]
+    solver : str             See :func:`hydroline.engine.integrate`
+    runner : callable        ``runner(index, values) -> row`` instead of the rig's simulation
+
+    Returns
+    -------
+    dict  Variable name -> d metric / d value, [the metric's unit per the variable's SI unit]
+    """
+    if not isinstance(rig, Rig):
+        rig = load_rig(rig)
+    scenario = scenario or default_scenario(rig)
+    variables = parse_variables(vary, (), rig)
+    axes = _axes(rig)
+    units = {p: v.unit for v in variables for p in v.paths}
+    if runner is None:
+        runner = VariantRunner(rig, scenario, t_end, solver, units, axes)
+    ev = _Evaluations(lambda tasks: [runner(i, v) for i, v in tasks], list(units),
+                      dict(rig.values), axes, None, {}, math.inf)
+    problem = _Problem(variables, minimize, [], ev, 1.0)
+    at = {**rig.values, **(at or {})}
+    z = np.array([v.scaled(at.get(v.paths[0])) for v in variables], dtype=float)
+    if not np.all(np.isfinite(z)):
+        raise RigError("objective_gradient: the point is outside the --vary ranges")
+    g, _ = _forward_differences(problem, z, step, lambda zc: zc)
+    return {v.name: float(gi) / (v.high - v.low) for v, gi in zip(variables, g)}
+
+
 def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
     """SLSQP over the continuous coordinates (``fixed``: index -> z of the discrete ones)."""
     from scipy.optimize import minimize
@@ -444,12 +497,7 @@ def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
         zc = np.clip(np.asarray(zc, dtype=float), 0.0, 1.0)
         key = zc.tobytes()
         if key not in grads:
-            hs = np.array([step if zi + step <= 1.0 else -step for zi in zc])
-            pts = [zc] + [zc + h * e for h, e in zip(hs, np.eye(len(zc)))]
-            rows = problem.rows([full(p) for p in pts])
-            f = np.array([problem.objective(r) for r in rows])
-            c = np.array([problem.margins(r) for r in rows]).reshape(len(rows), -1)
-            grads[key] = ((f[1:] - f[0]) / hs, ((c[1:] - c[0]) / hs[:, None]).T)
+            grads[key] = _forward_differences(problem, zc, step, full)
         return grads[key]
 
     def fun(zc):
