@@ -238,3 +238,37 @@ def test_optimiser_gradient_matches_central_differences_on_the_real_rig():
                 3.048, 0.005)
     assert c < 0
     assert g["supply.section2.length"] == pytest.approx(c, rel=0.01)
+
+
+def test_interrupted_run_resumes_running_only_the_missing_evaluations(tmp_path):
+    vary = ["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"]
+    kw = dict(minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+              figure=False)
+    whole = optimize(vary, runner=Analytic(), **kw)
+    first = optimize(vary, runner=Analytic(), out=tmp_path, **kw)
+    path = tmp_path / "optimize.jsonl"
+    lines = path.read_text().splitlines()
+    kept = len(lines[1:]) // 2
+    # killed mid-run: the header, half the rows and a row cut short while written
+    path.write_text("\n".join(lines[:1 + kept]) + "\n" + lines[1 + kept][:25])
+    again = Analytic()
+    resumed = optimize(vary, runner=again, out=tmp_path, resume=True, **kw)
+    assert again.calls == first.n_computed - kept == resumed.n_computed
+    assert resumed.optimum == first.optimum == whole.optimum
+    assert resumed.evaluations == first.evaluations
+    rows = [json.loads(line) for line in path.read_text().splitlines()[1:]]
+    assert len(rows) == first.n_computed        # the cut row dropped, every line whole
+
+
+def test_dask_cluster_gives_the_in_process_result():
+    distributed = pytest.importorskip("distributed")
+    vary = ["supply.section2.length=0.5 m..4 m"]
+    kw = dict(minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+              figure=False)
+    here = optimize(vary, runner=Analytic(), **kw)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        there = optimize(vary, runner=Analytic(), scheduler=client, **kw)
+    assert there.optimum == here.optimum and there.evaluations == here.evaluations
+    assert there.n_computed == here.n_computed
