@@ -15,8 +15,9 @@ import pytest
 from hydroline.cli import main
 from hydroline.rigs import load_rig
 from hydroline.studies.journal import SweepFileError
-from hydroline.studies.optimize import (COST_METRICS, cost_metrics, metric_names, optimize,
-                                        parse_constraint)
+from hydroline.studies.optimize import (COST_METRICS, cost_metrics, metric_names,
+                                        objective_gradient, optimize, parse_constraint)
+from hydroline.studies.sweep import VariantRunner
 
 L_BEST, D_BEST, C_BEST = 1.7, 0.0159, 2e-3
 
@@ -167,3 +168,107 @@ def test_constraint_syntax():
     c = parse_constraint(" supply.frequency_hz >= 30 ")
     assert (c.metric, c.sense, c.bound) == ("supply.frequency_hz", ">=", 30.0)
     assert c.margin(33.0) == pytest.approx(0.1) and c.margin(math.nan) == -math.inf
+
+
+def test_two_objective_front_not_dominated_by_a_grid(tmp_path):
+    # amplitude 0.5 + (L - 1.7)^2 + (C/L - 2)^2 [MPa] against the accumulator volume C/L + 1
+    # (the return accumulator's 1 L): the front is L = 1.7 m, C = 0.2 ... 2 L, by hand
+    objectives = ["supply.amplitude_mpa", "accumulator_volume_l"]
+    r = optimize(["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"],
+                 minimize=objectives, runner=Analytic(), max_evaluations=60, out=tmp_path)
+    front = [(p["objectives"][objectives[0]], p["objectives"][objectives[1]]) for p in r.front]
+    assert len(front) >= 4
+    for (a, v), p in zip(front, r.front):
+        C = p["variables"]["supply.accumulator.capacity"]
+        assert v == pytest.approx(C * 1e3 + 1.0)
+        assert a == pytest.approx(0.5 + (p["variables"]["supply.section2.length"] - L_BEST) ** 2
+                                  + (C / 1e-3 - 2.0) ** 2)
+    # the ends: the amplitude's minimum (C = 2 L) and the smallest accumulator (0.2 L)
+    assert front[0][0] == pytest.approx(0.5, abs=0.005) and r.objective == front[0][0]
+    assert front[-1][1] == pytest.approx(1.2, abs=0.005)
+    grid = [(amplitude(L, C), C * 1e3 + 1.0) for L in np.linspace(0.5, 4.0, 30)
+            for C in np.linspace(0.2e-3, 4e-3, 30)]
+    # a grid point dominates a front point beyond tolerance where it is better in both
+    # objectives by more than 1 % of the point's value (a point off the front by more than
+    # that has front points, and grid points near them, better in both)
+    for a, v in front:
+        for ga, gv in grid:
+            assert not (ga < 0.99 * a and gv < 0.99 * v), ((a, v), (ga, gv))
+    doc = json.loads((tmp_path / "optimize.json").read_text())
+    assert len(doc["front"]) == len(front)
+    assert set(doc["front"][0]) == {"variables", "objectives"}
+    assert (tmp_path / "optimize.png").exists()
+
+
+def central(f, x, h):
+    return (f(x + h) - f(x - h)) / (2 * h)
+
+
+def test_optimiser_gradients_match_central_differences_on_analytic_metrics():
+    # the forward differences SLSQP is given (step 1e-3 of each range) against central
+    # differences of the runner (and the hand derivative): within 1 %
+    runner = Analytic()
+    vary = ["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"]
+    at = {"supply.section2.length": 3.0, "supply.accumulator.capacity": 1e-3}
+
+    def metric(name, **change):
+        return runner(0, {**at, **change})[name]
+
+    for name, hand in (("supply_amplitude_mpa", (2 * (3.0 - L_BEST), -2.0 / 1e-3)),
+                       ("supply_frequency_hz", (-100.0 / 3.0 ** 2, 0.0))):
+        g = objective_gradient(vary, minimize=name.replace("_", ".", 1), at=at, runner=runner)
+        gl, gc = g["supply.section2.length"], g["supply.accumulator.capacity"]
+        cl = central(lambda L: metric(name, **{"supply.section2.length": L}), 3.0, 1e-4)
+        cc = central(lambda C: metric(name, **{"supply.accumulator.capacity": C}), 1e-3, 1e-7)
+        assert gl == pytest.approx(cl, rel=0.01) and cl == pytest.approx(hand[0], rel=1e-6)
+        assert gc == pytest.approx(cc, rel=0.01, abs=1e-9) and cc == pytest.approx(hand[1],
+                                                                               abs=1e-6)
+
+
+def test_optimiser_gradient_matches_central_differences_on_the_real_rig():
+    # supply.peak_to_peak_mpa over section II near 3.048 m (0.1 s open-loop step, 5 runs):
+    # steps of 5 mm (the metric has ~1e-5 MPa of solver/sampling jitter, so a 1 mm step is
+    # not smooth to 1 %: -0.10 vs -0.13 MPa/m)
+    rig = load_rig(None)
+    units = {"supply.section2.length": "m"}
+    runner = VariantRunner(rig, "open-loop-step", 0.1, "auto", units, [])
+    g = objective_gradient(["supply.section2.length=2.5 m..3.5 m"], rig,
+                           minimize="supply.peak_to_peak_mpa", step=0.005, runner=runner)
+    c = central(lambda L: runner(0, {"supply.section2.length": L})["supply_peak_to_peak_mpa"],
+                3.048, 0.005)
+    assert c < 0
+    assert g["supply.section2.length"] == pytest.approx(c, rel=0.01)
+
+
+def test_interrupted_run_resumes_running_only_the_missing_evaluations(tmp_path):
+    vary = ["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"]
+    kw = dict(minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+              figure=False)
+    whole = optimize(vary, runner=Analytic(), **kw)
+    first = optimize(vary, runner=Analytic(), out=tmp_path, **kw)
+    path = tmp_path / "optimize.jsonl"
+    lines = path.read_text().splitlines()
+    kept = len(lines[1:]) // 2
+    # killed mid-run: the header, half the rows and a row cut short while written
+    path.write_text("\n".join(lines[:1 + kept]) + "\n" + lines[1 + kept][:25])
+    again = Analytic()
+    resumed = optimize(vary, runner=again, out=tmp_path, resume=True, **kw)
+    assert again.calls == first.n_computed - kept == resumed.n_computed
+    assert resumed.optimum == first.optimum == whole.optimum
+    assert resumed.evaluations == first.evaluations
+    rows = [json.loads(line) for line in path.read_text().splitlines()[1:]]
+    assert len(rows) == first.n_computed        # the cut row dropped, every line whole
+
+
+def test_dask_cluster_gives_the_in_process_result():
+    distributed = pytest.importorskip("distributed")
+    vary = ["supply.section2.length=0.5 m..4 m"]
+    kw = dict(minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+              figure=False)
+    here = optimize(vary, runner=Analytic(), **kw)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        there = optimize(vary, runner=Analytic(), scheduler=client, **kw)
+    assert there.optimum == here.optimum and there.evaluations == here.evaluations
+    assert there.n_computed == here.n_computed

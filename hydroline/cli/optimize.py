@@ -38,7 +38,11 @@ examples:
 --out DIR: optimize.jsonl (every evaluation's row as it finishes, what --resume reads),
 optimum.toml (the rig with each changed value commented 'optimised for ...'),
 optimize.json (the result) and optimize.png (baseline and optimum port pressures, the
-objective per evaluation).
+objective per evaluation, the Pareto front with several --minimize).
+
+several --minimize: a Pareto front by the epsilon-constraint method: each metric's minimum,
+then the first metric minimised with the others <= levels spread between those ends
+(--front-points); the front is in optimize.json ("front") and the figure.
 """
 
 
@@ -65,7 +69,11 @@ def register(sub):
     p.add_argument("--choose", action="append", default=[], metavar="PATH=V1,V2,...",
                    help="a discrete variable and its values with units (repeat for more)")
     p.add_argument("--minimize", action="append", default=[], metavar="METRIC",
-                   help="the metric to minimise, e.g. supply.amplitude_mpa")
+                   help="the metric to minimise, e.g. supply.amplitude_mpa; several give a "
+                   "Pareto front (epsilon-constraint)")
+    p.add_argument("--front-points", type=int, default=5, metavar="N",
+                   help="with several --minimize: levels of each further metric on the Pareto "
+                   "front, its ends included (default 5)")
     p.add_argument("--subject-to", dest="subject_to", action="append", default=[],
                    metavar="'METRIC<=VALUE'", help="a constraint (repeat for more)")
     p.add_argument("--scenario", metavar="NAME", help="the experiment each evaluation runs "
@@ -112,9 +120,6 @@ def run(args) -> int:
 
     if not args.minimize:
         raise ValueError("--minimize METRIC is required, e.g. --minimize supply.amplitude_mpa")
-    if len(args.minimize) > 1:
-        raise ValueError("--minimize: give one metric (a Pareto front of several is not "
-                         "offered yet)")
     if not args.vary and not args.choose:
         raise ValueError("give at least one --vary PATH=LOW..HIGH or --choose PATH=V1,V2,..., "
                          "e.g. --vary 'supply.section2.length=0.5 m..4 m'")
@@ -128,7 +133,8 @@ def run(args) -> int:
 
     old = signal.signal(signal.SIGTERM, raise_terminated)
     try:
-        result = optimize(args.vary, rig, choose=args.choose, minimize=args.minimize[0],
+        result = optimize(args.vary, rig, choose=args.choose, minimize=args.minimize,
+                          front_points=args.front_points,
                           subject_to=args.subject_to, scenario=args.scenario, t_end=t_end,
                           solver=args.solver, method=args.method,
                           max_evaluations=args.max_evaluations, starts=args.starts,
@@ -162,6 +168,12 @@ def run(args) -> int:
                 [[m, result.baseline_metrics.get(m), result.metrics.get(m)]
                  for m in dict.fromkeys(shown)])
     print(f"  feasible: {result.feasible}; converged: {result.converged} ({result.message})")
+    if result.front is not None:
+        print(f"  Pareto front ({len(result.front)} points; the optimum above is "
+              f"{result.objective_name}'s minimum):")
+        print_table(list(result.front[0]["variables"]) + list(result.objectives),
+                    [list(p["variables"].values()) + list(p["objectives"].values())
+                     for p in result.front])
     if result.active_constraints:
         print(f"  active constraints: {', '.join(result.active_constraints)}")
     if result.at_bounds:

@@ -62,7 +62,8 @@ from .sweep import SweepFileError, VariantRunner, check_levels, failed_row, metr
 
 __all__ = ["optimize", "OptimizeResult", "Variable", "Constraint", "parse_variables",
            "parse_constraint", "metric_names", "cost_metrics", "COST_METRICS",
-           "OPTIMIZE_JOURNAL", "optimised_rig_text", "optimize_figure", "BudgetExhausted"]
+           "OPTIMIZE_JOURNAL", "optimised_rig_text", "optimize_figure", "BudgetExhausted",
+           "pareto_front", "objective_gradient"]
 
 #: Cost proxies computed from the rig's numbers (no simulation): the sum of every hose
 #: section's length [m] and of every accumulator's gas capacity [L].
@@ -76,6 +77,9 @@ PENALTY = 1e3
 #: A constraint is met within this scaled tolerance and active within ACTIVE_TOLERANCE, [-].
 FEASIBILITY_TOLERANCE = 1e-6
 ACTIVE_TOLERANCE = 1e-3
+#: Pareto front: the lowest epsilon level above a further objective's minimum, and the
+#: domination tolerance, as a fraction of that objective's range over the front, [-].
+FRONT_SLACK = 1e-3
 _HOSE_LENGTH = re.compile(r"^(supply|return)\.section\d+\.length$")
 _CONSTRAINT = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|<|>)\s*(\S.*?)\s*$")
 
@@ -353,6 +357,7 @@ class _Evaluations:
         self.used: dict = {}          # key -> row, in the order the optimiser asked
         self.computed = 0
         self.progress = None
+        self.budget_restarts = False
 
     def __call__(self, points: list[dict]) -> list[dict]:
         keys = [_key(v) for v in points]
@@ -419,6 +424,59 @@ class _Problem:
         return (failed, not feasible, violation if not feasible else 0.0, self.objective(row))
 
 
+def _forward_differences(problem: _Problem, zc, step: float, full) -> tuple:
+    """The gradients SLSQP is given: forward differences of ``step`` in the scaled continuous
+    coordinates ``zc`` (backward at the upper bound), the n + 1 points one batch; returns
+    (d objective / dz, d margins / dz as rows per constraint), both scaled."""
+    hs = np.array([step if zi + step <= 1.0 else -step for zi in zc])
+    pts = [zc] + [zc + h * e for h, e in zip(hs, np.eye(len(zc)))]
+    rows = problem.rows([full(p) for p in pts])
+    f = np.array([problem.objective(r) for r in rows])
+    c = np.array([problem.margins(r) for r in rows]).reshape(len(rows), -1)
+    return (f[1:] - f[0]) / hs, ((c[1:] - c[0]) / hs[:, None]).T
+
+
+def objective_gradient(vary, rig=None, *, minimize: str, at: dict | None = None,
+                       step: float = 1e-3, scenario: str | None = None,
+                       t_end: float | None = None, solver: str = "auto", runner=None) -> dict:
+    """The gradient of a metric as the local method sees it: forward differences of ``step``
+    of each range (the same code SLSQP's gradients come from), in SI units.
+
+    Parameters
+    ----------
+    vary : sequence of str   ``"PATH=LOW..HIGH"`` continuous variables with units
+    rig : Rig, str or None   The base rig (None: the embedded 2005 paper's rig)
+    minimize : str           The metric (:func:`metric_names`)
+    at : dict                Rig path -> SI value of the point (None: the base rig's values)
+    step : float             Forward-difference step in the scaled variables (range = 1), [-]
+    scenario : str           Scenario name (None: the rig's, else open-loop-step)
+    t_end : float            Simulated time per evaluation, [s]
+    solver : str             See :func:`hydroline.engine.integrate`
+    runner : callable        ``runner(index, values) -> row`` instead of the rig's simulation
+
+    Returns
+    -------
+    dict  Variable name -> d metric / d value, [the metric's unit per the variable's SI unit]
+    """
+    if not isinstance(rig, Rig):
+        rig = load_rig(rig)
+    scenario = scenario or default_scenario(rig)
+    variables = parse_variables(vary, (), rig)
+    axes = _axes(rig)
+    units = {p: v.unit for v in variables for p in v.paths}
+    if runner is None:
+        runner = VariantRunner(rig, scenario, t_end, solver, units, axes)
+    ev = _Evaluations(lambda tasks: [runner(i, v) for i, v in tasks], list(units),
+                      dict(rig.values), axes, None, {}, math.inf)
+    problem = _Problem(variables, minimize, [], ev, 1.0)
+    at = {**rig.values, **(at or {})}
+    z = np.array([v.scaled(at.get(v.paths[0])) for v in variables], dtype=float)
+    if not np.all(np.isfinite(z)):
+        raise RigError("objective_gradient: the point is outside the --vary ranges")
+    g, _ = _forward_differences(problem, z, step, lambda zc: zc)
+    return {v.name: float(gi) / (v.high - v.low) for v, gi in zip(variables, g)}
+
+
 def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
     """SLSQP over the continuous coordinates (``fixed``: index -> z of the discrete ones)."""
     from scipy.optimize import minimize
@@ -439,12 +497,7 @@ def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
         zc = np.clip(np.asarray(zc, dtype=float), 0.0, 1.0)
         key = zc.tobytes()
         if key not in grads:
-            hs = np.array([step if zi + step <= 1.0 else -step for zi in zc])
-            pts = [zc] + [zc + h * e for h, e in zip(hs, np.eye(len(zc)))]
-            rows = problem.rows([full(p) for p in pts])
-            f = np.array([problem.objective(r) for r in rows])
-            c = np.array([problem.margins(r) for r in rows]).reshape(len(rows), -1)
-            grads[key] = ((f[1:] - f[0]) / hs, ((c[1:] - c[0]) / hs[:, None]).T)
+            grads[key] = _forward_differences(problem, zc, step, full)
         return grads[key]
 
     def fun(zc):
@@ -530,6 +583,74 @@ def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
         return False, f"stopped: {e}"
 
 
+def pareto_front(solve, objectives, first, ev, points: int = 5) -> list[dict]:
+    """A Pareto front by the epsilon-constraint method on the single-objective machinery.
+
+    Each objective's minimum (subject to the user's constraints) gives the ends of the
+    front; then the first objective is minimised subject to every further objective
+    ``<= eps`` for ``points - 1`` levels of eps spread evenly between that objective's values
+    at the ends, the lowest :data:`FRONT_SLACK` of the range above its minimum (so that end
+    is the least first objective there, not a weakly dominated point; every combination of
+    levels with three or more objectives), each level a problem of its own budget. Every
+    problem
+    reuses the evaluations of those before it (the same starts are not run again). The
+    front is each problem's best feasible evaluated point, less those another dominates (by
+    more than FRONT_SLACK of an objective's range over the front, no worse in the others).
+
+    Parameters
+    ----------
+    solve : callable         ``solve(metric, extra_constraints) -> (problem, converged,
+                             message)``: one single-objective problem (as :func:`optimize`)
+    objectives : list[str]   The metrics, at least two
+    first : object           The problem of the first objective, already solved
+    ev : object              The evaluations (rows of every point evaluated)
+    points : int             Levels of each further objective, its ends included, [-]
+
+    Returns
+    -------
+    list[dict]  ``{"variables": {PATH: SI value}, "objectives": {METRIC: value}}`` sorted by
+                the first objective (its minimum first)
+    """
+    import itertools
+
+    def best(problem):
+        row = min(ev.used.values(), key=problem.rank)
+        return row if problem.rank(row)[:2] == (False, False) else None
+
+    anchors = [best(first)] + [best(solve(m)[0]) for m in objectives[1:]]
+    ends = [r for r in anchors if r is not None]
+    rows = list(ends)
+    if ends:
+        levels = []
+        for m in objectives[1:]:
+            vals = [ev.metric(r, m) for r in ends]
+            lo, hi = min(vals), max(vals)
+            levels.append([lo + (hi - lo) * max(k / (points - 1), FRONT_SLACK)
+                           for k in range(points - 2, -1, -1)] if hi > lo else [lo])
+        for eps in itertools.product(*levels):
+            extra = [Constraint(m, "<=", e) for m, e in zip(objectives[1:], eps)]
+            row = best(solve(objectives[0], extra)[0])
+            if row is not None:
+                rows.append(row)
+    f = {id(r): [ev.metric(r, m) for m in objectives] for r in rows}
+    tol = FRONT_SLACK * np.ptp(np.array(list(f.values())), axis=0)
+
+    def dominated(r):       # by another point, within FRONT_SLACK of each objective's range
+        a = np.array(f[id(r)])
+        return any(np.all(np.array(f[id(o)]) <= a + tol) and np.any(np.array(f[id(o)]) < a - tol)
+                   for o in rows)
+
+    front, seen = [], set()
+    for r in sorted(rows, key=lambda r: f[id(r)]):
+        key = _key({p: r.get(p) for p in ev.paths})
+        if key in seen or dominated(r):
+            continue
+        seen.add(key)
+        front.append({"variables": {p: r.get(p) for p in ev.paths},
+                      "objectives": dict(zip(objectives, f[id(r)]))})
+    return front
+
+
 # --------------------------------------------------------------------------- the result
 
 @dataclass
@@ -556,11 +677,15 @@ class OptimizeResult:
     constraints : list[str]   The constraints, as text
     variables : list[str]     The variables with their ranges or choices, as text
     history : list[dict]      Per evaluation in order: ``evaluation``, ``objective``,
-                              ``feasible``, ``error``
+                              ``feasible``, ``error`` (and ``objectives`` with several)
     rig : Rig                 The base rig with the optimum set
     scenario : str            The scenario every evaluation ran
     wall_time : float         [s]
     files : dict              "journal", "rig", "json", "figure" -> Path written
+    objectives : list[str]    The metrics minimised (several: a Pareto front)
+    front : list[dict]        With several objectives, the front from the first objective's
+                              minimum on: ``{"variables": {PATH: SI value}, "objectives":
+                              {METRIC: value}}`` (None with one objective)
     """
 
     optimum: dict
@@ -585,11 +710,13 @@ class OptimizeResult:
     scenario: str
     wall_time: float = 0.0
     files: dict = field(default_factory=dict)
+    objectives: list = field(default_factory=list)
+    front: list | None = None
 
     def to_dict(self) -> dict:
         """The JSON document: ``optimum`` (PATH: SI value), ``objective``, ``metrics``,
-        ``evaluations``, ``feasible``, ``active_constraints``, ``converged`` and the rest of
-        the attributes but ``rig`` (files as text)."""
+        ``evaluations``, ``feasible``, ``active_constraints``, ``converged``, ``front`` (with
+        several objectives) and the rest of the attributes but ``rig`` (files as text)."""
         def plain(v):
             if isinstance(v, float) and not math.isfinite(v):
                 return None
@@ -603,7 +730,9 @@ class OptimizeResult:
             "optimum", "objective", "objective_name", "metrics", "evaluations", "n_computed",
             "feasible", "active_constraints", "at_bounds", "converged", "message", "method",
             "baseline", "baseline_objective", "baseline_metrics", "constraints", "variables",
-            "scenario", "wall_time", "history")}
+            "scenario", "wall_time", "history", "objectives")}
+        if self.front is not None:
+            d["front"] = self.front
         d["files"] = {k: str(p) for k, p in self.files.items()}
         return plain(d)
 
@@ -662,9 +791,21 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     """
     from ..plotting import new_figure, save_png, wrap_title
 
-    n = 3 if traces else 1
+    n = (3 if traces else 1) + (1 if result.front else 0)
     fig = new_figure((8, 2.5 * n + 1.0))
     axs = fig.subplots(n, 1, squeeze=False)[:, 0]
+    if result.front:
+        ax, axs = axs[-1], axs[:-1]
+        m1, m2 = result.objectives[:2]
+        pts = np.array([[np.nan if r.get(m) is None else r[m] for m in (m1, m2)]
+                        for r in (h["objectives"] for h in result.history if h["feasible"])],
+                       dtype=float).reshape(-1, 2)
+        ax.plot(pts[:, 0], pts[:, 1], ".", ms=3, color="C7", label="evaluated")
+        fr = np.array([[p["objectives"][m1], p["objectives"][m2]] for p in result.front])
+        ax.plot(fr[:, 0], fr[:, 1], "o-", ms=5, color="C3", label="Pareto front")
+        ax.set_xlabel(m1)
+        ax.set_ylabel(m2)
+        ax.legend(loc="best", fontsize=8)
     if traces:
         for ax, k, side in ((axs[0], 1, "supply"), (axs[1], 2, "return")):
             for label, style in (("baseline", "C7"), ("optimum", "C0")):
@@ -706,7 +847,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
              method: str = "auto", starts: int | None = None, local_runs: int = 2,
              max_evaluations: int | None = None, maxiter: int = 30, step: float = 1e-3,
              seed: int = 0, workers: int = 1, scheduler=None, out=None, resume: bool = False,
-             figure: bool = True, runner=None, progress=None) -> OptimizeResult:
+             figure: bool = True, runner=None, progress=None,
+             front_points: int = 5) -> OptimizeResult:
     """Minimise a metric of a rig over its parameters, subject to constraints on others.
 
     Parameters
@@ -714,8 +856,9 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
     vary : sequence of str     ``"PATH=LOW..HIGH"`` continuous variables with units
     rig : Rig, str or None     The base rig (None: the embedded 2005 paper's rig)
     choose : sequence of str   ``"PATH=V1,V2,..."`` discrete variables with units
-    minimize : str             The metric (:func:`metric_names`); one (a Pareto front of
-                               several is not offered yet)
+    minimize : str or list     The metric (:func:`metric_names`); several give a Pareto
+                               front (epsilon-constraint method, see :func:`pareto_front`):
+                               the optimum reported is then the first metric's minimum
     subject_to : sequence      ``"METRIC<=VALUE"`` / ``"METRIC>=VALUE"``
     scenario : str             Scenario name (None: the rig's, else open-loop-step)
     t_end : float              Simulated time per evaluation, [s] (the scenario's when None)
@@ -725,7 +868,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
                                3 + 2 per continuous variable), [-]
     local_runs : int           SLSQP runs, from the best starting points (the base rig's
                                among them), [-]
-    max_evaluations : int      Evaluations allowed (default 40 + 30 per variable), [-]
+    max_evaluations : int      Evaluations allowed (default 40 + 30 per variable), per
+                               single-objective problem of a front, [-]
     maxiter : int              SLSQP iterations at most, [-]
     step : float               Forward-difference step in the scaled variables (range = 1), [-]
     seed : int                 Seed of the starting points and of differential evolution
@@ -739,6 +883,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
                                simulation (:class:`~hydroline.studies.sweep.VariantRunner`);
                                a surrogate or analytic model with the sweep's row columns
     progress : callable        ``progress(evaluations, budget)`` after each new evaluation
+    front_points : int         Levels of each further objective across its range on the
+                               front (its two ends included), [-]
 
     Returns
     -------
@@ -757,19 +903,21 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
                        f"{', '.join(scenario_names(rig))})")
     if t_end is not None and not t_end > 0:
         raise RigError(f"--t-end must be > 0 s, got {t_end!r}")
-    if isinstance(minimize, (list, tuple)):
-        if len(minimize) != 1:
-            raise RigError("--minimize: give one metric (a Pareto front of several is not "
-                           "offered yet)")
-        minimize = minimize[0]
+    objectives = (list(dict.fromkeys(minimize)) if isinstance(minimize, (list, tuple))
+                  else [minimize])
+    if not objectives:
+        raise RigError("--minimize METRIC is required, e.g. --minimize supply.amplitude_mpa")
+    minimize = objectives[0]
+    if len(objectives) > 1 and not 2 <= int(front_points) <= 20:
+        raise RigError(f"--front-points must be within 2 ... 20 [-], got {front_points!r}")
     if method not in ("auto", "local", "global"):
         raise RigError(f"--method must be auto, local or global, got {method!r}")
     variables = parse_variables(vary, choose, rig)
     constraints = [parse_constraint(c) for c in subject_to]
     axes = _axes(rig)
     known = metric_names(axes, scenario)
-    for name, option in [(minimize, "--minimize")] + [(c.metric, "--subject-to")
-                                                       for c in constraints]:
+    for name, option in [(m, "--minimize") for m in objectives] + [(c.metric, "--subject-to")
+                                                                    for c in constraints]:
         if name not in known:
             raise RigError(f"{option}: unknown metric {name!r} (known: {', '.join(known)})")
     if method == "auto":
@@ -822,12 +970,22 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
             baseline = {p: rig.values.get(p) for p in paths}
             base_row = ev([baseline])[0]
             f0 = ev.metric(base_row, minimize)
-            scale = abs(f0) if math.isfinite(f0) and f0 != 0 else 1.0
-            problem = _Problem(variables, minimize, constraints, ev, scale)
             bz = [v.scaled(rig.values.get(v.paths[0])) for v in variables]
             baseline_z = None if any(z is None for z in bz) else bz
-            converged, message = _solve(problem, method, starts, seed, step, maxiter, baseline_z,
-                                        local_runs)
+
+            def solve(objective, extra=()):
+                """One single-objective problem on the shared evaluations, its own budget."""
+                fb = ev.metric(base_row, objective)
+                ev.budget = (len(ev.used) if ev.budget_restarts else 0) + budget
+                ev.budget_restarts = True       # each further problem: its own budget
+                p = _Problem(variables, objective, constraints + list(extra), ev,
+                             abs(fb) if math.isfinite(fb) and fb != 0 else 1.0)
+                return (p, *_solve(p, method, starts, seed, step, maxiter, baseline_z,
+                                   local_runs))
+
+            problem, converged, message = solve(minimize)
+            front = (pareto_front(solve, objectives, problem, ev, int(front_points))
+                     if len(objectives) > 1 else None)
     finally:
         if journal is not None:
             journal.close()
@@ -845,6 +1003,10 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         history.append({"evaluation": k + 1, "objective": f if math.isfinite(f) else None,
                         "feasible": bool(np.all(problem.margins(row) >= -FEASIBILITY_TOLERANCE)),
                         "error": row.get("error")})
+        if len(objectives) > 1:
+            history[-1]["objectives"] = {
+                m: (lambda x: x if math.isfinite(x) else None)(ev.metric(row, m))
+                for m in objectives}
     margins = problem.margins(best)
     at_bounds = []
     for v in variables:
@@ -868,7 +1030,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         baseline=baseline, baseline_objective=f0, baseline_metrics=all_metrics(base_row),
         constraints=[c.describe() for c in constraints],
         variables=[f"{v.name} = {v.describe()}" for v in variables], history=history,
-        rig=_with_values(rig, optimum, units), scenario=scenario, files=files)
+        rig=_with_values(rig, optimum, units), scenario=scenario, files=files,
+        objectives=objectives, front=front)
     if out is not None:
         _write_outputs(result, rig, units, out, figure, t_end, solver, axes)
     result.wall_time = _time.perf_counter() - tic
