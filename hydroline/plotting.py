@@ -539,7 +539,7 @@ def plot_line_response(line, models, f, form, path=None, title=None, references=
                       (labelled "viscoelastic wall, exact" for a viscoelastic wall, M44)
     models : dict     label -> model with ``transfer(s)``
     f : array         Frequencies, [Hz]
-    form : str        Causality form of the two-port (a key of ``FORM_PORTS``)
+    form : str        Causality form of the two-port (a key of ``hydroline.lines.line.FORM_PORTS``)
     path : str        File to save the figure to (PNG, ...); None: not saved
     title : str       Figure title; None: the line's length, diameter and dissipation number
     references : dict label -> further Line whose exact transfer matrix is drawn (thin, solid,
@@ -551,9 +551,7 @@ def plot_line_response(line, models, f, form, path=None, title=None, references=
                               form's entries) and phase [deg] of the four entries against
                               frequency [Hz]
     """
-    from .lines.line import FORM_PORTS
-
-    ins, outs = FORM_PORTS[form]
+    ins, outs = line.form_ports(form)
     s = 2j * np.pi * f
     exact = line.transfer(s, form)
     resp = {k: m.transfer(s) for k, m in models.items()}

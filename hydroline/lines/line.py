@@ -309,6 +309,22 @@ class Line:
             return s * self.wave_time * factor * w, self.impedance * factor / w
         return s * self.wave_time * factor, self.impedance * factor
 
+    @staticmethod
+    def form_ports(form: str) -> tuple:
+        """The input and output port names of a causality form (:data:`FORM_PORTS`).
+
+        Parameters
+        ----------
+        form : str
+            Causality form, a key of :data:`FORM_PORTS` ("PQ", "QP", "PP", "QQ")
+
+        Returns
+        -------
+        tuple
+            ``(inputs, outputs)``, each a pair of port names such as ``"upstream_pressure"``
+        """
+        return FORM_PORTS[form]
+
     def transfer(self, s, form: str = "PQ", friction: str = "dissipative",
                  alpha: float = 1.0, beta: float = 1.0):
         """Exact transfer matrix of a causal form (model reference table 2.1, M5).
