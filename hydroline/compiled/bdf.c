@@ -162,6 +162,46 @@ static void hl_eval_f(hl_solver* S, double t, const double* z, double* dz) {
     S->nfev++;
 }
 
+/* The predictor y = sum_k D[k] and psi = sum_k gamma_k / alpha_q D[k], k = 0..q (q >= 1),
+ * state by state with the orders unrolled: each difference is read once (a pass over the
+ * arrays per difference read and wrote y and psi q times), the sums in the same order. */
+#define HL_PREDICT(Q) \
+    for (int i = 0; i < HL_N; i++) { \
+        double y = S->D[0][i] + S->D[1][i], ps = S->D[1][i] * g[1]; \
+        for (int k = 2; k <= (Q); k++) { y += S->D[k][i]; ps += S->D[k][i] * g[k]; } \
+        y_predict[i] = y; psi[i] = ps; \
+    }
+static void hl_predict(const hl_solver* S, int order, double* y_predict, double* psi) {
+    double g[HL_MAX_ORDER + 1];
+    for (int k = 1; k <= order; k++) g[k] = hl_gamma_[k] / hl_alpha_[order];
+    switch (order) {
+    case 1: HL_PREDICT(1) break;
+    case 2: HL_PREDICT(2) break;
+    case 3: HL_PREDICT(3) break;
+    case 4: HL_PREDICT(4) break;
+    default: HL_PREDICT(5) break;
+    }
+}
+
+/* After an accepted step with correction d: D[q+2] = d - D[q+1], D[q+1] = d, then D[k] +=
+ * D[k+1] for k = q..0; state by state with the orders unrolled, as hl_predict. */
+#define HL_UPDATE(Q) \
+    for (int i = 0; i < HL_N; i++) { \
+        double up = d[i]; \
+        S->D[(Q) + 2][i] = up - S->D[(Q) + 1][i]; \
+        S->D[(Q) + 1][i] = up; \
+        for (int k = (Q); k >= 0; k--) { up = S->D[k][i] + up; S->D[k][i] = up; } \
+    }
+static void hl_update_D(hl_solver* S, int order, const double* d) {
+    switch (order) {
+    case 1: HL_UPDATE(1) break;
+    case 2: HL_UPDATE(2) break;
+    case 3: HL_UPDATE(3) break;
+    case 4: HL_UPDATE(4) break;
+    default: HL_UPDATE(5) break;
+    }
+}
+
 /* D[0..order] <- R(factor) U D : same interpolating polynomial, new step (SciPy change_D) */
 static void hl_R_matrix(int order, double f, double M[HL_MAX_ORDER + 1][HL_MAX_ORDER + 1]) {
     for (int j = 0; j <= order; j++) M[0][j] = 1.;
@@ -464,18 +504,7 @@ static int hl_step(hl_solver* S) {
         }
         double h = t_new - t;
         h_abs = h;
-        {   /* predictor y = sum_k D[k], psi = sum_k gamma_k / alpha_q D[k] (order >= 1) */
-            double g1 = hl_gamma_[1] / hl_alpha_[order];
-            for (int i = 0; i < HL_N; i++) {
-                y_predict[i] = S->D[0][i] + S->D[1][i];
-                psi[i] = S->D[1][i] * g1;
-            }
-        }
-        for (int k = 2; k <= order; k++) {
-            const double* Dk = S->D[k];
-            double gk = hl_gamma_[k] / hl_alpha_[order];
-            for (int i = 0; i < HL_N; i++) { y_predict[i] += Dk[i]; psi[i] += Dk[i] * gk; }
-        }
+        hl_predict(S, order, y_predict, psi);
         hl_inverse_weights(S, y_predict, winv);
         double c = h / hl_alpha_[order];
         double tol = S->newton_coef / hl_errc_[order];
@@ -521,12 +550,7 @@ static int hl_step(hl_solver* S) {
     S->h_step = h_abs;
     S->order_step = order;
     S->h_abs = h_abs;
-    for (int i = 0; i < HL_N; i++) {
-        S->D[order + 2][i] = d[i] - S->D[order + 1][i];
-        S->D[order + 1][i] = d[i];
-    }
-    for (int k = order; k >= 0; k--)
-        for (int i = 0; i < HL_N; i++) S->D[k][i] += S->D[k + 1][i];
+    hl_update_D(S, order, d);
     if (fixed) {
         if (order < S->max_order) S->order = order + 1;
         return 0;
