@@ -295,9 +295,9 @@ static void hl_dense_solve(const hl_solver* S, double* b) {
 }
 
 /* d(dz/dt)/dz at (t, z), nonzeros in the pattern hl_jac_colind / hl_jac_row: the Schur
- * complement J = F_z + F_v (I - H_v)^-1 H_z of the bordered Jacobian (dense work arrays: for
- * checks, the steady state and the FMU's directional derivatives, not the integrator's steps).
- * Returns -1 when out of memory or I - H_v is singular. */
+ * complement J = F_z + F_v (I - H_v)^-1 H_z of the bordered Jacobian, column by column (for
+ * checks, the steady state and the FMU's directional derivatives, not the integrator's
+ * steps; no n x n work array). Returns -1 when out of memory or I - H_v is singular. */
 static int hl_jacobian_nonzeros(double t, const double* z, const double* p, const double* c,
                                 double* jnz) {
 #if HL_NV == 0
@@ -308,35 +308,38 @@ static int hl_jacobian_nonzeros(double t, const double* z, const double* p, cons
     double* m = malloc(sizeof(double) * HL_NENZ);
     double* hv = calloc((size_t)HL_NV * HL_NV, sizeof(double));    /* I - H_v */
     double* tz = calloc((size_t)HL_NV * HL_N, sizeof(double));     /* H_z, then (I - H_v)^-1 H_z, by columns */
-    double* jd = calloc((size_t)HL_N * HL_N, sizeof(double));      /* J, by columns */
+    double* col = calloc(HL_N, sizeof(double));                    /* one column of J */
     int piv[HL_NV];
-    if (!(m && hv && tz && jd)) goto done;
+    if (!(m && hv && tz && col)) goto done;
     hl_jac(t, z, p, c, m);
     for (int i = 0; i < HL_NV; i++) hv[i * HL_NV + i] = 1.;
     for (int j = 0; j < HL_NE; j++)
         for (long long k = hl_ext_colind[j]; k < hl_ext_colind[j + 1]; k++) {
             long long i = hl_ext_row[k];
-            if (j < HL_N && i < HL_N) jd[(long long)j * HL_N + i] = m[k];
-            else if (j < HL_N) tz[(long long)j * HL_NV + (i - HL_N)] = m[k];
-            else if (i >= HL_N) hv[(i - HL_N) * HL_NV + (j - HL_N)] -= m[k];
+            if (j < HL_N && i >= HL_N) tz[(long long)j * HL_NV + (i - HL_N)] = m[k];
+            else if (j >= HL_N && i >= HL_N) hv[(i - HL_N) * HL_NV + (j - HL_N)] -= m[k];
         }
     if (hl_dense_lu(hv, HL_NV, piv) != 0) goto done;
-    for (int j = 0; j < HL_N; j++) hl_dense_lu_solve(hv, HL_NV, piv, tz + (long long)j * HL_NV);
-    for (int j = HL_N; j < HL_NE; j++)          /* J[:, col] += F_v[:, j] T[j, col] */
-        for (long long k = hl_ext_colind[j]; k < hl_ext_colind[j + 1]; k++) {
-            long long i = hl_ext_row[k];
-            if (i >= HL_N) continue;
-            for (int col = 0; col < HL_N; col++)
-                jd[(long long)col * HL_N + i] += m[k] * tz[(long long)col * HL_NV + (j - HL_N)];
+    for (int j = 0; j < HL_N; j++) {
+        const double* tj = tz + (long long)j * HL_NV;
+        hl_dense_lu_solve(hv, HL_NV, piv, tz + (long long)j * HL_NV);
+        for (long long k = hl_ext_colind[j]; k < hl_ext_colind[j + 1]; k++)   /* F_z[:, j] */
+            if (hl_ext_row[k] < HL_N) col[hl_ext_row[k]] = m[k];
+        for (int v = 0; v < HL_NV; v++) {                                  /* + F_v T[:, j] */
+            if (tj[v] == 0.) continue;
+            for (long long k = hl_ext_colind[HL_N + v]; k < hl_ext_colind[HL_N + v + 1]; k++)
+                if (hl_ext_row[k] < HL_N) col[hl_ext_row[k]] += m[k] * tj[v];
         }
-    for (int j = 0; j < HL_N; j++)
-        for (long long k = hl_jac_colind[j]; k < hl_jac_colind[j + 1]; k++)
-            jnz[k] = jd[(long long)j * HL_N + hl_jac_row[k]];
+        for (long long k = hl_jac_colind[j]; k < hl_jac_colind[j + 1]; k++) {
+            jnz[k] = col[hl_jac_row[k]];
+            col[hl_jac_row[k]] = 0.;
+        }
+    }
     rc = 0;
 done:
     if (rc != 0)
         for (int k = 0; k < HL_NNZ; k++) jnz[k] = NAN;
-    free(m); free(hv); free(tz); free(jd);
+    free(m); free(hv); free(tz); free(col);
     return rc;
 #endif
 }

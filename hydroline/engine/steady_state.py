@@ -86,10 +86,10 @@ class _CompiledRest:
         return self.scaled_jacobian(t, x, p) * self.scales[:, None] / self.scales[None, :]
 
     def solve_shifted(self, t, x, p, shift, b):
-        """dz solving ``(shift I - J) dz = b`` (J of the scaled states) sparse, through the
-        model's bordered Jacobian, on a model of at least
-        :data:`~hydroline.compiled.bordered.SPARSE_STATES` states (the dense solve grows with
-        the cube of the states); None on a smaller one (solve it dense).
+        """dz solving ``(shift I - J) dz = b`` (J of the scaled states) through the model's
+        bordered Jacobian (:mod:`hydroline.compiled.bordered`): sparse on a large model, and
+        on every model better conditioned than J itself (0.05 m sections: Newton converges in
+        ~40 solves where, on J, it failed and the continuation took ~2 500).
 
         Parameters
         ----------
@@ -99,10 +99,8 @@ class _CompiledRest:
         shift : float   s, [1/s]
         b : ndarray     Right-hand side, [1/s]
         """
-        from ..compiled.bordered import SPARSE_STATES, BorderedSystem
+        from ..compiled.bordered import BorderedSystem
 
-        if len(self.scales) < SPARSE_STATES:
-            return None
         if self._bordered is None:
             self._bordered = BorderedSystem(self.native)
         return self._bordered.solve_shifted(t, x, p, shift, b)
