@@ -10,9 +10,9 @@ import time
 import numpy as np
 
 from ..cache import cache_dir
-from .records import (definition_key, forget_record, known_model, known_structure,
-                      model_fingerprint, remember_model, remember_structure,
-                      structure_record_key)
+from .records import (definition_key, forget_record, known_model, known_numbers_model,
+                      known_structure, model_fingerprint, numbers_key, remember_model,
+                      remember_numbers_model, remember_structure, structure_record_key)
 from .toolchain import CompilerUnavailable, library_check, library_location, load_library
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "needs_build"]
@@ -59,11 +59,18 @@ class NativeModel:
         # the order limits found, by Jacobian: made on first use)
         self._jac_index = self._blocks = None
         self._limits_seen: dict = {}
-        remember_model(key, self.generated, self.library_path)
-        #: How the model was found: "definition" (its record, found before any graph was
-        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
-        #: describe itself), "structure" (a known structure: constants read from the
-        #: graph) or "generated" (C written)
+        if self._numbers is not None and self._numbers_key is not None:
+            # its C takes the numbers: one record for all of them
+            remember_numbers_model(self._numbers_key, self.generated, self._numbers,
+                                   self.library_path)
+        elif found != "numbers":
+            remember_model(key, self.generated, self.library_path)
+        #: How the model was found: "numbers" (the record of its structure, whose C takes
+        #: the components' numbers at run time, found before any graph was built),
+        #: "definition" (its record, found before any graph was built), "graph" (the record
+        #: of its graph's fingerprint, where the network cannot describe itself),
+        #: "structure" (a known structure: constants read from the graph) or "generated" (C
+        #: written)
         self.found_by = found
         self.build_time = time.perf_counter() - tic
 
@@ -72,17 +79,27 @@ class NativeModel:
         and ``library_path``. Returns (key of its model record, how it was found, the
         library's source or a callable that makes it, the record used as (table kind, key)
         or None)."""
-        # the model's record: under its definition (known before any graph is built) where
-        # the network can describe itself, else under its graph's fingerprint; also where
-        # the graph was built before (components changed since would not be in it)
-        key = definition_key(network)
-        gen, tag = known_model(key, network) if records else (None, None)
-        found, record = "definition", ("models", key)
+        # its structure's record, where its C takes the numbers at run time; else the
+        # model's record: under its definition (known before any graph is built) where the
+        # network can describe itself, else under its graph's fingerprint; also where the
+        # graph was built before (components changed since would not be in it)
+        #: (numbers and scales at the start of the constants, where a graph just built
+        #: takes them at run time: its record is written under its numbers key)
+        self._numbers = None
+        key = self._numbers_key = numbers_key(network)
+        gen, tag = known_numbers_model(key, network) if records else (None, None)
+        found, record = "numbers", ("models", key)
+        if gen is None:
+            key = definition_key(network)
+            gen, tag = known_model(key, network) if records else (None, None)
+            found, record = "definition", ("models", key)
         if gen is None:   # not known: build the graph
             from . import codegen
 
             if getattr(network, "has_graph", True):
-                key = None
+                # (a graph made before a component changed is not recorded under the
+                # network's definition or numbers key: it may not be the changed one's)
+                key = self._numbers_key = None
             model = network.compile()
             if key is None:
                 key, found = model_fingerprint(model), "graph"
@@ -99,6 +116,8 @@ class NativeModel:
                     gen = codegen.generate(model, functions)
                     path, full = library_location(gen)
                     remember_structure(functions, gen, path)
+                if functions[0].n_in() == 4:
+                    self._numbers = functions[0].nnz_in(3)
         self.generated = gen
         if tag is not None:          # known: its C is regenerated only to rebuild a library
             path = cache_dir() / f"hl_{tag}.so"
@@ -458,7 +477,9 @@ def needs_build(network) -> bool:
     """
     if network.__dict__.get("_native_model") is not None:
         return False
-    _, tag = known_model(definition_key(network), network)
+    _, tag = known_numbers_model(numbers_key(network), network)
+    if tag is None:
+        _, tag = known_model(definition_key(network), network)
     if tag is None:
         model = network.compile()
         _, tag = known_model(model_fingerprint(model), network)

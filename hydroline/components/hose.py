@@ -105,6 +105,23 @@ class HoseSection(Component):
         return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
                 for name, i, j in self.coefficient_pattern}
 
+    def structure_attributes(self, attributes: dict) -> dict:
+        """As :meth:`Component.structure_attributes`; where the line's matrix entries are
+        runtime parameters, the line model stands as its kind, form, port and state names
+        (its matrices' pattern is :attr:`coefficient_pattern`): their values are not
+        structure.
+
+        Parameters
+        ----------
+        attributes : dict   The hose's attributes, name -> value
+        """
+        out = super().structure_attributes(attributes)
+        m = attributes.get("model")
+        if attributes.get("coefficient_pattern") is not None and m is not None:
+            out["model"] = (type(m).__qualname__, m.form, tuple(m.input_names),
+                            tuple(m.output_names), tuple(m.state_names))
+        return out
+
     def _product(self, name, v, p, rows):
         """Matrix ``name`` (from p where its entries are parameters) times vector v."""
         if self.coefficient_pattern is None:

@@ -20,7 +20,7 @@ def valve_coefficient(rated_flow, rated_pressure_drop, max_opening):
     rated_pressure_drop : float   Valve drop at rated flow, over two orifices, [Pa]
     max_opening : float           Spool opening at rated current, [m]
     """
-    return rated_flow / (max_opening * np.sqrt(rated_pressure_drop / 2.0))
+    return rated_flow / (max_opening * ops.sqrt(rated_pressure_drop / 2.0))
 
 
 @dataclass(kw_only=True)
