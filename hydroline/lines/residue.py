@@ -92,7 +92,6 @@ import functools
 from pathlib import Path
 
 import numpy as np
-from scipy import special
 
 from ..cache import source_tag
 from .corrections import check_modes, dissipative_root, modal_angles
@@ -188,6 +187,8 @@ def propagation_derivative(line: Line, s):
     (Gamma [-], Zc [Pa s/m^3], dGamma/ds [s]) : complex arrays, principal square roots as in
     :meth:`Line.propagation`
     """
+    from scipy import special   # (where a line is computed: not for one read from the cache)
+
     s = np.asarray(s, dtype=complex)
     nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
     kappa = r * np.sqrt(s / nu)
@@ -260,6 +261,8 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def _remembered_bessel_zeros(order: int, count: int) -> np.ndarray:
+    from scipy import special
+
     return special.jn_zeros(order, count)
 
 
@@ -304,6 +307,8 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     lo = np.repeat(j2[:, None], n_roots, axis=1)
     hi = np.repeat(j0[np.searchsorted(j0, j2)][:, None], n_roots, axis=1)
     q = (modal_angles(n_roots, form)[None, :] / Dn) ** 2
+
+    from scipy import special
 
     def g(x):                     # J2 = 2 J1/x - J0: j0, j1 are ~10x faster than jv
         J0 = special.j0(x)
@@ -453,6 +458,8 @@ def _tail_omega(n_modes: int, form: str) -> float:
     ``S_k = sum_{i>n} theta_i^-k`` (polygamma sums); ``K s/(s^2 + Omega^2)`` matches both
     for ``(Omega tau)^2 = S2/S4``.
     """
+    from scipy import special
+
     a = n_modes + (0.5 if form in ("PQ", "QP") else 1.0)
     S2 = special.polygamma(1, a) / np.pi**2
     S4 = special.polygamma(3, a) / (6.0 * np.pi**4)
@@ -515,6 +522,8 @@ def _reflection_free(line: Line, s, form: str):
 def _angle_sums(a, b, form: str):
     """``S2 = sum theta_k^-2`` and ``S4 = sum theta_k^-4`` over modes ``a <= k < b`` (b may be
     inf), ``theta_k`` as in :func:`modal_angles` (polygamma sums), [-]."""
+    from scipy import special
+
     off = 0.5 if form in ("PQ", "QP") else 1.0
 
     def from_k(k):
