@@ -127,3 +127,37 @@ def test_a_python_branch_on_a_number_keeps_that_network_s_numbers_in_its_graph()
     model = net.compile()
     assert model.k is None
     assert float(model.signals(0.5, [], [])) == pytest.approx(1.5)
+
+
+@needs_cc
+def test_a_library_not_built_yet_is_built_in_the_background(monkeypatch, tmp_path):
+    """With background builds (the command line's default), a run whose library is not built
+    yet goes on with CVODES and starts the build in a process of its own; a later run waits
+    for that build (it does not compile again) and gets the compiled core. Both give the
+    oscillator's exact step peak, 1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm."""
+    from hydroline.cache import BACKGROUND_BUILD_ENV
+    from hydroline.compiled import toolchain
+    from hydroline.engine import integrate
+    from test_compiled import _oscillator_peak, oscillator_network
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(BACKGROUND_BUILD_ENV, "1")
+    monkeypatch.setattr(toolchain, "_LIBS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
+    first = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert first.metadata["solver"] == "cvodes"
+    assert "background" in first.metadata["solver_note"]
+    real = toolchain._compile_locked
+
+    def built_elsewhere(cc, full, path):
+        assert toolchain.library_check(path)[0], "compiled again in this process"
+        return real(cc, full, path)
+
+    monkeypatch.setattr(toolchain, "_compile_locked", built_elsewhere)
+    native = compiled.native_model(oscillator_network(omega=223.0), wait=True)
+    assert native.library_path.exists()
+    later = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert later.metadata["solver"] == "compiled"
+    for res in (first, later):
+        assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)

@@ -23,6 +23,7 @@ import re
 import signal
 import sys
 
+from ..cache import BACKGROUND_BUILD_ENV
 from . import figure_process
 
 __all__ = ["main", "UsageError", "Terminated", "version", "refuse_empty_values", "ClosedStdout"]
@@ -177,6 +178,11 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
         single_threaded_blas()
+    # a run whose compiled library is not built yet uses CVODES while it is built in the
+    # background (the user's setting wins; restored after: main() may run in-process)
+    background = BACKGROUND_BUILD_ENV not in os.environ
+    if background:
+        os.environ[BACKGROUND_BUILD_ENV] = "1"
     streams = sys.stdout, sys.stderr
     _closed_streams_replaced()       # (before the fork: the figure process inherits them)
     if draws_a_figure(argv):   # the figure's branch is the longer one: forked before parsing
@@ -187,6 +193,8 @@ def main(argv=None) -> int:
         figure_process.cancel_unclaimed()
         if streams[0] is None or streams[1] is None:   # (main() may run in-process)
             sys.stdout, sys.stderr = streams
+        if background:
+            os.environ.pop(BACKGROUND_BUILD_ENV, None)
 
 
 def _closed_streams_replaced() -> None:
