@@ -23,6 +23,7 @@ import re
 import signal
 import sys
 
+from ..blas import single_threaded_blas
 from ..cache import BACKGROUND_BUILD_ENV
 from . import figure_process
 
@@ -134,19 +135,6 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     for name in SUBCOMMANDS if only is None else [only]:
         importlib.import_module(f"{__name__}.{name}").register(sub)
     return parser
-
-
-#: Thread-count variables of the BLAS libraries NumPy and SciPy may be built with.
-BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def single_threaded_blas() -> None:
-    """Ask the BLAS library for one thread, unless the user set a count (to take effect, call
-    before NumPy is imported). The model's matrices are small (138 x 138 on the default rig):
-    extra BLAS threads only spin, on the cores the figure process and a sweep's workers use
-    (after the steady-state solve, ~7 % of a short run's CPU samples)."""
-    for name in BLAS_THREAD_VARIABLES:
-        os.environ.setdefault(name, "1")
 
 
 def _requested_subcommand(argv) -> str | None:

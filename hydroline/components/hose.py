@@ -1,6 +1,7 @@
 """A hose section: a linear line model (modal or lumped) as a network component (docs/model.md 2)."""
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -117,9 +118,15 @@ class HoseSection(Component):
         """
         out = super().structure_attributes(attributes)
         m = attributes.get("model")
-        if attributes.get("coefficient_pattern") is not None and m is not None:
+        pattern = attributes.get("coefficient_pattern")
+        if pattern is not None and m is not None:
             out["model"] = (type(m).__qualname__, m.form, tuple(m.input_names),
                             tuple(m.output_names), tuple(m.state_names))
+            # (the pattern by its digest, the states by their names (above: their units
+            # follow from them, their scales are numbers): hundreds of entries, described
+            # once per run)
+            out["coefficient_pattern"] = hashlib.sha256(repr(pattern).encode()).hexdigest()
+            out["_states"] = len(attributes.get("_states", ()))
         return out
 
     def _product(self, name, v, p, rows):

@@ -705,7 +705,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         try:
             for section in sections:
                 variant.set(_length_path(rig, section), f"{L!r} m")
-            res = simulate(variant, scenario, t_end, solver=solver)
+            res = simulate(variant, scenario, t_end, solver=solver, metrics_only=True)
         except (ValueError, SteadyStateError) as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise RigError(f"section length {L:g} m: {msg}") from e
