@@ -94,7 +94,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import source_tag
-from .corrections import check_modes, dissipative_root, modal_angles
+from .corrections import check_modes, dissipative_root, dissipative_roots, modal_angles
 from .memo import LineMemo
 from .line import FORM_PORTS, Line, check_form
 
@@ -212,6 +212,9 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
     form : str       Causal form: "PQ", "QP", "PP" or "QQ"
     """
     thetas = modal_angles(n_modes, form)
+    together = dissipative_roots(line, thetas)   # every mode at once: one Bessel call a step
+    if together is not None and np.all(np.diff(together.imag) > 0):
+        return together
     roots = []
     guess = None
     for k, theta in enumerate(thetas):
@@ -314,13 +317,22 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
         J0 = special.j0(x)
         return x**4 * J0 - q * (2.0 * special.j1(x) / x - J0)
 
-    g_lo = g(lo)
-    for _ in range(50):                      # bracket width / 2^50: ~1e-15 relative
-        mid = 0.5 * (lo + hi)
-        g_mid = g(mid)
-        left = np.sign(g_mid) == np.sign(g_lo)
-        lo, g_lo = np.where(left, mid, lo), np.where(left, g_mid, g_lo)
-        hi = np.where(left, hi, mid)
+    # the Illinois variant of regula falsi on every bracket at once: superlinear, ~10
+    # evaluations of g instead of bisection's 50 for the same bracket width (~1e-15 relative)
+    g_lo, g_hi = g(lo), g(hi)
+    last = np.zeros(lo.shape)                    # +1: lo moved last time, -1: hi moved
+    for _ in range(100):
+        if np.all(hi - lo <= 4e-16 * hi):
+            break
+        x = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+        x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))   # (else bisect)
+        g_x = g(x)
+        up = np.sign(g_x) == np.sign(g_lo)       # the root lies in (x, hi): lo moves
+        g_hi = np.where(up & (last > 0), 0.5 * g_hi, g_hi)      # an end kept twice in a
+        g_lo = np.where(~up & (last < 0), 0.5 * g_lo, g_lo)     # row: its value halved
+        lo, g_lo = np.where(up, x, lo), np.where(up, g_x, g_lo)
+        hi, g_hi = np.where(up, hi, x), np.where(up, g_hi, g_x)
+        last = np.where(up, 1.0, -1.0)
     x = 0.5 * (lo + hi)
     return -nu * x**2 / r**2
 
