@@ -16,7 +16,7 @@ import re
 import sys
 
 __all__ = ["BLAS_THREAD_VARIABLES", "single_threaded_blas", "blas_thread_variables_set",
-           "one_blas_thread"]
+           "one_blas_thread", "openblas_controls"]
 
 #: Thread-count variables of the BLAS libraries NumPy and SciPy may be built with.
 BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
@@ -55,10 +55,15 @@ _BLAS_MODULES = ("numpy", "scipy.linalg")
 _CONTROLS: dict = {}
 
 
-def _openblas_controls() -> list:
+def openblas_controls() -> list:
     """(set, get) thread-count functions of every OpenBLAS loaded in this process (found in
     its memory map, Linux), looked up again when another module that brings one has been
-    loaded; empty where none is found."""
+    loaded; empty where none is found.
+
+    Returns
+    -------
+    list  (set(n), get() -> n) pairs of ctypes functions, one per OpenBLAS
+    """
     loaded = tuple(m in sys.modules for m in _BLAS_MODULES)
     if loaded not in _CONTROLS:
         _CONTROLS.clear()
@@ -87,7 +92,7 @@ def one_blas_thread():
     """Within: every loaded OpenBLAS runs on one thread; its thread count is given back
     afterwards. NumPy must be loaded (a process that loads it later gets its own settings).
     Where no OpenBLAS is found (another BLAS, another platform) it does nothing."""
-    controls = _openblas_controls() if "numpy" in sys.modules else []
+    controls = openblas_controls() if "numpy" in sys.modules else []
     saved = []
     for setter, getter in controls:
         n = getter()
