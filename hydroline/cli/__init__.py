@@ -208,20 +208,21 @@ def _closed_streams_replaced() -> None:
 
 
 def draws_a_figure(argv) -> bool:
-    """Whether a command line will (most likely) draw ``hydroline simulate``'s figure: the
-    figure process is started for it before the arguments are parsed. A wrong guess costs
-    little: a process not claimed is stopped, and one missing is started when needed.
+    """Whether a command line will (most likely) draw a figure (``hydroline simulate``'s,
+    ``hydroline bode``'s): the figure process is started for it before the arguments are
+    parsed. A wrong guess costs little: a process not claimed is stopped, and one missing is
+    started when needed.
 
     Parameters
     ----------
     argv : list of str  The arguments after ``hydroline``
     """
-    if not argv or argv[0] != "simulate":
+    if not argv or argv[0] not in ("simulate", "bode"):
         return False
     options = {a.split("=", 1)[0] for a in argv[1:] if a.startswith("-")}
     if options & {"-h", "--help"}:
         return False
-    return "--json" not in options or "--out" in options
+    return argv[0] == "bode" or "--json" not in options or "--out" in options
 
 
 def _parse_and_run(argv) -> int:
