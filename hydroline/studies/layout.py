@@ -58,7 +58,7 @@ from ..units import parse_quantity
 from .settling import BAND, SettlingBand, port_summary
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion",
-           "layout_sections"]
+           "layout_sections", "plot_study"]
 
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
@@ -128,7 +128,9 @@ class LayoutStudy:
     lengths : list[float]      Section II lengths, [m]
     summaries : list[dict]     :func:`hydroline.studies.settling.port_summary` of each run
                                (``summarize`` with ``settling_method``/``settling_note``)
-    results : list             The :class:`~hydroline.engine.SimulationResult` of each run
+    results : list             The :class:`~hydroline.engine.SimulationResult` of each run (each
+                               ends with its metrics window, the piston at its stop:
+                               ``simulate(metrics_only=True)``)
     sides : tuple              Which sections II were set ("supply", "return")
     scenario : str
     rig_name : str
@@ -238,21 +240,22 @@ class LayoutStudy:
 
     def traces(self) -> "pandas.DataFrame":
         """Port pressures of every run on the common output grid: ``time_s`` and
-        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa]."""
+        ``{supply,return}_port_pressure_pa@L=<length>m`` columns, [s], [Pa]. A run ends with its
+        metrics window (the piston at its stop): empty (NaN) after its end."""
         import pandas as pd
 
-        t = self.results[0].t
+        t = max((res.t for res in self.results), key=len)
         cols = {"time_s": t}
         for L, res in zip(self.lengths, self.results):
             for side in SIDES:
                 y = res[f"{side}_port_pressure"]
-                cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y)
+                cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y, right=np.nan)
         return pd.DataFrame(cols)
 
     #: The files :meth:`save` writes, by role.
     FILES = {"csv": "layout.csv", "traces": "layout_traces.csv", "figure": "layout.png"}
 
-    def save(self, folder, temp=None) -> dict:
+    def save(self, folder, temp=None, figures=None) -> dict:
         """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder.
 
         Parameters
@@ -261,6 +264,9 @@ class LayoutStudy:
         temp : callable    ``temp(name) -> path`` to write each file to first (e.g. the CLI's
                            atomic writer, which renames them all at the end); the final names
                            are returned either way
+        figures : object   Where the figure is drawn while the tables are written: a
+                           :class:`hydroline.cli.figure_process.FigureProcess` (its
+                           ``submit`` and ``wait``); None: here
 
         Returns
         -------
@@ -270,9 +276,14 @@ class LayoutStudy:
         folder.mkdir(parents=True, exist_ok=True)
         self.files = {role: folder / name for role, name in self.FILES.items()}
         where = {role: (temp(name) if temp else folder / name) for role, name in self.FILES.items()}
+        if figures is not None:
+            figures.submit(plot_study, self, str(where["figure"]))
         self.table().to_csv(where["csv"], index=False)
         self.traces().to_csv(where["traces"], index=False)
-        self.plot(where["figure"])
+        if figures is not None:
+            figures.wait()
+        else:
+            self.plot(where["figure"])
         return self.files
 
     def plot(self, path=None, title=None):
@@ -393,6 +404,18 @@ def _flow_change(res, flow_signal: str):
     q0 = float(np.interp(t0, t, q))
     q1 = float(np.mean(qw[tw >= t1 - 0.2 * (t1 - t0)]))
     return tw, qw, q0, q1
+
+
+def plot_study(study: LayoutStudy, path: str) -> None:
+    """Write a layout study's figure (:meth:`LayoutStudy.plot`): what a figure process is
+    handed (a function of the module and its arguments).
+
+    Parameters
+    ----------
+    study : LayoutStudy   The study
+    path : str            The PNG to write
+    """
+    study.plot(path)
 
 
 def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
