@@ -168,33 +168,31 @@ def pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
     z0 = x / scales
     best, best_res = z0, np.inf
     for attempt in range(3):   # a first step too long can land in a far basin: shorter ones
-        z, floor = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt,
-                                         max_iter * (1 + 3 * attempt))
+        z = _pseudo_transient_run(model, t0, z0, p, scales, tol, dt0 * 0.1 ** attempt,
+                                  max_iter * (1 + 3 * attempt))
         r = np.max(np.abs(model.rhs(t0, z * scales, p) / scales)) if np.all(np.isfinite(z)) else np.inf
         if r < best_res:   # keep the best attempt (a later, shorter start may end worse)
             best, best_res = z, r
-        if r < tol or (floor and r < ROUNDING_FLOOR_FACTOR * tol):
-            break          # (at rest to the rounding of the residual: no basin is nearer)
+        if r < tol:
+            break
     return best * scales
 
 
-#: A pseudo-transient run whose Newton-like steps (``dt`` beyond :data:`NEWTON_LIKE_STEP`)
-#: no longer reduce the residual has reached the rounding floor of its evaluation (the
-#: scaled residual of a hose's fast tail states, ~1e-9 1/s, sits at about the default
-#: tolerance): it stops there, and a state within this factor of the tolerance is at rest,
-#: [-]. (Before, such a run took its 500 steps and two restarts: ~100 ms instead of ~5.)
-ROUNDING_FLOOR_FACTOR = 100.0
 #: Pseudo time step beyond which a step of the continuation is a Newton step, [s]
 NEWTON_LIKE_STEP = 1e6
-#: Accepted Newton-like steps that must together halve the residual norm, else the run is at
-#: its rounding floor, [-]
+#: Accepted Newton-like steps (``dt`` beyond :data:`NEWTON_LIKE_STEP`) that must together
+#: halve the residual norm; a run whose steps no longer do has reached the rounding floor of
+#: its evaluation (the scaled residual of a hose's fast tail states, ~1e-9 1/s, sits at about
+#: the default tolerance): it stops there, and the next attempt (a shorter first step:
+#: another path, other roundings) tries again. (Before, such a run took its 500 steps, and
+#: the next its 2000: ~100 ms instead of ~5.) [-]
 STALL_STEPS = 5
 
 
 def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
     """One pseudo-transient run from scaled states ``z``; returns the scaled states reached
-    and whether it stopped at the rounding floor of the residual (its Newton-like steps no
-    longer reduce it)."""
+    (where the residual met ``tol``, or where its Newton-like steps no longer reduce it: the
+    rounding floor)."""
     z = z.copy()
     n = len(z)
 
@@ -210,7 +208,7 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
             break
         if (len(newton_norms) > STALL_STEPS
                 and newton_norms[-1] > 0.5 * newton_norms[-1 - STALL_STEPS]):
-            return z, True
+            return z
         J = _scaled_jacobian(model, t0, z * scales, p, scales)
         M = np.eye(n) / dt - J
         try:
@@ -232,7 +230,7 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
         # overshoots is still refused above and dt cut
         dt = min(dt * max(norm / max(norm_new, 1e-300), 1.5), 1e12)
         norm = norm_new
-    return z, False
+    return z
 
 
 def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,
