@@ -16,6 +16,13 @@ only (its structure's record then gives the constants without writing C), or whe
 network cannot describe itself by value (a component class of another package: its record
 is then keyed by the graph's own fingerprint, :func:`model_fingerprint`).
 
+Numbers are parameters: the components' own numbers and the state scales head the constants
+array (:func:`~hydroline.compiled.generated.number_prefix`), so networks that differ only in
+numbers share one library, recorded under their definition without the numbers
+(:func:`numbers_key`). A library not built yet may be built in a background process
+(``$HYDROLINE_BACKGROUND_BUILD``, the command line's default) while the run goes on with
+CVODES (:class:`LibraryPending`).
+
 Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.
 Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
