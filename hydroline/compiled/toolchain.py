@@ -22,6 +22,7 @@ from ..cache import cache_dir, discard_entry, least_recently_used, mark_used
 from .generated import GeneratedModel
 
 __all__ = ["CompilerUnavailable", "LibraryPending", "build_in_background", "build_from_file",
+           "went_on_without",
            "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
            "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
            "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE"]
@@ -40,6 +41,9 @@ NATIVE_FLAGS = ["-march=native"]
 PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
+#: Libraries a run of this process went on without while they were built in the background
+#: (:func:`went_on_without`)
+_PENDING: set = set()
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -52,7 +56,31 @@ class CompilerUnavailable(RuntimeError):
 
 class LibraryPending(RuntimeError):
     """The library is being built in a background process (:func:`build_in_background`):
-    this run goes on without it."""
+    this run goes on without it.
+
+    Parameters
+    ----------
+    message : str   What is being built
+    path : Path     The library
+    """
+
+    def __init__(self, message: str, path=None):
+        super().__init__(message)
+        self.path = path
+
+
+def went_on_without(path) -> None:
+    """Note that a run of this process went on without the library at ``path`` (it was being
+    built in the background): the next run that needs it waits for that build
+    (:func:`load_library`), as a process with more than one run to do gets them done soonest
+    on the compiled core.
+
+    Parameters
+    ----------
+    path : Path   The library (``LibraryPending.path``)
+    """
+    if path is not None:
+        _PENDING.add(str(path))
 
 
 
@@ -205,8 +233,8 @@ def _compile(cc: str, full: str, path: Path) -> None:
 
 
 def build_in_background(path: Path, full) -> bool:
-    """Start building a library in a process of its own (lower priority, detached: it goes
-    on after this process ends) unless a build of it is running; the caller goes on without
+    """Start building a library in a process of its own (detached: it goes on after this
+    process ends) unless a build of it is running; the caller goes on without
     it (CVODES) and a later run loads it. The builder holds the library's lock until the
     library and its record are in place, so that a process that needs the library waits for
     that build (:func:`load_library`) instead of starting its own.
@@ -262,9 +290,9 @@ def build_in_background(path: Path, full) -> bool:
 
 def build_from_file(cc: str, source: str, path: str) -> None:
     """The background builder's work (:func:`build_in_background`, in its own process, the
-    library's lock inherited): compile ``source`` into the library ``path`` with its record,
-    at a lower priority than the commands that run meanwhile; errors are dropped (a run
-    that needs the library builds it then).
+    library's lock inherited): compile ``source`` into the library ``path`` with its record
+    (at the priority of the commands that run meanwhile: a run that waits for it gets it
+    soonest); errors are dropped (a run that needs the library builds it then).
 
     Parameters
     ----------
@@ -272,10 +300,6 @@ def build_from_file(cc: str, source: str, path: str) -> None:
     source : str   The library's source file (removed afterwards)
     path : str     The library in the cache directory
     """
-    try:
-        os.nice(10)
-    except (OSError, AttributeError):
-        pass
     try:
         full = Path(source).read_text()
         _compile_locked(cc, full, Path(path))
@@ -371,7 +395,8 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
     full : str or callable    The library source, or a callable that makes it (only a
                               rebuild needs it)
     wait : bool               Compile a missing library here and now (False: in the
-                              background, unless none can be started there)
+                              background, unless none can be started there; a second run of
+                              this process that needs it waits for that build)
 
     Returns
     -------
@@ -394,8 +419,11 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
                     discard_entry(path, _record_path(path), why=why)
                 if cc is None:
                     raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
-                if not wait and attempt == 0 and build_in_background(path, full):
-                    raise LibraryPending(f"{path.name} is being built in the background")
+                # (a process that went on without it once has more than one run to do:
+                # it waits for the build instead of another run on CVODES, went_on_without)
+                if (not wait and attempt == 0 and str(path) not in _PENDING
+                        and build_in_background(path, full)):
+                    raise LibraryPending(f"{path.name} is being built in the background", path)
                 _compile(cc, full() if callable(full) else full, path)
                 prune_libraries()               # a library more: the oldest beyond the bound go
             else:
