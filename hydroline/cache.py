@@ -29,7 +29,7 @@ from pathlib import Path
 
 __all__ = ["cache_dir", "load_table", "store_table", "source_tag", "prune_tables",
            "least_recently_used", "mark_used", "MAX_ENTRIES", "CacheWarning", "table_checksum",
-           "discard_table", "discard_entry"]
+           "discard_table", "discard_entry", "BACKGROUND_BUILD_ENV", "builds_in_background"]
 
 #: Most entries kept per table kind (a correction-factor entry is ~0.5 kB, a model record
 #: ~10 kB), [-]
@@ -55,6 +55,21 @@ def cache_dir() -> Path:
         return Path(env)
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "hydroline"
+
+
+#: Environment variable: ``1`` lets a run whose compiled library is not built yet go on
+#: without it (CVODES) while it is built in a background process
+#: (:func:`hydroline.compiled.native_model`); ``0`` or unset compiles it first. The command
+#: line sets it to ``1`` for its runs unless it is set (a first ``hydroline simulate`` would
+#: otherwise wait for the compiler); a program gets the compiled core from its first run on
+#: unless it sets it.
+BACKGROUND_BUILD_ENV = "HYDROLINE_BACKGROUND_BUILD"
+
+
+def builds_in_background() -> bool:
+    """Whether a compiled library not built yet is built in the background
+    (:data:`BACKGROUND_BUILD_ENV`)."""
+    return os.environ.get(BACKGROUND_BUILD_ENV, "").strip() not in ("", "0")
 
 
 def source_tag(*paths) -> str:

@@ -1,7 +1,7 @@
 """Test-session set-up shared by every test module."""
 import os
 
-# One BLAS thread, as the command line asks for (hydroline.cli.single_threaded_blas), set
+# One BLAS thread, as the command line asks for (hydroline.blas.single_threaded_blas), set
 # before NumPy is first imported: the models' dense matrices are small (58-208 states), and
 # extra BLAS threads on the suite's 2 cores only spin against each other (a two-axis bode or
 # fit ran ~15x slower under pytest than from the command line). A count the user set is kept.

@@ -298,6 +298,23 @@ def test_damaged_model_record_is_rebuilt_and_never_blames_the_rig(default_rig_ca
     _rerun_after(d, [path], default_rig_cache[1])
 
 
+def stiffening_oscillator_network():
+    """The oscillator of tests/test_compiled.py with a spring that stiffens (x^3 term): as many
+    states, parameters and signals, another structure."""
+    from dataclasses import dataclass
+
+    from hydroline.engine import Network
+    from test_compiled import Hold, Oscillator
+
+    @dataclass(kw_only=True)
+    class Stiffening(Oscillator):
+        def derivatives(self, t, x, u, p):
+            d = super().derivatives(t, x, u, p)
+            return {"x": d["x"], "v": d["v"] - self.omega ** 2 * 1e6 * x["x"] ** 3}
+
+    return Network([Hold(name="source"), Stiffening(name="osc", omega=219.0)])
+
+
 @pytest.mark.parametrize("misfit", ["another library", "Jacobian rows out of range"])
 def test_a_model_record_that_does_not_fit_is_rebuilt(monkeypatch, tmp_path, misfit):
     """A record with a valid checksum that still does not fit its model (written wrongly: it
@@ -321,8 +338,8 @@ def test_a_model_record_that_does_not_fit_is_rebuilt(monkeypatch, tmp_path, misf
     path = _written(tmp_path, "models")
     key = json.loads(path.read_text())["key"]
     record = cache.load_table("models", key)
-    if misfit == "another library":    # no damping term: fewer constants (another structure)
-        other = compiled.native_model(oscillator_network(omega=219.0, zeta=0.0)).library_path
+    if misfit == "another library":    # a stiffening spring: more constants (another structure)
+        other = compiled.native_model(stiffening_oscillator_network()).library_path
         assert other != library
         record["library"] = other.stem[3:]
     else:

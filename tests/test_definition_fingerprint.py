@@ -173,6 +173,7 @@ def test_model_loaded_from_its_record_builds_no_graph_and_integrates_as_built(mo
     res = integrate(built, ss.x, 0.02, p=ss.p, solver="compiled", **kw)
     monkeypatch.setattr(compiled.toolchain, "_LIBS", {})
     monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
 
     def no_graph(self):
         raise AssertionError("CasADi graph built for a model known by its definition")
@@ -180,7 +181,8 @@ def test_model_loaded_from_its_record_builds_no_graph_and_integrates_as_built(mo
     monkeypatch.setattr(Network, "compile", no_graph)
     loaded = default_network()
     ss2 = solve_steady_state(loaded)
-    assert compiled.native_model(loaded).found_by == "definition"
+    # (its structure's record: the C takes the numbers at run time)
+    assert compiled.native_model(loaded).found_by == "numbers"
     assert compiled.native_model(loaded).library_path == native.library_path
     res2 = integrate(loaded, ss2.x, 0.02, p=ss2.p, solver="compiled", **kw)
     assert res2.metadata["solver"] == "compiled"
@@ -222,6 +224,7 @@ def test_a_component_changed_after_its_graph_is_never_recorded_by_definition(mon
     from hydroline.cache import load_table
 
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))   # nothing recorded before
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})        # (nor in this process)
     frequency = 150.0 + np.random.default_rng(24).uniform(0.0, 1e-3)   # new numbers, [Hz]
 
     def retuned():
@@ -244,8 +247,9 @@ def test_a_component_changed_after_its_graph_is_never_recorded_by_definition(mon
     assert compiled.native_model(fresh).found_by == "structure"
     assert compiled_rhs_is_the_components(fresh)
     monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
     again = retuned()
-    assert compiled.native_model(again).found_by == "definition"
+    assert compiled.native_model(again).found_by == "numbers"   # its C takes the numbers
     assert compiled_rhs_is_the_components(again)
 
 
@@ -259,7 +263,8 @@ def test_cached_json_run_imports_no_casadi(tmp_path):
             "    assert main(['simulate', '--json']) == 0\n"
             "summary = json.loads(out.getvalue())\nsummary.pop('wall_time_s', None)\n"
             "print(json.dumps({'casadi': 'casadi' in sys.modules, 'summary': summary}))\n")
-    runs = [json.loads(subprocess.run([sys.executable, "-c", code], cwd=tmp_path,
+    env = dict(os.environ, HYDROLINE_BACKGROUND_BUILD="0")   # (the first run builds it)
+    runs = [json.loads(subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                                       capture_output=True, text=True, check=True).stdout)
             for _ in range(2)]
     assert runs[1]["casadi"] is False

@@ -719,7 +719,8 @@ def test_shared_model_trace_and_rest_state_equal_simulates():
     a variant's rest state is simulate()'s to 1e-12 of each state's scale, and its port
     pressures stay within the integrator's accuracy of simulate()'s: each run is within
     ~1e-4 of the excursion of a tight reference at simulate()'s tolerances (rtol 1e-6);
-    the short 0.3 m hose rings at ~330 Hz, the hardest case for the step control."""
+    the short 0.3 m hose rings at ~330 Hz, the hardest case for the step control. Both end
+    with the metrics window (a row's run is for its metrics: ``metrics_only``)."""
     from hydroline.scenarios import simulate
     from hydroline.studies.sweep import VariantRunner
 
@@ -729,7 +730,10 @@ def test_shared_model_trace_and_rest_state_equal_simulates():
         r = rig.copy()
         r.set("supply.section2.length", f"{length} m")
         r.set("return.section2.length", "2 m")
-        shared, plain = runner.simulate(r), simulate(r)
+        shared, plain = runner.simulate(r), simulate(r, metrics_only=True)
+        t0, t1, why = plain.metadata["metrics_window"]
+        assert len(shared.t) == len(plain.t) and why == "stop"
+        assert t1 <= plain.t[-1] <= t1 + 200 * 1e-4 + 1e-9   # (ended within a block of it)
         scales = runner.models[-1].network.state_scales
         assert np.max(np.abs(shared.steady_state.x - plain.steady_state.x) / scales) < 1e-12
         for k in ("supply_port_pressure", "return_port_pressure"):

@@ -67,7 +67,7 @@ from ..system import build_circuit
 __all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
            "solve_operating_point", "linearize", "linear_network", "jacobians", "SUPPLIES",
            "AXIS_SIGNALS", "VALVE_COMMAND", "select_axis", "axis_network", "axis_signal", "input_parameter", "check_names",
-           "transfer_state", "friction_slope"]
+           "transfer_state", "friction_slope", "LinearModel", "linear_model"]
 
 #: Name of the command component that drives the analysed axis's valve current (its runtime
 #: parameters ``command.initial``/``command.final`` are the current, [A]).
@@ -692,6 +692,61 @@ def transfer_state(solved: SolvedOperatingPoint, net: Network):
     return x, p
 
 
+@dataclass
+class LinearModel:
+    """A linear state-space model with named states, inputs and outputs, as
+    :func:`linear_model` gives it (:func:`linearize` makes a python-control ``StateSpace`` of
+    it): ``dx' = A dx + B du``, ``dy = C dx + D du`` in SI units.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray                 The matrices, [SI]
+    state_labels, input_labels, output_labels : list   Names
+    operating_point : SolvedOperatingPoint   Where it is linearised
+    state_scales : ndarray               Typical state magnitudes, [SI]
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    state_labels: list
+    input_labels: list
+    output_labels: list
+    operating_point: object
+    state_scales: np.ndarray
+
+    @property
+    def nstates(self) -> int:
+        """Number of states, [-]."""
+        return self.A.shape[0]
+
+
+def linear_model(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
+                 inputs=DEFAULT_INPUTS, outputs=DEFAULT_OUTPUTS, supply: str = "lines",
+                 friction: str = "viscous", axis: str | None = None) -> LinearModel:
+    """:func:`linearize`'s model as plain arrays (:class:`LinearModel`), without
+    python-control (the Bode command's: ~1 s of imports less).
+
+    Parameters
+    ----------
+    rig, operating_point, inputs, outputs, supply, friction, axis :
+        As :func:`linearize`: the rig, where to linearise, the input and output names, the
+        supply ("lines" or "constant"), the friction slope, the axis
+
+    Returns
+    -------
+    LinearModel
+    """
+    rig = rig if isinstance(rig, Rig) else load_rig(rig)
+    inputs, outputs = list(inputs), list(outputs)
+    check_names(inputs, outputs)
+    solved = solve_operating_point(rig, operating_point, supply, axis=axis)
+    net, x, p, A, B, C, D = _linear_parts(rig, solved, inputs, outputs, friction)
+    return LinearModel(A, B, C, D, list(net.state_names), inputs, outputs, solved,
+                       net.state_scales.copy())
+
+
 def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,
               inputs=DEFAULT_INPUTS, outputs=DEFAULT_OUTPUTS, supply: str = "lines",
               friction: str = "viscous", axis: str | None = None):
@@ -728,13 +783,9 @@ def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | No
     """
     import control
 
-    rig = rig if isinstance(rig, Rig) else load_rig(rig)
-    inputs, outputs = list(inputs), list(outputs)
-    check_names(inputs, outputs)
-    solved = solve_operating_point(rig, operating_point, supply, axis=axis)
-    net, x, p, A, B, C, D = _linear_parts(rig, solved, inputs, outputs, friction)
-    sys = control.ss(A, B, C, D, states=list(net.state_names), inputs=inputs, outputs=outputs,
-                     name=f"hydroline linearised ({supply} supply)")
-    sys.operating_point = solved
-    sys.state_scales = net.state_scales.copy()
+    m = linear_model(rig, operating_point, inputs, outputs, supply, friction, axis)
+    sys = control.ss(m.A, m.B, m.C, m.D, states=m.state_labels, inputs=m.input_labels,
+                     outputs=m.output_labels, name=f"hydroline linearised ({supply} supply)")
+    sys.operating_point = m.operating_point
+    sys.state_scales = m.state_scales
     return sys

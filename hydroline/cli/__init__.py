@@ -23,6 +23,8 @@ import re
 import signal
 import sys
 
+from ..blas import single_threaded_blas
+from ..cache import BACKGROUND_BUILD_ENV
 from . import figure_process
 
 __all__ = ["main", "UsageError", "Terminated", "version", "refuse_empty_values", "ClosedStdout"]
@@ -137,19 +139,6 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
-#: Thread-count variables of the BLAS libraries NumPy and SciPy may be built with.
-BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-
-
-def single_threaded_blas() -> None:
-    """Ask the BLAS library for one thread, unless the user set a count (to take effect, call
-    before NumPy is imported). The model's matrices are small (138 x 138 on the default rig):
-    extra BLAS threads only spin, on the cores the figure process and a sweep's workers use
-    (after the steady-state solve, ~7 % of a short run's CPU samples)."""
-    for name in BLAS_THREAD_VARIABLES:
-        os.environ.setdefault(name, "1")
-
-
 def _requested_subcommand(argv) -> str | None:
     """The module of the subcommand named first on the command line (None: none or unknown,
     then every subcommand is registered for help and error messages)."""
@@ -179,6 +168,11 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
         single_threaded_blas()
+    # a run whose compiled library is not built yet uses CVODES while it is built in the
+    # background (the user's setting wins; restored after: main() may run in-process)
+    background = BACKGROUND_BUILD_ENV not in os.environ
+    if background:
+        os.environ[BACKGROUND_BUILD_ENV] = "1"
     streams = sys.stdout, sys.stderr
     _closed_streams_replaced()       # (before the fork: the figure process inherits them)
     if draws_a_figure(argv):   # the figure's branch is the longer one: forked before parsing
@@ -189,6 +183,8 @@ def main(argv=None) -> int:
         figure_process.cancel_unclaimed()
         if streams[0] is None or streams[1] is None:   # (main() may run in-process)
             sys.stdout, sys.stderr = streams
+        if background:
+            os.environ.pop(BACKGROUND_BUILD_ENV, None)
 
 
 def _closed_streams_replaced() -> None:
@@ -214,20 +210,23 @@ def _closed_streams_replaced() -> None:
 
 
 def draws_a_figure(argv) -> bool:
-    """Whether a command line will (most likely) draw ``hydroline simulate``'s figure: the
-    figure process is started for it before the arguments are parsed. A wrong guess costs
-    little: a process not claimed is stopped, and one missing is started when needed.
+    """Whether a command line will (most likely) draw a figure (``hydroline simulate``'s,
+    ``hydroline bode``'s, ``hydroline layout --out``'s): the figure process is started for it before the arguments are
+    parsed. A wrong guess costs little: a process not claimed is stopped, and one missing is
+    started when needed.
 
     Parameters
     ----------
     argv : list of str  The arguments after ``hydroline``
     """
-    if not argv or argv[0] != "simulate":
+    if not argv or argv[0] not in ("simulate", "bode", "layout"):
         return False
     options = {a.split("=", 1)[0] for a in argv[1:] if a.startswith("-")}
     if options & {"-h", "--help"}:
         return False
-    return "--json" not in options or "--out" in options
+    if argv[0] == "layout":
+        return "--out" in options
+    return argv[0] == "bode" or "--json" not in options or "--out" in options
 
 
 def _parse_and_run(argv) -> int:

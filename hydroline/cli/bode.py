@@ -8,6 +8,7 @@ from ..analysis.frequency import MODAL, bode_analysis, rated_velocity
 from ..analysis.linearize import INPUTS, OperatingPoint
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
+from .figure_process import claim_figure_process
 
 DEFAULT_OUTPUTS = "piston_velocity,supply_port_pressure,return_port_pressure"
 
@@ -143,6 +144,13 @@ def run(args) -> int:
     -------
     int  Exit code, 0 on success
     """
+    # Matplotlib imports in a second process while this one solves (started with the command:
+    # hydroline.cli.main); the figure is drawn there
+    with claim_figure_process() as figures:
+        return _run(args, figures)
+
+
+def _run(args, figures) -> int:
     rig = load_rig(args.rig)
     out = out_dir(args.out)       # checked before the analysis, not after it
     outputs = [o.strip() for o in args.output.split(",") if o.strip()]
@@ -166,9 +174,11 @@ def run(args) -> int:
     with atomic_outputs(out) as temp:   # the three files replaced together, or none
         with open(temp("bode.json"), "w") as fh:     # strict JSON: NaN/inf as null
             dump_json(summary, fh)
+        figures.submit(plot_bode, res.f, res.curves, args.input, outputs, res.bandwidths,
+                       path=str(temp("bode.png")), title=title,
+                       highest_mode_hz=res.highest_mode_hz, passbands=res.passbands)
         pd.DataFrame(cols).to_csv(temp("bode.csv"), index=False)
-        plot_bode(res.f, res.curves, args.input, outputs, res.bandwidths, path=temp("bode.png"),
-                  title=title, highest_mode_hz=res.highest_mode_hz, passbands=res.passbands)
+        figures.wait()
     if args.json:
         dump_json(summary)
         return 0

@@ -8,6 +8,7 @@ from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, l
 from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
                      dump_json, out_dir, print_table, progress_printer, quantity, settling_cell,
                      settling_legend)
+from .figure_process import claim_figure_process
 
 _DEFAULT = ",".join(f"{L:g}" for L in DEFAULT_LENGTHS)
 
@@ -129,8 +130,9 @@ def run(args) -> int:
                    progress=_progress(not args.json), settling_band=band)
     files = {}
     if args.out:   # all three files replaced together, or none (a failed write keeps the old)
-        with atomic_outputs(out) as temp:
-            files = study.save(out, temp, traces_format=fmt)
+        # (the figure drawn by the figure process, which imported Matplotlib meanwhile)
+        with atomic_outputs(out) as temp, claim_figure_process() as figures:
+            files = study.save(out, temp, traces_format=fmt, figures=figures)
     if args.json:
         dump_json(json_document(study))
         return 0

@@ -16,6 +16,13 @@ only (its structure's record then gives the constants without writing C), or whe
 network cannot describe itself by value (a component class of another package: its record
 is then keyed by the graph's own fingerprint, :func:`model_fingerprint`).
 
+Numbers are parameters: the components' own numbers and the state scales head the constants
+array (:func:`~hydroline.compiled.generated.number_prefix`), so networks that differ only in
+numbers share one library, recorded under their definition without the numbers
+(:func:`numbers_key`). A library not built yet may be built in a background process
+(``$HYDROLINE_BACKGROUND_BUILD``, the command line's default) while the run goes on with
+CVODES (:class:`LibraryPending`).
+
 Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.
 Without a compiler :func:`native_model` raises :class:`CompilerUnavailable` and
@@ -31,13 +38,15 @@ from __future__ import annotations
 from ..cache import cache_dir  # noqa: F401  (re-exported)
 from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-exported)
 from .native import NativeModel, NativeSolver, native_model, needs_build
-from .records import definition_key, model_fingerprint
+from .records import definition_key, model_fingerprint, numbers_key
 from .toolchain import (CFLAGS, MAX_LIBRARIES, NATIVE_FLAGS, PORTABLE_ENV, CompilerUnavailable,
-                        available, native_flags, prune_libraries)
+                        LibraryPending, available, native_flags, prune_libraries,
+                        went_on_without)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
            "available", "CFLAGS", "native_flags", "model_fingerprint", "definition_key",
-           "prune_libraries", "MAX_LIBRARIES", "needs_build", "NATIVE_FLAGS", "PORTABLE_ENV"]
+           "prune_libraries", "MAX_LIBRARIES", "needs_build", "NATIVE_FLAGS", "PORTABLE_ENV",
+           "numbers_key", "LibraryPending", "went_on_without"]
 
 #: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
 #: model whose record is known is loaded without them.

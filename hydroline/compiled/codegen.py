@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .generated import GeneratedModel, UnsupportedOperation
+from .generated import GeneratedModel, UnsupportedOperation, number_prefix
 
 __all__ = ["GeneratedModel", "generate", "UnsupportedOperation", "structure_key",
-           "constant_positions", "constants_at", "scaled_functions"]
+           "constant_positions", "constants_at", "scaled_functions", "number_prefix"]
 
 
 _BINARY = {
@@ -121,22 +121,37 @@ def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
 def scaled_functions(model):
     """f, its sparse Jacobian and the signals of a compiled model in scaled states z = x/scale.
 
+    Where the model's graph takes the components' numbers as symbols (``model.k``,
+    :class:`~hydroline.engine.CompiledModel`), the functions take them, and the state
+    scales, as a fourth input ``c = [numbers, scales]`` (:func:`number_prefix`): their C
+    reads them from the constants array, and depends on the structure only.
+
     Parameters
     ----------
     model : CompiledModel   The network's CasADi graph
 
     Returns
     -------
-    (f, jac, signals) : casadi.Function of (t, z, p): dz/dt, d(dz/dt)/dz, every signal [SI]
+    (f, jac, signals) : casadi.Function of (t, z, p) or (t, z, p, c): dz/dt, d(dz/dt)/dz,
+                        every signal [SI]
     """
     scales = np.asarray(model.network.state_scales, dtype=float)
     z = ca.SX.sym("z", len(scales))
-    x_of_z = z * ca.DM(scales)
-    dz = ca.substitute(model.dx, model.x, x_of_z) / ca.DM(scales)
-    y = ca.substitute(model.y, model.x, x_of_z)
-    return (ca.Function("hl_f", [model.t, z, model.p], [dz]),
-            ca.Function("hl_jac", [model.t, z, model.p], [ca.jacobian(dz, z)]),
-            ca.Function("hl_signals", [model.t, z, model.p], [y]))
+    k = getattr(model, "k", None)
+    if k is None:
+        s, inputs = ca.DM(scales), [model.t, z, model.p]
+        dx, y = model.dx, model.y
+    else:
+        s = ca.SX.sym("s", len(scales))
+        inputs = [model.t, z, model.p, ca.vertcat(k, s)]
+        dx, y = model.dx_general, model.y_general
+    x_of_z = z * s
+    dz = ca.substitute(dx, model.x, x_of_z) / s
+    y = ca.substitute(y, model.x, x_of_z)
+    return (ca.Function("hl_f", inputs, [dz]),
+            ca.Function("hl_jac", inputs, [ca.jacobian(dz, z)]),
+            ca.Function("hl_signals", inputs, [y]))
+
 
 
 # ---- sparse LU with a fixed order ----------------------------------------------------------
@@ -313,7 +328,7 @@ def constant_positions(functions) -> list[list[int]]:
             for fun in functions]
 
 
-def constants_at(functions, positions) -> np.ndarray:
+def constants_at(functions, positions, network=None) -> np.ndarray:
     """The constants ``c`` of a model whose structure is known (its :func:`constant_positions`):
     what :func:`generate` would return as ``constants``, without writing the C.
 
@@ -321,9 +336,15 @@ def constants_at(functions, positions) -> np.ndarray:
     ----------
     functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
     positions : list    Per function, the indices of its constant instructions
+    network : Network   The model's network, whose numbers and scales come first where the
+                        functions take them (:func:`number_prefix`); None: the graph's
+                        constants only
     """
-    return np.array([fun.instruction_constant(k) for fun, ks in zip(functions, positions)
-                     for k in ks], dtype=float)
+    graph = np.array([fun.instruction_constant(k) for fun, ks in zip(functions, positions)
+                      for k in ks], dtype=float)
+    if network is None or functions[0].n_in() < 4:
+        return graph
+    return np.concatenate([number_prefix(network), graph])
 
 
 def generate(model, functions=None) -> GeneratedModel:
@@ -341,8 +362,10 @@ def generate(model, functions=None) -> GeneratedModel:
     colind = np.asarray(sp.colind(), dtype=np.int64)
     row = np.asarray(sp.row(), dtype=np.int64)
     cols = np.repeat(np.arange(n), np.diff(colind))
-    inputs = ["t", "z[{nz}]", "p[{nz}]"]
-    constants: list[float] = []
+    inputs = ["t", "z[{nz}]", "p[{nz}]", "c[{nz}]"]
+    # (the numbers and scales first, where the functions take them: the graph's own
+    # constants follow them in c)
+    constants: list[float] = (number_prefix(net).tolist() if f.n_in() == 4 else [])
     parts = [_function_c(f, "hl_f", inputs, "dz", constants),
              _function_c(jac, "hl_jac", inputs, "jnz", constants),
              _function_c(sig, "hl_signals", inputs, "y", constants)]

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["GeneratedModel", "UnsupportedOperation"]
+__all__ = ["GeneratedModel", "UnsupportedOperation", "number_prefix"]
 
 
 class UnsupportedOperation(NotImplementedError):
@@ -37,3 +37,20 @@ class GeneratedModel:
     jac_row: np.ndarray
     lu_slots: int
     lu_flops: int
+
+
+def number_prefix(network) -> np.ndarray:
+    """The start of the constants array of a model whose C takes the components' numbers at
+    run time (:func:`hydroline.compiled.codegen.scaled_functions`): the numbers
+    (:meth:`~hydroline.engine.Network.compiled_numbers`), then the state scales, [SI].
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+
+    Returns
+    -------
+    ndarray  [SI]
+    """
+    return np.concatenate([network.compiled_numbers()[1],
+                           np.asarray(network.state_scales, dtype=float)])

@@ -9,10 +9,10 @@ import time
 
 import numpy as np
 
-from ..cache import cache_dir
-from .records import (definition_key, forget_record, known_model, known_structure,
-                      model_fingerprint, remember_model, remember_structure,
-                      structure_record_key)
+from ..cache import builds_in_background, cache_dir
+from .records import (definition_key, forget_record, known_model, known_numbers_model,
+                      known_structure, model_fingerprint, numbers_key, remember_model,
+                      remember_numbers_model, remember_structure, structure_record_key)
 from .toolchain import CompilerUnavailable, library_check, library_location, load_library
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "needs_build"]
@@ -42,47 +42,71 @@ class NativeModel:
     Parameters
     ----------
     network : Network   The assembled model (:class:`hydroline.engine.Network`)
+    wait : bool         Compile a library not built yet here and now (False: in a background
+                        process, raising :class:`~hydroline.compiled.toolchain.LibraryPending`)
     """
 
-    def __init__(self, network):
+    def __init__(self, network, wait: bool = True):
         tic = time.perf_counter()
         self.network = network
         key, found, full, record = self._locate(network)
+        self._remember(key, found)   # (before a build, which may be a background one)
         try:
-            self._load(full, record is not None)
+            self._load(full, record is not None, wait)
         except _RecordMismatch as e:   # a record that does not fit: without records
             forget_record(record, key, why=str(e))
             key, found, full, record = self._locate(network, records=False)
-            self._load(full, False)
+            self._remember(key, found)
+            self._load(full, False, wait)
         self.n, self.n_signals = int(self._sizes[0]), int(self._sizes[3])
         # (the dense Jacobian's row and column indices, each component's state block, and
         # the order limits found, by Jacobian: made on first use)
         self._jac_index = self._blocks = None
         self._limits_seen: dict = {}
-        remember_model(key, self.generated, self.library_path)
-        #: How the model was found: "definition" (its record, found before any graph was
-        #: built), "graph" (the record of its graph's fingerprint, where the network cannot
-        #: describe itself), "structure" (a known structure: constants read from the
-        #: graph) or "generated" (C written)
+        #: How the model was found: "numbers" (the record of its structure, whose C takes
+        #: the components' numbers at run time, found before any graph was built),
+        #: "definition" (its record, found before any graph was built), "graph" (the record
+        #: of its graph's fingerprint, where the network cannot describe itself),
+        #: "structure" (a known structure: constants read from the graph) or "generated" (C
+        #: written)
         self.found_by = found
         self.build_time = time.perf_counter() - tic
+
+    def _remember(self, key, found: str) -> None:
+        """Record the model found or made (:meth:`_locate`): under its numbers key where its
+        C takes the numbers (one record for all of them), else under its own key."""
+        if self._numbers is not None and self._numbers_key is not None:
+            remember_numbers_model(self._numbers_key, self.generated, self._numbers,
+                                   self.library_path)
+        elif found != "numbers":
+            remember_model(key, self.generated, self.library_path)
 
     def _locate(self, network, records: bool = True):
         """Find the model's record (``records``), else generate its C; sets ``generated``
         and ``library_path``. Returns (key of its model record, how it was found, the
         library's source or a callable that makes it, the record used as (table kind, key)
         or None)."""
-        # the model's record: under its definition (known before any graph is built) where
-        # the network can describe itself, else under its graph's fingerprint; also where
-        # the graph was built before (components changed since would not be in it)
-        key = definition_key(network)
-        gen, tag = known_model(key, network) if records else (None, None)
-        found, record = "definition", ("models", key)
+        # its structure's record, where its C takes the numbers at run time; else the
+        # model's record: under its definition (known before any graph is built) where the
+        # network can describe itself, else under its graph's fingerprint; also where the
+        # graph was built before (components changed since would not be in it)
+        #: (numbers and scales at the start of the constants, where a graph just built
+        #: takes them at run time: its record is written under its numbers key)
+        self._numbers = None
+        key = self._numbers_key = numbers_key(network)
+        gen, tag = known_numbers_model(key, network) if records else (None, None)
+        found, record = "numbers", ("models", key)
+        if gen is None:
+            key = definition_key(network)
+            gen, tag = known_model(key, network) if records else (None, None)
+            found, record = "definition", ("models", key)
         if gen is None:   # not known: build the graph
             from . import codegen
 
             if getattr(network, "has_graph", True):
-                key = None
+                # (a graph made before a component changed is not recorded under the
+                # network's definition or numbers key: it may not be the changed one's)
+                key = self._numbers_key = None
             model = network.compile()
             if key is None:
                 key, found = model_fingerprint(model), "graph"
@@ -99,6 +123,8 @@ class NativeModel:
                     gen = codegen.generate(model, functions)
                     path, full = library_location(gen)
                     remember_structure(functions, gen, path)
+                if functions[0].n_in() == 4:
+                    self._numbers = functions[0].nnz_in(3)
         self.generated = gen
         if tag is not None:          # known: its C is regenerated only to rebuild a library
             path = cache_dir() / f"hl_{tag}.so"
@@ -114,11 +140,11 @@ class NativeModel:
         self.library_path = path
         return key, found, full, record
 
-    def _load(self, full, from_record: bool) -> None:
+    def _load(self, full, from_record: bool, wait: bool = True) -> None:
         """Load (or build) the library and check that it fits the model's sizes; a misfit
         of a model found by its record is that record's fault (:class:`_RecordMismatch`)."""
         self.cache_hit = self.library_path.exists()
-        self.lib = load_library(self.library_path, full)
+        self.lib = load_library(self.library_path, full, wait)
         sizes = (ctypes.c_longlong * 7)()
         self.lib.hl_sizes(sizes)
         g = self.generated
@@ -458,7 +484,9 @@ def needs_build(network) -> bool:
     """
     if network.__dict__.get("_native_model") is not None:
         return False
-    _, tag = known_model(definition_key(network), network)
+    _, tag = known_numbers_model(numbers_key(network), network)
+    if tag is None:
+        _, tag = known_model(definition_key(network), network)
     if tag is None:
         model = network.compile()
         _, tag = known_model(model_fingerprint(model), network)
@@ -470,20 +498,25 @@ def needs_build(network) -> bool:
     return tag is None or not library_check(cache_dir() / f"hl_{tag}.so")[0]
 
 
-def native_model(network) -> NativeModel:
+def native_model(network, wait: bool | None = None) -> NativeModel:
     """The network's :class:`NativeModel`, built once per network object.
 
     Parameters
     ----------
     network : Network   The assembled model
+    wait : bool         Compile a library not built yet here and now; False: start its
+                        build in a background process and raise ``LibraryPending`` (the
+                        caller goes on without it); None: False where
+                        :func:`builds_in_background`, else True
 
     Raises
     ------
     CompilerUnavailable   No C compiler, or it failed
     UnsupportedOperation  The graph holds an operation the C writer does not know
+    LibraryPending        Not ``wait``: the library is being built in the background
     """
     nm = network.__dict__.get("_native_model")
     if nm is None:
-        nm = NativeModel(network)
+        nm = NativeModel(network, wait=not builds_in_background() if wait is None else wait)
         network.__dict__["_native_model"] = nm
     return nm

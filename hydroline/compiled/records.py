@@ -14,11 +14,12 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import discard_table, load_table, source_tag, store_table
-from .generated import GeneratedModel
+from .generated import GeneratedModel, number_prefix
 from .toolchain import BDF_SOURCE, build_settings
 
 __all__ = ["model_fingerprint", "definition_key", "known_model", "known_structure",
-           "structure_record_key", "remember_structure", "remember_model", "forget_record"]
+           "structure_record_key", "remember_structure", "remember_model", "forget_record",
+           "numbers_key", "known_numbers_model", "remember_numbers_model"]
 
 #: The compiled core's code generation, native model, records and integrator: a change makes
 #: old model records unused.
@@ -69,6 +70,91 @@ def definition_key(network) -> str | None:
     if digest is None:
         return None
     return "definition:" + _hash_parts("definition", digest, _CODE_TAG, build_settings())
+
+
+_NUMBERS: dict = {}
+
+
+def numbers_key(network) -> str | None:
+    """Key of the record of a model whose C takes the components' numbers at run time, known
+    before its CasADi graph is built: the network's definition without those numbers
+    (:meth:`~hydroline.engine.Network.definition_fingerprint` with ``structure``), this
+    module's code tag and the build settings; None where the network gives none. Networks
+    that differ only in numbers share it, and the library it names.
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+    """
+    describe = getattr(network, "definition_fingerprint", None)
+    try:
+        digest = describe(structure=True) if describe is not None else None
+    except TypeError:     # a network that cannot leave its numbers out
+        digest = None
+    if digest is None:
+        return None
+    return "numbers:" + _hash_parts("numbers", digest, _CODE_TAG, build_settings())
+
+
+def known_numbers_model(key: str | None, network):
+    """(GeneratedModel with this network's numbers and no source, library tag) of a structure
+    whose C takes the components' numbers at run time, seen before (this process or the
+    cache directory): its constants are this network's numbers and state scales
+    (:func:`~hydroline.compiled.generated.number_prefix`) followed by the graph's own; (None,
+    None) if unknown. A record that does not fit the network is discarded with a warning.
+
+    Parameters
+    ----------
+    key : str           :func:`numbers_key` of the network; None: unknown
+    network : Network   The assembled model the record must fit
+    """
+    if key is None:
+        return None, None
+    rec = _NUMBERS.get(key)
+    if rec is None:
+        rec = load_table("models", key)
+        if rec is None:
+            return None, None
+        _NUMBERS[key] = rec
+    try:
+        prefix = number_prefix(network)
+        gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS},
+                             constants=np.concatenate([prefix, np.asarray(rec["constants"],
+                                                                          dtype=float)]),
+                             jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
+                             jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
+        why = _misfit(gen, network) or ("its numbers do not fit the model"
+                                         if len(prefix) != rec["n_prefix"] else "")
+        if not why:
+            return gen, str(rec["library"])
+    except (TypeError, KeyError, ValueError):
+        why = "its record is incomplete"
+    _NUMBERS.pop(key, None)
+    discard_table("models", key, why=why)
+    return None, None
+
+
+def remember_numbers_model(key: str | None, gen, n_prefix: int, library_path: Path) -> None:
+    """Record a model whose C takes the components' numbers at run time under its
+    :func:`numbers_key` (its library, sizes and the graph's own constants: those after the
+    ``n_prefix`` numbers and scales), in this process and, the first time, in the cache
+    directory.
+
+    Parameters
+    ----------
+    key : str              :func:`numbers_key` of the network (None: not recorded)
+    gen : GeneratedModel   The model
+    n_prefix : int         Its constants' numbers and state scales, [-]
+    library_path : Path    Its library in the cache directory
+    """
+    if key is None or key in _NUMBERS:
+        return
+    rec = {k: getattr(gen, k) for k in _SCALARS}
+    rec.update({k: np.asarray(getattr(gen, k)).tolist() for k in _ARRAYS},
+               library=library_path.stem[3:], n_prefix=int(n_prefix))
+    rec["constants"] = rec["constants"][n_prefix:]
+    _NUMBERS[key] = rec
+    store_table("models", key, rec)
 
 
 def known_model(fingerprint: str | None, network):
@@ -165,7 +251,7 @@ def known_structure(functions, key: str, network):
     try:
         from .codegen import constants_at
 
-        constants = constants_at(functions, rec["positions"])
+        constants = constants_at(functions, rec["positions"], network)
         gen = GeneratedModel(source="", **{k: rec[k] for k in _SCALARS}, constants=constants,
                              jac_colind=np.asarray(rec["jac_colind"], dtype=np.int64),
                              jac_row=np.asarray(rec["jac_row"], dtype=np.int64))
@@ -193,8 +279,9 @@ def remember_structure(functions, gen, library_path: Path) -> None:
     from .codegen import constant_positions
 
     positions = constant_positions(functions)
-    if sum(map(len, positions)) != len(gen.constants):   # not the order generate() numbers
-        return
+    prefix = functions[0].nnz_in(3) if functions[0].n_in() == 4 else 0   # numbers, scales
+    if prefix + sum(map(len, positions)) != len(gen.constants):
+        return   # not the order generate() numbers
     rec = {k: getattr(gen, k) for k in _SCALARS}
     rec.update(jac_colind=np.asarray(gen.jac_colind).tolist(),
                jac_row=np.asarray(gen.jac_row).tolist(), positions=positions,
@@ -238,3 +325,4 @@ def forget_record(record: tuple, model_key: str | None, why: str) -> None:
     discard_table(*record, why=why)
     _MODELS.pop(model_key, None)
     _STRUCTURES.pop(record[1], None)
+    _NUMBERS.pop(record[1], None)

@@ -21,7 +21,9 @@ from pathlib import Path
 from ..cache import cache_dir, discard_entry, least_recently_used, mark_used
 from .generated import GeneratedModel
 
-__all__ = ["CompilerUnavailable", "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
+__all__ = ["CompilerUnavailable", "LibraryPending", "build_in_background", "build_from_file",
+           "went_on_without",
+           "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
            "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
            "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE"]
 
@@ -39,6 +41,9 @@ NATIVE_FLAGS = ["-march=native"]
 PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
+#: Libraries a run of this process went on without while they were built in the background
+#: (:func:`went_on_without`)
+_PENDING: set = set()
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -47,6 +52,35 @@ MAX_LIBRARIES = 200
 
 class CompilerUnavailable(RuntimeError):
     """No working C compiler: the compiled core cannot be built on this machine."""
+
+
+class LibraryPending(RuntimeError):
+    """The library is being built in a background process (:func:`build_in_background`):
+    this run goes on without it.
+
+    Parameters
+    ----------
+    message : str   What is being built
+    path : Path     The library
+    """
+
+    def __init__(self, message: str, path=None):
+        super().__init__(message)
+        self.path = path
+
+
+def went_on_without(path) -> None:
+    """Note that a run of this process went on without the library at ``path`` (it was being
+    built in the background): the next run that needs it waits for that build
+    (:func:`load_library`), as a process with more than one run to do gets them done soonest
+    on the compiled core.
+
+    Parameters
+    ----------
+    path : Path   The library (``LibraryPending.path``)
+    """
+    if path is not None:
+        _PENDING.add(str(path))
 
 
 
@@ -183,8 +217,8 @@ def _discard(path: Path) -> None:
 
 def _compile(cc: str, full: str, path: Path) -> None:
     """Compile the library source into ``path`` and record its size, hash and key next to it
-    (atomic renames; one builder per key at a time; a cached file that fails verification is
-    rebuilt)."""
+    (atomic renames; one builder per key at a time, a build in the background included; a
+    cached file that fails verification is rebuilt)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = open(path.with_suffix(".lock"), "w")
     try:
@@ -193,27 +227,113 @@ def _compile(cc: str, full: str, path: Path) -> None:
             fcntl.flock(lock, fcntl.LOCK_EX)    # other processes wait for this build
         except ImportError:                     # no fcntl (Windows): concurrent builds are harmless
             pass
-        if library_check(path)[0]:             # built by another process meanwhile
-            return
-        _discard(path)                          # damaged or unrecorded: build it anew
-        with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
-            src = Path(tmp) / "model.c"
-            src.write_text(full)
-            out = Path(tmp) / "model.so"
-            proc = subprocess.run([cc, *CFLAGS, *native_flags(), "-o", str(out), str(src),
-                                   "-lm"], capture_output=True, text=True)
-            if proc.returncode != 0 and native_flags():   # a compiler without -march=native
-                proc = subprocess.run([cc, *CFLAGS, "-o", str(out), str(src), "-lm"],
-                                      capture_output=True, text=True)
-            if proc.returncode != 0:
-                raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
-            size, digest = _digest(out)
-            record = Path(tmp) / "model.sha256"
-            record.write_text(f"{size} {digest} {_library_key(full)}\n")
-            os.replace(record, _record_path(path))   # the record first: a reader that sees the
-            os.replace(out, path)                     # library can always verify it
+        _compile_locked(cc, full, path)
     finally:
         lock.close()
+
+
+def build_in_background(path: Path, full) -> bool:
+    """Start building a library in a process of its own (detached: it goes on after this
+    process ends) unless a build of it is running; the caller goes on without
+    it (CVODES) and a later run loads it. The builder holds the library's lock until the
+    library and its record are in place, so that a process that needs the library waits for
+    that build (:func:`load_library`) instead of starting its own.
+
+    Parameters
+    ----------
+    path : Path               The library in the cache directory (:func:`library_location`)
+    full : str or callable    Its source, or a callable that makes it
+
+    Returns
+    -------
+    bool  True when a build is running (started here or by another process); False when
+          none could be started (no compiler, no ``fcntl`` to hand the lock over, the cache
+          directory not writable) or the library is there already
+    """
+    cc = compiler()
+    try:
+        import fcntl
+    except ImportError:
+        return False
+    if cc is None:
+        return False
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = open(path.with_suffix(".lock"), "w")
+    except OSError:
+        return False
+    try:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return True                         # another process is building it
+        if library_check(path)[0]:
+            return False                        # built meanwhile
+        source = path.with_suffix(".c")
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".c.tmp")
+        with os.fdopen(fd, "w") as f:
+            f.write(full() if callable(full) else full)
+        os.replace(tmp, source)
+        code = ("import sys\nfrom hydroline.compiled.toolchain import build_from_file\n"
+                "build_from_file(sys.argv[1], sys.argv[2], sys.argv[3])\n")
+        # (the child inherits the locked descriptor: the lock is its until it exits)
+        subprocess.Popen([sys.executable, "-c", code, cc, str(source), str(path)],
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL, pass_fds=(lock.fileno(),),
+                         start_new_session=True, close_fds=True)
+        return True
+    except (OSError, ValueError, subprocess.SubprocessError):
+        return False
+    finally:
+        lock.close()
+
+
+def build_from_file(cc: str, source: str, path: str) -> None:
+    """The background builder's work (:func:`build_in_background`, in its own process, the
+    library's lock inherited): compile ``source`` into the library ``path`` with its record
+    (at the priority of the commands that run meanwhile: a run that waits for it gets it
+    soonest); errors are dropped (a run that needs the library builds it then).
+
+    Parameters
+    ----------
+    cc : str       The C compiler
+    source : str   The library's source file (removed afterwards)
+    path : str     The library in the cache directory
+    """
+    try:
+        full = Path(source).read_text()
+        _compile_locked(cc, full, Path(path))
+        prune_libraries()               # a library more: the oldest beyond the bound go
+    except (OSError, CompilerUnavailable):
+        pass
+    finally:
+        try:
+            os.unlink(source)
+        except OSError:
+            pass
+
+
+def _compile_locked(cc: str, full: str, path: Path) -> None:
+    """:func:`_compile`'s work, the library's lock held by the caller."""
+    if library_check(path)[0]:             # built by another process meanwhile
+        return
+    _discard(path)                          # damaged or unrecorded: build it anew
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        src = Path(tmp) / "model.c"
+        src.write_text(full)
+        out = Path(tmp) / "model.so"
+        proc = subprocess.run([cc, *CFLAGS, *native_flags(), "-o", str(out), str(src),
+                               "-lm"], capture_output=True, text=True)
+        if proc.returncode != 0 and native_flags():   # a compiler without -march=native
+            proc = subprocess.run([cc, *CFLAGS, "-o", str(out), str(src), "-lm"],
+                                  capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
+        size, digest = _digest(out)
+        record = Path(tmp) / "model.sha256"
+        record.write_text(f"{size} {digest} {_library_key(full)}\n")
+        os.replace(record, _record_path(path))   # the record first: a reader that sees the
+        os.replace(out, path)                     # library can always verify it
 
 
 def prune_libraries(max_libraries: int | None = None) -> int:
@@ -259,8 +379,9 @@ def prune_libraries(max_libraries: int | None = None) -> int:
     return removed
 
 
-def load_library(path: Path, full) -> ctypes.CDLL:
-    """Load the model's library from the cache, compiling it on a miss.
+def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
+    """Load the model's library from the cache, compiling it on a miss (without ``wait``: in
+    a background process, :func:`build_in_background`, raising :class:`LibraryPending`).
 
     The cached file is verified against the size, hash and key recorded at its build before
     it is loaded; one that fails (truncated, overwritten, another library, a damaged record)
@@ -273,10 +394,18 @@ def load_library(path: Path, full) -> ctypes.CDLL:
     path : Path               The library in the cache directory (:func:`library_location`)
     full : str or callable    The library source, or a callable that makes it (only a
                               rebuild needs it)
+    wait : bool               Compile a missing library here and now (False: in the
+                              background, unless none can be started there; a second run of
+                              this process that needs it waits for that build)
 
     Returns
     -------
     ctypes.CDLL  The loaded library, its functions declared
+
+    Raises
+    ------
+    LibraryPending        Without ``wait``: the library is being built in the background
+    CompilerUnavailable   No compiler, or the build or load failed
     """
     if str(path) in _LIBS:
         return _LIBS[str(path)]
@@ -290,6 +419,11 @@ def load_library(path: Path, full) -> ctypes.CDLL:
                     discard_entry(path, _record_path(path), why=why)
                 if cc is None:
                     raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
+                # (a process that went on without it once has more than one run to do:
+                # it waits for the build instead of another run on CVODES, went_on_without)
+                if (not wait and attempt == 0 and str(path) not in _PENDING
+                        and build_in_background(path, full)):
+                    raise LibraryPending(f"{path.name} is being built in the background", path)
                 _compile(cc, full() if callable(full) else full, path)
                 prune_libraries()               # a library more: the oldest beyond the bound go
             else:

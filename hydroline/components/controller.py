@@ -87,7 +87,7 @@ class PositionController(Component):
         """
         e = u["reference"] - u["position"]
         i = self.proportional_gain * e - self.derivative_gain * u["velocity"]
-        if self.integral_gain:
+        if "error_integral" in x:   # (Ki != 0: the state exists; Ki may be a symbol here)
             i = i + self.integral_gain * x["error_integral"]
         return i
 
@@ -108,12 +108,12 @@ class PositionController(Component):
 
     def outputs_of(self, t, x, u, p):
         continuous = self.clip(self.law(x, u))
-        if self.sample_time:
+        if "sampled" in p:          # (a sample time: its hold parameters exist)
             return {"current": p["sampled"] * p["held_current"] + (1.0 - p["sampled"]) * continuous}
         return {"current": continuous}
 
     def derivatives(self, t, x, u, p):
-        if not self.integral_gain:
+        if "error_integral" not in x:
             return {}
         return {"error_integral": u["reference"] - u["position"]}
 

@@ -1,6 +1,7 @@
 """A hose section: a linear line model (modal or lumped) as a network component (docs/model.md 2)."""
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -129,6 +130,29 @@ class HoseSection(Component):
             return {}
         return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
                 for name, i, j in self.coefficient_pattern}
+
+    def structure_attributes(self, attributes: dict) -> dict:
+        """As :meth:`Component.structure_attributes`; where the line's matrix entries are
+        runtime parameters, the line model stands as its kind, form, port and state names
+        (its matrices' pattern is :attr:`coefficient_pattern`): their values are not
+        structure.
+
+        Parameters
+        ----------
+        attributes : dict   The hose's attributes, name -> value
+        """
+        out = super().structure_attributes(attributes)
+        m = attributes.get("model")
+        pattern = attributes.get("coefficient_pattern")
+        if pattern is not None and m is not None:
+            out["model"] = (type(m).__qualname__, m.form, tuple(m.input_names),
+                            tuple(m.output_names), tuple(m.state_names))
+            # (the pattern by its digest, the states by their names (above: their units
+            # follow from them, their scales are numbers): hundreds of entries, described
+            # once per run)
+            out["coefficient_pattern"] = hashlib.sha256(repr(pattern).encode()).hexdigest()
+            out["_states"] = len(attributes.get("_states", ()))
+        return out
 
     def _product(self, name, v, p, rows):
         """Matrix ``name`` (from p where its entries are parameters) times vector v."""

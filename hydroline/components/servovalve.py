@@ -36,7 +36,7 @@ def valve_coefficient(rated_flow, rated_pressure_drop, max_opening):
     >>> print(f"{valve_coefficient(19e-3 / 60, 6.894757e6, 0.4e-3):.4e}")
     4.2638e-04
     """
-    return rated_flow / (max_opening * np.sqrt(rated_pressure_drop / 2.0))
+    return rated_flow / (max_opening * ops.sqrt(rated_pressure_drop / 2.0))
 
 
 @dataclass(kw_only=True)

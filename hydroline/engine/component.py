@@ -22,12 +22,16 @@ parameters it returns until the next instant (zero-order hold).
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
 
 __all__ = ["Port", "State", "Component", "QUANTITY_UNITS", "Parameter", "parameter", "range_text",
-           "HydraulicEnd"]
+           "HydraulicEnd", "is_number", "NUMBER_MARK"]
 
 #: Physical quantity kinds of signals and their SI units.
 QUANTITY_UNITS = {
@@ -202,6 +206,36 @@ class Parameter:
         return {"-": "", "str": ""}.get(self.unit, self.unit.replace("list:", ""))
 
 
+def is_number(value) -> bool:
+    """True for a plain real number that the compiled model takes at run time (a Python or
+    NumPy float, or a tuple or list of them), False for anything else (an int or a bool is a
+    count or a switch: structure; text, None, arrays, objects).
+
+    Parameters
+    ----------
+    value : object   An attribute's value
+    """
+    if type(value) is float or isinstance(value, np.floating):
+        return True
+    if type(value) in (tuple, list) and value:
+        return all(type(v) is float or isinstance(v, np.floating) for v in value)
+    return False
+
+
+class _NumberMark:
+    """What stands for a number in a description of a structure (no value compares equal)."""
+
+    __slots__ = ()
+
+    def __repr__(self):
+        return "<number>"
+
+
+#: What stands for a component's number in a description of its structure (a number's value
+#: is not structure: :meth:`Component.structure_attributes`).
+NUMBER_MARK = _NumberMark()
+
+
 def range_text(low, high) -> str:
     """A plausible range as the messages say it: "within 1e-06 ... 1", "at least 1",
     "at most 5".
@@ -310,6 +344,58 @@ class Component:
             if rule is not None:
                 unit = f" [{decl.unit_text}]" if decl.unit_text else ""
                 raise ValueError(f"{self.name}: {key} must be {rule}{unit}, got {value!r}")
+
+    # ---- numbers of the compiled model ---------------------------------------------------
+    def compiled_numbers(self) -> dict:
+        """The component's own numbers, which the compiled model takes at run time instead of
+        folding them into its code: every attribute holding a real number or a tuple of them
+        (:func:`is_number`: areas, masses, lengths, gains, laps; not counts, switches, text
+        or nested objects), name -> value [SI]. A rig that differs only in these numbers
+        runs on the same compiled library.
+
+        Returns
+        -------
+        dict  attribute name -> float or tuple of floats, [SI]
+        """
+        return {k: v for k, v in vars(self).items() if k != "name" and is_number(v)}
+
+    def with_numbers(self, numbers: dict):
+        """A copy of the component whose attributes ``numbers`` hold other values (the
+        compiled model's symbols for them), for writing its equations once for all values;
+        values cached from the old numbers (cached properties) are dropped.
+
+        Parameters
+        ----------
+        numbers : dict   attribute name -> value (a symbol, or a tuple of symbols)
+
+        Returns
+        -------
+        Component  The copy (the component itself is not changed)
+        """
+        view = copy.copy(self)
+        for c in type(self).__mro__:
+            for name, attr in vars(c).items():
+                if isinstance(attr, cached_property):
+                    view.__dict__.pop(name, None)
+        view.__dict__.update(numbers)
+        return view
+
+    def structure_attributes(self, attributes: dict) -> dict:
+        """What describes the component's structure, from its attributes: the numbers
+        (:meth:`compiled_numbers`) stand as :data:`NUMBER_MARK` (their count for a tuple).
+        A component that holds more numbers the compiled model takes at run time (a hose's
+        line matrices) replaces those too.
+
+        Parameters
+        ----------
+        attributes : dict   The component's attributes, name -> value
+
+        Returns
+        -------
+        dict  name -> value or mark
+        """
+        return {k: ((NUMBER_MARK if not isinstance(v, (tuple, list)) else (NUMBER_MARK, len(v)))
+                    if k != "name" and is_number(v) else v) for k, v in attributes.items()}
 
     # ---- to be provided by subclasses --------------------------------------------------
     @property

@@ -35,6 +35,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .component import NUMBER_MARK, State
+
 __all__ = ["definition_fingerprint", "components_signature", "module_source_tag",
            "module_bindings", "used_modules", "GRAPH_MODULES"]
 
@@ -234,10 +236,12 @@ def module_bindings(name: str) -> list:
 class _Describer:
     """Turns values into a tree of literals (dictionaries in sorted order, objects as their
     class and attributes, arrays as dtype, shape and SHA-256) whose repr describes them
-    exactly; collects the classes met."""
+    exactly; collects the classes met. With ``structure``, a state's typical magnitude
+    (``State.scale``, which scales the states, not the equations) stands as a mark."""
 
-    def __init__(self):
+    def __init__(self, structure: bool = False):
         self.classes: dict = {}     # class -> its info
+        self.structure = structure
 
     def register(self, c: type):
         """A class met (and its bases, whose class data it inherits): its info."""
@@ -290,6 +294,8 @@ class _Describer:
                 state[name] = getattr(v, name)
         for name in skip & state.keys():
             del state[name]
+        if self.structure and isinstance(v, State):
+            state["scale"] = NUMBER_MARK
         return mark, state
 
 
@@ -323,24 +329,39 @@ def components_signature(components, substitute=None) -> str | None:
     return hashlib.sha256(repr(tree).encode("utf-8", "surrogatepass")).hexdigest()
 
 
-def definition_fingerprint(network) -> str | None:
+def definition_fingerprint(network, structure: bool = False) -> str | None:
     """SHA-256 of everything the network's compiled graph is a function of (see the module
     docstring), without building the graph; None where some part cannot be described by
     value (then only the graph itself can key the model).
 
+    With ``structure``, of everything but the numbers the compiled model takes at run time:
+    each component's own numbers (:meth:`~hydroline.engine.Component.structure_attributes`,
+    :meth:`~hydroline.engine.Component.compiled_numbers`) and the state scales stand as
+    marks, so that networks that differ only in them share the fingerprint (and, where
+    their graph takes those numbers as symbols, one compiled library).
+
     Parameters
     ----------
     network : Network   The assembled model
+    structure : bool    Leave out the numbers (see above)
 
     Returns
     -------
     str or None  hex digest
     """
-    d = _Describer()
+    d = _Describer(structure)
     try:
-        tree = [d.freeze(c) for c in network.components]
+        if structure:
+            tree = []
+            for c in network.components:
+                mark, state = d.object_state(c)
+                tree.append((mark, d.freeze(c.structure_attributes(state))))
+            scales = len(network.state_scales)
+        else:
+            tree = [d.freeze(c) for c in network.components]
+            scales = d.freeze(np.asarray(network.state_scales, dtype=float))
         tree += [list(network.state_names), list(network.parameter_names),
-                 list(network.signal_names), d.freeze(np.asarray(network.state_scales, dtype=float))]
+                 list(network.signal_names), scales]
         described = set()
         while len(described) < len(d.classes):   # class data may name further classes
             for c in sorted(set(d.classes) - described, key=lambda c: d.classes[c][0].text):

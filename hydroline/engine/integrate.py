@@ -145,7 +145,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               progress=None, stream_to=None, chunk_rows: int = 20000,
               stream_columns=None, stream_every: int = 1, keep_columns=None,
               preview_columns=None, preview_rows: int = 50_000,
-              observe=None) -> SimulationResult:
+              observe=None, until=None, until_rows: int = 200) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -185,6 +185,14 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
                         called from a second thread (:class:`RowWriter`), block after block in
                         order, while the next block is integrated; ``progress`` stays in the
                         caller's thread
+    until : callable    Called with ``(t, table, columns)`` of every row so far (times [s],
+                        signals and states [SI], their names) after each block of at most
+                        ``until_rows`` rows (each segment on CVODES and SciPy); True ends the
+                        run there: the result holds the rows up to that block's end (a run
+                        whose metrics are all it is for, :class:`~hydroline.scenarios.
+                        summaries.WindowEnd`). Rows kept in memory only (no ``stream_to``,
+                        ``keep_columns``)
+    until_rows : int    Rows per block checked by ``until``, [-]
 
     Returns
     -------
@@ -196,6 +204,9 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
     if not (rtol > 0 and atol_scale > 0):
         raise ValueError(f"rtol and atol_scale must be > 0 [-], got {rtol!r} and {atol_scale!r}")
+    if until is not None and (stream_to is not None or keep_columns is not None):
+        raise ValueError("until needs every row in memory: give it without stream_to and "
+                         "keep_columns")
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
     n_out = int(round(t_end / dt_out))
     t_last = n_out * dt_out
@@ -227,7 +238,9 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     tic = _time.perf_counter()
     try:
         _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
-                  backend, rows_in, model, x, p, progress)
+                  backend, rows_in, model, x, p, progress,
+                  None if until is None else _Until(until, max(int(until_rows), 1), sink,
+                                                    columns))
     except BaseException:
         if rows_in is not sink:
             rows_in.close(raise_error=False)   # the integration's own error is the one to see
@@ -256,10 +269,23 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     return res
 
 
+class _Until:
+    """:func:`integrate`'s ``until``, asked with every row so far (from the sink's table)."""
+
+    def __init__(self, ask, rows: int, sink, columns):
+        self.ask, self.rows, self.sink, self.columns = ask, rows, sink, columns
+
+    def reached(self) -> bool:
+        """True when the run may end after the rows written so far."""
+        so_far = self.sink.rows_so_far()
+        return so_far is not None and bool(self.ask(so_far[0], so_far[1], self.columns))
+
+
 def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
-              backend, rows_in, model, x, p, progress) -> None:
+              backend, rows_in, model, x, p, progress, until=None) -> None:
     """The segment loop of :func:`integrate`: each segment between breakpoints and sampling
-    instants started on the backend, its output rows handed to ``rows_in`` chunk by chunk."""
+    instants started on the backend, its output rows handed to ``rows_in`` chunk by chunk;
+    it ends early where ``until`` (:class:`_Until`) is reached."""
     n_signals = len(network.signal_names)
     target = getattr(rows_in, "target", None)
     at_edge = None   # the signals at the segment's start, where the backend gave them
@@ -273,6 +299,8 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
         ends_on_grid = n_in > 0 and abs(t_out(i1 - 1, i1)[0] - b) <= 1e-12
         n_grid = n_in if ends_on_grid else n_in + 1   # the segment end b is always reached
         step = chunk_rows if (backend.chunked or bounded) else n_grid
+        if until is not None and backend.chunked:
+            step = min(step, until.rows)
         backend.start(a, x, b, p)
         for k in range(0, n_grid, step):
             g = t_out(i0 + k, i0 + min(k + step, n_in))
@@ -291,5 +319,9 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
             at_edge = None if table is None else table[-1, :n_signals].copy()
             if progress and n_grid > step:
                 progress(g[-1] / t_last)
+            if until is not None and m > 0 and until.reached():
+                if progress:
+                    progress(1.0)
+                return
         if progress:
             progress(b / t_last)

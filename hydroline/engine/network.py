@@ -242,34 +242,38 @@ class Network:
         ps = {k: p[self._parameter_index[f"{c.name}.{k}"]] for k in c.runtime_parameters()}
         return xs, ps
 
-    def evaluate(self, t, x, p=None):
+    def evaluate(self, t, x, p=None, equations=None):
         """Derivatives and all signals at (t, x), with numbers or CasADi symbols.
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : sequence  States, [SI] (numbers or symbols)
-        p : sequence  Runtime parameters, [SI]; the network's values when None
+        t : float         Time, [s]
+        x : sequence      States, [SI] (numbers or symbols)
+        p : sequence      Runtime parameters, [SI]; the network's values when None
+        equations : dict  Component name -> the object whose equations stand for it (a copy
+                          holding symbols for its numbers, :meth:`Component.with_numbers`);
+                          None: the components' own
 
         Returns
         -------
         (dx, signals) : list of derivatives in state order, dict signal -> value
         """
         p = self.parameter_values if p is None else p
+        equations = equations or {}
         signals = {}
         split = {}
         for c in self._order:
             xs, ps = self.component_values(c, x, p)
             split[c.name] = (xs, ps)
             u = {port: signals[c.signal(port)] for port in c.inputs} if c.feedthrough else {}
-            y = c.outputs_of(t, xs, u, ps)
+            y = equations.get(c.name, c).outputs_of(t, xs, u, ps)
             for port in c.outputs:
                 signals[c.signal(port)] = y[port]
         dx = [None] * len(self.state_names)
         for c in self.components:
             xs, ps = split[c.name]
             u = {port: signals[c.signal(port)] for port in c.inputs}
-            d = c.derivatives(t, xs, u, ps)
+            d = equations.get(c.name, c).derivatives(t, xs, u, ps)
             sl = self._state_slices[c.name]
             for i, s in enumerate(c.states):
                 if s.name not in d:
@@ -301,6 +305,26 @@ class Network:
         _, sig = self.evaluate(t, np.asarray(x, dtype=float), p)
         return {k: float(v) for k, v in sig.items()}
 
+    def compiled_numbers(self) -> tuple:
+        """The components' numbers that the compiled model takes at run time
+        (:meth:`Component.compiled_numbers`), in component order, a tuple's items one by one.
+
+        Returns
+        -------
+        (list, ndarray)  names ``<component>.<attribute>`` (``...[k]`` for a tuple's item) and
+                         values, [SI]
+        """
+        names, values = [], []
+        for c in self.components:
+            for k, v in c.compiled_numbers().items():
+                if isinstance(v, (tuple, list)):
+                    names += [f"{c.name}.{k}[{i}]" for i in range(len(v))]
+                    values += [float(a) for a in v]
+                else:
+                    names.append(f"{c.name}.{k}")
+                    values.append(float(v))
+        return names, np.array(values, dtype=float)
+
     def compile(self):
         """The assembled model as CasADi functions (built once per network)."""
         if self._compiled is None:
@@ -313,14 +337,21 @@ class Network:
         were then)."""
         return self._compiled is not None
 
-    def definition_fingerprint(self) -> str | None:
+    def definition_fingerprint(self, structure: bool = False) -> str | None:
         """SHA-256 (hex) of everything :meth:`compile`'s graph is a function of, without
         building it: the components (classes, attributes, wiring, order), the state scales
         and names, and the source of the code involved; None where a part cannot be
         described by value (:func:`hydroline.engine.fingerprint.definition_fingerprint`).
         Equal fingerprints mean equal graphs: a compiled model recorded under one can be
-        loaded for the other."""
-        return definition_fingerprint(self)
+        loaded for the other.
+
+        Parameters
+        ----------
+        structure : bool   Leave out the numbers the compiled model takes at run time (the
+                           components' own numbers, the state scales): networks that differ
+                           only in them share this fingerprint
+        """
+        return definition_fingerprint(self, structure)
 
     def guess(self) -> np.ndarray:
         """Initial guess of all states from the components, [SI]."""
@@ -364,15 +395,72 @@ class CompiledModel:
         t = ca.SX.sym("t")
         x = ca.SX.sym("x", n)
         p = ca.SX.sym("p", m)
-        xs = [x[i] for i in range(n)]
-        ps = [p[i] for i in range(m)]
-        dx, sig = net.evaluate(t, xs, ps)
         self.t, self.x, self.p = t, x, p
-        self.dx = ca.vertcat(*[ca.SX(v) if not isinstance(v, ca.SX) else v for v in dx])
-        self.y = ca.vertcat(*[ca.SX(sig[k]) if not isinstance(sig[k], ca.SX) else sig[k]
-                              for k in net.signal_names])
+        #: The components' numbers (:meth:`Network.compiled_numbers`) as symbols, and the
+        #: graph in them: ``dx_general``, ``y_general`` are functions of (t, x, p, k), the same
+        #: for every value of the numbers (None where a component's equations cannot take its
+        #: numbers as symbols: a Python branch on one; its numbers are then in the graph)
+        self.k = self.dx_general = self.y_general = None
+        _, self.numbers = net.compiled_numbers()
+        general = self._general_graph(ca)
+        if general is not None:
+            self.k, self.dx_general, self.y_general = general
+            self.dx, self.y = ca.substitute([self.dx_general, self.y_general], [self.k],
+                                            [ca.DM(self.numbers)])
+        else:
+            self.dx, self.y = self._graph(ca, net.evaluate(t, self._xs(), self._ps()))
         self.f = ca.Function("f", [t, x, p], [self.dx], ["t", "x", "p"], ["dx"])
         self.signals = ca.Function("signals", [t, x, p], [self.y], ["t", "x", "p"], ["y"])
+
+    def _xs(self):
+        return [self.x[i] for i in range(self.x.numel())]
+
+    def _ps(self):
+        return [self.p[i] for i in range(self.p.numel())]
+
+    def _graph(self, ca, evaluated):
+        """(dx, y) as column expressions from :meth:`Network.evaluate`'s lists."""
+        dx, sig = evaluated
+        return (ca.vertcat(*[ca.SX(v) if not isinstance(v, ca.SX) else v for v in dx]),
+                ca.vertcat(*[ca.SX(sig[k]) if not isinstance(sig[k], ca.SX) else sig[k]
+                             for k in self.network.signal_names]))
+
+    def _general_graph(self, ca):
+        """(k, dx, y): the graph with every component's numbers as the symbols k, checked
+        against the components' own Python equations at their initial guess; None where a
+        component's equations do not take its numbers as symbols (a Python ``if`` on one
+        raises, a NumPy function warns) or give other values (e.g. ``float()`` of one)."""
+        net = self.network
+        k = ca.SX.sym("k", len(self.numbers))
+        views, pos = {}, 0
+        for c in net.components:
+            symbols = {}
+            for name, v in c.compiled_numbers().items():
+                if isinstance(v, (tuple, list)):
+                    symbols[name] = type(v)(k[pos + i] for i in range(len(v)))
+                    pos += len(v)
+                else:
+                    symbols[name] = k[pos]
+                    pos += 1
+            if symbols:
+                views[c.name] = c.with_numbers(symbols)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")   # (a NumPy function on a symbol: legacy)
+                dx, y = self._graph(ca, net.evaluate(self.t, self._xs(), self._ps(), views))
+            x0 = net.guess()
+            dx_ref, sig_ref = net.evaluate(0.0, x0, net.parameter_values)
+            ref = np.array([float(v) for v in dx_ref]
+                           + [float(sig_ref[s]) for s in net.signal_names])
+        except Exception:   # noqa: BLE001  (any failure: the numbers stay in the graph)
+            return None
+        got = np.asarray(ca.Function("general", [self.t, self.x, self.p, k], [ca.vertcat(dx, y)])(
+            0.0, x0, net.parameter_values, self.numbers), dtype=float).ravel()
+        scale = np.maximum(np.abs(ref), np.abs(got))
+        if got.shape != ref.shape or not np.all(
+                (np.abs(got - ref) <= 1e-9 * scale + 1e-300) | (np.isnan(got) & np.isnan(ref))):
+            return None
+        return k, dx, y
 
     @functools.cached_property
     def jac(self):

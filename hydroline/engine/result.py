@@ -492,6 +492,13 @@ class OutputSink:
                 self.written += len(out_t)
         self.last = (t[-1:].copy(), block[-1:].copy())
 
+    def rows_so_far(self):
+        """(times [s], table [SI]) of the rows written so far where every column is kept in one
+        table; None otherwise (streamed, ``keep``, or gone on in parts)."""
+        if self.keep is not None or self.path is not None or self.kept is None:
+            return None
+        return self.kept_t[:self.rows], self.kept[:self.rows]
+
     def result(self):
         """(times, table, columns): the rows kept (all columns, or the ``keep`` columns), or the
         last row of every column when streaming without ``keep``."""

@@ -14,17 +14,18 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..blas import one_blas_thread
 from ..limits import check_output_size
 from ..rigs import Rig, load_rig
 from ..rigs.parameters import ATMOSPHERIC_PRESSURE, steady_state_hint
 from ..engine import SimulationResult, SteadyStateError, integrate, solve_steady_state
 from ..system import build_circuit
 from .experiments import Experiment, Scenario, build_scenario, default_scenario
-from .summaries import metrics_window
+from .summaries import WindowEnd, metrics_window
 
 __all__ = ["simulate", "Simulation", "DEFAULT_SIMULATION", "describe_run", "rest_state",
            "watched_pressures", "check_cavitation", "cavity_warnings", "CAVITATION_PRESSURE",
-           "WATCHED_NODES", "WATCHED_PRESSURES"]
+           "WATCHED_NODES", "WATCHED_PRESSURES", "window_end"]
 
 #: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
 #: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
@@ -138,21 +139,27 @@ class Simulation:
     def run(self, rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
             progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-            stream_columns=None, **options) -> SimulationResult:
+            stream_columns=None, metrics_only: bool = False, **options) -> SimulationResult:
         """Run a scenario on a rig, from its solved steady state, reusing this simulation's
         recent models (:func:`simulate` runs on :data:`DEFAULT_SIMULATION`).
 
         Parameters
         ----------
-        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns :
+        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only :
             As :func:`simulate` (the same keywords and defaults; ``options`` too): the rig,
             the experiment, simulated time [s], output step [s], the integrator and its
-            tolerances [-], the streamed output
+            tolerances [-], the streamed output, a run only for its metrics
 
         Returns
         -------
         SimulationResult  As :func:`simulate`
         """
+        with one_blas_thread():   # (small dense matrices: a BLAS library's threads only spin)
+            return self._run(rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale,
+                             stream_to, stream_columns, metrics_only, options)
+
+    def _run(self, rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to,
+             stream_columns, metrics_only, options):
         tic = _time.perf_counter()
         if not isinstance(rig, Rig):
             rig = load_rig(rig)
@@ -178,6 +185,8 @@ class Simulation:
             ss = rest_state(net)
             self.remember(key, (circuit, sc, net, ss))
         ss = replace(ss, x=ss.x.copy(), p=ss.p.copy())
+        if metrics_only:
+            options["until"] = window_end(circuit, sc)
         res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver,
                         progress=progress, rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                         stream_columns=stream_columns, **options)
@@ -190,10 +199,26 @@ class Simulation:
 DEFAULT_SIMULATION = Simulation()
 
 
+def window_end(circuit, sc) -> WindowEnd:
+    """The ``until`` of a run only for its metrics: its rows reach the end of its metrics
+    window (:class:`~hydroline.scenarios.summaries.WindowEnd`).
+
+    Parameters
+    ----------
+    circuit : Circuit   The rig's circuit (axis handles: position signals, strokes)
+    sc : Scenario       The experiment's commands and times (its disturbance)
+
+    Returns
+    -------
+    WindowEnd
+    """
+    return WindowEnd(sc.t_disturbance, {ax.position: ax.stroke for ax in circuit.axes.values()})
+
+
 def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-             stream_columns=None, **options) -> SimulationResult:
+             stream_columns=None, metrics_only: bool = False, **options) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state, on :data:`DEFAULT_SIMULATION`
     (a repeated run of the same rig reuses its model: :class:`Simulation`).
 
@@ -221,6 +246,11 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
                              runs); ``data`` then holds the last row only and
                              ``metadata["stream_stats"]`` per-column min/max/mean/rms
     stream_columns : list    Columns to stream (all when None)
+    metrics_only : bool      A run only for its metrics (a study's): it ends at the end of its
+                             metrics window (the piston at the stop it moves toward,
+                             :func:`~hydroline.scenarios.summaries.metrics_window`), where
+                             every metric ends: the same metrics, less to integrate; its rows,
+                             and the gas-release check, end there too
     options                  Further keywords of :func:`hydroline.engine.integrate`
                              (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
 
@@ -231,7 +261,8 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
     """
     return DEFAULT_SIMULATION.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
                                   progress=progress, rtol=rtol, atol_scale=atol_scale,
-                                  stream_to=stream_to, stream_columns=stream_columns, **options)
+                                  stream_to=stream_to, stream_columns=stream_columns,
+                                  metrics_only=metrics_only, **options)
 
 
 def rest_state(net, x_guess=None):

@@ -13,7 +13,7 @@ from ..traces.metrics import SETTLING_BAND, SettlingBand, pressure_metrics
 from ..engine import SimulationResult
 
 __all__ = ["summarize", "run_summary", "metrics_window", "ripple_metrics", "SineSummaryStream",
-           "COMMAND_START"]
+           "COMMAND_START", "window_of", "WindowEnd"]
 
 #: Where a command's metrics window starts, in the summary note (an experiment's
 #: ``window_start`` unless it names its own disturbance, e.g. "the valve step").
@@ -42,15 +42,30 @@ def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, 
            stop it moves toward) or "end" (the run ended first)
     """
     t0 = float(res.metadata.get("t_disturbance", 0.0))
-    t = res.t
     axes = res.metadata.get("axes") or {}
     pairs = [(ax.position, ax.stroke) for ax in axes.values()] or \
         [("piston_position", res.metadata.get("stroke", np.inf))]
+    return window_of(res.t, {signal: (res[signal], stroke) for signal, stroke in pairs
+                             if signal in res}, t0, margin)
+
+
+def window_of(t, pistons: dict, t0: float, margin: float = 1e-3) -> tuple[float, float, str]:
+    """:func:`metrics_window` of traces: ``(t_start, t_end, why_it_ends)``.
+
+    Parameters
+    ----------
+    t : ndarray      Output times, ascending, [s]
+    pistons : dict   Per axis, its position signal -> (position trace at ``t`` [m], full
+                     stroke [m])
+    t0 : float       The disturbance, the window's start, [s]
+    margin : float   Distance from a stop that counts as arrived, [m]
+
+    Returns
+    -------
+    tuple  ``(t_start [s], t_end [s], reason)``, as :func:`metrics_window`
+    """
     end, reason = float(t[-1]), "end"
-    for signal, stroke in pairs:     # the first axis to arrive at the stop it moves toward
-        if signal not in res:
-            continue
-        x = res[signal]
+    for x, stroke in pistons.values():     # the first axis to arrive at the stop it moves toward
         half = stroke / 2
         after = t >= t0
         x0 = float(np.interp(t0, t, x))
@@ -62,6 +77,62 @@ def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, 
         if arrived.size and float(t[arrived[0]]) < end:
             end, reason = float(t[arrived[0]]), "stop"
     return t0, end, reason
+
+
+class WindowEnd:
+    """Whether a run's rows so far reach the end of its metrics window (the first axis's
+    piston at the stop it moves toward, :func:`metrics_window`): pass as ``until`` to
+    :func:`hydroline.engine.integrate`, so that a run whose metrics are all it is for stops
+    there. The rows it keeps then give the same window, and so the same metrics. Each call
+    looks at the rows it has not seen (a long run costs what its rows cost).
+
+    Parameters
+    ----------
+    t0 : float        The disturbance, the window's start, [s]
+    pistons : dict    Per axis, its position signal -> full stroke [m]
+    margin : float    Distance from a stop that counts as arrived, [m]
+    """
+
+    def __init__(self, t0: float, pistons: dict, margin: float = 1e-3):
+        self.t0, self.margin = float(t0), margin
+        self.pistons = {k: stroke / 2 for k, stroke in pistons.items() if np.isfinite(stroke)}
+        self.index = None
+        self.seen = 0
+        self.x0 = {}          # signal -> position at t0
+        self.moved = {}       # signal -> (direction, time of the first clear displacement)
+
+    def __call__(self, t, rows, columns) -> bool:
+        """True when the rows so far (times ``t`` [s], the run's table ``rows`` with its
+        ``columns``) hold the window's end.
+
+        Parameters
+        ----------
+        t : ndarray         The run's output times so far, [s]
+        rows : ndarray      Its rows so far, signals and states side by side, [SI]
+        columns : list      The rows' column names
+        """
+        if len(t) == 0 or t[-1] < self.t0:
+            return False
+        if self.index is None:
+            self.index = {k: list(columns).index(k) for k in self.pistons if k in columns}
+        start = max(self.seen - 1, 0)
+        self.seen = len(t)
+        for signal, i in self.index.items():
+            x = rows[:, i]
+            if signal not in self.x0:      # (as metrics_window: interpolated at t0)
+                self.x0[signal] = float(np.interp(self.t0, t, x))
+            tt, xx = t[start:], x[start:]
+            after = tt >= self.t0
+            if signal not in self.moved:
+                k = np.flatnonzero(after & (np.abs(xx - self.x0[signal]) > self.margin))
+                if k.size == 0:
+                    continue
+                self.moved[signal] = (math.copysign(1.0, xx[k[0]] - self.x0[signal]), tt[k[0]])
+            direction, t_moved = self.moved[signal]
+            if np.any(after & (direction * xx >= self.pistons[signal] - self.margin)
+                      & (tt > t_moved - 1e-12)):
+                return True
+        return False
 
 
 def _window_note(t0, t1, reason, start):

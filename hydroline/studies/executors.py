@@ -27,6 +27,7 @@ import sys
 import time
 from collections import deque
 
+from ..blas import blas_thread_variables_set
 from ..rigs import RigError
 
 __all__ = ["run_serial", "run_processes", "run_dask", "worker_pool", "dask_client", "die_with_parent",
@@ -241,7 +242,9 @@ def run_processes(tasks, workers: int, runner, record, failed_row) -> None:
     failed_row : callable
         ``failed_row(index, values, reason) -> row``
     """
-    with _main_module_hidden():
+    # (the workers, and a forkserver started now, run one BLAS thread each: the models'
+    # matrices are small, and W workers on W cores leave no core to extra threads)
+    with _main_module_hidden(), blas_thread_variables_set():
         _run_process_pool(tasks, workers, runner, record, failed_row)
 
 

@@ -58,7 +58,7 @@ from ..units import parse_quantity
 from .settling import BAND, SettlingBand, port_summary
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion",
-           "layout_sections"]
+           "layout_sections", "plot_study"]
 
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
@@ -133,7 +133,8 @@ class LayoutStudy:
         :func:`hydroline.studies.settling.port_summary` of each run
         (``summarize`` with ``settling_method``/``settling_note``)
     results : list
-        The :class:`~hydroline.engine.SimulationResult` of each run
+        The :class:`~hydroline.engine.SimulationResult` of each run (each ends with its
+        metrics window, the piston at its stop: ``simulate(metrics_only=True)``)
     sides : tuple
         Which sections II were set ("supply", "return")
     scenario : str
@@ -276,7 +277,8 @@ class LayoutStudy:
 
     def traces(self) -> "pandas.DataFrame":
         """Port pressures of every run on the common output grid (on a multi-axis rig those of
-        the reported :attr:`axis`).
+        the reported :attr:`axis`). A run ends with its metrics window (the piston at its
+        stop): empty (NaN) after its end.
 
         Returns
         -------
@@ -285,12 +287,12 @@ class LayoutStudy:
         """
         import pandas as pd
 
-        t = self.results[0].t
+        t = max((res.t for res in self.results), key=len)
         cols = {"time_s": t}
         for L, res in zip(self.lengths, self.results):
             for side in SIDES:
                 y = self.port_pressure(res, side)
-                cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y)
+                cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y, right=np.nan)
         return pd.DataFrame(cols)
 
     #: The files :meth:`save` writes, by role (the traces as CSV; see :meth:`file_names`).
@@ -317,7 +319,7 @@ class LayoutStudy:
                              f"{traces_format!r}")
         return {**cls.FILES, "traces": f"layout_traces.{traces_format}"}
 
-    def save(self, folder, temp=None, traces_format: str = "csv") -> dict:
+    def save(self, folder, temp=None, traces_format: str = "csv", figures=None) -> dict:
         """Write ``layout.csv`` (metrics), ``layout_traces.csv`` and ``layout.png`` to folder.
 
         Parameters
@@ -335,6 +337,10 @@ class LayoutStudy:
             per trace, ``{supply,return}_port_pressure@L=<length>m`` [Pa] (in MAT
             ``..._L_<length>m``), their units in the file as ``hydroline simulate --format``
             writes them)
+        figures : object
+            Where the figure is drawn while the tables are written: a
+            :class:`hydroline.cli.figure_process.FigureProcess` (its ``submit`` and
+            ``wait``); None: here
 
         Returns
         -------
@@ -346,6 +352,8 @@ class LayoutStudy:
         names = self.file_names(traces_format)
         self.files = {role: folder / name for role, name in names.items()}
         where = {role: (temp(name) if temp else folder / name) for role, name in names.items()}
+        if figures is not None:
+            figures.submit(plot_study, self, str(where["figure"]))
         self.table().to_csv(where["csv"], index=False)
         traces = self.traces()
         if traces_format == "csv":
@@ -359,7 +367,10 @@ class LayoutStudy:
                                       table=traces[columns].to_numpy(), columns=names,
                                       metadata={"units": dict.fromkeys(names, "Pa")})
             getattr(result, f"to_{traces_format}")(where["traces"])
-        self.plot(where["figure"])
+        if figures is not None:
+            figures.wait()
+        else:
+            self.plot(where["figure"])
         return self.files
 
     def plot(self, path=None, title=None):
@@ -516,6 +527,18 @@ def _flow_change(res, flow_signal: str):
     q0 = float(np.interp(t0, t, q))
     q1 = float(np.mean(qw[tw >= t1 - 0.2 * (t1 - t0)]))
     return tw, qw, q0, q1
+
+
+def plot_study(study: LayoutStudy, path: str) -> None:
+    """Write a layout study's figure (:meth:`LayoutStudy.plot`): what a figure process is
+    handed (a function of the module and its arguments).
+
+    Parameters
+    ----------
+    study : LayoutStudy   The study
+    path : str            The PNG to write
+    """
+    study.plot(path)
 
 
 def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
@@ -846,7 +869,7 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         try:
             for section in sections:
                 variant.set(_length_path(rig, section), f"{L!r} m")
-            res = simulate(variant, scenario, t_end, solver=solver)
+            res = simulate(variant, scenario, t_end, solver=solver, metrics_only=True)
         except (ValueError, SteadyStateError) as e:
             msg = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
             raise RigError(f"section length {L:g} m: {msg}") from e

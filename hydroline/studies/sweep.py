@@ -60,6 +60,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..blas import one_blas_thread
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
 from ..scenarios.running import simulate
@@ -304,9 +305,11 @@ class VariantRunner:
     and compiled library with its own p -- no graph, code generation or library lookup per
     variant. The steady state starts from the previous variant's rest state on that model
     (the components' guess where that fails); it, the integration and the summary are those
-    of :func:`hydroline.scenarios.simulate` (a test checks the rows equal its rows within
-    the solver tolerance). The hoses' correction factors are kept in memory, not written to
-    the disk cache (:class:`hydroline.lines.corrections.kept_in_memory`).
+    of :func:`hydroline.scenarios.simulate` with ``metrics_only`` (a test checks the rows
+    equal its rows within the solver tolerance): a run ends with its metrics window, so a
+    row's warnings (gas release) are those of the window. The hoses' correction factors are
+    kept in memory, not written to the disk cache
+    (:class:`hydroline.lines.corrections.kept_in_memory`).
 
     Parameters
     ----------
@@ -372,7 +375,9 @@ class VariantRunner:
             r = self.rig.copy()
             for path, v in values.items():
                 _set_si(r, path, v, self.units.get(path) or parameter_unit(path, self.rig))
-            with kept_in_memory():      # no cache file per variant's hose
+            # (no cache file per variant's hose; the lines' and the model's small dense
+            # matrices on one BLAS thread)
+            with kept_in_memory(), one_blas_thread():
                 res = self.simulate(r)
             _fill_metrics(row, port_summary(res))
         except Exception as e:   # a failed variant is recorded, never sinks the sweep
@@ -396,7 +401,8 @@ class VariantRunner:
         """
         if not self.share_models or self.solver not in ("auto", "compiled") or \
                 any(k.endswith(".file") for k in rig.values):     # a table file may change
-            return simulate(rig, self.scenario, self.t_end, solver=self.solver)
+            return simulate(rig, self.scenario, self.t_end, solver=self.solver,
+                            metrics_only=True)
         return simulate_shared(rig, self.scenario, self.t_end, self.solver, self._models, self)
 
 
@@ -586,7 +592,7 @@ def _run_shared(model: SharedModel, rig: Rig, p, guess, solver: str, tic: float)
     """
     from ..engine import integrate
     from ..engine.steady_state import SteadyStateError
-    from ..scenarios.running import describe_run, rest_state
+    from ..scenarios.running import describe_run, rest_state, window_end
 
     net, sc = model.network, model.scenario
     net.parameter_values = np.asarray(p, dtype=float).copy()       # this variant's p
@@ -601,7 +607,9 @@ def _run_shared(model: SharedModel, rig: Rig, p, guess, solver: str, tic: float)
                     return None
                 raise
     model.rest = ss.x.copy()
-    res = integrate(net, ss.x, sc.t_end, p=ss.p, solver=solver, **simulate_defaults())
+    # (a row is metrics only: the run ends with the metrics window, as simulate(metrics_only))
+    res = integrate(net, ss.x, sc.t_end, p=ss.p, solver=solver, **simulate_defaults(),
+                    until=window_end(model.circuit, sc))
     describe_run(res, rig, model.circuit, net, sc, ss, tic)     # as simulate()
     return res
 
@@ -629,8 +637,9 @@ def simulate_defaults() -> dict:
 
 
 def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None):
-    """:func:`hydroline.scenarios.simulate` (default output step and tolerances), the model
-    shared with earlier runs of the same structure in ``models``.
+    """:func:`hydroline.scenarios.simulate` (default output step and tolerances, and
+    ``metrics_only``: the run ends with its metrics window, where a row's metrics end), the
+    model shared with earlier runs of the same structure in ``models``.
 
     A variant that differs from a kept model's rig only in hose lengths, bores or bulk
     moduli (:data:`HOSE_KEYS`, template rigs) gets that model's p with only those hoses'

@@ -1,0 +1,163 @@
+"""Numbers are parameters: a rig that differs from a known one only in numbers runs on the
+known compiled library, found without writing C or building a CasADi graph
+(:meth:`hydroline.engine.Component.compiled_numbers`, :func:`hydroline.compiled.numbers_key`).
+
+Checked structurally (no timing): every numeric value of the default rig, changed, needs no
+build and no graph; the constants such a variant is given are those a full code generation
+of it writes; and its run agrees with the SciPy reference path of its own components."""
+import numpy as np
+import pytest
+
+from hydroline import compiled
+from hydroline.engine import Network, solve_steady_state
+from hydroline.rigs import RigError, load_rig
+from hydroline.scenarios import build_scenario
+from hydroline.system import build_network
+from rounding_bound import rounding_bound
+
+needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+
+
+def network_of(rig, scenario="open-loop-step"):
+    """The rig's network with the scenario's commands, built anew."""
+    sc = build_scenario(rig, scenario)
+    return build_network(rig, sc.commands, sc.position_guess)
+
+
+def numeric_paths(rig):
+    """The rig's numeric values (numbers and lists of numbers), but the rig's own switches
+    (``rig.*``: modes per section, line method) and the modes, which are structure."""
+    return sorted(path for path, v in rig.values.items()
+                  if not path.startswith("rig.") and not path.endswith(".modes")
+                  and not isinstance(v, bool)
+                  and (isinstance(v, float) or (isinstance(v, list) and v
+                                                and all(isinstance(a, float) for a in v))))
+
+
+def changed(rig, path):
+    """The rig with one value moved (by -7 %, else +7 %; a zero to a small plausible
+    value), or None where neither move is a valid rig (a current above the rating, ...)."""
+    def moved(v, factor):
+        return factor * v if v else 1e-12
+
+    for factor in (0.93, 1.07):
+        variant = rig.copy()
+        v = rig.values[path]
+        variant.values[path] = [moved(a, factor) for a in v] if isinstance(v, list) else moved(v, factor)
+        try:
+            return network_of(variant)
+        except RigError:
+            continue
+    return None
+
+
+@needs_cc
+def test_every_number_of_the_default_rig_runs_on_its_library(monkeypatch):
+    """Each numeric value of the default rig changed alone (masses, areas, accumulator
+    capacity and pre-charge, fluid properties, valve data, manifold losses, friction, load,
+    pressures, hoses, command times): the variant needs no build, and it is found without
+    building its CasADi graph (its structure's record holds everything but its numbers)."""
+    rig = load_rig()
+    compiled.native_model(network_of(rig))       # the structure, built or found once
+    paths = numeric_paths(rig)
+    assert len(paths) > 50                       # (the rig's numbers are found)
+
+    def no_graph(self):
+        raise AssertionError("CasADi graph built for a rig that differs only in numbers")
+
+    monkeypatch.setattr(Network, "compile", no_graph)
+    tried = 0
+    for path in paths:
+        net = changed(rig, path)
+        if net is None:
+            continue
+        tried += 1
+        assert not compiled.needs_build(net), path
+    assert tried >= len(paths) - 5
+
+
+@needs_cc
+def test_a_variant_gets_the_constants_a_code_generation_writes_and_runs_as_its_components():
+    """A variant of other numbers (friction, accumulator, valve, load, pressures) found by its
+    structure's record: its constants are exactly those a code generation of its own graph
+    writes, and its compiled right-hand side is the components' own Python equations within
+    the rounding bound of the evaluation (a number of the known rig left in the constants,
+    e.g. 140 for 154 Hz, differs by ~10 % of a term, far above it)."""
+    rig = load_rig()
+    compiled.native_model(network_of(rig))
+    variant = rig.copy()
+    for path, factor in (("friction.coulomb_up", 1.3), ("friction.viscous_down", 0.7),
+                         ("supply.accumulator.capacity", 1.5), ("return.accumulator.capacity", 0.8),
+                         ("servovalve.natural_frequency", 1.1), ("supply.pressure", 0.9)):
+        variant.values[path] = rig.values[path] * factor
+    variant.values["load.stiffness"] = 2e4     # 0 in the rig: a term the constants dropped
+    net = network_of(variant)
+    native = compiled.native_model(net)
+    assert native.found_by == "numbers"
+    from hydroline.compiled import codegen
+
+    np.testing.assert_array_equal(native.generated.constants,
+                                  codegen.generate(network_of(variant).compile()).constants)
+    ss = solve_steady_state(net)
+    x = ss.x * (1.0 + 1e-3)       # the spool and piston moving: every number matters
+    x[net.state_names.index("actuator.velocity")] = 0.05
+    solver = native.solver(ss.p)
+    assert np.all(np.abs(solver.rhs(0.02, x) - net.rhs(0.02, x, ss.p))
+                  <= rounding_bound(net, 0.02, x, ss.p))
+
+
+def test_a_python_branch_on_a_number_keeps_that_network_s_numbers_in_its_graph():
+    """A component whose equations branch in Python on one of its numbers cannot take them
+    as symbols: its graph keeps them as constants (as before), with the same values as its
+    own equations."""
+    from dataclasses import dataclass
+
+    from hydroline.engine.component import Component, Port
+
+    @dataclass(kw_only=True)
+    class Switched(Component):
+        gain: float = 2.0
+        outputs = {"y": Port("dimensionless")}
+        feedthrough = False
+
+        def outputs_of(self, t, x, u, p):
+            return {"y": 3.0 * t if self.gain > 1.0 else t}     # a Python branch
+
+    net = Network([Switched(name="s")], warn_lost_flows=False)
+    model = net.compile()
+    assert model.k is None
+    assert float(model.signals(0.5, [], [])) == pytest.approx(1.5)
+
+
+@needs_cc
+def test_a_library_not_built_yet_is_built_in_the_background(monkeypatch, tmp_path):
+    """With background builds (the command line's default), a run whose library is not built
+    yet goes on with CVODES and starts the build in a process of its own; a later run waits
+    for that build (it does not compile again) and gets the compiled core. Both give the
+    oscillator's exact step peak, 1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm."""
+    from hydroline.cache import BACKGROUND_BUILD_ENV
+    from hydroline.compiled import toolchain
+    from hydroline.engine import integrate
+    from test_compiled import _oscillator_peak, oscillator_network
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(BACKGROUND_BUILD_ENV, "1")
+    monkeypatch.setattr(toolchain, "_LIBS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
+    first = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert first.metadata["solver"] == "cvodes"
+    assert "background" in first.metadata["solver_note"]
+    real = toolchain._compile_locked
+
+    def built_elsewhere(cc, full, path):
+        assert toolchain.library_check(path)[0], "compiled again in this process"
+        return real(cc, full, path)
+
+    monkeypatch.setattr(toolchain, "_compile_locked", built_elsewhere)
+    native = compiled.native_model(oscillator_network(omega=223.0), wait=True)
+    assert native.library_path.exists()
+    later = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert later.metadata["solver"] == "compiled"
+    for res in (first, later):
+        assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
