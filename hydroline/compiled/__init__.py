@@ -40,13 +40,12 @@ from .generated import GeneratedModel, UnsupportedOperation  # noqa: F401  (re-e
 from .native import NativeModel, NativeSolver, native_model, needs_build
 from .records import definition_key, model_fingerprint, numbers_key
 from .toolchain import (CFLAGS, MAX_LIBRARIES, NATIVE_FLAGS, PORTABLE_ENV, CompilerUnavailable,
-                        LibraryPending, available, native_flags, prune_libraries,
-                        went_on_without)
+                        LibraryPending, available, native_flags, prune_libraries)
 
 __all__ = ["native_model", "NativeModel", "NativeSolver", "CompilerUnavailable", "cache_dir",
            "available", "CFLAGS", "native_flags", "model_fingerprint", "definition_key",
            "prune_libraries", "MAX_LIBRARIES", "needs_build", "NATIVE_FLAGS", "PORTABLE_ENV",
-           "numbers_key", "LibraryPending", "went_on_without"]
+           "numbers_key", "LibraryPending"]
 
 #: :mod:`.codegen`'s functions, re-exported; imported (and CasADi with them) on first use: a
 #: model whose record is known is loaded without them.

@@ -22,7 +22,6 @@ from ..cache import cache_dir, discard_entry, least_recently_used, mark_used
 from .generated import GeneratedModel
 
 __all__ = ["CompilerUnavailable", "LibraryPending", "build_in_background", "build_from_file",
-           "went_on_without",
            "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
            "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
            "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE"]
@@ -41,9 +40,6 @@ NATIVE_FLAGS = ["-march=native"]
 PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
-#: Libraries a run of this process went on without while they were built in the background
-#: (:func:`went_on_without`)
-_PENDING: set = set()
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -67,21 +63,6 @@ class LibraryPending(RuntimeError):
     def __init__(self, message: str, path=None):
         super().__init__(message)
         self.path = path
-
-
-def went_on_without(path) -> None:
-    """Note that a run of this process went on without the library at ``path`` (it was being
-    built in the background): the next run that needs it waits for that build
-    (:func:`load_library`), as a process with more than one run to do gets them done soonest
-    on the compiled core.
-
-    Parameters
-    ----------
-    path : Path   The library (``LibraryPending.path``)
-    """
-    if path is not None:
-        _PENDING.add(str(path))
-
 
 
 def compiler() -> str | None:
@@ -395,8 +376,7 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
     full : str or callable    The library source, or a callable that makes it (only a
                               rebuild needs it)
     wait : bool               Compile a missing library here and now (False: in the
-                              background, unless none can be started there; a second run of
-                              this process that needs it waits for that build)
+                              background, unless none can be started there)
 
     Returns
     -------
@@ -419,10 +399,9 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
                     discard_entry(path, _record_path(path), why=why)
                 if cc is None:
                     raise CompilerUnavailable("no C compiler found (set CC, or install gcc)")
-                # (a process that went on without it once has more than one run to do:
-                # it waits for the build instead of another run on CVODES, went_on_without)
-                if (not wait and attempt == 0 and str(path) not in _PENDING
-                        and build_in_background(path, full)):
+                # (every run goes on with CVODES until the library is there: on two cores
+                # the runs and the build go on side by side, and a run on CVODES is progress)
+                if not wait and attempt == 0 and build_in_background(path, full):
                     raise LibraryPending(f"{path.name} is being built in the background", path)
                 _compile(cc, full() if callable(full) else full, path)
                 prune_libraries()               # a library more: the oldest beyond the bound go

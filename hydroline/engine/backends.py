@@ -257,9 +257,8 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
         tic = time.perf_counter()
         try:
             native = compiled.native_model(network, wait=True if solver == "compiled" else None)
-        except compiled.LibraryPending as e:   # built in the background for the next runs
+        except compiled.LibraryPending:   # built in the background for the next runs
             note = "compiled core being built in the background; this run used CVODES"
-            compiled.went_on_without(e.path)   # (this process's next run waits for it)
         except (compiled.CompilerUnavailable, compiled.UnsupportedOperation) as e:
             if solver == "compiled":
                 raise
