@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 __all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive",
            "entrained_air_bulk_modulus", "oil_compliance", "cavity_volume_fraction",
-           "ATMOSPHERE"]
+           "chamber_pressure_scale", "ATMOSPHERE"]
 
 #: Standard atmosphere, the pressure at which ``Fluid.air_content`` is stated, [Pa] absolute.
 ATMOSPHERE = 101325.0
@@ -291,6 +291,44 @@ def cavity_volume_fraction(pressure, cavity_pressure: float, pressure_drop: floa
     x = ops.fmax((cavity_pressure - pressure) / pressure_drop, 0.0)
     xs = ops.fmin(x, 1.0)
     return xs**3 - 0.5 * xs**4 + ops.fmax(x - 1.0, 0.0)
+
+
+def chamber_pressure_scale(nominal_pressure: float, fluid: "Fluid | None") -> float:
+    """Typical magnitude of a chamber's pressure state (its absolute tolerance and
+    steady-state scaling, :class:`~hydroline.engine.component.State`), [Pa].
+
+    Without a cavity model, the chamber's nominal pressure. With one (M42) the pressure moves
+    by ``cavity_pressure_drop`` per unit cavity fraction, so the scale is at most that drop:
+    the cavity's volume is then resolved to the integrator's ``atol_scale`` of the chamber
+    volume, as every other state is to that fraction of its magnitude. (At the nominal
+    pressure, 1e7 Pa, the absolute tolerance of 1 Pa was 1e-3 of the chamber's volume in a
+    cavity per step: a 10x-rated valve's cavity closed with an oil balance that missed by
+    1e-4 to 1.6 times the cavity's volume, depending on rounding.) Above
+    ``cavity_pressure_drop * atol_scale / rtol`` (0.1 kPa at the defaults; 1 MPa at the
+    nominal scale) the relative tolerance governs the pressure.
+
+    Parameters
+    ----------
+    nominal_pressure : float
+        The chamber's nominal pressure, [Pa].
+    fluid : Fluid or None
+        The rig's oil (its ``cavity_pressure``, ``cavity_pressure_drop``).
+
+    Returns
+    -------
+    float
+        The state's scale, [Pa].
+
+    Examples
+    --------
+    >>> import dataclasses
+    >>> with_cavity = dataclasses.replace(MINERAL_OIL, cavity_pressure=5e3)
+    >>> chamber_pressure_scale(1e7, MINERAL_OIL), chamber_pressure_scale(1e7, with_cavity)
+    (10000000.0, 1000.0)
+    """
+    if fluid is None or fluid.cavity_pressure is None:
+        return nominal_pressure
+    return min(nominal_pressure, fluid.cavity_pressure_drop)
 
 
 def oil_compliance(volume, pressure, bulk_modulus: float, fluid: "Fluid | None"):
