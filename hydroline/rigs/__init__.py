@@ -32,7 +32,7 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from ..units import UnitError, parse_quantity
+from ..units import UnitError, exact_quantity, parse_quantity
 from .parameters import DerivedTable
 
 __all__ = ["Rig", "RigError", "load_rig", "SCHEMA", "DEFAULT_RIG"]
@@ -564,9 +564,9 @@ def template_circuit(tree: dict, source: str) -> dict:
             if isinstance(v, (str, bool)) or unit in (None, "-", "str"):
                 table[key] = v
             elif isinstance(v, (list, tuple)):
-                table[key] = [f"{float(x)!r} {unit.removeprefix('list:')}" for x in v]
+                table[key] = [exact_quantity(x, unit.removeprefix("list:")) for x in v]
             else:
-                table[key] = f"{float(v)!r} {unit}"
+                table[key] = exact_quantity(v, unit)
         if spec.ports:
             table["ports"] = dict(spec.ports)
         if spec.terms:
