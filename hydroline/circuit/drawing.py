@@ -16,7 +16,8 @@ def type_name(component) -> str:
 
     Parameters
     ----------
-    component : Component   The component
+    component : Component
+        The component
     """
     for name, t in COMPONENT_TYPES.items():
         if type(component) is t.component:
@@ -29,7 +30,8 @@ def component_rows(circuit: Circuit) -> list[dict]:
 
     Parameters
     ----------
-    circuit : Circuit   The circuit
+    circuit : Circuit
+        The circuit
 
     Returns
     -------
@@ -51,9 +53,12 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
 
     Parameters
     ----------
-    circuit : Circuit   The circuit
-    path : str or Path  PNG file to write
-    title : str         Figure title
+    circuit : Circuit
+        The circuit
+    path : str or Path
+        PNG file to write
+    title : str
+        Figure title
     """
     import networkx as nx
 

@@ -61,18 +61,27 @@ class Side:
 
     Attributes
     ----------
-    name : str             "supply" or "return"
-    source : str           Its pressure source (the pump unit, the tank)
-    source_pressure : str  Signal of the source pressure, [Pa]
-    source_flow : str      Flow at the source end of section I, [m^3/s]
-    inlet_pressure : str   Pressure at section I's HSM end, [Pa]
-    section2_flow : str    Flow at section II's HSM end, [m^3/s]
-    toward_valve : bool    True where flows count positive from the source toward the valve
-                           (the supply: PQ hoses); False where they run from the valve toward
-                           the source (the return, toward the tank: QP hoses)
-    check_valve : bool     The manifold loss has a check valve in series, on the source side
-    node_terms : tuple     (term, flow: "manifold", "port" or "accumulator", sign) of the HSM
-                           block's oil volume that is the node when section II is removed
+    name : str
+        "supply" or "return"
+    source : str
+        Its pressure source (the pump unit, the tank)
+    source_pressure : str
+        Signal of the source pressure, [Pa]
+    source_flow : str
+        Flow at the source end of section I, [m^3/s]
+    inlet_pressure : str
+        Pressure at section I's HSM end, [Pa]
+    section2_flow : str
+        Flow at section II's HSM end, [m^3/s]
+    toward_valve : bool
+        True where flows count positive from the source toward the valve
+        (the supply: PQ hoses); False where they run from the valve toward
+        the source (the return, toward the tank: QP hoses)
+    check_valve : bool
+        The manifold loss has a check valve in series, on the source side
+    node_terms : tuple
+        (term, flow: "manifold", "port" or "accumulator", sign) of the HSM
+        block's oil volume that is the node when section II is removed
     """
 
     name: str
@@ -90,7 +99,8 @@ class Side:
 
         Parameters
         ----------
-        kind : str   Which flow
+        kind : str
+            Which flow
         """
         return f"{self.name}_port_flow" if kind == "port" else f"{self.name}.{kind}_flow"
 
@@ -131,12 +141,15 @@ def section_present(rig: Rig, section: str) -> bool:
 
     Parameters
     ----------
-    rig : Rig       Parameters (SI)
-    section : str   Hose section, ``"<side>.section<n>"``
+    rig : Rig
+        Parameters (SI)
+    section : str
+        Hose section, ``"<side>.section<n>"``
 
     Raises
     ------
-    RigError  For a length below 0
+    RigError
+        For a length below 0
     """
     length = rig.get(f"{section}.length", 0.0)
     if length < 0:
@@ -150,18 +163,23 @@ def make_line(rig: Rig, section: str, fluid) -> Line:
 
     Parameters
     ----------
-    rig : Rig        Parameters (SI)
-    section : str    Hose section, ``"<side>.section<n>"``
-    fluid : Fluid    The fluid in it (the section's own bulk modulus, if set, overrides its
-                     effective one)
+    rig : Rig
+        Parameters (SI)
+    section : str
+        Hose section, ``"<side>.section<n>"``
+    fluid : Fluid
+        The fluid in it (the section's own bulk modulus, if set, overrides its
+        effective one)
 
     Returns
     -------
-    Line  Length [m], diameter [m] and fluid of the section
+    Line
+        Length [m], diameter [m] and fluid of the section
 
     Raises
     ------
-    RigError  One line naming the section's parameter at fault
+    RigError
+        One line naming the section's parameter at fault
     """
     length, diameter = rig[f"{section}.length"], rig[f"{section}.diameter"]   # (named in full)
     try:
@@ -315,9 +333,11 @@ def expand(rig: Rig, profiles: dict | None = None) -> list:
 
     Parameters
     ----------
-    rig : Rig        A template rig (SI)
-    profiles : dict  side -> :func:`pressure_profile` (as :func:`check_template` returns them);
-                     None: read here
+    rig : Rig
+        A template rig (SI)
+    profiles : dict
+        side -> :func:`pressure_profile` (as :func:`check_template` returns them);
+        None: read here
 
     Returns
     -------
@@ -325,7 +345,8 @@ def expand(rig: Rig, profiles: dict | None = None) -> list:
 
     Raises
     ------
-    RigError  One line naming a value the template needs and the rig does not give
+    RigError
+        One line naming a value the template needs and the rig does not give
     """
     if profiles is None:
         profiles = {side: pressure_profile(rig, side) for side in SIDES}
@@ -361,13 +382,16 @@ def pressure_profile(rig: Rig, side: str):
 
     Parameters
     ----------
-    rig : Rig    Parameters (SI)
-    side : str   "supply" or "return"
+    rig : Rig
+        Parameters (SI)
+    side : str
+        "supply" or "return"
 
     Returns
     -------
-    tuple  (waveform component or None, level at t = 0 [Pa], (lowest, highest) pressure over
-           all time [Pa])
+    tuple
+        (waveform component or None, level at t = 0 [Pa], (lowest, highest) pressure over
+        all time [Pa])
     """
     base = f"{side}.pressure_profile"
     level = rig.get(f"{side}.pressure")
@@ -436,10 +460,14 @@ def bad_value(rig: Rig, path: str, rule: str, value=None) -> RigError:
 
     Parameters
     ----------
-    rig : Rig       The rig holding the value
-    path : str      Its dotted path
-    rule : str      What it must be, e.g. "> 0"
-    value : object  Shown where the rig holds no value as written at ``path``
+    rig : Rig
+        The rig holding the value
+    path : str
+        Its dotted path
+    rule : str
+        What it must be, e.g. "> 0"
+    value : object
+        Shown where the rig holds no value as written at ``path``
 
     Returns
     -------
@@ -468,17 +496,21 @@ def check_template(rig: Rig, position_guess: float | None = None) -> dict:
 
     Parameters
     ----------
-    rig : Rig               A template rig (SI)
-    position_guess : float  Initial piston position given by the scenario, [m]; checked
-                            like ``actuator.initial_position`` when not None
+    rig : Rig
+        A template rig (SI)
+    position_guess : float
+        Initial piston position given by the scenario, [m]; checked
+        like ``actuator.initial_position`` when not None
 
     Returns
     -------
-    dict  side -> its :func:`pressure_profile`
+    dict
+        side -> its :func:`pressure_profile`
 
     Raises
     ------
-    RigError  One line naming the template path at fault, its unit and the value as written
+    RigError
+        One line naming the template path at fault, its unit and the value as written
     """
     for path in _POSITIVE:
         v = rig.get(path)

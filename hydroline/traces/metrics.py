@@ -257,20 +257,25 @@ def overshoot(t, p, t_step):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Response at ``t``, [any unit]
-    t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Response at ``t``, [any unit]
+    t_step : float
+        Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
 
     Returns
     -------
-    float  Overshoot beyond the final value, >= 0, [unit of p]. Divide by
-           ``|p_final - p0|`` for the relative overshoot of a second-order system,
-           ``exp(-zeta pi / sqrt(1 - zeta^2))``.
+    float
+        Overshoot beyond the final value, >= 0, [unit of p]. Divide by
+        ``|p_final - p0|`` for the relative overshoot of a second-order system,
+        ``exp(-zeta pi / sqrt(1 - zeta^2))``.
 
     Raises
     ------
-    ValueError  On arrays of different lengths, non-finite values, ``t`` not strictly
-                increasing, or ``t_step`` outside ``t``.
+    ValueError
+        On arrays of different lengths, non-finite values, ``t`` not strictly
+        increasing, or ``t_step`` outside ``t``.
     """
     t, p, t_step = _validate(t, p, t_step)
     ts, ps, p0, p_final, changed = _levels(t, p, t_step)
@@ -297,22 +302,28 @@ def settling_time(t, p, t_step, band=0.02):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Response at ``t``, [any unit]
-    t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
-    band : float         Half-width of the band relative to the net change, [-]
-                         (0 < band < 1; 0.02 is the usual 2 % settling time)
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Response at ``t``, [any unit]
+    t_step : float
+        Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
+    band : float
+        Half-width of the band relative to the net change, [-]
+        (0 < band < 1; 0.02 is the usual 2 % settling time)
 
     Returns
     -------
-    float or None  Settling time measured from ``t_step``, [s]; None when the trace has not
-                   been seen to settle: it is still outside the band during the last 5 % of
-                   the interval ``[t_step, t[-1]]``.
+    float or None
+        Settling time measured from ``t_step``, [s]; None when the trace has not
+        been seen to settle: it is still outside the band during the last 5 % of
+        the interval ``[t_step, t[-1]]``.
 
     Raises
     ------
-    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
-                ``band`` outside (0, 1).
+    ValueError
+        On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
+        ``band`` outside (0, 1).
 
     Notes
     -----
@@ -802,23 +813,29 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Response at ``t``, [any unit]
-    t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
-    min_cycles : float   Fewest periods [-] (> 0), after ``t_step``, for which the
-                         fundamental must exceed 1 % of the largest deviation from the final
-                         value for the response to count as oscillating
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Response at ``t``, [any unit]
+    t_step : float
+        Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
+    min_cycles : float
+        Fewest periods [-] (> 0), after ``t_step``, for which the
+        fundamental must exceed 1 % of the largest deviation from the final
+        value for the response to count as oscillating
 
     Returns
     -------
-    float or None  Frequency of the fundamental, [Hz] (cycles per second, not rad/s); None
-                   for a response that does not oscillate (monotone, overdamped, or dying
-                   away in fewer than ``min_cycles`` periods) or a constant trace.
+    float or None
+        Frequency of the fundamental, [Hz] (cycles per second, not rad/s); None
+        for a response that does not oscillate (monotone, overdamped, or dying
+        away in fewer than ``min_cycles`` periods) or a constant trace.
 
     Raises
     ------
-    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
-                ``min_cycles <= 0``.
+    ValueError
+        On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
+        ``min_cycles <= 0``.
 
     Notes
     -----
@@ -937,8 +954,10 @@ class SettlingBand:
 
     Attributes
     ----------
-    fraction : float   Half-width of the band as a fraction of its reference, [-], in (0, 1)
-    reference : str    "final" (the final absolute pressure) or "change" (the steady change)
+    fraction : float
+        Half-width of the band as a fraction of its reference, [-], in (0, 1)
+    reference : str
+        "final" (the final absolute pressure) or "change" (the steady change)
     """
 
     fraction: float = 0.02
@@ -971,7 +990,8 @@ class SettlingBand:
 
         Parameters
         ----------
-        spec : str, float or SettlingBand   The band
+        spec : str, float or SettlingBand
+            The band
 
         Returns
         -------
@@ -979,7 +999,8 @@ class SettlingBand:
 
         Raises
         ------
-        ValueError  One line naming ``--settling-band``.
+        ValueError
+            One line naming ``--settling-band``.
         """
         if isinstance(spec, SettlingBand):
             return spec
@@ -1004,15 +1025,19 @@ class SettlingBand:
 
         Parameters
         ----------
-        p_final : float   Final (absolute) pressure, [unit of p]
-        p0 : float        Pressure at the step, [unit of p]
-        largest : float   Largest deviation from the final pressure after the step, [unit of
-                          p]: the reference of a "change" band where the change is below 5 %
-                          of it
+        p_final : float
+            Final (absolute) pressure, [unit of p]
+        p0 : float
+            Pressure at the step, [unit of p]
+        largest : float
+            Largest deviation from the final pressure after the step, [unit of
+            p]: the reference of a "change" band where the change is below 5 %
+            of it
 
         Returns
         -------
-        float  >= 0, [unit of p]
+        float
+            >= 0, [unit of p]
         """
         if self.reference == "final":
             return self.fraction * abs(p_final)
@@ -1062,22 +1087,31 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
 
     Parameters
     ----------
-    t : array_like      Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like      Trace at ``t``, [any unit]
-    t_start : float     Start of the window (the disturbance), [s]
-    frequency : float   Oscillation frequency, > 0, [Hz]
-    t_end : float       End of the window, [s]; the end of ``t`` when None
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Trace at ``t``, [any unit]
+    t_start : float
+        Start of the window (the disturbance), [s]
+    frequency : float
+        Oscillation frequency, > 0, [Hz]
+    t_end : float
+        End of the window, [s]; the end of ``t`` when None
 
     Returns
     -------
-    grid : ndarray      Uniform times on ``[t_start, t_end]``, 64 per period, [s]
-    values : ndarray    The trace on ``grid`` (linear interpolation), [unit of p]
-    baseline : ndarray  The baseline on ``grid``, [unit of p]
+    grid : ndarray
+        Uniform times on ``[t_start, t_end]``, 64 per period, [s]
+    values : ndarray
+        The trace on ``grid`` (linear interpolation), [unit of p]
+    baseline : ndarray
+        The baseline on ``grid``, [unit of p]
 
     Raises
     ------
-    ValueError  On an invalid trace or window, ``frequency <= 0``, or a window shorter than
-                one period.
+    ValueError
+        On an invalid trace or window, ``frequency <= 0``, or a window shorter than
+        one period.
     """
     t, p, t_start, t_end = _window(t, p, t_start, t_end)
     frequency = float(frequency)
@@ -1172,22 +1206,29 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Trace at ``t``, [any unit]
-    t_step : float       Time of the disturbance, ``t[0] <= t_step < t[-1]``, [s]
-    frequency : float    Oscillation frequency, [Hz]; found by :func:`oscillation_frequency`
-                         on the window when None
-    t_end : float        End of the window, [s]; the end of ``t`` when None
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Trace at ``t``, [any unit]
+    t_step : float
+        Time of the disturbance, ``t[0] <= t_step < t[-1]``, [s]
+    frequency : float
+        Oscillation frequency, [Hz]; found by :func:`oscillation_frequency`
+        on the window when None
+    t_end : float
+        End of the window, [s]; the end of ``t`` when None
 
     Returns
     -------
-    float or None  Amplitude, >= 0, [unit of p]; 0.0 when no oscillation is detected (no
-                   frequency); None when the window holds fewer than
-                   :data:`AMPLITUDE_MIN_PERIODS` periods of it.
+    float or None
+        Amplitude, >= 0, [unit of p]; 0.0 when no oscillation is detected (no
+        frequency); None when the window holds fewer than
+        :data:`AMPLITUDE_MIN_PERIODS` periods of it.
 
     Raises
     ------
-    ValueError  On an invalid trace or window.
+    ValueError
+        On an invalid trace or window.
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     if frequency is None:
@@ -1229,14 +1270,19 @@ def first_excursion(t, p, t_step, t_end=None):
 
     Parameters
     ----------
-    t : array_like     Sample times, increasing, [s]
-    p : array_like     Signal at ``t``, [any unit]
-    t_step : float     Time of the disturbance, [s]
-    t_end : float      End of the window, [s] (None: the record's end)
+    t : array_like
+        Sample times, increasing, [s]
+    p : array_like
+        Signal at ``t``, [any unit]
+    t_step : float
+        Time of the disturbance, [s]
+    t_end : float
+        End of the window, [s] (None: the record's end)
 
     Returns
     -------
-    float  >= 0, [unit of p], refined by a parabola through the largest sample
+    float
+        >= 0, [unit of p], refined by a parabola through the largest sample
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     ts, ps = _post_step(t, p, t_step)
@@ -1248,10 +1294,14 @@ def peak_to_peak(t, p, t_step, t_end=None):
 
     Parameters
     ----------
-    t : array_like     Sample times, increasing, [s]
-    p : array_like     Signal at ``t``, [any unit]
-    t_step : float     Time of the disturbance, [s]
-    t_end : float      End of the window, [s] (None: the record's end)
+    t : array_like
+        Sample times, increasing, [s]
+    p : array_like
+        Signal at ``t``, [any unit]
+    t_step : float
+        Time of the disturbance, [s]
+    t_end : float
+        End of the window, [s] (None: the record's end)
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     ts, ps = _post_step(t, p, t_step)
@@ -1286,13 +1336,17 @@ def _band_exit(times, error, tolerance):
 
     Parameters
     ----------
-    times : ndarray      Sample times, increasing, [s]
-    error : ndarray      Deviation from the band's centre at ``times``, [unit of p]
-    tolerance : float    Half-width of the band, >= 0, [unit of p]
+    times : ndarray
+        Sample times, increasing, [s]
+    error : ndarray
+        Deviation from the band's centre at ``times``, [unit of p]
+    tolerance : float
+        Half-width of the band, >= 0, [unit of p]
 
     Returns
     -------
-    float or None  [s]
+    float or None
+        [s]
     """
     outside = np.flatnonzero(np.abs(error) > tolerance)
     if outside.size == 0:
@@ -1343,22 +1397,29 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
 
     Parameters
     ----------
-    t : array          Sample times, strictly increasing, [s]
-    p : array          Port pressure (absolute), [Pa]
-    t_step : float     Time of the step, [s]
-    t_stop : float     End of the metrics window, [s]
-    frequency : float  Oscillation frequency of the trace in the window, [Hz]; None: none
-    band : SettlingBand, float or str  The band (:meth:`SettlingBand.parse`: a number is a
-                       fraction of the final absolute pressure)
+    t : array
+        Sample times, strictly increasing, [s]
+    p : array
+        Port pressure (absolute), [Pa]
+    t_step : float
+        Time of the step, [s]
+    t_stop : float
+        End of the metrics window, [s]
+    frequency : float
+        Oscillation frequency of the trace in the window, [Hz]; None: none
+    band : SettlingBand, float or str
+        The band (:meth:`SettlingBand.parse`: a number is a
+        fraction of the final absolute pressure)
 
     Returns
     -------
-    dict  ``settling_time_s`` (float from the step [s], or None), ``settling_method``
-          ("measured", "estimated" or None), ``settling_note`` (how it was estimated, a
-          crest at the band's edge, or why there is none; "" when there is nothing to add),
-          ``settling_band`` (the band in words), ``settling_band_mpa`` (its half-width
-          [MPa]) and ``settling_jump_s`` (the half period by which a crest at the band's edge
-          may move the settling time [s], or None)
+    dict
+        ``settling_time_s`` (float from the step [s], or None), ``settling_method``
+        ("measured", "estimated" or None), ``settling_note`` (how it was estimated, a
+        crest at the band's edge, or why there is none; "" when there is nothing to add),
+        ``settling_band`` (the band in words), ``settling_band_mpa`` (its half-width
+        [MPa]) and ``settling_jump_s`` (the half period by which a crest at the band's edge
+        may move the settling time [s], or None)
     """
     t, p, t_step, t_stop = _window(t, p, t_step, t_stop)
     return _port_settling(t, p, t_step, t_stop, frequency, SettlingBand.parse(band))
@@ -1546,12 +1607,17 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
 
     Parameters
     ----------
-    t : array_like    Sample times, strictly increasing, [s]
-    p : array_like    Pressure, [Pa]
-    t_step : float    Time of the disturbance (start of the metrics window), [s]
-    t_end : float     End of the metrics window, [s]; the end of ``t`` when None
-    settling_band : SettlingBand, float or str  The settling band (:class:`SettlingBand`;
-                      default +-2 % of the final absolute pressure)
+    t : array_like
+        Sample times, strictly increasing, [s]
+    p : array_like
+        Pressure, [Pa]
+    t_step : float
+        Time of the disturbance (start of the metrics window), [s]
+    t_end : float
+        End of the metrics window, [s]; the end of ``t`` when None
+    settling_band : SettlingBand, float or str
+        The settling band (:class:`SettlingBand`;
+        default +-2 % of the final absolute pressure)
 
     Returns
     -------
