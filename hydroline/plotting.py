@@ -69,7 +69,7 @@ def column_envelope(x, y, x0: float, x1: float, columns: int) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        Sorted indices into ``x`` (all of them when the line has no more than four
+        Sorted indices into ``x``, [-] (all of them when the line has no more than four
         points per column, or a value that is not finite)
     """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
@@ -95,6 +95,11 @@ def new_figure(figsize):
     ----------
     figsize : tuple
         (width, height), [inch]
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        An empty figure of that size
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -319,6 +324,7 @@ def plot_result(result, signals=None, path=None, title=None):
     Parameters
     ----------
     result : SimulationResult or Traces
+        The run's traces (time [s], signals in SI units)
     signals : list[str]
         Signals to plot, one panel each (SI units); default panels when None
     path : str

@@ -155,6 +155,7 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     path : str
         PNG to write
     title : str
+        Figure title
     windows : list
         (first, last) times of samples the fit left out, shaded, [s]
     rms, start_rms : dict

@@ -58,6 +58,11 @@ def has_circuit(values: dict) -> bool:
     ----------
     values : dict
         A rig's values, path -> SI value
+
+    Returns
+    -------
+    bool
+        Whether any key starts with ``circuit.``
     """
     return any(k.startswith(PREFIX) for k in values)
 
@@ -69,6 +74,11 @@ def circuit_names(values: dict) -> list[str]:
     ----------
     values : dict
         A rig's values, path -> SI value
+
+    Returns
+    -------
+    list of str
+        The ``<name>`` of each ``[circuit.<name>]`` table with a type
     """
     return [k[len(PREFIX):-len(".type")] for k in values
             if k.startswith(PREFIX) and k.endswith(".type")]
@@ -283,12 +293,22 @@ class Circuit:
     overrides: dict = field(default_factory=dict)
 
     def component(self, name: str):
-        """The component called ``name`` (KeyError if none).
+        """The component called ``name``.
 
         Parameters
         ----------
         name : str
             Component name
+
+        Returns
+        -------
+        Component
+            The component of that name
+
+        Raises
+        ------
+        KeyError
+            When the circuit has no component of that name
         """
         for c in self.components:
             if c.name == name:
@@ -445,6 +465,11 @@ class ComponentSpec:
         ----------
         key : str
             Parameter name
+
+        Returns
+        -------
+        str
+            ``<table>.<key>``, or the path the value was read from
         """
         return self.paths.get(key) or f"{self.table or PREFIX + self.name}.{key}"
 

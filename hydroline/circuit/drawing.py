@@ -18,6 +18,12 @@ def type_name(component) -> str:
     ----------
     component : Component
         The component
+
+    Returns
+    -------
+    str
+        Its type name, a key of :data:`~hydroline.circuit.types.COMPONENT_TYPES`, or its class
+        name
     """
     for name, t in COMPONENT_TYPES.items():
         if type(component) is t.component:

@@ -31,7 +31,15 @@ __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMET
 
 
 class CircuitError(ValueError):
-    """A circuit that cannot be built: one line naming the component and port/parameter."""
+    """A circuit that cannot be built: one line naming the component and port/parameter.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the component and its port or parameter
+    **kwargs : dict
+        None taken (as ``ValueError``)
+    """
 
 
 #: Physical quantity of a command -> SI unit of its values.
@@ -382,6 +390,11 @@ class ComponentType:
             Component name
         **kwargs
             Its parameters, context and terms
+
+        Returns
+        -------
+        Component
+            The component, ready to join a network
         """
         return (self.factory or self.component)(name=name, **kwargs)
 
@@ -394,6 +407,11 @@ class ComponentType:
         ----------
         values : dict
             The component's values as given (its ``quantity``); None: the defaults
+
+        Returns
+        -------
+        Mapping
+            Parameter name -> :class:`~hydroline.rigs.parameters.Parameter`
         """
         q = (values or {}).get("quantity", "current") if self.levels else None
         known = self._declared.get(("parameters", q))
@@ -423,6 +441,11 @@ class ComponentType:
             Parameter name
         values : dict
             The component's other raw values (for a command's ``quantity``)
+
+        Returns
+        -------
+        str or None
+            The unit (``"Pa"``, ``"m^3/s"``, ``"-"``), None for a parameter the type lacks
         """
         decl = self.declarations(values).get(key)
         return None if decl is None else decl.unit

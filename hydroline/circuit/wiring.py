@@ -53,7 +53,15 @@ HYDRAULIC = ("pressure", "flow")
 
 
 class WiringWarning(UserWarning):
-    """A circuit that is physically possible but unusual (one line naming the component)."""
+    """A circuit that is physically possible but unusual (one line naming the component).
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the component
+    **kwargs : dict
+        None taken (as ``UserWarning``)
+    """
 
 
 def _port_path(c, port: str) -> str:

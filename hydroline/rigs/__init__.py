@@ -45,7 +45,15 @@ MAX_RIG_BYTES = 1 << 20
 
 
 class RigError(ValueError):
-    """A rig file or parameter that cannot be used; the message is one line naming it."""
+    """A rig file or parameter that cannot be used; the message is one line naming it.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the file or the parameter (and its unit)
+    **kwargs : dict
+        None taken (as ``ValueError``)
+    """
 
 
 #: A time-varying source pressure (``[supply.pressure_profile]``, ``[return.pressure_profile]``):
@@ -259,7 +267,7 @@ def _copy_values(values: dict) -> dict:
 class Rig:
     """A parsed rig: parameters in SI, addressed by dotted paths.
 
-    Attributes
+    Parameters
     ----------
     values : dict
         path -> SI value (float), text or list
@@ -366,7 +374,13 @@ class Rig:
         return Rig(_copy_values(self.values), _copy_values(self.raw), self.source)
 
     def to_toml(self) -> str:
-        """The rig as TOML text with its units (the raw values)."""
+        """The rig as TOML text with its units (the raw values).
+
+        Returns
+        -------
+        str
+            One ``[section]`` table per dotted prefix, each value as written
+        """
         sections = {}
         for path, v in self.raw.items():
             sec, _, key = path.rpartition(".")

@@ -190,7 +190,13 @@ class DerivedTable(Mapping):
         return len(self.entries)
 
     def items(self):
-        """(key, value) pairs of the derived table (its dict's view: no lookup per key)."""
+        """(key, value) pairs of the derived table (its dict's view: no lookup per key).
+
+        Returns
+        -------
+        ItemsView
+            The derived table's items
+        """
         return self._build().items()
 
     def values(self):

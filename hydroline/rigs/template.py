@@ -101,6 +101,11 @@ class Side:
         ----------
         kind : str
             Which flow
+
+        Returns
+        -------
+        str
+            The flow's signal name, [m^3/s] signal
         """
         return f"{self.name}_port_flow" if kind == "port" else f"{self.name}.{kind}_flow"
 
@@ -145,6 +150,11 @@ def section_present(rig: Rig, section: str) -> bool:
         Parameters (SI)
     section : str
         Hose section, ``"<side>.section<n>"``
+
+    Returns
+    -------
+    bool
+        Whether the section is there (a length above 0)
 
     Raises
     ------

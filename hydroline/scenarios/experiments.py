@@ -57,6 +57,7 @@ class Scenario:
     Attributes
     ----------
     name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
     commands : list
         Components that drive the network (``valve_current`` source or
         reference + controller)
@@ -267,11 +268,22 @@ class Experiment:
         ----------
         axes : dict
             Axis name -> Axis
+
+        Returns
+        -------
+        list of str
+            Axis names
         """
         return [next(iter(axes))]
 
     def metadata(self) -> dict:
-        """What the experiment adds to a result's ``metadata``."""
+        """What the experiment adds to a result's ``metadata``.
+
+        Returns
+        -------
+        dict
+            Key -> value (SI) added to the result's metadata; empty for most experiments
+        """
         return {}
 
     def summary(self, result: SimulationResult, settling_band=SETTLING_BAND) -> dict:
@@ -289,6 +301,7 @@ class Experiment:
         Returns
         -------
         dict
+            The summary (:func:`hydroline.summarize`: per port metrics, notes, the window)
         """
         return run_summary(result, self.window_start, sine=False, settling_band=settling_band)
 
@@ -311,6 +324,10 @@ class OpenLoopStep(Experiment):
         Time of the step, [s]
     axis : str
         The stepped axis (None: the first)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s] (default 0.25 s)
     """
 
     kind: ClassVar[str] = "open-loop-step"
@@ -334,6 +351,11 @@ class OpenLoopStep(Experiment):
             Its table's name
         t_end : float
             Simulated time, [s] (the table's, else 0.25 s, when None)
+
+        Returns
+        -------
+        OpenLoopStep
+            The experiment
         """
         return cls(name=name, current=_scenario_value(rig, name, "current",
                                                       rig.get("servovalve.rated_current", 0.05)),
@@ -376,6 +398,10 @@ class ClosedLoopSine(Experiment):
         Piston position at the start (template rigs), [m]
     axis : str
         The tracking axis (None: the first)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s] (default 1 s)
     """
 
     kind: ClassVar[str] = "closed-loop-sine"
@@ -405,6 +431,11 @@ class ClosedLoopSine(Experiment):
             Its table's name
         t_end : float
             Simulated time, [s] (the table's, else 1 s, when None)
+
+        Returns
+        -------
+        ClosedLoopSine
+            The experiment
         """
         return cls(name=name, offset=_scenario_value(rig, name, "offset", 0.0),
                    amplitude=_scenario_value(rig, name, "amplitude"),
@@ -449,6 +480,10 @@ class PositionStep(Experiment):
         Time of the step, > 0 (the steady state is solved before it), [s]
     axis : str
         The stepped axis (None: the first)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s] (default 0.15 s)
     """
 
     kind: ClassVar[str] = "position-step"
@@ -476,6 +511,11 @@ class PositionStep(Experiment):
             Its table's name
         t_end : float
             Simulated time, [s] (the table's, else 0.15 s, when None)
+
+        Returns
+        -------
+        PositionStep
+            The experiment
         """
         key = f"scenario.{name}"
         t_step = rig.get(f"{key}.time", 0.01)
@@ -556,6 +596,11 @@ class AxisCommand:
         path : str or Path
             The file
 
+        Returns
+        -------
+        AxisCommand
+            A ``"table"`` command, times [s] and values [A] or [m]
+
         Raises
         ------
         ValueError
@@ -565,7 +610,13 @@ class AxisCommand:
         return cls(quantity, "table", times=t, table=v)
 
     def change_time(self) -> float:
-        """When the command first changes (its disturbance), [s]."""
+        """When the command first changes (its disturbance), [s].
+
+        Returns
+        -------
+        float
+            The time of the first change, [s] (0 for a table that never changes)
+        """
         v = self.values
         if self.waveform == "step":
             return float(v["time"])
@@ -585,6 +636,16 @@ class AxisCommand:
             Where the axis starts (level default), [A] or [m]
         key : str
             Rig path of the axis's table, for messages
+
+        Returns
+        -------
+        Component
+            A step, ramp, sine or table command
+
+        Raises
+        ------
+        RigError
+            One line naming the waveform's value that is missing or out of range
         """
         v, unit = self.values, QUANTITY_UNITS[self.quantity]
 
@@ -658,6 +719,10 @@ class AxisCommands(Experiment):
     disturbance_time : float
         Where the metrics start, [s] (None: the first time a command
         changes)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s]
     """
 
     kind: ClassVar[str] = "axis-commands"
@@ -686,6 +751,11 @@ class AxisCommands(Experiment):
             The table's name
         t_end : float
             Simulated time, [s] (the table's when None)
+
+        Returns
+        -------
+        AxisCommands
+            The experiment
         """
         base = f"scenario.{name}"
         t_end = t_end or rig.get(f"{base}.t_end")
@@ -764,6 +834,12 @@ def scenario_names(rig: Rig) -> list[str]:
     Parameters
     ----------
     rig : Rig
+        Parameters (SI)
+
+    Returns
+    -------
+    list of str
+        The built-in experiments' names, then the rig's own
     """
     own = [k.split(".")[1] for k in rig.values
            if k.startswith("scenario.") and k.endswith(".type") and k.count(".") == 2]

@@ -991,11 +991,12 @@ class SettlingBand:
         Parameters
         ----------
         spec : str, float or SettlingBand
-            The band
+            The band (a number: the fraction of the final pressure, [-])
 
         Returns
         -------
         SettlingBand
+            The band
 
         Raises
         ------
@@ -1017,7 +1018,13 @@ class SettlingBand:
         return cls(value / 100 if percent else value, reference.strip() if of else "final")
 
     def describe(self) -> str:
-        """The band in words, e.g. "+-2 % of the final absolute pressure"."""
+        """The band in words, e.g. "+-2 % of the final absolute pressure".
+
+        Returns
+        -------
+        str
+            ``+-<percent> % of <reference>``
+        """
         return f"+-{self.fraction * 100:g} % of {self.REFERENCES[self.reference]}"
 
     def half_width(self, p_final: float, p0: float, largest: float) -> float:
@@ -1302,6 +1309,11 @@ def peak_to_peak(t, p, t_step, t_end=None):
         Time of the disturbance, [s]
     t_end : float
         End of the window, [s] (None: the record's end)
+
+    Returns
+    -------
+    float
+        The peak-to-peak swing, >= 0, [unit of p]
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     ts, ps = _post_step(t, p, t_step)
@@ -1409,7 +1421,7 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
         Oscillation frequency of the trace in the window, [Hz]; None: none
     band : SettlingBand, float or str
         The band (:meth:`SettlingBand.parse`: a number is a
-        fraction of the final absolute pressure)
+        fraction of the final absolute pressure, [-])
 
     Returns
     -------
@@ -1616,8 +1628,8 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
     t_end : float
         End of the metrics window, [s]; the end of ``t`` when None
     settling_band : SettlingBand, float or str
-        The settling band (:class:`SettlingBand`;
-        default +-2 % of the final absolute pressure)
+        The settling band (:class:`SettlingBand`; a number is a fraction of the final
+        absolute pressure, [-]; default +-2 % of the final absolute pressure)
 
     Returns
     -------
