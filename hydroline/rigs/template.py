@@ -10,20 +10,23 @@ pre-charges) to what a physical rig can be, naming the paths the file wrote.
 
 Signal names (the network's vocabulary; see ``docs`` of each component for its ports):
 
-supply side   pump_pressure -> supply.section1 -> supply.manifold_inlet_pressure ->
-              supply.manifold -> supply.manifold_pressure (HSM node, accumulator) ->
-              supply.section2 -> supply_port_pressure (valve P port); flows back:
-              supply_port_flow, supply.section2_inflow, supply.accumulator_flow,
-              supply.manifold_flow, pump_flow.
-return side   return_port_flow (valve T port, toward tank) -> return.section2 ->
-              return.manifold_pressure (HSM return node, accumulator) -> manifold resistance,
-              check valve -> return.section1 -> tank_pressure; pressures back:
-              return_port_pressure, return.check_valve_pressure,
-              return.section1_inlet_pressure; flows return.section2_outflow,
-              return.accumulator_flow, return.manifold_flow, tank_flow.
-valve/piston  valve_current, bottom_chamber_flow, top_chamber_flow, bottom_chamber_pressure,
-              top_chamber_pressure, piston_position, piston_velocity, friction_force,
-              load_force.
+supply side
+    pump_pressure -> supply.section1 -> supply.manifold_inlet_pressure ->
+    supply.manifold -> supply.manifold_pressure (HSM node, accumulator) ->
+    supply.section2 -> supply_port_pressure (valve P port); flows back:
+    supply_port_flow, supply.section2_inflow, supply.accumulator_flow,
+    supply.manifold_flow, pump_flow.
+return side
+    return_port_flow (valve T port, toward tank) -> return.section2 ->
+    return.manifold_pressure (HSM return node, accumulator) -> manifold resistance,
+    check valve -> return.section1 -> tank_pressure; pressures back:
+    return_port_pressure, return.check_valve_pressure,
+    return.section1_inlet_pressure; flows return.section2_outflow,
+    return.accumulator_flow, return.manifold_flow, tank_flow.
+valve/piston
+    valve_current, bottom_chamber_flow, top_chamber_flow, bottom_chamber_pressure,
+    top_chamber_pressure, piston_position, piston_velocity, friction_force,
+    load_force.
 
 Both sides are one pattern (:data:`SIDES`): a source, section I to the HSM, the accumulator on
 the HSM node, the manifold loss (on the return in series with its check valve), section II to

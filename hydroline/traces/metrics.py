@@ -19,7 +19,7 @@ standard deviation over the same last 20 % (a noise level: the direction of a ch
 than the residual wiggle of the tail is not defined).
 
 Oscillation frequency (docs/model.md section 8)
-------------------------------------------
+-----------------------------------------------
 Picking the highest peak of a trace finds a harmonic when the trace has one, and counting
 zero crossings about a constant finds extra crossings where a strong harmonic wiggles
 through zero and skewed ones where the trace drifts. :func:`oscillation_frequency` therefore
@@ -1634,31 +1634,39 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
     Returns
     -------
     dict
-        ``frequency_hz``         oscillation frequency, [Hz] (:func:`oscillation_frequency`);
-                                 None: no oscillation, or too few periods to tell
-        ``amplitude_mpa``        oscillation amplitude, two-sided about the drifting baseline,
-                                 [MPa] (:func:`oscillation_amplitude`), times
-                                 :func:`ringing_weight` (below :data:`VERDICT_MARGIN` periods of
-                                 ringing it fades to 0 at the verdict); 0.0 with a note when no
-                                 oscillation is detected, None when the window is too short
-        ``first_excursion_mpa``  largest ``|p - p0|``, [MPa] (:func:`first_excursion`)
-        ``steady_change_mpa``    settled level minus the pre-step level ``p0``, [MPa]: the
-                                 level is the mean over the window's last period of the
-                                 oscillation, or over its last 20 % without one; None when
-                                 the window is too short to tell
-        ``peak_to_peak_mpa``     ``max p - min p`` in the window, [MPa]
-        ``settling_time_s``, ``settling_method``, ``settling_note``, ``settling_band``,
-        ``settling_band_mpa``, ``settling_jump_s``  (:func:`port_settling`)
-        ``amplitude_note``       "" when frequency and amplitude were measured, else why not
-                                 (no oscillation; the window holds too few periods), or that
-                                 the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
-                                 above 1 %: near the 'no oscillation' verdict, the amplitude
-                                 faded (the share and the whole swing are given)
-        ``ringing_periods``      for how many periods after the step the oscillation's
-                                 envelope lies above 1 % of the excursion (the threshold
-                                 softened over a neper about it, so that the count moves
-                                 continuously: :func:`oscillation_frequency`), [-]; None
-                                 where it still does at the window's end, or does not ring
+        ``frequency_hz``
+            oscillation frequency, [Hz] (:func:`oscillation_frequency`);
+            None: no oscillation, or too few periods to tell
+        ``amplitude_mpa``
+            oscillation amplitude, two-sided about the drifting baseline,
+            [MPa] (:func:`oscillation_amplitude`), times
+            :func:`ringing_weight` (below :data:`VERDICT_MARGIN` periods of
+            ringing it fades to 0 at the verdict); 0.0 with a note when no
+            oscillation is detected, None when the window is too short
+        ``first_excursion_mpa``
+            largest ``|p - p0|``, [MPa] (:func:`first_excursion`)
+        ``steady_change_mpa``
+            settled level minus the pre-step level ``p0``, [MPa]: the
+            level is the mean over the window's last period of the
+            oscillation, or over its last 20 % without one; None when
+            the window is too short to tell
+        ``peak_to_peak_mpa``
+            ``max p - min p`` in the window, [MPa]
+        ``settling_*``
+            ``settling_time_s``, ``settling_method``, ``settling_note``, ``settling_band``,
+            ``settling_band_mpa``, ``settling_jump_s`` (:func:`port_settling`)
+        ``amplitude_note``
+            "" when frequency and amplitude were measured, else why not
+            (no oscillation; the window holds too few periods), or that
+            the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
+            above 1 %: near the 'no oscillation' verdict, the amplitude
+            faded (the share and the whole swing are given)
+        ``ringing_periods``
+            for how many periods after the step the oscillation's
+            envelope lies above 1 % of the excursion (the threshold
+            softened over a neper about it, so that the count moves
+            continuously: :func:`oscillation_frequency`), [-]; None
+            where it still does at the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
