@@ -126,6 +126,7 @@ def figure_title(text: str) -> str:
     Returns
     -------
     str
+        The title as drawn
     """
     text = str(text)
     return text if len(text) <= TITLE_CHARACTERS else text[:TITLE_CHARACTERS - 3] + "..."
@@ -222,6 +223,7 @@ def format_time(t: float, unit: str) -> str:
     Returns
     -------
     str
+        The time with its unit
     """
     factor = {"ms": 1e3, "s": 1.0, "min": 1 / 60, "h": 1 / 3600}[unit]
     return f"{t * factor:.3g} {unit}"
@@ -270,6 +272,7 @@ def outside_window_handle(text: str = OUTSIDE_WINDOW_LABEL):
     Returns
     -------
     matplotlib.patches.Patch
+        The legend entry for grey
     """
     from matplotlib.patches import Patch
 
@@ -335,6 +338,7 @@ def plot_result(result, signals=None, path=None, title=None):
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     from matplotlib.lines import Line2D
 
@@ -538,6 +542,7 @@ def ratio_unit(numerator: str, denominator: str) -> str:
     Returns
     -------
     str
+        The unit of the ratio
     """
     if numerator == denominator:
         return "-"

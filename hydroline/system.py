@@ -31,6 +31,7 @@ def make_fluid(rig: Rig) -> Fluid:
     Returns
     -------
     Fluid
+        The oil of ``[fluid]`` (SI)
 
     Raises
     ------
@@ -128,6 +129,7 @@ def build_network(rig: Rig, commands: list, position_guess: float | None = None)
     Returns
     -------
     Network
+        The network, ready for its steady state and integration
     """
     circuit = build_circuit(rig, position_guess)
     try:

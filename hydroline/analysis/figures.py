@@ -85,6 +85,7 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     plt = _plt()
     outputs = list(outputs)
@@ -168,6 +169,7 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     from ..plotting import time_axis
 
@@ -232,6 +234,7 @@ def plot_friction(points: dict, fit, path=None, title=None):
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4.5))

@@ -245,6 +245,7 @@ def axes_of(components: list) -> dict:
     Returns
     -------
     dict
+        Axis name -> :class:`Axis`, one per actuator
     """
     valves = [c for c in components if isinstance(c, comp.Servovalve)]
     ctls = [c for c in components if isinstance(c, comp.PositionController)]
@@ -346,6 +347,7 @@ class Circuit:
         Returns
         -------
         Network
+            The circuit's components and the commands, joined by signal names
         """
         parts = list(self.components) + list(commands)
         rewire(parts, self.overrides)
@@ -405,6 +407,7 @@ def rig_fluid(rig) -> Fluid:
     Returns
     -------
     Fluid
+        The oil of ``[fluid]`` (SI)
 
     Raises
     ------
@@ -541,6 +544,7 @@ def circuit_specs(rig) -> list[ComponentSpec]:
     Returns
     -------
     list of ComponentSpec
+        One per ``[circuit.<name>]`` table, in file order
 
     Raises
     ------
@@ -586,6 +590,7 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
     Returns
     -------
     Circuit
+        The components, their axes and the rig's ``[connections]``
     """
     return build_components(rig, circuit_specs(rig), overrides)
 
@@ -701,6 +706,7 @@ def build_components(rig, specs: list, overrides: dict | None = None, *, wiring:
     Returns
     -------
     Circuit
+        The components, their axes and the rig's ``[connections]``
 
     Raises
     ------

@@ -42,6 +42,7 @@ def component_rows(circuit: Circuit) -> list[dict]:
     Returns
     -------
     list of dict
+        One row per component
     """
     rows = []
     for c in circuit.components:

@@ -256,6 +256,7 @@ def schematic(circuit, title: str = "") -> Schematic:
     Returns
     -------
     Schematic
+        The placed symbols and nets, ready to draw
     """
     comps = {c.name: c for c in circuit.components}
     kinds = {n: type_name(c) for n, c in comps.items()}

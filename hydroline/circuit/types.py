@@ -220,6 +220,7 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
     Returns
     -------
     HoseSection
+        The hose section
     """
     beta = line_bulk_modulus(fluid, bulk_modulus, nominal_pressure)
     if creep_compliances or retardation_times:
@@ -262,6 +263,7 @@ def make_accumulator(*, name, connection_length, connection_diameter, model, mod
     Returns
     -------
     PistonAccumulator
+        The accumulator
     """
     conn = Line(connection_length, connection_diameter, fluid,
                 line_bulk_modulus(fluid, None, params.get(
@@ -291,6 +293,7 @@ def make_volume(*, name, bulk_modulus=None, fluid, **params):
     Returns
     -------
     HydraulicVolume
+        The volume
     """
     return comp.HydraulicVolume(name=name, bulk_modulus=fluid.bulk_modulus if bulk_modulus is None
                                 else bulk_modulus, fluid=fluid, **params)
@@ -314,6 +317,7 @@ def make_table_command(*, name, file, quantity, folder):
     Returns
     -------
     TableCommand
+        The command
     """
     path = Path(file)
     if folder is not None and not path.is_absolute():

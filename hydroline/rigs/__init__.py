@@ -370,6 +370,7 @@ class Rig:
         Returns
         -------
         Rig
+            An independent copy (changing it leaves this rig as it is)
         """
         return Rig(_copy_values(self.values), _copy_values(self.raw), self.source)
 

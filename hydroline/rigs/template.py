@@ -355,6 +355,7 @@ def expand(rig: Rig, profiles: dict | None = None) -> list:
     Returns
     -------
     list of ComponentSpec
+        The circuit the template stands for, in state order
 
     Raises
     ------
@@ -485,6 +486,7 @@ def bad_value(rig: Rig, path: str, rule: str, value=None) -> RigError:
     Returns
     -------
     RigError
+        The error to raise (one line naming the path and its unit)
     """
     shown = rig.raw.get(path, value if value is not None else rig.get(path))
     unit = _unit(path)

@@ -152,6 +152,7 @@ def template_controller(rig: Rig, axis) -> comp.PositionController:
     Returns
     -------
     PositionController
+        The controller closing the axis's position loop
     """
     if rig is None or rig.get("controller.proportional_gain") is None:
         raise RigError(f"controller.proportional_gain: not set in rig "
@@ -861,6 +862,7 @@ def experiment(rig: Rig, scenario: "str | Experiment", t_end: float | None = Non
     Returns
     -------
     Experiment
+        The experiment, with ``t_end`` applied
     """
     if isinstance(scenario, Experiment):
         exp = replace(scenario, t_end=t_end) if t_end is not None else scenario
@@ -901,6 +903,7 @@ def build_scenario(rig: Rig, scenario: "str | Experiment" = "open-loop-step",
     Returns
     -------
     Scenario
+        The experiment's commands and times for this rig
     """
     if axes is None:
         axes = build_circuit(rig).axes
