@@ -8,7 +8,7 @@ Tutorials (``docs/tutorials/*.py``) are executed by sphinx-gallery during the bu
 same work as running the six scripts, about a minute of two idle cores with an empty
 hydroline cache; unchanged tutorials are not run again), and their printed output and
 figures are embedded; a tutorial that fails fails the build, and so does one that runs past
-``HYDROLINE_DOCS_TUTORIAL_TIMEOUT`` seconds (default 300; ``docs/gallery_timeout.py``).
+``HYDROLINE_DOCS_TUTORIAL_TIMEOUT`` seconds (default 600; ``docs/gallery_timeout.py``).
 ``HYDROLINE_DOCS_EXECUTE=0``
 renders them without running them. ``tests/test_tutorials.py`` checks a built site
 (``HYDROLINE_DOCS_BUILT=docs/_build/html``): every tutorial ran, printed, and shows its
