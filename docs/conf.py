@@ -7,7 +7,9 @@ Build locally (after ``pip install -e '.[docs]'``)::
 Tutorials (``docs/tutorials/*.py``) are executed by sphinx-gallery during the build (the
 same work as running the six scripts, about a minute of two idle cores with an empty
 hydroline cache; unchanged tutorials are not run again), and their printed output and
-figures are embedded; a tutorial that fails fails the build. ``HYDROLINE_DOCS_EXECUTE=0``
+figures are embedded; a tutorial that fails fails the build, and so does one that runs past
+``HYDROLINE_DOCS_TUTORIAL_TIMEOUT`` seconds (default 600; ``docs/gallery_timeout.py``).
+``HYDROLINE_DOCS_EXECUTE=0``
 renders them without running them. ``tests/test_tutorials.py`` checks a built site
 (``HYDROLINE_DOCS_BUILT=docs/_build/html``): every tutorial ran, printed, and shows its
 figures.
@@ -74,6 +76,10 @@ sphinx_gallery_conf = {
     "download_all_examples": False,
     "within_subsection_order": "FileNameSortKey",
     "remove_config_comments": True,
+    # a time limit per tutorial (docs/gallery_timeout.py): one that hangs fails the build,
+    # naming itself, instead of holding CI until the job's own limit
+    "reset_modules": ("matplotlib", "gallery_timeout.limit_time"),
+    "reset_modules_order": "both",
 }
 
 #: Modules whose docstrings are numpydoc (checked by tests/test_docstrings_numpydoc.py).

@@ -26,10 +26,13 @@ class Traces:
 
     Parameters
     ----------
-    t : array_like     Times, [s]
-    columns : dict     Name -> values at ``t``, [SI]
-    metadata : dict    What the figure reads of the run's metadata (``metrics_window``,
-                       ``t_disturbance``, ``scenario``, ...)
+    t : array_like
+        Times, [s]
+    columns : dict
+        Name -> values at ``t``, [SI]
+    metadata : dict
+        What the figure reads of the run's metadata (``metrics_window``,
+        ``t_disturbance``, ``scenario``, ...)
     """
 
     def __init__(self, t, columns: dict, metadata: dict | None = None):
@@ -54,15 +57,20 @@ def column_envelope(x, y, x0: float, x1: float, columns: int) -> np.ndarray:
 
     Parameters
     ----------
-    x : array         Abscissae, non-decreasing, [any unit]
-    y : array         Ordinates, [any unit]
-    x0, x1 : float    Abscissae at the left and right edges of the axes, [unit of x]
-    columns : int     Pixel columns between ``x0`` and ``x1``
+    x : array
+        Abscissae, non-decreasing, [any unit]
+    y : array
+        Ordinates, [any unit]
+    x0, x1 : float
+        Abscissae at the left and right edges of the axes, [unit of x]
+    columns : int
+        Pixel columns between ``x0`` and ``x1``
 
     Returns
     -------
-    numpy.ndarray  Sorted indices into ``x`` (all of them when the line has no more than four
-                   points per column, or a value that is not finite)
+    numpy.ndarray
+        Sorted indices into ``x``, [-] (all of them when the line has no more than four
+        points per column, or a value that is not finite)
     """
     x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
     n = len(x)
@@ -85,7 +93,13 @@ def new_figure(figsize):
 
     Parameters
     ----------
-    figsize : tuple   (width, height), [inch]
+    figsize : tuple
+        (width, height), [inch]
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        An empty figure of that size
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -106,11 +120,13 @@ def figure_title(text: str) -> str:
 
     Parameters
     ----------
-    text : str  The title (it may hold a rig's name, of any length)
+    text : str
+        The title (it may hold a rig's name, of any length)
 
     Returns
     -------
     str
+        The title as drawn
     """
     text = str(text)
     return text if len(text) <= TITLE_CHARACTERS else text[:TITLE_CHARACTERS - 3] + "..."
@@ -146,9 +162,12 @@ def save_png(fig, path, dpi: int = 100) -> None:
 
     Parameters
     ----------
-    fig : matplotlib.figure.Figure  The figure
-    path : str or Path              The PNG file to write
-    dpi : int                       Resolution, [dots per inch]
+    fig : matplotlib.figure.Figure
+        The figure
+    path : str or Path
+        The PNG file to write
+    dpi : int
+        Resolution, [dots per inch]
     """
     fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
 
@@ -204,6 +223,7 @@ def format_time(t: float, unit: str) -> str:
     Returns
     -------
     str
+        The time with its unit
     """
     factor = {"ms": 1e3, "s": 1.0, "min": 1 / 60, "h": 1 / 3600}[unit]
     return f"{t * factor:.3g} {unit}"
@@ -252,6 +272,7 @@ def outside_window_handle(text: str = OUTSIDE_WINDOW_LABEL):
     Returns
     -------
     matplotlib.patches.Patch
+        The legend entry for grey
     """
     from matplotlib.patches import Patch
 
@@ -306,13 +327,18 @@ def plot_result(result, signals=None, path=None, title=None):
     Parameters
     ----------
     result : SimulationResult or Traces
-    signals : list[str]   Signals to plot, one panel each (SI units); default panels when None
-    path : str            Write a PNG there when given
-    title : str           Figure title
+        The run's traces (time [s], signals in SI units)
+    signals : list[str]
+        Signals to plot, one panel each (SI units); default panels when None
+    path : str
+        Write a PNG there when given
+    title : str
+        Figure title
 
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     from matplotlib.lines import Line2D
 
@@ -516,6 +542,7 @@ def ratio_unit(numerator: str, denominator: str) -> str:
     Returns
     -------
     str
+        The unit of the ratio
     """
     if numerator == denominator:
         return "-"
@@ -535,21 +562,29 @@ def plot_line_response(line, models, f, form, path=None, title=None, references=
 
     Parameters
     ----------
-    line : Line       The hose section, its exact (dissipative) transfer matrix the reference
-                      (labelled "viscoelastic wall, exact" for a viscoelastic wall, M44)
-    models : dict     label -> model with ``transfer(s)``
-    f : array         Frequencies, [Hz]
-    form : str        Causality form of the two-port (a key of ``hydroline.lines.line.FORM_PORTS``)
-    path : str        File to save the figure to (PNG, ...); None: not saved
-    title : str       Figure title; None: the line's length, diameter and dissipation number
-    references : dict label -> further Line whose exact transfer matrix is drawn (thin, solid,
-                      grey), e.g. the elastic line beside a viscoelastic one; None: none
+    line : Line
+        The hose section, its exact (dissipative) transfer matrix the reference
+        (labelled "viscoelastic wall, exact" for a viscoelastic wall, M44)
+    models : dict
+        label -> model with ``transfer(s)``
+    f : array
+        Frequencies, [Hz]
+    form : str
+        Causality form of the two-port (a key of ``hydroline.lines.line.FORM_PORTS``)
+    path : str
+        File to save the figure to (PNG, ...); None: not saved
+    title : str
+        Figure title; None: the line's length, diameter and dissipation number
+    references : dict
+        label -> further Line whose exact transfer matrix is drawn (thin, solid,
+        grey), e.g. the elastic line beside a viscoelastic one; None: none
 
     Returns
     -------
-    matplotlib.figure.Figure  Magnitude (in its own unit: Pa/(m^3/s), (m^3/s)/Pa or - for the
-                              form's entries) and phase [deg] of the four entries against
-                              frequency [Hz]
+    matplotlib.figure.Figure
+        Magnitude (in its own unit: Pa/(m^3/s), (m^3/s)/Pa or - for the
+        form's entries) and phase [deg] of the four entries against
+        frequency [Hz]
     """
     ins, outs = line.form_ports(form)
     s = 2j * np.pi * f

@@ -69,8 +69,15 @@ def is_own_scenario(path: str, raw: dict) -> bool:
 
     Parameters
     ----------
-    path : str    A rig path
-    raw : dict    All raw values of the rig, path -> value as written
+    path : str
+        A rig path
+    raw : dict
+        All raw values of the rig, path -> value as written
+
+    Returns
+    -------
+    bool
+        Whether the path lies in a ``[scenario.NAME]`` table that gives a ``type``
     """
     parts = path.split(".")
     return len(parts) >= 3 and parts[0] == "scenario" and f"scenario.{parts[1]}.type" in raw
@@ -85,19 +92,25 @@ def parse_scenario_value(path: str, raw_value, raw: dict, parse_quantity_as):
 
     Parameters
     ----------
-    path : str                    ``scenario.<name>.<key>`` or ``scenario.<name>.<axis>.<key>``
-    raw_value : object            The value as written (a quantity with its unit, or text)
-    raw : dict                    All raw values of the rig (for the type, quantity, waveform)
-    parse_quantity_as : callable  ``(path, raw_value, unit) -> value`` (the rig's reader;
-                                  unit "str" for text)
+    path : str
+        ``scenario.<name>.<key>`` or ``scenario.<name>.<axis>.<key>``
+    raw_value : object
+        The value as written (a quantity with its unit, or text)
+    raw : dict
+        All raw values of the rig (for the type, quantity, waveform)
+    parse_quantity_as : callable
+        ``(path, raw_value, unit) -> value`` (the rig's reader;
+        unit "str" for text)
 
     Returns
     -------
-    object  float [SI unit of the key] or text
+    object
+        float [SI unit of the key] or text
 
     Raises
     ------
-    ValueError  One line naming the key and its unit
+    ValueError
+        One line naming the key and its unit
     """
     parts = path.split(".")
     base = f"scenario.{parts[1]}"

@@ -25,15 +25,18 @@ def make_fluid(rig: Rig) -> Fluid:
 
     Parameters
     ----------
-    rig : Rig   Parameters (SI)
+    rig : Rig
+        Parameters (SI)
 
     Returns
     -------
     Fluid
+        The oil of ``[fluid]`` (SI)
 
     Raises
     ------
-    RigError  One line naming the fluid parameter at fault
+    RigError
+        One line naming the fluid parameter at fault
     """
     try:
         return rig_fluid(rig)
@@ -46,11 +49,13 @@ def hose_lines(rig: Rig) -> dict:
 
     Parameters
     ----------
-    rig : Rig   Parameters (SI)
+    rig : Rig
+        Parameters (SI)
 
     Returns
     -------
-    dict  ``"supply.section1"``, ... -> :class:`Line`
+    dict
+        ``"supply.section1"``, ... -> :class:`Line`
     """
     fluid = make_fluid(rig)
     out = {}
@@ -78,14 +83,17 @@ def validate_rig(rig: Rig, position_guess: float | None = None) -> dict:
 
     Parameters
     ----------
-    rig : Rig               Parameters (SI)
-    position_guess : float  Initial piston position given by the scenario, [m]; checked
-                            like ``actuator.initial_position`` when not None
+    rig : Rig
+        Parameters (SI)
+    position_guess : float
+        Initial piston position given by the scenario, [m]; checked
+        like ``actuator.initial_position`` when not None
 
     Returns
     -------
-    dict  side -> its :func:`pressure_profile` (read once, for the template's expansion);
-          {} for a circuit rig
+    dict
+        side -> its :func:`pressure_profile` (read once, for the template's expansion);
+        {} for a circuit rig
     """
     declared = {}       # section -> its declarations, looked up once per section
     for path, v in rig.values.items():
@@ -108,16 +116,20 @@ def build_network(rig: Rig, commands: list, position_guess: float | None = None)
 
     Parameters
     ----------
-    rig : Rig             Parameters (SI)
-    commands : list       Components that output each axis's valve current (open loop) or
-                          position reference plus a controller (closed loop); see
-                          :attr:`Circuit.axes` for the signal names
-    position_guess : float  Initial piston position of the first axis for the steady-state
-                          solver, [m]
+    rig : Rig
+        Parameters (SI)
+    commands : list
+        Components that output each axis's valve current (open loop) or
+        position reference plus a controller (closed loop); see
+        :attr:`Circuit.axes` for the signal names
+    position_guess : float
+        Initial piston position of the first axis for the steady-state
+        solver, [m]
 
     Returns
     -------
     Network
+        The network, ready for its steady state and integration
     """
     circuit = build_circuit(rig, position_guess)
     try:
@@ -138,12 +150,15 @@ def build_circuit(rig: Rig, position_guess: float | None = None) -> Circuit:
 
     Parameters
     ----------
-    rig : Rig               Parameters (SI)
-    position_guess : float  Initial piston position of the first axis, [m]; None: the rig's
+    rig : Rig
+        Parameters (SI)
+    position_guess : float
+        Initial piston position of the first axis, [m]; None: the rig's
 
     Returns
     -------
-    Circuit  components, axes (handles), source
+    Circuit
+        components, axes (handles), source
     """
     circuit_rig = has_circuit(rig.values)
     profiles = validate_rig(rig, None if circuit_rig else position_guess)

@@ -75,12 +75,14 @@ def unit_factor(text: str) -> tuple[float, tuple] | None:
 
     Parameters
     ----------
-    text : str   The unit expression, e.g. ``"MPa"``, ``"L/min"``, ``"Pa*s/m^3"``
+    text : str
+        The unit expression, e.g. ``"MPa"``, ``"L/min"``, ``"Pa*s/m^3"``
 
     Returns
     -------
-    tuple or None  ``(factor, (m, kg, s, A))``: multiply a value in ``text`` by ``factor`` for
-                   SI; the exponents of metre, kilogram, second and ampere
+    tuple or None
+        ``(factor, (m, kg, s, A))``: multiply a value in ``text`` by ``factor`` for
+        SI; the exponents of metre, kilogram, second and ampere
     """
     text = text.strip()
     if text in _CACHE:
@@ -111,13 +113,16 @@ def si_value(text, unit: str) -> float | None:
 
     Parameters
     ----------
-    text : str or float  E.g. ``"20.7 MPa"``, ``"1.25e9 Pa*s/m^3"``, ``"0.85"``; a plain
-                         number only for a dimensionless ``unit``, [any unit]
-    unit : str           The SI unit wanted, e.g. ``"Pa"``; ``"-"`` or ``"dimensionless"``, [-]
+    text : str or float
+        E.g. ``"20.7 MPa"``, ``"1.25e9 Pa*s/m^3"``, ``"0.85"``; a plain
+        number only for a dimensionless ``unit``, [any unit]
+    unit : str
+        The SI unit wanted, e.g. ``"Pa"``; ``"-"`` or ``"dimensionless"``, [-]
 
     Returns
     -------
-    float or None  The value in ``unit``, [unit]
+    float or None
+        The value in ``unit``, [unit]
     """
     if not isinstance(text, str):
         if isinstance(text, (int, float)) and not isinstance(text, bool) \

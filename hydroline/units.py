@@ -52,8 +52,8 @@ import reprlib
 
 from .unit_table import si_value
 
-__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "split_header",
-           "csv_column", "QUANTITY_GRAMMAR", "MAX_QUANTITY_LENGTH"]
+__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "exact_quantity",
+           "split_header", "csv_column", "QUANTITY_GRAMMAR", "MAX_QUANTITY_LENGTH"]
 
 
 
@@ -281,6 +281,29 @@ def parse_quantity(value, unit: str, name: str = "value") -> float:
     if not math.isfinite(result):
         raise UnitError(f"{name}: {shown!r} is not finite in {target_text}")
     return result
+
+
+def exact_quantity(value_si: float, unit: str) -> str:
+    """An SI value as rig-file text that reads back to the same float, e.g. ``"0.0127 m"``.
+
+    Parameters
+    ----------
+    value_si : float
+        The value in ``unit``, [unit]
+    unit : str
+        Its SI unit, e.g. ``"Pa"``, [-]
+
+    Returns
+    -------
+    str
+        ``"<repr of the float> <unit>"`` (every digit kept, unlike :func:`format_quantity`)
+
+    Examples
+    --------
+    >>> exact_quantity(203.8e6, "Pa")
+    '203800000.0 Pa'
+    """
+    return f"{float(value_si)!r} {unit}"
 
 
 def format_quantity(value_si: float, unit: str, display_unit: str | None = None,

@@ -87,3 +87,36 @@ def test_built_site_renders_maths_offline():
     mathjax = [s for s in scripts if "mathjax" in s.lower()]
     assert mathjax and all((site / s.split("?")[0]).is_file() for s in mathjax), mathjax
     assert r"\tag{M5}" in page                  # the maths is there for it to typeset
+
+
+@pytest.mark.skipif(not hasattr(__import__("signal"), "SIGALRM"), reason="no SIGALRM (Windows)")
+def test_a_tutorial_past_the_time_limit_fails_naming_itself(monkeypatch):
+    """The docs build's limit per tutorial (docs/gallery_timeout.py, sphinx-gallery's
+    ``reset_modules`` hook): a tutorial still running at the limit raises an error naming it
+    and the limit, which sphinx-gallery reports as that tutorial's failure; one that ends in
+    time is not stopped; a bad setting is refused naming the variable."""
+    import time
+
+    sys.path.insert(0, str(ROOT / "docs"))
+    try:
+        import gallery_timeout as gt
+    finally:
+        sys.path.remove(str(ROOT / "docs"))
+    monkeypatch.setenv(gt.ENVIRONMENT, "0.2")
+    script = str(ROOT / "docs" / "tutorials" / "tutorial_x_hangs.py")
+    gt.limit_time({}, script, "before")
+    try:
+        with pytest.raises(gt.TutorialTimeout, match=r"tutorial_x_hangs\.py: ran past .* 0\.2 s"):
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline:      # a hung tutorial (interruptible)
+                time.sleep(0.01)
+    finally:
+        gt.limit_time({}, script, "after")
+    gt.limit_time({}, script, "before")
+    gt.limit_time({}, script, "after")              # ended in time: disarmed
+    time.sleep(0.4)
+    monkeypatch.setenv(gt.ENVIRONMENT, "soon")
+    with pytest.raises(ValueError, match=gt.ENVIRONMENT):
+        gt.time_limit()
+    monkeypatch.setenv(gt.ENVIRONMENT, "0")
+    assert gt.time_limit() == 0

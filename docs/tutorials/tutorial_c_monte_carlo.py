@@ -69,7 +69,12 @@ if __name__ == "__main__":
     # can be passed as the scheduler; here an in-process cluster (threads) stands in for a
     # real one, which you reach with scheduler="tcp://host:8786" (hydroline installed on
     # its workers), or start locally with scheduler="local".
+    import logging
+
     from dask.distributed import Client, LocalCluster
+
+    # an in-process cluster closing may log a closed comm, with its traceback, at INFO level
+    logging.getLogger("distributed").setLevel(logging.WARNING)
 
     with LocalCluster(n_workers=2, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:

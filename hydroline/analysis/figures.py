@@ -58,24 +58,34 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
 
     Parameters
     ----------
-    f : array             Frequencies, [Hz]
-    curves : dict         Label -> complex array ``(len(f), len(outputs))`` in SI units
-    input_name : str      Input channel (for the axis labels)
-    outputs : list[str]   Output channels, one column of panels each
-    bandwidths : dict     Label -> {output: -3 dB bandwidth [Hz] or None}, drawn as dotted
-                          lines and listed in each panel's lower left, in the curves' colours
-    path : str            PNG to write
-    title : str           Figure title
-    highest_mode_hz : float  Highest retained mode of the modal lines (the frequency up to
-                          which they follow the exact lines), drawn as a grey vertical
-                          line, [Hz]
-    passbands : dict      Label -> {output: :class:`~hydroline.analysis.frequency.Passband`}:
-                          a first crossing in a notch is marked so, and the frequency up to
-                          which the gain stays within 3 dB is listed beside it
+    f : array
+        Frequencies, [Hz]
+    curves : dict
+        Label -> complex array ``(len(f), len(outputs))`` in SI units
+    input_name : str
+        Input channel (for the axis labels)
+    outputs : list[str]
+        Output channels, one column of panels each
+    bandwidths : dict
+        Label -> {output: -3 dB bandwidth [Hz] or None}, drawn as dotted
+        lines and listed in each panel's lower left, in the curves' colours
+    path : str
+        PNG to write
+    title : str
+        Figure title
+    highest_mode_hz : float
+        Highest retained mode of the modal lines (the frequency up to
+        which they follow the exact lines), drawn as a grey vertical
+        line, [Hz]
+    passbands : dict
+        Label -> {output: :class:`~hydroline.analysis.frequency.Passband`}:
+        a first crossing in a notch is marked so, and the frequency up to
+        which the gain stays within 3 dB is listed beside it
 
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     plt = _plt()
     outputs = list(outputs)
@@ -139,19 +149,27 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
 
     Parameters
     ----------
-    t : array         Times, [s]
-    measured, initial, fitted : dict   Signal name -> array in SI (initial may be empty)
-    path : str        PNG to write
+    t : array
+        Times, [s]
+    measured, initial, fitted : dict
+        Signal name -> array in SI (initial may be empty)
+    path : str
+        PNG to write
     title : str
-    windows : list    (first, last) times of samples the fit left out, shaded, [s]
-    rms, start_rms : dict  Signal -> rms residual of the fitted / initial model, [SI], shown
-                      in the legend
-    worse : dict      Signal -> why the fitted model is worse than the start there: written
-                      in that panel (a panel never shows it worse without saying why)
+        Figure title
+    windows : list
+        (first, last) times of samples the fit left out, shaded, [s]
+    rms, start_rms : dict
+        Signal -> rms residual of the fitted / initial model, [SI], shown
+        in the legend
+    worse : dict
+        Signal -> why the fitted model is worse than the start there: written
+        in that panel (a panel never shows it worse without saying why)
 
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     from ..plotting import time_axis
 
@@ -204,14 +222,19 @@ def plot_friction(points: dict, fit, path=None, title=None):
 
     Parameters
     ----------
-    points : dict    Label -> (velocity [m/s], friction force [N]) arrays
-    fit : StribeckFit  The fitted model (None to show the points only)
-    path : str       PNG to write
-    title : str      Figure title
+    points : dict
+        Label -> (velocity [m/s], friction force [N]) arrays
+    fit : StribeckFit
+        The fitted model (None to show the points only)
+    path : str
+        PNG to write
+    title : str
+        Figure title
 
     Returns
     -------
     matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
     """
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4.5))

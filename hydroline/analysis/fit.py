@@ -77,7 +77,7 @@ from .. import components as comp
 from ..components.hose import coefficients_as_parameters
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..engine import integrate, solve_steady_state
-from ..units import csv_column, split_header
+from ..units import csv_column, exact_quantity, split_header
 from .linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal, select_axis,
                         solve_operating_point, transfer_state)
 
@@ -371,7 +371,7 @@ def parameter_unit(rig: Rig, path: str) -> str:
 
 def _set(rig: Rig, path: str, value: float):
     unit = parameter_unit(rig, path)
-    rig.set(path, float(value) if unit == "-" else f"{float(value)!r} {unit}")
+    rig.set(path, float(value) if unit == "-" else exact_quantity(value, unit))
 
 
 @dataclass

@@ -56,7 +56,13 @@ def has_circuit(values: dict) -> bool:
 
     Parameters
     ----------
-    values : dict   A rig's values, path -> SI value
+    values : dict
+        A rig's values, path -> SI value
+
+    Returns
+    -------
+    bool
+        Whether any key starts with ``circuit.``
     """
     return any(k.startswith(PREFIX) for k in values)
 
@@ -66,7 +72,13 @@ def circuit_names(values: dict) -> list[str]:
 
     Parameters
     ----------
-    values : dict   A rig's values, path -> SI value
+    values : dict
+        A rig's values, path -> SI value
+
+    Returns
+    -------
+    list of str
+        The ``<name>`` of each ``[circuit.<name>]`` table with a type
     """
     return [k[len(PREFIX):-len(".type")] for k in values
             if k.startswith(PREFIX) and k.endswith(".type")]
@@ -90,14 +102,19 @@ def parse_circuit_value(path: str, raw_value, raw: dict, parse_quantity_as):
 
     Parameters
     ----------
-    path : str                  ``circuit.<component>.<key>``
-    raw_value : object          The value as written (quantity with unit, text, number)
-    raw : dict                  All raw values of the rig (to find the component's type)
-    parse_quantity_as : callable  ``(path, raw_value, unit) -> SI value`` (the rig's reader)
+    path : str
+        ``circuit.<component>.<key>``
+    raw_value : object
+        The value as written (quantity with unit, text, number)
+    raw : dict
+        All raw values of the rig (to find the component's type)
+    parse_quantity_as : callable
+        ``(path, raw_value, unit) -> SI value`` (the rig's reader)
 
     Returns
     -------
-    object  float [SI unit of the parameter], text, list or a signal name
+    object
+        float [SI unit of the parameter], text, list or a signal name
     """
     name, key = _split(path, raw)
     if key == "type":
@@ -136,11 +153,13 @@ def check_component_name(name: str):
 
     Parameters
     ----------
-    name : str   Component name, the ``<name>`` of ``[circuit.<name>]``
+    name : str
+        Component name, the ``<name>`` of ``[circuit.<name>]``
 
     Raises
     ------
-    CircuitError  One line naming the component's table
+    CircuitError
+        One line naming the component's table
     """
     table = f"[circuit.{json.dumps(name[:40], ensure_ascii=False)}]"
     if not name.strip():
@@ -162,17 +181,28 @@ class Axis:
 
     Attributes
     ----------
-    name : str              Axis name (the actuator's name without ``.actuator``)
-    actuator : str          Actuator component
-    valve : str             Servovalve component driving it
-    current : str           Valve current signal, [A]
-    supply_pressure, return_pressure : str   Valve P and T port pressure signals, [Pa]
-    bottom_pressure, top_pressure : str      Chamber pressure signals, [Pa]
-    position, velocity : str                 Piston position [m] and velocity [m/s] signals
-    controller : str        Position controller in the circuit driving ``current`` (or None)
-    reference : str         Its reference signal, [m] (or None)
-    friction : str          Friction component on the piston (or None)
-    stroke : float          Full stroke, [m]
+    name : str
+        Axis name (the actuator's name without ``.actuator``)
+    actuator : str
+        Actuator component
+    valve : str
+        Servovalve component driving it
+    current : str
+        Valve current signal, [A]
+    supply_pressure, return_pressure : str
+        Valve P and T port pressure signals, [Pa]
+    bottom_pressure, top_pressure : str
+        Chamber pressure signals, [Pa]
+    position, velocity : str
+        Piston position [m] and velocity [m/s] signals
+    controller : str
+        Position controller in the circuit driving ``current`` (or None)
+    reference : str
+        Its reference signal, [m] (or None)
+    friction : str
+        Friction component on the piston (or None)
+    stroke : float
+        Full stroke, [m]
     """
 
     name: str
@@ -209,11 +239,13 @@ def axes_of(components: list) -> dict:
 
     Parameters
     ----------
-    components : list   Components joined by signal names
+    components : list
+        Components joined by signal names
 
     Returns
     -------
     dict
+        Axis name -> :class:`Axis`, one per actuator
     """
     valves = [c for c in components if isinstance(c, comp.Servovalve)]
     ctls = [c for c in components if isinstance(c, comp.PositionController)]
@@ -245,11 +277,15 @@ class Circuit:
 
     Attributes
     ----------
-    components : list   The components (ports joined by signal names)
-    axes : dict         Axis name -> :class:`Axis`
-    source : str        Where the description came from
-    overrides : dict    The rig's ``[connections]``, "component.port" -> signal, applied to
-                        the components and again to an experiment's commands
+    components : list
+        The components (ports joined by signal names)
+    axes : dict
+        Axis name -> :class:`Axis`
+    source : str
+        Where the description came from
+    overrides : dict
+        The rig's ``[connections]``, "component.port" -> signal, applied to
+        the components and again to an experiment's commands
     """
 
     components: list
@@ -258,11 +294,22 @@ class Circuit:
     overrides: dict = field(default_factory=dict)
 
     def component(self, name: str):
-        """The component called ``name`` (KeyError if none).
+        """The component called ``name``.
 
         Parameters
         ----------
-        name : str   Component name
+        name : str
+            Component name
+
+        Returns
+        -------
+        Component
+            The component of that name
+
+        Raises
+        ------
+        KeyError
+            When the circuit has no component of that name
         """
         for c in self.components:
             if c.name == name:
@@ -274,8 +321,10 @@ class Circuit:
 
         Parameters
         ----------
-        position_guess : float   Piston position from mid-stroke, [m]; None: leave as is
-        axis : str               Axis name; None: the first
+        position_guess : float
+            Piston position from mid-stroke, [m]; None: leave as is
+        axis : str
+            Axis name; None: the first
         """
         if position_guess is None or not self.axes:
             return
@@ -292,11 +341,13 @@ class Circuit:
 
         Parameters
         ----------
-        commands : list   Experiment components (valve currents, position references, ...)
+        commands : list
+            Experiment components (valve currents, position references, ...)
 
         Returns
         -------
         Network
+            The circuit's components and the commands, joined by signal names
         """
         parts = list(self.components) + list(commands)
         rewire(parts, self.overrides)
@@ -307,11 +358,13 @@ class Circuit:
 
         Parameters
         ----------
-        commands : list   Experiment components to include
+        commands : list
+            Experiment components to include
 
         Returns
         -------
-        list of dict  keys signal, producer (None: from the experiment), consumers, quantity, unit
+        list of dict
+            keys signal, producer (None: from the experiment), consumers, quantity, unit
         """
         return connection_table(list(self.components) + list(commands))
 
@@ -321,9 +374,12 @@ def rewire(parts: list, overrides: dict, allow_unknown: bool = False):
 
     Parameters
     ----------
-    parts : list          Components (changed in place)
-    overrides : dict      "component.port" -> signal name
-    allow_unknown : bool  Skip components not among ``parts`` (an experiment adds them later)
+    parts : list
+        Components (changed in place)
+    overrides : dict
+        "component.port" -> signal name
+    allow_unknown : bool
+        Skip components not among ``parts`` (an experiment adds them later)
     """
     by_name = {c.name: c for c in parts}
     for target, signal in overrides.items():
@@ -345,15 +401,18 @@ def rig_fluid(rig) -> Fluid:
 
     Parameters
     ----------
-    rig : Rig   Parameters (SI)
+    rig : Rig
+        Parameters (SI)
 
     Returns
     -------
     Fluid
+        The oil of ``[fluid]`` (SI)
 
     Raises
     ------
-    CircuitError  One line naming the fluid parameter at fault
+    CircuitError
+        One line naming the fluid parameter at fault
     """
     try:
         extra = {k: rig[f"fluid.{k}"] for k in ("air_content", "air_polytropic_exponent",
@@ -371,18 +430,26 @@ class ComponentSpec:
 
     Attributes
     ----------
-    name : str          Component name
-    type : str          Its type, a key of :data:`~hydroline.circuit.types.COMPONENT_TYPES`
-    params : dict       Parameter -> value as given, [SI]; the others take the type's defaults
-    ports : dict        Port -> the signal it is joined to
-    terms : dict        Flow term -> sign (+1 in, -1 out), for a volume or a junction
-    table : str         Where the component is written, for messages: ``circuit.<name>``
-                        (a circuit file), or a template rig's section (``supply.section1``)
-    paths : dict        Parameter -> the rig path its value was written at, where that is not
-                        ``<table>.<parameter>`` (a template value read from another section)
-    derived : frozenset Parameters computed from other values (a hose's nominal pressure from
-                        the supply pressure): held to their bounds, not to their plausible
-                        range (the values they come from are)
+    name : str
+        Component name
+    type : str
+        Its type, a key of :data:`~hydroline.circuit.types.COMPONENT_TYPES`
+    params : dict
+        Parameter -> value as given, [SI]; the others take the type's defaults
+    ports : dict
+        Port -> the signal it is joined to
+    terms : dict
+        Flow term -> sign (+1 in, -1 out), for a volume or a junction
+    table : str
+        Where the component is written, for messages: ``circuit.<name>``
+        (a circuit file), or a template rig's section (``supply.section1``)
+    paths : dict
+        Parameter -> the rig path its value was written at, where that is not
+        ``<table>.<parameter>`` (a template value read from another section)
+    derived : frozenset
+        Parameters computed from other values (a hose's nominal pressure from
+        the supply pressure): held to their bounds, not to their plausible
+        range (the values they come from are)
     """
 
     name: str
@@ -399,7 +466,13 @@ class ComponentSpec:
 
         Parameters
         ----------
-        key : str   Parameter name
+        key : str
+            Parameter name
+
+        Returns
+        -------
+        str
+            ``<table>.<key>``, or the path the value was read from
         """
         return self.paths.get(key) or f"{self.table or PREFIX + self.name}.{key}"
 
@@ -441,12 +514,15 @@ def check_circuit_value(rig, path: str) -> None:
 
     Parameters
     ----------
-    rig : Rig    A rig holding the value (SI) and the component's type
-    path : str   ``circuit.<component>.<parameter>``
+    rig : Rig
+        A rig holding the value (SI) and the component's type
+    path : str
+        ``circuit.<component>.<parameter>``
 
     Raises
     ------
-    CircuitError  One line naming the path, the bounds or range and the unit
+    CircuitError
+        One line naming the path, the bounds or range and the unit
     """
     name, key = _split(path, rig.raw)
     ctype = COMPONENT_TYPES[rig.values[f"{PREFIX}{name}.type"]]
@@ -462,15 +538,18 @@ def circuit_specs(rig) -> list[ComponentSpec]:
 
     Parameters
     ----------
-    rig : Rig   A rig whose values hold a circuit (SI)
+    rig : Rig
+        A rig whose values hold a circuit (SI)
 
     Returns
     -------
     list of ComponentSpec
+        One per ``[circuit.<name>]`` table, in file order
 
     Raises
     ------
-    CircuitError  When the rig has no ``[circuit.<name>]`` table with a type
+    CircuitError
+        When the rig has no ``[circuit.<name>]`` table with a type
     """
     values = rig.values
     names = circuit_names(values)
@@ -502,13 +581,16 @@ def circuit_components(rig, overrides: dict | None = None) -> Circuit:
 
     Parameters
     ----------
-    rig : Rig         A rig whose values hold a circuit (SI)
-    overrides : dict  "component.port" -> signal, applied after the ports (the rig's
-                      ``[connections]``)
+    rig : Rig
+        A rig whose values hold a circuit (SI)
+    overrides : dict
+        "component.port" -> signal, applied after the ports (the rig's
+        ``[connections]``)
 
     Returns
     -------
     Circuit
+        The components, their axes and the rig's ``[connections]``
     """
     return build_components(rig, circuit_specs(rig), overrides)
 
@@ -605,23 +687,31 @@ def build_components(rig, specs: list, overrides: dict | None = None, *, wiring:
 
     Parameters
     ----------
-    rig : Rig          The rig the specs come from (values as written, ``[rig]`` settings,
-                       the oil, ``allow_implausible``)
-    specs : list       :class:`ComponentSpec`, in the order the network takes them (its
-                       state order)
-    overrides : dict   "component.port" -> signal, applied after the ports (the rig's
-                       ``[connections]``)
-    wiring : bool      Run :func:`check_circuit` (the network's and the wiring checks)
-    port_path : str    How its messages name a port (``{component}``, ``{port}``)
-    label : str        What a message of the network's checks starts with
+    rig : Rig
+        The rig the specs come from (values as written, ``[rig]`` settings,
+        the oil, ``allow_implausible``)
+    specs : list
+        :class:`ComponentSpec`, in the order the network takes them (its
+        state order)
+    overrides : dict
+        "component.port" -> signal, applied after the ports (the rig's
+        ``[connections]``)
+    wiring : bool
+        Run :func:`check_circuit` (the network's and the wiring checks)
+    port_path : str
+        How its messages name a port (``{component}``, ``{port}``)
+    label : str
+        What a message of the network's checks starts with
 
     Returns
     -------
     Circuit
+        The components, their axes and the rig's ``[connections]``
 
     Raises
     ------
-    CircuitError  One line naming the component, and its parameter or port, at fault
+    CircuitError
+        One line naming the component, and its parameter or port, at fault
     """
     overrides = dict(overrides or {})
     allowed = set(rig.get("rig.allow_implausible") or [])
@@ -665,19 +755,25 @@ def check_circuit(parts: list, overrides: dict, port_path: str = "{component}.{p
 
     Parameters
     ----------
-    parts : list       The components, rewired by ``overrides``
-    overrides : dict   The rig's ``[connections]``, "component.port" -> signal: a port named
-                       there is named ``connections.<component>.<port>`` in a message
-    port_path : str    How a message names any other port (``{component}``, ``{port}``)
-    label : str        What a message of the network's checks starts with ("circuit")
+    parts : list
+        The components, rewired by ``overrides``
+    overrides : dict
+        The rig's ``[connections]``, "component.port" -> signal: a port named
+        there is named ``connections.<component>.<port>`` in a message
+    port_path : str
+        How a message names any other port (``{component}``, ``{port}``)
+    label : str
+        What a message of the network's checks starts with ("circuit")
 
     Returns
     -------
-    list of str  The wiring warnings given
+    list of str
+        The wiring warnings given
 
     Raises
     ------
-    CircuitError  One line naming the component and port at fault
+    CircuitError
+        One line naming the component and port at fault
     """
     def path_of(c, port):
         if f"{c.name}.{port}" in overrides:
@@ -703,11 +799,13 @@ def experiment_placeholders(parts: list) -> list:
 
     Parameters
     ----------
-    parts : list   Components
+    parts : list
+        Components
 
     Returns
     -------
-    list  One :class:`~hydroline.components.StepCommand` per such signal
+    list
+        One :class:`~hydroline.components.StepCommand` per such signal
     """
     produced = {c.signal(p) for c in parts for p in c.outputs}
     out, seen = [], set()

@@ -16,7 +16,14 @@ def type_name(component) -> str:
 
     Parameters
     ----------
-    component : Component   The component
+    component : Component
+        The component
+
+    Returns
+    -------
+    str
+        Its type name, a key of :data:`~hydroline.circuit.types.COMPONENT_TYPES`, or its class
+        name
     """
     for name, t in COMPONENT_TYPES.items():
         if type(component) is t.component:
@@ -29,11 +36,13 @@ def component_rows(circuit: Circuit) -> list[dict]:
 
     Parameters
     ----------
-    circuit : Circuit   The circuit
+    circuit : Circuit
+        The circuit
 
     Returns
     -------
     list of dict
+        One row per component
     """
     rows = []
     for c in circuit.components:
@@ -51,9 +60,12 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
 
     Parameters
     ----------
-    circuit : Circuit   The circuit
-    path : str or Path  PNG file to write
-    title : str         Figure title
+    circuit : Circuit
+        The circuit
+    path : str or Path
+        PNG file to write
+    title : str
+        Figure title
     """
     import networkx as nx
 

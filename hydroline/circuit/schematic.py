@@ -60,19 +60,31 @@ class Placed:
 
     Attributes
     ----------
-    name : str        The component
-    type : str        Its circuit type (:func:`hydroline.circuit.drawing.type_name`)
-    symbol : str      Its symbol (a key of :data:`hydroline.circuit.iso1219.SYMBOLS`)
-    x, y : float      Where the symbol's origin lies, [drawing units]
-    mirror : bool     Mirrored (a flow from right to left)
-    turns : int       Quarter turns counter-clockwise, [-]
-    ends : dict       Hydraulic end -> (x, y, exit direction) of its port, [drawing units]
-    box : tuple       The symbol's extent (x0, y0, x1, y1), [drawing units] (set when drawn)
-    label : str       Name and main parameters
-    label_box : tuple The label's extent, [drawing units] (set when drawn)
-    role : str        "supply", "return", "branch", "end", "unit", "signal", "junction",
-                      "other"
-    inscription : str Text inside the symbol (a controller's "PID", a command's waveform)
+    name : str
+        The component
+    type : str
+        Its circuit type (:func:`hydroline.circuit.drawing.type_name`)
+    symbol : str
+        Its symbol (a key of :data:`hydroline.circuit.iso1219.SYMBOLS`)
+    x, y : float
+        Where the symbol's origin lies, [drawing units]
+    mirror : bool
+        Mirrored (a flow from right to left)
+    turns : int
+        Quarter turns counter-clockwise, [-]
+    ends : dict
+        Hydraulic end -> (x, y, exit direction) of its port, [drawing units]
+    box : tuple
+        The symbol's extent (x0, y0, x1, y1), [drawing units] (set when drawn)
+    label : str
+        Name and main parameters
+    label_box : tuple
+        The label's extent, [drawing units] (set when drawn)
+    role : str
+        "supply", "return", "branch", "end", "unit", "signal", "junction",
+        "other"
+    inscription : str
+        Text inside the symbol (a controller's "PID", a command's waveform)
     """
 
     name: str
@@ -96,11 +108,16 @@ class Net:
 
     Attributes
     ----------
-    node : str        The node (its pressure signal)
-    ends : list       (component, end) on it
-    segments : list   ((x0, y0), (x1, y1)) of each straight piece, [drawing units]
-    dots : list       (x, y) where three lines or more meet, [drawing units]
-    anchor : tuple    Where a junction on the node is drawn, (x, y), [drawing units]
+    node : str
+        The node (its pressure signal)
+    ends : list
+        (component, end) on it
+    segments : list
+        ((x0, y0), (x1, y1)) of each straight piece, [drawing units]
+    dots : list
+        (x, y) where three lines or more meet, [drawing units]
+    anchor : tuple
+        Where a junction on the node is drawn, (x, y), [drawing units]
     """
 
     node: str
@@ -116,11 +133,15 @@ class Schematic:
 
     Attributes
     ----------
-    placed : dict     Component name -> :class:`Placed`
-    nets : dict       Node -> :class:`Net`
-    signals : list    (from, to, signal, segments) of each signal line (dashed), from a
-                      component or "experiment"
-    title : str       Figure title
+    placed : dict
+        Component name -> :class:`Placed`
+    nets : dict
+        Node -> :class:`Net`
+    signals : list
+        (from, to, signal, segments) of each signal line (dashed), from a
+        component or "experiment"
+    title : str
+        Figure title
     """
 
     placed: dict
@@ -235,6 +256,7 @@ def schematic(circuit, title: str = "") -> Schematic:
     Returns
     -------
     Schematic
+        The placed symbols and nets, ready to draw
     """
     comps = {c.name: c for c in circuit.components}
     kinds = {n: type_name(c) for n, c in comps.items()}

@@ -31,7 +31,15 @@ __all__ = ["ComponentType", "COMPONENT_TYPES", "FLUID_PARAMETERS", "HOSE_PARAMET
 
 
 class CircuitError(ValueError):
-    """A circuit that cannot be built: one line naming the component and port/parameter."""
+    """A circuit that cannot be built: one line naming the component and port/parameter.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the component and its port or parameter
+    **kwargs : dict
+        None taken (as ``ValueError``)
+    """
 
 
 #: Physical quantity of a command -> SI unit of its values.
@@ -152,13 +160,17 @@ def line_bulk_modulus(fluid, bulk_modulus, pressure):
 
     Parameters
     ----------
-    fluid : Fluid            The rig's oil
-    bulk_modulus : float     The line's oil-and-wall modulus, [Pa]; None: the fluid's
-    pressure : float         The line's mean (nominal) absolute pressure, [Pa]
+    fluid : Fluid
+        The rig's oil
+    bulk_modulus : float
+        The line's oil-and-wall modulus, [Pa]; None: the fluid's
+    pressure : float
+        The line's mean (nominal) absolute pressure, [Pa]
 
     Returns
     -------
-    float or None  [Pa]; ``bulk_modulus`` itself when the oil carries no air
+    float or None
+        [Pa]; ``bulk_modulus`` itself when the oil carries no air
     """
     if not fluid.air_content:
         return bulk_modulus
@@ -175,26 +187,40 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
 
     Parameters
     ----------
-    name : str                 Component name
-    length : float             L, [m]
-    diameter : float           Bore, [m]
-    form : str                 Causal form ("PQ", "QP", "PP", "QQ")
-    nominal_pressure : float   Mean pressure: state scale and steady-state guess, [Pa]
-    bulk_modulus : float       Effective bulk modulus of oil and wall, [Pa]; the oil's when None;
-                               with entrained air (``fluid.air_content``), the mixture's at
-                               ``nominal_pressure`` (M40, M43)
-    modes : int                Modes of the line; ``modes_per_section`` when None
-    method : str               Modal line method; ``line_method`` when None
-    creep_compliances : tuple  Viscoelastic wall (M44): creep compliances J_k, [1/Pa]; empty:
-                               an elastic wall
-    retardation_times : tuple  Their retardation times tau_k, [s]
-    fluid : Fluid              The rig's oil
-    modes_per_section : int    The rig's modes per hose section
-    line_method : str          The rig's modal line method
+    name : str
+        Component name
+    length : float
+        L, [m]
+    diameter : float
+        Bore, [m]
+    form : str
+        Causal form ("PQ", "QP", "PP", "QQ")
+    nominal_pressure : float
+        Mean pressure: state scale and steady-state guess, [Pa]
+    bulk_modulus : float
+        Effective bulk modulus of oil and wall, [Pa]; the oil's when None;
+        with entrained air (``fluid.air_content``), the mixture's at
+        ``nominal_pressure`` (M40, M43)
+    modes : int
+        Modes of the line; ``modes_per_section`` when None
+    method : str
+        Modal line method; ``line_method`` when None
+    creep_compliances : tuple
+        Viscoelastic wall (M44): creep compliances J_k, [1/Pa]; empty:
+        an elastic wall
+    retardation_times : tuple
+        Their retardation times tau_k, [s]
+    fluid : Fluid
+        The rig's oil
+    modes_per_section : int
+        The rig's modes per hose section
+    line_method : str
+        The rig's modal line method
 
     Returns
     -------
     HoseSection
+        The hose section
     """
     beta = line_bulk_modulus(fluid, bulk_modulus, nominal_pressure)
     if creep_compliances or retardation_times:
@@ -217,18 +243,27 @@ def make_accumulator(*, name, connection_length, connection_diameter, model, mod
 
     Parameters
     ----------
-    name : str                   Component name
-    connection_length : float    Length of the passage node -> accumulator, [m]
-    connection_diameter : float  Its bore, [m]
-    model : str                  "version-II" or "modal"
-    modes : int                  Modes of the modal passage; ``modes_per_section`` when None
-    fluid : Fluid                The rig's oil
-    modes_per_section : int      The rig's modes per hose section
-    **params                     The accumulator's own parameters (capacity, ...)
+    name : str
+        Component name
+    connection_length : float
+        Length of the passage node -> accumulator, [m]
+    connection_diameter : float
+        Its bore, [m]
+    model : str
+        "version-II" or "modal"
+    modes : int
+        Modes of the modal passage; ``modes_per_section`` when None
+    fluid : Fluid
+        The rig's oil
+    modes_per_section : int
+        The rig's modes per hose section
+    **params
+        The accumulator's own parameters (capacity, ...)
 
     Returns
     -------
     PistonAccumulator
+        The accumulator
     """
     conn = Line(connection_length, connection_diameter, fluid,
                 line_bulk_modulus(fluid, None, params.get(
@@ -246,14 +281,19 @@ def make_volume(*, name, bulk_modulus=None, fluid, **params):
 
     Parameters
     ----------
-    name : str             Component name
-    bulk_modulus : float   beta of the oil in it, [Pa]; the fluid's when None
-    fluid : Fluid          The rig's oil
-    **params               The volume's other parameters (volume, terms, ...)
+    name : str
+        Component name
+    bulk_modulus : float
+        beta of the oil in it, [Pa]; the fluid's when None
+    fluid : Fluid
+        The rig's oil
+    **params
+        The volume's other parameters (volume, terms, ...)
 
     Returns
     -------
     HydraulicVolume
+        The volume
     """
     return comp.HydraulicVolume(name=name, bulk_modulus=fluid.bulk_modulus if bulk_modulus is None
                                 else bulk_modulus, fluid=fluid, **params)
@@ -265,14 +305,19 @@ def make_table_command(*, name, file, quantity, folder):
 
     Parameters
     ----------
-    name : str        Component name
-    file : str        CSV file, relative to ``folder`` unless absolute
-    quantity : str    What the command drives (its values in that quantity's SI unit)
-    folder : Path     The rig file's folder; None: ``file`` as given
+    name : str
+        Component name
+    file : str
+        CSV file, relative to ``folder`` unless absolute
+    quantity : str
+        What the command drives (its values in that quantity's SI unit)
+    folder : Path
+        The rig file's folder; None: ``file`` as given
 
     Returns
     -------
     TableCommand
+        The command
     """
     path = Path(file)
     if folder is not None and not path.is_absolute():
@@ -287,21 +332,29 @@ class ComponentType:
 
     Parameters
     ----------
-    name : str            The ``type = "..."`` of the file
-    component : type      Component class built
-    description : str     One line for ``hydroline circuit`` and the docs
-    parameters : dict     Extra file parameters (name -> Parameter) a factory turns into the
-                          component's own ones, or declarations replacing the class's
-    hidden : tuple        Component fields not given in the file (set by the factory)
-    factory : callable    ``factory(name=..., **parameters, **context)`` -> the component,
-                          given every declared parameter (the declared default where the
-                          file gives none); None: the class itself, given the parameters the
-                          file gives. Either gets ``terms`` for a type with flow terms (a
-                          ``terms`` field)
-    context : tuple       What it takes from the rig around it (names of :data:`CONTEXT`),
-                          handed by keyword; None: the component class's ``context``
-    levels : tuple        A command's values, in the SI unit and plausible range of its
-                          ``quantity`` (:data:`QUANTITY_PLAUSIBLE`; ``slope`` per second)
+    name : str
+        The ``type = "..."`` of the file
+    component : type
+        Component class built
+    description : str
+        One line for ``hydroline circuit`` and the docs
+    parameters : dict
+        Extra file parameters (name -> Parameter) a factory turns into the
+        component's own ones, or declarations replacing the class's
+    hidden : tuple
+        Component fields not given in the file (set by the factory)
+    factory : callable
+        ``factory(name=..., **parameters, **context)`` -> the component,
+        given every declared parameter (the declared default where the
+        file gives none); None: the class itself, given the parameters the
+        file gives. Either gets ``terms`` for a type with flow terms (a
+        ``terms`` field)
+    context : tuple
+        What it takes from the rig around it (names of :data:`CONTEXT`),
+        handed by keyword; None: the component class's ``context``
+    levels : tuple
+        A command's values, in the SI unit and plausible range of its
+        ``quantity`` (:data:`QUANTITY_PLAUSIBLE`; ``slope`` per second)
     """
 
     name: str
@@ -337,8 +390,15 @@ class ComponentType:
 
         Parameters
         ----------
-        name : str   Component name
-        **kwargs     Its parameters, context and terms
+        name : str
+            Component name
+        **kwargs
+            Its parameters, context and terms
+
+        Returns
+        -------
+        Component
+            The component, ready to join a network
         """
         return (self.factory or self.component)(name=name, **kwargs)
 
@@ -349,7 +409,13 @@ class ComponentType:
 
         Parameters
         ----------
-        values : dict  The component's values as given (its ``quantity``); None: the defaults
+        values : dict
+            The component's values as given (its ``quantity``); None: the defaults
+
+        Returns
+        -------
+        Mapping
+            Parameter name -> :class:`~hydroline.rigs.parameters.Parameter`
         """
         q = (values or {}).get("quantity", "current") if self.levels else None
         known = self._declared.get(("parameters", q))
@@ -375,8 +441,15 @@ class ComponentType:
 
         Parameters
         ----------
-        key : str      Parameter name
-        values : dict  The component's other raw values (for a command's ``quantity``)
+        key : str
+            Parameter name
+        values : dict
+            The component's other raw values (for a command's ``quantity``)
+
+        Returns
+        -------
+        str or None
+            The unit (``"Pa"``, ``"m^3/s"``, ``"-"``), None for a parameter the type lacks
         """
         decl = self.declarations(values).get(key)
         return None if decl is None else decl.unit
@@ -436,9 +509,10 @@ def parameter_reference() -> str:
 
     Returns
     -------
-    str  One section per type: description, ports, then a table of parameter, unit, bounds
-         (physical, never overridable), plausible range (overridable with ``[rig]
-         allow_implausible``), default and description
+    str
+        One section per type: description, ports, then a table of parameter, unit, bounds
+        (physical, never overridable), plausible range (overridable with ``[rig]
+        allow_implausible``), default and description
     """
     lines = []
     for name, t in COMPONENT_TYPES.items():

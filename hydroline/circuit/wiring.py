@@ -53,7 +53,15 @@ HYDRAULIC = ("pressure", "flow")
 
 
 class WiringWarning(UserWarning):
-    """A circuit that is physically possible but unusual (one line naming the component)."""
+    """A circuit that is physically possible but unusual (one line naming the component).
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the component
+    **kwargs : dict
+        None taken (as ``UserWarning``)
+    """
 
 
 def _port_path(c, port: str) -> str:
@@ -208,17 +216,21 @@ def check_wiring(parts, path_of=_port_path) -> list[str]:
 
     Parameters
     ----------
-    parts : list        The circuit's components (an experiment's commands not included)
-    path_of : callable  ``(component, port) -> str``: how a message names a port, e.g.
-                        ``"circuit.pump.ports.pressure"`` or ``"connections.servovalve.supply_pressure"``
+    parts : list
+        The circuit's components (an experiment's commands not included)
+    path_of : callable
+        ``(component, port) -> str``: how a message names a port, e.g.
+        ``"circuit.pump.ports.pressure"`` or ``"connections.servovalve.supply_pressure"``
 
     Returns
     -------
-    list of str  The warnings given (each also issued as a :class:`WiringWarning`)
+    list of str
+        The warnings given (each also issued as a :class:`WiringWarning`)
 
     Raises
     ------
-    CircuitError  One line naming the component and port at fault
+    CircuitError
+        One line naming the component and port at fault
     """
     g = _Circuit(parts)
     check_self_loops(parts, path_of)
@@ -240,12 +252,15 @@ def check_self_loops(parts, path_of=_port_path):
 
     Parameters
     ----------
-    parts : list        The circuit's components
-    path_of : callable  ``(component, port) -> str``: how the message names the port
+    parts : list
+        The circuit's components
+    path_of : callable
+        ``(component, port) -> str``: how the message names the port
 
     Raises
     ------
-    CircuitError  One line naming the component and port
+    CircuitError
+        One line naming the component and port
     """
     for c in parts:
         own = {c.signal(p): p for p in c.outputs}

@@ -137,13 +137,22 @@ class Actuator(Component):
                 State("position", "m", self.stroke / 2),
                 State("velocity", "m/s", 1.0)]
 
-    def hydraulic_natural_frequency(self, position: float = 0.0) -> float:
-        """``w_h = sqrt(beta_c (A_b^2/V_b + A_t^2/V_t)/m)`` at a position, [Hz].
+    def hydraulic_natural_frequency(self, position: float = 0.0, bottom_pressure: float | None = None,
+                                    top_pressure: float | None = None) -> float:
+        """``w_h = sqrt((A_b^2 K_b/V_b + A_t^2 K_t/V_t)/m)`` at a position, [Hz].
+
+        ``K`` is ``beta_c`` for air-free oil (M22); with the fluid's entrained air (and
+        cavity) it is each chamber's effective modulus ``V/C(p, V)`` at its pressure (M40,
+        M41): the chamber compliance the pressure equations use.
 
         Parameters
         ----------
         position : float
             Piston position from mid-stroke, positive up, [m]
+        bottom_pressure : float or None
+            Bottom chamber's mean absolute pressure, [Pa]; None: ``nominal_pressure``
+        top_pressure : float or None
+            Top chamber's mean absolute pressure, [Pa]; None: ``nominal_pressure``
 
         Returns
         -------
@@ -152,7 +161,14 @@ class Actuator(Component):
         """
         Vb = self.bottom_volume + self.bottom_area * position
         Vt = self.top_volume - self.top_area * position
-        w2 = self.bulk_modulus * (self.bottom_area**2 / Vb + self.top_area**2 / Vt) / self.moving_mass
+        if self.fluid is None or self.fluid.plain:
+            w2 = self.bulk_modulus * (self.bottom_area**2 / Vb + self.top_area**2 / Vt) / self.moving_mass
+        else:                                           # (M41): K = V/C at the mean pressure
+            pb = self.nominal_pressure if bottom_pressure is None else bottom_pressure
+            pt = self.nominal_pressure if top_pressure is None else top_pressure
+            w2 = (self.bottom_area**2 / float(oil_compliance(Vb, pb, self.bulk_modulus, self.fluid))
+                  + self.top_area**2 / float(oil_compliance(Vt, pt, self.bulk_modulus, self.fluid))
+                  ) / self.moving_mass
         return float(np.sqrt(w2) / (2 * np.pi))
 
     def outputs_of(self, t, x, u, p):

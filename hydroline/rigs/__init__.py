@@ -32,7 +32,7 @@ import tomllib
 from importlib import resources
 from pathlib import Path
 
-from ..units import UnitError, parse_quantity
+from ..units import UnitError, exact_quantity, parse_quantity
 from .parameters import DerivedTable
 
 __all__ = ["Rig", "RigError", "load_rig", "SCHEMA", "DEFAULT_RIG"]
@@ -45,7 +45,15 @@ MAX_RIG_BYTES = 1 << 20
 
 
 class RigError(ValueError):
-    """A rig file or parameter that cannot be used; the message is one line naming it."""
+    """A rig file or parameter that cannot be used; the message is one line naming it.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the file or the parameter (and its unit)
+    **kwargs : dict
+        None taken (as ``ValueError``)
+    """
 
 
 #: A time-varying source pressure (``[supply.pressure_profile]``, ``[return.pressure_profile]``):
@@ -85,11 +93,13 @@ def declarations(section: str) -> dict:
 
     Parameters
     ----------
-    section : str   Section of the template rig, e.g. ``"fluid"``, ``"actuator"``, ``"rig"``
+    section : str
+        Section of the template rig, e.g. ``"fluid"``, ``"actuator"``, ``"rig"``
 
     Returns
     -------
-    dict  Parameter key -> :class:`hydroline.engine.Parameter` (unit, range, description)
+    dict
+        Parameter key -> :class:`hydroline.engine.Parameter` (unit, range, description)
     """
     known = _DECLARATIONS.get(section)
     if known is None:     # the component classes' declarations do not change: made once
@@ -257,11 +267,14 @@ def _copy_values(values: dict) -> dict:
 class Rig:
     """A parsed rig: parameters in SI, addressed by dotted paths.
 
-    Attributes
+    Parameters
     ----------
-    values : dict   path -> SI value (float), text or list
-    raw : dict      path -> the value as written (with its unit)
-    source : str    Where it came from
+    values : dict
+        path -> SI value (float), text or list
+    raw : dict
+        path -> the value as written (with its unit)
+    source : str
+        Where it came from
     """
 
     def __init__(self, values: dict, raw: dict, source: str):
@@ -278,12 +291,15 @@ class Rig:
 
         Parameters
         ----------
-        path : str         Dotted parameter path, e.g. ``"actuator.moving_mass"``
-        default : object   What to return when ``path`` is not set
+        path : str
+            Dotted parameter path, e.g. ``"actuator.moving_mass"``
+        default : object
+            What to return when ``path`` is not set
 
         Returns
         -------
-        object  SI value (float), text or list; ``default`` when not set
+        object
+            SI value (float), text or list; ``default`` when not set
         """
         return self.values.get(path, default)
 
@@ -328,17 +344,21 @@ class Rig:
 
         Parameters
         ----------
-        path : str       Dotted parameter path, e.g. ``"supply.section1.length"``
-        value : object   Quantity as text with its unit (``"1.5 m"``, ``"3000 psi"``), or text,
-                         number or list as the rig file would hold it
+        path : str
+            Dotted parameter path, e.g. ``"supply.section1.length"``
+        value : object
+            Quantity as text with its unit (``"1.5 m"``, ``"3000 psi"``), or text,
+            number or list as the rig file would hold it
 
         Returns
         -------
-        Rig  self, for chaining
+        Rig
+            self, for chaining
 
         Raises
         ------
-        RigError  One line naming the path and the unit expected
+        RigError
+            One line naming the path and the unit expected
         """
         self.values[path] = _parse(path, value, {**self.raw, path: value})
         self.raw[path] = value
@@ -350,11 +370,18 @@ class Rig:
         Returns
         -------
         Rig
+            An independent copy (changing it leaves this rig as it is)
         """
         return Rig(_copy_values(self.values), _copy_values(self.raw), self.source)
 
     def to_toml(self) -> str:
-        """The rig as TOML text with its units (the raw values)."""
+        """The rig as TOML text with its units (the raw values).
+
+        Returns
+        -------
+        str
+            One ``[section]`` table per dotted prefix, each value as written
+        """
         sections = {}
         for path, v in self.raw.items():
             sec, _, key = path.rpartition(".")
@@ -384,11 +411,13 @@ def shipped_rig(name: str) -> str | None:
 
     Parameters
     ----------
-    name : str   Rig name, with or without ``.toml``; a path (with a slash) is never a shipped rig
+    name : str
+        Rig name, with or without ``.toml``; a path (with a slash) is never a shipped rig
 
     Returns
     -------
-    str or None  File name inside :mod:`hydroline.rigs`, or None when no such rig is shipped
+    str or None
+        File name inside :mod:`hydroline.rigs`, or None when no such rig is shipped
     """
     if "/" in name or "\\" in name:
         return None
@@ -401,7 +430,8 @@ def shipped_rigs() -> list[str]:
 
     Returns
     -------
-    list of str  Names without ``.toml``, as ``load_rig`` and ``[rig] base`` take them
+    list of str
+        Names without ``.toml``, as ``load_rig`` and ``[rig] base`` take them
     """
     return sorted(p.name[:-5] for p in resources.files(__name__).iterdir()
                   if p.name.endswith(".toml"))
@@ -449,18 +479,21 @@ def load_rig(path=None) -> Rig:
 
     Parameters
     ----------
-    path : str or Path   Rig file, or the name of a shipped rig; None for the default
-                         (``ayalew2005.toml``)
+    path : str or Path
+        Rig file, or the name of a shipped rig; None for the default
+        (``ayalew2005.toml``)
 
     Returns
     -------
-    Rig  Parameters in SI, with the raw values as written (a base's, the sub-circuits'
-         components written out)
+    Rig
+        Parameters in SI, with the raw values as written (a base's, the sub-circuits'
+        components written out)
 
     Raises
     ------
-    RigError  One line: file missing or unreadable, bad TOML, a parameter's bad value/unit,
-              a base not found or naming itself, an edit of no component
+    RigError
+        One line: file missing or unreadable, bad TOML, a parameter's bad value/unit,
+        a base not found or naming itself, an edit of no component
     """
     tree, source = _read_toml(path)
     try:
@@ -483,18 +516,23 @@ def compose_rig(tree: dict, source: str, chain: tuple = ()) -> dict:
 
     Parameters
     ----------
-    tree : dict     The file's TOML tables as read
-    source : str    Where they came from (a path, or ``embedded:<name>.toml``)
-    chain : tuple   The files extending this one (a base may not name one of them)
+    tree : dict
+        The file's TOML tables as read
+    source : str
+        Where they came from (a path, or ``embedded:<name>.toml``)
+    chain : tuple
+        The files extending this one (a base may not name one of them)
 
     Returns
     -------
-    dict  The composed tables, without ``[rig] base`` and ``[remove]``; sub-circuit
-          definitions kept under ``subcircuit``
+    dict
+        The composed tables, without ``[rig] base`` and ``[remove]``; sub-circuit
+        definitions kept under ``subcircuit``
 
     Raises
     ------
-    RigError  One line naming the base or the edit at fault
+    RigError
+        One line naming the base or the edit at fault
     """
     from ..circuit.compose import extend, has_circuit_edits   # (the circuit layer is below)
     from ..circuit.types import CircuitError
@@ -533,18 +571,22 @@ def template_circuit(tree: dict, source: str) -> dict:
 
     Parameters
     ----------
-    tree : dict    The template rig's tables, composed
-    source : str   Where they came from
+    tree : dict
+        The template rig's tables, composed
+    source : str
+        Where they came from
 
     Returns
     -------
-    dict  The same rig's tables as a circuit rig's: ``[circuit.*]`` and the template's
-          ``[rig]``, ``[fluid]``, ``[controller]``, ``[scenario.*]``, ``[connections]``
+    dict
+        The same rig's tables as a circuit rig's: ``[circuit.*]`` and the template's
+        ``[rig]``, ``[fluid]``, ``[controller]``, ``[scenario.*]``, ``[connections]``
 
     Raises
     ------
-    RigError  A template with a pressure profile (its waveform is not written out as a
-              circuit's), or one line naming a bad value of the template
+    RigError
+        A template with a pressure profile (its waveform is not written out as a
+        circuit's), or one line naming a bad value of the template
     """
     from ..circuit.types import COMPONENT_TYPES
     from .template import expand
@@ -564,9 +606,9 @@ def template_circuit(tree: dict, source: str) -> dict:
             if isinstance(v, (str, bool)) or unit in (None, "-", "str"):
                 table[key] = v
             elif isinstance(v, (list, tuple)):
-                table[key] = [f"{float(x)!r} {unit.removeprefix('list:')}" for x in v]
+                table[key] = [exact_quantity(x, unit.removeprefix("list:")) for x in v]
             else:
-                table[key] = f"{float(v)!r} {unit}"
+                table[key] = exact_quantity(v, unit)
         if spec.ports:
             table["ports"] = dict(spec.ports)
         if spec.terms:

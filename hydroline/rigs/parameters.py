@@ -61,21 +61,29 @@ class Parameter:
 
     Attributes
     ----------
-    unit : str          SI unit (``"-"`` dimensionless, ``"str"`` text)
-    low, high : float   Plausible range, inclusive, [unit]; None: no bound on that side
-    description : str   What it is (said in messages)
-    default : object    Value used when the rig does not give it: a number [unit], the dotted
-                        path of another parameter whose value is taken, None (the feature is
-                        off), or :data:`REQUIRED`
-    scope : str         When the parameter changes a run: "always", a scenario name,
-                        "close-coupled" (section II of zero length), "lugre" (friction model),
-                        "modal-accumulator", "load-spring" (a load stiffness given),
-                        "entrained-air" (a fluid.air_content given), "cavity" (a
-                        fluid.cavity_pressure given), "viscoelastic" (a hose wall given)
-    zero_allowed : bool 0 is accepted below ``low`` (a length of 0 removes a hose section)
-    integer : bool      The value must be a whole number
-    inherited : bool    The default is a rig-wide setting by design (the modes of a section
-                        are ``rig.modes_per_section``): not reported as a default
+    unit : str
+        SI unit (``"-"`` dimensionless, ``"str"`` text)
+    low, high : float
+        Plausible range, inclusive, [unit]; None: no bound on that side
+    description : str
+        What it is (said in messages)
+    default : object
+        Value used when the rig does not give it: a number [unit], the dotted
+        path of another parameter whose value is taken, None (the feature is
+        off), or :data:`REQUIRED`
+    scope : str
+        When the parameter changes a run: "always", a scenario name,
+        "close-coupled" (section II of zero length), "lugre" (friction model),
+        "modal-accumulator", "load-spring" (a load stiffness given),
+        "entrained-air" (a fluid.air_content given), "cavity" (a
+        fluid.cavity_pressure given), "viscoelastic" (a hose wall given)
+    zero_allowed : bool
+        0 is accepted below ``low`` (a length of 0 removes a hose section)
+    integer : bool
+        The value must be a whole number
+    inherited : bool
+        The default is a rig-wide setting by design (the modes of a section
+        are ``rig.modes_per_section``): not reported as a default
     """
 
     unit: str
@@ -108,12 +116,17 @@ class Declared:
 
     Attributes
     ----------
-    default : object      As for :class:`Parameter`: a number [unit], a dotted path, None or
-                          :data:`REQUIRED`; :data:`COMPONENT_DEFAULT`: the declaration's
-    scope : str           As for :class:`Parameter`: when the parameter changes a run
-    zero_allowed : bool   As for :class:`Parameter`: 0 is accepted below the range
-    integer : bool        As for :class:`Parameter`: the value must be a whole number
-    inherited : bool      As for :class:`Parameter`: a rig-wide default by design
+    default : object
+        As for :class:`Parameter`: a number [unit], a dotted path, None or
+        :data:`REQUIRED`; :data:`COMPONENT_DEFAULT`: the declaration's
+    scope : str
+        As for :class:`Parameter`: when the parameter changes a run
+    zero_allowed : bool
+        As for :class:`Parameter`: 0 is accepted below the range
+    integer : bool
+        As for :class:`Parameter`: the value must be a whole number
+    inherited : bool
+        As for :class:`Parameter`: a rig-wide default by design
     """
 
     default: object = REQUIRED
@@ -153,8 +166,10 @@ class DerivedTable(Mapping):
 
     Parameters
     ----------
-    entries : dict      key -> what the value is derived from
-    derive : callable   ``(key, entry) -> value``
+    entries : dict
+        key -> what the value is derived from
+    derive : callable
+        ``(key, entry) -> value``
     """
 
     def __init__(self, entries, derive):
@@ -175,7 +190,13 @@ class DerivedTable(Mapping):
         return len(self.entries)
 
     def items(self):
-        """(key, value) pairs of the derived table (its dict's view: no lookup per key)."""
+        """(key, value) pairs of the derived table (its dict's view: no lookup per key).
+
+        Returns
+        -------
+        ItemsView
+            The derived table's items
+        """
         return self._build().items()
 
     def values(self):
@@ -318,15 +339,18 @@ def allowed_implausible(rig) -> set:
 
     Parameters
     ----------
-    rig : Rig   Parameters (SI)
+    rig : Rig
+        Parameters (SI)
 
     Returns
     -------
-    set  Dotted parameter paths whose plausible range (or consistency check) is overridden
+    set
+        Dotted parameter paths whose plausible range (or consistency check) is overridden
 
     Raises
     ------
-    RigError  One line naming a listed path that is not a rig parameter with a range
+    RigError
+        One line naming a listed path that is not a rig parameter with a range
     """
     listed = rig.get("rig.allow_implausible") or []
     for path in listed:
@@ -369,12 +393,14 @@ def check_ranges(rig):
 
     Parameters
     ----------
-    rig : Rig   Parameters (SI)
+    rig : Rig
+        Parameters (SI)
 
     Raises
     ------
-    RigError  One line: the path, the value as written, the range with its SI unit, and how to
-              override (``[rig] allow_implausible``)
+    RigError
+        One line: the path, the value as written, the range with its SI unit, and how to
+        override (``[rig] allow_implausible``)
     """
     from ..engine.component import range_text   # the wording the circuit files use too
 
@@ -420,13 +446,16 @@ def check_consistency(rig, scenario: str | None = None):
 
     Parameters
     ----------
-    rig : Rig           Parameters (SI)
-    scenario : str      The scenario run: only its checks are made (the command against
-                        the rating and stroke); None: the rig's own (weight, pre-charge)
+    rig : Rig
+        Parameters (SI)
+    scenario : str
+        The scenario run: only its checks are made (the command against
+        the rating and stroke); None: the rig's own (weight, pre-charge)
 
     Raises
     ------
-    RigError  One line naming the parameter to look at, its unit and the override
+    RigError
+        One line naming the parameter to look at, its unit and the override
     """
     allowed = allowed_implausible(rig)
 
@@ -523,14 +552,17 @@ def defaults_used(rig, scenario: str | None = None) -> list[tuple[str, str]]:
 
     Parameters
     ----------
-    rig : Rig          Parameters (SI)
-    scenario : str     The scenario run (only the parameters it uses); None: every parameter
+    rig : Rig
+        Parameters (SI)
+    scenario : str
+        The scenario run (only the parameters it uses); None: every parameter
 
     Returns
     -------
-    list of (path, what is used) -- e.g. ``("supply.section1.bulk_modulus",
-    "fluid.bulk_modulus = 1.5e+09 Pa")``, in table order; parameters whose default turns a
-    feature off (no sample time, no area when both side areas are given) are left out
+    list of tuple of str
+        (path, what is used) -- e.g. ``("supply.section1.bulk_modulus",
+        "fluid.bulk_modulus = 1.5e+09 Pa")``, in table order; parameters whose default turns a
+        feature off (no sample time, no area when both side areas are given) are left out
     """
     from ..circuit import has_circuit
 
@@ -585,11 +617,13 @@ def steady_state_hint(state: str) -> str:
 
     Parameters
     ----------
-    state : str   Dotted state name, e.g. ``"return.section2.mode1.flow"``
+    state : str
+        Dotted state name, e.g. ``"return.section2.mode1.flow"``
 
     Returns
     -------
-    str  One phrase for an error message
+    str
+        One phrase for an error message
     """
     parts = state.split(".")
     side = parts[0] if parts[0] in ("supply", "return") else "supply"

@@ -10,20 +10,23 @@ pre-charges) to what a physical rig can be, naming the paths the file wrote.
 
 Signal names (the network's vocabulary; see ``docs`` of each component for its ports):
 
-supply side   pump_pressure -> supply.section1 -> supply.manifold_inlet_pressure ->
-              supply.manifold -> supply.manifold_pressure (HSM node, accumulator) ->
-              supply.section2 -> supply_port_pressure (valve P port); flows back:
-              supply_port_flow, supply.section2_inflow, supply.accumulator_flow,
-              supply.manifold_flow, pump_flow.
-return side   return_port_flow (valve T port, toward tank) -> return.section2 ->
-              return.manifold_pressure (HSM return node, accumulator) -> manifold resistance,
-              check valve -> return.section1 -> tank_pressure; pressures back:
-              return_port_pressure, return.check_valve_pressure,
-              return.section1_inlet_pressure; flows return.section2_outflow,
-              return.accumulator_flow, return.manifold_flow, tank_flow.
-valve/piston  valve_current, bottom_chamber_flow, top_chamber_flow, bottom_chamber_pressure,
-              top_chamber_pressure, piston_position, piston_velocity, friction_force,
-              load_force.
+supply side
+    pump_pressure -> supply.section1 -> supply.manifold_inlet_pressure ->
+    supply.manifold -> supply.manifold_pressure (HSM node, accumulator) ->
+    supply.section2 -> supply_port_pressure (valve P port); flows back:
+    supply_port_flow, supply.section2_inflow, supply.accumulator_flow,
+    supply.manifold_flow, pump_flow.
+return side
+    return_port_flow (valve T port, toward tank) -> return.section2 ->
+    return.manifold_pressure (HSM return node, accumulator) -> manifold resistance,
+    check valve -> return.section1 -> tank_pressure; pressures back:
+    return_port_pressure, return.check_valve_pressure,
+    return.section1_inlet_pressure; flows return.section2_outflow,
+    return.accumulator_flow, return.manifold_flow, tank_flow.
+valve/piston
+    valve_current, bottom_chamber_flow, top_chamber_flow, bottom_chamber_pressure,
+    top_chamber_pressure, piston_position, piston_velocity, friction_force,
+    load_force.
 
 Both sides are one pattern (:data:`SIDES`): a source, section I to the HSM, the accumulator on
 the HSM node, the manifold loss (on the return in series with its check valve), section II to
@@ -61,18 +64,27 @@ class Side:
 
     Attributes
     ----------
-    name : str             "supply" or "return"
-    source : str           Its pressure source (the pump unit, the tank)
-    source_pressure : str  Signal of the source pressure, [Pa]
-    source_flow : str      Flow at the source end of section I, [m^3/s]
-    inlet_pressure : str   Pressure at section I's HSM end, [Pa]
-    section2_flow : str    Flow at section II's HSM end, [m^3/s]
-    toward_valve : bool    True where flows count positive from the source toward the valve
-                           (the supply: PQ hoses); False where they run from the valve toward
-                           the source (the return, toward the tank: QP hoses)
-    check_valve : bool     The manifold loss has a check valve in series, on the source side
-    node_terms : tuple     (term, flow: "manifold", "port" or "accumulator", sign) of the HSM
-                           block's oil volume that is the node when section II is removed
+    name : str
+        "supply" or "return"
+    source : str
+        Its pressure source (the pump unit, the tank)
+    source_pressure : str
+        Signal of the source pressure, [Pa]
+    source_flow : str
+        Flow at the source end of section I, [m^3/s]
+    inlet_pressure : str
+        Pressure at section I's HSM end, [Pa]
+    section2_flow : str
+        Flow at section II's HSM end, [m^3/s]
+    toward_valve : bool
+        True where flows count positive from the source toward the valve
+        (the supply: PQ hoses); False where they run from the valve toward
+        the source (the return, toward the tank: QP hoses)
+    check_valve : bool
+        The manifold loss has a check valve in series, on the source side
+    node_terms : tuple
+        (term, flow: "manifold", "port" or "accumulator", sign) of the HSM
+        block's oil volume that is the node when section II is removed
     """
 
     name: str
@@ -90,7 +102,13 @@ class Side:
 
         Parameters
         ----------
-        kind : str   Which flow
+        kind : str
+            Which flow
+
+        Returns
+        -------
+        str
+            The flow's signal name, [m^3/s] signal
         """
         return f"{self.name}_port_flow" if kind == "port" else f"{self.name}.{kind}_flow"
 
@@ -131,12 +149,20 @@ def section_present(rig: Rig, section: str) -> bool:
 
     Parameters
     ----------
-    rig : Rig       Parameters (SI)
-    section : str   Hose section, ``"<side>.section<n>"``
+    rig : Rig
+        Parameters (SI)
+    section : str
+        Hose section, ``"<side>.section<n>"``
+
+    Returns
+    -------
+    bool
+        Whether the section is there (a length above 0)
 
     Raises
     ------
-    RigError  For a length below 0
+    RigError
+        For a length below 0
     """
     length = rig.get(f"{section}.length", 0.0)
     if length < 0:
@@ -150,18 +176,23 @@ def make_line(rig: Rig, section: str, fluid) -> Line:
 
     Parameters
     ----------
-    rig : Rig        Parameters (SI)
-    section : str    Hose section, ``"<side>.section<n>"``
-    fluid : Fluid    The fluid in it (the section's own bulk modulus, if set, overrides its
-                     effective one)
+    rig : Rig
+        Parameters (SI)
+    section : str
+        Hose section, ``"<side>.section<n>"``
+    fluid : Fluid
+        The fluid in it (the section's own bulk modulus, if set, overrides its
+        effective one)
 
     Returns
     -------
-    Line  Length [m], diameter [m] and fluid of the section
+    Line
+        Length [m], diameter [m] and fluid of the section
 
     Raises
     ------
-    RigError  One line naming the section's parameter at fault
+    RigError
+        One line naming the section's parameter at fault
     """
     length, diameter = rig[f"{section}.length"], rig[f"{section}.diameter"]   # (named in full)
     try:
@@ -315,17 +346,21 @@ def expand(rig: Rig, profiles: dict | None = None) -> list:
 
     Parameters
     ----------
-    rig : Rig        A template rig (SI)
-    profiles : dict  side -> :func:`pressure_profile` (as :func:`check_template` returns them);
-                     None: read here
+    rig : Rig
+        A template rig (SI)
+    profiles : dict
+        side -> :func:`pressure_profile` (as :func:`check_template` returns them);
+        None: read here
 
     Returns
     -------
     list of ComponentSpec
+        The circuit the template stands for, in state order
 
     Raises
     ------
-    RigError  One line naming a value the template needs and the rig does not give
+    RigError
+        One line naming a value the template needs and the rig does not give
     """
     if profiles is None:
         profiles = {side: pressure_profile(rig, side) for side in SIDES}
@@ -361,13 +396,16 @@ def pressure_profile(rig: Rig, side: str):
 
     Parameters
     ----------
-    rig : Rig    Parameters (SI)
-    side : str   "supply" or "return"
+    rig : Rig
+        Parameters (SI)
+    side : str
+        "supply" or "return"
 
     Returns
     -------
-    tuple  (waveform component or None, level at t = 0 [Pa], (lowest, highest) pressure over
-           all time [Pa])
+    tuple
+        (waveform component or None, level at t = 0 [Pa], (lowest, highest) pressure over
+        all time [Pa])
     """
     base = f"{side}.pressure_profile"
     level = rig.get(f"{side}.pressure")
@@ -436,14 +474,19 @@ def bad_value(rig: Rig, path: str, rule: str, value=None) -> RigError:
 
     Parameters
     ----------
-    rig : Rig       The rig holding the value
-    path : str      Its dotted path
-    rule : str      What it must be, e.g. "> 0"
-    value : object  Shown where the rig holds no value as written at ``path``
+    rig : Rig
+        The rig holding the value
+    path : str
+        Its dotted path
+    rule : str
+        What it must be, e.g. "> 0"
+    value : object
+        Shown where the rig holds no value as written at ``path``
 
     Returns
     -------
     RigError
+        The error to raise (one line naming the path and its unit)
     """
     shown = rig.raw.get(path, value if value is not None else rig.get(path))
     unit = _unit(path)
@@ -468,17 +511,21 @@ def check_template(rig: Rig, position_guess: float | None = None) -> dict:
 
     Parameters
     ----------
-    rig : Rig               A template rig (SI)
-    position_guess : float  Initial piston position given by the scenario, [m]; checked
-                            like ``actuator.initial_position`` when not None
+    rig : Rig
+        A template rig (SI)
+    position_guess : float
+        Initial piston position given by the scenario, [m]; checked
+        like ``actuator.initial_position`` when not None
 
     Returns
     -------
-    dict  side -> its :func:`pressure_profile`
+    dict
+        side -> its :func:`pressure_profile`
 
     Raises
     ------
-    RigError  One line naming the template path at fault, its unit and the value as written
+    RigError
+        One line naming the template path at fault, its unit and the value as written
     """
     for path in _POSITIVE:
         v = rig.get(path)

@@ -40,11 +40,13 @@ def default_scenario(rig: Rig) -> str:
 
     Parameters
     ----------
-    rig : Rig  The parsed rig
+    rig : Rig
+        The parsed rig
 
     Returns
     -------
-    str  The scenario's name
+    str
+        The scenario's name
     """
     return rig.get("rig.scenario", "open-loop-step")
 
@@ -55,12 +57,18 @@ class Scenario:
     Attributes
     ----------
     name : str
-    commands : list          Components that drive the network (``valve_current`` source or
-                             reference + controller)
-    t_end : float            Simulated time, [s]
-    t_disturbance : float    Time of the step (metrics start there), [s]
-    position_guess : float   Initial piston position, [m]
-    experiment : Experiment  The experiment it was built from
+        The experiment's name (its ``[scenario.NAME]`` table)
+    commands : list
+        Components that drive the network (``valve_current`` source or
+        reference + controller)
+    t_end : float
+        Simulated time, [s]
+    t_disturbance : float
+        Time of the step (metrics start there), [s]
+    position_guess : float
+        Initial piston position, [m]
+    experiment : Experiment
+        The experiment it was built from
     """
 
     name: str
@@ -134,14 +142,17 @@ def template_controller(rig: Rig, axis) -> comp.PositionController:
 
     Parameters
     ----------
-    rig : Rig    Parameters (SI): ``controller.proportional_gain`` [A/m] and optionally
-                 ``integral_gain`` [A/(m s)], ``derivative_gain`` [A s/m], ``current_limit`` [A],
-                 ``sample_time`` [s]
-    axis : Axis  The axis whose valve current the controller drives
+    rig : Rig
+        Parameters (SI): ``controller.proportional_gain`` [A/m] and optionally
+        ``integral_gain`` [A/(m s)], ``derivative_gain`` [A s/m], ``current_limit`` [A],
+        ``sample_time`` [s]
+    axis : Axis
+        The axis whose valve current the controller drives
 
     Returns
     -------
     PositionController
+        The controller closing the axis's position loop
     """
     if rig is None or rig.get("controller.proportional_gain") is None:
         raise RigError(f"controller.proportional_gain: not set in rig "
@@ -164,11 +175,16 @@ def _within_stroke(rig, path: str, reach: float, what: str, axis):
 
     Parameters
     ----------
-    rig : Rig        Parameters (SI); None: nothing is allowed
-    path : str       The scenario key that sets the command, for the message
-    reach : float    Farthest reference from mid-stroke, [m]
-    what : str       How the reference gets there, for the message
-    axis : Axis      The commanded axis (its stroke)
+    rig : Rig
+        Parameters (SI); None: nothing is allowed
+    path : str
+        The scenario key that sets the command, for the message
+    reach : float
+        Farthest reference from mid-stroke, [m]
+    what : str
+        How the reference gets there, for the message
+    axis : Axis
+        The commanded axis (its stroke)
     """
     half = axis.stroke / 2
     if abs(reach) <= half * (1 + 1e-9) or (rig is not None and path in allowed_implausible(rig)):
@@ -200,8 +216,10 @@ class Experiment:
 
     Attributes
     ----------
-    name : str          The experiment's name (its ``[scenario.NAME]`` table)
-    t_end : float       Simulated time, [s]
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s]
     """
 
     #: Registry name of the experiment type.
@@ -232,12 +250,15 @@ class Experiment:
 
         Parameters
         ----------
-        axes : dict   Axis name -> :class:`hydroline.circuit.Axis` (signal handles)
-        rig : Rig     Parameters (SI): where pistons start, the template's ``[controller]``
+        axes : dict
+            Axis name -> :class:`hydroline.circuit.Axis` (signal handles)
+        rig : Rig
+            Parameters (SI): where pistons start, the template's ``[controller]``
 
         Returns
         -------
-        list  Components
+        list
+            Components
         """
         raise NotImplementedError
 
@@ -246,12 +267,24 @@ class Experiment:
 
         Parameters
         ----------
-        axes : dict   Axis name -> Axis
+        axes : dict
+            Axis name -> Axis
+
+        Returns
+        -------
+        list of str
+            Axis names
         """
         return [next(iter(axes))]
 
     def metadata(self) -> dict:
-        """What the experiment adds to a result's ``metadata``."""
+        """What the experiment adds to a result's ``metadata``.
+
+        Returns
+        -------
+        dict
+            Key -> value (SI) added to the result's metadata; empty for most experiments
+        """
         return {}
 
     def summary(self, result: SimulationResult, settling_band=SETTLING_BAND) -> dict:
@@ -259,14 +292,17 @@ class Experiment:
 
         Parameters
         ----------
-        result : SimulationResult  A run of this experiment (:func:`simulate`)
-        settling_band : SettlingBand  The port pressures' settling band
-                                   (:class:`hydroline.traces.metrics.SettlingBand`; default
-                                   +-2 % of the final absolute pressure)
+        result : SimulationResult
+            A run of this experiment (:func:`simulate`)
+        settling_band : SettlingBand
+            The port pressures' settling band
+            (:class:`hydroline.traces.metrics.SettlingBand`; default
+            +-2 % of the final absolute pressure)
 
         Returns
         -------
         dict
+            The summary (:func:`hydroline.summarize`: per port metrics, notes, the window)
         """
         return run_summary(result, self.window_start, sine=False, settling_band=settling_band)
 
@@ -281,10 +317,18 @@ class OpenLoopStep(Experiment):
 
     Attributes
     ----------
-    current : float           Current after the step, [A] (None: ``servovalve.rated_current``)
-    initial_current : float   Current before the step, [A]
-    time : float              Time of the step, [s]
-    axis : str                The stepped axis (None: the first)
+    current : float
+        Current after the step, [A] (None: ``servovalve.rated_current``)
+    initial_current : float
+        Current before the step, [A]
+    time : float
+        Time of the step, [s]
+    axis : str
+        The stepped axis (None: the first)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s] (default 0.25 s)
     """
 
     kind: ClassVar[str] = "open-loop-step"
@@ -302,9 +346,17 @@ class OpenLoopStep(Experiment):
 
         Parameters
         ----------
-        rig : Rig       Parameters (SI)
-        name : str      Its table's name
-        t_end : float   Simulated time, [s] (the table's, else 0.25 s, when None)
+        rig : Rig
+            Parameters (SI)
+        name : str
+            Its table's name
+        t_end : float
+            Simulated time, [s] (the table's, else 0.25 s, when None)
+
+        Returns
+        -------
+        OpenLoopStep
+            The experiment
         """
         return cls(name=name, current=_scenario_value(rig, name, "current",
                                                       rig.get("servovalve.rated_current", 0.05)),
@@ -337,11 +389,20 @@ class ClosedLoopSine(Experiment):
 
     Attributes
     ----------
-    amplitude : float          Reference amplitude, [m]
-    frequency : float          Reference frequency, [Hz]
-    offset : float             Reference mean, [m]
-    initial_position : float   Piston position at the start (template rigs), [m]
-    axis : str                 The tracking axis (None: the first)
+    amplitude : float
+        Reference amplitude, [m]
+    frequency : float
+        Reference frequency, [Hz]
+    offset : float
+        Reference mean, [m]
+    initial_position : float
+        Piston position at the start (template rigs), [m]
+    axis : str
+        The tracking axis (None: the first)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s] (default 1 s)
     """
 
     kind: ClassVar[str] = "closed-loop-sine"
@@ -365,9 +426,17 @@ class ClosedLoopSine(Experiment):
 
         Parameters
         ----------
-        rig : Rig       Parameters (SI)
-        name : str      Its table's name
-        t_end : float   Simulated time, [s] (the table's, else 1 s, when None)
+        rig : Rig
+            Parameters (SI)
+        name : str
+            Its table's name
+        t_end : float
+            Simulated time, [s] (the table's, else 1 s, when None)
+
+        Returns
+        -------
+        ClosedLoopSine
+            The experiment
         """
         return cls(name=name, offset=_scenario_value(rig, name, "offset", 0.0),
                    amplitude=_scenario_value(rig, name, "amplitude"),
@@ -406,9 +475,16 @@ class PositionStep(Experiment):
 
     Attributes
     ----------
-    step : float   Reference step from where the piston starts, [m]
-    time : float   Time of the step, > 0 (the steady state is solved before it), [s]
-    axis : str     The stepped axis (None: the first)
+    step : float
+        Reference step from where the piston starts, [m]
+    time : float
+        Time of the step, > 0 (the steady state is solved before it), [s]
+    axis : str
+        The stepped axis (None: the first)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s] (default 0.15 s)
     """
 
     kind: ClassVar[str] = "position-step"
@@ -430,9 +506,17 @@ class PositionStep(Experiment):
 
         Parameters
         ----------
-        rig : Rig       Parameters (SI)
-        name : str      Its table's name
-        t_end : float   Simulated time, [s] (the table's, else 0.15 s, when None)
+        rig : Rig
+            Parameters (SI)
+        name : str
+            Its table's name
+        t_end : float
+            Simulated time, [s] (the table's, else 0.15 s, when None)
+
+        Returns
+        -------
+        PositionStep
+            The experiment
         """
         key = f"scenario.{name}"
         t_step = rig.get(f"{key}.time", 0.01)
@@ -470,13 +554,18 @@ class AxisCommand:
 
     Attributes
     ----------
-    quantity : str     "current" (valve current, [A]) or "position" (position reference, [m])
-    waveform : str     "step", "ramp", "sine" or "table"
-    values : dict      The waveform's parameters (:data:`hydroline.scenario_schema.WAVEFORM_KEYS`),
-                       SI: [A] or [m] for levels, [A/s] or [m/s] for slopes, [s], [Hz]; a level
-                       left out (``initial``, ``offset``) is where the axis starts
-    times : ndarray    Table times, [s] (``waveform = "table"``)
-    table : ndarray    Table values, [A] or [m]
+    quantity : str
+        "current" (valve current, [A]) or "position" (position reference, [m])
+    waveform : str
+        "step", "ramp", "sine" or "table"
+    values : dict
+        The waveform's parameters (:data:`hydroline.scenario_schema.WAVEFORM_KEYS`),
+        SI: [A] or [m] for levels, [A/s] or [m/s] for slopes, [s], [Hz]; a level
+        left out (``initial``, ``offset``) is where the axis starts
+    times : ndarray
+        Table times, [s] (``waveform = "table"``)
+    table : ndarray
+        Table values, [A] or [m]
     """
 
     quantity: str
@@ -503,18 +592,32 @@ class AxisCommand:
 
         Parameters
         ----------
-        quantity : str      "current" [A] or "position" [m]
-        path : str or Path  The file
+        quantity : str
+            "current" [A] or "position" [m]
+        path : str or Path
+            The file
+
+        Returns
+        -------
+        AxisCommand
+            A ``"table"`` command, times [s] and values [A] or [m]
 
         Raises
         ------
-        ValueError  one line naming the file and what is wrong
+        ValueError
+            one line naming the file and what is wrong
         """
         t, v = read_table_csv(path, QUANTITY_UNITS[quantity])
         return cls(quantity, "table", times=t, table=v)
 
     def change_time(self) -> float:
-        """When the command first changes (its disturbance), [s]."""
+        """When the command first changes (its disturbance), [s].
+
+        Returns
+        -------
+        float
+            The time of the first change, [s] (0 for a table that never changes)
+        """
         v = self.values
         if self.waveform == "step":
             return float(v["time"])
@@ -528,9 +631,22 @@ class AxisCommand:
 
         Parameters
         ----------
-        name : str     Component name
-        start : float  Where the axis starts (level default), [A] or [m]
-        key : str      Rig path of the axis's table, for messages
+        name : str
+            Component name
+        start : float
+            Where the axis starts (level default), [A] or [m]
+        key : str
+            Rig path of the axis's table, for messages
+
+        Returns
+        -------
+        Component
+            A step, ramp, sine or table command
+
+        Raises
+        ------
+        RigError
+            One line naming the waveform's value that is missing or out of range
         """
         v, unit = self.values, QUANTITY_UNITS[self.quantity]
 
@@ -568,12 +684,14 @@ class AxisCommand:
 
         Parameters
         ----------
-        start : float  Where the axis starts (the level a waveform without its own initial
-                       value or offset holds), [A] or [m]
+        start : float
+            Where the axis starts (the level a waveform without its own initial
+            value or offset holds), [A] or [m]
 
         Returns
         -------
-        tuple of float  (lowest, highest), [A] or [m]
+        tuple of float
+            (lowest, highest), [A] or [m]
         """
         v = self.values
         if self.waveform == "step":
@@ -597,9 +715,15 @@ class AxisCommands(Experiment):
 
     Attributes
     ----------
-    axes : dict                 Axis name -> :class:`AxisCommand`
-    disturbance_time : float    Where the metrics start, [s] (None: the first time a command
-                                changes)
+    axes : dict
+        Axis name -> :class:`AxisCommand`
+    disturbance_time : float
+        Where the metrics start, [s] (None: the first time a command
+        changes)
+    name : str
+        The experiment's name (its ``[scenario.NAME]`` table)
+    t_end : float
+        Simulated time, [s]
     """
 
     kind: ClassVar[str] = "axis-commands"
@@ -622,9 +746,17 @@ class AxisCommands(Experiment):
 
         Parameters
         ----------
-        rig : Rig       Parameters (SI), read with :mod:`hydroline.scenario_schema`
-        name : str      The table's name
-        t_end : float   Simulated time, [s] (the table's when None)
+        rig : Rig
+            Parameters (SI), read with :mod:`hydroline.scenario_schema`
+        name : str
+            The table's name
+        t_end : float
+            Simulated time, [s] (the table's when None)
+
+        Returns
+        -------
+        AxisCommands
+            The experiment
         """
         base = f"scenario.{name}"
         t_end = t_end or rig.get(f"{base}.t_end")
@@ -703,6 +835,12 @@ def scenario_names(rig: Rig) -> list[str]:
     Parameters
     ----------
     rig : Rig
+        Parameters (SI)
+
+    Returns
+    -------
+    list of str
+        The built-in experiments' names, then the rig's own
     """
     own = [k.split(".")[1] for k in rig.values
            if k.startswith("scenario.") and k.endswith(".type") and k.count(".") == 2]
@@ -714,13 +852,17 @@ def experiment(rig: Rig, scenario: "str | Experiment", t_end: float | None = Non
 
     Parameters
     ----------
-    rig : Rig                   Parameters (SI)
-    scenario : str or Experiment  A name (:func:`scenario_names`) or an experiment object
-    t_end : float               Simulated time, [s] (the experiment's own when None)
+    rig : Rig
+        Parameters (SI)
+    scenario : str or Experiment
+        A name (:func:`scenario_names`) or an experiment object
+    t_end : float
+        Simulated time, [s] (the experiment's own when None)
 
     Returns
     -------
     Experiment
+        The experiment, with ``t_end`` applied
     """
     if isinstance(scenario, Experiment):
         exp = replace(scenario, t_end=t_end) if t_end is not None else scenario
@@ -747,16 +889,21 @@ def build_scenario(rig: Rig, scenario: "str | Experiment" = "open-loop-step",
 
     Parameters
     ----------
-    rig : Rig                     Parameters (SI)
-    scenario : str or Experiment  A name (built-in, :data:`SCENARIOS`, or the rig's own) or an
-                                  experiment object
-    t_end : float                 Simulated time, [s] (the experiment's default when None)
-    axes : dict                   The rig's axis handles (:attr:`hydroline.circuit.Circuit.axes`);
-                                  built from the rig when None
+    rig : Rig
+        Parameters (SI)
+    scenario : str or Experiment
+        A name (built-in, :data:`SCENARIOS`, or the rig's own) or an
+        experiment object
+    t_end : float
+        Simulated time, [s] (the experiment's default when None)
+    axes : dict
+        The rig's axis handles (:attr:`hydroline.circuit.Circuit.axes`);
+        built from the rig when None
 
     Returns
     -------
     Scenario
+        The experiment's commands and times for this rig
     """
     if axes is None:
         axes = build_circuit(rig).axes
@@ -774,13 +921,17 @@ def hold_other_axes(rig: Rig, axes: dict, driven: str | None) -> list:
 
     Parameters
     ----------
-    rig : Rig      Parameters (SI)
-    axes : dict    Axis handles, name -> :class:`hydroline.circuit.Axis`
-    driven : str   The axis the experiment drives (None: hold them all)
+    rig : Rig
+        Parameters (SI)
+    axes : dict
+        Axis handles, name -> :class:`hydroline.circuit.Axis`
+    driven : str
+        The axis the experiment drives (None: hold them all)
 
     Returns
     -------
-    list  Command components
+    list
+        Command components
     """
     out = []
     for ax in axes.values():

@@ -55,6 +55,7 @@ import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
+from ..units import exact_quantity
 from .design import parse_parameter, parse_parameters
 from .executors import MAX_WORKERS, call_runner, dask_client, failure_reason, worker_pool
 from .journal import FORMAT_VERSION, Journal, check_same_sweep, read_journal, rig_hash
@@ -771,7 +772,7 @@ def _with_values(rig: Rig, values: dict, units: dict) -> Rig:
     r = rig.copy()
     for path, v in values.items():
         unit = units[path]
-        r.set(path, v if unit in ("-", "str") else f"{float(v)!r} {unit}")
+        r.set(path, v if unit in ("-", "str") else exact_quantity(v, unit))
     return r
 
 

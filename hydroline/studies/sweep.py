@@ -64,6 +64,7 @@ from ..blas import one_blas_thread
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
 from ..scenarios.running import simulate
+from ..units import exact_quantity
 from .design import Design, parameter_unit, parse_parameters
 from .executors import (MAX_ATTEMPTS, MAX_WORKERS, dask_client, failure_reason, run_dask,
                         run_processes, run_serial)
@@ -175,7 +176,7 @@ def _set_si(rig: Rig, path: str, value, unit: str):
     if unit in ("-", "str"):
         rig.set(path, value)
     else:
-        rig.set(path, f"{float(value)!r} {unit}")
+        rig.set(path, exact_quantity(value, unit))
 
 
 def _values_checked(p) -> tuple:

@@ -19,7 +19,7 @@ standard deviation over the same last 20 % (a noise level: the direction of a ch
 than the residual wiggle of the tail is not defined).
 
 Oscillation frequency (docs/model.md section 8)
-------------------------------------------
+-----------------------------------------------
 Picking the highest peak of a trace finds a harmonic when the trace has one, and counting
 zero crossings about a constant finds extra crossings where a strong harmonic wiggles
 through zero and skewed ones where the trace drifts. :func:`oscillation_frequency` therefore
@@ -257,20 +257,25 @@ def overshoot(t, p, t_step):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Response at ``t``, [any unit]
-    t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Response at ``t``, [any unit]
+    t_step : float
+        Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
 
     Returns
     -------
-    float  Overshoot beyond the final value, >= 0, [unit of p]. Divide by
-           ``|p_final - p0|`` for the relative overshoot of a second-order system,
-           ``exp(-zeta pi / sqrt(1 - zeta^2))``.
+    float
+        Overshoot beyond the final value, >= 0, [unit of p]. Divide by
+        ``|p_final - p0|`` for the relative overshoot of a second-order system,
+        ``exp(-zeta pi / sqrt(1 - zeta^2))``.
 
     Raises
     ------
-    ValueError  On arrays of different lengths, non-finite values, ``t`` not strictly
-                increasing, or ``t_step`` outside ``t``.
+    ValueError
+        On arrays of different lengths, non-finite values, ``t`` not strictly
+        increasing, or ``t_step`` outside ``t``.
     """
     t, p, t_step = _validate(t, p, t_step)
     ts, ps, p0, p_final, changed = _levels(t, p, t_step)
@@ -297,22 +302,28 @@ def settling_time(t, p, t_step, band=0.02):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Response at ``t``, [any unit]
-    t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
-    band : float         Half-width of the band relative to the net change, [-]
-                         (0 < band < 1; 0.02 is the usual 2 % settling time)
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Response at ``t``, [any unit]
+    t_step : float
+        Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
+    band : float
+        Half-width of the band relative to the net change, [-]
+        (0 < band < 1; 0.02 is the usual 2 % settling time)
 
     Returns
     -------
-    float or None  Settling time measured from ``t_step``, [s]; None when the trace has not
-                   been seen to settle: it is still outside the band during the last 5 % of
-                   the interval ``[t_step, t[-1]]``.
+    float or None
+        Settling time measured from ``t_step``, [s]; None when the trace has not
+        been seen to settle: it is still outside the band during the last 5 % of
+        the interval ``[t_step, t[-1]]``.
 
     Raises
     ------
-    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
-                ``band`` outside (0, 1).
+    ValueError
+        On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
+        ``band`` outside (0, 1).
 
     Notes
     -----
@@ -802,23 +813,29 @@ def oscillation_frequency(t, p, t_step, min_cycles=1.5):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Response at ``t``, [any unit]
-    t_step : float       Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
-    min_cycles : float   Fewest periods [-] (> 0), after ``t_step``, for which the
-                         fundamental must exceed 1 % of the largest deviation from the final
-                         value for the response to count as oscillating
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Response at ``t``, [any unit]
+    t_step : float
+        Time of the input step, ``t[0] <= t_step < t[-1]``, [s]
+    min_cycles : float
+        Fewest periods [-] (> 0), after ``t_step``, for which the
+        fundamental must exceed 1 % of the largest deviation from the final
+        value for the response to count as oscillating
 
     Returns
     -------
-    float or None  Frequency of the fundamental, [Hz] (cycles per second, not rad/s); None
-                   for a response that does not oscillate (monotone, overdamped, or dying
-                   away in fewer than ``min_cycles`` periods) or a constant trace.
+    float or None
+        Frequency of the fundamental, [Hz] (cycles per second, not rad/s); None
+        for a response that does not oscillate (monotone, overdamped, or dying
+        away in fewer than ``min_cycles`` periods) or a constant trace.
 
     Raises
     ------
-    ValueError  On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
-                ``min_cycles <= 0``.
+    ValueError
+        On invalid ``t``, ``p``, ``t_step`` (see :func:`overshoot`) or
+        ``min_cycles <= 0``.
 
     Notes
     -----
@@ -937,8 +954,10 @@ class SettlingBand:
 
     Attributes
     ----------
-    fraction : float   Half-width of the band as a fraction of its reference, [-], in (0, 1)
-    reference : str    "final" (the final absolute pressure) or "change" (the steady change)
+    fraction : float
+        Half-width of the band as a fraction of its reference, [-], in (0, 1)
+    reference : str
+        "final" (the final absolute pressure) or "change" (the steady change)
     """
 
     fraction: float = 0.02
@@ -971,15 +990,18 @@ class SettlingBand:
 
         Parameters
         ----------
-        spec : str, float or SettlingBand   The band
+        spec : str, float or SettlingBand
+            The band (a number: the fraction of the final pressure, [-])
 
         Returns
         -------
         SettlingBand
+            The band
 
         Raises
         ------
-        ValueError  One line naming ``--settling-band``.
+        ValueError
+            One line naming ``--settling-band``.
         """
         if isinstance(spec, SettlingBand):
             return spec
@@ -996,7 +1018,13 @@ class SettlingBand:
         return cls(value / 100 if percent else value, reference.strip() if of else "final")
 
     def describe(self) -> str:
-        """The band in words, e.g. "+-2 % of the final absolute pressure"."""
+        """The band in words, e.g. "+-2 % of the final absolute pressure".
+
+        Returns
+        -------
+        str
+            ``+-<percent> % of <reference>``
+        """
         return f"+-{self.fraction * 100:g} % of {self.REFERENCES[self.reference]}"
 
     def half_width(self, p_final: float, p0: float, largest: float) -> float:
@@ -1004,15 +1032,19 @@ class SettlingBand:
 
         Parameters
         ----------
-        p_final : float   Final (absolute) pressure, [unit of p]
-        p0 : float        Pressure at the step, [unit of p]
-        largest : float   Largest deviation from the final pressure after the step, [unit of
-                          p]: the reference of a "change" band where the change is below 5 %
-                          of it
+        p_final : float
+            Final (absolute) pressure, [unit of p]
+        p0 : float
+            Pressure at the step, [unit of p]
+        largest : float
+            Largest deviation from the final pressure after the step, [unit of
+            p]: the reference of a "change" band where the change is below 5 %
+            of it
 
         Returns
         -------
-        float  >= 0, [unit of p]
+        float
+            >= 0, [unit of p]
         """
         if self.reference == "final":
             return self.fraction * abs(p_final)
@@ -1062,22 +1094,31 @@ def oscillation_baseline(t, p, t_start, frequency, t_end=None):
 
     Parameters
     ----------
-    t : array_like      Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like      Trace at ``t``, [any unit]
-    t_start : float     Start of the window (the disturbance), [s]
-    frequency : float   Oscillation frequency, > 0, [Hz]
-    t_end : float       End of the window, [s]; the end of ``t`` when None
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Trace at ``t``, [any unit]
+    t_start : float
+        Start of the window (the disturbance), [s]
+    frequency : float
+        Oscillation frequency, > 0, [Hz]
+    t_end : float
+        End of the window, [s]; the end of ``t`` when None
 
     Returns
     -------
-    grid : ndarray      Uniform times on ``[t_start, t_end]``, 64 per period, [s]
-    values : ndarray    The trace on ``grid`` (linear interpolation), [unit of p]
-    baseline : ndarray  The baseline on ``grid``, [unit of p]
+    grid : ndarray
+        Uniform times on ``[t_start, t_end]``, 64 per period, [s]
+    values : ndarray
+        The trace on ``grid`` (linear interpolation), [unit of p]
+    baseline : ndarray
+        The baseline on ``grid``, [unit of p]
 
     Raises
     ------
-    ValueError  On an invalid trace or window, ``frequency <= 0``, or a window shorter than
-                one period.
+    ValueError
+        On an invalid trace or window, ``frequency <= 0``, or a window shorter than
+        one period.
     """
     t, p, t_start, t_end = _window(t, p, t_start, t_end)
     frequency = float(frequency)
@@ -1172,22 +1213,29 @@ def oscillation_amplitude(t, p, t_step, frequency=None, t_end=None):
 
     Parameters
     ----------
-    t : array_like       Sample times, strictly increasing, possibly nonuniform, [s]
-    p : array_like       Trace at ``t``, [any unit]
-    t_step : float       Time of the disturbance, ``t[0] <= t_step < t[-1]``, [s]
-    frequency : float    Oscillation frequency, [Hz]; found by :func:`oscillation_frequency`
-                         on the window when None
-    t_end : float        End of the window, [s]; the end of ``t`` when None
+    t : array_like
+        Sample times, strictly increasing, possibly nonuniform, [s]
+    p : array_like
+        Trace at ``t``, [any unit]
+    t_step : float
+        Time of the disturbance, ``t[0] <= t_step < t[-1]``, [s]
+    frequency : float
+        Oscillation frequency, [Hz]; found by :func:`oscillation_frequency`
+        on the window when None
+    t_end : float
+        End of the window, [s]; the end of ``t`` when None
 
     Returns
     -------
-    float or None  Amplitude, >= 0, [unit of p]; 0.0 when no oscillation is detected (no
-                   frequency); None when the window holds fewer than
-                   :data:`AMPLITUDE_MIN_PERIODS` periods of it.
+    float or None
+        Amplitude, >= 0, [unit of p]; 0.0 when no oscillation is detected (no
+        frequency); None when the window holds fewer than
+        :data:`AMPLITUDE_MIN_PERIODS` periods of it.
 
     Raises
     ------
-    ValueError  On an invalid trace or window.
+    ValueError
+        On an invalid trace or window.
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     if frequency is None:
@@ -1229,14 +1277,19 @@ def first_excursion(t, p, t_step, t_end=None):
 
     Parameters
     ----------
-    t : array_like     Sample times, increasing, [s]
-    p : array_like     Signal at ``t``, [any unit]
-    t_step : float     Time of the disturbance, [s]
-    t_end : float      End of the window, [s] (None: the record's end)
+    t : array_like
+        Sample times, increasing, [s]
+    p : array_like
+        Signal at ``t``, [any unit]
+    t_step : float
+        Time of the disturbance, [s]
+    t_end : float
+        End of the window, [s] (None: the record's end)
 
     Returns
     -------
-    float  >= 0, [unit of p], refined by a parabola through the largest sample
+    float
+        >= 0, [unit of p], refined by a parabola through the largest sample
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     ts, ps = _post_step(t, p, t_step)
@@ -1248,10 +1301,19 @@ def peak_to_peak(t, p, t_step, t_end=None):
 
     Parameters
     ----------
-    t : array_like     Sample times, increasing, [s]
-    p : array_like     Signal at ``t``, [any unit]
-    t_step : float     Time of the disturbance, [s]
-    t_end : float      End of the window, [s] (None: the record's end)
+    t : array_like
+        Sample times, increasing, [s]
+    p : array_like
+        Signal at ``t``, [any unit]
+    t_step : float
+        Time of the disturbance, [s]
+    t_end : float
+        End of the window, [s] (None: the record's end)
+
+    Returns
+    -------
+    float
+        The peak-to-peak swing, >= 0, [unit of p]
     """
     t, p, t_step, t_end = _window(t, p, t_step, t_end)
     ts, ps = _post_step(t, p, t_step)
@@ -1286,13 +1348,17 @@ def _band_exit(times, error, tolerance):
 
     Parameters
     ----------
-    times : ndarray      Sample times, increasing, [s]
-    error : ndarray      Deviation from the band's centre at ``times``, [unit of p]
-    tolerance : float    Half-width of the band, >= 0, [unit of p]
+    times : ndarray
+        Sample times, increasing, [s]
+    error : ndarray
+        Deviation from the band's centre at ``times``, [unit of p]
+    tolerance : float
+        Half-width of the band, >= 0, [unit of p]
 
     Returns
     -------
-    float or None  [s]
+    float or None
+        [s]
     """
     outside = np.flatnonzero(np.abs(error) > tolerance)
     if outside.size == 0:
@@ -1343,22 +1409,29 @@ def port_settling(t, p, t_step, t_stop, frequency=None, band=SETTLING_BAND) -> d
 
     Parameters
     ----------
-    t : array          Sample times, strictly increasing, [s]
-    p : array          Port pressure (absolute), [Pa]
-    t_step : float     Time of the step, [s]
-    t_stop : float     End of the metrics window, [s]
-    frequency : float  Oscillation frequency of the trace in the window, [Hz]; None: none
-    band : SettlingBand, float or str  The band (:meth:`SettlingBand.parse`: a number is a
-                       fraction of the final absolute pressure)
+    t : array
+        Sample times, strictly increasing, [s]
+    p : array
+        Port pressure (absolute), [Pa]
+    t_step : float
+        Time of the step, [s]
+    t_stop : float
+        End of the metrics window, [s]
+    frequency : float
+        Oscillation frequency of the trace in the window, [Hz]; None: none
+    band : SettlingBand, float or str
+        The band (:meth:`SettlingBand.parse`: a number is a
+        fraction of the final absolute pressure, [-])
 
     Returns
     -------
-    dict  ``settling_time_s`` (float from the step [s], or None), ``settling_method``
-          ("measured", "estimated" or None), ``settling_note`` (how it was estimated, a
-          crest at the band's edge, or why there is none; "" when there is nothing to add),
-          ``settling_band`` (the band in words), ``settling_band_mpa`` (its half-width
-          [MPa]) and ``settling_jump_s`` (the half period by which a crest at the band's edge
-          may move the settling time [s], or None)
+    dict
+        ``settling_time_s`` (float from the step [s], or None), ``settling_method``
+        ("measured", "estimated" or None), ``settling_note`` (how it was estimated, a
+        crest at the band's edge, or why there is none; "" when there is nothing to add),
+        ``settling_band`` (the band in words), ``settling_band_mpa`` (its half-width
+        [MPa]) and ``settling_jump_s`` (the half period by which a crest at the band's edge
+        may move the settling time [s], or None)
     """
     t, p, t_step, t_stop = _window(t, p, t_step, t_stop)
     return _port_settling(t, p, t_step, t_stop, frequency, SettlingBand.parse(band))
@@ -1546,41 +1619,54 @@ def pressure_metrics(t, p, t_step, t_end=None, settling_band=SETTLING_BAND) -> d
 
     Parameters
     ----------
-    t : array_like    Sample times, strictly increasing, [s]
-    p : array_like    Pressure, [Pa]
-    t_step : float    Time of the disturbance (start of the metrics window), [s]
-    t_end : float     End of the metrics window, [s]; the end of ``t`` when None
-    settling_band : SettlingBand, float or str  The settling band (:class:`SettlingBand`;
-                      default +-2 % of the final absolute pressure)
+    t : array_like
+        Sample times, strictly increasing, [s]
+    p : array_like
+        Pressure, [Pa]
+    t_step : float
+        Time of the disturbance (start of the metrics window), [s]
+    t_end : float
+        End of the metrics window, [s]; the end of ``t`` when None
+    settling_band : SettlingBand, float or str
+        The settling band (:class:`SettlingBand`; a number is a fraction of the final
+        absolute pressure, [-]; default +-2 % of the final absolute pressure)
 
     Returns
     -------
     dict
-        ``frequency_hz``         oscillation frequency, [Hz] (:func:`oscillation_frequency`);
-                                 None: no oscillation, or too few periods to tell
-        ``amplitude_mpa``        oscillation amplitude, two-sided about the drifting baseline,
-                                 [MPa] (:func:`oscillation_amplitude`), times
-                                 :func:`ringing_weight` (below :data:`VERDICT_MARGIN` periods of
-                                 ringing it fades to 0 at the verdict); 0.0 with a note when no
-                                 oscillation is detected, None when the window is too short
-        ``first_excursion_mpa``  largest ``|p - p0|``, [MPa] (:func:`first_excursion`)
-        ``steady_change_mpa``    settled level minus the pre-step level ``p0``, [MPa]: the
-                                 level is the mean over the window's last period of the
-                                 oscillation, or over its last 20 % without one; None when
-                                 the window is too short to tell
-        ``peak_to_peak_mpa``     ``max p - min p`` in the window, [MPa]
-        ``settling_time_s``, ``settling_method``, ``settling_note``, ``settling_band``,
-        ``settling_band_mpa``, ``settling_jump_s``  (:func:`port_settling`)
-        ``amplitude_note``       "" when frequency and amplitude were measured, else why not
-                                 (no oscillation; the window holds too few periods), or that
-                                 the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
-                                 above 1 %: near the 'no oscillation' verdict, the amplitude
-                                 faded (the share and the whole swing are given)
-        ``ringing_periods``      for how many periods after the step the oscillation's
-                                 envelope lies above 1 % of the excursion (the threshold
-                                 softened over a neper about it, so that the count moves
-                                 continuously: :func:`oscillation_frequency`), [-]; None
-                                 where it still does at the window's end, or does not ring
+        ``frequency_hz``
+            oscillation frequency, [Hz] (:func:`oscillation_frequency`);
+            None: no oscillation, or too few periods to tell
+        ``amplitude_mpa``
+            oscillation amplitude, two-sided about the drifting baseline,
+            [MPa] (:func:`oscillation_amplitude`), times
+            :func:`ringing_weight` (below :data:`VERDICT_MARGIN` periods of
+            ringing it fades to 0 at the verdict); 0.0 with a note when no
+            oscillation is detected, None when the window is too short
+        ``first_excursion_mpa``
+            largest ``|p - p0|``, [MPa] (:func:`first_excursion`)
+        ``steady_change_mpa``
+            settled level minus the pre-step level ``p0``, [MPa]: the
+            level is the mean over the window's last period of the
+            oscillation, or over its last 20 % without one; None when
+            the window is too short to tell
+        ``peak_to_peak_mpa``
+            ``max p - min p`` in the window, [MPa]
+        ``settling_*``
+            ``settling_time_s``, ``settling_method``, ``settling_note``, ``settling_band``,
+            ``settling_band_mpa``, ``settling_jump_s`` (:func:`port_settling`)
+        ``amplitude_note``
+            "" when frequency and amplitude were measured, else why not
+            (no oscillation; the window holds too few periods), or that
+            the ringing lasts fewer than :data:`VERDICT_MARGIN` periods
+            above 1 %: near the 'no oscillation' verdict, the amplitude
+            faded (the share and the whole swing are given)
+        ``ringing_periods``
+            for how many periods after the step the oscillation's
+            envelope lies above 1 % of the excursion (the threshold
+            softened over a neper about it, so that the count moves
+            continuously: :func:`oscillation_frequency`), [-]; None
+            where it still does at the window's end, or does not ring
     """
     # the trace is checked once, and its post-step samples and levels (_levels) are shared
     # by every metric below (each public function would check and compute them again)
