@@ -68,7 +68,13 @@ BACKGROUND_BUILD_ENV = "HYDROLINE_BACKGROUND_BUILD"
 
 def builds_in_background() -> bool:
     """Whether a compiled library not built yet is built in the background
-    (:data:`BACKGROUND_BUILD_ENV`)."""
+    (:data:`BACKGROUND_BUILD_ENV`).
+
+    Returns
+    -------
+    bool
+        True where ``$HYDROLINE_BACKGROUND_BUILD`` is set to anything but ``0``.
+    """
     return os.environ.get(BACKGROUND_BUILD_ENV, "").strip() not in ("", "0")
 
 

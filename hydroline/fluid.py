@@ -129,6 +129,24 @@ class Fluid:
         """True for air-free oil without a cavity model: every compliance is ``V/beta`` (M22)."""
         return self.air_content == 0.0 and self.cavity_pressure is None
 
+    def chamber_model(self) -> tuple:
+        """What a chamber's pressure equation reads of the oil (:func:`oil_compliance`,
+        M40-M42): nothing for :attr:`plain` oil; its density, viscosity and bulk modulus
+        never (a chamber has its own modulus; the hoses take the oil's through their line
+        matrices). A compiled chamber's structure holds this instead of the whole oil, so
+        that oils that differ only in the rest share its library.
+
+        Returns
+        -------
+        tuple
+            ``()`` for plain oil, else ``(air_content, air_polytropic_exponent,
+            cavity_pressure, cavity_pressure_drop)`` [-, -, Pa, Pa].
+        """
+        if self.plain:
+            return ()
+        return (self.air_content, self.air_polytropic_exponent, self.cavity_pressure,
+                self.cavity_pressure_drop)
+
     @property
     def dynamic_viscosity(self) -> float:
         """Dynamic viscosity mu = rho*nu, [Pa s]."""

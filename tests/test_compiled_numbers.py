@@ -106,6 +106,28 @@ def test_a_variant_gets_the_constants_a_code_generation_writes_and_runs_as_its_c
                   <= rounding_bound(net, 0.02, x, ss.p))
 
 
+def test_the_oil_s_chamber_model_is_structure_its_other_properties_are_not():
+    """A chamber folds what it reads of the oil (entrained air, cavity: M40-M42) into its
+    graph, so those values key its library; the oil's density, viscosity and bulk modulus
+    reach the graph only through the hoses' runtime matrices, so they do not."""
+    from hydroline.compiled import numbers_key
+
+    rig = load_rig()
+    key = numbers_key(network_of(rig))
+
+    def key_with(**values):
+        variant = rig.copy()
+        variant.values.update({f"fluid.{k}": v for k, v in values.items()})
+        return numbers_key(network_of(variant))
+
+    assert key_with(density=0.9 * rig.values["fluid.density"],
+                    bulk_modulus=1.1 * rig.values["fluid.bulk_modulus"]) == key
+    with_air = key_with(air_content=0.01)
+    assert with_air != key                                   # air-free -> air: a new graph
+    assert key_with(air_content=0.02) not in (key, with_air)  # its number is in that graph
+    assert key_with(cavity_pressure=5e3) not in (key, with_air)
+
+
 def test_a_python_branch_on_a_number_keeps_that_network_s_numbers_in_its_graph():
     """A component whose equations branch in Python on one of its numbers cannot take them
     as symbols: its graph keeps them as constants (as before), with the same values as its

@@ -700,10 +700,14 @@ class LinearModel:
 
     Attributes
     ----------
-    A, B, C, D : ndarray                 The matrices, [SI]
-    state_labels, input_labels, output_labels : list   Names
-    operating_point : SolvedOperatingPoint   Where it is linearised
-    state_scales : ndarray               Typical state magnitudes, [SI]
+    A, B, C, D : ndarray
+        The matrices, [SI].
+    state_labels, input_labels, output_labels : list
+        Names of the states, inputs and outputs.
+    operating_point : SolvedOperatingPoint
+        Where it is linearised.
+    state_scales : ndarray
+        Typical state magnitudes, [SI].
     """
 
     A: np.ndarray

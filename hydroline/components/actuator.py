@@ -137,6 +137,25 @@ class Actuator(Component):
                 State("position", "m", self.stroke / 2),
                 State("velocity", "m/s", 1.0)]
 
+    def structure_attributes(self, attributes: dict) -> dict:
+        """As :meth:`Component.structure_attributes`; the oil stands as what the chamber
+        equations read of it (:meth:`~hydroline.fluid.Fluid.chamber_model`).
+
+        Parameters
+        ----------
+        attributes : dict
+            The component's attributes, name -> value.
+
+        Returns
+        -------
+        dict
+            Name -> value or mark.
+        """
+        out = super().structure_attributes(attributes)
+        if out.get("fluid") is not None:
+            out["fluid"] = ("chamber model", out["fluid"].chamber_model())
+        return out
+
     def hydraulic_natural_frequency(self, position: float = 0.0, bottom_pressure: float | None = None,
                                     top_pressure: float | None = None) -> float:
         """``w_h = sqrt((A_b^2 K_b/V_b + A_t^2 K_t/V_t)/m)`` at a position, [Hz].

@@ -139,7 +139,13 @@ class HoseSection(Component):
 
         Parameters
         ----------
-        attributes : dict   The hose's attributes, name -> value
+        attributes : dict
+            The hose's attributes, name -> value.
+
+        Returns
+        -------
+        dict
+            Name -> value or mark.
         """
         out = super().structure_attributes(attributes)
         m = attributes.get("model")

@@ -67,6 +67,25 @@ class HydraulicVolume(Component):
         return [State("pressure", "Pa",
                       chamber_pressure_scale(max(self.nominal_pressure, 1e5), self.fluid))]
 
+    def structure_attributes(self, attributes: dict) -> dict:
+        """As :meth:`Component.structure_attributes`; the oil stands as what the chamber
+        equations read of it (:meth:`~hydroline.fluid.Fluid.chamber_model`).
+
+        Parameters
+        ----------
+        attributes : dict
+            The component's attributes, name -> value.
+
+        Returns
+        -------
+        dict
+            Name -> value or mark.
+        """
+        out = super().structure_attributes(attributes)
+        if out.get("fluid") is not None:
+            out["fluid"] = ("chamber model", out["fluid"].chamber_model())
+        return out
+
     def hydraulic_ends(self):
         """One node holding oil: its pressure and the flows into it.
 

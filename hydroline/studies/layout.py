@@ -535,8 +535,10 @@ def plot_study(study: LayoutStudy, path: str) -> None:
 
     Parameters
     ----------
-    study : LayoutStudy   The study
-    path : str            The PNG to write
+    study : LayoutStudy
+        The study.
+    path : str
+        The PNG to write.
     """
     study.plot(path)
 
