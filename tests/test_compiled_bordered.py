@@ -101,23 +101,6 @@ def test_rest_state_through_the_bordered_system_is_casadis(monkeypatch, sparse_f
     assert np.all(np.abs(ss.x - ref.x) <= 1e-6 * net.state_scales)
 
 
-@needs_cc
-def test_rest_state_of_short_hoses_takes_a_few_newton_steps(monkeypatch):
-    """Sections II of 0.05 m (modes up to ~25 kHz): Newton through the bordered system
-    converges in a few dozen solves; with the full Jacobian it failed there and the
-    pseudo-transient continuation took 2 522 steps (~2 s)."""
-    solves = []
-    solve = BorderedSystem.solve_shifted
-    monkeypatch.setattr(BorderedSystem, "solve_shifted",
-                        lambda self, *a: solves.append(a[3]) or solve(self, *a))
-    rig = load_rig(None)
-    for side in ("supply", "return"):
-        rig.set(f"{side}.section2.length", "0.05 m")
-    sc = build_scenario(rig, "open-loop-step")
-    ss = solve_steady_state(build_network(rig, sc.commands, sc.position_guess))
-    assert ss.residual < 1e-9 and len(solves) <= 100
-
-
 def test_factors_and_code_grow_like_the_states():
     """6 and 18 modes per section (138 and 234 states): the bordered LU's slots and flops, and
     the C source, per state within 1.3x (the full Jacobian's LU grew 1.9x in slots and 3.7x

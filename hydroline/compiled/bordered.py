@@ -12,11 +12,8 @@ has as many nonzeros as the components' own blocks. Solved with LAPACK below
 :data:`SPARSE_STATES` states (SciPy's sparse modules cost more to import than these solves),
 with SciPy's SuperLU from there: its factors grow with the number of states where J's grow
 with their square (the default rig's rest state at 30 modes per hose section, 330 states:
-0.02 s of CPU against 0.8 s on J; at 40, 410 states: 0.4 s against 2.1 s). The bordered
-system is also the better conditioned: J's entries are products of a section's couplings
-through its ends, ten decades apart on short hoses; with 0.05 m sections II, Newton on J
-failed and the pseudo-transient continuation took ~2 500 steps (~2 s), Newton on the bordered
-system converges in ~40 solves (0.03 s).
+0.02 s of CPU against 0.8 s on J; at 40, 410 states: 0.4 s against 2.1 s). The rest state
+found is J's to the solver's tolerance.
 """
 from __future__ import annotations
 

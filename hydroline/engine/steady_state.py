@@ -87,9 +87,8 @@ class _CompiledRest:
 
     def solve_shifted(self, t, x, p, shift, b):
         """dz solving ``(shift I - J) dz = b`` (J of the scaled states) through the model's
-        bordered Jacobian (:mod:`hydroline.compiled.bordered`): sparse on a large model, and
-        on every model better conditioned than J itself (0.05 m sections: Newton converges in
-        ~40 solves where, on J, it failed and the continuation took ~2 500).
+        bordered Jacobian (:mod:`hydroline.compiled.bordered`; sparse on a large model, whose
+        dense J grows with the square of its states and its solve with their cube).
 
         Parameters
         ----------
