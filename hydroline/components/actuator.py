@@ -7,7 +7,7 @@ import numpy as np
 
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
-from ..fluid import Fluid, cavity_volume_fraction, oil_compliance
+from ..fluid import Fluid, cavity_volume_fraction, chamber_pressure_scale, oil_compliance
 
 __all__ = ["Actuator"]
 
@@ -130,8 +130,9 @@ class Actuator(Component):
     def states(self):
         """The states: ``bottom_pressure``, ``top_pressure`` [Pa], ``position`` [m],
         ``velocity`` [m/s]."""
-        return [State("bottom_pressure", "Pa", self.nominal_pressure),
-                State("top_pressure", "Pa", self.nominal_pressure),
+        scale = chamber_pressure_scale(self.nominal_pressure, self.fluid)
+        return [State("bottom_pressure", "Pa", scale),
+                State("top_pressure", "Pa", scale),
                 State("position", "m", self.stroke / 2),
                 State("velocity", "m/s", 1.0)]
 

@@ -134,11 +134,11 @@ class HoseSection(Component):
         """Matrix ``name`` (from p where its entries are parameters) times vector v."""
         if self.coefficient_pattern is None:
             return ops.matvec(getattr(self.model, name), v)
-        out = [0.0] * rows
+        terms = [[] for _ in range(rows)]
         for m, i, j in self.coefficient_pattern:
             if m == name:
-                out[i] = out[i] + p[f"{m}{i}_{j}"] * v[j]
-        return ops.vertcat(out)
+                terms[i].append(p[f"{m}{i}_{j}"] * v[j])
+        return ops.vertcat([ops.pairwise_sum(row) for row in terms])
 
     def outputs_of(self, t, x, u, p):
         xv, uv = self._vectors(x, u)

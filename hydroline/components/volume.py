@@ -4,7 +4,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
-from ..fluid import Fluid, cavity_volume_fraction, oil_compliance
+from ..fluid import Fluid, cavity_volume_fraction, chamber_pressure_scale, oil_compliance
 
 __all__ = ["HydraulicVolume"]
 
@@ -63,7 +63,8 @@ class HydraulicVolume(Component):
     @property
     def states(self):
         """The state: ``pressure`` [Pa] of the oil in the volume."""
-        return [State("pressure", "Pa", max(self.nominal_pressure, 1e5))]
+        return [State("pressure", "Pa", chamber_pressure_scale(max(self.nominal_pressure, 1e5),
+                                                               self.fluid))]
 
     def hydraulic_ends(self):
         """One node holding oil: its pressure and the flows into it.

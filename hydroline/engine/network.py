@@ -242,7 +242,7 @@ class Network:
         ps = {k: p[self._parameter_index[f"{c.name}.{k}"]] for k in c.runtime_parameters()}
         return xs, ps
 
-    def evaluate(self, t, x, p=None):
+    def evaluate(self, t, x, p=None, given=None):
         """Derivatives and all signals at (t, x), with numbers or CasADi symbols.
 
         Parameters
@@ -250,25 +250,36 @@ class Network:
         t : float     Time, [s]
         x : sequence  States, [SI] (numbers or symbols)
         p : sequence  Runtime parameters, [SI]; the network's values when None
+        given : dict  Signal name -> value [SI] that the components reading that signal take
+                      instead of its producer's output (the network cut open at those
+                      connections, e.g. to differentiate each component apart from its
+                      neighbours); the producer's own output is still returned in
+                      ``signals``. None: no connection cut
 
         Returns
         -------
         (dx, signals) : list of derivatives in state order, dict signal -> value
         """
         p = self.parameter_values if p is None else p
+        given = given or {}
         signals = {}
         split = {}
+
+        def read(c):
+            return {port: given[c.signal(port)] if c.signal(port) in given
+                    else signals[c.signal(port)] for port in c.inputs}
+
         for c in self._order:
             xs, ps = self.component_values(c, x, p)
             split[c.name] = (xs, ps)
-            u = {port: signals[c.signal(port)] for port in c.inputs} if c.feedthrough else {}
+            u = read(c) if c.feedthrough else {}
             y = c.outputs_of(t, xs, u, ps)
             for port in c.outputs:
                 signals[c.signal(port)] = y[port]
         dx = [None] * len(self.state_names)
         for c in self.components:
             xs, ps = split[c.name]
-            u = {port: signals[c.signal(port)] for port in c.inputs}
+            u = read(c)
             d = c.derivatives(t, xs, u, ps)
             sl = self._state_slices[c.name]
             for i, s in enumerate(c.states):
