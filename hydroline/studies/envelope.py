@@ -464,9 +464,16 @@ class SineRig:
                                 traces, total, change, x, warnings)
 
     def reach(self, frequency: float, target: float, gains: dict, x0=None, tolerance: float = 0.01,
-              iterations: int = 8):
+              iterations: int = 12):
         """Amplitude control: the reference's amplitude and phase adjusted, run after run,
         until each driven piston's fundamental is ``target`` in phase with the wanted sine.
+
+        Each run's reference is the target over the closed-loop gain last measured (its phase
+        and, on a linear loop, its amplitude). Where the response grows less than in
+        proportion (the current or spool saturating), the amplitude is corrected on the
+        measured slope of log amplitude against log reference instead (a secant,
+        ``|C| (X/|x|)**(1/slope)``, slope at least 0.1), so a target just below the saturated
+        amplitude is reached in a few runs rather than approached by ever smaller steps.
 
         Parameters
         ----------
@@ -485,14 +492,25 @@ class SineRig:
         """
         gains = dict(gains)
         x = x0
+        history = {n: [] for n in self.driven}      # (|reference|, |fundamental|) per run
         for _ in range(iterations):
-            command = {n: target / gains[n] for n in self.driven}
+            command = {}
+            for n in self.driven:
+                c = target / gains[n]
+                if len(history[n]) >= 2:
+                    (c0, a0), (c1, a1) = history[n][-2:]
+                    if c1 != c0 and a0 > 0 and a1 > 0:
+                        slope = math.log(a1 / a0) / math.log(c1 / c0)
+                        if 0 < slope < 1:           # saturating: secant on the log-log curve
+                            c = c / abs(c) * c1 * (target / a1) ** (1 / max(slope, 0.1))
+                command[n] = c
             r = self.run(frequency, command, x)
             x = r.x_end
             errors = [abs(abs(r.position[n]) - target) / target for n in self.driven]
             if max(errors) <= tolerance:
                 return r, True, gains
             for n in self.driven:
+                history[n].append((abs(command[n]), abs(r.position[n])))
                 g = r.position[n] / command[n]
                 if abs(g) > 1e-9:
                     gains[n] = g
