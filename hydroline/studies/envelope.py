@@ -273,7 +273,8 @@ class PeriodicResponse:
     distortion : dict    Axis -> the position's total harmonic distortion, [-]
     force : dict         Axis -> amplitude of the hydraulic force's fundamental, [N]
     excursion : dict     Axis -> largest |position| over the period, [m]
-    traces : dict        Signal -> its last period (``SineRig.SAMPLES`` samples), [SI]
+    traces : dict        Signal -> its last period (``SineRig.SAMPLES`` samples): the driven
+                         axes' ports, chambers, current and spool, every axis's position, [SI]
     periods : int        Periods run until periodic, [-]
     change : float       Largest period-to-period change at the end (position over its
                          amplitude, port pressures over the supply's drop), [-]
@@ -439,7 +440,8 @@ class SineRig:
             if change <= self.periodic_tolerance or total >= self.max_periods:
                 break
             chunk = max(2, min(total, self.max_periods - total))
-        traces = {}
+        # every axis's position: the held axes' too (what the driven one's flow does to them)
+        traces = {ax.position: res[ax.position][last] for ax in self.axes.values()}
         position, distortion, force, excursion = {}, {}, {}, {}
         for name in self.driven:
             ax = self.axes[name]
@@ -809,6 +811,7 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
     ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
     and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
     ``port_ripple_gain`` (:func:`port_ripple_gain` of the passing run),
+    ``held_motion_m`` (the largest half peak-to-peak motion of an axis held, [m]),
     ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
     ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
     """
@@ -862,6 +865,9 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
                  "supply_min_pa": float(good[0].traces[ax.supply_pressure].min()) if good else None,
                  "return_max_pa": float(good[0].traces[ax.return_pressure].max()) if good else None,
                  "port_ripple_gain": port_ripple_gain(good[0], srig, name) if good else None,
+                 "held_motion_m": max((float(np.ptp(good[0].traces[a.position])) / 2
+                                       for n, a in srig.axes.items() if n not in srig.driven),
+                                      default=0.0) if good else None,
                  **counts}
         out.append(point)
         if good:
