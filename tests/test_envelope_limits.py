@@ -117,9 +117,10 @@ def test_force_limited_band_of_a_heavy_mass():
 # ------------------------------------------------------------------ lines above the ideal supply
 
 def test_lines_lift_the_envelope_only_by_their_port_pulsation():
-    """At 146 Hz (2f = 292 Hz, near the return line's ninth quarter-wave, 9 x 31 Hz) the
-    lines' envelope lies a grid step above the constant supply's. That is the valve's flow,
-    not the search: the ports' pressure pulsation at 2f, locked to the spool's motion,
+    """At 146 Hz (2f = 292 Hz: near the return line's ninth mode, 9 x 31 Hz, were it an ideal
+    quarter-wave line) the lines' envelope lies a grid step above the constant supply's.
+    That is the valve's flow, not the search: the ports' pressure pulsation at 2f, locked to
+    the spool's motion,
     raises the valve's fundamental load flow at the same spool motion by a few percent
     (port_ripple_gain: a drop pulsating by e of it at 2f changes a sqrt-law flow's
     fundamental by up to e/4), while the ports' lower mean pressures (the mean flow's drop

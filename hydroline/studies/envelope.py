@@ -9,9 +9,13 @@ periodic state with the position's harmonic distortion within the tolerance is f
 bisection (:func:`largest_passing`) on the logarithm of the amplitude, each run warm-started
 from the last run's periodic state and closed-loop gain (the neighbouring amplitude, then
 frequency). What stops the next larger amplitude is diagnosed from its last period
-(:func:`diagnose`): the stroke, the valve at its limit (spool at its opening, or the current at
-the controller's limit) for want of flow, the supply pressure dip or the return pressure rise
-at the valve eating its pressure drop, the load pressure (force), gas release, or distortion.
+(:func:`diagnose`, by the rules a laboratory reads a performance curve with): the stroke, the
+valve at its limit (spool at its opening, or the current at the controller's limit) for want of
+flow, the supply pressure dip or the return pressure rise at the valve (the lines' pulsation:
+eating its pressure drop, or a port's troughs at the gas-release pressure), the actuator at its
+stall force, gas release in a chamber, or distortion. Where the lines' pulsation at the ports
+lifts the valve's flow instead (:func:`port_ripple_gain`), the envelope with the lines may lie
+above the constant supply's by that much.
 
 The same is done with an ideal constant supply and tank (:func:`constant_supply_circuit`: the
 lines, manifolds and accumulators taken out, the valve's ports held at their rest pressures),
