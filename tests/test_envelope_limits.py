@@ -148,9 +148,8 @@ def test_two_axes_one_at_a_time_and_together():
     """two_axis, 20 Hz (the supply line's 40 Hz quarter wave at 2f): axis 1 alone with axis 2
     holding, then both in phase. The shared supply's pulsation doubles with both valves'
     flow, so together they reach less than one alone by more than a grid step, limited by the
-    supply's dip. The held axis stays. From a constant supply (each valve its own
-    ideal source) the axes are independent: together they reach the analytic flow limit
-    as one does."""
+    supply's dip. The held axis stays. (One compiled model serves both: the held axis's
+    reference has zero amplitude.)"""
     rig = load_rig("two_axis")
     one = SineRig(rig, "hoses", "axis1")
     guess = analytic_envelope([20.0], **vendor_parameters(one),
@@ -163,8 +162,3 @@ def test_two_axes_one_at_a_time_and_together():
     # alike through its symmetric underlap (13 nm of motion against 8.8 mm)
     assert 0 <= alone["held_motion_m"] < 0.01 * alone["displacement_amplitude_m"]
     assert both["held_motion_m"] == 0.0                        # none held
-    const = SineRig(rig, "constant", "all", pressures=one.nominal)
-    an = analytic_envelope([20.0], **vendor_parameters(const), distortion=0.05)
-    point = envelope_points(const, [20.0], an["displacement_amplitude_m"])[0]
-    assert point["displacement_amplitude_m"] == pytest.approx(an["displacement_amplitude_m"][0],
-                                                              rel=0.05)

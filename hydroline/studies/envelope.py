@@ -310,7 +310,8 @@ class SineRig:
     rig : Rig            Parameters (SI)
     supply : str         "hoses" (the rig as it is) or "constant" (:func:`constant_supply_circuit`)
     axis : str           The driven axis (None: the first; "all": every axis together, in phase);
-                         the others hold their positions under their controllers
+                         the others hold mid-stroke under their controllers (references of
+                         zero amplitude: one compiled model for every choice of axis)
     pressures : dict     Axis -> (supply, return) port pressures of the constant supply, [Pa]
                          (None: the rig's rest state with its lines)
     solver : str         See :func:`hydroline.engine.integrate`
@@ -324,7 +325,7 @@ class SineRig:
     def __init__(self, rig: Rig, supply: str = "hoses", axis: str | None = None,
                  pressures: dict | None = None, solver: str = "auto",
                  periodic_tolerance: float = 2e-3, max_periods: int = 60):
-        from ..scenarios.experiments import hold_other_axes, template_controller
+        from ..scenarios.experiments import template_controller
         from ..scenarios.running import CAVITATION_PRESSURE, WATCHED_NODES, rest_state
         from ..system import build_circuit
 
@@ -351,20 +352,20 @@ class SineRig:
                 pressures = SineRig(rig, "hoses", axis, solver=solver).port_pressures()
             circuit = constant_supply_circuit(circuit, pressures)
         self.circuit, self.driven = circuit, driven
+        # every axis gets a sine reference about mid-stroke, those not driven with zero
+        # amplitude: they hold where they start under their controllers, and one compiled model
+        # serves each axis alone and all together
         commands = []
-        for name in driven:
-            ax = circuit.axes[name]
+        for name, ax in circuit.axes.items():
             commands.append(HarmonicCommand(name=f"{name}.envelope_command", quantity="position",
                                             connections={"command": ax.reference_signal}))
             if not ax.controller:
                 commands.append(template_controller(rig, ax))
-        commands += hold_other_axes(rig, {n: a for n, a in circuit.axes.items()
-                                          if n not in driven}, None)
         self.network = net = circuit.network(commands)
         self.rest = rest_state(net)
         self.p = self.rest.p.copy()
         names = list(net.parameter_names)
-        self.index = {(n, k): names.index(f"{n}.envelope_command.{k}") for n in driven
+        self.index = {(n, k): names.index(f"{n}.envelope_command.{k}") for n in circuit.axes
                       for k in ("sine_amplitude", "cosine_amplitude", "frequency")}
         self.axes = circuit.axes
         self.threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
