@@ -207,7 +207,7 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
         line = Line(length, diameter, fluid, beta)
     model = ModalLine(line, _integer_modes(modes, modes_per_section), form,
                       method=line_method if method is None else method)
-    return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure)
+    return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure, fluid=fluid)
 
 
 def make_accumulator(*, name, connection_length, connection_diameter, model, modes=None, fluid,

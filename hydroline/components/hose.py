@@ -8,6 +8,7 @@ import numpy as np
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State
+from ..fluid import Fluid, cavity_compliance, cavity_volume_fraction
 
 __all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
@@ -52,6 +53,9 @@ class HoseSection(Component):
         The line model (e.g. ``ModalLine(line, 6, "PQ")``)
     nominal_pressure : float
         Pressure level used for the steady-state solver's guess, [Pa]
+    fluid : Fluid or None
+        The rig's oil; with ``cavity_pressure`` set, each end whose pressure the line puts out
+        holds a gas/vapour cavity (M45); None or no cavity model: the plain line
 
     Other Parameters
     ----------------
@@ -65,10 +69,24 @@ class HoseSection(Component):
     :data:`hydroline.lines.FORM_PORTS` (e.g. PQ: inputs ``upstream_pressure``,
     ``downstream_flow``; outputs ``downstream_pressure``, ``upstream_flow``).
     States: the model's, e.g. ``mode3.flow``.
+
+    End cavities (M45): at an end whose pressure is an output (PQ: downstream, QP: upstream,
+    QQ: both) the line and the port meet in a node that may hold a cavity of volume
+    ``V_cav = V phi(p_end)`` (M42's law; ``V`` the bore volume ``A L``). The node's oil
+    balance ``dV_cav/dt = s (q_port - q_line)`` (``s = +1`` downstream, where the port flow
+    leaves the line, ``-1`` upstream) with the line's end-pressure rate ``dp/dt = r + k q_line``
+    (``r = [C (A x + B u)]`` at ``q_line = 0``, ``k = [C B]`` of the end flow; the line has no
+    feedthrough there) gives
+
+        dp/dt = (r + k q_port) / (1 - s k V sigma/delta),   q_line = q_port + s V sigma/delta dp/dt
+
+    and the line's states move with ``q_line``: on the cavity's plateau the end holds near
+    ``p_cav`` and the line sees a pressure end; the cavity closes when its oil comes back.
     """
 
     model: StateSpaceLine = None
     nominal_pressure: float = 0.0
+    fluid: Fluid | None = None
 
     conducts = True
 
@@ -94,6 +112,35 @@ class HoseSection(Component):
                            "volume": ("m^3", 1e-6), "pressure_integral": ("Pa s", scale_p * 1e-3)
                            }.get(name.split(".")[1].rstrip("0123456789"), ("m^3/s", scale_q))
             self._states.append(State(name, unit, scale))
+        #: (end, output row, input column, s) of each end that holds a cavity (M45)
+        self.cavity_ends = self._cavity_ends()
+
+    def _cavity_ends(self):
+        if self.fluid is None or self.fluid.cavity_pressure is None:
+            return ()
+        m = self.model
+        gain = np.asarray(m.C, dtype=float) @ np.asarray(m.B, dtype=float)
+        ends = []
+        for end, sign in (("upstream", -1.0), ("downstream", 1.0)):
+            out, inp = f"{end}_pressure", f"{end}_flow"
+            if out not in m.output_names or inp not in m.input_names:
+                continue
+            i, j = m.output_names.index(out), m.input_names.index(inp)
+            if np.any(np.asarray(m.D, dtype=float)[i] != 0):
+                raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) needs "
+                                 f"a line without feedthrough to its {out}; the {m.form} "
+                                 f"{getattr(m, 'method', '')} line has one (use method residue)")
+            if not sign * gain[i, j] < 0:
+                raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) needs "
+                                 f"the line's {out} to fall as oil leaves that end; its rate "
+                                 f"gain is {gain[i, j]!r} Pa/m^3")
+            ends.append((end, i, j, sign))
+        return tuple(ends)
+
+    @property
+    def line_volume(self) -> float:
+        """Bore volume ``A L`` of the line, the reference volume of its end cavities, [m^3]."""
+        return float(self.model.line.area * self.model.line.length)
 
     @property
     def states(self):
@@ -127,8 +174,11 @@ class HoseSection(Component):
         """
         if self.coefficient_pattern is None:
             return {}
-        return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
-                for name, i, j in self.coefficient_pattern}
+        out = {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
+               for name, i, j in self.coefficient_pattern}
+        if self.cavity_ends:
+            out["line_volume"] = self.line_volume      # (M45), after the entries
+        return out
 
     def _product(self, name, v, p, rows):
         """Matrix ``name`` (from p where its entries are parameters) times vector v."""
@@ -152,7 +202,60 @@ class HoseSection(Component):
         xv, uv = self._vectors(x, u)
         rows = len(self._states)
         dx = self._product("A", xv, p, rows) + self._product("B", uv, p, rows)
+        if self.cavity_ends:
+            dx = self._with_end_cavities(dx, xv, p)
         return {s.name: dx[i] for i, s in enumerate(self._states)}
+
+    def _with_end_cavities(self, dx, xv, p):
+        """State rates with the ends' cavities (M45): ``dx + sum_e b_e (q_line_e - q_port_e)``
+        with ``b_e`` the column of B of end e's flow input."""
+        rows, n_out = len(self._states), len(self.model.output_names)
+        volume = self.line_volume if self.coefficient_pattern is None else p["line_volume"]
+        pressure = self._product("C", xv, p, n_out)
+        free = self._product("C", dx, p, n_out)          # r + k q_port of every output
+        columns, gains, compliance = [], [], []
+        for _, i, j, s in self.cavity_ends:
+            unit = [0.0] * len(self.model.input_names)
+            unit[j] = 1.0
+            b = self._product("B", ops.vertcat(unit), p, rows)
+            columns.append(b)
+            gains.append(self._product("C", b, p, n_out))    # column j of C B
+            compliance.append(s * cavity_compliance(volume, pressure[i], self.fluid))
+        rows_out = [i for _, i, _, _ in self.cavity_ends]
+        # (I - K S Ccav) rate = free, K_ab = [C B]_(i_a, j_b): one end or two (QQ)
+        if len(rows_out) == 1:
+            rate = [free[rows_out[0]] / (1.0 - gains[0][rows_out[0]] * compliance[0])]
+        else:
+            (i0, i1), (c0, c1) = rows_out, compliance
+            m00, m01 = 1.0 - gains[0][i0] * c0, -gains[1][i0] * c1
+            m10, m11 = -gains[0][i1] * c0, 1.0 - gains[1][i1] * c1
+            det = m00 * m11 - m01 * m10
+            rate = [(m11 * free[i0] - m01 * free[i1]) / det,
+                    (m00 * free[i1] - m10 * free[i0]) / det]
+        for b, c, r in zip(columns, compliance, rate):
+            dx = dx + b * (c * r)                          # q_line - q_port = s Ccav dp/dt
+        return dx
+
+    def cavity_volumes(self, x):
+        """Gas/vapour cavity volume at each end that holds one (M45), [m^3].
+
+        Parameters
+        ----------
+        x : dict
+            States (arrays of a run allowed), local name -> value [SI]
+
+        Returns
+        -------
+        dict
+            ``{"upstream end": V_cav, ...}``, [m^3]; empty without end cavities
+        """
+        if not self.cavity_ends:
+            return {}
+        xs = np.array([np.asarray(x[s.name], dtype=float) for s in self._states])
+        pressure = np.tensordot(np.asarray(self.model.C, dtype=float), xs, axes=1)
+        pc, d = self.fluid.cavity_pressure, self.fluid.cavity_pressure_drop
+        return {f"{end} end": self.line_volume * cavity_volume_fraction(pressure[i], pc, d)
+                for end, i, _, _ in self.cavity_ends}
 
     def initial_guess(self):
         ins = self.model.input_names
