@@ -8,7 +8,7 @@ import numpy as np
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State
-from ..fluid import Fluid, cavity_compliance, cavity_volume_fraction
+from ..fluid import Fluid
 
 __all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
@@ -70,18 +70,22 @@ class HoseSection(Component):
     ``downstream_flow``; outputs ``downstream_pressure``, ``upstream_flow``).
     States: the model's, e.g. ``mode3.flow``.
 
-    End cavities (M45): at an end whose pressure is an output (PQ: downstream, QP: upstream,
-    QQ: both) the line and the port meet in a node that may hold a cavity of volume
-    ``V_cav = V phi(p_end)`` (M42's law; ``V`` the bore volume ``A L``). The node's oil
-    balance ``dV_cav/dt = s (q_port - q_line)`` (``s = +1`` downstream, where the port flow
-    leaves the line, ``-1`` upstream) with the line's end-pressure rate ``dp/dt = r + k q_line``
-    (``r = [C (A x + B u)]`` at ``q_line = 0``, ``k = [C B]`` of the end flow; the line has no
-    feedthrough there) gives
+    End cavity (M45): at the end whose pressure the line puts out (PQ: downstream, QP:
+    upstream) the line and the port meet in a node that may hold a gas/vapour cavity of
+    volume ``w``, so that the line's end flow is ``q_line = q_port - s dw/dt`` (``s = +1``
+    downstream, where the port flow leaves the line, ``-1`` upstream). The states are then
+    the line's states shifted by the cavity, ``z = x + s w b`` (``b`` the column of B of the
+    end flow, ``k = [C b]`` the end pressure's rate per unit end flow, ``s k < 0``), which obey
+    the cavity-free line driven by the port's flow, ``dz/dt = A x + B u``. Their end pressure
+    ``p~ = [C z]`` is what the end would read without the cavity, and::
 
-        dp/dt = (r + k q_port) / (1 - s k V sigma/delta),   q_line = q_port + s V sigma/delta dp/dt
+        w = softplus(p_cav - p~, delta) / |k|,    p_end = [C x] = p~ + |k| w >= p_cav
 
-    and the line's states move with ``q_line``: on the cavity's plateau the end holds near
-    ``p_cav`` and the line sees a pressure end; the cavity closes when its oil comes back.
+    (``softplus`` the smooth positive part of width ``delta = fluid.cavity_pressure_drop``,
+    :func:`hydroline.engine.ops.softplus`): the ideal cavity of the discrete vapour cavity
+    model at the line's end, smoothed. The cavity closes when the oil it misses has come
+    back; the collapse peak is the line's own water hammer. Without a cavity model the
+    states are the line's own.
     """
 
     model: StateSpaceLine = None
@@ -126,21 +130,16 @@ class HoseSection(Component):
             if out not in m.output_names or inp not in m.input_names:
                 continue
             i, j = m.output_names.index(out), m.input_names.index(inp)
-            if np.any(np.asarray(m.D, dtype=float)[i] != 0):
+            if np.any(np.asarray(m.D, dtype=float)[i] != 0) or not sign * gain[i, j] < 0:
                 raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) needs "
-                                 f"a line without feedthrough to its {out}; the {m.form} "
-                                 f"{getattr(m, 'method', '')} line has one (use method residue)")
-            if not sign * gain[i, j] < 0:
-                raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) needs "
-                                 f"the line's {out} to fall as oil leaves that end; its rate "
-                                 f"gain is {gain[i, j]!r} Pa/m^3")
+                                 f"a line whose {out} has no feedthrough and falls as oil "
+                                 f"leaves that end; the {m.form} line's does not")
             ends.append((end, i, j, sign))
+        if len(ends) > 1:
+            raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) is "
+                             f"modelled at one end of a line; form {m.form} puts out both "
+                             f"ends' pressures: use PQ or QP")
         return tuple(ends)
-
-    @property
-    def line_volume(self) -> float:
-        """Bore volume ``A L`` of the line, the reference volume of its end cavities, [m^3]."""
-        return float(self.model.line.area * self.model.line.length)
 
     @property
     def states(self):
@@ -174,11 +173,8 @@ class HoseSection(Component):
         """
         if self.coefficient_pattern is None:
             return {}
-        out = {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
-               for name, i, j in self.coefficient_pattern}
-        if self.cavity_ends:
-            out["line_volume"] = self.line_volume      # (M45), after the entries
-        return out
+        return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
+                for name, i, j in self.coefficient_pattern}
 
     def _product(self, name, v, p, rows):
         """Matrix ``name`` (from p where its entries are parameters) times vector v."""
@@ -192,6 +188,8 @@ class HoseSection(Component):
 
     def outputs_of(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
+        if self.cavity_ends:
+            xv = self._line_states(xv, p)
         rows = len(self.model.output_names)
         y = self._product("C", xv, p, rows)
         if self.feedthrough:
@@ -200,44 +198,27 @@ class HoseSection(Component):
 
     def derivatives(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
+        if self.cavity_ends:
+            xv = self._line_states(xv, p)       # dz/dt = A x + B u (M45)
         rows = len(self._states)
         dx = self._product("A", xv, p, rows) + self._product("B", uv, p, rows)
-        if self.cavity_ends:
-            dx = self._with_end_cavities(dx, xv, p)
         return {s.name: dx[i] for i, s in enumerate(self._states)}
 
-    def _with_end_cavities(self, dx, xv, p):
-        """State rates with the ends' cavities (M45): ``dx + sum_e b_e (q_line_e - q_port_e)``
-        with ``b_e`` the column of B of end e's flow input."""
+    def _line_states(self, z, p):
+        """The line's states ``x = z - s w b`` from the shifted states z (M45)."""
+        (_, i, j, s), = self.cavity_ends
         rows, n_out = len(self._states), len(self.model.output_names)
-        volume = self.line_volume if self.coefficient_pattern is None else p["line_volume"]
-        pressure = self._product("C", xv, p, n_out)
-        free = self._product("C", dx, p, n_out)          # r + k q_port of every output
-        columns, gains, compliance = [], [], []
-        for _, i, j, s in self.cavity_ends:
-            unit = [0.0] * len(self.model.input_names)
-            unit[j] = 1.0
-            b = self._product("B", ops.vertcat(unit), p, rows)
-            columns.append(b)
-            gains.append(self._product("C", b, p, n_out))    # column j of C B
-            compliance.append(s * cavity_compliance(volume, pressure[i], self.fluid))
-        rows_out = [i for _, i, _, _ in self.cavity_ends]
-        # (I - K S Ccav) rate = free, K_ab = [C B]_(i_a, j_b): one end or two (QQ)
-        if len(rows_out) == 1:
-            rate = [free[rows_out[0]] / (1.0 - gains[0][rows_out[0]] * compliance[0])]
-        else:
-            (i0, i1), (c0, c1) = rows_out, compliance
-            m00, m01 = 1.0 - gains[0][i0] * c0, -gains[1][i0] * c1
-            m10, m11 = -gains[0][i1] * c0, 1.0 - gains[1][i1] * c1
-            det = m00 * m11 - m01 * m10
-            rate = [(m11 * free[i0] - m01 * free[i1]) / det,
-                    (m00 * free[i1] - m10 * free[i0]) / det]
-        for b, c, r in zip(columns, compliance, rate):
-            dx = dx + b * (c * r)                          # q_line - q_port = s Ccav dp/dt
-        return dx
+        unit = [0.0] * len(self.model.input_names)
+        unit[j] = 1.0
+        b = self._product("B", ops.vertcat(unit), p, rows)
+        k = self._product("C", b, p, n_out)[i]               # s k < 0
+        free = self._product("C", z, p, n_out)[i]            # p~, the end without the cavity
+        w = ops.softplus(self.fluid.cavity_pressure - free,
+                         self.fluid.cavity_pressure_drop) / (-s * k)
+        return z - b * (s * w)
 
     def cavity_volumes(self, x):
-        """Gas/vapour cavity volume at each end that holds one (M45), [m^3].
+        """Gas/vapour cavity volume at the end that holds one (M45), [m^3].
 
         Parameters
         ----------
@@ -247,15 +228,17 @@ class HoseSection(Component):
         Returns
         -------
         dict
-            ``{"upstream end": V_cav, ...}``, [m^3]; empty without end cavities
+            ``{"upstream end": w}`` or ``{"downstream end": w}``, [m^3]; empty without an
+            end cavity
         """
         if not self.cavity_ends:
             return {}
-        xs = np.array([np.asarray(x[s.name], dtype=float) for s in self._states])
-        pressure = np.tensordot(np.asarray(self.model.C, dtype=float), xs, axes=1)
-        pc, d = self.fluid.cavity_pressure, self.fluid.cavity_pressure_drop
-        return {f"{end} end": self.line_volume * cavity_volume_fraction(pressure[i], pc, d)
-                for end, i, _, _ in self.cavity_ends}
+        (end, i, j, s), = self.cavity_ends
+        C, B = np.asarray(self.model.C, dtype=float), np.asarray(self.model.B, dtype=float)
+        z = np.array([np.asarray(x[st.name], dtype=float) for st in self._states])
+        free = np.tensordot(C[i], z, axes=1)
+        w = ops.softplus(self.fluid.cavity_pressure - free, self.fluid.cavity_pressure_drop)
+        return {f"{end} end": w / (-s * float(C[i] @ B[:, j]))}
 
     def initial_guess(self):
         ins = self.model.input_names
