@@ -73,8 +73,8 @@ class Fluid:
         Polytropic exponent n of the entrained air, 1 (isothermal) ... 1.4 (adiabatic), [-] (M40).
     cavity_pressure : float or None
         Absolute pressure p_cav held by a gas/vapour cavity, [Pa]: below it chambers and
-        volumes open a cavity (M42); None: no cavity model (pressures may fall below it, as
-        before; the run warns).
+        volumes (M42) and the hose ends whose pressure a line puts out (M45) open a cavity;
+        None: no cavity model (pressures may fall below it, as before; the run warns).
     cavity_pressure_drop : float
         Regularisation of the cavity (M42): the pressure falls this much below ``cavity_pressure``
         per unit cavity volume fraction (0 would be an ideal constant-pressure cavity), [Pa].
