@@ -10,8 +10,7 @@ from dataclasses import dataclass
 
 __all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive",
            "entrained_air_bulk_modulus", "oil_compliance", "cavity_volume_fraction",
-           "chamber_pressure_scale",
-           "ATMOSPHERE"]
+           "chamber_pressure_scale", "cavity_compliance", "ATMOSPHERE"]
 
 #: Standard atmosphere, the pressure at which ``Fluid.air_content`` is stated, [Pa] absolute.
 ATMOSPHERE = 101325.0
@@ -74,8 +73,8 @@ class Fluid:
         Polytropic exponent n of the entrained air, 1 (isothermal) ... 1.4 (adiabatic), [-] (M40).
     cavity_pressure : float or None
         Absolute pressure p_cav held by a gas/vapour cavity, [Pa]: below it chambers and
-        volumes open a cavity (M42); None: no cavity model (pressures may fall below it, as
-        before; the run warns).
+        volumes (M42) and the hose ends whose pressure a line puts out (M45) open a cavity;
+        None: no cavity model (pressures may fall below it, as before; the run warns).
     cavity_pressure_drop : float
         Regularisation of the cavity (M42): the pressure falls this much below ``cavity_pressure``
         per unit cavity volume fraction (0 would be an ideal constant-pressure cavity), [Pa].
@@ -359,7 +358,43 @@ def oil_compliance(volume, pressure, bulk_modulus: float, fluid: "Fluid | None")
                                    fluid.air_polytropic_exponent)
     c = volume / K
     if fluid.cavity_pressure is not None:
-        d = fluid.cavity_pressure_drop
-        x = ops.fmin(ops.fmax((fluid.cavity_pressure - pressure) / d, 0.0), 1.0)
-        c = c + volume / d * (3.0 * x**2 - 2.0 * x**3)          # -dphi/dp, the cavity
+        c = c + cavity_compliance(volume, pressure, fluid)
     return c
+
+
+def cavity_compliance(volume, pressure, fluid: "Fluid"):
+    """``-dV_cav/dp`` of a gas/vapour cavity (M42): ``V sigma(x)/delta``, the cavity's share of
+    a chamber's compliance (:func:`oil_compliance`) and of a hose end's (M45), [m^3/Pa].
+
+    With ``x = (p_cav - p)/delta``, ``sigma = 3 x^2 - 2 x^3`` for ``0 <= x <= 1`` and 1 beyond:
+    zero at and above ``p_cav``, ``V/delta`` on the cavity's plateau; the derivative of
+    ``-V`` :func:`cavity_volume_fraction`.
+
+    Parameters
+    ----------
+    volume : float or CasADi expression
+        Reference volume V of the cavity law (a chamber's volume, a hose's bore volume), [m^3].
+    pressure : float, ndarray or CasADi expression
+        Absolute pressure, [Pa].
+    fluid : Fluid
+        The oil, with ``cavity_pressure`` (p_cav, not None) and ``cavity_pressure_drop``
+        (delta).
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``V sigma/delta >= 0``, [m^3/Pa].
+
+    Examples
+    --------
+    Half a drop below p_cav the smoothstep is at 1/2; on the plateau ``V/delta``:
+
+    >>> oil = Fluid(870.0, 3.2e-5, 1.5e9, cavity_pressure=5e3, cavity_pressure_drop=1e3)
+    >>> float(cavity_compliance(2.0, 4.5e3, oil)), float(cavity_compliance(2.0, 0.0, oil))
+    (0.001, 0.002)
+    """
+    from .engine import ops
+
+    d = fluid.cavity_pressure_drop
+    x = ops.fmin(ops.fmax((fluid.cavity_pressure - pressure) / d, 0.0), 1.0)
+    return volume / d * (3.0 * x**2 - 2.0 * x**3)          # -dphi/dp, the cavity
