@@ -1011,6 +1011,20 @@ LIMIT_COLOURS = {"stroke": "#c6dbef", "valve": "#d9f0d3", "supply_dip": "#fdd0a2
                  "distortion": "#fee391", "none": "#f0f0f0"}
 
 
+def _minor_log_label(axis):
+    """A tick label function for a log axis's minor ticks, the plain number where the axis
+    has too few major ticks to be read by them: at 2, 4, 6 and 8 times a power of ten on an
+    axis spanning less than a decade, at 2 and 5 times one on an axis spanning less than 2.5,
+    nothing on a wider one."""
+    def label(value, _position):
+        low, high = sorted(axis.get_view_interval())
+        decades = np.log10(high / low) if low > 0 else np.inf
+        digit = round(value / 10.0 ** np.floor(np.log10(value) + 1e-9), 6)
+        shown = (2, 4, 6, 8) if decades < 1 else (2, 5) if decades < 2.5 else ()
+        return f"{value:g}" if digit in shown else ""
+    return label
+
+
 def envelope_figure(result: EnvelopeResult, path=None):
     """Displacement, velocity, acceleration and force amplitude against frequency on log-log
     axes: the envelope with the lines (solid), from the constant supply (dashed), the
@@ -1027,6 +1041,7 @@ def envelope_figure(result: EnvelopeResult, path=None):
     matplotlib.figure.Figure
     """
     from matplotlib.patches import Patch
+    from matplotlib.ticker import FuncFormatter
 
     from ..plotting import new_figure, save_png, wrap_title
 
@@ -1057,6 +1072,9 @@ def envelope_figure(result: EnvelopeResult, path=None):
         ax.loglog(f, y, ":", color="k", label="analytic (constant supply)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
+        for axis in (ax.xaxis, ax.yaxis):    # plain numbers (60, 2, 0.8), not 6 x 10^1
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_minor_formatter(FuncFormatter(_minor_log_label(axis)))
     for ax in axes[2:]:
         ax.set_xlabel("frequency [Hz]")
     handles, labels = axes[0].get_legend_handles_labels()
@@ -1064,7 +1082,7 @@ def envelope_figure(result: EnvelopeResult, path=None):
                 for m in LIMITS if m in used]
     fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(wrap_title(f"Performance envelope, {result.rig}, axis {result.axis}: position "
-                            f"THD <= {result.distortion * 100:g} % (shading: what limits the "
+                            f"THD ≤ {result.distortion * 100:g} % (shading: what limits the "
                             f"envelope with the lines)", 11, 11), fontsize=11)
     fig.subplots_adjust(bottom=0.14, top=0.9, hspace=0.08, wspace=0.22)
     if path is not None:
