@@ -113,7 +113,9 @@ def distortion_value(text: str) -> float:
         raise ValueError(f"--distortion: a fraction or a percentage, e.g. '5 %', got {text!r}") \
             from None
     if not 0 < value < 1:
-        raise ValueError(f"--distortion: must lie between 0 and 100 %, got {text!r}")
+        hint = (f" (a bare number is a fraction: did you mean '{text.strip()} %'?)"
+                if not m.group(2) and 1 <= value < 100 else "")
+        raise ValueError(f"--distortion: must lie between 0 and 100 %, got {text!r}{hint}")
     return value
 
 
