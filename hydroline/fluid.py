@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 __all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive",
            "entrained_air_bulk_modulus", "oil_compliance", "cavity_volume_fraction",
-           "chamber_pressure_scale", "ATMOSPHERE"]
+           "chamber_pressure_scale", "cavity_compliance", "ATMOSPHERE"]
 
 #: Standard atmosphere, the pressure at which ``Fluid.air_content`` is stated, [Pa] absolute.
 ATMOSPHERE = 101325.0
@@ -73,8 +73,8 @@ class Fluid:
         Polytropic exponent n of the entrained air, 1 (isothermal) ... 1.4 (adiabatic), [-] (M40).
     cavity_pressure : float or None
         Absolute pressure p_cav held by a gas/vapour cavity, [Pa]: below it chambers and
-        volumes open a cavity (M42); None: no cavity model (pressures may fall below it, as
-        before; the run warns).
+        volumes (M42) and the hose ends whose pressure a line puts out (M45) open a cavity;
+        None: no cavity model (pressures may fall below it, as before; the run warns).
     cavity_pressure_drop : float
         Regularisation of the cavity (M42): the pressure falls this much below ``cavity_pressure``
         per unit cavity volume fraction (0 would be an ideal constant-pressure cavity), [Pa].
@@ -312,41 +312,39 @@ def cavity_volume_fraction(pressure, cavity_pressure: float, pressure_drop: floa
 
 
 def chamber_pressure_scale(nominal_pressure: float, fluid: "Fluid | None") -> float:
-    """Typical magnitude of a chamber's pressure state (its absolute tolerance and
-    steady-state scaling, :class:`~hydroline.engine.component.State`), [Pa].
+    """Typical magnitude of a chamber's pressure state (the integrators' absolute tolerance is
+    ``atol_scale`` times it, the steady state's residual is scaled by it), [Pa].
 
-    Without a cavity model, the chamber's nominal pressure. With one (M42) the pressure moves
-    by ``cavity_pressure_drop`` per unit cavity fraction, so the scale is at most that drop:
-    the cavity's volume is then resolved to the integrator's ``atol_scale`` of the chamber
-    volume, as every other state is to that fraction of its magnitude. (At the nominal
-    pressure, 1e7 Pa, the absolute tolerance of 1 Pa was 1e-3 of the chamber's volume in a
-    cavity per step: a 10x-rated valve's cavity closed with an oil balance that missed by
-    1e-4 to 1.6 times the cavity's volume, depending on rounding.) Above
-    ``cavity_pressure_drop * atol_scale / rtol`` (0.1 kPa at the defaults; 1 MPa at the
-    nominal scale) the relative tolerance governs the pressure.
+    Without a cavity model the chamber's nominal pressure. With one (M42), at most
+    ``100 delta``: a cavity closing under an inflow hands the chamber's compliance from
+    ``V/delta`` to ``V/K`` within ``delta sqrt(delta / 3K)`` of ``p_cav`` (0.5 Pa at
+    delta = 1 kPa, K = 1.4 GPa). An absolute tolerance of 1 Pa (the default 1e-7 of a 10 MPa
+    scale) let BDF (CVODES, SciPy, the compiled core) step over that hand-over and accept a
+    step that fell ~7 kPa while dp/dt was positive, leaving a cavity of several chamber
+    volumes that no flow made (an oil balance missing by the whole cavity); which run did so
+    was set by rounding in the rest state. At ``100 delta`` the tolerance is 0.01 Pa.
 
     Parameters
     ----------
     nominal_pressure : float
         The chamber's nominal pressure, [Pa].
     fluid : Fluid or None
-        The rig's oil (its ``cavity_pressure``, ``cavity_pressure_drop``).
+        The rig's oil; None: plain oil.
 
     Returns
     -------
     float
-        The state's scale, [Pa].
+        The scale, [Pa].
 
     Examples
     --------
-    >>> import dataclasses
-    >>> with_cavity = dataclasses.replace(MINERAL_OIL, cavity_pressure=5e3)
-    >>> chamber_pressure_scale(1e7, MINERAL_OIL), chamber_pressure_scale(1e7, with_cavity)
-    (10000000.0, 1000.0)
+    >>> oil = Fluid(870.0, 32e-6, 1.4e9, cavity_pressure=5e3)
+    >>> chamber_pressure_scale(1e7, oil), chamber_pressure_scale(1e7, None)
+    (100000.0, 10000000.0)
     """
     if fluid is None or fluid.cavity_pressure is None:
-        return nominal_pressure
-    return min(nominal_pressure, fluid.cavity_pressure_drop)
+        return float(nominal_pressure)
+    return min(float(nominal_pressure), 100.0 * fluid.cavity_pressure_drop)
 
 
 def oil_compliance(volume, pressure, bulk_modulus: float, fluid: "Fluid | None"):
@@ -378,7 +376,43 @@ def oil_compliance(volume, pressure, bulk_modulus: float, fluid: "Fluid | None")
                                    fluid.air_polytropic_exponent)
     c = volume / K
     if fluid.cavity_pressure is not None:
-        d = fluid.cavity_pressure_drop
-        x = ops.fmin(ops.fmax((fluid.cavity_pressure - pressure) / d, 0.0), 1.0)
-        c = c + volume / d * (3.0 * x**2 - 2.0 * x**3)          # -dphi/dp, the cavity
+        c = c + cavity_compliance(volume, pressure, fluid)
     return c
+
+
+def cavity_compliance(volume, pressure, fluid: "Fluid"):
+    """``-dV_cav/dp`` of a gas/vapour cavity (M42): ``V sigma(x)/delta``, the cavity's share of
+    a chamber's compliance (:func:`oil_compliance`) and of a hose end's (M45), [m^3/Pa].
+
+    With ``x = (p_cav - p)/delta``, ``sigma = 3 x^2 - 2 x^3`` for ``0 <= x <= 1`` and 1 beyond:
+    zero at and above ``p_cav``, ``V/delta`` on the cavity's plateau; the derivative of
+    ``-V`` :func:`cavity_volume_fraction`.
+
+    Parameters
+    ----------
+    volume : float or CasADi expression
+        Reference volume V of the cavity law (a chamber's volume, a hose's bore volume), [m^3].
+    pressure : float, ndarray or CasADi expression
+        Absolute pressure, [Pa].
+    fluid : Fluid
+        The oil, with ``cavity_pressure`` (p_cav, not None) and ``cavity_pressure_drop``
+        (delta).
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+        ``V sigma/delta >= 0``, [m^3/Pa].
+
+    Examples
+    --------
+    Half a drop below p_cav the smoothstep is at 1/2; on the plateau ``V/delta``:
+
+    >>> oil = Fluid(870.0, 3.2e-5, 1.5e9, cavity_pressure=5e3, cavity_pressure_drop=1e3)
+    >>> float(cavity_compliance(2.0, 4.5e3, oil)), float(cavity_compliance(2.0, 0.0, oil))
+    (0.001, 0.002)
+    """
+    from .engine import ops
+
+    d = fluid.cavity_pressure_drop
+    x = ops.fmin(ops.fmax((fluid.cavity_pressure - pressure) / d, 0.0), 1.0)
+    return volume / d * (3.0 * x**2 - 2.0 * x**3)          # -dphi/dp, the cavity

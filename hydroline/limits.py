@@ -138,8 +138,8 @@ def check_output_size(t_end: float, dt_out: float, n_columns: int, *, stream_to=
 # The cost model of a run: an estimate for a note, not a limit. Hand-fitted on the 2-core
 # development machine (under a load of 2-3), with n the model's states:
 #
-#   build [s]        = BUILD_SECONDS + (n / BUILD_STATES)^3    (a model structure new to the cache)
-#   build [B]        = BUILD_BYTES + BUILD_BYTES_PER_STATE3 * n^3   (the C compiler's memory)
+#   build [s]        = BUILD_SECONDS + n / BUILD_STATES       (a model structure new to the cache)
+#   build [B]        = BUILD_BYTES + BUILD_BYTES_PER_STATE * n   (the C compiler's memory)
 #   integrate [s]    = t_end / INTEGRATION_SPEED * (n / REFERENCE_STATES)^1.5
 #   write [s]        = CSV bytes / CSV_RATE
 #   table [B]        = 2 * 8 * rows * columns   (kept in memory, doubled while it becomes the
@@ -147,20 +147,21 @@ def check_output_size(t_end: float, dt_out: float, n_columns: int, *, stream_to=
 #                                                streamed to a file)
 #   wall time        = build + integrate + write;  memory = the larger of build and table
 #
-# The compiled core's C source holds the sparse LU of the Jacobian, whose operations grow as
-# ~n^3 on the hose models (561, 6633, 41741, 174717 for 26, 58, 106, 170 states): compiling
-# took 2.5 s, 5.2 s, 12 s for 58, 106, 170 states, and 95 s and 550 MB for 330 states
-# (rig.modes_per_section = 40). Integration: 45 simulated seconds per second for the default
-# rig's 58 states (600 s of closed-loop sine in 11-14 s, benchmarks/README.md), 12x slower
-# per simulated second at 330 states (6.3 and 0.5 x real time on the open-loop step: n^1.45).
+# The compiled core's C source grows with the states (hydroline.compiled.codegen: the bordered
+# Jacobian and its sparse LU; before it, the LU of the full Jacobian grew as ~n^3 and 330
+# states took 95 s and 550 MB to compile): writing and compiling took 1.4, 2.2, 4.7 and 8.5 s
+# of CPU for 138, 330, 570 and 890 states (6, 30, 60, 100 modes per section), the compiler
+# 72-246 MB. Integration: 45 simulated seconds per second for a 58-state rig (600 s of
+# closed-loop sine in 11-14 s, benchmarks/README.md); on the open-loop step 53x real time
+# at the default rig's 138 states, 11x at 330 (n^1.75 between them).
 
 #: Fixed part of a first build (compiler start-up, the BDF integrator's code), [s].
-BUILD_SECONDS = 2.0
-#: States at which the n^3 part of a first build takes 1 s, [-].
-BUILD_STATES = 73.0
-#: Memory of the C compiler on a small model, [B], and its n^3 part, [B per state^3].
-BUILD_BYTES = 70e6
-BUILD_BYTES_PER_STATE3 = 13.4
+BUILD_SECONDS = 1.0
+#: States written and compiled per second beyond it, [1/s].
+BUILD_STATES = 90.0
+#: Memory of the C compiler on a small model, [B], and its part per state, [B].
+BUILD_BYTES = 40e6
+BUILD_BYTES_PER_STATE = 0.23e6
 #: Simulated seconds per wall second of the compiled integrator on REFERENCE_STATES states.
 INTEGRATION_SPEED = 45.0
 REFERENCE_STATES = 58
@@ -204,7 +205,7 @@ class RunCost:
         return self.seconds > NOTE_SECONDS or self.memory_bytes > NOTE_BYTES
 
     def describe(self) -> str:
-        """One line, e.g. ``"about 95 s and 550 MB (95 s compiling ...)"``.
+        """One line, e.g. ``"about 25 s and 130 MB (...)"``.
 
         Returns
         -------
@@ -256,8 +257,8 @@ def run_cost(n_states: int, t_end: float, rows: float = 0, columns: int = 0, *,
         Build, integration and writing time [s] and peak memory [B].
     """
     n = float(n_states)
-    build_s = BUILD_SECONDS + (n / BUILD_STATES) ** 3 if build else 0.0
-    build_b = BUILD_BYTES + BUILD_BYTES_PER_STATE3 * n ** 3 if build else 0.0
+    build_s = BUILD_SECONDS + n / BUILD_STATES if build else 0.0
+    build_b = BUILD_BYTES + BUILD_BYTES_PER_STATE * n if build else 0.0
     rounds = math.ceil(max(variants, 1) / max(workers, 1))
     integrate = rounds * t_end / INTEGRATION_SPEED * (n / REFERENCE_STATES) ** 1.5
     write = rounds * CSV_BYTES_PER_VALUE * rows * columns / CSV_RATE if csv else 0.0

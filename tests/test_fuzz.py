@@ -465,3 +465,30 @@ def test_miswired_circuits_refused_in_one_line_or_warned(miswired):
     assert outcome["refused"] >= 0.9 * len(cases), outcome
     assert kinds == set(_Miswire.KINDS), kinds        # every class was generated and refused
     assert time.perf_counter() - tic < 60             # generous: build only, no integration
+
+
+# ---- no negative absolute pressure with a cavity model (issue 30) ---------------------------
+# The fuzz campaigns' plausible rigs that drove pressures below zero absolute (a return hose of
+# 0.3x bore with a valve of 3x flow: -20.6 MPa; a valve of 10x flow, /work/shared/repro/p3_11:
+# -6.8 MPa) run with fluid.cavity_pressure: every watched pressure stays at or above zero
+# absolute, and the valve ports, hose ends holding a cavity (M45), at or above p_cav.
+CAVITATING = {"narrow return, big valve": {"return.section2.diameter": "4.08 mm",
+                                           "servovalve.rated_flow": "57 L/min"},
+              "valve 10x": {"servovalve.rated_flow": "190 L/min"}}
+
+
+@pytest.mark.parametrize("changes", CAVITATING.values(), ids=list(CAVITATING))
+def test_plausible_cavitating_rigs_keep_pressures_above_zero(changes):
+    from hydroline import simulate
+    from hydroline.scenarios.running import watched_pressures
+
+    rig = load_rig(None).set("fluid.cavity_pressure", "5 kPa")
+    for key, value in changes.items():
+        rig = rig.set(key, value)
+    res = simulate(rig, t_end=0.2, solver="cvodes")
+    lows = {k: float(res[k].min()) for k in watched_pressures(res)}
+    assert min(lows.values()) >= 0.0, lows
+    # p_end = p~ + |k| w >= p_cav (M45) to its rounding; |k| w < 1e11 Pa on these rigs
+    for port in ("supply_port_pressure", "return_port_pressure"):
+        assert lows[port] >= 5e3 - 1e-3, lows
+    assert any("cavity opened" in w for w in res.warnings)

@@ -76,10 +76,10 @@ FLUID_PARAMETERS = {
     # (air saturation) up to 1 atm (Totten, Handbook of Hydraulic Fluid Technology, 2000;
     # Wylie & Streeter, Fluid Transients, 1993, ch. 8 for the cavity treatment)
     "cavity_pressure": Parameter("Pa", "absolute pressure of a gas/vapour cavity; below it "
-                                 "chambers and volumes open a cavity (M42); absent: none",
+                                 "chambers, volumes (M42) and hose ends (M45) open a cavity; absent: none",
                                  0.0, 1e7, optional=True, plausible=(0.0, 2e5)),
     "cavity_pressure_drop": Parameter("Pa", "regularisation: pressure fall per unit cavity "
-                                      "volume fraction (M42)", 0.0, exclusive_minimum=True,
+                                      "volume fraction (M42), width of a hose end's (M45)", 0.0, exclusive_minimum=True,
                                       default=1e3, plausible=(1.0, 1e5)),
 }
 
@@ -233,7 +233,7 @@ def make_hose(*, name, length, diameter, form, nominal_pressure, bulk_modulus=No
         line = Line(length, diameter, fluid, beta)
     model = ModalLine(line, _integer_modes(modes, modes_per_section), form,
                       method=line_method if method is None else method)
-    return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure)
+    return comp.HoseSection(name=name, model=model, nominal_pressure=nominal_pressure, fluid=fluid)
 
 
 def make_accumulator(*, name, connection_length, connection_diameter, model, modes=None, fluid,

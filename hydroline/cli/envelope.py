@@ -33,8 +33,10 @@ def register(sub):
         "runs at their periodic state the largest sine displacement amplitude reached with the "
         "position's harmonic distortion within --distortion, and what stops a larger one: "
         "stroke, valve (spool or current at its limit for want of flow), supply_dip / "
-        "return_rise (the port pressure at the valve eating its drop), force (load pressure), "
-        "gas_release, distortion. The same with an ideal constant supply and tank (lines, "
+        "return_rise (the line's pulsation at the valve's port: its loss of the valve's drop, "
+        "or its troughs at the gas-release pressure), force (the actuator at its stall "
+        "force), gas_release (in a chamber), distortion. The same with an ideal constant "
+        "supply and tank (lines, "
         "manifolds and accumulators taken out, the valve's ports at their rest pressures) and "
         "the vendor's analytic envelope for it (stroke/2; Q(p_L)/A, its fundamental at the "
         "distortion allowed; (p_s - p_t) A/m). With --out DIR: envelope.csv, envelope.json and "
@@ -111,7 +113,9 @@ def distortion_value(text: str) -> float:
         raise ValueError(f"--distortion: a fraction or a percentage, e.g. '5 %', got {text!r}") \
             from None
     if not 0 < value < 1:
-        raise ValueError(f"--distortion: must lie between 0 and 100 %, got {text!r}")
+        hint = (f" (a bare number is a fraction: did you mean '{text.strip()} %'?)"
+                if not m.group(2) and 1 <= value < 100 else "")
+        raise ValueError(f"--distortion: must lie between 0 and 100 %, got {text!r}{hint}")
     return value
 
 

@@ -2,6 +2,8 @@
  *
  * Compiled together with the generated model code (hl_f, hl_jac, hl_signals, hl_lu_factor,
  * hl_lu_solve, HL_* sizes) into one shared library; the whole run of a segment happens in C.
+ * hl_jac is the network's bordered Jacobian (the connections cut open, codegen.py): the
+ * Newton systems are solved in it; d(dz/dt)/dz itself is assembled by hl_jacobian_nonzeros.
  *
  * Method: the quasi-constant step size BDF of Shampine & Reichelt, "The MATLAB ODE suite",
  * SIAM J. Sci. Comput. 18 (1997) 1-22, with the NDF coefficients kappa (orders 1-5), in the
@@ -69,10 +71,10 @@ typedef struct {
     long long drop_after, drop_backoff;
     int have_lu, lu_dense, steps_since_lu;
     double c_lu, crate;
-    double jnz[HL_NNZ];
+    double jnz[HL_NENZ];      /* the bordered Jacobian (codegen.py) */
     double lu[HL_NLU];
-    double dense[HL_N * HL_N];
-    int piv[HL_N];
+    double dense[HL_NE * HL_NE];
+    int piv[HL_NE];
     /* step history for dense output */
     double t_old, h_step;
     int order_step;
@@ -109,11 +111,20 @@ static double hl_rms(const double* v, const double* w) {
     return sqrt(s / HL_N);
 }
 
-/* rms of v_i * winv_i, winv the inverse error weights 1 / (atol + rtol |y_i|) */
+/* rms of v_i * winv_i, winv the inverse error weights 1 / (atol + rtol |y_i|). Summed in
+ * HL_LANES interleaved partial sums: one running sum is a chain of dependent additions (~4
+ * cycles each, not vectorised without reassociation), 0.4 us a norm at 330 states, two to
+ * four norms a step. */
+#define HL_LANES 8
 static double hl_wrms(const double* v, const double* winv) {
-    double s = 0.;
-    for (int i = 0; i < HL_N; i++) { double q = v[i] * winv[i]; s += q * q; }
-    return sqrt(s / HL_N);
+    double s[HL_LANES] = {0.};
+    int i = 0;
+    for (; i + HL_LANES <= HL_N; i += HL_LANES)
+        for (int l = 0; l < HL_LANES; l++) { double q = v[i + l] * winv[i + l]; s[l] += q * q; }
+    for (; i < HL_N; i++) { double q = v[i] * winv[i]; s[0] += q * q; }
+    double total = 0.;
+    for (int l = 0; l < HL_LANES; l++) total += s[l];
+    return sqrt(total / HL_N);
 }
 
 /* rms of k * v_i * winv_i */
@@ -121,9 +132,74 @@ static double hl_wrms_k(double k, const double* v, const double* winv) {
     return fabs(k) * hl_wrms(v, winv);
 }
 
+/* Whether every v_i is finite; where not, the last index that is not goes to *last. Checked
+ * as a sum of v_i * 0 (0 for a finite v_i, NaN for inf or NaN) in HL_LANES partial sums
+ * (vectorised; a test and branch per entry cost as much as a norm). */
+static int hl_all_finite(const double* v, int* last) {
+    double s[HL_LANES] = {0.};
+    int i = 0;
+    for (; i + HL_LANES <= HL_N; i += HL_LANES)
+        for (int l = 0; l < HL_LANES; l++) s[l] += v[i + l] * 0.;
+    for (; i < HL_N; i++) s[0] += v[i] * 0.;
+    double total = 0.;
+    for (int l = 0; l < HL_LANES; l++) total += s[l];
+    if (total == 0.) return 1;
+    for (i = 0; i < HL_N; i++)
+        if (!isfinite(v[i])) *last = i;
+    return 0;
+}
+
+/* winv_i = 1 / (atol + rtol |y_i|), the inverse error weights, to single precision (7
+ * digits: the weights set how errors are measured, not the solution). A double division per
+ * state costs ~4 cycles, two per step; single precision ones go eight to a vector. */
+static void hl_inverse_weights(const hl_solver* S, const double* y, double* winv) {
+    const float atol = (float)S->atol, rtol = (float)S->rtol;
+    for (int i = 0; i < HL_N; i++) winv[i] = 1.f / (atol + rtol * (float)fabs(y[i]));
+}
+
 static void hl_eval_f(hl_solver* S, double t, const double* z, double* dz) {
     hl_f(t, z, S->p, S->c, dz);
     S->nfev++;
+}
+
+/* The predictor y = sum_k D[k] and psi = sum_k gamma_k / alpha_q D[k], k = 0..q (q >= 1),
+ * state by state with the orders unrolled: each difference is read once (a pass over the
+ * arrays per difference read and wrote y and psi q times), the sums in the same order. */
+#define HL_PREDICT(Q) \
+    for (int i = 0; i < HL_N; i++) { \
+        double y = S->D[0][i] + S->D[1][i], ps = S->D[1][i] * g[1]; \
+        for (int k = 2; k <= (Q); k++) { y += S->D[k][i]; ps += S->D[k][i] * g[k]; } \
+        y_predict[i] = y; psi[i] = ps; \
+    }
+static void hl_predict(const hl_solver* S, int order, double* y_predict, double* psi) {
+    double g[HL_MAX_ORDER + 1];
+    for (int k = 1; k <= order; k++) g[k] = hl_gamma_[k] / hl_alpha_[order];
+    switch (order) {
+    case 1: HL_PREDICT(1) break;
+    case 2: HL_PREDICT(2) break;
+    case 3: HL_PREDICT(3) break;
+    case 4: HL_PREDICT(4) break;
+    default: HL_PREDICT(5) break;
+    }
+}
+
+/* After an accepted step with correction d: D[q+2] = d - D[q+1], D[q+1] = d, then D[k] +=
+ * D[k+1] for k = q..0; state by state with the orders unrolled, as hl_predict. */
+#define HL_UPDATE(Q) \
+    for (int i = 0; i < HL_N; i++) { \
+        double up = d[i]; \
+        S->D[(Q) + 2][i] = up - S->D[(Q) + 1][i]; \
+        S->D[(Q) + 1][i] = up; \
+        for (int k = (Q); k >= 0; k--) { up = S->D[k][i] + up; S->D[k][i] = up; } \
+    }
+static void hl_update_D(hl_solver* S, int order, const double* d) {
+    switch (order) {
+    case 1: HL_UPDATE(1) break;
+    case 2: HL_UPDATE(2) break;
+    case 3: HL_UPDATE(3) break;
+    case 4: HL_UPDATE(4) break;
+    default: HL_UPDATE(5) break;
+    }
 }
 
 /* D[0..order] <- R(factor) U D : same interpolating polynomial, new step (SciPy change_D) */
@@ -158,47 +234,114 @@ static void hl_change_D(hl_solver* S, int order, double factor) {
 }
 
 /* ---- linear algebra ------------------------------------------------------------------- */
-static int hl_dense_factor(hl_solver* S, double g) {
-    double* A = S->dense;
-    memset(A, 0, sizeof(double) * HL_N * HL_N);
-    for (int j = 0; j < HL_N; j++)
-        for (long long k = hl_jac_colind[j]; k < hl_jac_colind[j + 1]; k++)
-            A[hl_jac_row[k] * HL_N + j] = -g * S->jnz[k];
-    for (int i = 0; i < HL_N; i++) A[i * HL_N + i] += 1.;
-    for (int k = 0; k < HL_N; k++) {
+/* Dense LU with partial pivoting of the n x n row-major A, in place; -1 if singular. As
+ * LINPACK's dgefa: a row exchange at step k moves columns k.. only (the multipliers of the
+ * earlier steps stay in their rows), which is what the interleaved exchanges and eliminations
+ * of hl_dense_lu_solve (dgesl) expect. */
+static int hl_dense_lu(double* A, int n, int* piv) {
+    for (int k = 0; k < n; k++) {
         int p = k;
-        double best = fabs(A[k * HL_N + k]);
-        for (int i = k + 1; i < HL_N; i++)
-            if (fabs(A[i * HL_N + k]) > best) { best = fabs(A[i * HL_N + k]); p = i; }
-        S->piv[k] = p;
+        double best = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; i++)
+            if (fabs(A[i * n + k]) > best) { best = fabs(A[i * n + k]); p = i; }
+        piv[k] = p;
         if (!(best > 0.)) return -1;
         if (p != k)
-            for (int j = 0; j < HL_N; j++) {
-                double tmp = A[k * HL_N + j]; A[k * HL_N + j] = A[p * HL_N + j]; A[p * HL_N + j] = tmp;
+            for (int j = k; j < n; j++) {
+                double tmp = A[k * n + j]; A[k * n + j] = A[p * n + j]; A[p * n + j] = tmp;
             }
-        double inv = 1. / A[k * HL_N + k];
-        for (int i = k + 1; i < HL_N; i++) {
-            double l = A[i * HL_N + k] * inv;
-            A[i * HL_N + k] = l;
+        double inv = 1. / A[k * n + k];
+        for (int i = k + 1; i < n; i++) {
+            double l = A[i * n + k] * inv;
+            A[i * n + k] = l;
             if (l != 0.)
-                for (int j = k + 1; j < HL_N; j++) A[i * HL_N + j] -= l * A[k * HL_N + j];
+                for (int j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
         }
     }
     return 0;
 }
 
-static void hl_dense_solve(const hl_solver* S, double* b) {
-    const double* A = S->dense;
-    for (int k = 0; k < HL_N; k++) {
-        int p = S->piv[k];
+static void hl_dense_lu_solve(const double* A, int n, const int* piv, double* b) {
+    for (int k = 0; k < n; k++) {
+        int p = piv[k];
         if (p != k) { double tmp = b[k]; b[k] = b[p]; b[p] = tmp; }
-        for (int i = k + 1; i < HL_N; i++) b[i] -= A[i * HL_N + k] * b[k];
+        for (int i = k + 1; i < n; i++) b[i] -= A[i * n + k] * b[k];
     }
-    for (int k = HL_N - 1; k >= 0; k--) {
+    for (int k = n - 1; k >= 0; k--) {
         double s = b[k];
-        for (int j = k + 1; j < HL_N; j++) s -= A[k * HL_N + j] * b[j];
-        b[k] = s / A[k * HL_N + k];
+        for (int j = k + 1; j < n; j++) s -= A[k * n + j] * b[j];
+        b[k] = s / A[k * n + k];
     }
+}
+
+/* The bordered W = [[I - g F_z, -g F_v], [-H_z, I - H_v]] (codegen.py), dense: the fallback
+ * when a pivot of the sparse LU is tiny */
+static int hl_dense_factor(hl_solver* S, double g) {
+    double* A = S->dense;
+    memset(A, 0, sizeof(double) * HL_NE * HL_NE);
+    for (int j = 0; j < HL_NE; j++)
+        for (long long k = hl_ext_colind[j]; k < hl_ext_colind[j + 1]; k++)
+            A[hl_ext_row[k] * HL_NE + j] = -(hl_ext_row[k] < HL_N ? g : 1.) * S->jnz[k];
+    for (int i = 0; i < HL_NE; i++) A[i * HL_NE + i] += 1.;
+    return hl_dense_lu(A, HL_NE, S->piv);
+}
+
+static void hl_dense_solve(const hl_solver* S, double* b) {
+    double v[HL_NE];
+    memcpy(v, b, sizeof(double) * HL_N);
+    for (int i = HL_N; i < HL_NE; i++) v[i] = 0.;      /* the cut signals' rows */
+    hl_dense_lu_solve(S->dense, HL_NE, S->piv, v);
+    memcpy(b, v, sizeof(double) * HL_N);
+}
+
+/* d(dz/dt)/dz at (t, z), nonzeros in the pattern hl_jac_colind / hl_jac_row: the Schur
+ * complement J = F_z + F_v (I - H_v)^-1 H_z of the bordered Jacobian, column by column (for
+ * checks, the steady state and the FMU's directional derivatives, not the integrator's
+ * steps; no n x n work array). Returns -1 when out of memory or I - H_v is singular. */
+static int hl_jacobian_nonzeros(double t, const double* z, const double* p, const double* c,
+                                double* jnz) {
+#if HL_NV == 0
+    hl_jac(t, z, p, c, jnz);
+    return 0;
+#else
+    int rc = -1;
+    double* m = malloc(sizeof(double) * HL_NENZ);
+    double* hv = calloc((size_t)HL_NV * HL_NV, sizeof(double));    /* I - H_v */
+    double* tz = calloc((size_t)HL_NV * HL_N, sizeof(double));     /* H_z, then (I - H_v)^-1 H_z, by columns */
+    double* col = calloc(HL_N, sizeof(double));                    /* one column of J */
+    int piv[HL_NV];
+    if (!(m && hv && tz && col)) goto done;
+    hl_jac(t, z, p, c, m);
+    for (int i = 0; i < HL_NV; i++) hv[i * HL_NV + i] = 1.;
+    for (int j = 0; j < HL_NE; j++)
+        for (long long k = hl_ext_colind[j]; k < hl_ext_colind[j + 1]; k++) {
+            long long i = hl_ext_row[k];
+            if (j < HL_N && i >= HL_N) tz[(long long)j * HL_NV + (i - HL_N)] = m[k];
+            else if (j >= HL_N && i >= HL_N) hv[(i - HL_N) * HL_NV + (j - HL_N)] -= m[k];
+        }
+    if (hl_dense_lu(hv, HL_NV, piv) != 0) goto done;
+    for (int j = 0; j < HL_N; j++) {
+        const double* tj = tz + (long long)j * HL_NV;
+        hl_dense_lu_solve(hv, HL_NV, piv, tz + (long long)j * HL_NV);
+        for (long long k = hl_ext_colind[j]; k < hl_ext_colind[j + 1]; k++)   /* F_z[:, j] */
+            if (hl_ext_row[k] < HL_N) col[hl_ext_row[k]] = m[k];
+        for (int v = 0; v < HL_NV; v++) {                                  /* + F_v T[:, j] */
+            if (tj[v] == 0.) continue;
+            for (long long k = hl_ext_colind[HL_N + v]; k < hl_ext_colind[HL_N + v + 1]; k++)
+                if (hl_ext_row[k] < HL_N) col[hl_ext_row[k]] += m[k] * tj[v];
+        }
+        for (long long k = hl_jac_colind[j]; k < hl_jac_colind[j + 1]; k++) {
+            jnz[k] = col[hl_jac_row[k]];
+            col[hl_jac_row[k]] = 0.;
+        }
+    }
+    rc = 0;
+done:
+    if (rc != 0)
+        for (int k = 0; k < HL_NNZ; k++) jnz[k] = NAN;
+    free(m); free(hv); free(tz); free(col);
+    return rc;
+#endif
 }
 
 /* Fresh Jacobian at (t, z) and factors of I - c J */
@@ -233,14 +376,11 @@ static int hl_newton(hl_solver* S, double t_new, const double* y_predict, double
     for (int k = 0; k < HL_NEWTON_MAXITER; k++) {   /* y, d: set by the first iteration */
         *n_iter = k + 1;
         hl_eval_f(S, t_new, k ? y : y_predict, f);
-        int finite = 1;
         if (k == 0)
             for (int i = 0; i < HL_N; i++) dy[i] = c * f[i] - psi[i];
         else
             for (int i = 0; i < HL_N; i++) dy[i] = c * f[i] - psi[i] - d[i];
-        for (int i = 0; i < HL_N; i++)
-            if (!isfinite(dy[i])) { finite = 0; S->last_nonfinite = i; }
-        if (!finite) return 0;
+        if (!hl_all_finite(dy, &S->last_nonfinite)) return 0;
         hl_solve(S, dy);
         if (gfac != 1.) for (int i = 0; i < HL_N; i++) dy[i] *= gfac;
         double dy_norm = hl_wrms(dy, winv);
@@ -367,19 +507,8 @@ static int hl_step(hl_solver* S) {
         }
         double h = t_new - t;
         h_abs = h;
-        {   /* predictor y = sum_k D[k], psi = sum_k gamma_k / alpha_q D[k] (order >= 1) */
-            double g1 = hl_gamma_[1] / hl_alpha_[order];
-            for (int i = 0; i < HL_N; i++) {
-                y_predict[i] = S->D[0][i] + S->D[1][i];
-                psi[i] = S->D[1][i] * g1;
-            }
-        }
-        for (int k = 2; k <= order; k++) {
-            const double* Dk = S->D[k];
-            double gk = hl_gamma_[k] / hl_alpha_[order];
-            for (int i = 0; i < HL_N; i++) { y_predict[i] += Dk[i]; psi[i] += Dk[i] * gk; }
-        }
-        for (int i = 0; i < HL_N; i++) winv[i] = 1. / (S->atol + S->rtol * fabs(y_predict[i]));
+        hl_predict(S, order, y_predict, psi);
+        hl_inverse_weights(S, y_predict, winv);
         double c = h / hl_alpha_[order];
         double tol = S->newton_coef / hl_errc_[order];
         int converged = 0, fresh = 0;
@@ -403,7 +532,7 @@ static int hl_step(hl_solver* S) {
             continue;
         }
         safety = HL_SAFETY * (2 * HL_NEWTON_MAXITER + 1) / (2 * HL_NEWTON_MAXITER + n_iter);
-        for (int i = 0; i < HL_N; i++) winv[i] = 1. / (S->atol + S->rtol * fabs(y_new[i]));
+        hl_inverse_weights(S, y_new, winv);
         error_norm = hl_wrms_k(hl_errc_[order], d, winv);
         if (!fixed && error_norm > 1.) {
             S->nrej++;
@@ -424,12 +553,7 @@ static int hl_step(hl_solver* S) {
     S->h_step = h_abs;
     S->order_step = order;
     S->h_abs = h_abs;
-    for (int i = 0; i < HL_N; i++) {
-        S->D[order + 2][i] = d[i] - S->D[order + 1][i];
-        S->D[order + 1][i] = d[i];
-    }
-    for (int k = order; k >= 0; k--)
-        for (int i = 0; i < HL_N; i++) S->D[k][i] += S->D[k + 1][i];
+    hl_update_D(S, order, d);
     if (fixed) {
         if (order < S->max_order) S->order = order + 1;
         return 0;
@@ -563,8 +687,27 @@ void hl_rhs(const hl_solver* S, double t, const double* x, double* dx) {
     for (int i = 0; i < HL_N; i++) dx[i] *= S->scale[i];
 }
 
-void hl_scaled_jacobian(const hl_solver* S, double t, const double* x, double* jnz) {
+/* The bordered Jacobian (codegen.py) at (t, x), x unscaled, with runtime parameters p,
+ * constants c and state scales: its nonzeros in hl_ext_colind / hl_ext_row order (states
+ * scaled, the cut signals in SI). Needs no solver: for the steady state's sparse solves. */
+void hl_bordered_jacobian(double t, const double* x, const double* p, const double* c,
+                          const double* scale, double* out) {
+    double z[HL_N];
+    for (int i = 0; i < HL_N; i++) z[i] = x[i] / scale[i];
+    hl_jac(t, z, p, c, out);
+}
+
+/* Sizes of the bordered Jacobian: out = {states, states + cut signals, nonzeros} */
+void hl_bordered_sizes(long long* out) { out[0] = HL_N; out[1] = HL_NE; out[2] = HL_NENZ; }
+
+/* Its compressed-column pattern: colind (HL_NE + 1 entries) and row (HL_NENZ entries) */
+void hl_bordered_pattern(long long* colind, long long* row) {
+    memcpy(colind, hl_ext_colind, sizeof(long long) * (HL_NE + 1));
+    memcpy(row, hl_ext_row, sizeof(long long) * HL_NENZ);
+}
+
+int hl_scaled_jacobian(const hl_solver* S, double t, const double* x, double* jnz) {
     double z[HL_N];
     for (int i = 0; i < HL_N; i++) z[i] = x[i] / S->scale[i];
-    hl_jac(t, z, S->p, S->c, jnz);
+    return hl_jacobian_nonzeros(t, z, S->p, S->c, jnz);
 }

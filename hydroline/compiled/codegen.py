@@ -10,12 +10,30 @@ sizes) share one compiled library, and the library's cache key is a hash of the 
 Generated functions (``z`` are the states scaled by their typical magnitudes, ``x = z s``):
 
 ``hl_f(t, z, p, c, dz)``          dz/dt of the scaled states (docs/model.md M1-M24 as assembled)
-``hl_jac(t, z, p, c, jnz)``       d(dz/dt)/dz, nonzeros in compressed-column order
+``hl_jac(t, z, p, c, jnz)``       the bordered Jacobian (below), nonzeros in compressed-column
+                                  order (``hl_ext_colind``, ``hl_ext_row``)
 ``hl_signals(t, z, p, c, y)``     every network signal, [SI]
-``hl_lu_factor(jnz, g, a)``       sparse LU of ``W = I - g J`` without pivoting, in a
-                                  fill-reducing (minimum degree) order fixed at generation time;
-                                  returns the 1-based failing pivot or 0
+``hl_lu_factor(jnz, g, a)``       sparse LU of the bordered ``W = I - g J`` without pivoting, in
+                                  a fill-reducing (minimum degree) order fixed at generation
+                                  time; returns the 1-based failing pivot or 0
 ``hl_lu_solve(a, b)``             solves ``W v = b`` in place with the factors
+
+The bordered Jacobian. A hose section's states couple to its neighbours' only through the
+few signals at its ends (a pressure, a flow), yet every state of one section moves every
+other's derivative through them: the Jacobian d(dz/dt)/dz of a network of hoses is dense in
+blocks (138 states at 6 modes per section: 3 400 nonzeros; 330 states at 30 modes: 23 900),
+and so are its LU factors (24 000 slots, 1 Mflop a factorisation) and the code that writes
+them. The connections are cut open instead (:func:`interface_signals`): with ``v`` the cut
+signals, each component's derivatives ``F(z, v)`` and outputs ``H(z, v)`` depend on its own
+states and its inputs only, and Newton's linear system ``(I - g J) dz = b`` is solved as
+
+    [ I - g F_z   -g F_v ] [dz]   [b]
+    [   -H_z     I - H_v ] [dv] = [0]
+
+whose matrix has as many nonzeros as the components' own blocks (``J = F_z + F_v (I - H_v)^-1
+H_z`` is its Schur complement; the solution dz is the same). Its LU, in minimum-degree order,
+eliminates each section's modes into the few signals at its ends: factors, code and compile
+time grow with the number of states, not its square.
 """
 from __future__ import annotations
 
@@ -29,7 +47,8 @@ import numpy as np
 from .generated import GeneratedModel, UnsupportedOperation, number_prefix
 
 __all__ = ["GeneratedModel", "generate", "UnsupportedOperation", "structure_key",
-           "constant_positions", "constants_at", "scaled_functions", "number_prefix"]
+           "constant_positions", "constants_at", "scaled_functions", "number_prefix",
+           "interface_signals", "bordered_jacobian", "schur_pattern"]
 
 
 _BINARY = {
@@ -101,10 +120,11 @@ def assignments(fun: ca.Function, binary: dict, unary: dict, inputs: list[str], 
 
 
 def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
-                constants: list[float]) -> str:
-    """One SX function as C; its constants are appended to ``constants`` (read as c[k])."""
-    lines = [f"static void {name}(double t, const double* z, const double* p, const double* c, "
-             f"double* {output}) {{"]
+                constants: list[float], attributes: str = "") -> str:
+    """One SX function as C; its constants are appended to ``constants`` (read as c[k]);
+    ``attributes`` go before its definition (e.g. ``HL_RARELY_CALLED``)."""
+    lines = [f"{attributes + ' ' if attributes else ''}static void {name}(double t, const double* z, "
+             f"const double* p, const double* c, double* {output}) {{"]
     nw = fun.sz_w()
     if nw:
         lines.append("  double " + ", ".join(f"w{i}" for i in range(nw)) + ";")
@@ -119,12 +139,13 @@ def _function_c(fun: ca.Function, name: str, inputs: list[str], output: str,
 
 
 def scaled_functions(model):
-    """f, its sparse Jacobian and the signals of a compiled model in scaled states z = x/scale.
+    """f, its bordered Jacobian and the signals of a compiled model in scaled states z = x/scale.
 
     Where the model's graph takes the components' numbers as symbols (``model.k``,
-    :class:`~hydroline.engine.CompiledModel`), the functions take them, and the state
-    scales, as a fourth input ``c = [numbers, scales]`` (:func:`number_prefix`): their C
-    reads them from the constants array, and depends on the structure only.
+    :class:`~hydroline.engine.CompiledModel`), the functions take them, the state scales and
+    their inverses as a fourth input ``c = [numbers, scales, 1/scales]``
+    (:func:`number_prefix`): their C reads them from the constants array, and depends on the
+    structure only.
 
     Parameters
     ----------
@@ -132,26 +153,122 @@ def scaled_functions(model):
 
     Returns
     -------
-    (f, jac, signals) : casadi.Function of (t, z, p) or (t, z, p, c): dz/dt, d(dz/dt)/dz,
-                        every signal [SI]
+    (f, jac, signals) : casadi.Function of (t, z, p) or (t, z, p, c): dz/dt, the bordered
+        Jacobian (:func:`bordered_jacobian`; d(dz/dt)/dz itself where the network is not
+        cut), every signal [SI]
     """
     scales = np.asarray(model.network.state_scales, dtype=float)
-    z = ca.SX.sym("z", len(scales))
+    n = len(scales)
+    z = ca.SX.sym("z", n)
     k = getattr(model, "k", None)
     if k is None:
-        s, inputs = ca.DM(scales), [model.t, z, model.p]
-        dx, y = model.dx, model.y
+        s, inverse, inputs = ca.DM(scales), ca.DM(1.0 / scales), [model.t, z, model.p]
+        dx, y, equations = model.dx, model.y, None
     else:
-        s = ca.SX.sym("s", len(scales))
-        inputs = [model.t, z, model.p, ca.vertcat(k, s)]
-        dx, y = model.dx_general, model.y_general
+        s, inverse = ca.SX.sym("s", n), ca.SX.sym("inverse_s", n)
+        inputs = [model.t, z, model.p, ca.vertcat(k, s, inverse)]
+        dx, y, equations = model.dx_general, model.y_general, model.number_equations
     x_of_z = z * s
-    dz = ca.substitute(dx, model.x, x_of_z) / s
+    # times 1/scale, not divided by it: a division per state costs as much as the rest of a
+    # hose section's derivative (x / s and x * (1/s) differ by at most an ulp)
+    dz = ca.substitute(dx, model.x, x_of_z) * inverse
     y = ca.substitute(y, model.x, x_of_z)
     return (ca.Function("hl_f", inputs, [dz]),
-            ca.Function("hl_jac", inputs, [ca.jacobian(dz, z)]),
+            ca.Function("hl_jac", inputs,
+                        [bordered_jacobian(model, z, x_of_z, y, dz, inverse, equations)]),
             ca.Function("hl_signals", inputs, [y]))
 
+
+def interface_signals(network) -> list[str]:
+    """The connections the bordered Jacobian cuts open: every signal some component reads
+    whose producer has states or feed-through (a value that moves with the states), in the
+    network's signal order; none where the network cannot be evaluated cut open (a model
+    without :meth:`~hydroline.engine.Network.evaluate`, e.g. the FMU's plant).
+
+    Parameters
+    ----------
+    network : Network   The assembled model
+    """
+    if not callable(getattr(network, "evaluate", None)) or not hasattr(network, "producer"):
+        return []
+    read = {c.signal(port) for c in network.components for port in c.inputs}
+    out = []
+    for sig in network.signal_names:
+        c, _ = network.producer[sig]
+        if sig in read and (c.states or c.feedthrough):
+            out.append(sig)
+    return out
+
+
+def bordered_jacobian(model, z, x_of_z, y, dz, inverse_scales=None, equations=None):
+    """The bordered Jacobian of a network cut open at its :func:`interface_signals` ``v``:
+    ``[[F_z, F_v], [H_z, H_v]]`` of the scaled derivatives ``F`` and the cut signals' values
+    ``H`` as functions of (z, v), at v = the signals' values at z (module docstring);
+    d(dz/dt)/dz itself where no signal is cut.
+
+    Parameters
+    ----------
+    model : CompiledModel   The network's CasADi graph
+    z : casadi.SX           The scaled states, [-]
+    x_of_z : casadi.SX      The states in terms of z, [SI]
+    y : casadi.SX           Every signal in terms of z, [SI]
+    dz : casadi.SX          dz/dt in terms of z, [1/s]
+    inverse_scales : casadi.SX or DM
+                            1 / each state's scale, [1/SI] (symbols where the numbers
+                            are); None: the network's
+    equations : dict        Component name -> the object whose equations stand for it (its
+                            numbers as symbols, :meth:`~hydroline.engine.Network.evaluate`);
+                            None: the components' own
+
+    Returns
+    -------
+    casadi.SX  (n + n_v) x (n + n_v), sparse
+    """
+    net = model.network
+    cut = interface_signals(net)
+    if not cut:
+        return ca.jacobian(dz, z)
+    v = ca.SX.sym("v", len(cut))
+    n, m = z.numel(), model.p.numel()
+    dx, sig = net.evaluate(model.t, [x_of_z[i] for i in range(n)], [model.p[i] for i in range(m)],
+                           equations, given={s: v[k] for k, s in enumerate(cut)})
+    if inverse_scales is None:
+        inverse_scales = ca.DM(1.0 / np.asarray(net.state_scales, dtype=float))
+    rows = ca.vertcat(*[ca.SX(d) * inverse_scales[i] for i, d in enumerate(dx)],
+                      *[ca.SX(sig[s]) for s in cut])
+    jac = ca.jacobian(rows, ca.vertcat(z, v))
+    at = {s: k for k, s in enumerate(net.signal_names)}
+    return ca.substitute(jac, v, ca.vertcat(*[y[at[s]] for s in cut]))
+
+
+def schur_pattern(n: int, colind, row):
+    """The pattern of ``J = F_z + F_v (I - H_v)^-1 H_z`` from the bordered Jacobian's pattern
+    (compressed column, ``n`` states first): what d(dz/dt)/dz can hold.
+
+    Parameters
+    ----------
+    n : int          States, [-]
+    colind : array   Column starts of the bordered pattern, [-]
+    row : array      Row of each of its nonzeros, [-]
+
+    Returns
+    -------
+    (colind, row) : ndarray, ndarray  J's compressed-column pattern, rows ascending, [-]
+    """
+    size = len(colind) - 1
+    M = np.zeros((size, size), dtype=bool)
+    M[np.asarray(row, dtype=np.intp), np.repeat(np.arange(size), np.diff(colind))] = True
+    Fz, Fv, Hz, Hv = M[:n, :n], M[:n, n:], M[n:, :n], M[n:, n:]
+    reach = np.eye(size - n, dtype=bool)       # (I - H_v)^-1: the signals each one reads through
+    while True:
+        more = reach | ((Hv.astype(np.int64) @ reach) > 0)
+        if (more == reach).all():
+            break
+        reach = more
+    J = Fz | ((Fv.astype(np.int64) @ ((reach.astype(np.int64) @ Hz) > 0)) > 0)
+    rows_j, cols_j = np.nonzero(J.T)           # column by column, rows ascending
+    colind_j = np.concatenate([[0], np.cumsum(np.bincount(rows_j, minlength=n))])
+    return colind_j.astype(np.int64), cols_j.astype(np.int64)
 
 
 # ---- sparse LU with a fixed order ----------------------------------------------------------
@@ -237,14 +354,40 @@ def lu_plan(n: int, rows, cols) -> LUPlan:
     return LUPlan(order, slots, lower, upper, flops)
 
 
+#: Terms of a back-solve sum above which it is written as :data:`_ACCUMULATORS` interleaved
+#: partial sums: a cut signal's row gathers every state of its hose section (80 at 30 modes
+#: per section), and one chain of dependent multiply-adds waits ~4 cycles per term.
+_CHAIN = 12
+_ACCUMULATORS = 4
+
+
+def _sum_c(first: str, terms) -> str:
+    """C for ``first - sum a[s] * v[k]`` over ``terms`` (slot s, index k): one chain of
+    subtractions, or for more than :data:`_CHAIN` terms :data:`_ACCUMULATORS` interleaved
+    partial sums added pairwise (chains that do not wait for each other)."""
+    if len(terms) <= _CHAIN:
+        return first + "".join(f"-a[{s}]*v[{k}]" for s, k in terms)
+    parts = ["(" + "+".join(f"a[{s}]*v[{k}]" for s, k in terms[g::_ACCUMULATORS]) + ")"
+             for g in range(_ACCUMULATORS)]
+    while len(parts) > 1:
+        parts = [f"({parts[i]}+{parts[i + 1]})" if i + 1 < len(parts) else parts[i]
+                 for i in range(0, len(parts), 2)]
+    return f"{first}-{parts[0]}"
+
+
 def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
-    """Factorization as loops over index tables (compiles fast), solve as straight-line code."""
+    """Factorization as loops over index tables (compiles fast), solve as straight-line code.
+
+    ``n`` states come first; rows from ``n`` on are the cut signals' (the bordered matrix:
+    their entries are not multiplied by g, and their right-hand side is zero)."""
+    size = len(plan.order)
     pos = {s: k for k, s in enumerate(plan.order)}
     S = plan.slots
     jslot = [S[(pos[r], pos[c])] for r, c in zip(jrows, jcols)]
-    diag = [S[(k, k)] for k in range(n)]
+    signal_nz = [k for k, r in enumerate(jrows) if r >= n]
+    diag = [S[(k, k)] for k in range(size)]
     lstart, lslot, ustart, tgt, src = [0], [], [0], [], []
-    for k in range(n):
+    for k in range(size):
         for i in plan.lower[k]:
             lslot.append(S[(i, k)])
             for j in plan.upper[k]:
@@ -258,12 +401,13 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
 
     out = [table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
            table("hl_lu_lslot", lslot), table("hl_lu_ustart", ustart), table("hl_lu_tgt", tgt),
-           table("hl_lu_src", src)]
+           table("hl_lu_src", src), table("hl_lu_signal_nz", signal_nz)]
     out.append(f"""static int hl_lu_factor(const double* jnz, double g, double* a) {{
   memset(a, 0, sizeof(double) * HL_NLU);
   for (int k = 0; k < {len(jslot)}; k++) a[hl_lu_jslot[k]] = -g * jnz[k];
-  for (int k = 0; k < {n}; k++) a[hl_lu_diag[k]] += 1.;
-  for (int k = 0; k < {n}; k++) {{
+  for (int k = 0; k < {len(signal_nz)}; k++) a[hl_lu_jslot[hl_lu_signal_nz[k]]] = -jnz[hl_lu_signal_nz[k]];
+  for (int k = 0; k < {size}; k++) a[hl_lu_diag[k]] += 1.;
+  for (int k = 0; k < {size}; k++) {{
     double piv = a[hl_lu_diag[k]];
     if (!(fabs(piv) > HL_PIVOT_TOL)) return k + 1;
     double inv = 1. / piv;
@@ -277,21 +421,23 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
   return 0;
 }}""")
     out.append("static void hl_lu_solve(const double* a, double* b) {")
-    out.append(f"  double v[{n}];")
+    out.append(f"  double v[{size}];")
     # forward substitution by rows: each v[i] written once, its terms in the order of the
-    # columns (the same sums as column by column, fewer stores)
-    lower_rows = [[] for _ in range(n)]
-    for k in range(n):
+    # columns (the same sums as column by column, fewer stores); a cut signal's right-hand
+    # side is zero
+    lower_rows = [[] for _ in range(size)]
+    for k in range(size):
         for i in plan.lower[k]:
             lower_rows[i].append(k)
-    for i in range(n):
-        terms = "".join(f"-a[{S[(i, k)]}]*v[{k}]" for k in lower_rows[i])
-        out.append(f"  v[{i}]=b[{plan.order[i]}]{terms};")
-    for k in reversed(range(n)):
-        terms = "".join(f"-a[{S[(k, j)]}]*v[{j}]" for j in plan.upper[k])
-        out.append(f"  v[{k}]=(v[{k}]{terms})*a[{S[(k, k)]}];")
-    for k in range(n):
-        out.append(f"  b[{plan.order[k]}]=v[{k}];")
+    for i in range(size):
+        first = f"b[{plan.order[i]}]" if plan.order[i] < n else "0."
+        out.append(f"  v[{i}]={_sum_c(first, [(S[(i, k)], k) for k in lower_rows[i]])};")
+    for k in reversed(range(size)):
+        terms = _sum_c(f"v[{k}]", [(S[(k, j)], j) for j in plan.upper[k]])
+        out.append(f"  v[{k}]=({terms})*a[{S[(k, k)]}];")
+    for k in range(size):
+        if plan.order[k] < n:
+            out.append(f"  b[{plan.order[k]}]=v[{k}];")
     out.append("}")
     return "\n".join(out)
 
@@ -358,18 +504,27 @@ def generate(model, functions=None) -> GeneratedModel:
     net = model.network
     n, m = len(net.state_names), len(net.parameter_names)
     f, jac, sig = scaled_functions(model) if functions is None else functions
-    sp = jac.sparsity_out(0)
-    colind = np.asarray(sp.colind(), dtype=np.int64)
-    row = np.asarray(sp.row(), dtype=np.int64)
-    cols = np.repeat(np.arange(n), np.diff(colind))
+    sp = jac.sparsity_out(0)                  # the bordered Jacobian: n states, then signals
+    size = sp.size1()
+    ext_colind = np.asarray(sp.colind(), dtype=np.int64)
+    ext_row = np.asarray(sp.row(), dtype=np.int64)
+    ext_cols = np.repeat(np.arange(size), np.diff(ext_colind))
+    if size > n:
+        colind, row = schur_pattern(n, ext_colind, ext_row)
+    else:
+        colind, row = ext_colind, ext_row
     inputs = ["t", "z[{nz}]", "p[{nz}]", "c[{nz}]"]
     # (the numbers and scales first, where the functions take them: the graph's own
     # constants follow them in c)
     constants: list[float] = (number_prefix(net).tolist() if f.n_in() == 4 else [])
     parts = [_function_c(f, "hl_f", inputs, "dz", constants),
-             _function_c(jac, "hl_jac", inputs, "jnz", constants),
+             _function_c(jac, "hl_jac", inputs, "jnz", constants, "HL_RARELY_CALLED"),
              _function_c(sig, "hl_signals", inputs, "y", constants)]
-    plan = lu_plan(n, row.tolist(), cols.tolist())
+    plan = lu_plan(size, ext_row.tolist(), ext_cols.tolist())
+
+    def table(name, values):
+        return f"static const long long {name}[] = {{" + (",".join(map(str, values)) or "0") + "};"
+
     header = [
         "/* Generated by hydroline.compiled.codegen: one network structure. */",
         "#include <math.h>",
@@ -378,14 +533,24 @@ def generate(model, functions=None) -> GeneratedModel:
         f"#define HL_NP {max(m, 1)}",
         f"#define HL_NC {max(len(constants), 1)}",
         f"#define HL_NY {max(sig.nnz_out(0), 1)}",
-        f"#define HL_NNZ {max(sp.nnz(), 1)}",
+        f"#define HL_NNZ {max(len(row), 1)}",
+        f"#define HL_NV {size - n}",
+        f"#define HL_NE {size}",
+        f"#define HL_NENZ {max(sp.nnz(), 1)}",
         f"#define HL_NLU {len(plan.slots)}",
         "#define HL_PIVOT_TOL 1e-10",
+        # the Jacobian is evaluated once per factorisation (every ~30 steps): GCC's -O3 spends
+        # twice -O1's time on its thousands of stores (0.9 s of a 30-modes-per-section build)
+        "#if defined(__GNUC__) && !defined(__clang__)",
+        '#define HL_RARELY_CALLED __attribute__((optimize("O1")))',
+        "#else",
+        "#define HL_RARELY_CALLED",
+        "#endif",
         "static double hl_sign(double x) { return x < 0 ? -1. : (x > 0 ? 1. : x); }",
-        "static const long long hl_jac_colind[] = {" + ",".join(map(str, colind)) + "};",
-        "static const long long hl_jac_row[] = {" + (",".join(map(str, row)) or "0") + "};",
+        table("hl_jac_colind", colind), table("hl_jac_row", row),
+        table("hl_ext_colind", ext_colind), table("hl_ext_row", ext_row),
     ]
-    source = "\n".join(header + parts + [_lu_c(n, row.tolist(), cols.tolist(), plan)]) + "\n"
+    source = "\n".join(header + parts + [_lu_c(n, ext_row.tolist(), ext_cols.tolist(), plan)]) + "\n"
     key = hashlib.sha256(source.encode()).hexdigest()
     return GeneratedModel(source, key, np.array(constants, dtype=float), n, m,
-                          sig.nnz_out(0), sp.nnz(), colind, row, len(plan.slots), plan.flops)
+                          sig.nnz_out(0), len(row), colind, row, len(plan.slots), plan.flops)

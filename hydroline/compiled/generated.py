@@ -42,7 +42,9 @@ class GeneratedModel:
 def number_prefix(network) -> np.ndarray:
     """The start of the constants array of a model whose C takes the components' numbers at
     run time (:func:`hydroline.compiled.codegen.scaled_functions`): the numbers
-    (:meth:`~hydroline.engine.Network.compiled_numbers`), then the state scales, [SI].
+    (:meth:`~hydroline.engine.Network.compiled_numbers`), the state scales, then their
+    inverses (the C multiplies by them: a division costs as much as a hose section's
+    derivative), [SI].
 
     Parameters
     ----------
@@ -52,5 +54,5 @@ def number_prefix(network) -> np.ndarray:
     -------
     ndarray  [SI]
     """
-    return np.concatenate([network.compiled_numbers()[1],
-                           np.asarray(network.state_scales, dtype=float)])
+    scales = np.asarray(network.state_scales, dtype=float)
+    return np.concatenate([network.compiled_numbers()[1], scales, 1.0 / scales])

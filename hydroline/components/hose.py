@@ -9,6 +9,7 @@ import numpy as np
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State
+from ..fluid import Fluid
 
 __all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
@@ -53,6 +54,9 @@ class HoseSection(Component):
         The line model (e.g. ``ModalLine(line, 6, "PQ")``)
     nominal_pressure : float
         Pressure level used for the steady-state solver's guess, [Pa]
+    fluid : Fluid or None
+        The rig's oil; with ``cavity_pressure`` set, each end whose pressure the line puts out
+        holds a gas/vapour cavity (M45); None or no cavity model: the plain line
 
     Other Parameters
     ----------------
@@ -66,10 +70,28 @@ class HoseSection(Component):
     :data:`hydroline.lines.FORM_PORTS` (e.g. PQ: inputs ``upstream_pressure``,
     ``downstream_flow``; outputs ``downstream_pressure``, ``upstream_flow``).
     States: the model's, e.g. ``mode3.flow``.
+
+    End cavity (M45): at the end whose pressure the line puts out (PQ: downstream, QP:
+    upstream) the line and the port meet in a node that may hold a gas/vapour cavity of
+    volume ``w``, so that the line's end flow is ``q_line = q_port - s dw/dt`` (``s = +1``
+    downstream, where the port flow leaves the line, ``-1`` upstream). The states are then
+    the line's states shifted by the cavity, ``z = x + s w b`` (``b`` the column of B of the
+    end flow, ``k = [C b]`` the end pressure's rate per unit end flow, ``s k < 0``), which obey
+    the cavity-free line driven by the port's flow, ``dz/dt = A x + B u``. Their end pressure
+    ``p~ = [C z]`` is what the end would read without the cavity, and::
+
+        w = softplus(p_cav - p~, delta) / |k|,    p_end = [C x] = p~ + |k| w >= p_cav
+
+    (``softplus`` the smooth positive part of width ``delta = fluid.cavity_pressure_drop``,
+    :func:`hydroline.engine.ops.softplus`): the ideal cavity of the discrete vapour cavity
+    model at the line's end, smoothed. The cavity closes when the oil it misses has come
+    back; the collapse peak is the line's own water hammer. Without a cavity model the
+    states are the line's own.
     """
 
     model: StateSpaceLine = None
     nominal_pressure: float = 0.0
+    fluid: Fluid | None = None
 
     conducts = True
 
@@ -95,6 +117,30 @@ class HoseSection(Component):
                            "volume": ("m^3", 1e-6), "pressure_integral": ("Pa s", scale_p * 1e-3)
                            }.get(name.split(".")[1].rstrip("0123456789"), ("m^3/s", scale_q))
             self._states.append(State(name, unit, scale))
+        #: (end, output row, input column, s) of each end that holds a cavity (M45)
+        self.cavity_ends = self._cavity_ends()
+
+    def _cavity_ends(self):
+        if self.fluid is None or self.fluid.cavity_pressure is None:
+            return ()
+        m = self.model
+        gain = np.asarray(m.C, dtype=float) @ np.asarray(m.B, dtype=float)
+        ends = []
+        for end, sign in (("upstream", -1.0), ("downstream", 1.0)):
+            out, inp = f"{end}_pressure", f"{end}_flow"
+            if out not in m.output_names or inp not in m.input_names:
+                continue
+            i, j = m.output_names.index(out), m.input_names.index(inp)
+            if np.any(np.asarray(m.D, dtype=float)[i] != 0) or not sign * gain[i, j] < 0:
+                raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) needs "
+                                 f"a line whose {out} has no feedthrough and falls as oil "
+                                 f"leaves that end; the {m.form} line's does not")
+            ends.append((end, i, j, sign))
+        if len(ends) > 1:
+            raise ValueError(f"{self.name}: an end cavity (fluid.cavity_pressure, M45) is "
+                             f"modelled at one end of a line; form {m.form} puts out both "
+                             f"ends' pressures: use PQ or QP")
+        return tuple(ends)
 
     @property
     def states(self):
@@ -135,7 +181,9 @@ class HoseSection(Component):
         """As :meth:`Component.structure_attributes`; where the line's matrix entries are
         runtime parameters, the line model stands as its kind, form, port and state names
         (its matrices' pattern is :attr:`coefficient_pattern`): their values are not
-        structure.
+        structure. The oil stands as what the end cavity (M45) reads of it: nothing without
+        a cavity model (its density, viscosity and bulk modulus reach the hose through the
+        line's matrices).
 
         Parameters
         ----------
@@ -158,20 +206,26 @@ class HoseSection(Component):
             # once per run)
             out["coefficient_pattern"] = hashlib.sha256(repr(pattern).encode()).hexdigest()
             out["_states"] = len(attributes.get("_states", ()))
+        fluid = out.get("fluid")
+        if fluid is not None:
+            out["fluid"] = ("end cavity", () if fluid.cavity_pressure is None
+                            else (fluid.cavity_pressure, fluid.cavity_pressure_drop))
         return out
 
     def _product(self, name, v, p, rows):
         """Matrix ``name`` (from p where its entries are parameters) times vector v."""
         if self.coefficient_pattern is None:
             return ops.matvec(getattr(self.model, name), v)
-        out = [0.0] * rows
+        terms = [[] for _ in range(rows)]
         for m, i, j in self.coefficient_pattern:
             if m == name:
-                out[i] = out[i] + p[f"{m}{i}_{j}"] * v[j]
-        return ops.vertcat(out)
+                terms[i].append(p[f"{m}{i}_{j}"] * v[j])
+        return ops.vertcat([ops.pairwise_sum(row) for row in terms])
 
     def outputs_of(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
+        if self.cavity_ends:
+            xv = self._line_states(xv, p)
         rows = len(self.model.output_names)
         y = self._product("C", xv, p, rows)
         if self.feedthrough:
@@ -180,9 +234,47 @@ class HoseSection(Component):
 
     def derivatives(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
+        if self.cavity_ends:
+            xv = self._line_states(xv, p)       # dz/dt = A x + B u (M45)
         rows = len(self._states)
         dx = self._product("A", xv, p, rows) + self._product("B", uv, p, rows)
         return {s.name: dx[i] for i, s in enumerate(self._states)}
+
+    def _line_states(self, z, p):
+        """The line's states ``x = z - s w b`` from the shifted states z (M45)."""
+        (_, i, j, s), = self.cavity_ends
+        rows, n_out = len(self._states), len(self.model.output_names)
+        unit = [0.0] * len(self.model.input_names)
+        unit[j] = 1.0
+        b = self._product("B", ops.vertcat(unit), p, rows)
+        k = self._product("C", b, p, n_out)[i]               # s k < 0
+        free = self._product("C", z, p, n_out)[i]            # p~, the end without the cavity
+        w = ops.softplus(self.fluid.cavity_pressure - free,
+                         self.fluid.cavity_pressure_drop) / (-s * k)
+        return z - b * (s * w)
+
+    def cavity_volumes(self, x):
+        """Gas/vapour cavity volume at the end that holds one (M45), [m^3].
+
+        Parameters
+        ----------
+        x : dict
+            States (arrays of a run allowed), local name -> value [SI]
+
+        Returns
+        -------
+        dict
+            ``{"upstream end": w}`` or ``{"downstream end": w}``, [m^3]; empty without an
+            end cavity
+        """
+        if not self.cavity_ends:
+            return {}
+        (end, i, j, s), = self.cavity_ends
+        C, B = np.asarray(self.model.C, dtype=float), np.asarray(self.model.B, dtype=float)
+        z = np.array([np.asarray(x[st.name], dtype=float) for st in self._states])
+        free = np.tensordot(C[i], z, axes=1)
+        w = ops.softplus(self.fluid.cavity_pressure - free, self.fluid.cavity_pressure_drop)
+        return {f"{end} end": w / (-s * float(C[i] @ B[:, j]))}
 
     def initial_guess(self):
         ins = self.model.input_names

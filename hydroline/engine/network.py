@@ -242,7 +242,7 @@ class Network:
         ps = {k: p[self._parameter_index[f"{c.name}.{k}"]] for k in c.runtime_parameters()}
         return xs, ps
 
-    def evaluate(self, t, x, p=None, equations=None):
+    def evaluate(self, t, x, p=None, equations=None, given=None):
         """Derivatives and all signals at (t, x), with numbers or CasADi symbols.
 
         Parameters
@@ -253,6 +253,11 @@ class Network:
         equations : dict  Component name -> the object whose equations stand for it (a copy
                           holding symbols for its numbers, :meth:`Component.with_numbers`);
                           None: the components' own
+        given : dict      Signal name -> value [SI] that the components reading that signal
+                          take instead of its producer's output (the network cut open at
+                          those connections, e.g. to differentiate each component apart from
+                          its neighbours); the producer's own output is still returned in
+                          ``signals``. None: no connection cut
 
         Returns
         -------
@@ -260,19 +265,25 @@ class Network:
         """
         p = self.parameter_values if p is None else p
         equations = equations or {}
+        given = given or {}
         signals = {}
         split = {}
+
+        def read(c):
+            return {port: given[c.signal(port)] if c.signal(port) in given
+                    else signals[c.signal(port)] for port in c.inputs}
+
         for c in self._order:
             xs, ps = self.component_values(c, x, p)
             split[c.name] = (xs, ps)
-            u = {port: signals[c.signal(port)] for port in c.inputs} if c.feedthrough else {}
+            u = read(c) if c.feedthrough else {}
             y = equations.get(c.name, c).outputs_of(t, xs, u, ps)
             for port in c.outputs:
                 signals[c.signal(port)] = y[port]
         dx = [None] * len(self.state_names)
         for c in self.components:
             xs, ps = split[c.name]
-            u = {port: signals[c.signal(port)] for port in c.inputs}
+            u = read(c)
             d = equations.get(c.name, c).derivatives(t, xs, u, ps)
             sl = self._state_slices[c.name]
             for i, s in enumerate(c.states):
@@ -401,10 +412,14 @@ class CompiledModel:
         #: for every value of the numbers (None where a component's equations cannot take its
         #: numbers as symbols: a Python branch on one; its numbers are then in the graph)
         self.k = self.dx_general = self.y_general = None
+        #: Component name -> the copy of it whose numbers are the symbols k
+        #: (:meth:`Component.with_numbers`), for other graphs in them (the bordered
+        #: Jacobian's, :mod:`hydroline.compiled.codegen`); None with ``k``
+        self.number_equations = None
         _, self.numbers = net.compiled_numbers()
         general = self._general_graph(ca)
         if general is not None:
-            self.k, self.dx_general, self.y_general = general
+            self.k, self.dx_general, self.y_general, self.number_equations = general
             self.dx, self.y = ca.substitute([self.dx_general, self.y_general], [self.k],
                                             [ca.DM(self.numbers)])
         else:
@@ -426,7 +441,8 @@ class CompiledModel:
                              for k in self.network.signal_names]))
 
     def _general_graph(self, ca):
-        """(k, dx, y): the graph with every component's numbers as the symbols k, checked
+        """(k, dx, y, equations): the graph with every component's numbers as the symbols k
+        (and the component copies holding them, :attr:`number_equations`), checked
         against the components' own Python equations at their initial guess; None where a
         component's equations do not take its numbers as symbols (a Python ``if`` on one
         raises, a NumPy function warns) or give other values (e.g. ``float()`` of one)."""
@@ -460,7 +476,7 @@ class CompiledModel:
         if got.shape != ref.shape or not np.all(
                 (np.abs(got - ref) <= 1e-9 * scale + 1e-300) | (np.isnan(got) & np.isnan(ref))):
             return None
-        return k, dx, y
+        return k, dx, y, views
 
     @functools.cached_property
     def jac(self):

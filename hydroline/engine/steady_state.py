@@ -69,8 +69,10 @@ class _CompiledRest:
     CasADi's call overhead, and a model loaded from the cache needs no CasADi graph."""
 
     def __init__(self, network, native):
+        self.native = native
         self.solver = native.solver(network.parameter_values)
         self.scales = np.asarray(network.state_scales, dtype=float)
+        self._bordered = None
 
     def rhs(self, t, x, p):
         self.solver.set_parameters(p)   # (the components' settling may change one)
@@ -83,6 +85,25 @@ class _CompiledRest:
 
     def jacobian(self, t, x, p):
         return self.scaled_jacobian(t, x, p) * self.scales[:, None] / self.scales[None, :]
+
+    def solve_shifted(self, t, x, p, shift, b):
+        """dz solving ``(shift I - J) dz = b`` (J of the scaled states) through the model's
+        bordered Jacobian (:mod:`hydroline.compiled.bordered`; sparse on a large model, whose
+        dense J grows with the square of its states and its solve with their cube).
+
+        Parameters
+        ----------
+        t : float       Time, [s]
+        x : ndarray     States, [SI]
+        p : ndarray     Runtime parameters, [SI]
+        shift : float   s, [1/s]
+        b : ndarray     Right-hand side, [1/s]
+        """
+        from ..compiled.bordered import BorderedSystem
+
+        if self._bordered is None:
+            self._bordered = BorderedSystem(self.native)
+        return self._bordered.solve_shifted(t, x, p, shift, b)
 
     def signals(self, t, x, p):
         """Every signal at (t, x, p), [SI], in the network's signal order."""
@@ -108,6 +129,20 @@ def _scaled_jacobian(model, t, x, p, scales):
     return model.jacobian(t, x, p) * scales[None, :] / scales[:, None]
 
 
+def _solve_shifted(model, t, x, p, scales, shift, b):
+    """dz solving ``(shift I - J) dz = b``, J the Jacobian of the scaled states at (t, x):
+    the model's own (sparse) solve where it has one, else dense (numpy.linalg.LinAlgError
+    when singular)."""
+    solve = getattr(model, "solve_shifted", None)
+    dz = solve(t, x, p, shift, b) if solve is not None else None
+    if dz is not None:
+        return dz
+    J = _scaled_jacobian(model, t, x, p, scales)
+    if shift == 0.0:
+        return np.linalg.solve(J, -b)
+    return np.linalg.solve(np.eye(len(b)) * shift - J, b)
+
+
 def _newton(model, t0, x, p, scales, tol, max_iter=30):
     """Newton's method with the exact Jacobian and a backtracking line search on the scaled
     states, from x. Returns (x, converged): quick where it converges; where it does not (the
@@ -124,9 +159,8 @@ def _newton(model, t0, x, p, scales, tol, max_iter=30):
             return x, False
         if np.max(np.abs(r)) < tol:
             return z * scales, True
-        J = _scaled_jacobian(model, t0, z * scales, p, scales)
         try:
-            dz = np.linalg.solve(J, -r)
+            dz = _solve_shifted(model, t0, z * scales, p, scales, 0.0, r)
         except np.linalg.LinAlgError:
             return x, False
         lam = 1.0
@@ -209,11 +243,10 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
         if (len(newton_norms) > STALL_STEPS
                 and newton_norms[-1] > 0.5 * newton_norms[-1 - STALL_STEPS]):
             return z
-        J = _scaled_jacobian(model, t0, z * scales, p, scales)
-        M = np.eye(n) / dt - J
         try:
-            dz = np.linalg.solve(M, r)
+            dz = _solve_shifted(model, t0, z * scales, p, scales, 1.0 / dt, r)
         except np.linalg.LinAlgError:
+            M = np.eye(n) / dt - _scaled_jacobian(model, t0, z * scales, p, scales)
             dz = np.linalg.lstsq(M, r, rcond=1e-14)[0]
         z_new = z + dz
         r_new = resid(z_new)

@@ -292,7 +292,7 @@ static int hl_directional(hl_fmu* m, const unsigned int* vu, size_t nu, const un
     if (exact) {
         double z[HL_N], jnz[HL_NNZ], dzk[HL_N], w[HL_N];
         hl_to_scaled(m, z);
-        hl_jac(m->time, z, m->S.p, m->S.c, jnz);
+        if (hl_jacobian_nonzeros(m->time, z, m->S.p, m->S.c, jnz) != 0) return HL_ERROR;
         memset(dzk, 0, sizeof dzk);
         for (size_t k = 0; k < nk; k++) dzk[vk[k]] += dvk[k] / m->S.scale[vk[k]];
         memset(w, 0, sizeof w);

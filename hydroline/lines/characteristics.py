@@ -59,6 +59,19 @@ value at the foot, from the known state, and at the head, linear in the unknown 
 recursion above, so the scheme stays explicit).  At t = 0 the inputs jump to their t = 0
 values from the initial steady state.  Boundaries: pressure imposed at x = 0 (with C-), flow
 imposed at x = L (with C+).
+
+Column separation (``line.fluid.cavity_pressure`` set; none otherwise): the discrete vapour
+cavity model (DVCM: Wylie & Streeter, *Fluid Transients in Systems*, 1993, sec. 8.2;
+Bergant, Simpson & Tijsseling, "Water hammer with column separation: a historical review",
+J. Fluids Struct. 22 (2006) 135-171) with the cavity law of the chambers (M42) in place of
+its constant cavity pressure (M45). Every node but the upstream one (pressure imposed) may
+hold a cavity of volume ``V_ref phi(p)`` (``V_ref`` the node's share of the bore volume,
+``A dx``, half at x = L); the node then has two flows, ``q-`` from the reach on its left
+(``p + Z q- = C+``) and ``q+`` into the reach on its right (``p - Z q+ = C-``; at x = L
+the imposed flow), each reach end keeping its own friction memory, and its oil balance over
+a step, implicit (``psi = 1``), ``V_ref phi(p) = V_old + dt (q+ - q-)``, decreasing in p, is
+solved by Newton from below (convex: monotone). A node without cavity whose liquid pressure
+stays above p_cav is the scheme above, and a cavity closes when the step's inflow fills it.
 """
 from __future__ import annotations
 
@@ -69,6 +82,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import optimize, special
 
+from ..fluid import cavity_compliance, cavity_volume_fraction
 from .line import Line
 
 __all__ = ["CharacteristicsLine", "CharacteristicsResult", "zielke_weighting", "weighting_terms",
@@ -196,6 +210,11 @@ class CharacteristicsResult:
         q at x = 0, positive into the line (PQ-form output), [m^3/s].
     downstream_flow : ndarray
         q at x = L, positive out of the line (imposed), [m^3/s].
+    cavity_volume : ndarray or None
+        Total volume of the discrete cavities along the line (M45), [m^3]; None without a
+        cavity model (``line.fluid.cavity_pressure`` None).
+    downstream_cavity_volume : ndarray or None
+        The cavity at x = L, [m^3]; None without a cavity model.
     """
 
     t: np.ndarray
@@ -203,6 +222,8 @@ class CharacteristicsResult:
     downstream_pressure: np.ndarray
     upstream_flow: np.ndarray
     downstream_flow: np.ndarray
+    cavity_volume: np.ndarray | None = None
+    downstream_cavity_volume: np.ndarray | None = None
 
 
 def _as_signal(value, name: str, unit: str):
@@ -396,6 +417,10 @@ class CharacteristicsLine:
             Yn = Y * decay + np.outer(qn - q, mphi)
             return pn, qn, Yn
 
+        fluid = self.line.fluid
+        if fluid.cavity_pressure is not None:
+            return self._simulate_with_cavities(t, pu, qd, p, q, Y, zeff, a_foot, a_head)
+
         # t = 0: the inputs take their t = 0 values (a step from the initial state); the steady
         # initial state is a fixed point of the scheme, so one step from it moves only the
         # boundary nodes, as it must.
@@ -405,6 +430,69 @@ class CharacteristicsLine:
             p, q, Y = advance(p, q, Y, pu[k], qd[k])
             out_pu[k], out_pd[k], out_qu[k], out_qd[k] = p[0], p[-1], q[0], q[-1]
         return CharacteristicsResult(t, out_pu, out_pd, out_qu, out_qd)
+
+    def _simulate_with_cavities(self, t, pu, qd, p, q, Y, zeff, a_foot, a_head):
+        """The scheme of :meth:`simulate` with a discrete cavity at every node but x = 0
+        (DVCM with the cavity law M42, see the module docstring)."""
+        fluid, N, dt, Z0 = self.line.fluid, self.n_reaches, self.dt, self.line.impedance
+        Rs, cu, decay, mphi = self._steady, self._unsteady, self._decay, self._mphi
+        pc, delta = fluid.cavity_pressure, fluid.cavity_pressure_drop
+        v_ref = np.full(N + 1, self.line.area * self.dx)
+        v_ref[-1] *= 0.5
+        k_dt_z = np.full(N + 1, 2.0 * dt / zeff)        # d(dt (q+ - q-))/dp at a node
+        k_dt_z[-1] = dt / zeff
+        # each node's two reach ends: flow and friction memory on its left (-) and right (+)
+        qm, qp, Ym, Yp = q.copy(), q.copy(), Y.copy(), Y.copy()
+        vc = np.zeros(N + 1)
+        out = {k: np.empty(t.size) for k in ("pu", "pd", "qu", "qd", "vc", "vd")}
+
+        def node_pressure(p_liq, v_old, i):
+            """Root of ``V_ref phi(p) - V_old - k dt/Z (p - p_liq)`` (decreasing, convex):
+            Newton from a start below it, where the function is positive."""
+            vr, kz = v_ref[i], k_dt_z[i]
+            x = np.minimum(p_liq, pc) - delta * (v_old / vr + 1.0)
+            for _ in range(60):
+                g = vr * cavity_volume_fraction(x, pc, delta) - v_old - kz * (x - p_liq)
+                step = g / (cavity_compliance(vr, x, fluid) + kz)
+                x = x + step
+                if np.all(np.abs(step) <= 1e-12 * (np.abs(x) + delta)):
+                    break
+            return x
+
+        for n in range(t.size):
+            Fp = Rs * qp + cu * Yp.sum(axis=1)          # friction at the feet (time n)
+            Fm = Rs * qm + cu * Ym.sum(axis=1)
+            Hm = cu * (Ym @ decay - mphi.sum() * qm)    # head friction = G q_new + H
+            Hp = cu * (Yp @ decay - mphi.sum() * qp)
+            cp = np.empty(N + 1)
+            cm = np.empty(N + 1)
+            cp[1:] = p[:-1] + Z0 * qp[:-1] - a_foot * Fp[:-1] - a_head * Hm[1:]
+            cm[:-1] = p[1:] - Z0 * qm[1:] + a_foot * Fm[1:] + a_head * Hp[:-1]
+            p_liq = np.empty(N + 1)
+            p_liq[0] = pu[n]
+            p_liq[1:-1] = 0.5 * (cp[1:-1] + cm[1:-1])
+            p_liq[-1] = cp[-1] - zeff * qd[n]
+            pn = p_liq.copy()
+            open_ = (vc > 0) | (p_liq < pc)
+            open_[0] = False
+            i = np.flatnonzero(open_)
+            if i.size:
+                pn[i] = node_pressure(p_liq[i], vc[i], i)
+            vn = np.zeros(N + 1)
+            vn[i] = v_ref[i] * cavity_volume_fraction(pn[i], pc, delta)
+            qmn, qpn = np.empty(N + 1), np.empty(N + 1)
+            qpn[0] = (pu[n] - cm[0]) / zeff
+            qmn[0] = qpn[0]
+            qmn[1:] = (cp[1:] - pn[1:]) / zeff
+            qpn[1:-1] = (pn[1:-1] - cm[1:-1]) / zeff
+            qpn[-1] = qd[n]
+            Ym = Ym * decay + np.outer(qmn - qm, mphi)
+            Yp = Yp * decay + np.outer(qpn - qp, mphi)
+            p, qm, qp, vc = pn, qmn, qpn, vn
+            out["pu"][n], out["pd"][n], out["qu"][n], out["qd"][n] = p[0], p[-1], qp[0], qp[-1]
+            out["vc"][n], out["vd"][n] = vc.sum(), vc[-1]
+        return CharacteristicsResult(t, out["pu"], out["pd"], out["qu"], out["qd"],
+                                     cavity_volume=out["vc"], downstream_cavity_volume=out["vd"])
 
     def step_response(self, t_end: float, upstream_pressure=1.0, downstream="blocked",
                       initial_pressure: float = 0.0) -> CharacteristicsResult:

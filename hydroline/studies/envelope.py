@@ -9,9 +9,13 @@ periodic state with the position's harmonic distortion within the tolerance is f
 bisection (:func:`largest_passing`) on the logarithm of the amplitude, each run warm-started
 from the last run's periodic state and closed-loop gain (the neighbouring amplitude, then
 frequency). What stops the next larger amplitude is diagnosed from its last period
-(:func:`diagnose`): the stroke, the valve at its limit (spool at its opening, or the current at
-the controller's limit) for want of flow, the supply pressure dip or the return pressure rise
-at the valve eating its pressure drop, the load pressure (force), gas release, or distortion.
+(:func:`diagnose`, by the rules a laboratory reads a performance curve with): the stroke, the
+valve at its limit (spool at its opening, or the current at the controller's limit) for want of
+flow, the supply pressure dip or the return pressure rise at the valve (the lines' pulsation:
+eating its pressure drop, or a port's troughs at the gas-release pressure), the actuator at its
+stall force, gas release in a chamber, or distortion. Where the lines' pulsation at the ports
+lifts the valve's flow instead (:func:`port_ripple_gain`), the envelope with the lines may lie
+above the constant supply's by that much.
 
 The same is done with an ideal constant supply and tank (:func:`constant_supply_circuit`: the
 lines, manifolds and accumulators taken out, the valve's ports held at their rest pressures),
@@ -33,15 +37,16 @@ from ..rigs import Rig, RigError, load_rig
 __all__ = ["envelope", "EnvelopeResult", "envelope_points", "vendor_parameters", "CURVE_KEYS", "HarmonicCommand", "SineRig",
            "PeriodicResponse", "analytic_envelope", "constant_supply_circuit", "largest_passing",
            "harmonic_distortion", "clipped_sine_gain", "fundamental", "periodic_change", "diagnose", "LIMITS",
+           "port_ripple_gain", "FLOW_LOSS", "STALL_SHARE",
            "EnvelopeRunner", "default_frequencies", "envelope_figure", "LIMIT_COLOURS"]
 
-#: What limits the envelope at a frequency (``limited_by``): the stroke (the amplitude reaches
-#: half the stroke), the valve at its limit for want of flow (spool at its opening or current
-#: at the controller's limit), the supply pressure dip or return pressure rise at the valve
-#: taking its pressure drop, the load pressure (force: mass and friction take the drop), gas
-#: release (a watched pressure below ``fluid.gas_release_pressure``), the position's harmonic
-#: distortion beyond the tolerance (nothing at its limit), or "none" (the bisection's top
-#: reached, the largest amplitude searched).
+#: What limits the envelope at a frequency (``limited_by``, the rules in :func:`diagnose`): the
+#: stroke (the amplitude reaches half the stroke), the valve's rated flow (spool at its opening
+#: or current at the controller's limit), the supply pressure dip or return pressure rise at
+#: the valve (the lines' pulsation: taking the valve's drop, or a port's troughs at the
+#: gas-release pressure), the force (the actuator at its stall force), gas release in a
+#: chamber, the position's harmonic distortion beyond the tolerance (nothing at its limit), or
+#: "none" (the largest amplitude searched passes).
 LIMITS = ("stroke", "valve", "supply_dip", "return_rise", "force", "gas_release", "distortion",
           "none")
 
@@ -272,12 +277,14 @@ class PeriodicResponse:
     distortion : dict    Axis -> the position's total harmonic distortion, [-]
     force : dict         Axis -> amplitude of the hydraulic force's fundamental, [N]
     excursion : dict     Axis -> largest |position| over the period, [m]
-    traces : dict        Signal -> its last period (``SineRig.SAMPLES`` samples), [SI]
+    traces : dict        Signal -> its last period (``SineRig.SAMPLES`` samples): the driven
+                         axes' ports, chambers, current and spool, every axis's position, [SI]
     periods : int        Periods run until periodic, [-]
     change : float       Largest period-to-period change at the end (position over its
                          amplitude, port pressures over the supply's drop), [-]
     x_end : ndarray      State at the end (phase 0), [SI]
     warnings : list      Gas release: watched pressures below ``fluid.gas_release_pressure``
+    gas_release_at : list  The watched signals below it, [-]
     """
 
     frequency: float
@@ -291,6 +298,7 @@ class PeriodicResponse:
     change: float
     x_end: np.ndarray
     warnings: list = field(default_factory=list)
+    gas_release_at: list = field(default_factory=list)
 
 
 class SineRig:
@@ -302,7 +310,8 @@ class SineRig:
     rig : Rig            Parameters (SI)
     supply : str         "hoses" (the rig as it is) or "constant" (:func:`constant_supply_circuit`)
     axis : str           The driven axis (None: the first; "all": every axis together, in phase);
-                         the others hold their positions under their controllers
+                         the others hold mid-stroke under their controllers (references of
+                         zero amplitude: one compiled model for every choice of axis)
     pressures : dict     Axis -> (supply, return) port pressures of the constant supply, [Pa]
                          (None: the rig's rest state with its lines)
     solver : str         See :func:`hydroline.engine.integrate`
@@ -316,7 +325,7 @@ class SineRig:
     def __init__(self, rig: Rig, supply: str = "hoses", axis: str | None = None,
                  pressures: dict | None = None, solver: str = "auto",
                  periodic_tolerance: float = 2e-3, max_periods: int = 60):
-        from ..scenarios.experiments import hold_other_axes, template_controller
+        from ..scenarios.experiments import template_controller
         from ..scenarios.running import CAVITATION_PRESSURE, WATCHED_NODES, rest_state
         from ..system import build_circuit
 
@@ -343,20 +352,20 @@ class SineRig:
                 pressures = SineRig(rig, "hoses", axis, solver=solver).port_pressures()
             circuit = constant_supply_circuit(circuit, pressures)
         self.circuit, self.driven = circuit, driven
+        # every axis gets a sine reference about mid-stroke, those not driven with zero
+        # amplitude: they hold where they start under their controllers, and one compiled model
+        # serves each axis alone and all together
         commands = []
-        for name in driven:
-            ax = circuit.axes[name]
+        for name, ax in circuit.axes.items():
             commands.append(HarmonicCommand(name=f"{name}.envelope_command", quantity="position",
                                             connections={"command": ax.reference_signal}))
             if not ax.controller:
                 commands.append(template_controller(rig, ax))
-        commands += hold_other_axes(rig, {n: a for n, a in circuit.axes.items()
-                                          if n not in driven}, None)
         self.network = net = circuit.network(commands)
         self.rest = rest_state(net)
         self.p = self.rest.p.copy()
         names = list(net.parameter_names)
-        self.index = {(n, k): names.index(f"{n}.envelope_command.{k}") for n in driven
+        self.index = {(n, k): names.index(f"{n}.envelope_command.{k}") for n in circuit.axes
                       for k in ("sine_amplitude", "cosine_amplitude", "frequency")}
         self.axes = circuit.axes
         self.threshold = rig.get("fluid.gas_release_pressure", CAVITATION_PRESSURE)
@@ -436,7 +445,8 @@ class SineRig:
             if change <= self.periodic_tolerance or total >= self.max_periods:
                 break
             chunk = max(2, min(total, self.max_periods - total))
-        traces = {}
+        # every axis's position: the held axes' too (what the driven one's flow does to them)
+        traces = {ax.position: res[ax.position][last] for ax in self.axes.values()}
         position, distortion, force, excursion = {}, {}, {}, {}
         for name in self.driven:
             ax = self.axes[name]
@@ -452,21 +462,29 @@ class SineRig:
                 - lim["top_area"] * traces[ax.top_pressure]
             force[name] = abs(fundamental(f_h, n))
             excursion[name] = float(np.max(np.abs(xp)))
-        warnings = []
+        warnings, released = [], []
         for s in self.watched:
             if s in res:
                 low = float(np.min(res[s][last]))
                 if low < self.threshold:
+                    released.append(s)
                     warnings.append(f"{s} falls below the gas-release pressure "
                                     f"{self.threshold / 1e6:.3g} MPa absolute "
                                     f"(fluid.gas_release_pressure; lowest {low / 1e6:.3g} MPa)")
         return PeriodicResponse(frequency, dict(command), position, distortion, force, excursion,
-                                traces, total, change, x, warnings)
+                                traces, total, change, x, warnings, released)
 
     def reach(self, frequency: float, target: float, gains: dict, x0=None, tolerance: float = 0.01,
-              iterations: int = 8):
+              iterations: int = 12):
         """Amplitude control: the reference's amplitude and phase adjusted, run after run,
         until each driven piston's fundamental is ``target`` in phase with the wanted sine.
+
+        Each run's reference is the target over the closed-loop gain last measured (its phase
+        and, on a linear loop, its amplitude). Where the response grows less than in
+        proportion (the current or spool saturating), the amplitude is corrected on the
+        measured slope of log amplitude against log reference instead (a secant,
+        ``|C| (X/|x|)**(1/slope)``, slope at least 0.1), so a target just below the saturated
+        amplitude is reached in a few runs rather than approached by ever smaller steps.
 
         Parameters
         ----------
@@ -485,14 +503,25 @@ class SineRig:
         """
         gains = dict(gains)
         x = x0
+        history = {n: [] for n in self.driven}      # (|reference|, |fundamental|) per run
         for _ in range(iterations):
-            command = {n: target / gains[n] for n in self.driven}
+            command = {}
+            for n in self.driven:
+                c = target / gains[n]
+                if len(history[n]) >= 2:
+                    (c0, a0), (c1, a1) = history[n][-2:]
+                    if c1 != c0 and a0 > 0 and a1 > 0:
+                        slope = math.log(a1 / a0) / math.log(c1 / c0)
+                        if 0 < slope < 1:           # saturating: secant on the log-log curve
+                            c = c / abs(c) * c1 * (target / a1) ** (1 / max(slope, 0.1))
+                command[n] = c
             r = self.run(frequency, command, x)
             x = r.x_end
             errors = [abs(abs(r.position[n]) - target) / target for n in self.driven]
             if max(errors) <= tolerance:
                 return r, True, gains
             for n in self.driven:
+                history[n].append((abs(command[n]), abs(r.position[n])))
                 g = r.position[n] / command[n]
                 if abs(g) > 1e-9:
                     gains[n] = g
@@ -501,16 +530,38 @@ class SineRig:
         return r, False, gains
 
 
-def diagnose(response: PeriodicResponse, rig: SineRig, reached: bool, distortion: float) -> str:
-    """What keeps a run from passing (one of :data:`LIMITS`), from its last period.
+#: The share of the valve's flow a loss of its pressure drop may cost before the loss is named
+#: the limit: the 5 % within which an envelope counts as matching the vendor's. At a given
+#: opening the flow goes as the root of the drop, so a loss ``L`` of the rest drop ``D`` costs
+#: ``1 - sqrt(1 - L/D)`` of it: the supply dip or return rise counts from
+#: ``L = (1 - 0.95**2) D = 9.75 %`` of the drop, [-].
+FLOW_LOSS = 0.05
+#: The hydraulic force's peak, over the actuator's stall force (supply pressure on the pushing
+#: area less tank pressure on the other: ``(p_s - p_t) A`` for equal areas), from which the
+#: force limits: one chamber at the supply pressure, the other at the tank's, [-].
+STALL_SHARE = 0.95
 
-    Gas release where a watched pressure fell below the gas-release pressure; else, where a
-    driven valve is at its limit (spool within 1 % of its opening, or the current within 1 %
-    of the controller's limit), the largest loss of the valve's pressure drop over those
-    instants: the supply port's dip below its rest pressure ("supply_dip") or the return
-    port's rise ("return_rise") where it exceeds 10 % of the rest drop, the load pressure
-    ("force") where it exceeds half of it, else the valve's flow ("valve"); else
-    "distortion".
+
+def diagnose(response: PeriodicResponse, rig: SineRig, reached: bool, distortion: float) -> str:
+    """What keeps a run from passing (one of :data:`LIMITS`), from its last period, by the
+    rules a test laboratory reads a performance curve with, in this order:
+
+    1. ``supply_dip`` / ``return_rise``: a pressure at the valve's supply (return) port, or
+       in the supply (return) manifold, fell below the gas-release pressure: the line's
+       pressure pulsation at the valve, not the valve or the actuator, ends the test (the
+       return port's swing about its rest pressure both rises, taking the valve's drop, and
+       falls, its troughs to the gas-release pressure).
+    2. ``force``: the hydraulic force reached :data:`STALL_SHARE` of the actuator's stall
+       force (one chamber at supply, the other at tank pressure): the load, not the flow,
+       limits; beyond it the low chamber cavitates.
+    3. ``gas_release``: an actuator chamber fell below the gas-release pressure with the
+       force short of the stall force (an overrunning mass braked through a throttling valve).
+    4. Where a driven valve is at its limit (spool within 1 % of its opening, or the current
+       within 1 % of the controller's limit), the mean loss of its drop over those instants:
+       the supply port's dip below its rest pressure (``supply_dip``) or the return port's
+       rise above it (``return_rise``) where it costs more than :data:`FLOW_LOSS` of the
+       flow (9.75 % of the rest drop), else the valve's rated flow (``valve``).
+    5. ``distortion``: nothing at a limit, the position's distortion over the tolerance.
 
     Parameters
     ----------
@@ -523,26 +574,81 @@ def diagnose(response: PeriodicResponse, rig: SineRig, reached: bool, distortion
     -------
     str
     """
-    if response.warnings:
-        return "gas_release"
+    from ..scenarios.running import WATCHED_NODES
+
+    side = dict(zip(WATCHED_NODES, ("supply_dip", "return_rise")))
+    for ax in rig.axes.values():
+        side.update({ax.supply_pressure: "supply_dip", ax.return_pressure: "return_rise"})
+    ports = [side[s] for s in response.gas_release_at if s in side]
+    if ports:
+        return ports[0]
+    tr = response.traces
     for name in rig.driven:
         ax, lim = rig.axes[name], rig.limits[name]
-        tr = response.traces
+        p_s, p_t = rig.nominal[name]
+        a_b, a_t = lim["bottom_area"], lim["top_area"]
+        force = a_b * tr[ax.bottom_pressure] - a_t * tr[ax.top_pressure]
+        if force.max() >= STALL_SHARE * (a_b * p_s - a_t * p_t) or \
+                -force.min() >= STALL_SHARE * (a_t * p_s - a_b * p_t):
+            return "force"
+    if response.gas_release_at:
+        return "gas_release"
+    loss = 1.0 - (1.0 - FLOW_LOSS) ** 2
+    for name in rig.driven:
+        ax, lim = rig.axes[name], rig.limits[name]
         spool = tr[f"{ax.valve}.spool_position"]
         at_limit = (np.abs(spool) >= 0.99 * lim["opening"]) | \
             (np.abs(tr[ax.current]) >= 0.99 * lim["current"])
         if not at_limit.any():
             continue
         p_s, p_t = rig.nominal[name]
-        drop = p_s - p_t
         dip = float(np.mean((p_s - tr[ax.supply_pressure])[at_limit]))
         rise = float(np.mean((tr[ax.return_pressure] - p_t)[at_limit]))
-        load = float(np.mean(np.maximum(np.sign(spool) * (tr[ax.bottom_pressure]
-                                                          - tr[ax.top_pressure]), 0.0)[at_limit]))
-        if max(dip, rise) > 0.1 * drop:
+        if max(dip, rise) > loss * (p_s - p_t):
             return "supply_dip" if dip >= rise else "return_rise"
-        return "force" if load > 0.5 * drop else "valve"
+        return "valve"
     return "distortion"
+
+
+def port_ripple_gain(response: PeriodicResponse, rig: SineRig, axis: str | None = None) -> float:
+    """How much the pressure pulsation at the valve's supply and return ports raises the
+    valve's fundamental load flow: the fundamental of the load flow ``(q_b + q_t)/2`` of the
+    valve's own metering law (M20) over the run's last period, with the port pressures as they
+    were, over the same with the ports held at their period means (spool and chamber
+    pressures as they were).
+
+    A flow ``x_v sqrt(dp)`` whose drop pulsates at twice the test frequency, ``dp (1 + e
+    cos(2 w t + phi))``, has its fundamental changed by up to ``e/4`` of it, up or down with
+    the phase ``phi`` of the pulsation against the spool's: where the lines' standing wave
+    at ``2 f`` peaks the drop while the spool is open widest, the lines lift the valve's flow
+    above what the same mean pressures give, and the envelope may lie above the constant
+    supply's by that much (1.0 from a constant supply).
+
+    Parameters
+    ----------
+    response : PeriodicResponse   A run (its traces)
+    rig : SineRig                 Its rig
+    axis : str                    The axis (None: the first driven one)
+
+    Returns
+    -------
+    float  [-]
+    """
+    name = axis or rig.driven[0]
+    ax = rig.axes[name]
+    tr = response.traces
+    valve = rig.network.component(ax.valve)
+    spool = {"spool_position": tr[f"{ax.valve}.spool_position"]}
+    chambers = {"bottom_pressure": tr[ax.bottom_pressure], "top_pressure": tr[ax.top_pressure]}
+
+    def load_flow(p_s, p_t):
+        q = valve.outputs_of(0.0, spool, {**chambers, "supply_pressure": p_s,
+                                          "return_pressure": p_t}, {})
+        return abs(fundamental(0.5 * (q["bottom_flow"] + q["top_flow"]), len(p_s)))
+
+    p_s, p_t = tr[ax.supply_pressure], tr[ax.return_pressure]
+    steady = load_flow(np.full_like(p_s, p_s.mean()), np.full_like(p_t, p_t.mean()))
+    return float(load_flow(p_s, p_t) / steady) if steady > 0 else 1.0
 
 
 # ----------------------------------------------------------------------------- analytic
@@ -709,6 +815,8 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
     ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
     ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
     and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
+    ``port_ripple_gain`` (:func:`port_ripple_gain` of the passing run),
+    ``held_motion_m`` (the largest half peak-to-peak motion of an axis held, [m]),
     ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
     ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
     """
@@ -741,7 +849,7 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
         note = ""
         if bad is not None:
             tr, ax0 = bad[0].traces, srig.axes[srig.driven[0]]
-            note = (bad[0].warnings[0] if limited == "gas_release" else
+            note = ((bad[0].warnings[0] + "; ") if bad[0].warnings else "") + (
                     f"at {x_fail * 1e3:.3g} mm: supply port {tr[ax0.supply_pressure].min() / 1e6:.3g}"
                     f"-{tr[ax0.supply_pressure].max() / 1e6:.3g} MPa, return port "
                     f"{tr[ax0.return_pressure].min() / 1e6:.3g}-"
@@ -761,6 +869,10 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
                  else None,
                  "supply_min_pa": float(good[0].traces[ax.supply_pressure].min()) if good else None,
                  "return_max_pa": float(good[0].traces[ax.return_pressure].max()) if good else None,
+                 "port_ripple_gain": port_ripple_gain(good[0], srig, name) if good else None,
+                 "held_motion_m": max((float(np.ptp(good[0].traces[a.position])) / 2
+                                       for n, a in srig.axes.items() if n not in srig.driven),
+                                      default=0.0) if good else None,
                  **counts}
         out.append(point)
         if good:
@@ -899,6 +1011,20 @@ LIMIT_COLOURS = {"stroke": "#c6dbef", "valve": "#d9f0d3", "supply_dip": "#fdd0a2
                  "distortion": "#fee391", "none": "#f0f0f0"}
 
 
+def _minor_log_label(axis):
+    """A tick label function for a log axis's minor ticks, the plain number where the axis
+    has too few major ticks to be read by them: at 2, 4, 6 and 8 times a power of ten on an
+    axis spanning less than a decade, at 2 and 5 times one on an axis spanning less than 2.5,
+    nothing on a wider one."""
+    def label(value, _position):
+        low, high = sorted(axis.get_view_interval())
+        decades = np.log10(high / low) if low > 0 else np.inf
+        digit = round(value / 10.0 ** np.floor(np.log10(value) + 1e-9), 6)
+        shown = (2, 4, 6, 8) if decades < 1 else (2, 5) if decades < 2.5 else ()
+        return f"{value:g}" if digit in shown else ""
+    return label
+
+
 def envelope_figure(result: EnvelopeResult, path=None):
     """Displacement, velocity, acceleration and force amplitude against frequency on log-log
     axes: the envelope with the lines (solid), from the constant supply (dashed), the
@@ -915,6 +1041,7 @@ def envelope_figure(result: EnvelopeResult, path=None):
     matplotlib.figure.Figure
     """
     from matplotlib.patches import Patch
+    from matplotlib.ticker import FuncFormatter
 
     from ..plotting import new_figure, save_png, wrap_title
 
@@ -945,6 +1072,9 @@ def envelope_figure(result: EnvelopeResult, path=None):
         ax.loglog(f, y, ":", color="k", label="analytic (constant supply)")
         ax.set_ylabel(label)
         ax.grid(True, which="both", alpha=0.3)
+        for axis in (ax.xaxis, ax.yaxis):    # plain numbers (60, 2, 0.8), not 6 x 10^1
+            axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            axis.set_minor_formatter(FuncFormatter(_minor_log_label(axis)))
     for ax in axes[2:]:
         ax.set_xlabel("frequency [Hz]")
     handles, labels = axes[0].get_legend_handles_labels()
@@ -952,7 +1082,7 @@ def envelope_figure(result: EnvelopeResult, path=None):
                 for m in LIMITS if m in used]
     fig.legend(handles=handles, loc="lower center", ncol=4, fontsize=8, frameon=False)
     fig.suptitle(wrap_title(f"Performance envelope, {result.rig}, axis {result.axis}: position "
-                            f"THD <= {result.distortion * 100:g} % (shading: what limits the "
+                            f"THD ≤ {result.distortion * 100:g} % (shading: what limits the "
                             f"envelope with the lines)", 11, 11), fontsize=11)
     fig.subplots_adjust(bottom=0.14, top=0.9, hspace=0.08, wspace=0.22)
     if path is not None:
