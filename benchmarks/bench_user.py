@@ -202,8 +202,8 @@ FIRST_BUILD = """
 import time, hydroline, hydroline.compiled as compiled
 built = []
 init = compiled.NativeModel.__init__
-def record(self, network):
-    init(self, network)
+def record(self, network, *args, **kwargs):
+    init(self, network, *args, **kwargs)
     built.append(self.build_time)
 compiled.NativeModel.__init__ = record
 rig = hydroline.load_rig()
