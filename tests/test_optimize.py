@@ -439,3 +439,23 @@ def test_three_objective_front_against_a_grid_and_the_triangle_by_hand(tmp_path)
         back = load_rig(str(tmp_path / p["rig"]))
         for path, value in p["variables"].items():
             assert back.values[path] == pytest.approx(value, rel=1e-12)
+
+
+def test_resume_reruns_the_evaluations_without_a_metric_now_asked_for(tmp_path):
+    # the first run recorded no settling time (as a run without position_bandwidth_hz records
+    # no bandwidth); asked for on resume, those evaluations run again, the others do not
+    class WithSettling(Analytic):
+        def __call__(self, index, values):
+            return {**super().__call__(index, values), "supply_settling_time_s": 0.1}
+
+    vary = ["supply.section2.length=0.5 m..4 m"]
+    first = optimize(vary, minimize="supply.amplitude_mpa", runner=Analytic(), out=tmp_path,
+                     figure=False)
+    again = WithSettling()
+    second = optimize(vary, minimize="supply.amplitude_mpa", runner=again, out=tmp_path,
+                      subject_to=["supply.settling_time_s<=1"], resume=True, figure=False)
+    assert second.optimum == first.optimum and again.calls == second.n_computed == first.evaluations
+    third = WithSettling()
+    optimize(vary, minimize="supply.amplitude_mpa", runner=third, out=tmp_path,
+             subject_to=["supply.settling_time_s<=1"], resume=True, figure=False)
+    assert third.calls == 0

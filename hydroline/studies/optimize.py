@@ -913,7 +913,8 @@ def _with_values(rig: Rig, values: dict, units: dict) -> Rig:
 
 def optimize_figure(result: OptimizeResult, traces=None, path=None):
     """The report figure: baseline and optimum port pressures (where ``traces`` are given),
-    the objective per evaluation and the best feasible one so far.
+    the objective per evaluation and the best feasible one so far, and a Pareto front
+    (the first two objectives; a third as the points' colour).
 
     Parameters
     ----------
@@ -938,7 +939,13 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
                        dtype=float).reshape(-1, 2)
         ax.plot(pts[:, 0], pts[:, 1], ".", ms=3, color="C7", label="evaluated")
         fr = np.array([[p["objectives"][m1], p["objectives"][m2]] for p in result.front])
-        ax.plot(fr[:, 0], fr[:, 1], "o-", ms=5, color="C3", label="Pareto front")
+        if len(result.objectives) > 2:      # a surface: the third objective as colour
+            m3 = result.objectives[2]
+            sc = ax.scatter(fr[:, 0], fr[:, 1], c=[p["objectives"][m3] for p in result.front],
+                            s=30, cmap="viridis", label="Pareto front", zorder=3)
+            fig.colorbar(sc, ax=ax, label=m3)
+        else:
+            ax.plot(fr[:, 0], fr[:, 1], "o-", ms=5, color="C3", label="Pareto front")
         ax.set_xlabel(m1)
         ax.set_ylabel(m2)
         ax.legend(loc="best", fontsize=8)
