@@ -459,3 +459,18 @@ def test_resume_reruns_the_evaluations_without_a_metric_now_asked_for(tmp_path):
     optimize(vary, minimize="supply.amplitude_mpa", runner=third, out=tmp_path,
              subject_to=["supply.settling_time_s<=1"], resume=True, figure=False)
     assert third.calls == 0
+
+
+def test_stepped_metric_with_a_choice_global_method_then_cobyqa():
+    # differential evolution over the length and the capacity's choices, then SLSQP at the
+    # best choice, which stalls on a step: COBYQA goes on; within 1 % of a 60 x 3 grid's best
+    # in a fifth of its evaluations
+    La, Cs = np.linspace(0.5, 4.0, 60), (1e-3, 2e-3, 3e-3)
+    best = min(stair(L, C) for L in La for C in Cs)
+    r = optimize(["supply.section2.length=0.5 m..4 m"],
+                 choose=["supply.accumulator.capacity=1 L,2 L,3 L"],
+                 minimize="supply.amplitude_mpa", runner=Stepped(),
+                 max_evaluations=len(La) * len(Cs) // 5, seed=3)
+    assert r.method == "global" and r.evaluations <= len(La) * len(Cs) // 5
+    assert r.objective <= best * 1.01 and "COBYQA" in r.message
+    assert r.optimum["supply.accumulator.capacity"] == pytest.approx(C_BEST)

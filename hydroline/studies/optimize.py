@@ -710,8 +710,16 @@ def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
             best = min(used, key=problem.rank)
             zb = [variables[i].scaled(best[variables[i].paths[0]]) for i in range(len(variables))]
             fixed = {i: zb[i] for i in disc}
+            start, seen = problem.rank(best), len(problem.ev.used)
             res = _local(problem, [zb[i] for i in cont], fixed, step, maxiter)
             message += f"; SLSQP at the best choice: {res.message}"
+            after = min([problem.rank(r) for r in list(problem.ev.used.values())[seen:]]
+                        + [start])
+            if _stalled(res, start, after):
+                best = min(problem.ev.used.values(), key=problem.rank)
+                zc = [variables[i].scaled(best[variables[i].paths[0]]) for i in cont]
+                res = _derivative_free(problem, zc, fixed)
+                message += f"; stalled, COBYQA from the best point: {res.message}"
             converged = converged and bool(res.success)
         return converged, message
     except BudgetExhausted as e:
