@@ -474,3 +474,20 @@ def test_stepped_metric_with_a_choice_global_method_then_cobyqa():
     assert r.method == "global" and r.evaluations <= len(La) * len(Cs) // 5
     assert r.objective <= best * 1.01 and "COBYQA" in r.message
     assert r.optimum["supply.accumulator.capacity"] == pytest.approx(C_BEST)
+
+
+def test_constraint_near_its_bound_everywhere_is_not_reported_active():
+    # a metric that hardly moves (0.1 s + 1e-7 s/m x L, as the bandwidth over section II)
+    # lies within 0.1 % of a bound 0.05 % above it everywhere: it restricts nothing, so it is
+    # not active; the frequency bound that does restrict (L <= 1.25 m) is
+    class NearlyConstant(Analytic):
+        def __call__(self, index, values):
+            row = super().__call__(index, values)
+            return {**row, "supply_settling_time_s": 0.1 + 1e-7 * values.get(
+                "supply.section2.length", 3.048)}
+
+    r = optimize(["supply.section2.length=0.5 m..4 m"], minimize="supply.amplitude_mpa",
+                 subject_to=["supply.settling_time_s<=0.10005", "supply.frequency_hz>=80"],
+                 runner=NearlyConstant())
+    assert r.feasible and abs(r.optimum["supply.section2.length"] - 1.25) < 1e-3
+    assert r.active_constraints == ["supply.frequency_hz>=80"]

@@ -83,7 +83,9 @@ OPTIMIZE_JOURNAL = "optimize.jsonl"
 FAILED_OBJECTIVE = 1e3
 #: Weight of the constraints' scaled violation in the merit of the global method, [-].
 PENALTY = 1e3
-#: A constraint is met within this scaled tolerance and active within ACTIVE_TOLERANCE, [-].
+#: A constraint is met within this scaled tolerance and active within ACTIVE_TOLERANCE (of
+#: its bound, or of the spread of its metric over the evaluations where that is smaller: a
+#: metric that hardly moves is not "at its bound" for being near it everywhere), [-].
 FEASIBILITY_TOLERANCE = 1e-6
 ACTIVE_TOLERANCE = 1e-3
 #: Derivative-free local method (COBYQA): its first and last trust-region radius in the
@@ -491,8 +493,9 @@ class _Problem:
     def rank(self, row) -> tuple:
         """Sort key of the best point: feasible first, then the objective (or violation)."""
         failed = not math.isfinite(self.ev.metric(row, self.objective_name))
-        violation = float(np.sum(np.maximum(0.0, -self.margins(row))))
-        feasible = violation <= FEASIBILITY_TOLERANCE * max(1, len(self.constraints))
+        margins = self.margins(row)
+        violation = float(np.sum(np.maximum(0.0, -margins)))
+        feasible = bool(np.all(margins >= -FEASIBILITY_TOLERANCE))    # as the result's
         return (failed, not feasible, violation if not feasible else 0.0, self.objective(row))
 
 
@@ -1171,6 +1174,10 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
                 m: (lambda x: x if math.isfinite(x) else None)(ev.metric(row, m))
                 for m in objectives}
     margins = problem.margins(best)
+    every = np.array([problem.margins(r) for r in used]).reshape(len(used), len(constraints))
+    every = np.where(every > -FAILED_OBJECTIVE, every, np.nan)    # failed evaluations out
+    spreads = [float(np.nanmax(col) - np.nanmin(col)) if np.any(np.isfinite(col)) else 1.0
+               for col in every.T]
     at_bounds = []
     for v in variables:
         if not v.discrete:
@@ -1187,8 +1194,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         optimum=optimum, objective=ev.metric(best, minimize), objective_name=minimize,
         metrics=all_metrics(best), evaluations=len(used), n_computed=ev.computed,
         feasible=bool(np.all(margins >= -FEASIBILITY_TOLERANCE)) and not best.get("error"),
-        active_constraints=[c.describe() for c, m in zip(constraints, margins)
-                            if abs(m) <= ACTIVE_TOLERANCE],
+        active_constraints=[c.describe() for c, m, spread in zip(constraints, margins, spreads)
+                            if abs(m) <= ACTIVE_TOLERANCE * min(1.0, spread)],
         at_bounds=at_bounds, converged=converged, message=message, method=method,
         baseline=baseline, baseline_objective=f0, baseline_metrics=all_metrics(base_row),
         constraints=[c.describe() for c in constraints],
