@@ -649,6 +649,33 @@ def _starts(problem: _Problem, count: int, seed: int, baseline_z) -> list:
     return zs
 
 
+def _multistart(problem: _Problem, method: str, zs, rows, picked, step: float, maxiter: int,
+                cont, results: list, notes: list) -> None:
+    """The local runs from the starts ``picked`` (indices into ``zs``, their ``rows``):
+    SLSQP, and COBYQA where it stalls, or COBYQA alone; each run's result appended to
+    ``results`` and its message to ``notes`` as it goes (BudgetExhausted passes through)."""
+    for k in picked:
+        notes.append(f"start {k + 1}: ")
+        if method == "derivative-free":
+            res = _derivative_free(problem, zs[k], {})
+            notes[-1] += f"COBYQA: {res.message}"
+            results.append(res)
+            continue
+        seen = len(problem.ev.used)
+        notes[-1] += "SLSQP: "
+        res = _local(problem, zs[k], {}, step, maxiter)
+        notes[-1] += f"{res.message}"
+        after = min([problem.rank(r) for r in list(problem.ev.used.values())[seen:]]
+                    + [problem.rank(rows[k])])
+        if _stalled(res, problem.rank(rows[k]), after):
+            zb = _best_z(problem, cont)[1]
+            # a zero or noisy gradient: go on derivative-free from the best point
+            notes[-1] += "; stalled, COBYQA from the best point: "
+            res = _derivative_free(problem, zb, {})
+            notes[-1] += f"{res.message}"
+        results.append(res)
+
+
 def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
            maxiter: int, baseline_z, local_runs: int = 2) -> tuple:
     """Run the method; returns (converged, message)."""
@@ -661,24 +688,12 @@ def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
             rows = problem.rows(zs)
             order = sorted(range(len(zs)), key=lambda k: problem.rank(rows[k]))
             results, notes = [], []
-            for k in order[:max(1, local_runs)]:    # multistart: the best few starts
-                notes.append(f"start {k + 1}: ")
-                if method == "derivative-free":
-                    res = _derivative_free(problem, zs[k], {})
-                    notes[-1] += f"COBYQA: {res.message}"
-                    results.append(res)
-                    continue
-                seen = len(problem.ev.used)
-                res = _local(problem, zs[k], {}, step, maxiter)
-                notes[-1] += f"SLSQP: {res.message}"
-                after = min([problem.rank(r) for r in list(problem.ev.used.values())[seen:]]
-                            + [problem.rank(rows[k])])
-                if _stalled(res, problem.rank(rows[k]), after):
-                    zb = _best_z(problem, cont)[1]
-                    # a zero or noisy gradient: go on derivative-free from the best point
-                    res = _derivative_free(problem, zb, {})
-                    notes[-1] += f"; stalled, COBYQA from the best point: {res.message}"
-                results.append(res)
+            try:
+                _multistart(problem, method, zs, rows, order[:max(1, local_runs)], step,
+                            maxiter, cont, results, notes)
+            except BudgetExhausted as e:     # the runs before this one stay in the message
+                notes[-1] += f"stopped: {e}"
+                return False, "; ".join(notes)
             converged = all(r.success for r in results)
             return converged, "; ".join(notes)
         fixed = None
