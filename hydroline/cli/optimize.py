@@ -124,7 +124,7 @@ def run(args) -> int:
     -------
     int  Exit code: 0, or 1 where the optimum found breaks a constraint
     """
-    from ..studies.optimize import optimize
+    from ..studies.optimize import optimize, shown_value
 
     if not args.minimize:
         raise ValueError("--minimize METRIC is required, e.g. --minimize supply.amplitude_mpa")
@@ -169,8 +169,12 @@ def run(args) -> int:
         print(f"  variable {v}")
     for c in result.constraints:
         print(f"  subject to {c}")
-    rows = [[p, result.baseline[p], result.optimum[p]] for p in result.optimum]
-    print_table(["parameter [SI]", "baseline", "optimum"], rows)
+    rows = []
+    for p in result.optimum:
+        (base, unit), (best, _) = (shown_value(result.baseline[p], result.units.get(p)),
+                                   shown_value(result.optimum[p], result.units.get(p)))
+        rows.append([p, unit or "-", base, best])
+    print_table(["parameter", "unit", "baseline", "optimum"], rows)
     shown = [result.objective_name] + [c.split("<")[0].split(">")[0] for c in result.constraints]
     print_table(["metric", "baseline", "optimum"],
                 [[m, result.baseline_metrics.get(m), result.metrics.get(m)]

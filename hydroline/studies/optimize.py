@@ -58,7 +58,7 @@ import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
-from ..units import exact_quantity
+from ..units import exact_quantity, format_quantity
 from .design import parse_parameter, parse_parameters
 from .executors import MAX_WORKERS, call_runner, dask_client, failure_reason, worker_pool
 from .journal import FORMAT_VERSION, Journal, check_same_sweep, read_journal, rig_hash
@@ -167,11 +167,13 @@ class Variable:
 
     def describe(self) -> str:
         """The range or choices as text with the unit."""
-        u = "" if self.unit in ("-", "str") else f" {self.unit}"
+        def text(v):
+            number, unit = shown_value(v, self.unit)
+            return f"{number:g} {unit}".strip() if isinstance(number, float) else str(number)
+
         if self.discrete:
-            return "{" + ", ".join(f"{v:g}{u}" if isinstance(v, float) else str(v)
-                                   for v in self.choices) + "}"
-        return f"{self.low:g}{u} .. {self.high:g}{u}"
+            return "{" + ", ".join(text(v) for v in self.choices) + "}"
+        return f"{text(self.low)} .. {text(self.high)}"
 
 
 def parse_variables(vary=(), choose=(), rig: Rig | None = None) -> list[Variable]:
@@ -848,6 +850,7 @@ class OptimizeResult:
                               minimum on: ``{"variables": {PATH: SI value}, "objectives":
                               {METRIC: value}}`` and, once written to ``out``, ``"rig"``:
                               the point's rig file name (None with one objective)
+    units : dict              Rig path -> SI unit of the varied values ("m", "m^3", "Pa")
     """
 
     optimum: dict
@@ -874,6 +877,7 @@ class OptimizeResult:
     files: dict = field(default_factory=dict)
     objectives: list = field(default_factory=list)
     front: list | None = None
+    units: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The JSON document: ``optimum`` (PATH: SI value), ``objective``, ``metrics``,
@@ -892,7 +896,7 @@ class OptimizeResult:
             "optimum", "objective", "objective_name", "metrics", "evaluations", "n_computed",
             "feasible", "active_constraints", "at_bounds", "converged", "message", "method",
             "baseline", "baseline_objective", "baseline_metrics", "constraints", "variables",
-            "scenario", "wall_time", "history", "objectives")}
+            "scenario", "wall_time", "history", "objectives", "units")}
         if self.front is not None:
             d["front"] = self.front
         d["files"] = {k: str(p) for k, p in self.files.items()}
@@ -935,6 +939,38 @@ def _with_values(rig: Rig, values: dict, units: dict) -> Rig:
         unit = units[path]
         r.set(path, v if unit in ("-", "str") else exact_quantity(v, unit))
     return r
+
+
+#: The unit a person reads a varied value in, by its SI unit.
+SHOWN_UNITS = {"m^3": "L", "Pa": "MPa", "m^3/s": "L/min"}
+
+
+def shown_value(value, unit):
+    """A varied value in the unit a person reads it in: ``0.002951`` m^3 as ``(2.951, "L")``.
+
+    Parameters
+    ----------
+    value : float or str
+        The value, [unit] (SI); a discrete choice that is not a number is returned as is
+    unit : str or None
+        Its SI unit as in :attr:`Variable.unit` ("m", "m^3", "Pa", "-", "str")
+
+    Returns
+    -------
+    tuple
+        ``(value, unit)``: the value in the shown unit and that unit ("" for none)
+    """
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or unit in (None, "-", "str"):
+        return value, ""
+    if unit in SHOWN_UNITS:
+        return float(format_quantity(value, unit, SHOWN_UNITS[unit], 12).split()[0]), SHOWN_UNITS[unit]
+    return value, unit
+
+
+def _title_value(value, unit) -> str:
+    number, shown = shown_value(value, unit)
+    text = f"{number:.4g}" if isinstance(number, (int, float)) else str(number)
+    return f"{text} {shown}".strip()
 
 
 def optimize_figure(result: OptimizeResult, traces=None, path=None):
@@ -1000,7 +1036,8 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     ax.set_xlabel("evaluation")
     ax.set_ylabel(result.objective_name)
     ax.legend(loc="best", fontsize=8)
-    what = ", ".join(f"{p} = {v:.4g}" for p, v in result.optimum.items())
+    what = ", ".join(f"{p} = {_title_value(v, result.units.get(p))}"
+                     for p, v in result.optimum.items())
     fig.suptitle(wrap_title(f"minimise {result.objective_name}: {what} "
                             f"({result.evaluations} evaluations)", 8, 10), fontsize=10)
     fig.tight_layout()
@@ -1216,7 +1253,7 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         constraints=[c.describe() for c in constraints],
         variables=[f"{v.name} = {v.describe()}" for v in variables], history=history,
         rig=_with_values(rig, optimum, units), scenario=scenario, files=files,
-        objectives=objectives, front=front)
+        objectives=objectives, front=front, units=units)
     if out is not None:
         _write_outputs(result, rig, units, out, figure, t_end, solver, axes)
     result.wall_time = _time.perf_counter() - tic
