@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from hydroline.cli import main
-from hydroline.rigs import load_rig
+from hydroline.rigs import RigError, load_rig
 from hydroline.studies.journal import SweepFileError
 from hydroline.studies.optimize import (COST_METRICS, cost_metrics, metric_names,
                                         objective_gradient, optimize, parse_constraint)
@@ -491,3 +491,17 @@ def test_constraint_near_its_bound_everywhere_is_not_reported_active():
                  runner=NearlyConstant())
     assert r.feasible and abs(r.optimum["supply.section2.length"] - 1.25) < 1e-3
     assert r.active_constraints == ["supply.frequency_hz>=80"]
+
+
+def test_a_constraint_value_may_carry_a_unit_of_its_metrics_dimension():
+    """``--subject-to`` reads a quantity in the unit the metric's name ends with (by hand:
+    5 bar = 0.5 MPa, 30 ms = 0.03 s, 12 Hz), a plain number as that unit, and refuses a unit
+    of another dimension in one line naming the metric."""
+    from hydroline.studies.optimize import parse_constraint
+
+    assert parse_constraint("supply.amplitude_mpa<=5 bar").bound == pytest.approx(0.5)
+    assert parse_constraint("supply.settling_time_s<=30 ms").bound == pytest.approx(0.03)
+    assert parse_constraint("position_bandwidth_hz>=12 Hz").bound == 12.0
+    assert parse_constraint("accumulator_volume_l<=4").bound == 4.0
+    with pytest.raises(RigError, match="supply.amplitude_mpa.*dimension"):
+        parse_constraint("supply.amplitude_mpa<=5 m")

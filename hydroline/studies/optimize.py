@@ -58,7 +58,7 @@ import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
-from ..units import exact_quantity, format_quantity
+from ..units import UnitError, exact_quantity, format_quantity, parse_quantity
 from .design import parse_parameter, parse_parameters
 from .executors import MAX_WORKERS, call_runner, dask_client, failure_reason, worker_pool
 from .journal import FORMAT_VERSION, Journal, check_same_sweep, read_journal, rig_hash
@@ -98,6 +98,9 @@ STALL_TOLERANCE = 1e-6
 #: domination tolerance, as a fraction of that objective's range over the front, [-].
 FRONT_SLACK = 1e-3
 _HOSE_LENGTH = re.compile(r"^(supply|return)\.section\d+\.length$")
+#: The unit of a metric, by the end of its name (``supply.amplitude_mpa``: MPa).
+METRIC_SUFFIX_UNITS = {"_mpa": "MPa", "_hz": "Hz", "_mm": "mm", "_s": "s", "_m": "m", "_l": "L"}
+
 _CONSTRAINT = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|<|>)\s*(\S.*?)\s*$")
 
 
@@ -275,7 +278,8 @@ def parse_constraint(text) -> Constraint:
 
     Parameters
     ----------
-    text : str or Constraint   VALUE a plain number in the unit the metric's name ends with
+    text : str or Constraint   VALUE a plain number in the unit the metric's name ends with,
+                               or a quantity with a unit of that dimension ("12 Hz", "2 bar")
 
     Raises
     ------
@@ -287,13 +291,21 @@ def parse_constraint(text) -> Constraint:
     if not m:
         raise RigError(f"--subject-to {text!r}: expected 'METRIC<=VALUE' or 'METRIC>=VALUE', "
                        f"e.g. 'supply.frequency_hz>=30'")
+    unit = next((u for suffix, u in METRIC_SUFFIX_UNITS.items()
+                 if m.group(1).lower().endswith(suffix)), None)
     try:
         bound = float(m.group(3))
     except ValueError:
         bound = math.nan
+        if unit is not None:            # "12 Hz", "2 bar", "30 ms": read in the metric's unit
+            try:
+                bound = parse_quantity(m.group(3), unit, f"--subject-to {m.group(1)}")
+            except UnitError as e:
+                raise RigError(f"--subject-to {text!r}: {e}") from None
     if not math.isfinite(bound):
-        raise RigError(f"--subject-to {text!r}: VALUE must be a finite plain number in the "
-                       f"unit the metric's name ends with (_mpa, _hz, _s, _mm, _m, _l)")
+        raise RigError(f"--subject-to {text!r}: VALUE must be a finite number, plain in the "
+                       f"unit the metric's name ends with (_mpa, _hz, _s, _mm, _m, _l) or "
+                       f"with a unit of that dimension")
     sense = {"<": "<=", ">": ">="}.get(m.group(2), m.group(2))
     return Constraint(m.group(1), sense, bound)
 
