@@ -53,9 +53,9 @@ def test_catalogue_rig_values_carry_their_sources_and_none_is_fitted():
             comment = line.split("#", 1)[1] if "#" in line else ""
             assert any(t in comment for t in tags), line
             assert "[calibrated]" not in comment, line
-    assert values == 18
+    assert values == 19
     rig = load_rig("ayalew2005_catalogue")
-    assert rig["fluid.air_content"] == 0.005
+    assert rig["fluid.air_content"] == 0.005 and rig["fluid.cavity_pressure"] == 5e3
     assert rig["actuator.moving_mass"] == load_rig(None)["actuator.moving_mass"]
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from hydroline.cli import main
-from hydroline.rigs import load_rig
+from hydroline.rigs import RigError, load_rig
 from hydroline.studies.journal import SweepFileError
 from hydroline.studies.optimize import (COST_METRICS, cost_metrics, metric_names,
                                         objective_gradient, optimize, parse_constraint)
@@ -196,7 +196,7 @@ def test_two_objective_front_not_dominated_by_a_grid(tmp_path):
             assert not (ga < 0.99 * a and gv < 0.99 * v), ((a, v), (ga, gv))
     doc = json.loads((tmp_path / "optimize.json").read_text())
     assert len(doc["front"]) == len(front)
-    assert set(doc["front"][0]) == {"variables", "objectives"}
+    assert set(doc["front"][0]) == {"variables", "objectives", "rig"}
     assert (tmp_path / "optimize.png").exists()
 
 
@@ -272,3 +272,236 @@ def test_dask_cluster_gives_the_in_process_result():
         there = optimize(vary, runner=Analytic(), scheduler=client, **kw)
     assert there.optimum == here.optimum and there.evaluations == here.evaluations
     assert there.n_computed == here.n_computed
+
+
+# --------------------------------------------------------------------------- bandwidth metric
+
+def test_closed_loop_bandwidth_of_an_integrating_plant_by_hand():
+    # H = Kv/s under i = Kp e - Kd v closes to Kv Kp / (s (1 + Kv Kd) + Kv Kp): a first-order
+    # lag of corner Kv Kp / (1 + Kv Kd) / (2 pi) [Hz]
+    from hydroline.analysis.loop import closed_loop_bandwidth
+
+    f = np.logspace(-3, 3, 6001)
+    H = 20.0 / (2j * np.pi * f)
+    assert closed_loop_bandwidth(f, H, 1.5) == pytest.approx(30.0 / (2 * np.pi), rel=1e-4)
+    assert closed_loop_bandwidth(f, H, 1.5, derivative_gain=0.05) == pytest.approx(
+        30.0 / 2.0 / (2 * np.pi), rel=1e-4)
+
+
+def test_position_bandwidth_of_the_rig_at_low_gain_is_the_valve_integrator_corner():
+    # at a gain far below the valve's and the actuator's dynamics the closed loop is the lag
+    # of corner Kp Kv / (2 pi), Kv the plant's low-frequency velocity gain [m/(s A)] (read
+    # from the valve-current-to-velocity channel at 0.01 Hz, not the position loop); their
+    # phase lag at the corner lifts it by ~0.2 % at 0.14 Hz (1.6 % at 1 Hz, 0.15 A/m)
+    from hydroline.analysis.frequency import state_space_response
+    from hydroline.analysis.linearize import linearize
+    from hydroline.analysis.loop import position_bandwidth
+
+    rig = load_rig(None)
+    rig.set("controller.proportional_gain", "0.02 A/m")
+    sys = linearize(rig, None, ["valve_current"], ["piston_velocity"])
+    kv = abs(state_space_response(sys.A, sys.B, sys.C, sys.D, [0.01], sys.state_scales)[0, 0, 0])
+    assert position_bandwidth(rig) == pytest.approx(0.02 * kv / (2 * np.pi), rel=0.01)
+
+
+def test_bandwidth_constraint_on_the_real_rig_is_active_at_its_bound():
+    # the least proportional gain whose closed position loop keeps 8 Hz (the rig's 1.5 A/m
+    # gives 12.5 Hz): only the linear model runs (no simulation is asked for)
+    from hydroline.analysis.loop import position_bandwidth
+
+    r = optimize(["controller.proportional_gain=0.5 A/m..3 A/m"], minimize="position_bandwidth_hz",
+                 subject_to=["position_bandwidth_hz>=8"], starts=1, local_runs=1,
+                 max_evaluations=12)
+    assert "position_bandwidth_hz" in metric_names()
+    assert r.feasible and r.active_constraints == ["position_bandwidth_hz>=8"]
+    assert r.objective == pytest.approx(8.0, rel=1e-3)
+    assert r.baseline_objective > 12.0 and r.metrics["supply.amplitude_mpa"] is None
+    rig = load_rig(None)
+    rig.set("controller.proportional_gain", f"{r.optimum['controller.proportional_gain']!r} A/m")
+    assert position_bandwidth(rig) == pytest.approx(r.objective, rel=1e-9)
+
+
+# --------------------------------------------------------------------------- rough metrics
+
+STAIR = 0.02        # [MPa] the step of a piecewise-constant (quantised) amplitude
+
+
+def stair(L, C):
+    return 0.5 + STAIR * math.floor(((L - L_BEST) ** 2 + ((C - C_BEST) / 1e-3) ** 2) / STAIR)
+
+
+class Stepped(Analytic):
+    """The bowl of :class:`Analytic` read in steps of 0.02 MPa (as a metric measured on a
+    coarse grid or decided by a verdict): its finite-difference gradient is 0 or huge."""
+
+    def __call__(self, index, values):
+        row = super().__call__(index, values)
+        row["supply_amplitude_mpa"] = stair(values.get("supply.section2.length", 3.048),
+                                            values.get("supply.accumulator.capacity", C_BEST))
+        return row
+
+
+@pytest.mark.parametrize("method", ["local", "derivative-free"])
+def test_stepped_metric_within_one_percent_of_a_grid_derivative_free(method):
+    # SLSQP alone stops on a step (zero gradient: 0.66 and 0.84 MPa here); the local method
+    # then goes on with COBYQA from the best point, derivative-free uses COBYQA from the start
+    La, Ca = np.linspace(0.5, 4.0, 30), np.linspace(0.2e-3, 4e-3, 30)
+    vary = ["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"]
+    for bound, cons in ((None, []), (80.0, ["supply.frequency_hz>=80"])):
+        best = min(stair(L, C) for L in La for C in Ca if bound is None or 100.0 / L >= bound)
+        r = optimize(vary, minimize="supply.amplitude_mpa", subject_to=cons, runner=Stepped(),
+                     method=method, max_evaluations=len(La) * len(Ca) // 5)
+        assert r.feasible and r.objective <= best * 1.01, (r.objective, best, r.message)
+        assert "COBYQA" in r.message
+        if bound is not None:
+            assert r.active_constraints == ["supply.frequency_hz>=80"]
+    if method == "local":
+        assert "stalled, COBYQA from the best point" in r.message
+
+
+# --------------------------------------------------------------------------- Dask, fronts
+
+def test_scheduler_local_and_an_address_give_the_in_process_result():
+    distributed = pytest.importorskip("distributed")
+    vary = ["supply.section2.length=0.5 m..4 m"]
+    kw = dict(minimize="supply.amplitude_mpa", subject_to=["supply.frequency_hz>=80"],
+              figure=False)
+    here = optimize(vary, runner=Analytic(), **kw)
+    # "local": a cluster of one worker process started and closed by optimize
+    there = optimize(vary, runner=Analytic(), scheduler="local", workers=1, **kw)
+    assert there.optimum == here.optimum and there.n_computed == here.n_computed
+    # an address, as --scheduler tcp://host:port: an in-process cluster of two workers
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  protocol="tcp://", host="127.0.0.1",
+                                  dashboard_address=None) as cluster:
+        assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
+        remote = optimize(vary, runner=Analytic(), scheduler=cluster.scheduler_address, **kw)
+    assert remote.optimum == here.optimum and remote.n_computed == here.n_computed
+
+
+A3 = ((1.0, 1e-3), (3.0, 1e-3), (2.0, 3e-3))     # the three bowls' centres (L [m], C [m^3])
+
+
+class ThreeBowls:
+    """Three metrics, bowls of equal curvature centred on A3 in (L, C / 1 mm^3 x 1e-3): the
+    Pareto set of three such bowls is the triangle of their centres, by hand."""
+
+    def __call__(self, index, values):
+        L = values["supply.section2.length"]
+        C = values["supply.accumulator.capacity"]
+        f = [(L - a) ** 2 + ((C - c) / 1e-3) ** 2 for a, c in A3]
+        return {"variant": index, **values, "supply_amplitude_mpa": f[0],
+                "return_amplitude_mpa": f[1], "supply_first_excursion_mpa": f[2],
+                "error": None}
+
+
+def _in_triangle(p, tri, tol):
+    """Distance of p from the triangle tri (0 inside), in the scaled plane."""
+    (x1, y1), (x2, y2), (x3, y3) = tri
+    d = (y2 - y3) * (x1 - x3) + (x3 - x2) * (y1 - y3)
+    a = ((y2 - y3) * (p[0] - x3) + (x3 - x2) * (p[1] - y3)) / d
+    b = ((y3 - y1) * (p[0] - x3) + (x1 - x3) * (p[1] - y3)) / d
+    return min(a, b, 1 - a - b) >= -tol
+
+
+def test_three_objective_front_against_a_grid_and_the_triangle_by_hand(tmp_path):
+    objectives = ["supply.amplitude_mpa", "return.amplitude_mpa", "supply.first_excursion_mpa"]
+    r = optimize(["supply.section2.length=0.5 m..4 m", "supply.accumulator.capacity=0.2 L..4 L"],
+                 minimize=objectives, runner=ThreeBowls(), front_points=5, out=tmp_path,
+                 figure=False)
+    pts = [[p["objectives"][m] for m in objectives] for p in r.front]
+    assert len(pts) >= 10
+    # every objective's minimum (0, at its centre) is on the front
+    for j in range(3):
+        assert min(p[j] for p in pts) == pytest.approx(0.0, abs=1e-3)
+    tri = [(a, c / 1e-3) for a, c in A3]
+    for p in r.front:
+        v = p["variables"]
+        assert _in_triangle((v["supply.section2.length"], v["supply.accumulator.capacity"] / 1e-3),
+                            tri, 0.02), p
+    # no point of a 40 x 40 grid dominates a front point beyond 1 % of its range per objective
+    runner = ThreeBowls()
+    grid = np.array([[runner(0, {"supply.section2.length": L,
+                                 "supply.accumulator.capacity": C})[k]
+                      for k in ("supply_amplitude_mpa", "return_amplitude_mpa",
+                                "supply_first_excursion_mpa")]
+                     for L in np.linspace(0.5, 4.0, 40) for C in np.linspace(0.2e-3, 4e-3, 40)])
+    tol = 0.01 * np.ptp(np.array(pts), axis=0)
+    for p in np.array(pts):
+        assert not np.any(np.all(grid < p - tol, axis=1)), p
+    # one rig file per front point, its values those of the point
+    doc = json.loads((tmp_path / "optimize.json").read_text())
+    assert [p["rig"] for p in doc["front"]] == [f"front_{k:02d}.toml"
+                                                for k in range(1, len(r.front) + 1)]
+    for p in doc["front"]:
+        text = (tmp_path / p["rig"]).read_text()
+        assert "# optimised for Pareto front point" in text
+        back = load_rig(str(tmp_path / p["rig"]))
+        for path, value in p["variables"].items():
+            assert back.values[path] == pytest.approx(value, rel=1e-12)
+
+
+def test_resume_reruns_the_evaluations_without_a_metric_now_asked_for(tmp_path):
+    # the first run recorded no settling time (as a run without position_bandwidth_hz records
+    # no bandwidth); asked for on resume, those evaluations run again, the others do not
+    class WithSettling(Analytic):
+        def __call__(self, index, values):
+            return {**super().__call__(index, values), "supply_settling_time_s": 0.1}
+
+    vary = ["supply.section2.length=0.5 m..4 m"]
+    first = optimize(vary, minimize="supply.amplitude_mpa", runner=Analytic(), out=tmp_path,
+                     figure=False)
+    again = WithSettling()
+    second = optimize(vary, minimize="supply.amplitude_mpa", runner=again, out=tmp_path,
+                      subject_to=["supply.settling_time_s<=1"], resume=True, figure=False)
+    assert second.optimum == first.optimum and again.calls == second.n_computed == first.evaluations
+    third = WithSettling()
+    optimize(vary, minimize="supply.amplitude_mpa", runner=third, out=tmp_path,
+             subject_to=["supply.settling_time_s<=1"], resume=True, figure=False)
+    assert third.calls == 0
+
+
+def test_stepped_metric_with_a_choice_global_method_then_cobyqa():
+    # differential evolution over the length and the capacity's choices, then SLSQP at the
+    # best choice, which stalls on a step: COBYQA goes on; within 1 % of a 60 x 3 grid's best
+    # in a fifth of its evaluations
+    La, Cs = np.linspace(0.5, 4.0, 60), (1e-3, 2e-3, 3e-3)
+    best = min(stair(L, C) for L in La for C in Cs)
+    r = optimize(["supply.section2.length=0.5 m..4 m"],
+                 choose=["supply.accumulator.capacity=1 L,2 L,3 L"],
+                 minimize="supply.amplitude_mpa", runner=Stepped(),
+                 max_evaluations=len(La) * len(Cs) // 5, seed=3)
+    assert r.method == "global" and r.evaluations <= len(La) * len(Cs) // 5
+    assert r.objective <= best * 1.01 and "COBYQA" in r.message
+    assert r.optimum["supply.accumulator.capacity"] == pytest.approx(C_BEST)
+
+
+def test_constraint_near_its_bound_everywhere_is_not_reported_active():
+    # a metric that hardly moves (0.1 s + 1e-7 s/m x L, as the bandwidth over section II)
+    # lies within 0.1 % of a bound 0.05 % above it everywhere: it restricts nothing, so it is
+    # not active; the frequency bound that does restrict (L <= 1.25 m) is
+    class NearlyConstant(Analytic):
+        def __call__(self, index, values):
+            row = super().__call__(index, values)
+            return {**row, "supply_settling_time_s": 0.1 + 1e-7 * values.get(
+                "supply.section2.length", 3.048)}
+
+    r = optimize(["supply.section2.length=0.5 m..4 m"], minimize="supply.amplitude_mpa",
+                 subject_to=["supply.settling_time_s<=0.10005", "supply.frequency_hz>=80"],
+                 runner=NearlyConstant())
+    assert r.feasible and abs(r.optimum["supply.section2.length"] - 1.25) < 1e-3
+    assert r.active_constraints == ["supply.frequency_hz>=80"]
+
+
+def test_a_constraint_value_may_carry_a_unit_of_its_metrics_dimension():
+    """``--subject-to`` reads a quantity in the unit the metric's name ends with (by hand:
+    5 bar = 0.5 MPa, 30 ms = 0.03 s, 12 Hz), a plain number as that unit, and refuses a unit
+    of another dimension in one line naming the metric."""
+    from hydroline.studies.optimize import parse_constraint
+
+    assert parse_constraint("supply.amplitude_mpa<=5 bar").bound == pytest.approx(0.5)
+    assert parse_constraint("supply.settling_time_s<=30 ms").bound == pytest.approx(0.03)
+    assert parse_constraint("position_bandwidth_hz>=12 Hz").bound == 12.0
+    assert parse_constraint("accumulator_volume_l<=4").bound == 4.0
+    with pytest.raises(RigError, match="supply.amplitude_mpa.*dimension"):
+        parse_constraint("supply.amplitude_mpa<=5 m")

@@ -27,6 +27,8 @@ _LAZY = {
     "DataError": "fit", "fit_parameters": "fit", "read_measurements": "fit",
     "fit_stribeck": "friction_id", "identify_friction": "friction_id",
     "bode_data": "loop", "frequency_response_data": "loop", "stability_margins": "loop",
+    "closed_loop_bandwidth": "loop", "closed_loop_position_response": "loop",
+    "position_bandwidth": "loop",
 }
 
 __all__ = list(_LAZY)

@@ -19,14 +19,18 @@ variables (values with units, read as 'hydroline sweep --set' reads them):
 metrics (--minimize, --subject-to): the sweep's metrics with a dot after the side
   supply.amplitude_mpa, supply.frequency_hz, supply.settling_time_s,
   return.first_excursion_mpa, ..., tracking_error_rms_mm (closed-loop-sine); per axis
-  of a multi-axis rig axis2.supply.amplitude_mpa, axis2.position_disturbance_mm; cost
-  proxies total_hose_length_m, accumulator_volume_l. A constraint is 'METRIC<=VALUE' or
-  'METRIC>=VALUE', VALUE in the unit the metric's name ends with.
+  of a multi-axis rig axis2.supply.amplitude_mpa, axis2.position_disturbance_mm; the
+  linearised model's closed position loop bandwidth position_bandwidth_hz (-3 dB, at rest
+  at mid-stroke; per axis axis2.position_bandwidth_hz); cost proxies total_hose_length_m,
+  accumulator_volume_l. A constraint is 'METRIC<=VALUE' or 'METRIC>=VALUE', VALUE in the
+  unit the metric's name ends with.
 
 methods: continuous variables: SLSQP (finite-difference gradients, each gradient's points
 run as one batch) from the best of a few Latin-hypercube starting points and the base rig;
-with --choose (or --method global): every combination of the choices, or differential
-evolution, then SLSQP on the continuous variables at the best choice.
+where SLSQP fails or ends where it started (a zero or noisy gradient: a rough or stepped
+metric) COBYQA (derivative-free) goes on from the best point; --method derivative-free
+uses COBYQA alone. With --choose (or --method global): every combination of the choices,
+or differential evolution, then SLSQP on the continuous variables at the best choice.
 
 examples:
   hydroline optimize --vary 'supply.section2.length=0.5 m..6 m' --minimize supply.amplitude_mpa
@@ -38,7 +42,8 @@ examples:
 --out DIR: optimize.jsonl (every evaluation's row as it finishes, what --resume reads),
 optimum.toml (the rig with each changed value commented 'optimised for ...'),
 optimize.json (the result) and optimize.png (baseline and optimum port pressures, the
-objective per evaluation, the Pareto front with several --minimize).
+objective per evaluation, the Pareto front with several --minimize); with several
+--minimize also front_01.toml, front_02.toml, ... (one rig per point of the front).
 
 several --minimize: a Pareto front by the epsilon-constraint method: each metric's minimum,
 then the first metric minimised with the others <= levels spread between those ends
@@ -80,10 +85,13 @@ def register(sub):
                    "(default: the rig's rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time per evaluation with unit, e.g. '0.25 s'")
     p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
-    p.add_argument("--method", default="auto", choices=("auto", "local", "global"),
-                   help="local: SLSQP from space-filling starts (continuous only); global: "
-                   "differential evolution (or every combination of --choose), then SLSQP; "
-                   "auto: global where there are --choose variables (default)")
+    p.add_argument("--method", default="auto",
+                   choices=("auto", "local", "derivative-free", "global"),
+                   help="local: SLSQP from space-filling starts, COBYQA where it stalls "
+                   "(continuous only); derivative-free: COBYQA from those starts (rough "
+                   "metrics); global: differential evolution (or every combination of "
+                   "--choose), then SLSQP; auto: global where there are --choose variables, "
+                   "else local (default)")
     p.add_argument("--max-evaluations", type=int, metavar="N",
                    help="evaluations allowed (default 40 + 30 per variable)")
     p.add_argument("--starts", type=int, metavar="N",
@@ -116,7 +124,7 @@ def run(args) -> int:
     -------
     int  Exit code: 0, or 1 where the optimum found breaks a constraint
     """
-    from ..studies.optimize import optimize
+    from ..studies.optimize import optimize, shown_value
 
     if not args.minimize:
         raise ValueError("--minimize METRIC is required, e.g. --minimize supply.amplitude_mpa")
@@ -161,8 +169,12 @@ def run(args) -> int:
         print(f"  variable {v}")
     for c in result.constraints:
         print(f"  subject to {c}")
-    rows = [[p, result.baseline[p], result.optimum[p]] for p in result.optimum]
-    print_table(["parameter [SI]", "baseline", "optimum"], rows)
+    rows = []
+    for p in result.optimum:
+        (base, unit), (best, _) = (shown_value(result.baseline[p], result.units.get(p)),
+                                   shown_value(result.optimum[p], result.units.get(p)))
+        rows.append([p, unit or "-", base, best])
+    print_table(["parameter", "unit", "baseline", "optimum"], rows)
     shown = [result.objective_name] + [c.split("<")[0].split(">")[0] for c in result.constraints]
     print_table(["metric", "baseline", "optimum"],
                 [[m, result.baseline_metrics.get(m), result.metrics.get(m)]

@@ -17,7 +17,10 @@ Variables and problem
 * ``minimize``: a metric name (:func:`metric_names`): the sweep's row columns with dots
   (``supply.amplitude_mpa``, ``return.first_excursion_mpa``, ``supply.frequency_hz``,
   ``tracking_error_rms_mm``; per axis ``axis2.supply.amplitude_mpa``,
-  ``axis2.position_disturbance_mm``) or a cost proxy (:data:`COST_METRICS`).
+  ``axis2.position_disturbance_mm``), the linearised model's closed position loop bandwidth
+  (:data:`LINEAR_METRICS`: ``position_bandwidth_hz``, per axis ``axis2.position_bandwidth_hz``,
+  :func:`hydroline.analysis.loop.position_bandwidth`, computed only where asked for) or a cost
+  proxy (:data:`COST_METRICS`).
 * ``subject_to``: ``"METRIC<=VALUE"`` / ``"METRIC>=VALUE"``, VALUE in the unit the metric's
   name ends with.
 
@@ -55,7 +58,7 @@ import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
-from ..units import exact_quantity
+from ..units import UnitError, exact_quantity, format_quantity, parse_quantity
 from .design import parse_parameter, parse_parameters
 from .executors import MAX_WORKERS, call_runner, dask_client, failure_reason, worker_pool
 from .journal import FORMAT_VERSION, Journal, check_same_sweep, read_journal, rig_hash
@@ -64,24 +67,40 @@ from .sweep import SweepFileError, VariantRunner, check_levels, failed_row, metr
 __all__ = ["optimize", "OptimizeResult", "Variable", "Constraint", "parse_variables",
            "parse_constraint", "metric_names", "cost_metrics", "COST_METRICS",
            "OPTIMIZE_JOURNAL", "optimised_rig_text", "optimize_figure", "BudgetExhausted",
-           "pareto_front", "objective_gradient"]
+           "pareto_front", "objective_gradient", "LINEAR_METRICS", "LinearMetricsRunner"]
 
 #: Cost proxies computed from the rig's numbers (no simulation): the sum of every hose
 #: section's length [m] and of every accumulator's gas capacity [L].
 COST_METRICS = ("total_hose_length_m", "accumulator_volume_l")
+#: Metrics of the linearised model (per axis ``AXIS.<name>`` on a multi-axis rig), computed
+#: for an evaluation only where the objective or a constraint names them:
+#: ``position_bandwidth_hz``, the -3 dB bandwidth of the closed position loop at rest at
+#: mid-stroke (:func:`hydroline.analysis.loop.position_bandwidth`), [Hz].
+LINEAR_METRICS = ("position_bandwidth_hz",)
 #: File name of the results file inside ``out``.
 OPTIMIZE_JOURNAL = "optimize.jsonl"
 #: Scaled objective given to the optimiser for a failed evaluation (the base rig's is 1).
 FAILED_OBJECTIVE = 1e3
 #: Weight of the constraints' scaled violation in the merit of the global method, [-].
 PENALTY = 1e3
-#: A constraint is met within this scaled tolerance and active within ACTIVE_TOLERANCE, [-].
+#: A constraint is met within this scaled tolerance and active within ACTIVE_TOLERANCE (of
+#: its bound, or of the spread of its metric over the evaluations where that is smaller: a
+#: metric that hardly moves is not "at its bound" for being near it everywhere), [-].
 FEASIBILITY_TOLERANCE = 1e-6
 ACTIVE_TOLERANCE = 1e-3
+#: Derivative-free local method (COBYQA): its first and last trust-region radius in the
+#: scaled variables (range = 1), [-].
+DFO_RADIUS = 0.1
+DFO_FINAL_RADIUS = 1e-3
+#: SLSQP stalled when it improved the scaled objective by less than this (relative), [-].
+STALL_TOLERANCE = 1e-6
 #: Pareto front: the lowest epsilon level above a further objective's minimum, and the
 #: domination tolerance, as a fraction of that objective's range over the front, [-].
 FRONT_SLACK = 1e-3
 _HOSE_LENGTH = re.compile(r"^(supply|return)\.section\d+\.length$")
+#: The unit of a metric, by the end of its name (``supply.amplitude_mpa``: MPa).
+METRIC_SUFFIX_UNITS = {"_mpa": "MPa", "_hz": "Hz", "_mm": "mm", "_s": "s", "_m": "m", "_l": "L"}
+
 _CONSTRAINT = re.compile(r"^\s*([A-Za-z_][\w.]*)\s*(<=|>=|<|>)\s*(\S.*?)\s*$")
 
 
@@ -151,11 +170,13 @@ class Variable:
 
     def describe(self) -> str:
         """The range or choices as text with the unit."""
-        u = "" if self.unit in ("-", "str") else f" {self.unit}"
+        def text(v):
+            number, unit = shown_value(v, self.unit)
+            return f"{number:g} {unit}".strip() if isinstance(number, float) else str(number)
+
         if self.discrete:
-            return "{" + ", ".join(f"{v:g}{u}" if isinstance(v, float) else str(v)
-                                   for v in self.choices) + "}"
-        return f"{self.low:g}{u} .. {self.high:g}{u}"
+            return "{" + ", ".join(text(v) for v in self.choices) + "}"
+        return f"{text(self.low)} .. {text(self.high)}"
 
 
 def parse_variables(vary=(), choose=(), rig: Rig | None = None) -> list[Variable]:
@@ -257,7 +278,8 @@ def parse_constraint(text) -> Constraint:
 
     Parameters
     ----------
-    text : str or Constraint   VALUE a plain number in the unit the metric's name ends with
+    text : str or Constraint   VALUE a plain number in the unit the metric's name ends with,
+                               or a quantity with a unit of that dimension ("12 Hz", "2 bar")
 
     Raises
     ------
@@ -269,13 +291,21 @@ def parse_constraint(text) -> Constraint:
     if not m:
         raise RigError(f"--subject-to {text!r}: expected 'METRIC<=VALUE' or 'METRIC>=VALUE', "
                        f"e.g. 'supply.frequency_hz>=30'")
+    unit = next((u for suffix, u in METRIC_SUFFIX_UNITS.items()
+                 if m.group(1).lower().endswith(suffix)), None)
     try:
         bound = float(m.group(3))
     except ValueError:
         bound = math.nan
+        if unit is not None:            # "12 Hz", "2 bar", "30 ms": read in the metric's unit
+            try:
+                bound = parse_quantity(m.group(3), unit, f"--subject-to {m.group(1)}")
+            except UnitError as e:
+                raise RigError(f"--subject-to {text!r}: {e}") from None
     if not math.isfinite(bound):
-        raise RigError(f"--subject-to {text!r}: VALUE must be a finite plain number in the "
-                       f"unit the metric's name ends with (_mpa, _hz, _s, _mm, _m, _l)")
+        raise RigError(f"--subject-to {text!r}: VALUE must be a finite number, plain in the "
+                       f"unit the metric's name ends with (_mpa, _hz, _s, _mm, _m, _l) or "
+                       f"with a unit of that dimension")
     sense = {"<": "<=", ">": ">="}.get(m.group(2), m.group(2))
     return Constraint(m.group(1), sense, bound)
 
@@ -292,14 +322,71 @@ def metric_names(axes=(), scenario: str = "open-loop-step") -> list[str]:
     -------
     list[str]  The sweep's metric columns (:func:`hydroline.studies.sweep.metric_columns`)
                with a dot after the side (``supply.amplitude_mpa``; per axis
-               ``axis2.supply.amplitude_mpa`` as they are), then :data:`COST_METRICS`
+               ``axis2.supply.amplitude_mpa`` as they are), :data:`LINEAR_METRICS`
+               (per axis ``axis2.position_bandwidth_hz``), then :data:`COST_METRICS`
     """
-    single = len(list(axes)) <= 1
+    axes = list(axes)
+    single = len(axes) <= 1
     names = []
     for c in metric_columns(axes, scenario):
         side, _, rest = c.partition("_")
         names.append(f"{side}.{rest}" if single and side in ("supply", "return") else c)
-    return names + list(COST_METRICS)
+    linear = (list(LINEAR_METRICS) if single
+              else [f"{a}.{m}" for a in axes for m in LINEAR_METRICS])
+    return names + linear + list(COST_METRICS)
+
+
+def _linear_axis(name: str):
+    """(axis or None, metric) of a linear metric's name, or None for another metric."""
+    axis, _, metric = name.rpartition(".")
+    return (axis or None, metric) if metric in LINEAR_METRICS else None
+
+
+class LinearMetricsRunner:
+    """A runner that adds the linearised model's metrics (:data:`LINEAR_METRICS`) to the
+    sweep's row of each evaluation.
+
+    Called as ``runner(index, values) -> row``, like
+    :class:`~hydroline.studies.sweep.VariantRunner`, and picklable like it. The simulation
+    runs only where ``simulate`` (a metric of the response is asked for); a linear metric
+    that cannot be computed (no operating point, no controller) is None, its reason in the
+    row's ``linear_error``.
+
+    Parameters
+    ----------
+    runner : callable  The simulation's runner (``runner(index, values) -> row``)
+    rig : Rig          The base rig
+    units : dict       Rig path -> SI unit of the varied values
+    metrics : list     Linear metric names (:func:`metric_names`) to compute
+    simulate : bool    Run ``runner`` too (False: the row holds the inputs and these metrics)
+    """
+
+    def __init__(self, runner, rig: Rig, units: dict, metrics, simulate: bool = True):
+        self.runner, self.rig, self.units = runner, rig, dict(units)
+        self.metrics, self.simulate = list(metrics), simulate
+
+    def __call__(self, index: int, values: dict) -> dict:
+        """One evaluation's row: the simulation's (where ``simulate``) and the linear metrics."""
+        from ..analysis.loop import position_bandwidth
+        from .executors import failure_reason
+
+        row = (self.runner(index, values) if self.simulate
+               else {"variant": int(index), **values, "error": None})
+        try:
+            rig = _with_values(self.rig, values, self.units)
+        except Exception as e:      # the simulation's row says why too
+            rig, row["linear_error"] = None, failure_reason(e)
+        for name in self.metrics:
+            axis, metric = _linear_axis(name)
+            row[name] = None
+            if rig is None:
+                continue
+            try:
+                if metric == "position_bandwidth_hz":
+                    row[name] = position_bandwidth(rig, axis)
+            except Exception as e:  # a failed linearisation: that metric is missing
+                row["linear_error"] = f"{name}: {failure_reason(e)}"
+        return row
 
 
 def _column(name: str, axes) -> str:
@@ -420,8 +507,9 @@ class _Problem:
     def rank(self, row) -> tuple:
         """Sort key of the best point: feasible first, then the objective (or violation)."""
         failed = not math.isfinite(self.ev.metric(row, self.objective_name))
-        violation = float(np.sum(np.maximum(0.0, -self.margins(row))))
-        feasible = violation <= FEASIBILITY_TOLERANCE * max(1, len(self.constraints))
+        margins = self.margins(row)
+        violation = float(np.sum(np.maximum(0.0, -margins)))
+        feasible = bool(np.all(margins >= -FEASIBILITY_TOLERANCE))    # as the result's
         return (failed, not feasible, violation if not feasible else 0.0, self.objective(row))
 
 
@@ -478,10 +566,8 @@ def objective_gradient(vary, rig=None, *, minimize: str, at: dict | None = None,
     return {v.name: float(gi) / (v.high - v.low) for v, gi in zip(variables, g)}
 
 
-def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
-    """SLSQP over the continuous coordinates (``fixed``: index -> z of the discrete ones)."""
-    from scipy.optimize import minimize
-
+def _full(problem: _Problem, fixed: dict):
+    """``full(zc) -> z``: the continuous coordinates ``zc`` with the fixed discrete ones."""
     cont = [i for i, v in enumerate(problem.variables) if not v.discrete]
     n = len(problem.variables)
 
@@ -491,6 +577,14 @@ def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
             z[i] = zi
         z[cont] = np.clip(zc, 0.0, 1.0)
         return z
+    return cont, full
+
+
+def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
+    """SLSQP over the continuous coordinates (``fixed``: index -> z of the discrete ones)."""
+    from scipy.optimize import minimize
+
+    cont, full = _full(problem, fixed)
 
     grads: dict = {}
 
@@ -515,6 +609,49 @@ def _local(problem: _Problem, z0, fixed: dict, step: float, maxiter: int):
     return res
 
 
+def _derivative_free(problem: _Problem, z0, fixed: dict, radius: float = DFO_RADIUS):
+    """COBYQA (:func:`scipy.optimize.minimize`, derivative-free: a quadratic model fitted to
+    the points evaluated, in a trust region from ``radius`` down to :data:`DFO_FINAL_RADIUS`
+    of the scaled range) over the continuous coordinates, the constraints as nonlinear
+    constraints; one evaluation at a time, until it converges or the budget is used up."""
+    from scipy.optimize import Bounds, NonlinearConstraint, minimize
+
+    cont, full = _full(problem, fixed)
+
+    def fun(zc):
+        return problem.objective(problem.rows([full(zc)])[0])
+
+    def cons(zc):
+        return problem.margins(problem.rows([full(zc)])[0])
+
+    constraints = ([NonlinearConstraint(cons, 0.0, np.inf)] if problem.constraints else [])
+    left = max(1, problem.ev.budget - len(problem.ev.used))
+    z0 = np.clip(np.asarray(z0, dtype=float), 0.0, 1.0)
+    return minimize(fun, z0, method="COBYQA", bounds=Bounds(0.0, 1.0),
+                    constraints=constraints,
+                    options={"maxfev": left + 1, "initial_tr_radius": radius,
+                             "final_tr_radius": DFO_FINAL_RADIUS,
+                             "feasibility_tol": FEASIBILITY_TOLERANCE})
+
+
+def _best_z(problem: _Problem, cont) -> tuple:
+    """(rank, scaled continuous coordinates) of the best point evaluated so far."""
+    best = min(problem.ev.used.values(), key=problem.rank)
+    z = [problem.variables[i].scaled(best[problem.variables[i].paths[0]]) for i in cont]
+    return problem.rank(best), np.asarray(z, dtype=float)
+
+
+def _stalled(res, start: tuple, after: tuple) -> bool:
+    """SLSQP failed, or ended without improving on its starting point (rank ``start``; the
+    best it evaluated ranks ``after``): a zero or noisy finite-difference gradient, as on a
+    piecewise-constant or rough metric."""
+    if not res.success:
+        return True
+    if after[:3] != start[:3]:          # became feasible (or less violating): progress
+        return after[:3] > start[:3]
+    return not after[3] < start[3] - STALL_TOLERANCE * max(1.0, abs(start[3]))
+
+
 def _starts(problem: _Problem, count: int, seed: int, baseline_z) -> list:
     from scipy.stats import qmc
 
@@ -526,6 +663,33 @@ def _starts(problem: _Problem, count: int, seed: int, baseline_z) -> list:
     return zs
 
 
+def _multistart(problem: _Problem, method: str, zs, rows, picked, step: float, maxiter: int,
+                cont, results: list, notes: list) -> None:
+    """The local runs from the starts ``picked`` (indices into ``zs``, their ``rows``):
+    SLSQP, and COBYQA where it stalls, or COBYQA alone; each run's result appended to
+    ``results`` and its message to ``notes`` as it goes (BudgetExhausted passes through)."""
+    for k in picked:
+        notes.append(f"start {k + 1}: ")
+        if method == "derivative-free":
+            res = _derivative_free(problem, zs[k], {})
+            notes[-1] += f"COBYQA: {res.message}"
+            results.append(res)
+            continue
+        seen = len(problem.ev.used)
+        notes[-1] += "SLSQP: "
+        res = _local(problem, zs[k], {}, step, maxiter)
+        notes[-1] += f"{res.message}"
+        after = min([problem.rank(r) for r in list(problem.ev.used.values())[seen:]]
+                    + [problem.rank(rows[k])])
+        if _stalled(res, problem.rank(rows[k]), after):
+            zb = _best_z(problem, cont)[1]
+            # a zero or noisy gradient: go on derivative-free from the best point
+            notes[-1] += "; stalled, COBYQA from the best point: "
+            res = _derivative_free(problem, zb, {})
+            notes[-1] += f"{res.message}"
+        results.append(res)
+
+
 def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
            maxiter: int, baseline_z, local_runs: int = 2) -> tuple:
     """Run the method; returns (converged, message)."""
@@ -533,17 +697,19 @@ def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
     cont = [i for i, v in enumerate(variables) if not v.discrete]
     disc = [i for i, v in enumerate(variables) if v.discrete]
     try:
-        if method == "local":
+        if method in ("local", "derivative-free"):
             zs = _starts(problem, starts, seed, baseline_z)
             rows = problem.rows(zs)
             order = sorted(range(len(zs)), key=lambda k: problem.rank(rows[k]))
-            results = []
-            for k in order[:max(1, local_runs)]:    # multistart: the best few starts
-                res = _local(problem, zs[k], {}, step, maxiter)
-                results.append(res)
+            results, notes = [], []
+            try:
+                _multistart(problem, method, zs, rows, order[:max(1, local_runs)], step,
+                            maxiter, cont, results, notes)
+            except BudgetExhausted as e:     # the runs before this one stay in the message
+                notes[-1] += f"stopped: {e}"
+                return False, "; ".join(notes)
             converged = all(r.success for r in results)
-            return converged, "; ".join(f"SLSQP from start {k + 1}: {r.message}"
-                                        for k, r in zip(order, results))
+            return converged, "; ".join(notes)
         fixed = None
         grid = math.prod(len(variables[i].choices) for i in disc)
         if not cont and grid <= problem.ev.budget - len(problem.ev.used):
@@ -576,8 +742,16 @@ def _solve(problem: _Problem, method: str, starts: int, seed: int, step: float,
             best = min(used, key=problem.rank)
             zb = [variables[i].scaled(best[variables[i].paths[0]]) for i in range(len(variables))]
             fixed = {i: zb[i] for i in disc}
+            start, seen = problem.rank(best), len(problem.ev.used)
             res = _local(problem, [zb[i] for i in cont], fixed, step, maxiter)
             message += f"; SLSQP at the best choice: {res.message}"
+            after = min([problem.rank(r) for r in list(problem.ev.used.values())[seen:]]
+                        + [start])
+            if _stalled(res, start, after):
+                best = min(problem.ev.used.values(), key=problem.rank)
+                zc = [variables[i].scaled(best[variables[i].paths[0]]) for i in cont]
+                res = _derivative_free(problem, zc, fixed)
+                message += f"; stalled, COBYQA from the best point: {res.message}"
             converged = converged and bool(res.success)
         return converged, message
     except BudgetExhausted as e:
@@ -686,7 +860,9 @@ class OptimizeResult:
     objectives : list[str]    The metrics minimised (several: a Pareto front)
     front : list[dict]        With several objectives, the front from the first objective's
                               minimum on: ``{"variables": {PATH: SI value}, "objectives":
-                              {METRIC: value}}`` (None with one objective)
+                              {METRIC: value}}`` and, once written to ``out``, ``"rig"``:
+                              the point's rig file name (None with one objective)
+    units : dict              Rig path -> SI unit of the varied values ("m", "m^3", "Pa")
     """
 
     optimum: dict
@@ -713,6 +889,7 @@ class OptimizeResult:
     files: dict = field(default_factory=dict)
     objectives: list = field(default_factory=list)
     front: list | None = None
+    units: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The JSON document: ``optimum`` (PATH: SI value), ``objective``, ``metrics``,
@@ -731,7 +908,7 @@ class OptimizeResult:
             "optimum", "objective", "objective_name", "metrics", "evaluations", "n_computed",
             "feasible", "active_constraints", "at_bounds", "converged", "message", "method",
             "baseline", "baseline_objective", "baseline_metrics", "constraints", "variables",
-            "scenario", "wall_time", "history", "objectives")}
+            "scenario", "wall_time", "history", "objectives", "units")}
         if self.front is not None:
             d["front"] = self.front
         d["files"] = {k: str(p) for k, p in self.files.items()}
@@ -776,9 +953,42 @@ def _with_values(rig: Rig, values: dict, units: dict) -> Rig:
     return r
 
 
+#: The unit a person reads a varied value in, by its SI unit.
+SHOWN_UNITS = {"m^3": "L", "Pa": "MPa", "m^3/s": "L/min"}
+
+
+def shown_value(value, unit):
+    """A varied value in the unit a person reads it in: ``0.002951`` m^3 as ``(2.951, "L")``.
+
+    Parameters
+    ----------
+    value : float or str
+        The value, [unit] (SI); a discrete choice that is not a number is returned as is
+    unit : str or None
+        Its SI unit as in :attr:`Variable.unit` ("m", "m^3", "Pa", "-", "str")
+
+    Returns
+    -------
+    tuple
+        ``(value, unit)``: the value in the shown unit and that unit ("" for none)
+    """
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or unit in (None, "-", "str"):
+        return value, ""
+    if unit in SHOWN_UNITS:
+        return float(format_quantity(value, unit, SHOWN_UNITS[unit], 12).split()[0]), SHOWN_UNITS[unit]
+    return value, unit
+
+
+def _title_value(value, unit) -> str:
+    number, shown = shown_value(value, unit)
+    text = f"{number:.4g}" if isinstance(number, (int, float)) else str(number)
+    return f"{text} {shown}".strip()
+
+
 def optimize_figure(result: OptimizeResult, traces=None, path=None):
     """The report figure: baseline and optimum port pressures (where ``traces`` are given),
-    the objective per evaluation and the best feasible one so far.
+    the objective per evaluation and the best feasible one so far, and a Pareto front
+    (the first two objectives; a third as the points' colour).
 
     Parameters
     ----------
@@ -803,7 +1013,13 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
                        dtype=float).reshape(-1, 2)
         ax.plot(pts[:, 0], pts[:, 1], ".", ms=3, color="C7", label="evaluated")
         fr = np.array([[p["objectives"][m1], p["objectives"][m2]] for p in result.front])
-        ax.plot(fr[:, 0], fr[:, 1], "o-", ms=5, color="C3", label="Pareto front")
+        if len(result.objectives) > 2:      # a surface: the third objective as colour
+            m3 = result.objectives[2]
+            sc = ax.scatter(fr[:, 0], fr[:, 1], c=[p["objectives"][m3] for p in result.front],
+                            s=30, cmap="viridis", label="Pareto front", zorder=3)
+            fig.colorbar(sc, ax=ax, label=m3)
+        else:
+            ax.plot(fr[:, 0], fr[:, 1], "o-", ms=5, color="C3", label="Pareto front")
         ax.set_xlabel(m1)
         ax.set_ylabel(m2)
         ax.legend(loc="best", fontsize=8)
@@ -832,7 +1048,8 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     ax.set_xlabel("evaluation")
     ax.set_ylabel(result.objective_name)
     ax.legend(loc="best", fontsize=8)
-    what = ", ".join(f"{p} = {v:.4g}" for p, v in result.optimum.items())
+    what = ", ".join(f"{p} = {_title_value(v, result.units.get(p))}"
+                     for p, v in result.optimum.items())
     fig.suptitle(wrap_title(f"minimise {result.objective_name}: {what} "
                             f"({result.evaluations} evaluations)", 8, 10), fontsize=10)
     fig.tight_layout()
@@ -877,7 +1094,8 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
     workers : int              Local worker processes (or workers of ``scheduler="local"``)
     scheduler : str or Client  None, "local" or "tcp://host:port" (as :func:`sweep`)
     out : path                 Folder for optimize.jsonl, optimum.toml, optimize.json and
-                               optimize.png; None keeps everything in memory
+                               optimize.png (and front_NN.toml, one rig per point of a
+                               Pareto front); None keeps everything in memory
     resume : bool              Continue from the results file in ``out``
     figure : bool              Write optimize.png (two more runs: baseline and optimum traces)
     runner : callable          ``runner(index, values) -> row`` instead of the rig's
@@ -911,8 +1129,9 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
     minimize = objectives[0]
     if len(objectives) > 1 and not 2 <= int(front_points) <= 20:
         raise RigError(f"--front-points must be within 2 ... 20 [-], got {front_points!r}")
-    if method not in ("auto", "local", "global"):
-        raise RigError(f"--method must be auto, local or global, got {method!r}")
+    if method not in ("auto", "local", "derivative-free", "global"):
+        raise RigError(f"--method must be auto, local, derivative-free or global, got "
+                       f"{method!r}")
     variables = parse_variables(vary, choose, rig)
     constraints = [parse_constraint(c) for c in subject_to]
     axes = _axes(rig)
@@ -923,9 +1142,9 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
             raise RigError(f"{option}: unknown metric {name!r} (known: {', '.join(known)})")
     if method == "auto":
         method = "global" if any(v.discrete for v in variables) else "local"
-    if method == "local" and any(v.discrete for v in variables):
-        raise RigError("--method local: the local method takes continuous variables only; "
-                       "--choose needs --method global (or auto)")
+    if method in ("local", "derivative-free") and any(v.discrete for v in variables):
+        raise RigError(f"--method {method}: the local methods take continuous variables "
+                       f"only; --choose needs --method global (or auto)")
     n_cont = sum(not v.discrete for v in variables)
     starts = 3 + 2 * n_cont if starts is None else int(starts)
     budget = 40 + 30 * len(variables) if max_evaluations is None else int(max_evaluations)
@@ -939,8 +1158,14 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         raise RigError(f"--workers must be within 1 ... {MAX_WORKERS} [-], got {workers}")
     units = {p: v.unit for v in variables for p in v.paths}
     paths = list(units)
+    asked = list(dict.fromkeys(objectives + [c.metric for c in constraints]))
     if runner is None:
         runner = VariantRunner(rig, scenario, t_end, solver, units, axes)
+        linear = [m for m in asked if _linear_axis(m)]
+        if linear:          # the linearised model's metrics: only where asked for
+            runner = LinearMetricsRunner(
+                runner, rig, units, linear,
+                simulate=any(not _linear_axis(m) and m not in COST_METRICS for m in asked))
 
     header = {"hydroline_sweep": FORMAT_VERSION, "rig": rig.source, "rig_sha256": rig_hash(rig),
               "scenario": scenario, "t_end_s": t_end, "solver": solver,
@@ -956,6 +1181,10 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
                                  f"optimisation's evaluations, or choose another --out")
         if old_header is not None:
             check_same_sweep(jpath, old_header, header)
+            # a recorded evaluation without a metric now asked for (another objective, a
+            # linear metric it did not compute) is run again
+            need = [_column(m, axes) for m in asked if m not in COST_METRICS]
+            old_rows = {i: r for i, r in old_rows.items() if all(c in r for c in need)}
         journal = Journal(jpath, None if old_header is not None else header)
     elif resume:
         raise RigError("--resume needs --out DIR (the folder of the optimisation to continue)")
@@ -1009,6 +1238,10 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
                 m: (lambda x: x if math.isfinite(x) else None)(ev.metric(row, m))
                 for m in objectives}
     margins = problem.margins(best)
+    every = np.array([problem.margins(r) for r in used]).reshape(len(used), len(constraints))
+    every = np.where(every > -FAILED_OBJECTIVE, every, np.nan)    # failed evaluations out
+    spreads = [float(np.nanmax(col) - np.nanmin(col)) if np.any(np.isfinite(col)) else 1.0
+               for col in every.T]
     at_bounds = []
     for v in variables:
         if not v.discrete:
@@ -1025,14 +1258,14 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
         optimum=optimum, objective=ev.metric(best, minimize), objective_name=minimize,
         metrics=all_metrics(best), evaluations=len(used), n_computed=ev.computed,
         feasible=bool(np.all(margins >= -FEASIBILITY_TOLERANCE)) and not best.get("error"),
-        active_constraints=[c.describe() for c, m in zip(constraints, margins)
-                            if abs(m) <= ACTIVE_TOLERANCE],
+        active_constraints=[c.describe() for c, m, spread in zip(constraints, margins, spreads)
+                            if abs(m) <= ACTIVE_TOLERANCE * min(1.0, spread)],
         at_bounds=at_bounds, converged=converged, message=message, method=method,
         baseline=baseline, baseline_objective=f0, baseline_metrics=all_metrics(base_row),
         constraints=[c.describe() for c in constraints],
         variables=[f"{v.name} = {v.describe()}" for v in variables], history=history,
         rig=_with_values(rig, optimum, units), scenario=scenario, files=files,
-        objectives=objectives, front=front)
+        objectives=objectives, front=front, units=units)
     if out is not None:
         _write_outputs(result, rig, units, out, figure, t_end, solver, axes)
     result.wall_time = _time.perf_counter() - tic
@@ -1085,12 +1318,25 @@ class _executor:
 
 def _write_outputs(result: OptimizeResult, rig: Rig, units: dict, out: Path, figure: bool,
                    t_end, solver, axes) -> None:
-    """optimum.toml, optimize.json and optimize.png in ``out``."""
+    """optimum.toml, front_NN.toml (a Pareto front's points), optimize.json and optimize.png
+    in ``out``."""
     import json
 
     why = result.objective_name + "".join(f", {c}" for c in result.constraints)
     (out / "optimum.toml").write_text(optimised_rig_text(rig, result.optimum, units, why))
     result.files["rig"] = out / "optimum.toml"
+    for old in out.glob("front_*.toml"):        # an earlier run's front (resume)
+        if re.fullmatch(r"front_\d+\.toml", old.name):
+            old.unlink()
+    for k, point in enumerate(result.front or [], 1):
+        name = f"front_{k:02d}.toml"
+        at = ", ".join(f"{m} = {v:.6g}" for m, v in point["objectives"].items())
+        text = optimised_rig_text(rig, point["variables"], units,
+                                  f"Pareto front point {k} of {len(result.front)} ({at})"
+                                  + "".join(f", {c}" for c in result.constraints))
+        (out / name).write_text(text)
+        point["rig"] = name
+        result.files[f"front_{k:02d}"] = out / name
     if figure:
         traces = {}
         try:
