@@ -226,18 +226,27 @@ def test_optimiser_gradients_match_central_differences_on_analytic_metrics():
 
 
 def test_optimiser_gradient_matches_central_differences_on_the_real_rig():
-    # supply.peak_to_peak_mpa over section II near 3.048 m (0.1 s open-loop step, 5 runs):
-    # steps of 5 mm (the metric has ~1e-5 MPa of solver/sampling jitter, so a 1 mm step is
-    # not smooth to 1 %: -0.10 vs -0.13 MPa/m)
+    # supply.peak_to_peak_mpa over section II near 3.048 m (0.1 s open-loop step, 5 runs).
+    # The optimiser's forward difference of step h is the slope at x + h/2 (to h^2 f'''/24),
+    # and so is the central difference about x + h/2 of half-width h (to h^2 f'''/6). A
+    # run's metric moves by up to e = 4e-5 MPa with rounding in its rest state (a start
+    # 1e-16 apart changes BDF's step sequence at rtol 1e-6; one variant run after 8 others:
+    # spread 9e-6 MPa on main, 3.8e-5 with numbers as parameters), so the two differ by at
+    # most 2e/h + e/h, plus the truncation 5 h^2 |f'''| / 24 (the slope runs from -0.106 to
+    # -0.15 MPa/m over 3.0-3.1 m: f'' ~ -0.45 MPa/m^2; |f'''| < 2 MPa/m^3 taken): at
+    # h = 5 cm 2.4e-3 + 5e-4 MPa/m, ~2 % of the slope (at 5 mm the jitter alone is 19 %,
+    # and the forward difference's own offset from the slope at x, f'' h / 2, 1 %)
     rig = load_rig(None)
     units = {"supply.section2.length": "m"}
     runner = VariantRunner(rig, "open-loop-step", 0.1, "auto", units, [])
+    h, jitter, third = 0.05, 4e-5, 2.0      # (the range is 1 m: the scaled step is h)
     g = objective_gradient(["supply.section2.length=2.5 m..3.5 m"], rig,
-                           minimize="supply.peak_to_peak_mpa", step=0.005, runner=runner)
+                           minimize="supply.peak_to_peak_mpa", step=h, runner=runner)
     c = central(lambda L: runner(0, {"supply.section2.length": L})["supply_peak_to_peak_mpa"],
-                3.048, 0.005)
+                3.048 + h / 2, h)
     assert c < 0
-    assert g["supply.section2.length"] == pytest.approx(c, rel=0.01)
+    assert g["supply.section2.length"] == pytest.approx(
+        c, abs=3 * jitter / h + 5 * h ** 2 * third / 24)
 
 
 def test_interrupted_run_resumes_running_only_the_missing_evaluations(tmp_path):
