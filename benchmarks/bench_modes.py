@@ -34,8 +34,8 @@ import json, resource, sys, time
 import hydroline, hydroline.compiled as compiled
 built = []
 init = compiled.NativeModel.__init__
-def record(self, network):
-    init(self, network)
+def record(self, network, *args, **kwargs):
+    init(self, network, *args, **kwargs)
     built.append((self.build_time, self.generated))
 compiled.NativeModel.__init__ = record
 rig = hydroline.load_rig()
