@@ -57,7 +57,8 @@ NUMBERS_FILE = "plant_numbers.txt"
 #: First line of the numbers file (its format's version)
 _NUMBERS_HEAD = "hydroline FMU numbers 1"
 #: Table of the cache directory holding the FMU binaries built, one a structure (the binary,
-#: ``model.c`` and where the graph's constants sit; ~1 MB each), and how many it keeps at most, [-]
+#: ``model.c`` and where the graph's constants sit; ~1 MB each), and how many it keeps at
+#: most, [-]
 BINARY_TABLE = "fmu_binaries"
 MAX_BINARIES = 20
 #: The code an FMU binary is built from besides the plant's structure: a change makes the
