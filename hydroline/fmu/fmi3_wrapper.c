@@ -63,9 +63,12 @@ static fmi3Instance hl_instantiate3(fmi3String name, fmi3String token, fmi3Strin
                                     fmi3LogMessageCallback log) {
     char why[1200] = "";
     hl_fmu* m = NULL;
-    if (me && !HL_FMU_ME) snprintf(why, sizeof why, "this FMU was exported without Model Exchange");
-    else if (!me && !HL_FMU_CS) snprintf(why, sizeof why, "this FMU was exported without Co-Simulation");
-    else m = hl_instantiate(name, me, loggingOn, resourcePath, 0, token, why, sizeof why);
+    if (me && !HL_FMU_ME)
+        snprintf(why, sizeof why, "this FMU was exported without Model Exchange");
+    else if (!me && !HL_FMU_CS)
+        snprintf(why, sizeof why, "this FMU was exported without Co-Simulation");
+    else
+        m = hl_instantiate(name, me, loggingOn, resourcePath, 0, token, why, sizeof why);
     if (!m) {
         if (log) log(env, fmi3Error, "logStatusError", why);
         return NULL;

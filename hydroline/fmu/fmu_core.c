@@ -194,7 +194,8 @@ static int hl_numbers_path(const char* location, int is_uri, char* path, size_t 
 #endif
     }
     for (; *s && k + 1 < size; s++) {
-        if (is_uri && s[0] == '%' && isxdigit((unsigned char)s[1]) && isxdigit((unsigned char)s[2])) {
+        if (is_uri && s[0] == '%' && isxdigit((unsigned char)s[1])
+            && isxdigit((unsigned char)s[2])) {
             char hex[3] = {s[1], s[2], 0};
             path[k++] = (char)strtol(hex, NULL, 16);
             s += 2;

@@ -227,7 +227,8 @@ def _bind(plant: Plant, sym, component, number) -> None:
         component("supply.manifold").resistance = s["supply.manifold.resistance"]
     path_hsm, path_cv = "return.manifold.resistance", "return.check_valve.forward_resistance"
     r_hsm = s[path_hsm] if path_hsm in s else number(path_hsm, rig.get(path_hsm))
-    r_cv = s[path_cv] if path_cv in s else number(path_cv, rig.get(path_cv, PARAMETERS[path_cv].default))
+    r_cv = (s[path_cv] if path_cv in s
+            else number(path_cv, rig.get(path_cv, PARAMETERS[path_cv].default)))
     manifold = component("return.manifold")
     if isinstance(manifold, LinearResistance):
         manifold.resistance = r_hsm
@@ -306,7 +307,8 @@ def symbolic_model(plant: Plant):
     all_names = list(names) + extra_names
     all_values = np.concatenate([values, np.array(extra_values, dtype=float)])
     shim = SimpleNamespace(state_names=list(net.state_names), state_scales=net.state_scales,
-                           parameter_names=list(net.parameter_names) + [t.name for t in plant.tunables],
+                           parameter_names=(list(net.parameter_names)
+                                            + [t.name for t in plant.tunables]),
                            compiled_numbers=lambda: (all_names, all_values))
     if not general:
         return SimpleNamespace(network=shim, t=t, x=x, p=p, dx=dx, y=y, k=None,
