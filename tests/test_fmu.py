@@ -91,7 +91,7 @@ def test_default_fmu_validates_and_declares_its_interface(default_fmu):
     names = zipfile.ZipFile(default_fmu).namelist()
     assert any(n.startswith("binaries/") for n in names)
     assert {"sources/fmi2_wrapper.c", "sources/model.c", "sources/bdf.c",
-            "sources/fmu_data.h"} <= set(names)
+            "sources/fmu_data.h", "resources/plant_numbers.txt"} <= set(names)
 
 
 @pytest.mark.parametrize("fmi_type", ["CoSimulation", "ModelExchange"])
@@ -107,6 +107,47 @@ def test_open_loop_step_matches_hydroline_simulate(default_fmu, open_loop_refere
     before = res["time"] < 0.01
     assert np.ptp(res["supply_port_pressure"][before]) < 1e-6 * open_loop_reference[
         "supply_port_pressure"][0]
+
+
+def test_a_rig_differing_only_in_numbers_reuses_the_binary(default_fmu, open_loop_reference,
+                                                           monkeypatch, tmp_path, capsys):
+    """Numbers are parameters (issue 25): a rig that differs from the default one only in
+    numbers -- the HSM-to-valve hose 1.5 m instead of 3.048 m, the supply accumulator 0.3 L
+    instead of 1 L -- is exported without compiling: the default rig's binary (built for the
+    module's FMU, kept in the cache under the structure's key) with the variant's numbers in
+    resources/. Its FMU follows hydroline.simulate of the variant within the tolerance of the
+    default rig's test, and misses the default rig's run by far more (its numbers are used)."""
+    import zipfile
+
+    from hydroline.fmu import export
+
+    builds = []
+    compile_binary = export._compile
+    monkeypatch.setattr(export, "_compile", lambda *a: builds.append(a) or compile_binary(*a))
+    rig = hydroline.load_rig().set("supply.section2.length", "1.5 m").set(
+        "supply.accumulator.capacity", "0.3 L")
+    out = export.export_fmu(rig, tmp_path / "ayalew2005.fmu", kind="both")
+    assert builds == []
+    old, new = zipfile.ZipFile(default_fmu), zipfile.ZipFile(out)
+    differ = {n for n in old.namelist() if old.read(n) != new.read(n)}
+    assert "resources/plant_numbers.txt" in differ
+    assert not any(n.startswith(("binaries/", "sources/")) for n in differ)
+    md = fmpy.read_model_description(str(out))
+    assert md.guid != fmpy.read_model_description(str(default_fmu)).guid
+    # the binary reads the numbers of its own FMU only: another FMU's numbers file is refused
+    unzipped = Path(fmpy.extract(str(out)))
+    (unzipped / "resources" / "plant_numbers.txt").write_bytes(
+        old.read("resources/plant_numbers.txt"))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="other")
+    with pytest.raises(Exception, match="instantiate"):
+        slave.instantiate()
+    assert "does not match its numbers file" in capsys.readouterr().out
+    ref = hydroline.simulate(rig, "open-loop-step")
+    res = run_step(out, "CoSimulation")
+    for key in ("supply_port_pressure", "return_port_pressure", "piston_velocity"):
+        assert excursion_error(res, ref, key) < 0.005, key
+    assert excursion_error(res, open_loop_reference, "supply_port_pressure") > 0.1
 
 
 @pytest.mark.parametrize("start_values, rig_values", [

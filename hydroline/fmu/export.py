@@ -6,9 +6,18 @@ instance logic (``fmu_core.c``) and an FMI wrapper (``fmi2_wrapper.c``/``fmi3_wr
 compiled by the system C compiler for this platform into
 ``binaries/<platform>/``; the same sources are in ``sources/`` so other platforms can build
 them. Nothing in the FMU needs Python.
+
+Numbers are parameters: the binary holds the plant's structure only. Its numbers (the
+components' numbers and the state scales at the head of the constants, the solved rest
+state, the parameters' start values, the accumulators' charge) are in
+``resources/plant_numbers.txt`` (:data:`NUMBERS_FILE`), read at instantiation. The binary and
+``model.c`` are kept in the cache directory (:mod:`hydroline.cache`, table
+:data:`BINARY_TABLE`) under the structure's key: a rig that differs only in numbers is
+exported without writing C or compiling.
 """
 from __future__ import annotations
 
+import base64
 import datetime
 import hashlib
 import os
@@ -27,18 +36,36 @@ import casadi as ca
 import numpy as np
 
 from .. import compiled
-from ..compiled.codegen import generate
+from ..cache import load_table, prune_tables, source_tag, store_table
+from ..compiled.codegen import constant_positions, constants_at, generate, scaled_functions, \
+    structure_key
+from ..compiled.toolchain import BDF_SOURCE
 from ..components import PistonAccumulator
 from ..rigs import Rig, load_rig
 from .plant import INPUTS, OUTPUTS, Plant, rest_state, symbolic_model
 
-__all__ = ["export_fmu", "FMI_VERSIONS", "KINDS", "platform_folder", "C_FLAGS"]
+__all__ = ["export_fmu", "FMI_VERSIONS", "KINDS", "platform_folder", "C_FLAGS", "NUMBERS_FILE",
+           "BINARY_TABLE", "MAX_BINARIES"]
 
 FMI_VERSIONS = (2, 3)
 KINDS = ("cs", "me", "both")
 #: Flags for the FMU's binary: portable (no -march=native), symbols hidden but the fmi2 API.
 C_FLAGS = ["-O2", "-std=c99", "-shared", "-fPIC", "-fvisibility=hidden", "-fno-math-errno"]
 _HERE = Path(__file__).parent
+#: The FMU's numbers, in ``resources/`` (read by ``fmu_core.c`` at instantiation)
+NUMBERS_FILE = "plant_numbers.txt"
+#: First line of the numbers file (its format's version)
+_NUMBERS_HEAD = "hydroline FMU numbers 1"
+#: Table of the cache directory holding the FMU binaries built, one a structure (the binary,
+#: ``model.c`` and where the graph's constants sit; ~1 MB each), and how many it keeps at
+#: most, [-]
+BINARY_TABLE = "fmu_binaries"
+MAX_BINARIES = 20
+#: The code an FMU binary is built from besides the plant's structure: a change makes the
+#: cached binaries unused
+_CODE_TAG = source_tag(_HERE / "fmu_core.c", _HERE / "fmi2_wrapper.c", _HERE / "fmi3_wrapper.c",
+                       _HERE / "export.py", BDF_SOURCE,
+                       Path(compiled.__file__).with_name("codegen.py"))
 #: Scaled residual below which the start state counts as at rest, [1/s] (as solve_steady_state)
 STEADY_TOL = 1e-9
 
@@ -152,8 +179,9 @@ class _Variable:
 
 def _dependencies(sym, plant: Plant, vr_par: int):
     """Structural dependencies of the derivatives and the signals on the states and inputs,
-    from the sparsity of the CasADi graph's Jacobians: (derivatives, signals), each a list of
-    tuples of value references."""
+    from the sparsity of the CasADi graph's Jacobians (the graph in the numbers' symbols
+    where it has them: the same for every value of the numbers): (derivatives, signals),
+    each a list of tuples of value references."""
     inputs = list(plant.inputs.values())
     known = ca.vertcat(sym.x, *[sym.p[k] for k in inputs])
     vrs = list(range(sym.x.numel())) + [vr_par + k for k in inputs]
@@ -165,13 +193,15 @@ def _dependencies(sym, plant: Plant, vr_par: int):
             out[i].append(vrs[j])
         return [tuple(sorted(r)) for r in out]
 
-    return rows(sym.dx), rows(sym.y)
+    general = getattr(sym, "k", None) is not None
+    return (rows(sym.dx_general if general else sym.dx),
+            rows(sym.y_general if general else sym.y))
 
 
-def _variables(plant: Plant, gen, sym=None) -> list:
+def _variables(plant: Plant, sym=None) -> list:
     """The FMU's variables with the value-reference layout of ``fmu_core.c``."""
     net = plant.network
-    n, ny, m = gen.n_states, gen.n_signals, len(net.parameter_names)
+    n, ny, m = len(net.state_names), len(net.signal_names), len(net.parameter_names)
     vr_der, vr_sig, vr_par = n, 2 * n, 2 * n + ny
     dep_dx, dep_y = _dependencies(sym, plant, vr_par) if sym is not None else ([None] * n, [None] * ny)
     vr_end = vr_par + m + len(plant.tunables)
@@ -347,50 +377,106 @@ def _build_description(ident: str) -> str:
             f'    </SourceFileSet>\n  </BuildConfiguration>\n</fmiBuildDescription>\n')
 
 
-def _data_header(plant: Plant, gen, guid: str, kinds: set) -> str:
+def _structure_header(plant: Plant, kinds: set) -> str:
+    """``fmu_data.h`` without its structure key: what the binary holds besides ``model.c``
+    (the names, where the accumulators and the mirrored parameter sit, the kinds); no
+    number of the rig."""
+    net = plant.network
+    mirrors = []
+    if "valve_current" in plant.inputs:   # the plant's current source: command.initial = final
+        k = plant.inputs["valve_current"]
+        mirrors.append((net.parameter_names.index("command.initial"), k))
+    acc = []   # accumulators: gas state, reference parameter, node signal
+    for c in _accumulators(net):
+        acc.append("{%d,%d,%d}" % (net.state_names.index(f"{c.name}.gas_volume"),
+                                   net.parameter_names.index(f"{c.name}.reference_pressure"),
+                                   net.signal_names.index(c.signal("pressure"))))
+    lines = [
+        "/* This FMU's structure (written by hydroline.fmu); its numbers are in",
+        f" * resources/{NUMBERS_FILE}, read at instantiation. */",
+        f"#define HL_FMU_NUMBERS_FILE {_c_string(NUMBERS_FILE)}",
+        f"#define HL_FMU_NUMBERS_HEAD {_c_string(_NUMBERS_HEAD)}",
+        f"#define HL_FMU_ME {int('me' in kinds)}",
+        f"#define HL_FMU_CS {int('cs' in kinds)}",
+        "#define HL_FMU_RTOL 1e-6",
+        f"#define HL_FMU_STEADY_TOL {STEADY_TOL!r}",
+        f"#define HL_FMU_NMIRROR {len(mirrors)}",
+        "static const int hl_fmu_mirror[][2] = {" + (",".join(f"{{{a},{b}}}" for a, b in mirrors)
+                                                     or "{0,0}") + "};",
+        f"#define HL_FMU_NACC {len(acc)}",
+        "typedef struct { int gas_state, reference_parameter, node_signal; } hl_fmu_accumulator;",
+        "static const hl_fmu_accumulator hl_fmu_acc[] = {" + (",".join(acc) or "{0,0,0}") + "};",
+        _c_array("char*", "hl_fmu_state_names", net.state_names, _c_string),
+        _c_array("char*", "hl_fmu_parameter_names",
+                 list(net.parameter_names) + [t.name for t in plant.tunables], _c_string),
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _accumulators(net) -> list:
+    return [c for c in net.components if isinstance(c, PistonAccumulator)]
+
+
+def _numbers_text(plant: Plant, constants, structure: str, guid: str) -> str:
+    """``resources/plant_numbers.txt``: this FMU's numbers as ``fmu_core.c`` reads them, each
+    value as its IEEE-754 bit pattern in hexadecimal (exact, whatever the importer's locale)
+    followed by its decimal value."""
     net = plant.network
     p0 = np.concatenate([plant.p, plant.tunable_values])
     nominal = np.maximum(np.abs(p0), 1e-300)
     for name, k in plant.inputs.items():
         nominal[k] = max(abs(p0[k]), _INPUT_NOMINAL[name])
     nominal[nominal == 0] = 1.0
-    mirrors = []
-    if "valve_current" in plant.inputs:   # the plant's current source: command.initial = final
-        k = plant.inputs["valve_current"]
-        mirrors.append((net.parameter_names.index("command.initial"), k))
-    consts = gen.constants if gen.constants.size else np.zeros(1)
-    acc = []   # accumulators: gas state, reference parameter, node signal, V0, p0
-    for c in net.components:
-        if isinstance(c, PistonAccumulator):
-            acc.append("{%d,%d,%d,%s,%s}" % (
-                net.state_names.index(f"{c.name}.gas_volume"),
-                net.parameter_names.index(f"{c.name}.reference_pressure"),
-                net.signal_names.index(c.signal("pressure")),
-                _c_double(c.capacity), _c_double(c.precharge_pressure)))
-    lines = [
-        "/* This FMU's numbers (written by hydroline.fmu). */",
-        f"#define HL_FMU_GUID {_c_string(guid)}",
-        f"#define HL_FMU_ME {int('me' in kinds)}",
-        f"#define HL_FMU_CS {int('cs' in kinds)}",
-        "#define HL_FMU_RTOL 1e-6",
-        f"#define HL_FMU_STEADY_TOL {STEADY_TOL!r}",
-        f"#define HL_FMU_NMIRROR {len(mirrors)}",
-        _c_array("double", "hl_fmu_c", consts, _c_double),
-        _c_array("double", "hl_fmu_scale", net.state_scales, _c_double),
-        _c_array("double", "hl_fmu_x0", plant.x, _c_double),
-        _c_array("double", "hl_fmu_p0", p0, _c_double),
-        _c_array("double", "hl_fmu_pnominal", nominal, _c_double),
-        "static const int hl_fmu_mirror[][2] = {" + (",".join(f"{{{a},{b}}}" for a, b in mirrors)
-                                                     or "{0,0}") + "};",
-        f"#define HL_FMU_NACC {len(acc)}",
-        "typedef struct { int gas_state, reference_parameter, node_signal; double capacity, "
-        "precharge; } hl_fmu_accumulator;",
-        "static const hl_fmu_accumulator hl_fmu_acc[] = {" + (",".join(acc) or "{0,0,0,0.,0.}") + "};",
-        _c_array("char*", "hl_fmu_state_names", net.state_names, _c_string),
-        _c_array("char*", "hl_fmu_parameter_names",
-                 list(net.parameter_names) + [t.name for t in plant.tunables], _c_string),
-    ]
+    acc = _accumulators(net)
+    constants = np.asarray(constants, dtype=float)
+    sections = [("constants", constants if constants.size else np.zeros(1)),
+                ("state_scales", net.state_scales), ("rest_state", plant.x),
+                ("parameters", p0 if p0.size else np.zeros(1)),
+                ("parameter_nominals", nominal if nominal.size else np.ones(1)),
+                ("accumulator_capacities", [c.capacity for c in acc]),
+                ("accumulator_precharges", [c.precharge_pressure for c in acc])]
+    lines = [_NUMBERS_HEAD, f"guid {guid}", f"structure {structure}"]
+    for label, values in sections:
+        values = np.asarray(values, dtype=float)
+        lines.append(f"{label} {values.size}")
+        lines += [f"{v.view(np.uint64):016x} {_c_double(v)}" for v in values]
     return "\n".join(lines) + "\n"
+
+
+def _binary_key(functions, header: str, fmi: int, cc: str) -> str:
+    """The cache key of an FMU binary: the plant's structure (the graph's listing with its
+    constants masked, the Jacobian's pattern), ``fmu_data.h``, the FMI version, the code and
+    the compiler with its flags."""
+    sp = functions[1].sparsity_out(0)
+    h = hashlib.sha256()
+    for part in (structure_key(functions), repr(sp.colind()), repr(sp.row()), header, str(fmi),
+                 _CODE_TAG, cc, " ".join(C_FLAGS), sys.platform, platform.machine()):
+        h.update(part.encode())
+        h.update(b"\0")
+    return "fmu:" + h.hexdigest()
+
+
+def _known_binary(key: str, functions, network):
+    """(model.c, binary, constants) of a structure built before (the cache's
+    :data:`BINARY_TABLE`), with this model's constants read from its graph; None if unknown."""
+    rec = load_table(BINARY_TABLE, key)
+    if rec is None:
+        return None
+    try:
+        constants = constants_at(functions, rec["positions"], network)
+        if len(constants) != rec["n_constants"]:
+            return None
+        return rec["model_c"], base64.b64decode(rec["binary"]), constants
+    except (TypeError, KeyError, ValueError, RuntimeError):
+        return None
+
+
+def _remember_binary(key: str, functions, gen, binary: bytes) -> None:
+    """Keep a new structure's binary and ``model.c`` in the cache (:data:`BINARY_TABLE`)."""
+    store_table(BINARY_TABLE, key, {
+        "model_c": gen.source, "binary": base64.b64encode(binary).decode(),
+        "positions": constant_positions(functions), "n_constants": len(gen.constants)})
+    prune_tables(BINARY_TABLE, MAX_BINARIES)
 
 
 def _c_compiler() -> str | None:
@@ -472,34 +558,51 @@ def export_fmu(rig: Rig | str | None = None, out="hydroline.fmu", fmi: int = 2, 
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     plant = rest_state(rig, start)
     sym = symbolic_model(plant)
-    gen = generate(sym)
+    functions = scaled_functions(sym)
     if stop_time is None:
         from ..scenarios.experiments import build_scenario
         stop_time = build_scenario(rig, start).t_end
     kinds = {"cs", "me"} if kind == "both" else {kind}
     ident = model_identifier(out.stem)
-    digest = hashlib.sha256((gen.source + repr(plant.x.tolist()) + repr(plant.p.tolist())
-                             + repr(plant.tunable_values.tolist()) + ident + kind + str(fmi)).encode())
-    guid = "{" + str(uuid.UUID(bytes=digest.digest()[:16])) + "}"
-    variables = _variables(plant, gen, sym)
-    describe = _model_description_2 if fmi == 2 else _model_description_3
-    xml = describe(plant, variables, ident, guid, kinds, float(stop_time))
+    header = _structure_header(plant, kinds)
+    key = _binary_key(functions, header, fmi, cc)
+    structure = key[len("fmu:"):][:32]
+    header += f"#define HL_FMU_STRUCTURE {_c_string(structure)}\n"
     wrapper = f"fmi{fmi}_wrapper.c"
+    binary_name = ident + _library_suffix()
     with tempfile.TemporaryDirectory() as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)
-        (src / "model.c").write_text(gen.source)
         shutil.copy(Path(compiled.__file__).with_name("bdf.c"), src / "bdf.c")
         for name in ("fmu_core.c", wrapper):
             shutil.copy(_HERE / name, src / name)
-        (src / "fmu_data.h").write_text(_data_header(plant, gen, guid, kinds))
+        (src / "fmu_data.h").write_text(header)
         if fmi == 3:
             (src / "buildDescription.xml").write_text(_build_description(ident))
         binaries = root / "binaries" / platform_folder(fmi)
         binaries.mkdir(parents=True)
-        _compile(cc, src / wrapper, binaries / (ident + _library_suffix()))
-        (root / "modelDescription.xml").write_text(xml)
+        known = _known_binary(key, functions, sym.network)
+        if known is not None:          # this structure built before: no C written, no compile
+            model_c, binary, constants = known
+            (src / "model.c").write_text(model_c)
+            (binaries / binary_name).write_bytes(binary)
+        else:
+            gen = generate(sym, functions)
+            constants = gen.constants
+            (src / "model.c").write_text(gen.source)
+            _compile(cc, src / wrapper, binaries / binary_name)
+            _remember_binary(key, functions, gen, (binaries / binary_name).read_bytes())
+        numbers = _numbers_text(plant, constants, structure, "{}")
+        digest = hashlib.sha256((key + numbers + ident + kind + str(fmi)).encode())
+        guid = "{" + str(uuid.UUID(bytes=digest.digest()[:16])) + "}"
+        resources = root / "resources"
+        resources.mkdir()
+        (resources / NUMBERS_FILE).write_text(_numbers_text(plant, constants, structure, guid))
+        variables = _variables(plant, sym)
+        describe = _model_description_2 if fmi == 2 else _model_description_3
+        (root / "modelDescription.xml").write_text(
+            describe(plant, variables, ident, guid, kinds, float(stop_time)))
         doc = root / "documentation"
         doc.mkdir()
         (doc / "index.html").write_text(

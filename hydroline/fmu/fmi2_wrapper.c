@@ -63,19 +63,23 @@ HL_EXPORT fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuTyp
                                         fmi2String fmuGUID, fmi2String resourceLocation,
                                         const fmi2CallbackFunctions* functions,
                                         fmi2Boolean visible, fmi2Boolean loggingOn) {
-    (void)resourceLocation; (void)visible;
-    const char* why = NULL;
-    if (fmuGUID && strcmp(fmuGUID, HL_FMU_GUID) != 0) why = "the GUID does not match this binary's";
-    else if (fmuType == fmi2ModelExchange && !HL_FMU_ME) why = "this FMU was exported without Model Exchange";
-    else if (fmuType == fmi2CoSimulation && !HL_FMU_CS) why = "this FMU was exported without Co-Simulation";
-    if (why) {
+    (void)visible;
+    char why[1200] = "";
+    hl_fmu* m = NULL;
+    if (fmuType == fmi2ModelExchange && !HL_FMU_ME)
+        snprintf(why, sizeof why, "this FMU was exported without Model Exchange");
+    else if (fmuType == fmi2CoSimulation && !HL_FMU_CS)
+        snprintf(why, sizeof why, "this FMU was exported without Co-Simulation");
+    else
+        m = hl_instantiate(instanceName, fmuType == fmi2ModelExchange, loggingOn,
+                           resourceLocation, 1, fmuGUID, why, sizeof why);
+    if (!m) {
         if (functions && functions->logger)
             functions->logger(functions->componentEnvironment, instanceName, fmi2Error,
                               "logStatusError", "fmi2Instantiate: %s", why);
         return NULL;
     }
-    hl_fmu* m = hl_instantiate(instanceName, fmuType == fmi2ModelExchange, loggingOn);
-    if (m && functions) {
+    if (functions) {
         m->log2 = (hl_logger2)functions->logger;
         m->env = functions->componentEnvironment;
     }

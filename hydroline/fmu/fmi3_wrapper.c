@@ -58,21 +58,23 @@ HL_EXPORT fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean logg
     return fmi3OK;
 }
 
-static fmi3Instance hl_instantiate3(fmi3String name, fmi3String token, int me, fmi3Boolean loggingOn,
-                                    fmi3InstanceEnvironment env, fmi3LogMessageCallback log) {
-    const char* why = NULL;
-    if (token && strcmp(token, HL_FMU_GUID) != 0) why = "the instantiation token does not match this binary's";
-    else if (me && !HL_FMU_ME) why = "this FMU was exported without Model Exchange";
-    else if (!me && !HL_FMU_CS) why = "this FMU was exported without Co-Simulation";
-    if (why) {
+static fmi3Instance hl_instantiate3(fmi3String name, fmi3String token, fmi3String resourcePath,
+                                    int me, fmi3Boolean loggingOn, fmi3InstanceEnvironment env,
+                                    fmi3LogMessageCallback log) {
+    char why[1200] = "";
+    hl_fmu* m = NULL;
+    if (me && !HL_FMU_ME)
+        snprintf(why, sizeof why, "this FMU was exported without Model Exchange");
+    else if (!me && !HL_FMU_CS)
+        snprintf(why, sizeof why, "this FMU was exported without Co-Simulation");
+    else
+        m = hl_instantiate(name, me, loggingOn, resourcePath, 0, token, why, sizeof why);
+    if (!m) {
         if (log) log(env, fmi3Error, "logStatusError", why);
         return NULL;
     }
-    hl_fmu* m = hl_instantiate(name, me, loggingOn);
-    if (m) {
-        m->log3 = (hl_logger3)log;
-        m->env = env;
-    }
+    m->log3 = (hl_logger3)log;
+    m->env = env;
     return m;
 }
 
@@ -80,8 +82,9 @@ HL_EXPORT fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi
                                                     fmi3String resourcePath, fmi3Boolean visible,
                                                     fmi3Boolean loggingOn, fmi3InstanceEnvironment env,
                                                     fmi3LogMessageCallback logMessage) {
-    (void)resourcePath; (void)visible;
-    return hl_instantiate3(instanceName, instantiationToken, 1, loggingOn, env, logMessage);
+    (void)visible;
+    return hl_instantiate3(instanceName, instantiationToken, resourcePath, 1, loggingOn, env,
+                           logMessage);
 }
 
 HL_EXPORT fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
@@ -93,9 +96,10 @@ HL_EXPORT fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3
                                                    fmi3InstanceEnvironment env,
                                                    fmi3LogMessageCallback logMessage,
                                                    fmi3IntermediateUpdateCallback intermediateUpdate) {
-    (void)resourcePath; (void)visible; (void)eventModeUsed; (void)earlyReturnAllowed;
+    (void)visible; (void)eventModeUsed; (void)earlyReturnAllowed;
     (void)requiredIntermediateVariables; (void)nRequiredIntermediateVariables; (void)intermediateUpdate;
-    return hl_instantiate3(instanceName, instantiationToken, 0, loggingOn, env, logMessage);
+    return hl_instantiate3(instanceName, instantiationToken, resourcePath, 0, loggingOn, env,
+                           logMessage);
 }
 
 HL_EXPORT fmi3Instance fmi3InstantiateScheduledExecution(fmi3String instanceName, fmi3String instantiationToken,

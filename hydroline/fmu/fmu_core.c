@@ -4,8 +4,16 @@
  *   model.c     the plant's right-hand side, exact sparse Jacobian, signals and sparse LU
  *               (hydroline.compiled.codegen: structure only, its numbers read from c[])
  *   bdf.c       hydroline's variable-order BDF integrator (Co-Simulation steps)
- *   fmu_data.h  this FMU's numbers: constants c[], state scales, the solved rest state,
- *               parameters, and the value-reference layout
+ *   fmu_data.h  this FMU's structure: the names of its states and parameters, where the
+ *               accumulators sit, the kinds it was exported for
+ *
+ * The numbers are not compiled in: constants c[] (the components' numbers, the state scales,
+ * the graph's own constants), the solved rest state, the parameters' start values and the
+ * accumulators' charge are read at instantiation from resources/HL_FMU_NUMBERS_FILE, whose
+ * GUID (instantiation token) and structure key must be the importer's and this binary's. So
+ * rigs that differ only in numbers share one binary (hydroline builds it once per structure).
+ * The file's values are IEEE-754 bit patterns in hexadecimal (exact, locale-independent),
+ * each followed by its decimal value for the reader.
  *
  * Value references of the Real/Float64 variables: [0, N) states x [SI]; [N, 2N) their time
  * derivatives; [2N, 2N+NY) the network's signals [SI]; [2N+NY, 2N+NY+NP) the runtime parameter
@@ -20,6 +28,7 @@
  * hydroline.simulation.solve_steady_state does in Python, and the accumulators settle to the new
  * node pressures (their charge), unless solve_steady_state is false.
  */
+#include <ctype.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -53,6 +62,17 @@ typedef void (*hl_logger2)(void* env, const char* name, int status, const char* 
                            const char* fmt, ...);
 typedef void (*hl_logger3)(void* env, int status, const char* category, const char* message);
 
+/* This FMU's numbers, read from its resources at instantiation */
+typedef struct {
+    double c[HL_NC];          /* constants of model.c: numbers, state scales, the graph's own */
+    double scale[HL_N];       /* state scales, [SI] */
+    double x0[HL_N];          /* the rest state solved at export, [SI] */
+    double p0[HL_NP];         /* start values of the runtime parameters (inputs, tunables), [SI] */
+    double pnominal[HL_NP];   /* their typical magnitudes (directional derivatives), [SI] */
+    double acc_capacity[HL_FMU_NACC > 0 ? HL_FMU_NACC : 1];    /* accumulators' V0, [m^3] */
+    double acc_precharge[HL_FMU_NACC > 0 ? HL_FMU_NACC : 1];   /* and p0, [Pa] */
+} hl_fmu_numbers;
+
 typedef struct {
     hl_solver S;              /* integrator; S.p is the runtime parameter vector */
     double x[HL_N];           /* states, [SI] */
@@ -66,6 +86,7 @@ typedef struct {
     hl_logger2 log2;          /* the importer's logger (FMI 2.0 or 3.0) */
     hl_logger3 log3;
     void* env;
+    hl_fmu_numbers num;       /* this FMU's numbers */
 } hl_fmu;
 
 static void hl_log(hl_fmu* m, int status, const char* fmt, ...) {
@@ -143,18 +164,143 @@ static int hl_solve_steady(hl_fmu* m) {
 
 static void hl_reset(hl_fmu* m) {
     hl_coefficients();
-    hl_setup(&m->S, hl_fmu_p0, hl_fmu_c, hl_fmu_scale, HL_FMU_RTOL, 0.1 * HL_FMU_RTOL, 0., 0., 5, 0.1);
+    hl_setup(&m->S, m->num.p0, m->num.c, m->num.scale, HL_FMU_RTOL, 0.1 * HL_FMU_RTOL, 0., 0.,
+             5, 0.1);
     hl_set_max_steps(&m->S, 5000000);
-    memcpy(m->x, hl_fmu_x0, sizeof m->x);
+    memcpy(m->x, m->num.x0, sizeof m->x);
     m->time = 0.;
     m->restart = 1;
     m->solve_steady = 1;
     m->mode = HL_INSTANTIATED;
 }
 
-static hl_fmu* hl_instantiate(const char* name, int me, int logging) {
+/* The numbers file's path from the resources location: an FMI 2.0 URI (file:///dir/,
+ * file:/dir/, percent-encoded) or an FMI 3.0 path; 0 on success. */
+static int hl_numbers_path(const char* location, int is_uri, char* path, size_t size) {
+    const char* s = location;
+    size_t k = 0;
+    if (!s || !*s) return -1;
+    if (is_uri) {
+        if (strncmp(s, "file://", 7) == 0) {
+            s += 7;
+            if (strncmp(s, "localhost/", 10) == 0) s += 9;
+        } else if (strncmp(s, "file:", 5) == 0) {
+            s += 5;
+        } else {
+            return -1;
+        }
+#if defined(_WIN32)
+        if (s[0] == '/' && s[1] && s[2] == ':') s++;   /* file:///C:/dir */
+#endif
+    }
+    for (; *s && k + 1 < size; s++) {
+        if (is_uri && s[0] == '%' && isxdigit((unsigned char)s[1])
+            && isxdigit((unsigned char)s[2])) {
+            char hex[3] = {s[1], s[2], 0};
+            path[k++] = (char)strtol(hex, NULL, 16);
+            s += 2;
+        } else {
+            path[k++] = *s;
+        }
+    }
+    if (k > 0 && path[k - 1] != '/' && path[k - 1] != '\\' && k + 1 < size) path[k++] = '/';
+    path[k] = 0;
+    if (k + strlen(HL_FMU_NUMBERS_FILE) + 1 > size) return -1;
+    strcat(path, HL_FMU_NUMBERS_FILE);
+    return 0;
+}
+
+/* One line of the numbers file without its end; 0 at the end of the file */
+static int hl_line(FILE* f, char* line, size_t size) {
+    if (!fgets(line, (int)size, f)) return 0;
+    line[strcspn(line, "\r\n")] = 0;
+    return 1;
+}
+
+/* A section "<label> <count>" of n values, one a line: "<IEEE-754 bits, hex> <decimal>" */
+static int hl_read_values(FILE* f, const char* label, double* v, int n, char* why, size_t nwhy) {
+    char line[256], word[64];
+    int count = -1;
+    if (!hl_line(f, line, sizeof line) || sscanf(line, "%63s %d", word, &count) != 2
+        || strcmp(word, label) != 0 || count != n) {
+        snprintf(why, nwhy, "expected %d values of '%s' in its numbers file (another FMU's?)",
+                 n, label);
+        return -1;
+    }
+    for (int i = 0; i < n; i++) {
+        unsigned long long bits;
+        char* end;
+        if (!hl_line(f, line, sizeof line)) {
+            snprintf(why, nwhy, "its numbers file ends within '%s'", label);
+            return -1;
+        }
+        bits = strtoull(line, &end, 16);
+        if (end == line) {
+            snprintf(why, nwhy, "value %d of '%s' in its numbers file is not a hexadecimal bit "
+                     "pattern", i, label);
+            return -1;
+        }
+        memcpy(&v[i], &bits, sizeof(double));
+        if (!isfinite(v[i])) {
+            snprintf(why, nwhy, "value %d of '%s' in its numbers file is not finite", i, label);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* Read this FMU's numbers from its resources; 0 on success, else why (one line) */
+static int hl_load_numbers(hl_fmu_numbers* num, const char* location, int is_uri,
+                           const char* guid, char* why, size_t nwhy) {
+    char path[4096], line[512], word[64], value[256];
+    if (hl_numbers_path(location, is_uri, path, sizeof path) != 0) {
+        snprintf(why, nwhy, "no usable resources location (got %s): the FMU's numbers are in "
+                 "resources/" HL_FMU_NUMBERS_FILE, location ? location : "none");
+        return -1;
+    }
+    FILE* f = fopen(path, "rb");
+    if (!f) {
+        snprintf(why, nwhy, "cannot read %s", path);
+        return -1;
+    }
+    int rc = -1;
+    why[0] = 0;
+    if (!hl_line(f, line, sizeof line) || strcmp(line, HL_FMU_NUMBERS_HEAD) != 0) {
+        snprintf(why, nwhy, "%s is not a hydroline FMU numbers file of this version", path);
+    } else if (!hl_line(f, line, sizeof line) || sscanf(line, "%63s %255s", word, value) != 2
+               || strcmp(word, "guid") != 0 || (guid && strcmp(value, guid) != 0)) {
+        snprintf(why, nwhy, "the GUID (instantiation token) does not match its numbers file's");
+    } else if (!hl_line(f, line, sizeof line) || sscanf(line, "%63s %255s", word, value) != 2
+               || strcmp(word, "structure") != 0 || strcmp(value, HL_FMU_STRUCTURE) != 0) {
+        snprintf(why, nwhy, "its numbers file was written for another structure than this binary");
+    } else if (hl_read_values(f, "constants", num->c, HL_NC, why, nwhy) == 0
+               && hl_read_values(f, "state_scales", num->scale, HL_N, why, nwhy) == 0
+               && hl_read_values(f, "rest_state", num->x0, HL_N, why, nwhy) == 0
+               && hl_read_values(f, "parameters", num->p0, HL_NP, why, nwhy) == 0
+               && hl_read_values(f, "parameter_nominals", num->pnominal, HL_NP, why, nwhy) == 0
+               && hl_read_values(f, "accumulator_capacities", num->acc_capacity, HL_FMU_NACC,
+                                 why, nwhy) == 0
+               && hl_read_values(f, "accumulator_precharges", num->acc_precharge, HL_FMU_NACC,
+                                 why, nwhy) == 0) {
+        rc = 0;
+    }
+    fclose(f);
+    return rc;
+}
+
+/* A new instance with this FMU's numbers from its resources (location: an FMI 2.0 URI when
+ * is_uri, else an FMI 3.0 path); NULL with why (one line) when they cannot be read. */
+static hl_fmu* hl_instantiate(const char* name, int me, int logging, const char* location,
+                              int is_uri, const char* guid, char* why, size_t nwhy) {
     hl_fmu* m = (hl_fmu*)calloc(1, sizeof(hl_fmu));
-    if (!m) return NULL;
+    if (!m) {
+        snprintf(why, nwhy, "out of memory");
+        return NULL;
+    }
+    if (hl_load_numbers(&m->num, location, is_uri, guid, why, nwhy) != 0) {
+        free(m);
+        return NULL;
+    }
     snprintf(m->name, sizeof m->name, "%s", name ? name : "hydroline");
     m->me = me;
     m->logging = logging;
@@ -180,8 +326,8 @@ static int hl_settle_accumulators(hl_fmu* m) {
     hl_signals(m->time, z, m->S.p, m->S.c, y);
     for (int k = 0; k < HL_FMU_NACC; k++) {
         double p_node = y[hl_fmu_acc[k].node_signal];
-        if (!(p_node > hl_fmu_acc[k].precharge)) continue;   /* empty: piston on its stop */
-        double v = hl_fmu_acc[k].capacity * hl_fmu_acc[k].precharge / p_node;
+        if (!(p_node > m->num.acc_precharge[k])) continue;   /* empty: piston on its stop */
+        double v = m->num.acc_capacity[k] * m->num.acc_precharge[k] / p_node;
         if (fabs(v - m->x[hl_fmu_acc[k].gas_state]) > 1e-12 * m->S.scale[hl_fmu_acc[k].gas_state])
             changed = 1;
         m->x[hl_fmu_acc[k].gas_state] = v;
@@ -320,7 +466,7 @@ static int hl_directional(hl_fmu* m, const unsigned int* vu, size_t nu, const un
     }
     double nrm = 0.;
     for (size_t k = 0; k < nk; k++) {
-        double typical = vk[k] < HL_N ? m->S.scale[vk[k]] : hl_fmu_pnominal[vk[k] - HL_VR_PAR];
+        double typical = vk[k] < HL_N ? m->S.scale[vk[k]] : m->num.pnominal[vk[k] - HL_VR_PAR];
         nrm = fmax(nrm, fabs(dvk[k]) / fmax(fabs(base[k]), typical));
     }
     double h = nrm > 0 ? 1e-6 / nrm : 1.;

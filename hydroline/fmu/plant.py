@@ -198,54 +198,60 @@ def _component(net, name):
         return None
 
 
-def _bind(plant: Plant, sym) -> list:
+def _bind(plant: Plant, sym, component, number) -> None:
     """Set the components' attributes to expressions of the tunable symbols.
 
-    Returns the (object, attribute, old value) list that undoes it."""
-    net, rig = plant.network, plant.rig
-    undo = []
-
-    def put(obj, attr, value):
-        undo.append((obj, attr, getattr(obj, attr)))
-        setattr(obj, attr, value)
-
+    ``component(name)`` gives the object whose attributes are set (a copy of the component
+    holding symbols for its numbers, :meth:`~hydroline.engine.Component.with_numbers`);
+    ``number(name, value)`` stands for a rig value that enters the equations without being
+    tunable (a symbol of the compiled model's numbers, or the value itself)."""
+    rig = plant.rig
     s = {t.name: sym[k] for k, t in enumerate(plant.tunables)}
-    act = net.component("actuator")
+    act = component("actuator")
     if "actuator.bulk_modulus" in s:
-        put(act, "bulk_modulus", s["actuator.bulk_modulus"])
+        act.bulk_modulus = s["actuator.bulk_modulus"]
     if "load.mass" in s:
-        mass = act.moving_mass - rig.get("load.mass", PARAMETERS["load.mass"].default) + s["load.mass"]
-        put(act, "moving_mass", mass)
-        put(act, "stop_damping", 2.0 * ca.sqrt(act.stop_stiffness * mass))   # as Actuator derives it
-    load = net.component("load")
+        rig_mass = number("load.mass", rig.get("load.mass", PARAMETERS["load.mass"].default))
+        mass = act.moving_mass - rig_mass + s["load.mass"]
+        act.moving_mass = mass
+        act.stop_damping = 2.0 * ca.sqrt(act.stop_stiffness * mass)   # as Actuator derives it
+    load = component("load")
     for k in ("stiffness", "damping"):
         if f"load.{k}" in s:
-            put(load, k, s[f"load.{k}"])
-    fr = net.component("friction")
+            setattr(load, k, s[f"load.{k}"])
+    fr = component("friction")
     for k in ("viscous_up", "viscous_down", "coulomb_up", "coulomb_down", "static_up", "static_down"):
         if f"friction.{k}" in s:
-            put(fr, k, s[f"friction.{k}"])
+            setattr(fr, k, s[f"friction.{k}"])
     if "supply.manifold.resistance" in s:
-        put(net.component("supply.manifold"), "resistance", s["supply.manifold.resistance"])
-    r_hsm = s.get("return.manifold.resistance", rig.get("return.manifold.resistance"))
-    path = "return.check_valve.forward_resistance"
-    r_cv = s.get(path, rig.get(path, PARAMETERS[path].default))
-    manifold = net.component("return.manifold")
+        component("supply.manifold").resistance = s["supply.manifold.resistance"]
+    path_hsm, path_cv = "return.manifold.resistance", "return.check_valve.forward_resistance"
+    r_hsm = s[path_hsm] if path_hsm in s else number(path_hsm, rig.get(path_hsm))
+    r_cv = (s[path_cv] if path_cv in s
+            else number(path_cv, rig.get(path_cv, PARAMETERS[path_cv].default)))
+    manifold = component("return.manifold")
     if isinstance(manifold, LinearResistance):
-        put(manifold, "resistance", r_hsm)
-        put(net.component("return.check_valve"), "forward_resistance", r_cv)
+        manifold.resistance = r_hsm
+        component("return.check_valve").forward_resistance = r_cv
     else:   # section II removed: manifold loss and check valve are one check valve (rigs/template.py)
-        put(manifold, "forward_resistance", r_hsm + r_cv)
-    return undo
+        manifold.forward_resistance = r_hsm + r_cv
 
 
 def symbolic_model(plant: Plant):
     """The plant's CasADi graph with the tunable parameters appended to ``p``.
 
     Returns an object with the attributes :func:`hydroline.compiled.codegen.generate` reads
-    (``network`` with ``state_names``, ``state_scales``, ``parameter_names``; ``t``, ``x``,
-    ``p``, ``dx``, ``y``). The runtime parameter vector is then ``[network parameters...,
+    (``network`` with ``state_names``, ``state_scales``, ``parameter_names`` and
+    ``compiled_numbers``; ``t``, ``x``, ``p``, ``dx``, ``y``; ``k``, ``dx_general``,
+    ``y_general``). The runtime parameter vector is then ``[network parameters...,
     tunable values...]``.
+
+    Numbers are parameters: where the plant network's graph takes the components' numbers as
+    symbols (:class:`~hydroline.engine.CompiledModel`), so does this one (``k``: those
+    numbers, then the rig values the tunables' binding reads), and its C code depends on the
+    plant's structure only -- a rig that differs only in numbers exports the same binary,
+    with other numbers in its resources. Otherwise ``k`` is None and the numbers are the
+    graph's constants.
 
     Parameters
     ----------
@@ -262,18 +268,52 @@ def symbolic_model(plant: Plant):
     t = ca.SX.sym("t")
     x = ca.SX.sym("x", n)
     p = ca.SX.sym("p", m + k)
-    undo = _bind(plant, [p[m + j] for j in range(k)])
-    try:
-        dx, sig = net.evaluate(t, [x[i] for i in range(n)], [p[i] for i in range(m)])
-    finally:
-        for obj, attr, old in reversed(undo):
-            setattr(obj, attr, old)
+    names, values = net.compiled_numbers()
+    general = net.compile().k is not None
+    extra_names, extra_values = [], []
+    if general:
+        numbers = ca.SX.sym("k", len(values))
+        views, pos = {}, 0
+        for c in net.components:
+            symbols = {}
+            for name, v in c.compiled_numbers().items():
+                if isinstance(v, (tuple, list)):
+                    symbols[name] = type(v)(numbers[pos + i] for i in range(len(v)))
+                    pos += len(v)
+                else:
+                    symbols[name] = numbers[pos]
+                    pos += 1
+            views[c.name] = c.with_numbers(symbols)
+        extra = []
+
+        def number(name, value):
+            extra.append(ca.SX.sym(name))
+            extra_names.append(f"fmu.{name}")
+            extra_values.append(float(value))
+            return extra[-1]
+    else:
+        views = {c.name: c.with_numbers({}) for c in net.components}
+
+        def number(name, value):
+            return value
+    _bind(plant, [p[m + j] for j in range(k)], views.__getitem__, number)
+    dx, sig = net.evaluate(t, [x[i] for i in range(n)], [p[i] for i in range(m)], views)
     dx = ca.vertcat(*[v if isinstance(v, ca.SX) else ca.SX(v) for v in dx])
     y = ca.vertcat(*[sig[s] if isinstance(sig[s], ca.SX) else ca.SX(sig[s]) for s in net.signal_names])
     both = ca.vertcat(dx, y)
     for j, tun in enumerate(plant.tunables):
         if not ca.depends_on(both, p[m + j]):
             raise RigError(f"{tun.name}: does not enter the plant's equations (cannot be tuned)")
+    all_names = list(names) + extra_names
+    all_values = np.concatenate([values, np.array(extra_values, dtype=float)])
     shim = SimpleNamespace(state_names=list(net.state_names), state_scales=net.state_scales,
-                           parameter_names=list(net.parameter_names) + [t.name for t in plant.tunables])
-    return SimpleNamespace(network=shim, t=t, x=x, p=p, dx=dx, y=y)
+                           parameter_names=(list(net.parameter_names)
+                                            + [t.name for t in plant.tunables]),
+                           compiled_numbers=lambda: (all_names, all_values))
+    if not general:
+        return SimpleNamespace(network=shim, t=t, x=x, p=p, dx=dx, y=y, k=None,
+                               dx_general=None, y_general=None)
+    kk = ca.vertcat(numbers, *extra)
+    dx_n, y_n = ca.substitute([dx, y], [kk], [ca.DM(all_values)])
+    return SimpleNamespace(network=shim, t=t, x=x, p=p, dx=dx_n, y=y_n, k=kk, dx_general=dx,
+                           y_general=y)
