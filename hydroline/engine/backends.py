@@ -40,11 +40,16 @@ class CompiledBackend:
 
     Parameters
     ----------
-    network : Network      The model
-    native : object        Its :class:`hydroline.compiled.NativeModel`
-    p : ndarray            Runtime parameters, [SI]
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    native : object
+        Its :class:`hydroline.compiled.NativeModel`
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "compiled"
@@ -59,10 +64,14 @@ class CompiledBackend:
 
         Parameters
         ----------
-        a : float     Segment start, [s]
-        x : ndarray   States at ``a``, [SI]
-        b : float     Segment end (a breakpoint or sampling instant), [s]
-        p : ndarray   Runtime parameters over the segment, [SI]
+        a : float
+            Segment start, [s]
+        x : ndarray
+            States at ``a``, [SI]
+        b : float
+            Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray
+            Runtime parameters over the segment, [SI]
         """
         self.solver.set_parameters(p)   # (a sampled component may have changed one)
         self.solver.start(a, x, b)
@@ -73,9 +82,12 @@ class CompiledBackend:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         self.solver.set_parameters(p)
         y = self.solver.signals(t, x)
@@ -87,9 +99,11 @@ class CompiledBackend:
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Where to write the table (C-contiguous rows of signals then states,
-                         one per time), or None (a new array), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Where to write the table (C-contiguous rows of signals then states,
+            one per time), or None (a new array), [SI]
 
         Returns
         -------
@@ -110,9 +124,12 @@ class CvodesBackend:
 
     Parameters
     ----------
-    network : Network      The model
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "cvodes"
@@ -134,10 +151,14 @@ class CvodesBackend:
 
         Parameters
         ----------
-        a : float     Segment start, [s]
-        x : ndarray   States at ``a``, [SI]
-        b : float     Segment end (a breakpoint or sampling instant), [s]
-        p : ndarray   Runtime parameters over the segment, [SI]
+        a : float
+            Segment start, [s]
+        x : ndarray
+            States at ``a``, [SI]
+        b : float
+            Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray
+            Runtime parameters over the segment, [SI]
         """
         self.t, self.x, self.p = a, np.asarray(x, dtype=float), np.asarray(p, dtype=float)
 
@@ -146,8 +167,10 @@ class CvodesBackend:
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
@@ -170,9 +193,12 @@ class CvodesBackend:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         return None
 
@@ -194,9 +220,12 @@ class ScipyBackend(CvodesBackend):
 
     Parameters
     ----------
-    network : Network      The model
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "scipy"
@@ -211,8 +240,10 @@ class ScipyBackend(CvodesBackend):
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
@@ -235,11 +266,16 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
 
     Parameters
     ----------
-    network : Network      The model
-    solver : str           "auto", "compiled", "cvodes" or "scipy"
-    p : ndarray            Runtime parameters, [SI]
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    solver : str
+        "auto", "compiled", "cvodes" or "scipy"
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
 
     Returns
     -------

@@ -69,16 +69,19 @@ def module_source_tag(name: str) -> str:
 
     Parameters
     ----------
-    name : str   Module name, e.g. ``"hydroline.components.servovalve"``
+    name : str
+        Module name, e.g. ``"hydroline.components.servovalve"``
 
     Returns
     -------
-    str  hex digest
+    str
+        hex digest
 
     Raises
     ------
-    Undescribable  The module has no file, or its file was modified after this process
-                   loaded its code (the code that runs may not be the file's)
+    Undescribable
+        The module has no file, or its file was modified after this process
+        loaded its code (the code that runs may not be the file's)
     """
     path = getattr(sys.modules.get(name), "__file__", None)
     if not path:
@@ -105,7 +108,8 @@ def used_modules(name: str) -> frozenset:
 
     Parameters
     ----------
-    name : str   Module name
+    name : str
+        Module name
     """
     out = _USES.get(name)
     if out is None:
@@ -210,7 +214,8 @@ def module_bindings(name: str) -> list:
 
     Parameters
     ----------
-    name : str   Module name
+    name : str
+        Module name
     """
     out = []   # (name, value) of a plain value, (name, kind, where) of anything else
     for key, value in vars(sys.modules[name]).items():
@@ -309,12 +314,15 @@ def components_signature(components, substitute=None) -> str | None:
 
     Parameters
     ----------
-    components : sequence   Components (e.g. ``network.components``)
-    substitute : callable   ``(component, dict) -> dict``, or None
+    components : sequence
+        Components (e.g. ``network.components``)
+    substitute : callable
+        ``(component, dict) -> dict``, or None
 
     Returns
     -------
-    str or None  hex digest; None where some part cannot be described by value
+    str or None
+        hex digest; None where some part cannot be described by value
     """
     d = _Describer()
     try:
@@ -342,12 +350,15 @@ def definition_fingerprint(network, structure: bool = False) -> str | None:
 
     Parameters
     ----------
-    network : Network   The assembled model
-    structure : bool    Leave out the numbers (see above)
+    network : Network
+        The assembled model
+    structure : bool
+        Leave out the numbers (see above)
 
     Returns
     -------
-    str or None  hex digest
+    str or None
+        hex digest
     """
     d = _Describer(structure)
     try:

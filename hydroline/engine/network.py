@@ -33,11 +33,13 @@ def connection_table(components) -> list[dict]:
 
     Parameters
     ----------
-    components : list[Component]   The components (commands of an experiment included or not)
+    components : list[Component]
+        The components (commands of an experiment included or not)
 
     Returns
     -------
-    list of dict  keys ``signal``; ``producer`` ("component.port", None when no component
+    list of dict
+        keys ``signal``; ``producer`` ("component.port", None when no component
         outputs it); ``consumers`` (list of "component.port"); ``quantity``; ``unit``
     """
     by_signal = {}
@@ -59,10 +61,12 @@ class Network:
 
     Parameters
     ----------
-    components : list[Component]   The components; names must be unique
-    warn_lost_flows : bool         Warn (:class:`UnusedSignalWarning`) of flows no component
-                                   reads (:meth:`lost_flows`); False for a network cut open on
-                                   purpose (e.g. the line-free part of a linearisation)
+    components : list[Component]
+        The components; names must be unique
+    warn_lost_flows : bool
+        Warn (:class:`UnusedSignalWarning`) of flows no component
+        reads (:meth:`lost_flows`); False for a network cut open on
+        purpose (e.g. the line-free part of a linearisation)
     """
 
     def __init__(self, components: list[Component], warn_lost_flows: bool = True):
@@ -208,7 +212,8 @@ class Network:
 
         Parameters
         ----------
-        name : str   Component name
+        name : str
+            Component name
         """
         for c in self.components:
             if c.name == name:
@@ -220,7 +225,8 @@ class Network:
 
         Parameters
         ----------
-        name : str   Component name
+        name : str
+            Component name
         """
         return self._state_slices[name]
 
@@ -229,13 +235,17 @@ class Network:
 
         Parameters
         ----------
-        c : Component   One of the network's components
-        x : sequence    All states, [SI] (numbers or symbols)
-        p : sequence    All runtime parameters, [SI]
+        c : Component
+            One of the network's components
+        x : sequence
+            All states, [SI] (numbers or symbols)
+        p : sequence
+            All runtime parameters, [SI]
 
         Returns
         -------
-        (dict, dict)  states name -> value, parameters name -> value [SI]
+        (dict, dict)
+            states name -> value, parameters name -> value [SI]
         """
         sl = self._state_slices[c.name]
         xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
@@ -247,17 +257,22 @@ class Network:
 
         Parameters
         ----------
-        t : float         Time, [s]
-        x : sequence      States, [SI] (numbers or symbols)
-        p : sequence      Runtime parameters, [SI]; the network's values when None
-        equations : dict  Component name -> the object whose equations stand for it (a copy
-                          holding symbols for its numbers, :meth:`Component.with_numbers`);
-                          None: the components' own
-        given : dict      Signal name -> value [SI] that the components reading that signal
-                          take instead of its producer's output (the network cut open at
-                          those connections, e.g. to differentiate each component apart from
-                          its neighbours); the producer's own output is still returned in
-                          ``signals``. None: no connection cut
+        t : float
+            Time, [s]
+        x : sequence
+            States, [SI] (numbers or symbols)
+        p : sequence
+            Runtime parameters, [SI]; the network's values when None
+        equations : dict
+            Component name -> the object whose equations stand for it (a copy
+            holding symbols for its numbers, :meth:`Component.with_numbers`);
+            None: the components' own
+        given : dict
+            Signal name -> value [SI] that the components reading that signal
+            take instead of its producer's output (the network cut open at
+            those connections, e.g. to differentiate each component apart from
+            its neighbours); the producer's own output is still returned in
+            ``signals``. None: no connection cut
 
         Returns
         -------
@@ -297,9 +312,12 @@ class Network:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]; the network's values when None
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]; the network's values when None
         """
         dx, _ = self.evaluate(t, np.asarray(x, dtype=float), p)
         return np.array([float(v) for v in dx])
@@ -309,9 +327,12 @@ class Network:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]; the network's values when None
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]; the network's values when None
         """
         _, sig = self.evaluate(t, np.asarray(x, dtype=float), p)
         return {k: float(v) for k, v in sig.items()}
@@ -322,8 +343,9 @@ class Network:
 
         Returns
         -------
-        (list, ndarray)  names ``<component>.<attribute>`` (``...[k]`` for a tuple's item) and
-                         values, [SI]
+        (list, ndarray)
+            names ``<component>.<attribute>`` (``...[k]`` for a tuple's item) and
+            values, [SI]
         """
         names, values = [], []
         for c in self.components:
@@ -358,9 +380,10 @@ class Network:
 
         Parameters
         ----------
-        structure : bool   Leave out the numbers the compiled model takes at run time (the
-                           components' own numbers, the state scales): networks that differ
-                           only in them share this fingerprint
+        structure : bool
+            Leave out the numbers the compiled model takes at run time (the
+            components' own numbers, the state scales): networks that differ
+            only in them share this fingerprint
         """
         return definition_fingerprint(self, structure)
 
@@ -379,7 +402,8 @@ class Network:
 
         Parameters
         ----------
-        t_end : float   End of the run, [s]
+        t_end : float
+            End of the run, [s]
         """
         pts = set()
         for c in self.components:
@@ -393,7 +417,8 @@ class CompiledModel:
 
     Parameters
     ----------
-    network : Network   The assembled network (states, parameters and signals in its order)
+    network : Network
+        The assembled network (states, parameters and signals in its order)
     """
 
     network: Network
@@ -492,9 +517,12 @@ class CompiledModel:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         return np.asarray(self.f(t, x, p)).ravel()
 
@@ -503,9 +531,12 @@ class CompiledModel:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         import casadi as ca
 

@@ -21,20 +21,28 @@ class SimulationResult:
 
     Parameters
     ----------
-    metadata : dict           Run description (rig, scenario, ``units``: column -> SI unit)
-    times : array_like        Output times, [s] (when ``data`` is None)
-    table : array_like        One row per time, one column per name in ``columns``, [SI]
+    metadata : dict
+        Run description (rig, scenario, ``units``: column -> SI unit)
+    times : array_like
+        Output times, [s] (when ``data`` is None)
+    table : array_like
+        One row per time, one column per name in ``columns``, [SI]
 
     Attributes
     ----------
-    data : pandas.DataFrame   Index ``time`` [s]; one column per signal and per state
-                              (``<component>.<state>``), SI units (made on first access;
-                              ``res[name]``, ``res.t`` and ``name in res`` need no pandas)
-    columns : list[str]       Column names of ``data``, signals first
+    data : pandas.DataFrame
+        Index ``time`` [s]; one column per signal and per state
+        (``<component>.<state>``), SI units (made on first access;
+        ``res[name]``, ``res.t`` and ``name in res`` need no pandas)
+    columns : list[str]
+        Column names of ``data``, signals first
     steady_state : SteadyState
-    wall_time : float         Integration wall time, [s]
-    stats : dict              Solver statistics (function/Jacobian evaluations, steps)
-    warnings : list[str]      Validity warnings (e.g. pressure below zero absolute)
+    wall_time : float
+        Integration wall time, [s]
+    stats : dict
+        Solver statistics (function/Jacobian evaluations, steps)
+    warnings : list[str]
+        Validity warnings (e.g. pressure below zero absolute)
     """
 
     #: ``summarizer(result) -> dict``: the summary its repr shows, registered by the module
@@ -151,8 +159,10 @@ class SimulationResult:
 
         Parameters
         ----------
-        path : str or Path   The CSV file to write
-        every : int          Keep every n-th row (and the last), [-]
+        path : str or Path
+            The CSV file to write
+        every : int
+            Keep every n-th row (and the last), [-]
         """
         rows = slice(None)
         if every > 1:
@@ -181,8 +191,10 @@ class SimulationResult:
 
         Parameters
         ----------
-        path : str or Path   The file to write
-        every : int          Keep every n-th row (and the last), [-]
+        path : str or Path
+            The file to write
+        every : int
+            Keep every n-th row (and the last), [-]
         """
         import pandas as pd
 
@@ -202,8 +214,10 @@ class SimulationResult:
 
         Parameters
         ----------
-        path : str or Path   The file to write
-        every : int          Keep every n-th row (and the last), [-]
+        path : str or Path
+            The file to write
+        every : int
+            Keep every n-th row (and the last), [-]
         """
         from scipy.io import savemat
 
@@ -224,9 +238,12 @@ class SimulationResult:
 
         Parameters
         ----------
-        signals : list   Columns to plot (default: port and chamber pressures, velocity)
-        path : str       Write the figure there (PNG) when given
-        title : str      Figure title
+        signals : list
+            Columns to plot (default: port and chamber pressures, velocity)
+        path : str
+            Write the figure there (PNG) when given
+        title : str
+            Figure title
         """
         import importlib
 
@@ -280,9 +297,12 @@ def write_csv_rows(file, t, block):
 
     Parameters
     ----------
-    file : file object   Open text file to append to
-    t : ndarray          Times, [s]
-    block : ndarray      One row per time, [SI]
+    file : file object
+        Open text file to append to
+    t : ndarray
+        Times, [s]
+    block : ndarray
+        One row per time, [SI]
     """
     data = np.column_stack([np.asarray(t, dtype=float), np.asarray(block, dtype=float)])
     step = max(1, 100_000 // max(data.shape[1], 1))
@@ -302,7 +322,8 @@ def column_units(network: Network) -> dict:
 
     Parameters
     ----------
-    network : Network   The model
+    network : Network
+        The model
     """
     units = network.__dict__.get("_column_units")   # made once per network
     if units is None:
@@ -321,9 +342,12 @@ def column_indices(what, names, columns):
 
     Parameters
     ----------
-    what : str        The option being checked (for the message)
-    names : list      Requested column names
-    columns : list    The available columns
+    what : str
+        The option being checked (for the message)
+    names : list
+        Requested column names
+    columns : list
+        The available columns
     """
     names = list(names)
     unknown = [k for k in names if k not in columns]
@@ -339,7 +363,8 @@ def csv_rows(rows) -> str:
 
     Parameters
     ----------
-    rows : ndarray   2-D array of values, [SI]
+    rows : ndarray
+        2-D array of values, [SI]
     """
     rows = np.asarray(rows, dtype=float)
     line = ",".join(["%.9g"] * rows.shape[1]) + "\n"
@@ -364,19 +389,29 @@ class OutputSink:
 
     Parameters
     ----------
-    columns : list[str]    Names of all output columns (signals, then states), in row order
-    path : str             CSV file to stream to; None: nothing written
-    stream : list[str]     Columns written to the CSV; None: all
-    every : int            Write every ``every``-th row (the last row always), [-]
-    keep : list[str]       Columns kept in memory; None: none kept
-    n_total : int          Rows the run will give, when known: what is kept (every row of every
-                           column when neither a file nor ``keep`` is given) is then one
-                           preallocated table, [-]
-    preview : list[str]    Columns of the preview (for a figure); None: no preview
-    preview_rows : int     Rows of the preview at most, [-]
-    units : dict           Column -> SI unit, written into the CSV header (``name [unit]``)
-    observe : callable     Called with ``(t [s], table [SI], columns)`` for every block of
-                           rows written (statistics of a long run chunk by chunk); None: none
+    columns : list[str]
+        Names of all output columns (signals, then states), in row order
+    path : str
+        CSV file to stream to; None: nothing written
+    stream : list[str]
+        Columns written to the CSV; None: all
+    every : int
+        Write every ``every``-th row (the last row always), [-]
+    keep : list[str]
+        Columns kept in memory; None: none kept
+    n_total : int
+        Rows the run will give, when known: what is kept (every row of every
+        column when neither a file nor ``keep`` is given) is then one
+        preallocated table, [-]
+    preview : list[str]
+        Columns of the preview (for a figure); None: no preview
+    preview_rows : int
+        Rows of the preview at most, [-]
+    units : dict
+        Column -> SI unit, written into the CSV header (``name [unit]``)
+    observe : callable
+        Called with ``(t [s], table [SI], columns)`` for every block of
+        rows written (statistics of a long run chunk by chunk); None: none
     """
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
@@ -425,7 +460,8 @@ class OutputSink:
 
         Parameters
         ----------
-        n : int   Rows, [-]
+        n : int
+            Rows, [-]
         """
         if self.keep is not None or self.kept is None or self.rows + n > len(self.kept):
             return None
@@ -437,11 +473,16 @@ class OutputSink:
 
         Parameters
         ----------
-        t : ndarray       Output times, [s]
-        X : ndarray       States, one row per time, [SI] (None: ``Y`` is the whole table)
-        Y : ndarray       Signals, one row per time, [SI] (None: evaluated from ``X``)
-        model : CompiledModel   Evaluates the signals when ``Y`` is None
-        p : ndarray       Runtime parameters, [SI]
+        t : ndarray
+            Output times, [s]
+        X : ndarray
+            States, one row per time, [SI] (None: ``Y`` is the whole table)
+        Y : ndarray
+            Signals, one row per time, [SI] (None: evaluated from ``X``)
+        model : CompiledModel
+            Evaluates the signals when ``Y`` is None
+        p : ndarray
+            Runtime parameters, [SI]
         """
         if X is None:
             block = Y
@@ -526,7 +567,8 @@ class OutputSink:
 
         Parameters
         ----------
-        names : list   Only these columns (all when None)
+        names : list
+            Only these columns (all when None)
         """
         import pandas as pd
 
