@@ -47,12 +47,15 @@ def locus(q: int, n: int = 8192) -> np.ndarray:
 
     Parameters
     ----------
-    q : int   Order, 1-5
-    n : int   Points, [-]
+    q : int
+        Order, 1-5
+    n : int
+        Points, [-]
 
     Returns
     -------
-    ndarray  complex z = h lambda on the boundary, [-]
+    ndarray
+        complex z = h lambda on the boundary, [-]
     """
     theta = np.linspace(0.0, np.pi, n + 1)[1:]
     w = 1.0 - np.exp(-1j * theta)
@@ -96,12 +99,15 @@ def unstable_onset(q: int, angle) -> np.ndarray:
 
     Parameters
     ----------
-    q : int          Order, 1-5
-    angle : array    Angle of h lambda from the negative real axis, [rad] (0..pi/2)
+    q : int
+        Order, 1-5
+    angle : array
+        Angle of h lambda from the negative real axis, [rad] (0..pi/2)
 
     Returns
     -------
-    ndarray  |h lambda| at the onset, [-]
+    ndarray
+        |h lambda| at the onset, [-]
     """
     grid, onset = _onset_table(q)
     idx = np.clip(np.searchsorted(grid, np.asarray(angle, dtype=float)), 0, len(grid) - 1)
@@ -115,11 +121,13 @@ def order_step_limits(eigenvalues) -> tuple:
 
     Parameters
     ----------
-    eigenvalues : array   Eigenvalues of the Jacobian, [1/s]
+    eigenvalues : array
+        Eigenvalues of the Jacobian, [1/s]
 
     Returns
     -------
-    tuple  (h_1, ..., h_5), [s]
+    tuple
+        (h_1, ..., h_5), [s]
     """
     lam = np.asarray(eigenvalues, dtype=complex).ravel()
     lam = lam[np.isfinite(lam) & (lam.real < 0) & (lam.imag != 0)]
@@ -159,12 +167,15 @@ def block_eigenvalues(jacobian, blocks) -> np.ndarray:
 
     Parameters
     ----------
-    jacobian : ndarray   Dense Jacobian, [1/s] (scaled or not: similar blocks)
-    blocks : list        Slices or index arrays of the states of each block
+    jacobian : ndarray
+        Dense Jacobian, [1/s] (scaled or not: similar blocks)
+    blocks : list
+        Slices or index arrays of the states of each block
 
     Returns
     -------
-    ndarray  complex, [1/s]
+    ndarray
+        complex, [1/s]
     """
     out = []
     for b in blocks:

@@ -56,8 +56,10 @@ class LibraryPending(RuntimeError):
 
     Parameters
     ----------
-    message : str   What is being built
-    path : Path     The library
+    message : str
+        What is being built
+    path : Path
+        The library
     """
 
     def __init__(self, message: str, path=None):
@@ -133,11 +135,13 @@ def library_location(gen: GeneratedModel) -> tuple[Path, str]:
 
     Parameters
     ----------
-    gen : GeneratedModel   The model's C source (:func:`hydroline.compiled.codegen.generate`)
+    gen : GeneratedModel
+        The model's C source (:func:`hydroline.compiled.codegen.generate`)
 
     Returns
     -------
-    tuple  (path of the library in the cache directory, its source)
+    tuple
+        (path of the library in the cache directory, its source)
     """
     full = gen.source + "\n" + _bdf_source()
     return cache_dir() / f"hl_{_library_key(full)[:32]}.so", full
@@ -161,13 +165,15 @@ def library_check(path: Path) -> tuple[bool, str]:
 
     Parameters
     ----------
-    path : Path   The library in the cache directory
+    path : Path
+        The library in the cache directory
 
     Returns
     -------
-    tuple  (True, "") when it is; (False, "") when there is nothing to check (no library;
-           no record, or a record of the format before keys: a quiet miss); (False, why)
-           when it fails its record (to be said in a warning)
+    tuple
+        (True, "") when it is; (False, "") when there is nothing to check (no library;
+        no record, or a record of the format before keys: a quiet miss); (False, why)
+        when it fails its record (to be said in a warning)
     """
     try:
         size = path.stat().st_size
@@ -222,14 +228,17 @@ def build_in_background(path: Path, full) -> bool:
 
     Parameters
     ----------
-    path : Path               The library in the cache directory (:func:`library_location`)
-    full : str or callable    Its source, or a callable that makes it
+    path : Path
+        The library in the cache directory (:func:`library_location`)
+    full : str or callable
+        Its source, or a callable that makes it
 
     Returns
     -------
-    bool  True when a build is running (started here or by another process); False when
-          none could be started (no compiler, no ``fcntl`` to hand the lock over, the cache
-          directory not writable) or the library is there already
+    bool
+        True when a build is running (started here or by another process); False when
+        none could be started (no compiler, no ``fcntl`` to hand the lock over, the cache
+        directory not writable) or the library is there already
     """
     cc = compiler()
     try:
@@ -277,9 +286,12 @@ def build_from_file(cc: str, source: str, path: str) -> None:
 
     Parameters
     ----------
-    cc : str       The C compiler
-    source : str   The library's source file (removed afterwards)
-    path : str     The library in the cache directory
+    cc : str
+        The C compiler
+    source : str
+        The library's source file (removed afterwards)
+    path : str
+        The library in the cache directory
     """
     try:
         full = Path(source).read_text()
@@ -326,11 +338,13 @@ def prune_libraries(max_libraries: int | None = None) -> int:
 
     Parameters
     ----------
-    max_libraries : int   Libraries kept at most, [-] (:data:`MAX_LIBRARIES` when None)
+    max_libraries : int
+        Libraries kept at most, [-] (:data:`MAX_LIBRARIES` when None)
 
     Returns
     -------
-    int  Libraries removed, [-]
+    int
+        Libraries removed, [-]
     """
     keep = MAX_LIBRARIES if max_libraries is None else max(int(max_libraries), 0)
     libs = []
@@ -372,20 +386,26 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
 
     Parameters
     ----------
-    path : Path               The library in the cache directory (:func:`library_location`)
-    full : str or callable    The library source, or a callable that makes it (only a
-                              rebuild needs it)
-    wait : bool               Compile a missing library here and now (False: in the
-                              background, unless none can be started there)
+    path : Path
+        The library in the cache directory (:func:`library_location`)
+    full : str or callable
+        The library source, or a callable that makes it (only a
+        rebuild needs it)
+    wait : bool
+        Compile a missing library here and now (False: in the
+        background, unless none can be started there)
 
     Returns
     -------
-    ctypes.CDLL  The loaded library, its functions declared
+    ctypes.CDLL
+        The loaded library, its functions declared
 
     Raises
     ------
-    LibraryPending        Without ``wait``: the library is being built in the background
-    CompilerUnavailable   No compiler, or the build or load failed
+    LibraryPending
+        Without ``wait``: the library is being built in the background
+    CompilerUnavailable
+        No compiler, or the build or load failed
     """
     if str(path) in _LIBS:
         return _LIBS[str(path)]
