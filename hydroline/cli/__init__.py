@@ -59,8 +59,10 @@ def raise_terminated(signum, frame):
 
     Parameters
     ----------
-    signum : int     The signal number
-    frame : frame    The interrupted stack frame (unused)
+    signum : int
+        The signal number
+    frame : frame
+        The interrupted stack frame (unused)
     """
     raise Terminated
 
@@ -80,11 +82,13 @@ class ClosedStdout(io.TextIOBase):
 
         Parameters
         ----------
-        text : str  What the command printed
+        text : str
+            What the command printed
 
         Raises
         ------
-        BrokenPipeError  Always (EPIPE)
+        BrokenPipeError
+            Always (EPIPE)
         """
         raise BrokenPipeError(errno.EPIPE, "stdout is closed")
 
@@ -121,8 +125,9 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
     Parameters
     ----------
-    only : str or None  Module name of the one subcommand to register (``"line_response"``
-                        for ``line-response``); None registers all of them
+    only : str or None
+        Module name of the one subcommand to register (``"line_response"``
+        for ``line-response``); None registers all of them
 
     Returns
     -------
@@ -158,12 +163,14 @@ def main(argv=None) -> int:
 
     Parameters
     ----------
-    argv : list of str or None  The arguments after ``hydroline`` (``sys.argv[1:]`` when None)
+    argv : list of str or None
+        The arguments after ``hydroline`` (``sys.argv[1:]`` when None)
 
     Returns
     -------
-    int  Exit code: 0 success, 2 bad input (or no subcommand), 130 interrupted, 141 closed
-         stdout, 143 terminated, or the subcommand's own
+    int
+        Exit code: 0 success, 2 bad input (or no subcommand), 130 interrupted, 141 closed
+        stdout, 143 terminated, or the subcommand's own
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
@@ -217,7 +224,8 @@ def draws_a_figure(argv) -> bool:
 
     Parameters
     ----------
-    argv : list of str  The arguments after ``hydroline``
+    argv : list of str
+        The arguments after ``hydroline``
     """
     if not argv or argv[0] not in ("simulate", "bode", "layout"):
         return False
@@ -292,11 +300,13 @@ def refuse_empty_values(args) -> None:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line
+    args : argparse.Namespace
+        The parsed command line
 
     Raises
     ------
-    UsageError  One line naming the option
+    UsageError
+        One line naming the option
     """
     for dest, value in vars(args).items():
         values = value if isinstance(value, (list, tuple)) else (value,)

@@ -20,8 +20,9 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser;
-                                      ``run`` is set as the subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser;
+        ``run`` is set as the subcommand's ``func``
     """
     p = sub.add_parser(
         "envelope", help="performance envelope: the largest sine amplitude the actuator holds "
@@ -77,12 +78,15 @@ def frequencies(text: str, points: int) -> np.ndarray:
 
     Parameters
     ----------
-    text : str     "LOW..HIGH" (``points`` log-spaced) or "f1, f2, ..." (units allowed)
-    points : int   Frequencies of a range, >= 1, [-]
+    text : str
+        "LOW..HIGH" (``points`` log-spaced) or "f1, f2, ..." (units allowed)
+    points : int
+        Frequencies of a range, >= 1, [-]
 
     Returns
     -------
-    ndarray  Ascending, [Hz]
+    ndarray
+        Ascending, [Hz]
     """
     if ".." in text:
         low, _, high = text.partition("..")
@@ -104,7 +108,8 @@ def distortion_value(text: str) -> float:
 
     Parameters
     ----------
-    text : str   As typed
+    text : str
+        As typed
     """
     m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(%?)\s*", text)
     try:
@@ -151,11 +156,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     from ..studies.envelope import envelope
 

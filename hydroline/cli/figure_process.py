@@ -189,8 +189,10 @@ class FigureProcess:
 
         Parameters
         ----------
-        function : callable   A module-level function that writes the figure
-        args, kwargs          Its arguments (picklable)
+        function : callable
+            A module-level function that writes the figure
+        args, kwargs
+            Its arguments (picklable)
         """
         self._job = (function, args, kwargs)
         if self.pid is None:
@@ -242,8 +244,10 @@ class FigureProcess:
 
         Parameters
         ----------
-        function : callable   A module-level function that writes the figure
-        args, kwargs          Its arguments (picklable)
+        function : callable
+            A module-level function that writes the figure
+        args, kwargs
+            Its arguments (picklable)
         """
         self.submit(function, *args, **kwargs)
         self.wait()

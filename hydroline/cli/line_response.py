@@ -40,9 +40,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser("line-response", help="frequency response of one line: exact vs modal",
                        description="Magnitude and phase of every entry of a causal form, exact "
@@ -82,8 +83,10 @@ def smooth_step_filter(line: Line, n_modes: int):
 
     Parameters
     ----------
-    line : Line     The line (its wave time L/c sets the filter's corners)
-    n_modes : int   Modes of the models the step is for, [-]
+    line : Line
+        The line (its wave time L/c sets the filter's corners)
+    n_modes : int
+        Modes of the models the step is for, [-]
 
     Returns
     -------
@@ -121,11 +124,15 @@ def blocked_step_errors(line: Line, models: dict, periods: int = 20,
 
     Parameters
     ----------
-    line : Line          The line
-    models : dict        label -> PQ-form model (:class:`StateSpaceLine`), all with the same
-                         number of modes ``n_modes``
-    periods : int        Wave periods (4 L/c each) simulated, >= 1, [-]
-    samples_per_period : int  Time samples per wave period, [-]
+    line : Line
+        The line
+    models : dict
+        label -> PQ-form model (:class:`StateSpaceLine`), all with the same
+        number of modes ``n_modes``
+    periods : int
+        Wave periods (4 L/c each) simulated, >= 1, [-]
+    samples_per_period : int
+        Time samples per wave period, [-]
 
     Returns
     -------
@@ -164,12 +171,17 @@ def plot_step(line, t, exact, responses, path):
 
     Parameters
     ----------
-    line : Line         The line (length, diameter, dissipation number in the title)
-    t : ndarray         Time samples, [s]
-    exact : ndarray     Exact P_d/P_u step response at ``t`` (as
-                        :func:`blocked_step_errors` returns it), [-]
-    responses : dict    label -> model's P_d/P_u step response at ``t``, [-]
-    path : str or Path  PNG to write
+    line : Line
+        The line (length, diameter, dissipation number in the title)
+    t : ndarray
+        Time samples, [s]
+    exact : ndarray
+        Exact P_d/P_u step response at ``t`` (as
+        :func:`blocked_step_errors` returns it), [-]
+    responses : dict
+        label -> model's P_d/P_u step response at ``t``, [-]
+    path : str or Path
+        PNG to write
     """
     from ..plotting import new_figure, save_png
 
@@ -214,11 +226,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     fluid = Fluid(quantity(args.density, "kg/m^3", "--density"),
                   quantity(args.viscosity, "m^2/s", "--viscosity"),
