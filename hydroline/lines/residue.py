@@ -179,8 +179,10 @@ def propagation_derivative(line: Line, s):
 
     Parameters
     ----------
-    line : Line             The line
-    s : array_like complex  Laplace variable off the origin, [1/s]
+    line : Line
+        The line
+    s : array_like complex
+        Laplace variable off the origin, [1/s]
 
     A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
     ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
@@ -215,9 +217,12 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
 
     Parameters
     ----------
-    line : Line      The line, SI
-    n_modes : int    Modes, [-]
-    form : str       Causal form: "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line, SI
+    n_modes : int
+        Modes, [-]
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
     """
     thetas = modal_angles(n_modes, form)
     together = dissipative_roots(line, thetas)   # every mode at once: one Bessel call a step
@@ -242,9 +247,12 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
 
     Parameters
     ----------
-    line : Line             The line
-    poles : array_like      Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
-    form : str              "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line
+    poles : array_like
+        Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
+    form : str
+        "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
@@ -296,11 +304,16 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
 
     Parameters
     ----------
-    line : Line          The line, SI
-    form : str           Causal form: "PQ", "QP", "PP" or "QQ"
-    rate_limit : float   Largest cluster rate kept, [1/s] (None: the first cluster only)
-    n_roots : int        Roots per cluster (modes of the form), [-]
-    max_clusters : int   Clusters at most, [-]
+    line : Line
+        The line, SI
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
+    rate_limit : float
+        Largest cluster rate kept, [1/s] (None: the first cluster only)
+    n_roots : int
+        Roots per cluster (modes of the form), [-]
+    max_clusters : int
+        Clusters at most, [-]
 
     Returns
     -------
@@ -356,8 +369,10 @@ def exact_moments(line: Line, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line    The line, SI
-    form : str     Causal form: "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line, SI
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
@@ -433,10 +448,14 @@ def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = N
 
     Parameters
     ----------
-    line : Line          The line, with its wall elements
-    form : str           Causal form: "PQ", "QP" or "PP"
-    rate_limit : float   Largest viscous cluster rate kept, [1/s] (None: the first only)
-    n_roots : int        Modes of the form, [-]
+    line : Line
+        The line, with its wall elements
+    form : str
+        Causal form: "PQ", "QP" or "PP"
+    rate_limit : float
+        Largest viscous cluster rate kept, [1/s] (None: the first only)
+    n_roots : int
+        Modes of the form, [-]
 
     Returns
     -------
@@ -596,9 +615,12 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
 
     Parameters
     ----------
-    line : Line        The line (bore, fluid), SI
-    n_exact : int      Branches kept one by one, [-]
-    n_octaves : int    Octave groups after them (the last takes every further branch), [-]
+    line : Line
+        The line (bore, fluid), SI
+    n_exact : int
+        Branches kept one by one, [-]
+    n_octaves : int
+        Octave groups after them (the last takes every further branch), [-]
 
     Returns
     -------
@@ -753,8 +775,10 @@ def tail_groups(n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    n_modes : int     Number of retained modes n >= 1, [-]
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
+    n_modes : int
+        Number of retained modes n >= 1, [-]
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
 
     Returns
     -------
@@ -968,13 +992,18 @@ def _passive_remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1,
 
     Parameters
     ----------
-    line : Line          The line
-    n : int              Retained modes, [-]
-    form : str           "PP" or "QQ"
-    blocks : list        (A, B, C, names) blocks realised so far (column, modes, V)
+    line : Line
+        The line
+    n : int
+        Retained modes, [-]
+    form : str
+        "PP" or "QQ"
+    blocks : list
+        (A, B, C, names) blocks realised so far (column, modes, V)
     rem0, rem1 : ndarray (2, 2) DC gain and first moment the remainder must supply, [output
                          unit per input unit], [same * s]
-    moment2 : float, optional  Exact second moment of the common-mode admittance (PP)
+    moment2 : float, optional
+        Exact second moment of the common-mode admittance (PP)
 
     Returns
     -------
@@ -1161,9 +1190,12 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line       The line (needs Dn well below 1, as for (M15))
-    n_modes : int     Number of retained modes n >= 1 (two states each)
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
+    line : Line
+        The line (needs Dn well below 1, as for (M15))
+    n_modes : int
+        Number of retained modes n >= 1 (two states each)
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
 
     Returns
     -------
