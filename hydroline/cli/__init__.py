@@ -74,7 +74,13 @@ class ClosedStdout(io.TextIOBase):
     exit code 141 and no traceback."""
 
     def writable(self) -> bool:
-        """True: the command may try to write (and then learns that nobody reads)."""
+        """True: the command may try to write (and then learns that nobody reads).
+
+        Returns
+        -------
+        bool
+            Always True.
+        """
         return True
 
     def write(self, text) -> int:
@@ -95,7 +101,13 @@ class ClosedStdout(io.TextIOBase):
 
 def version() -> str:
     """The installed version of hydroline (from the package metadata, without importing the
-    model)."""
+    model).
+
+    Returns
+    -------
+    str
+        The version, e.g. ``"0.9.0"``.
+    """
     from importlib import metadata
 
     try:
@@ -226,6 +238,11 @@ def draws_a_figure(argv) -> bool:
     ----------
     argv : list of str
         The arguments after ``hydroline``
+
+    Returns
+    -------
+    bool
+        True when a figure is likely drawn.
     """
     if not argv or argv[0] not in ("simulate", "bode", "layout"):
         return False

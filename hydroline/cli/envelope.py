@@ -110,6 +110,11 @@ def distortion_value(text: str) -> float:
     ----------
     text : str
         As typed
+
+    Returns
+    -------
+    float
+        The fraction, [-].
     """
     m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(%?)\s*", text)
     try:

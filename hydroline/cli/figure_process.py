@@ -41,7 +41,13 @@ def start_early() -> None:
 
 
 def claim_figure_process() -> "FigureProcess":
-    """The figure process started by :func:`start_early`, or a new one when none was."""
+    """The figure process started by :func:`start_early`, or a new one when none was.
+
+    Returns
+    -------
+    FigureProcess
+        The process to send the figures to.
+    """
     global _early
     figures, _early = _early, None
     return figures if figures is not None else FigureProcess()

@@ -126,6 +126,12 @@ def output_grid(t_end: float, dt_out: float | None):
         Simulated time, [s]
     dt_out : float
         Interval of the rows written, [s] (None: every 0.1 ms row)
+
+    Returns
+    -------
+    tuple
+        ``(h, every, rows)``: integration output interval [s], write every ``every``-th
+        row [-], rows written [-].
     """
     if dt_out is None:
         return DT_OUT, 1, int(round(t_end / DT_OUT)) + 1
@@ -295,6 +301,11 @@ def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance"
         :func:`hydroline.plotting.plot_result` draws
     metadata : tuple
         Metadata keys to keep (those ``res`` has)
+
+    Returns
+    -------
+    Traces
+        Time [s] and the kept columns [SI] with the kept metadata.
     """
     from ..plotting import Traces
 

@@ -77,6 +77,11 @@ class BorderedSystem:
             States, [SI]
         p : ndarray
             Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            The nonzeros, [1/s] (cut signals' rows and columns in SI).
         """
         dp = ctypes.POINTER(ctypes.c_double)
         x = np.ascontiguousarray(np.asarray(x, dtype=float))

@@ -196,6 +196,11 @@ def interface_signals(network) -> list[str]:
     ----------
     network : Network
         The assembled model
+
+    Returns
+    -------
+    list of str
+        Signal names, in the network's signal order.
     """
     if not callable(getattr(network, "evaluate", None)) or not hasattr(network, "producer"):
         return []
@@ -355,6 +360,11 @@ def lu_plan(n: int, rows, cols) -> LUPlan:
         Row index of each Jacobian nonzero
     cols : list
         Column index of each Jacobian nonzero
+
+    Returns
+    -------
+    LUPlan
+        Elimination order, fill-in slots, the L and U entries and the flop count.
     """
     pattern = set(zip(rows, cols)) | {(i, i) for i in range(n)}
     order = minimum_degree_order(n, pattern)
@@ -478,6 +488,11 @@ def structure_key(functions) -> str:
     ----------
     functions : tuple
         ``(f, jac, signals)`` of :func:`scaled_functions`
+
+    Returns
+    -------
+    str
+        Hex digest.
     """
     h = hashlib.sha256()
     for fun in functions:
@@ -499,6 +514,11 @@ def constant_positions(functions) -> list[list[int]]:
     ----------
     functions : tuple
         ``(f, jac, signals)`` of :func:`scaled_functions`
+
+    Returns
+    -------
+    list of list of int
+        Instruction indices, one list per function.
     """
     return [[k for k in range(fun.n_instructions()) if fun.instruction_id(k) == ca.OP_CONST]
             for fun in functions]
@@ -518,6 +538,11 @@ def constants_at(functions, positions, network=None) -> np.ndarray:
         The model's network, whose numbers and scales come first where the
         functions take them (:func:`number_prefix`); None: the graph's
         constants only
+
+    Returns
+    -------
+    ndarray
+        The constants ``c``, [SI] (numbers and state scales first where the functions take them).
     """
     graph = np.array([fun.instruction_constant(k) for fun, ks in zip(functions, positions)
                       for k in ks], dtype=float)
@@ -535,6 +560,11 @@ def generate(model, functions=None) -> GeneratedModel:
         The network's CasADi graph (``network.compile()``)
     functions : tuple
         Its :func:`scaled_functions`, when already made
+
+    Returns
+    -------
+    GeneratedModel
+        The C source, its key, the constants [SI] and the sizes.
     """
     net = model.network
     n, m = len(net.state_names), len(net.parameter_names)

@@ -172,6 +172,11 @@ class NativeModel:
         ----------
         jnz : ndarray
             Nonzeros, [1/s]
+
+        Returns
+        -------
+        ndarray
+            The Jacobian, n x n, [1/s].
         """
         g = self.generated
         if self._jac_index is None:
@@ -239,6 +244,11 @@ class NativeModel:
             lightly damped fast modes would make it unstable
             (:mod:`.stability`; False: the orders are chosen by accuracy
             alone, as before)
+
+        Returns
+        -------
+        NativeSolver
+            A fresh solver with these settings.
         """
         return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef,
                             order_limits)
@@ -422,14 +432,28 @@ class NativeSolver:
         return block if table else (X, Y)
 
     def state(self):
-        """Current (x [SI], t [s])."""
+        """Current (x [SI], t [s]).
+
+        Returns
+        -------
+        x : ndarray
+            States, [SI].
+        t : float
+            Time, [s].
+        """
         x = np.empty(self.model.n)
         t = ctypes.c_double()
         self._lib.hl_get_state(self._h, _ptr(x), ctypes.byref(t))
         return x, t.value
 
     def stats(self) -> dict:
-        """Steps, f and Jacobian evaluations, LU factorizations, rejected steps, ..."""
+        """Steps, f and Jacobian evaluations, LU factorizations, rejected steps, ...
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         s = (ctypes.c_longlong * 7)()
         self._lib.hl_stats(self._h, s)
         keys = ("nsteps", "nfevals", "njevals", "nlu", "nrejected", "nnewton_fail", "ndense_lu")
@@ -451,6 +475,11 @@ class NativeSolver:
             States, [SI]
         out : ndarray
             Array to fill, [1/s] (made when None)
+
+        Returns
+        -------
+        ndarray
+            The nonzeros, [1/s].
         """
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
         if x.shape != (self.model.n,):
@@ -470,6 +499,11 @@ class NativeSolver:
             Time, [s]
         x : ndarray
             States, [SI]
+
+        Returns
+        -------
+        ndarray
+            The Jacobian, n x n, [1/s].
         """
         self._jnz = self.scaled_jacobian_nonzeros(t, x, self._jnz)
         return self.model.dense_jacobian(self._jnz)
@@ -485,6 +519,11 @@ class NativeSolver:
             Time, [s]
         x : ndarray
             States, [SI]
+
+        Returns
+        -------
+        ndarray
+            Signal values, [SI].
         """
         self.start(t, x, t + max(1.0, abs(t)))
         _, y = self.advance([t])       # an output at the segment's start: no step taken
@@ -499,6 +538,11 @@ class NativeSolver:
             Time, [s]
         x : ndarray
             States, [SI]
+
+        Returns
+        -------
+        ndarray
+            dx/dt, [SI/s].
         """
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
         if x.shape != (self.model.n,):
@@ -562,6 +606,11 @@ def native_model(network, wait: bool | None = None) -> NativeModel:
         The graph holds an operation the C writer does not know
     LibraryPending
         Not ``wait``: the library is being built in the background
+
+    Returns
+    -------
+    NativeModel
+        The loaded model.
     """
     nm = network.__dict__.get("_native_model")
     if nm is None:

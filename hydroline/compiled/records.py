@@ -37,6 +37,11 @@ def model_fingerprint(model) -> str:
     ----------
     model : CompiledModel
         The network's CasADi functions (:class:`hydroline.engine.CompiledModel`)
+
+    Returns
+    -------
+    str
+        Hex digest.
     """
     scales = np.asarray(model.network.state_scales, dtype=float).tobytes()
     return _hash_parts(model.f.serialize(), model.signals.serialize(), _CODE_TAG,
@@ -66,6 +71,11 @@ def definition_key(network) -> str | None:
     ----------
     network : Network
         The assembled model
+
+    Returns
+    -------
+    str or None
+        The key, ``"definition:<hex digest>"``; None where the network gives none.
     """
     describe = getattr(network, "definition_fingerprint", None)
     digest = describe() if describe is not None else None
@@ -88,6 +98,11 @@ def numbers_key(network) -> str | None:
     ----------
     network : Network
         The assembled model
+
+    Returns
+    -------
+    str or None
+        The key, ``"numbers:<hex digest>"``; None where the network gives none.
     """
     describe = getattr(network, "definition_fingerprint", None)
     try:
@@ -112,6 +127,11 @@ def known_numbers_model(key: str | None, network):
         :func:`numbers_key` of the network; None: unknown
     network : Network
         The assembled model the record must fit
+
+    Returns
+    -------
+    tuple
+        ``(GeneratedModel, library tag)``, or ``(None, None)`` when unknown.
     """
     if key is None:
         return None, None
@@ -179,6 +199,11 @@ def known_model(fingerprint: str | None, network):
         :func:`model_fingerprint`); None: unknown
     network : Network
         The assembled model the record must fit
+
+    Returns
+    -------
+    tuple
+        ``(GeneratedModel, library tag)``, or ``(None, None)`` when unknown.
     """
     if fingerprint is None:
         return None, None
@@ -234,6 +259,11 @@ def structure_record_key(functions) -> str:
     functions : object
         The model's scaled CasADi functions
         (:func:`hydroline.compiled.codegen.scaled_functions`)
+
+    Returns
+    -------
+    str
+        The key.
     """
     settings = hashlib.sha256(build_settings().encode()).hexdigest()[:16]
     from .codegen import structure_key
@@ -256,6 +286,11 @@ def known_structure(functions, key: str, network):
         The structure's record key (:func:`structure_record_key`)
     network : Network
         The assembled model the record must fit
+
+    Returns
+    -------
+    tuple
+        ``(GeneratedModel, library tag)``, or ``(None, None)`` when unknown.
     """
     rec = _STRUCTURES.get(key)
     if rec is None:

@@ -69,7 +69,13 @@ class LibraryPending(RuntimeError):
 
 def compiler() -> str | None:
     """The C compiler's path: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH; None
-    without one."""
+    without one.
+
+    Returns
+    -------
+    str or None
+        The compiler's path, or None.
+    """
     cc = os.environ.get("CC")
     if cc and shutil.which(cc):
         return shutil.which(cc)
@@ -81,7 +87,13 @@ def compiler() -> str | None:
 
 
 def available() -> bool:
-    """True when a C compiler is on the PATH (the compiled core can be built)."""
+    """True when a C compiler is on the PATH (the compiled core can be built).
+
+    Returns
+    -------
+    bool
+        True when a compiler is found.
+    """
     return compiler() is not None
 
 
@@ -112,14 +124,26 @@ def _bdf_source() -> str:
 def native_flags() -> list[str]:
     """The CPU-specific compiler flags of a build: :data:`NATIVE_FLAGS`, or none when
     ``$HYDROLINE_PORTABLE_BUILD`` is set (and not ``0``). Read at each build, so a process
-    can build both kinds; their libraries and records have separate cache keys."""
+    can build both kinds; their libraries and records have separate cache keys.
+
+    Returns
+    -------
+    list of str
+        The flags (empty for a portable build).
+    """
     portable = os.environ.get(PORTABLE_ENV, "").strip() not in ("", "0")
     return [] if portable else list(NATIVE_FLAGS)
 
 
 def build_settings() -> str:
     """What a library's machine code depends on besides its source: the compiler flags, the
-    platform and this CPU."""
+    platform and this CPU.
+
+    Returns
+    -------
+    str
+        Flags, platform and CPU identifier, as one text.
+    """
     return " ".join(CFLAGS + native_flags()) + sys.platform + _cpu_id()
 
 

@@ -88,6 +88,11 @@ class CompiledBackend:
             States, [SI]
         p : ndarray
             Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            Signal values, [SI].
         """
         self.solver.set_parameters(p)
         y = self.solver.signals(t, x)
@@ -114,7 +119,13 @@ class CompiledBackend:
         return table[:, self.n_signals:], table
 
     def stats(self) -> dict:
-        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        """Solver statistics: function and Jacobian evaluations, steps (counts).
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         return self.solver.stats()
 
 
@@ -210,7 +221,13 @@ class CvodesBackend:
         return X
 
     def stats(self) -> dict:
-        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        """Solver statistics: function and Jacobian evaluations, steps (counts).
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         return dict(self.counts)
 
 

@@ -160,7 +160,13 @@ class Parameter:
     plausible: tuple | None = None
 
     def rule(self) -> str:
-        """The bound as text, e.g. "> 0" or "within [1, 1.66667]"."""
+        """The bound as text, e.g. "> 0" or "within [1, 1.66667]".
+
+        Returns
+        -------
+        str
+            The bound, e.g. ``"> 0"``, ``"one of 'a', 'b'"`` or ``"finite"``.
+        """
         if self.choices:
             return "one of " + ", ".join(repr(c) for c in self.choices)
         if self.minimum is not None and self.maximum is not None:
@@ -211,6 +217,11 @@ class Parameter:
         ----------
         value : object
             The value, [unit]
+
+        Returns
+        -------
+        str or None
+            The plausible range as text, or None when the value is plausible.
         """
         if self.plausible is None or value is None or self.unit == "str":
             return None
@@ -235,6 +246,11 @@ def is_number(value) -> bool:
     ----------
     value : object
         An attribute's value
+
+    Returns
+    -------
+    bool
+        True for a run-time number.
     """
     if type(value) is float or isinstance(value, np.floating):
         return True
@@ -267,6 +283,11 @@ def range_text(low, high) -> str:
         Lower end, [unit]; None: open
     high : float
         Upper end, [unit]; None: open
+
+    Returns
+    -------
+    str
+        The range as text.
     """
     if low is None:
         return f"at most {high:g}"
@@ -358,7 +379,13 @@ class Component:
     @classmethod
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
-        (with its default filled in)."""
+        (with its default filled in).
+
+        Returns
+        -------
+        dict
+            Parameter name -> :class:`Parameter`.
+        """
         known = cls.__dict__.get("_declared_parameters")   # per class (not inherited)
         if known is None:
             known = {}
@@ -470,16 +497,33 @@ class Component:
             Inputs, local port name -> value [SI]
         p : dict
             Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        dict
+            State local name -> time derivative, [SI unit/s].
         """
         return {}
 
     # ---- optional hooks ------------------------------------------------------------------
     def runtime_parameters(self) -> dict:
-        """Parameters that may change without rebuilding the compiled model, name -> value."""
+        """Parameters that may change without rebuilding the compiled model, name -> value.
+
+        Returns
+        -------
+        dict
+            Parameter name -> value, [SI].
+        """
         return {}
 
     def initial_guess(self) -> dict:
-        """Guess of every state for the steady-state solver, local name -> value [SI]."""
+        """Guess of every state for the steady-state solver, local name -> value [SI].
+
+        Returns
+        -------
+        dict
+            State local name -> guess, [SI].
+        """
         return {s.name: 0.0 for s in self.states}
 
     def settle(self, x: dict, u: dict, p: dict):
@@ -507,6 +551,11 @@ class Component:
             States at the instant, local name -> value [SI]
         u : dict
             Inputs there, local port name -> value [SI]
+
+        Returns
+        -------
+        dict
+            Runtime parameter name -> value to hold, [SI].
         """
         return {}
 
@@ -517,12 +566,23 @@ class Component:
         ----------
         t_end : float
             End of the run, [s]
+
+        Returns
+        -------
+        list of float
+            The times, [s].
         """
         return []
 
     def hydraulic_ends(self) -> dict:
         """Where the component meets the oil, end name -> :class:`HydraulicEnd`; empty for a
-        component of signals only (a command, a controller, friction)."""
+        component of signals only (a command, a controller, friction).
+
+        Returns
+        -------
+        dict
+            End name -> :class:`HydraulicEnd`.
+        """
         return {}
 
     def signal(self, port: str) -> str:
@@ -532,5 +592,10 @@ class Component:
         ----------
         port : str
             Local port name
+
+        Returns
+        -------
+        str
+            The network signal's name (the port's own name when not connected elsewhere).
         """
         return self.connections.get(port, port)

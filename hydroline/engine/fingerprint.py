@@ -110,6 +110,11 @@ def used_modules(name: str) -> frozenset:
     ----------
     name : str
         Module name
+
+    Returns
+    -------
+    frozenset of str
+        Module names.
     """
     out = _USES.get(name)
     if out is None:
@@ -216,6 +221,11 @@ def module_bindings(name: str) -> list:
     ----------
     name : str
         Module name
+
+    Returns
+    -------
+    list
+        ``(name, value)`` of a plain value, ``(name, kind, where)`` of anything else.
     """
     out = []   # (name, value) of a plain value, (name, kind, where) of anything else
     for key, value in vars(sys.modules[name]).items():

@@ -33,6 +33,11 @@ def segments(t_end: float, breakpoints, sample_time: float | None = None) -> lis
         Times where inputs jump, [s]
     sample_time : float
         Zero-order-hold period of a sampled component, [s] (None: none)
+
+    Returns
+    -------
+    list of float
+        The edges, [s].
     """
     edges = {0.0, float(t_end)}
     edges.update(b for b in breakpoints if 0 < b < t_end)

@@ -174,12 +174,24 @@ class Network:
 
     # ---- connections -------------------------------------------------------------------
     def connection_table(self) -> list[dict]:
-        """One row per signal: producer, consumers, quantity, unit (see :func:`connection_table`)."""
+        """One row per signal: producer, consumers, quantity, unit (see :func:`connection_table`).
+
+        Returns
+        -------
+        list of dict
+            As :func:`connection_table`.
+        """
         return connection_table(self.components)
 
     def unused_signals(self) -> list[str]:
         """Signals that some component outputs and no component reads (most are observations:
-        a port pressure, a chamber pressure; see :meth:`lost_flows` for the ones that matter)."""
+        a port pressure, a chamber pressure; see :meth:`lost_flows` for the ones that matter).
+
+        Returns
+        -------
+        list of str
+            Signal names.
+        """
         read = {c.signal(p) for c in self.components for p in c.inputs}
         return [s for s in self.producer if s not in read]
 
@@ -192,6 +204,11 @@ class Network:
         reads the pressures of both ends. When every such pressure comes from a boundary (a
         component with no inputs, e.g. a pressure source or the tank) the boundaries absorb
         the flow. Any other unread flow leaves the circuit: mass is not conserved.
+
+        Returns
+        -------
+        list of str
+            ``"signal (component.port)"`` per lost flow.
         """
         out = []
         for sig in self.unused_signals():
@@ -214,6 +231,16 @@ class Network:
         ----------
         name : str
             Component name
+
+        Returns
+        -------
+        Component
+            The component.
+
+        Raises
+        ------
+        KeyError
+            No component of that name.
         """
         for c in self.components:
             if c.name == name:
@@ -227,6 +254,11 @@ class Network:
         ----------
         name : str
             Component name
+
+        Returns
+        -------
+        slice
+            Its indices in the state vector.
         """
         return self._state_slices[name]
 
@@ -318,6 +350,11 @@ class Network:
             States, [SI]
         p : ndarray
             Runtime parameters, [SI]; the network's values when None
+
+        Returns
+        -------
+        ndarray
+            dx/dt, [SI/s].
         """
         dx, _ = self.evaluate(t, np.asarray(x, dtype=float), p)
         return np.array([float(v) for v in dx])
@@ -333,6 +370,11 @@ class Network:
             States, [SI]
         p : ndarray
             Runtime parameters, [SI]; the network's values when None
+
+        Returns
+        -------
+        dict
+            Signal name -> value, [SI].
         """
         _, sig = self.evaluate(t, np.asarray(x, dtype=float), p)
         return {k: float(v) for k, v in sig.items()}
@@ -359,7 +401,13 @@ class Network:
         return names, np.array(values, dtype=float)
 
     def compile(self):
-        """The assembled model as CasADi functions (built once per network)."""
+        """The assembled model as CasADi functions (built once per network).
+
+        Returns
+        -------
+        CompiledModel
+            The CasADi functions of the right-hand side, its Jacobian and the signals.
+        """
         if self._compiled is None:
             self._compiled = CompiledModel(self)
         return self._compiled
@@ -384,11 +432,22 @@ class Network:
             Leave out the numbers the compiled model takes at run time (the
             components' own numbers, the state scales): networks that differ
             only in them share this fingerprint
+
+        Returns
+        -------
+        str or None
+            Hex digest, or None.
         """
         return definition_fingerprint(self, structure)
 
     def guess(self) -> np.ndarray:
-        """Initial guess of all states from the components, [SI]."""
+        """Initial guess of all states from the components, [SI].
+
+        Returns
+        -------
+        ndarray
+            States, [SI].
+        """
         x = np.zeros(len(self.state_names))
         for c in self.components:
             g = c.initial_guess()
@@ -404,6 +463,11 @@ class Network:
         ----------
         t_end : float
             End of the run, [s]
+
+        Returns
+        -------
+        list of float
+            The times, [s].
         """
         pts = set()
         for c in self.components:
@@ -523,6 +587,11 @@ class CompiledModel:
             States, [SI]
         p : ndarray
             Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            dx/dt, [SI/s].
         """
         return np.asarray(self.f(t, x, p)).ravel()
 
@@ -537,6 +606,11 @@ class CompiledModel:
             States, [SI]
         p : ndarray
             Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            d(dx/dt)/dx, n x n, [1/s in state units].
         """
         import casadi as ca
 

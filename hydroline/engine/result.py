@@ -148,7 +148,13 @@ class SimulationResult:
 
     def csv_header(self) -> list[str]:
         """``time [s]``, then every column with its SI unit (``supply_port_pressure [Pa]``), as
-        ``hydroline fit`` reads it."""
+        ``hydroline fit`` reads it.
+
+        Returns
+        -------
+        list of str
+            Column headings.
+        """
         units = self.metadata.get("units", {})
         return ["time [s]"] + [f"{c} [{units[c]}]" if c in units else c for c in self.columns]
 
@@ -244,6 +250,11 @@ class SimulationResult:
             Write the figure there (PNG) when given
         title : str
             Figure title
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
         """
         import importlib
 
@@ -324,6 +335,11 @@ def column_units(network: Network) -> dict:
     ----------
     network : Network
         The model
+
+    Returns
+    -------
+    dict
+        Name -> SI unit text.
     """
     units = network.__dict__.get("_column_units")   # made once per network
     if units is None:
@@ -348,6 +364,18 @@ def column_indices(what, names, columns):
         Requested column names
     columns : list
         The available columns
+
+    Returns
+    -------
+    names : list of str
+        The names, as given.
+    indices : ndarray of int
+        Their indices in ``columns``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``what`` and the unknown names.
     """
     names = list(names)
     unknown = [k for k in names if k not in columns]
@@ -365,6 +393,11 @@ def csv_rows(rows) -> str:
     ----------
     rows : ndarray
         2-D array of values, [SI]
+
+    Returns
+    -------
+    str
+        The CSV text, one line per row.
     """
     rows = np.asarray(rows, dtype=float)
     line = ",".join(["%.9g"] * rows.shape[1]) + "\n"
@@ -462,6 +495,11 @@ class OutputSink:
         ----------
         n : int
             Rows, [-]
+
+        Returns
+        -------
+        ndarray or None
+            A view of ``n`` rows of the table, [SI], or None.
         """
         if self.keep is not None or self.kept is None or self.rows + n > len(self.kept):
             return None
@@ -535,14 +573,26 @@ class OutputSink:
 
     def rows_so_far(self):
         """(times [s], table [SI]) of the rows written so far where every column is kept in one
-        table; None otherwise (streamed, ``keep``, or gone on in parts)."""
+        table; None otherwise (streamed, ``keep``, or gone on in parts).
+
+        Returns
+        -------
+        tuple or None
+            ``(times [s], table [SI])``, or None.
+        """
         if self.keep is not None or self.path is not None or self.kept is None:
             return None
         return self.kept_t[:self.rows], self.kept[:self.rows]
 
     def result(self):
         """(times, table, columns): the rows kept (all columns, or the ``keep`` columns), or the
-        last row of every column when streaming without ``keep``."""
+        last row of every column when streaming without ``keep``.
+
+        Returns
+        -------
+        tuple
+            ``(times [s], table [SI], column names)``.
+        """
         if self.path is not None:
             self.file.close()
         if self.keep is None and self.path is not None:
@@ -556,7 +606,13 @@ class OutputSink:
                 np.vstack([q[1] for q in self.parts]), columns)
 
     def preview_result(self):
-        """(times, table, columns) of the preview, or None."""
+        """(times, table, columns) of the preview, or None.
+
+        Returns
+        -------
+        tuple or None
+            ``(times [s], table [SI], column names)``, or None without a preview.
+        """
         if self.preview is None or not self.preview_parts:
             return None
         return (np.concatenate([q[0] for q in self.preview_parts]),
@@ -569,6 +625,11 @@ class OutputSink:
         ----------
         names : list
             Only these columns (all when None)
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``min``, ``max``, ``mean``, ``rms``, [SI of each row].
         """
         import pandas as pd
 

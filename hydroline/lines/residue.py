@@ -223,6 +223,11 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
         Modes, [-]
     form : str
         Causal form: "PQ", "QP", "PP" or "QQ"
+
+    Returns
+    -------
+    ndarray
+        Complex poles, one per mode, [1/s].
     """
     thetas = modal_angles(n_modes, form)
     together = dissipative_roots(line, thetas)   # every mode at once: one Bessel call a step

@@ -128,6 +128,11 @@ class Simulation:
             The experiment
         t_end : float
             Simulated time, [s] (None: the experiment's own)
+
+        Returns
+        -------
+        tuple or None
+            The key, or None when the model is not kept.
         """
         if not isinstance(scenario, str) or any(k.endswith(".file") for k in rig.values):
             return None
@@ -335,6 +340,11 @@ def watched_pressures(res: SimulationResult) -> list[str]:
     ----------
     res : SimulationResult
         A run
+
+    Returns
+    -------
+    list of str
+        Signal names.
     """
     axes = res.metadata.get("axes") or {}
     if not axes:

@@ -424,7 +424,13 @@ class SineRig:
         self.nominal = pressures if pressures is not None else self.port_pressures()
 
     def port_pressures(self) -> dict:
-        """Axis -> (supply, return) pressure at its valve's ports in the rest state, [Pa]."""
+        """Axis -> (supply, return) pressure at its valve's ports in the rest state, [Pa].
+
+        Returns
+        -------
+        dict
+            Axis name -> ``(supply, return)`` pressures, [Pa].
+        """
         sig = self.network.signals_at(0.0, self.rest.x, self.rest.p)
         return {name: (sig[ax.supply_pressure], sig[ax.return_pressure])
                 for name, ax in self.axes.items()}
@@ -864,6 +870,11 @@ def default_frequencies(points: int = 20, low: float = 0.5, high: float = 200.0)
         Lowest, [Hz]
     high : float
         Highest, [Hz]
+
+    Returns
+    -------
+    ndarray
+        The frequencies, [Hz].
     """
     if points == 1:
         return np.array([float(low)])
@@ -1005,6 +1016,11 @@ class EnvelopeRunner:
         ----------
         supply : str
             "hoses" or "constant"
+
+        Returns
+        -------
+        SineRig
+            The rig of that supply.
         """
         if supply not in self._rigs:
             self._rigs[supply] = SineRig(self.rig, supply, self.axis, self.pressures, self.solver)
@@ -1077,6 +1093,11 @@ class EnvelopeResult:
         ----------
         points : list of dict
             From :func:`envelope_points`
+
+        Returns
+        -------
+        dict
+            Key -> list with one value per frequency, [the key's unit].
         """
         keys = [k for k in (points[0] if points else {}) if k != "frequency_hz"]
         return {k: [p[k] for p in points] for k in keys}
@@ -1085,7 +1106,13 @@ class EnvelopeResult:
         """The JSON form: ``frequency_hz``, the hose curve's lists (``displacement_amplitude_m``,
         ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
         ``limited_by``, ...), ``constant_supply`` and ``analytic`` with the same keys, and the
-        study's settings."""
+        study's settings.
+
+        Returns
+        -------
+        dict
+            The JSON document (plain numbers and texts).
+        """
         out = {"frequency_hz": list(self.frequency_hz), **self.curve(self.hoses)}
         if self.constant_supply:
             out["constant_supply"] = self.curve(self.constant_supply)
@@ -1096,7 +1123,13 @@ class EnvelopeResult:
 
     def rows(self) -> list[dict]:
         """One CSV row per frequency: the hose curve, the constant supply's and the analytic
-        one side by side (``constant_supply.<key>``, ``analytic.<key>``)."""
+        one side by side (``constant_supply.<key>``, ``analytic.<key>``).
+
+        Returns
+        -------
+        list of dict
+            Column name -> value, one dict per frequency.
+        """
         rows = []
         for k, f in enumerate(self.frequency_hz):
             row = {"frequency_hz": f}

@@ -155,6 +155,11 @@ class Variable:
         ----------
         z : float
             Scaled coordinate, [-]
+
+        Returns
+        -------
+        object
+            The value, [unit] (a number, or a choice's value).
         """
         if self.discrete:
             return self.choices[int(np.clip(round(float(z)), 0, len(self.choices) - 1))]
@@ -167,6 +172,11 @@ class Variable:
         ----------
         value : float
             [unit]
+
+        Returns
+        -------
+        float or None
+            The scaled coordinate, [-]; None out of range.
         """
         if self.discrete:
             return float(self.choices.index(value)) if value in self.choices else None
@@ -175,7 +185,13 @@ class Variable:
         return (value - self.low) / (self.high - self.low)
 
     def describe(self) -> str:
-        """The range or choices as text with the unit."""
+        """The range or choices as text with the unit.
+
+        Returns
+        -------
+        str
+            E.g. ``"5 m .. 20 m"`` or ``"{0.01 m, 0.02 m}"``.
+        """
         def text(v):
             number, unit = shown_value(v, self.unit)
             return f"{number:g} {unit}".strip() if isinstance(number, float) else str(number)
@@ -270,7 +286,13 @@ class Constraint:
     bound: float
 
     def describe(self) -> str:
-        """The constraint as text, ``METRIC<=VALUE``."""
+        """The constraint as text, ``METRIC<=VALUE``.
+
+        Returns
+        -------
+        str
+            ``METRIC<=VALUE`` or ``METRIC>=VALUE``.
+        """
         return f"{self.metric}{self.sense}{self.bound:g}"
 
     def margin(self, value: float) -> float:
@@ -280,6 +302,11 @@ class Constraint:
         ----------
         value : float
             The metric, [its unit] (NaN: failed, -inf returned)
+
+        Returns
+        -------
+        float
+            The margin, [-].
         """
         if not math.isfinite(value):
             return -math.inf
@@ -301,6 +328,11 @@ def parse_constraint(text) -> Constraint:
     ------
     RigError
         One line naming ``--subject-to`` and the text.
+
+    Returns
+    -------
+    Constraint
+        The constraint (``text`` itself when it is one).
     """
     if isinstance(text, Constraint):
         return text
@@ -960,7 +992,13 @@ class OptimizeResult:
     def to_dict(self) -> dict:
         """The JSON document: ``optimum`` (PATH: SI value), ``objective``, ``metrics``,
         ``evaluations``, ``feasible``, ``active_constraints``, ``converged``, ``front`` (with
-        several objectives) and the rest of the attributes but ``rig`` (files as text)."""
+        several objectives) and the rest of the attributes but ``rig`` (files as text).
+
+        Returns
+        -------
+        dict
+            The document (plain numbers, texts, lists and dicts).
+        """
         def plain(v):
             if isinstance(v, float) and not math.isfinite(v):
                 return None
