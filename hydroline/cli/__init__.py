@@ -46,12 +46,28 @@ SUBCOMMANDS = [
 
 
 class UsageError(ValueError):
-    """Bad input from the user: printed as one line, exit code 2."""
+    """Bad input from the user: printed as one line, exit code 2.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the option.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM, turned into an exception so that a run stops as cleanly as on Ctrl-C (temporary
-    files removed, finished sweep variants recorded); the command exits with 143."""
+    files removed, finished sweep variants recorded); the command exits with 143.
+
+    Parameters
+    ----------
+    *args : str
+        The message.
+    **kwargs : dict
+        None taken (as ``KeyboardInterrupt``).
+    """
 
 
 def raise_terminated(signum, frame):

@@ -23,7 +23,15 @@ __all__ = ["SCHEMA_VERSION", "quantity", "out_dir", "atomic_outputs", "OutputErr
 
 
 class OutputError(ValueError):
-    """An output path that cannot be written; the message is one line naming it."""
+    """An output path that cannot be written; the message is one line naming it.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the path.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 def quantity(text, unit, name):

@@ -135,7 +135,9 @@ def write_csv(result, path) -> None:
     Parameters
     ----------
     result : EnvelopeResult
+        The study's outcome
     path : Path
+        CSV file to write
     """
     rows = result.rows()
     columns = list(dict.fromkeys(k for r in rows for k in r))
@@ -152,6 +154,12 @@ def json_document(result) -> dict:
     Parameters
     ----------
     result : EnvelopeResult
+        The study's outcome
+
+    Returns
+    -------
+    dict
+        The document.
     """
     return {"schema_version": SCHEMA_VERSION, **result.to_dict()}
 

@@ -90,7 +90,10 @@ def smooth_step_filter(line: Line, n_modes: int):
 
     Returns
     -------
-    (W, (A, B, C)) : W(s) callable and its state-space form (one input, one output), [1/s]
+    W : callable
+        ``W(s)``, the filter's transfer function, [-]
+    (A, B, C) : tuple of ndarray
+        Its state-space form (one input, one output), [1/s]
     """
     omega_n = (n_modes - 0.5) * np.pi / line.wave_time
     a = 4.0 / (20.0 / omega_n) * np.array([0.8, 0.93, 1.07, 1.2])
@@ -136,13 +139,24 @@ def blocked_step_errors(line: Line, models: dict, periods: int = 20,
 
     Returns
     -------
-    (t [s], exact [Pa/Pa], {label: response [Pa/Pa]}, {label: dict of errors}); errors in %
-    of the step: ``max_pct``, ``rms_pct`` over the whole run, ``max_settled_pct`` after
-    ``STEP_SETTLE_PERIODS`` wave periods, and ``max_smooth_pct``, over the whole run, for
-    the step through :func:`smooth_step_filter`. The exact response jumps at the wave
-    fronts, which no finite modal model follows (~half the jump next to the first ones,
-    Gibbs; on lightly damped lines the ringing lasts many periods), hence the smoothed
-    step, which the retained modes resolve: its error measures the model, not truncation.
+    t : ndarray
+        Times, [s]
+    exact : ndarray
+        The exact response, [Pa/Pa]
+    responses : dict
+        Label -> the model's response, [Pa/Pa]
+    errors : dict
+        Label -> dict of errors in % of the step: ``max_pct``, ``rms_pct`` over the
+        whole run, ``max_settled_pct`` after ``STEP_SETTLE_PERIODS`` wave periods, and
+        ``max_smooth_pct``, over the whole run, for the step through
+        :func:`smooth_step_filter`
+
+    Notes
+    -----
+    The exact response jumps at the wave fronts, which no finite modal model follows
+    (~half the jump next to the first ones, Gibbs; on lightly damped lines the ringing
+    lasts many periods), hence the smoothed step, which the retained modes resolve: its
+    error measures the model, not truncation.
     """
     if int(periods) != periods or periods < 1:
         raise ValueError(f"--step-periods must be an integer >= 1, got {periods!r}")

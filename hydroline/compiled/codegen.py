@@ -92,12 +92,19 @@ def assignments(fun: ca.Function, binary: dict, unary: dict, inputs: list[str], 
     constants : list[float]
         Constants found are appended here and read as ``c[k]``
 
-    Work variables are ``w0, w1, ...`` (``fun.sz_w()`` of them).
+    Returns
+    -------
+    list of tuple
+        ``(target, expression)`` pairs, in execution order.
 
     Raises
     ------
     UnsupportedOperation
         An operation without a template (e.g. a call to an interpolant)
+
+    Notes
+    -----
+    Work variables are ``w0, w1, ...`` (``fun.sz_w()`` of them).
     """
     for k in range(fun.n_instructions()):
         op = fun.instruction_id(k)
@@ -160,7 +167,8 @@ def scaled_functions(model):
 
     Returns
     -------
-    (f, jac, signals) : casadi.Function of (t, z, p) or (t, z, p, c): dz/dt, the bordered
+    (f, jac, signals) : tuple of casadi.Function
+        Functions of (t, z, p) or (t, z, p, c): dz/dt, the bordered
         Jacobian (:func:`bordered_jacobian`; d(dz/dt)/dz itself where the network is not
         cut), every signal [SI]
     """
@@ -303,7 +311,13 @@ def minimum_degree_order(n: int, pattern) -> list[int]:
     ----------
     n : int
         Matrix size (states), [-]
-    pattern : iterable (row, column) pairs of the nonzeros
+    pattern : iterable
+        ``(row, column)`` pairs of the nonzeros
+
+    Returns
+    -------
+    list of int
+        The elimination order.
     """
     adj = [set() for _ in range(n)]
     for i, j in pattern:

@@ -10,7 +10,15 @@ __all__ = ["GeneratedModel", "UnsupportedOperation", "number_prefix"]
 
 
 class UnsupportedOperation(NotImplementedError):
-    """The graph holds an operation the C writer does not know (the caller falls back)."""
+    """The graph holds an operation the C writer does not know (the caller falls back).
+
+    Parameters
+    ----------
+    *args : str
+        The message: the operation.
+    **kwargs : dict
+        None taken (as ``NotImplementedError``).
+    """
 
 
 @dataclass

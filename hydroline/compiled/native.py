@@ -259,7 +259,8 @@ class NativeSolver:
 
     Parameters
     ----------
-    model : NativeModel The compiled library and its constants
+    model : NativeModel
+        The compiled library and its constants
     p : ndarray
         Runtime parameters, [SI]
     rtol : float
@@ -273,9 +274,11 @@ class NativeSolver:
         > 0: fixed-step BDF of order max_order without error control, [s]
     max_order : int
         Highest BDF order (1-5)
-    newton_coef : float Newton convergence tolerance relative to the error-test tolerance, [-]
-    order_limits : bool Stability limits of the NDF orders 3-5 on the model's fast modes
-                        (:mod:`.stability`), set before the first step
+    newton_coef : float
+        Newton convergence tolerance relative to the error-test tolerance, [-]
+    order_limits : bool
+        Stability limits of the NDF orders 3-5 on the model's fast modes
+        (:mod:`.stability`), set before the first step
     """
 
     #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
@@ -385,8 +388,11 @@ class NativeSolver:
 
         Returns
         -------
-        (X, Y) : states [n_out, n_states] and signals [n_out, n_signals] (None if not asked), SI;
-                 with ``table=True`` one array [n_out, n_signals + n_states] (signals first)
+        X : ndarray
+            States, [n_out, n_states], [SI]; with ``table=True`` the only result:
+            one array [n_out, n_signals + n_states] (signals first), [SI]
+        Y : ndarray
+            Signals, [n_out, n_signals], [SI] (None if not asked)
         """
         t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
         if self._t_bound is None:

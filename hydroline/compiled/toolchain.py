@@ -47,7 +47,15 @@ MAX_LIBRARIES = 200
 
 
 class CompilerUnavailable(RuntimeError):
-    """No working C compiler: the compiled core cannot be built on this machine."""
+    """No working C compiler: the compiled core cannot be built on this machine.
+
+    Parameters
+    ----------
+    *args : str
+        The message: what failed.
+    **kwargs : dict
+        None taken (as ``RuntimeError``).
+    """
 
 
 class LibraryPending(RuntimeError):

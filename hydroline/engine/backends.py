@@ -112,8 +112,10 @@ class CompiledBackend:
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; signals and states side by side [SI]
-                     (``table`` is ``out`` where given)
+        X : ndarray
+            States, one row per time, [SI]
+        table : ndarray
+            Signals and states side by side, [SI] (``out`` where given)
         """
         table = self.solver.advance(grid, table=True, out=out)   # signals and states
         return table[:, self.n_signals:], table
@@ -185,7 +187,10 @@ class CvodesBackend:
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        X : ndarray
+            States, one row per time, [SI]
+        table : None
+            None (the sink evaluates the signals)
         """
         import casadi as ca
 
@@ -264,7 +269,10 @@ class ScipyBackend(CvodesBackend):
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        X : ndarray
+            States, one row per time, [SI]
+        table : None
+            None (the sink evaluates the signals)
         """
         from scipy.integrate import solve_ivp
 
@@ -296,8 +304,12 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
 
     Returns
     -------
-    (backend, note, build_time) : the backend object; None or the reason "auto" did not get
-        the compiled core; seconds spent building or loading the compiled library [s]
+    backend : object
+        The backend object
+    note : str or None
+        None, or the reason "auto" did not get the compiled core
+    build_time : float
+        Time spent building or loading the compiled library, [s]
     """
     import time
     import warnings

@@ -64,6 +64,7 @@ class Port:
 
     @property
     def unit(self) -> str:
+        """The signal's SI unit (from :data:`QUANTITY_UNITS`)."""
         return QUANTITY_UNITS[self.quantity]
 
 
@@ -466,6 +467,7 @@ class Component:
     # ---- to be provided by subclasses --------------------------------------------------
     @property
     def states(self) -> list[State]:
+        """The component's states, :class:`State` entries (none by default)."""
         return []
 
     def outputs_of(self, t, x, u, p):

@@ -54,7 +54,15 @@ LOADED_AT = time.time()
 
 
 class Undescribable(Exception):
-    """Part of a network that cannot be described by value (no fingerprint)."""
+    """Part of a network that cannot be described by value (no fingerprint).
+
+    Parameters
+    ----------
+    *args : str
+        The message: the part.
+    **kwargs : dict
+        None taken (as ``Exception``).
+    """
 
 
 def _in_package(module_name: str) -> bool:

@@ -192,7 +192,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         Relative tolerance, [-]
     atol_scale : float
         Absolute tolerance as a fraction of each state's typical magnitude, [-]
-    progress : callable Called with the fraction done (0..1) after each segment or chunk
+    progress : callable
+        Called with the fraction done (0..1) after each segment or chunk
     stream_to : path
         Write the time series to this CSV file chunk by chunk as the run
         goes, keeping only per-column summary statistics in memory (constant
@@ -205,9 +206,10 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     stream_every : int
         Write every n-th output row to ``stream_to`` (decimation; the last row
         always), [-]
-    keep_columns : list Keep only these columns in memory (every output row): ``data`` then
-                        holds them, and ``metadata["stream_stats"]`` has the statistics of
-                        every column (bounded memory for long runs without a file)
+    keep_columns : list
+        Keep only these columns in memory (every output row): ``data`` then
+        holds them, and ``metadata["stream_stats"]`` has the statistics of
+        every column (bounded memory for long runs without a file)
     preview_columns : list
         Also keep these columns at every k-th row, at most
         ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
@@ -236,6 +238,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     Returns
     -------
     SimulationResult
+        Times [s], signals and states [SI], solver statistics and metadata.
     """
     if not t_end > 0:
         raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")

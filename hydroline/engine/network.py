@@ -20,12 +20,28 @@ __all__ = ["Network", "NetworkError", "CompiledModel", "UnusedSignalWarning", "c
 
 
 class NetworkError(ValueError):
-    """A network that cannot be assembled: the message names components and signals."""
+    """A network that cannot be assembled: the message names components and signals.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the components and signals.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 class UnusedSignalWarning(UserWarning):
     """A flow that no component reads: the fluid leaves the circuit there (a wiring mistake,
-    unless it flows into a prescribed-pressure boundary, which absorbs it)."""
+    unless it flows into a prescribed-pressure boundary, which absorbs it).
+
+    Parameters
+    ----------
+    *args : str
+        The message: the lost flows.
+    **kwargs : dict
+        None taken (as ``UserWarning``).
+    """
 
 
 def connection_table(components) -> list[dict]:
@@ -308,7 +324,10 @@ class Network:
 
         Returns
         -------
-        (dx, signals) : list of derivatives in state order, dict signal -> value
+        dx : list
+            Derivatives in state order, [SI/s] (numbers or symbols)
+        signals : dict
+            Signal name -> value, [SI]
         """
         p = self.parameter_values if p is None else p
         equations = equations or {}

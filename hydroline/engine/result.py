@@ -21,12 +21,25 @@ class SimulationResult:
 
     Parameters
     ----------
+    data : pandas.DataFrame
+        Index ``time`` [s]; one column per signal and per state, [SI]; None: built
+        from ``times``, ``table`` and ``columns``
+    steady_state : SteadyState
+        The steady state the run started from
+    wall_time : float
+        Integration wall time, [s]
+    stats : dict
+        Solver statistics (function/Jacobian evaluations, steps)
+    warnings : list[str]
+        Validity warnings (e.g. pressure below zero absolute)
     metadata : dict
         Run description (rig, scenario, ``units``: column -> SI unit)
     times : array_like
         Output times, [s] (when ``data`` is None)
     table : array_like
         One row per time, one column per name in ``columns``, [SI]
+    columns : list[str]
+        Column names of ``table`` (when ``data`` is None), signals first
 
     Attributes
     ----------
@@ -37,6 +50,7 @@ class SimulationResult:
     columns : list[str]
         Column names of ``data``, signals first
     steady_state : SteadyState
+        The steady state the run started from
     wall_time : float
         Integration wall time, [s]
     stats : dict
@@ -68,6 +82,7 @@ class SimulationResult:
 
     @property
     def data(self):
+        """The table as a DataFrame: index ``time`` [s], one column per name, [SI]."""
         if self._data is None:
             import pandas as pd
 
@@ -77,6 +92,7 @@ class SimulationResult:
 
     @property
     def t(self) -> np.ndarray:
+        """Output times, [s]."""
         return self._times
 
     def __getitem__(self, key) -> np.ndarray:
@@ -370,7 +386,7 @@ def column_indices(what, names, columns):
     names : list of str
         The names, as given.
     indices : ndarray of int
-        Their indices in ``columns``.
+        Their indices in ``columns``, [-].
 
     Raises
     ------

@@ -27,6 +27,10 @@ class SteadyStateError(RuntimeError):
     ----------
     message : str
         One line: what did not settle and which parameters to look at
+    state : str
+        The state with the largest scaled residual (None when unknown)
+    residual : float
+        Its scaled residual, [1/s] (None when unknown)
 
     Attributes
     ----------

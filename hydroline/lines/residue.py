@@ -184,13 +184,19 @@ def propagation_derivative(line: Line, s):
     s : array_like complex
         Laplace variable off the origin, [1/s]
 
-    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
-    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
-
     Returns
     -------
-    (Gamma [-], Zc [Pa s/m^3], dGamma/ds [s]) : complex arrays, principal square roots as in
-    :meth:`Line.propagation`
+    Gamma : ndarray
+        Propagation operator, complex, [-]
+    Zc : ndarray
+        Characteristic impedance, complex, [Pa s/m^3]
+    dGamma_ds : ndarray
+        dGamma/ds, complex, [s]; principal square roots as in :meth:`Line.propagation`
+
+    Notes
+    -----
+    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
+    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
     """
     from scipy import special   # (where a line is computed: not for one read from the cache)
 
@@ -261,7 +267,8 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
 
     Returns
     -------
-    complex ndarray, shape ``poles.shape + (2, 2)``; [output unit * input unit^-1 / s]
+    ndarray
+        Complex, shape ``poles.shape + (2, 2)``, [output unit * input unit^-1 / s]
     """
     form = check_form(form)
     p = np.asarray(poles, dtype=complex)
@@ -322,7 +329,8 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
 
     Returns
     -------
-    ndarray (clusters, n_roots) of real poles s < 0, [1/s]
+    ndarray
+        (clusters, n_roots) real poles s < 0, [1/s]
     """
     form = check_form(form)
     Dn = line.dissipation_number
@@ -381,7 +389,10 @@ def exact_moments(line: Line, form: str = "PQ"):
 
     Returns
     -------
-    (H0, H1) : real (2, 2) arrays in form order; H1 in [H0 unit * s]
+    H0 : ndarray
+        Real (2, 2), in form order, [SI of the form]
+    H1 : ndarray
+        Real (2, 2), in form order, [H0 unit * s]
     """
     form = check_form(form)
     tau, Z0, Dn = line.wave_time, line.impedance, line.dissipation_number
@@ -464,8 +475,12 @@ def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = N
 
     Returns
     -------
-    (viscous, wall) : poles [1/s], complex arrays with both members of every complex pair:
-    the ones beside the viscous rates, and a list with one array per wall element
+    viscous : ndarray
+        Poles beside the viscous rates, complex, [1/s] (both members of every
+        complex pair)
+    wall : list of ndarray
+        Poles beside each wall element's retardation rate, one complex array per
+        element, [1/s]
     """
     form = check_form(form)
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -629,7 +644,8 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
 
     Returns
     -------
-    list of (inertance [kg/m^4], resistance [Pa s/m^3]) pairs, the exact branches first
+    list of tuple
+        ``(inertance [kg/m^4], resistance [Pa s/m^3])`` pairs, the exact branches first
     """
     I, R = line.inertance, line.resistance
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -787,7 +803,8 @@ def tail_groups(n_modes: int, form: str = "PQ"):
 
     Returns
     -------
-    list of (Omega tau [-], zeta [-]), one per group, in rising frequency
+    list of tuple
+        ``(Omega tau [-], zeta [-])``, one per group, in rising frequency
     """
     n = check_modes(n_modes)
     edges = [n + 1]
@@ -1204,10 +1221,12 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
 
     Returns
     -------
-    (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
-    form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
-    2 n modal + 4 viscous + tail (4 per group of :func:`tail_groups`, 16),
-    plus 6 column states (PP) or 1 (QQ).
+    A, B, C, D : ndarray
+        Real matrices, inputs and outputs in the form's order, [SI]; D = 0
+        (strictly proper)
+    state_names : list[str]
+        States as in the module docstring: 2 n modal + 4 viscous + tail (4 per
+        group of :func:`tail_groups`, 16), plus 6 column states (PP) or 1 (QQ)
     """
     if not isinstance(line, Line):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")

@@ -164,10 +164,12 @@ class Simulation:
 
         Parameters
         ----------
-        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only :
-            As :func:`simulate` (the same keywords and defaults; ``options`` too): the rig,
+        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only
+            As :func:`simulate` (the same keywords and defaults): the rig,
             the experiment, simulated time [s], output step [s], the integrator and its
             tolerances [-], the streamed output, a run only for its metrics
+        **options
+            Further keywords of :func:`simulate`
 
         Returns
         -------
@@ -292,7 +294,7 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
     -------
     SimulationResult
         (``.data`` has every signal and state; ``.metadata`` the scenario,
-    the disturbance time, the actuator's hydraulic natural frequency)
+        the disturbance time, the actuator's hydraulic natural frequency)
     """
     return DEFAULT_SIMULATION.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
                                   progress=progress, rtol=rtol, atol_scale=atol_scale,
@@ -400,8 +402,14 @@ def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSU
     Parameters
     ----------
     res : SimulationResult
+        A run
     threshold : float
         Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
+
+    Returns
+    -------
+    list of str
+        One warning per pressure that fell below ``threshold``.
     """
     out = []
     for k in watched_pressures(res):

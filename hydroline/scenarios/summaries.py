@@ -348,7 +348,8 @@ class SineSummaryStream:
             Ascending output times, [s]
         table : ndarray
             One row per time: signals and states side by side, [SI]
-        columns : list[str] Names of the table's columns
+        columns : list[str]
+            Names of the table's columns
         """
         if self.arrived or len(t) == 0:
             return

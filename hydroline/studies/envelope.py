@@ -63,6 +63,14 @@ class HarmonicCommand(Component):
     offset : float
         Mean value, [SI unit of ``quantity``]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Runtime parameters: ``sine_amplitude`` and ``cosine_amplitude`` [SI unit of quantity],
     ``frequency`` [Hz].
     """
@@ -185,8 +193,8 @@ def largest_passing(passes, start: float, low: float, high: float, rtol: float =
     -------
     (value, info_pass, value_fail, info_fail)
         The largest passing value (``low`` with
-    ``info_pass`` None where even ``low`` fails), the smallest failing one (None where
-    ``high`` passes) and what ``passes`` said of each
+        ``info_pass`` None where even ``low`` fails), the smallest failing one (None where
+        ``high`` passes) and what ``passes`` said of each
     """
     grid = math.log1p(rtol)
     k_low, k_high = math.floor(math.log(low) / grid), math.ceil(math.log(high) / grid)
@@ -250,7 +258,7 @@ def constant_supply_circuit(circuit, pressures: dict):
     -------
     Circuit
         Kept: each axis's valve, actuator, friction, load and controller (and any
-    component that is not part of the hydraulic supply: no hydraulic ends)
+        component that is not part of the hydraulic supply: no hydraulic ends)
     """
     from ..circuit.builder import Axis, Circuit
     from ..components import PressureSource
@@ -554,7 +562,7 @@ class SineRig:
         -------
         (PeriodicResponse, bool, dict)
             The last run, whether every amplitude was reached,
-        the gains measured
+            the gains measured
         """
         gains = dict(gains)
         x = x0
@@ -910,13 +918,13 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
     -------
     list of dict
         Per frequency: ``frequency_hz``, ``displacement_amplitude_m``,
-    ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
-    ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
-    and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
-    ``port_ripple_gain`` (:func:`port_ripple_gain` of the passing run),
-    ``held_motion_m`` (the largest half peak-to-peak motion of an axis held, [m]),
-    ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
-    ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
+        ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
+        ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
+        and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
+        ``port_ripple_gain`` (:func:`port_ripple_gain` of the passing run),
+        ``held_motion_m`` (the largest half peak-to-peak motion of an axis held, [m]),
+        ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
+        ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
     """
     top = min(srig.limits[n]["stroke"] for n in srig.driven) / 2 * (1 - stroke_margin)
     warm = {"x": None, "gains": {n: 1.0 + 0j for n in srig.driven}}

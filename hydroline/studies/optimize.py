@@ -111,6 +111,8 @@ class BudgetExhausted(Exception):
     ----------
     *args : str
         The message
+    **kwargs : dict
+        None taken (as ``Exception``).
     """
 
 
@@ -923,7 +925,8 @@ class OptimizeResult:
         Of those, run by this call
     feasible : bool
         The optimum meets every constraint
-    active_constraints : list Constraints at their bound at the optimum (``METRIC<=VALUE``)
+    active_constraints : list
+        Constraints at their bound at the optimum (``METRIC<=VALUE``)
     at_bounds : list
         Variables at a bound of their range (``PATH=low``/``=high``)
     converged : bool
@@ -934,7 +937,8 @@ class OptimizeResult:
         "local" or "global"
     baseline : dict
         Rig path -> SI value of the base rig
-    baseline_objective : float The objective of the base rig, [its unit]
+    baseline_objective : float
+        The objective of the base rig, [its unit]
     baseline_metrics : dict
         Every metric of the base rig
     constraints : list[str]
@@ -1102,6 +1106,7 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     Parameters
     ----------
     result : OptimizeResult
+        The optimisation's outcome
     traces : dict
         "baseline"/"optimum" -> (t [s], supply [Pa], return [Pa]), or None
     path : path
@@ -1110,6 +1115,7 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     Returns
     -------
     matplotlib.figure.Figure
+        The figure.
     """
     from ..plotting import new_figure, save_png, wrap_title
 
@@ -1242,10 +1248,12 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
     Returns
     -------
     OptimizeResult
+        The optimum, its metrics and the history of the evaluations.
 
     Raises
     ------
-    ValueError (RigError, SweepFileError) on bad input, one line naming it.
+    ValueError
+        (RigError, SweepFileError) on bad input, one line naming it.
     """
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):
