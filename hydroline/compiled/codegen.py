@@ -9,14 +9,19 @@ sizes) share one compiled library, and the library's cache key is a hash of the 
 
 Generated functions (``z`` are the states scaled by their typical magnitudes, ``x = z s``):
 
-``hl_f(t, z, p, c, dz)``          dz/dt of the scaled states (docs/model.md M1-M24 as assembled)
-``hl_jac(t, z, p, c, jnz)``       the bordered Jacobian (below), nonzeros in compressed-column
-                                  order (``hl_ext_colind``, ``hl_ext_row``)
-``hl_signals(t, z, p, c, y)``     every network signal, [SI]
-``hl_lu_factor(jnz, g, a)``       sparse LU of the bordered ``W = I - g J`` without pivoting, in
-                                  a fill-reducing (minimum degree) order fixed at generation
-                                  time; returns the 1-based failing pivot or 0
-``hl_lu_solve(a, b)``             solves ``W v = b`` in place with the factors
+``hl_f(t, z, p, c, dz)``
+    dz/dt of the scaled states (docs/model.md M1-M24 as assembled)
+``hl_jac(t, z, p, c, jnz)``
+    the bordered Jacobian (below), nonzeros in compressed-column
+    order (``hl_ext_colind``, ``hl_ext_row``)
+``hl_signals(t, z, p, c, y)``
+    every network signal, [SI]
+``hl_lu_factor(jnz, g, a)``
+    sparse LU of the bordered ``W = I - g J`` without pivoting, in
+    a fill-reducing (minimum degree) order fixed at generation
+    time; returns the 1-based failing pivot or 0
+``hl_lu_solve(a, b)``
+    solves ``W v = b`` in place with the factors
 
 The bordered Jacobian. A hose section's states couple to its neighbours' only through the
 few signals at its ends (a pressure, a flow), yet every state of one section moves every

@@ -56,7 +56,7 @@ class SteadyState:
     p : ndarray
         Runtime parameters after settling, [SI]
     residual : float
-        max_i |dx_i/dt| / scale_i at x, [1/s] (0 for an exact rest state)
+        ``max_i |dx_i/dt| / scale_i`` at x, [1/s] (0 for an exact rest state)
     worst_state : str
         Name of the state with the largest scaled residual
     """

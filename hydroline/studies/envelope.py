@@ -310,7 +310,7 @@ class PeriodicResponse:
     force : dict
         Axis -> amplitude of the hydraulic force's fundamental, [N]
     excursion : dict
-        Axis -> largest |position| over the period, [m]
+        Axis -> largest ``|position|`` over the period, [m]
     traces : dict
         Signal -> its last period (``SineRig.SAMPLES`` samples): the driven
         axes' ports, chambers, current and spool, every axis's position, [SI]
