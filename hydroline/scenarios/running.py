@@ -164,7 +164,7 @@ class Simulation:
 
         Parameters
         ----------
-        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only
+        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only :
             As :func:`simulate` (the same keywords and defaults): the rig,
             the experiment, simulated time [s], output step [s], the integrator and its
             tolerances [-], the streamed output, a run only for its metrics
