@@ -40,11 +40,16 @@ class CompiledBackend:
 
     Parameters
     ----------
-    network : Network      The model
-    native : object        Its :class:`hydroline.compiled.NativeModel`
-    p : ndarray            Runtime parameters, [SI]
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    native : object
+        Its :class:`hydroline.compiled.NativeModel`
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "compiled"
@@ -59,10 +64,14 @@ class CompiledBackend:
 
         Parameters
         ----------
-        a : float     Segment start, [s]
-        x : ndarray   States at ``a``, [SI]
-        b : float     Segment end (a breakpoint or sampling instant), [s]
-        p : ndarray   Runtime parameters over the segment, [SI]
+        a : float
+            Segment start, [s]
+        x : ndarray
+            States at ``a``, [SI]
+        b : float
+            Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray
+            Runtime parameters over the segment, [SI]
         """
         self.solver.set_parameters(p)   # (a sampled component may have changed one)
         self.solver.start(a, x, b)
@@ -73,9 +82,17 @@ class CompiledBackend:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            Signal values, [SI].
         """
         self.solver.set_parameters(p)
         y = self.solver.signals(t, x)
@@ -87,20 +104,30 @@ class CompiledBackend:
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Where to write the table (C-contiguous rows of signals then states,
-                         one per time), or None (a new array), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Where to write the table (C-contiguous rows of signals then states,
+            one per time), or None (a new array), [SI]
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; signals and states side by side [SI]
-                     (``table`` is ``out`` where given)
+        X : ndarray
+            States, one row per time, [SI]
+        table : ndarray
+            Signals and states side by side, [SI] (``out`` where given)
         """
         table = self.solver.advance(grid, table=True, out=out)   # signals and states
         return table[:, self.n_signals:], table
 
     def stats(self) -> dict:
-        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        """Solver statistics: function and Jacobian evaluations, steps (counts).
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         return self.solver.stats()
 
 
@@ -110,9 +137,12 @@ class CvodesBackend:
 
     Parameters
     ----------
-    network : Network      The model
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "cvodes"
@@ -134,10 +164,14 @@ class CvodesBackend:
 
         Parameters
         ----------
-        a : float     Segment start, [s]
-        x : ndarray   States at ``a``, [SI]
-        b : float     Segment end (a breakpoint or sampling instant), [s]
-        p : ndarray   Runtime parameters over the segment, [SI]
+        a : float
+            Segment start, [s]
+        x : ndarray
+            States at ``a``, [SI]
+        b : float
+            Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray
+            Runtime parameters over the segment, [SI]
         """
         self.t, self.x, self.p = a, np.asarray(x, dtype=float), np.asarray(p, dtype=float)
 
@@ -146,12 +180,17 @@ class CvodesBackend:
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        X : ndarray
+            States, one row per time, [SI]
+        table : None
+            None (the sink evaluates the signals)
         """
         import casadi as ca
 
@@ -170,9 +209,12 @@ class CvodesBackend:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         return None
 
@@ -184,7 +226,13 @@ class CvodesBackend:
         return X
 
     def stats(self) -> dict:
-        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        """Solver statistics: function and Jacobian evaluations, steps (counts).
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         return dict(self.counts)
 
 
@@ -194,9 +242,12 @@ class ScipyBackend(CvodesBackend):
 
     Parameters
     ----------
-    network : Network      The model
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "scipy"
@@ -211,12 +262,17 @@ class ScipyBackend(CvodesBackend):
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        X : ndarray
+            States, one row per time, [SI]
+        table : None
+            None (the sink evaluates the signals)
         """
         from scipy.integrate import solve_ivp
 
@@ -235,16 +291,25 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
 
     Parameters
     ----------
-    network : Network      The model
-    solver : str           "auto", "compiled", "cvodes" or "scipy"
-    p : ndarray            Runtime parameters, [SI]
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    solver : str
+        "auto", "compiled", "cvodes" or "scipy"
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
 
     Returns
     -------
-    (backend, note, build_time) : the backend object; None or the reason "auto" did not get
-        the compiled core; seconds spent building or loading the compiled library [s]
+    backend : object
+        The backend object
+    note : str or None
+        None, or the reason "auto" did not get the compiled core
+    build_time : float
+        Time spent building or loading the compiled library, [s]
     """
     import time
     import warnings

@@ -27,9 +27,17 @@ def segments(t_end: float, breakpoints, sample_time: float | None = None) -> lis
 
     Parameters
     ----------
-    t_end : float          End of the run, [s]
-    breakpoints : list     Times where inputs jump, [s]
-    sample_time : float    Zero-order-hold period of a sampled component, [s] (None: none)
+    t_end : float
+        End of the run, [s]
+    breakpoints : list
+        Times where inputs jump, [s]
+    sample_time : float
+        Zero-order-hold period of a sampled component, [s] (None: none)
+
+    Returns
+    -------
+    list of float
+        The edges, [s].
     """
     edges = {0.0, float(t_end)}
     edges.update(b for b in breakpoints if 0 < b < t_end)
@@ -45,14 +53,20 @@ def apply_samples(network: Network, sampled: list, t: float, x, p, signals=None)
 
     Parameters
     ----------
-    network : Network   The model
-    sampled : list      Components with a ``sample_time``
-    t : float           Sampling instant, [s]
-    x : ndarray         States there, [SI]
-    p : ndarray         Runtime parameters, [SI]; changed in place
-    signals : ndarray   Every signal at (t, x) in ``network.signal_names`` order, [SI], where
-                        known (the compiled core's last output row of the segment before);
-                        None: evaluated here by the components' Python code (~1 ms)
+    network : Network
+        The model
+    sampled : list
+        Components with a ``sample_time``
+    t : float
+        Sampling instant, [s]
+    x : ndarray
+        States there, [SI]
+    p : ndarray
+        Runtime parameters, [SI]; changed in place
+    signals : ndarray
+        Every signal at (t, x) in ``network.signal_names`` order, [SI], where
+        known (the compiled core's last output row of the segment before);
+        None: evaluated here by the components' Python code (~1 ms)
     """
     if signals is None:
         sig = network.signals_at(t, x, p)
@@ -77,8 +91,10 @@ class RowWriter:
 
     Parameters
     ----------
-    sink : OutputSink   Where the rows go
-    depth : int         Blocks waiting at most (memory: each is one chunk of rows), [-]
+    sink : OutputSink
+        Where the rows go
+    depth : int
+        Blocks waiting at most (memory: each is one chunk of rows), [-]
     """
 
     def __init__(self, sink, depth: int = 2):
@@ -113,12 +129,17 @@ class RowWriter:
 
         Parameters
         ----------
-        t : ndarray       Output times, [s]
-        X : ndarray       States, one row per time, [SI] (None: ``Y`` is the whole table)
-        Y : ndarray       Signals (or the whole table), one row per time, [SI]
-        model : CompiledModel   Evaluates the signals when ``Y`` is None
-        p : ndarray       Runtime parameters, [SI] (copied: a sampled component changes
-                          them in place)
+        t : ndarray
+            Output times, [s]
+        X : ndarray
+            States, one row per time, [SI] (None: ``Y`` is the whole table)
+        Y : ndarray
+            Signals (or the whole table), one row per time, [SI]
+        model : CompiledModel
+            Evaluates the signals when ``Y`` is None
+        p : ndarray
+            Runtime parameters, [SI] (copied: a sampled component changes
+            them in place)
         """
         self._raise()
         if self.error is None:
@@ -129,7 +150,8 @@ class RowWriter:
 
         Parameters
         ----------
-        raise_error : bool   Raise the sink's exception (False: only wait)
+        raise_error : bool
+            Raise the sink's exception (False: only wait)
         """
         if self.thread.is_alive():
             self.blocks.put(None)
@@ -150,53 +172,73 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
 
     Parameters
     ----------
-    network : Network   The model
-    x0 : array          Initial state (e.g. ``solve_steady_state(...).x``), [SI]
-    t_end : float       End time, [s]
-    dt_out : float      Output interval, [s]
-    p : array           Runtime parameters, [SI] (network defaults when None)
-    solver : str        "auto" (default: "compiled" where a C compiler is available, else
-                        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
-                        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
-                        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
-                        (reference: per-component Python right-hand side, SciPy BDF)
-    rtol : float        Relative tolerance, [-]
-    atol_scale : float  Absolute tolerance as a fraction of each state's typical magnitude, [-]
-    progress : callable Called with the fraction done (0..1) after each segment or chunk
-    stream_to : path    Write the time series to this CSV file chunk by chunk as the run
-                        goes, keeping only per-column summary statistics in memory (constant
-                        memory for long runs); ``data`` then holds the last row only and
-                        ``metadata["stream_stats"]`` the min/max/mean/rms of every column
-    chunk_rows : int    Output rows per chunk (streaming and the compiled path)
-    stream_columns : list  Columns to write when streaming (all signals and states if None)
-    stream_every : int  Write every n-th output row to ``stream_to`` (decimation; the last row
-                        always), [-]
-    keep_columns : list Keep only these columns in memory (every output row): ``data`` then
-                        holds them, and ``metadata["stream_stats"]`` has the statistics of
-                        every column (bounded memory for long runs without a file)
-    preview_columns : list  Also keep these columns at every k-th row, at most
-                        ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
-                        a figure of a long run)
-    preview_rows : int  Most rows of the preview, [-]
-    observe : callable  Called with ``(t, table, columns)`` for every block of output rows as
-                        the run goes (times [s], rows of signals and states [SI], their names):
-                        statistics of a long run computed chunk by chunk, in constant memory.
-                        With ``stream_to`` or ``keep_columns`` on the compiled core it is
-                        called from a second thread (:class:`RowWriter`), block after block in
-                        order, while the next block is integrated; ``progress`` stays in the
-                        caller's thread
-    until : callable    Called with ``(t, table, columns)`` of every row so far (times [s],
-                        signals and states [SI], their names) after each block of at most
-                        ``until_rows`` rows (each segment on CVODES and SciPy); True ends the
-                        run there: the result holds the rows up to that block's end (a run
-                        whose metrics are all it is for, :class:`~hydroline.scenarios.
-                        summaries.WindowEnd`). Rows kept in memory only (no ``stream_to``,
-                        ``keep_columns``)
-    until_rows : int    Rows per block checked by ``until``, [-]
+    network : Network
+        The model
+    x0 : array
+        Initial state (e.g. ``solve_steady_state(...).x``), [SI]
+    t_end : float
+        End time, [s]
+    dt_out : float
+        Output interval, [s]
+    p : array
+        Runtime parameters, [SI] (network defaults when None)
+    solver : str
+        "auto" (default: "compiled" where a C compiler is available, else
+        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
+        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
+        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
+        (reference: per-component Python right-hand side, SciPy BDF)
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's typical magnitude, [-]
+    progress : callable
+        Called with the fraction done (0..1) after each segment or chunk
+    stream_to : path
+        Write the time series to this CSV file chunk by chunk as the run
+        goes, keeping only per-column summary statistics in memory (constant
+        memory for long runs); ``data`` then holds the last row only and
+        ``metadata["stream_stats"]`` the min/max/mean/rms of every column
+    chunk_rows : int
+        Output rows per chunk (streaming and the compiled path)
+    stream_columns : list
+        Columns to write when streaming (all signals and states if None)
+    stream_every : int
+        Write every n-th output row to ``stream_to`` (decimation; the last row
+        always), [-]
+    keep_columns : list
+        Keep only these columns in memory (every output row): ``data`` then
+        holds them, and ``metadata["stream_stats"]`` has the statistics of
+        every column (bounded memory for long runs without a file)
+    preview_columns : list
+        Also keep these columns at every k-th row, at most
+        ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
+        a figure of a long run)
+    preview_rows : int
+        Most rows of the preview, [-]
+    observe : callable
+        Called with ``(t, table, columns)`` for every block of output rows as
+        the run goes (times [s], rows of signals and states [SI], their names):
+        statistics of a long run computed chunk by chunk, in constant memory.
+        With ``stream_to`` or ``keep_columns`` on the compiled core it is
+        called from a second thread (:class:`RowWriter`), block after block in
+        order, while the next block is integrated; ``progress`` stays in the
+        caller's thread
+    until : callable
+        Called with ``(t, table, columns)`` of every row so far (times [s],
+        signals and states [SI], their names) after each block of at most
+        ``until_rows`` rows (each segment on CVODES and SciPy); True ends the
+        run there: the result holds the rows up to that block's end (a run
+        whose metrics are all it is for, :class:`~hydroline.scenarios.
+        summaries.WindowEnd`). Rows kept in memory only (no ``stream_to``,
+        ``keep_columns``)
+    until_rows : int
+        Rows per block checked by ``until``, [-]
 
     Returns
     -------
     SimulationResult
+        Times [s], signals and states [SI], solver statistics and metadata.
     """
     if not t_end > 0:
         raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")
