@@ -304,8 +304,10 @@ class NativeSolver:
         self._start = None
         self._jnz = None                                  # (scaled_jacobian's buffer)
         self._h = lib.hl_new()
+        self._settings = (max_step, fixed_step, int(max_order), newton_coef)
+        self.rtol, self.atol = float(rtol), float(atol)
         lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
-                     max_step, fixed_step, int(max_order), newton_coef)
+                     *self._settings)
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
 
     def _checked_parameters(self, p) -> np.ndarray:
@@ -334,6 +336,28 @@ class NativeSolver:
             return
         self.p = p
         self._lib.hl_set_parameters(self._h, _ptr(self.p))
+
+    def set_tolerances(self, rtol: float, atol: float) -> None:
+        """Use other tolerances from the next step on, keeping the step size, the order and
+        the history of the run in progress (e.g. looser once every metric's window has ended).
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance, [-]
+        atol : float
+            Absolute tolerance on the scaled states, [-]
+        """
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
+        self.rtol, self.atol = float(rtol), float(atol)
+        # (hl_setup sets numbers and settings only; the run's state stays; it clears the
+        # order limits, set again here)
+        self._lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale),
+                           self.rtol, self.atol, *self._settings)
+        if self._limits:
+            arr = np.ascontiguousarray(self._limits, dtype=float)
+            self._lib.hl_set_order_limits(self._h, _ptr(arr))
 
     def start(self, t0: float, x0, t_bound: float):
         """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0).

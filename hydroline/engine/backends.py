@@ -14,6 +14,8 @@ Every backend has the same small interface, which :func:`hydroline.engine.integr
 * ``stats()``: solver statistics (function and Jacobian evaluations, steps);
 * ``signals_at(t, x, p)``: every signal at one (t, x) where the backend computes them
   (the compiled core), else None (they are then evaluated on the CasADi graph);
+* ``relax(rtol, atol_scale)``: looser tolerances from the next step on, keeping the run's
+  history (the compiled core; the others ignore it: they restart at every call);
 * ``chunked``: True when output in chunks costs nothing (the compiled core keeps its history
   across ``advance`` calls); the others restart at every call, so they are given a whole
   segment unless memory must stay bounded.
@@ -130,6 +132,24 @@ class CompiledBackend:
         """
         return self.solver.stats()
 
+    def relax(self, rtol: float, atol_scale: float) -> bool:
+        """Use these tolerances from the next step on (step size, order and history kept).
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance, [-]
+        atol_scale : float
+            Absolute tolerance as a fraction of each state's scale, [-]
+
+        Returns
+        -------
+        bool
+            True (done)
+        """
+        self.solver.set_tolerances(rtol, atol_scale)
+        return True
+
 
 class CvodesBackend:
     """SUNDIALS CVODES through CasADi, exact sparse Jacobian, on the scaled states z = x/scale
@@ -217,6 +237,23 @@ class CvodesBackend:
             Runtime parameters, [SI]
         """
         return None
+
+    def relax(self, rtol: float, atol_scale: float) -> bool:
+        """Not done on this backend (its tolerances stay): it restarts at every call.
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance, [-]
+        atol_scale : float
+            Absolute tolerance as a fraction of each state's scale, [-]
+
+        Returns
+        -------
+        bool
+            False (not done)
+        """
+        return False
 
     def _accept(self, grid, X):
         if not np.all(np.isfinite(X)):

@@ -167,7 +167,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               progress=None, stream_to=None, chunk_rows: int = 20000,
               stream_columns=None, stream_every: int = 1, keep_columns=None,
               preview_columns=None, preview_rows: int = 50_000,
-              observe=None, until=None, until_rows: int = 200) -> SimulationResult:
+              observe=None, until=None, until_rows: int = 200,
+              relax=None, relax_rows: int = 100) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -234,6 +235,14 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         ``keep_columns``)
     until_rows : int
         Rows per block checked by ``until``, [-]
+    relax : tuple
+        ``(test, rtol, atol_scale)``: once ``test``, asked as ``until`` after each block of
+        ``relax_rows`` rows, says True, the compiled core goes on at these looser tolerances
+        (history kept): e.g. after the piston's stop, where no metric looks
+        (:func:`hydroline.scenarios.simulate`'s ``after_stop_rtol``). Rows in memory only;
+        ignored by the other backends and where rows are streamed
+    relax_rows : int
+        Rows per block checked by the ``relax`` test, [-]
 
     Returns
     -------
@@ -246,7 +255,10 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
     if not (rtol > 0 and atol_scale > 0):
         raise ValueError(f"rtol and atol_scale must be > 0 [-], got {rtol!r} and {atol_scale!r}")
-    if until is not None and (stream_to is not None or keep_columns is not None):
+    bounded_rows = stream_to is not None or keep_columns is not None
+    if relax is not None and not (relax[1] > 0 and relax[2] > 0):
+        raise ValueError(f"relax's rtol and atol_scale must be > 0 [-], got {relax[1:]!r}")
+    if until is not None and bounded_rows:
         raise ValueError("until needs every row in memory: give it without stream_to and "
                          "keep_columns")
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
@@ -279,10 +291,14 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     rows_in = RowWriter(sink) if bounded and backend.chunked else sink
     tic = _time.perf_counter()
     try:
+        relaxing = None
+        if relax is not None and backend.chunked and not bounded_rows:
+            relaxing = (_Until(relax[0], max(int(relax_rows), 1), sink, columns),
+                        float(relax[1]), float(relax[2]))
         _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
                   backend, rows_in, model, x, p, progress,
                   None if until is None else _Until(until, max(int(until_rows), 1), sink,
-                                                    columns))
+                                                    columns), relaxing)
     except BaseException:
         if rows_in is not sink:
             rows_in.close(raise_error=False)   # the integration's own error is the one to see
@@ -292,6 +308,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     wall = _time.perf_counter() - tic
     stats = backend.stats()
     stats["build_time"] = build_time
+    if relaxing is not None and relaxing[0].when is not None:
+        stats["relaxed_at"] = relaxing[0].when
     t_rows, table, kept = sink.result()
     res = SimulationResult(times=t_rows, table=table, columns=kept, wall_time=wall,
                            stats=stats, warnings=[])
@@ -316,18 +334,23 @@ class _Until:
 
     def __init__(self, ask, rows: int, sink, columns):
         self.ask, self.rows, self.sink, self.columns = ask, rows, sink, columns
+        self.when = None   # the last row's time [s] when first reached
 
     def reached(self) -> bool:
         """True when the run may end after the rows written so far."""
         so_far = self.sink.rows_so_far()
-        return so_far is not None and bool(self.ask(so_far[0], so_far[1], self.columns))
+        done = so_far is not None and bool(self.ask(so_far[0], so_far[1], self.columns))
+        if done and self.when is None:
+            self.when = float(so_far[0][-1])
+        return done
 
 
 def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
-              backend, rows_in, model, x, p, progress, until=None) -> None:
+              backend, rows_in, model, x, p, progress, until=None, relaxing=None) -> None:
     """The segment loop of :func:`integrate`: each segment between breakpoints and sampling
     instants started on the backend, its output rows handed to ``rows_in`` chunk by chunk;
-    it ends early where ``until`` (:class:`_Until`) is reached."""
+    it ends early where ``until`` (:class:`_Until`) is reached; the backend's tolerances are
+    relaxed where ``relaxing`` (its :class:`_Until`, rtol, atol_scale) is."""
     n_signals = len(network.signal_names)
     target = getattr(rows_in, "target", None)
     at_edge = None   # the signals at the segment's start, where the backend gave them
@@ -343,8 +366,11 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
         step = chunk_rows if (backend.chunked or bounded) else n_grid
         if until is not None and backend.chunked:
             step = min(step, until.rows)
+        if relaxing is not None:
+            step = min(step, relaxing[0].rows)
         backend.start(a, x, b, p)
-        for k in range(0, n_grid, step):
+        k = 0
+        while k < n_grid:
             g = t_out(i0 + k, i0 + min(k + step, n_in))
             if k + step >= n_grid and not ends_on_grid:
                 g = np.append(g, b)
@@ -365,5 +391,10 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
                 if progress:
                     progress(1.0)
                 return
+            k += step
+            if relaxing is not None and m > 0 and relaxing[0].reached():
+                backend.relax(relaxing[1], relaxing[2])
+                relaxing = None
+                step = chunk_rows if until is None else min(chunk_rows, until.rows)
         if progress:
             progress(b / t_last)

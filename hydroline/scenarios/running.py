@@ -158,16 +158,18 @@ class Simulation:
     def run(self, rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
             progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-            stream_columns=None, metrics_only: bool = False, **options) -> SimulationResult:
+            stream_columns=None, metrics_only: bool = False, after_stop_rtol: float | None = None,
+            **options) -> SimulationResult:
         """Run a scenario on a rig, from its solved steady state, reusing this simulation's
         recent models (:func:`simulate` runs on :data:`DEFAULT_SIMULATION`).
 
         Parameters
         ----------
-        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only :
+        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only, after_stop_rtol :
             As :func:`simulate` (the same keywords and defaults): the rig,
             the experiment, simulated time [s], output step [s], the integrator and its
-            tolerances [-], the streamed output, a run only for its metrics
+            tolerances [-], the streamed output, a run only for its metrics, the tolerance
+            after the metrics window's stop [-]
         **options
             Further keywords of :func:`simulate`
 
@@ -178,10 +180,10 @@ class Simulation:
         """
         with one_blas_thread():   # (small dense matrices: a BLAS library's threads only spin)
             return self._run(rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale,
-                             stream_to, stream_columns, metrics_only, options)
+                             stream_to, stream_columns, metrics_only, options, after_stop_rtol)
 
     def _run(self, rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to,
-             stream_columns, metrics_only, options):
+             stream_columns, metrics_only, options, after_stop_rtol=None):
         tic = _time.perf_counter()
         if not isinstance(rig, Rig):
             rig = load_rig(rig)
@@ -209,6 +211,9 @@ class Simulation:
         ss = replace(ss, x=ss.x.copy(), p=ss.p.copy())
         if metrics_only:
             options["until"] = window_end(circuit, sc)
+        elif after_stop_rtol is not None and after_stop_rtol != rtol:
+            options["relax"] = (window_end(circuit, sc), after_stop_rtol,
+                                atol_scale * after_stop_rtol / rtol)
         res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver,
                         progress=progress, rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                         stream_columns=stream_columns, **options)
@@ -242,7 +247,8 @@ def window_end(circuit, sc) -> WindowEnd:
 def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-             stream_columns=None, metrics_only: bool = False, **options) -> SimulationResult:
+             stream_columns=None, metrics_only: bool = False, after_stop_rtol: float | None = None,
+             **options) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state, on :data:`DEFAULT_SIMULATION`
     (a repeated run of the same rig reuses its model: :class:`Simulation`).
 
@@ -286,6 +292,10 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
         :func:`~hydroline.scenarios.summaries.metrics_window`), where
         every metric ends: the same metrics, less to integrate; its rows,
         and the gas-release check, end there too
+    after_stop_rtol : float
+        Relative tolerance once the piston has reached the stop that ends the metrics
+        window (no metric looks there; ``atol_scale`` scaled alike), on the compiled core
+        with rows in memory; None: ``rtol`` throughout, [-]
     options
         Further keywords of :func:`hydroline.engine.integrate`
         (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
@@ -299,7 +309,8 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
     return DEFAULT_SIMULATION.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
                                   progress=progress, rtol=rtol, atol_scale=atol_scale,
                                   stream_to=stream_to, stream_columns=stream_columns,
-                                  metrics_only=metrics_only, **options)
+                                  metrics_only=metrics_only, after_stop_rtol=after_stop_rtol,
+                                  **options)
 
 
 def rest_state(net, x_guess=None):
