@@ -370,8 +370,8 @@ def watched_pressures(res: SimulationResult) -> list[str]:
 
 
 def cavity_warnings(res: SimulationResult, net) -> list[str]:
-    """One warning per chamber or volume in which a gas/vapour cavity opened (M42): when, and
-    how large it grew (from the run's state columns; none for a run that did not keep them).
+    """One warning per chamber, volume or hose end in which a gas/vapour cavity opened (M42,
+    M45: the component's ``cavity_equation``): when, and how large it grew (from the run's state columns; none for a run that did not keep them).
 
     Parameters
     ----------
@@ -402,7 +402,8 @@ def cavity_warnings(res: SimulationResult, net) -> list[str]:
             out.append(f"{c.name} {where}: a gas/vapour cavity opened below "
                        f"fluid.cavity_pressure = {fluid.cavity_pressure / 1e3:.3g} kPa absolute "
                        f"from t = {first * 1e3:.1f} ms; largest {v[i] * 1e6:.3g} cm^3 at "
-                       f"{res.t[i] * 1e3:.1f} ms, {v[-1] * 1e6:.3g} cm^3 at the end (M42)")
+                       f"{res.t[i] * 1e3:.1f} ms, {v[-1] * 1e6:.3g} cm^3 at the end "
+                       f"({getattr(c, 'cavity_equation', 'M42')})")
     return out
 
 
