@@ -83,10 +83,12 @@ def apply_samples(network: Network, sampled: list, t: float, x, p, signals=None)
 #: each: fewer calls, less Python between them), [-].
 IN_MEMORY_CHUNK_ROWS = 20_000
 #: Output rows per chunk of a run whose rows a second thread takes in (:class:`RowWriter`:
-#: statistics, CSV text, ``observe``): a block of ~2.7 MB (~170 columns) is still in the
-#: processor's cache when that thread reads it; 20 000-row blocks (27 MB) took ~15 % more CPU
-#: on the 10-minute closed-loop sine (benchmarks/README.md, bench_longrun), [-].
-HANDED_CHUNK_ROWS = 2_000
+#: statistics, CSV text, ``observe``): a block of ~7 MB (~170 columns) is mostly still in the
+#: processor's cache when that thread reads it. On the 10-minute closed-loop sine (two cores
+#: under load 3) 20 000-row blocks (27 MB) took ~12 % more CPU; 2 000-row blocks as little
+#: CPU as 5 000 but more wall time (two blocks waiting hold less: the integrating thread
+#: waited for the other more often), [-].
+HANDED_CHUNK_ROWS = 5_000
 
 
 class RowWriter:
@@ -178,7 +180,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               stream_columns=None, stream_every: int = 1, keep_columns=None,
               preview_columns=None, preview_rows: int = 50_000,
               observe=None, until=None, until_rows: int = 200,
-              relax=None, relax_rows: int = 100) -> SimulationResult:
+              relax=None, relax_rows: int = 100, stats_columns=None) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -255,6 +257,10 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         ignored by the other backends and where rows are streamed
     relax_rows : int
         Rows per block checked by the ``relax`` test, [-]
+    stats_columns : list
+        Columns whose min/max/mean/rms ``metadata["stream_stats"]`` holds, from every row, with
+        ``stream_to`` or ``keep_columns``; None: every column (a 10-minute run's statistics of
+        ~170 columns at every 0.1 ms row cost ~1.5 s)
 
     Returns
     -------
@@ -289,7 +295,7 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     columns = list(network.signal_names) + list(network.state_names)
     sink = OutputSink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
                       preview_columns, preview_rows, column_units(network) if stream_to else None,
-                      observe)
+                      observe, stats_columns)
     first = backend.signals_at(0.0, x, p)   # the compiled core's; else from the graph:
     model = network.compile() if first is None else None   # (a backend without signals)
     if first is None:

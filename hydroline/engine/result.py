@@ -461,10 +461,13 @@ class OutputSink:
     observe : callable
         Called with ``(t [s], table [SI], columns)`` for every block of
         rows written (statistics of a long run chunk by chunk); None: none
+    stats : list[str]
+        Columns whose statistics are kept (streamed or ``keep``); None: every
+        column
     """
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
-                 preview=None, preview_rows=50_000, units=None, observe=None):
+                 preview=None, preview_rows=50_000, units=None, observe=None, stats=None):
         self.columns = columns
         self.observe = observe   # (issue 13: per-chunk statistics of a long run)
         self.path = path
@@ -482,12 +485,15 @@ class OutputSink:
             self.file.write(",".join(["time [s]"] + [f"{c} [{units[c]}]" if c in units else c
                                                     for c in self.keep_file]) + "\n")
             self.written = 0
-        if path is not None or keep is not None:   # statistics of every column
+        if path is not None or keep is not None:   # statistics of every column, or of ``stats``
             self.stats_names = list(columns)
-            n = len(columns)
+            self.stats_index = True
+            if stats is not None:
+                self.stats_names, self.stats_index = column_indices("stats_columns", stats,
+                                                                    columns)
+            n = len(self.stats_names)
             self.mn, self.mx = np.full(n, np.inf), np.full(n, -np.inf)
             self.sum, self.sumsq = np.zeros(n), np.zeros(n)
-            self.stats_index = True
         # rows kept in memory: the ``keep`` columns, or every column when nothing is streamed;
         # the count known, one preallocated table (no copy at the end), which a backend may
         # write into in place when it holds every column (:meth:`target`)
@@ -555,10 +561,11 @@ class OutputSink:
             if sel.any():
                 self.preview_parts.append((t[sel], block[np.ix_(sel, self.preview_index)]))
         if self.stats_index is not None:
-            self.mn = np.minimum(self.mn, block.min(axis=0))
-            self.mx = np.maximum(self.mx, block.max(axis=0))
-            self.sum += block.sum(axis=0)
-            self.sumsq += np.einsum("ij,ij->j", block, block)   # (no temporary block)
+            part = block if self.stats_index is True else block[:, self.stats_index]
+            self.mn = np.minimum(self.mn, part.min(axis=0))
+            self.mx = np.maximum(self.mx, part.max(axis=0))
+            self.sum += part.sum(axis=0)
+            self.sumsq += np.einsum("ij,ij->j", part, part)   # (no temporary block)
         if self.keep is not None or self.path is None:     # rows kept in memory
             if self.kept is not None and self.rows <= len(self.kept_t):
                 self.kept_t[i0:self.rows] = t
@@ -635,12 +642,13 @@ class OutputSink:
                 np.vstack([q[1] for q in self.preview_parts]), self.preview)
 
     def stats_frame(self, names=None):
-        """min, max, mean and rms of every column (rows: column names) as a DataFrame.
+        """min, max, mean and rms of every column (rows: column names) as a DataFrame: of every
+        column the sink keeps statistics of (its ``stats``).
 
         Parameters
         ----------
         names : list
-            Only these columns (all when None)
+            Only these columns, those of them with statistics (all when None)
 
         Returns
         -------
@@ -652,4 +660,4 @@ class OutputSink:
         n = max(self.rows, 1)
         frame = pd.DataFrame({"min": self.mn, "max": self.mx, "mean": self.sum / n,
                               "rms": np.sqrt(self.sumsq / n)}, index=self.stats_names)
-        return frame if names is None else frame.loc[list(names)]
+        return frame if names is None else frame.loc[[k for k in names if k in frame.index]]
