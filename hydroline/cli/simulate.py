@@ -491,9 +491,12 @@ class WrittenRows:
         from ..engine import SimulationResult
 
         parts = self.parts + ([self.last] if self.last is not None else [])
-        return SimulationResult(times=np.concatenate([p[0] for p in parts]),
-                                table=np.vstack([p[1] for p in parts]),
-                                columns=list(self.columns), metadata={"units": units})
+        self.parts, self.last = [], None   # (the blocks freed once joined: one copy held)
+        times = np.concatenate([p[0] for p in parts])
+        table = np.vstack([p[1] for p in parts])
+        del parts
+        return SimulationResult(times=times, table=table, columns=list(self.columns),
+                                metadata={"units": units})
 
 
 def _each(observers):

@@ -209,7 +209,10 @@ class SimulationResult:
     def to_parquet(self, path, every: int = 1):
         """Write all series to Parquet: a column ``time`` [s], then one per signal and state
         under its own name; the SI units in the file's metadata, as pandas reads them back
-        (``pandas.read_parquet(path).attrs["units"]``: column -> unit). Needs pyarrow.
+        (``pandas.read_parquet(path).attrs["units"]``: column -> unit). Needs pyarrow. Written
+        in row groups of :data:`PARQUET_ROW_GROUP` rows, each converted on its own (a long
+        run's table is not copied whole: a 10-minute run's ~80 MB of rows took ~450 MB
+        resident through a DataFrame).
 
         Parameters
         ----------
@@ -218,14 +221,25 @@ class SimulationResult:
         every : int
             Keep every n-th row (and the last), [-]
         """
-        import pandas as pd
+        import json
+
+        import pyarrow as pa
+        import pyarrow.parquet as pq
 
         t, table = self._rows(every)
-        df = pd.DataFrame(table, columns=self.columns)
-        df.insert(0, "time", t)
         units = self.metadata.get("units", {})
-        df.attrs["units"] = {"time": "s", **{c: units[c] for c in self.columns if c in units}}
-        df.to_parquet(path, index=False)
+        names = ["time"] + list(self.columns)
+        # (the key pandas keeps DataFrame.attrs under, and reads them back from)
+        attrs = {"units": {"time": "s", **{c: units[c] for c in self.columns if c in units}}}
+        schema = pa.schema([(n, pa.float64()) for n in names],
+                           metadata={"PANDAS_ATTRS": json.dumps(attrs)})
+        with pq.ParquetWriter(path, schema) as writer:
+            for k in range(0, max(len(t), 1), PARQUET_ROW_GROUP):
+                part = np.asarray(table[k:k + PARQUET_ROW_GROUP], dtype=float)
+                writer.write_table(pa.Table.from_arrays(
+                    [pa.array(np.asarray(t[k:k + PARQUET_ROW_GROUP], dtype=float))]
+                    + [pa.array(np.ascontiguousarray(part[:, i])) for i in range(part.shape[1])],
+                    schema=schema))
 
     def to_mat(self, path, every: int = 1):
         """Write all series to a MATLAB file (``scipy.io.savemat``, MAT 5): one variable per
@@ -279,6 +293,9 @@ class SimulationResult:
             self, signals=signals, path=path, title=title)
 
 
+#: Rows per row group of a Parquet file (:meth:`SimulationResult.to_parquet`: each group
+#: converted on its own, ~10 MB at ~170 columns), [-].
+PARQUET_ROW_GROUP = 8192
 #: Longest variable name MATLAB accepts (``namelengthmax``).
 MATLAB_NAME_LENGTH = 63
 #: Names a MAT file of a run keeps for itself.
