@@ -220,11 +220,20 @@ class SimulationResult:
             The file to write
         every : int
             Keep every n-th row (and the last), [-]
+
+        Raises
+        ------
+        ValueError
+            Where pyarrow is not installed (one line, naming the file).
         """
         import json
 
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise ValueError(f"{path}: writing Parquet needs pyarrow: pip install pyarrow, "
+                             f"or write CSV or MAT") from None
 
         t, table = self._rows(every)
         units = self.metadata.get("units", {})
