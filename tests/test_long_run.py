@@ -166,3 +166,47 @@ def test_an_observer_error_ends_a_streamed_run():
     with pytest.raises(ValueError, match="observer failed"):
         simulate(None, "closed-loop-sine", t_end=0.2, dt_out=1e-3, chunk_rows=10,
                  keep_columns=[], observe=observe)
+
+
+def test_statistics_of_chosen_columns_are_those_of_every_row():
+    """stats_columns: min/max/mean/rms of only these columns, from every row (numpy's on the
+    run kept in memory), the other columns without statistics."""
+    full = simulate(None, t_end=0.05)
+    kept = simulate(None, t_end=0.05, keep_columns=["piston_position"],
+                    stats_columns=["supply_port_pressure", "return_port_pressure"])
+    stats = kept.metadata["stream_stats"]
+    assert list(stats.index) == ["supply_port_pressure", "return_port_pressure"]
+    for k in stats.index:
+        p = full[k]
+        assert stats.loc[k, "min"] == p.min() and stats.loc[k, "max"] == p.max()
+        assert stats.loc[k, "mean"] == pytest.approx(p.mean(), rel=1e-12)
+        assert stats.loc[k, "rms"] == pytest.approx(np.sqrt(np.mean(p**2)), rel=1e-12)
+
+
+def test_long_cli_run_warns_of_gas_release_as_the_in_memory_run(tmp_path, monkeypatch, capsys):
+    """The CLI's long-run path keeps statistics of the watched pressures only: with a
+    gas-release pressure of 1 MPa (the return port's ringing after the step dips below) it
+    warns of the same pressures, with the same lowest values, as the run kept in memory
+    (which also says when)."""
+    import json
+    import re
+    from importlib import resources
+
+    from hydroline.cli import main
+    from hydroline.cli import simulate as cli_simulate
+
+    text = resources.files("hydroline.rigs").joinpath("ayalew2005.toml").read_text()
+    rig = tmp_path / "rig.toml"
+    rig.write_text(re.sub(r'gas_release_pressure = "[^"]*"', 'gas_release_pressure = "1 MPa"',
+                          text))
+
+    def warned():
+        assert main(["simulate", str(rig), "--json"]) == 0
+        out = json.loads(capsys.readouterr().out)["warnings"]
+        return {w.split()[0]: re.search(r"lowest ([-0-9.e+]+) MPa", w).group(1) for w in out}
+
+    short = warned()
+    monkeypatch.setattr(cli_simulate, "LONG_ROWS", 100)
+    long = warned()
+    assert "return_port_pressure" in short
+    assert long == short

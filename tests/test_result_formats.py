@@ -127,3 +127,14 @@ def test_layout_traces_in_each_format(tmp_path):
     assert str(mat["units"]["supply_port_pressure_L_0m"]) == "Pa"
     np.testing.assert_array_equal(mat["supply_port_pressure_L_0m"],
                                   csv["supply_port_pressure_pa@L=0m"])
+
+
+def test_parquet_without_pyarrow_says_what_to_install(tmp_path, monkeypatch):
+    import sys
+
+    import hydroline
+
+    res = hydroline.simulate(t_end=0.02)
+    monkeypatch.setitem(sys.modules, "pyarrow", None)      # import pyarrow -> ImportError
+    with pytest.raises(ValueError, match="needs pyarrow: pip install pyarrow"):
+        res.to_parquet(tmp_path / "r.parquet")

@@ -79,6 +79,18 @@ def apply_samples(network: Network, sampled: list, t: float, x, p, signals=None)
             p[network.parameter_names.index(f"{c.name}.{k}")] = v
 
 
+#: Output rows per chunk of a run whose rows stay in memory (one call into the compiled core
+#: each: fewer calls, less Python between them), [-].
+IN_MEMORY_CHUNK_ROWS = 20_000
+#: Output rows per chunk of a run whose rows a second thread takes in (:class:`RowWriter`:
+#: statistics, CSV text, ``observe``): a block of ~7 MB (~170 columns) is mostly still in the
+#: processor's cache when that thread reads it. On the 10-minute closed-loop sine (two cores
+#: under load 3) 20 000-row blocks (27 MB) took ~12 % more CPU; 2 000-row blocks as little
+#: CPU as 5 000 but more wall time (two blocks waiting hold less: the integrating thread
+#: waited for the other more often), [-].
+HANDED_CHUNK_ROWS = 5_000
+
+
 class RowWriter:
     """Hands blocks of output rows to an :class:`~hydroline.engine.result.OutputSink` in a
     second thread, in order, at most ``depth`` blocks behind: the sink's NumPy statistics,
@@ -164,11 +176,11 @@ class RowWriter:
 
 def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               solver: str = "auto", rtol: float = 1e-7, atol_scale: float = 1e-8,
-              progress=None, stream_to=None, chunk_rows: int = 20000,
+              progress=None, stream_to=None, chunk_rows: int | None = None,
               stream_columns=None, stream_every: int = 1, keep_columns=None,
               preview_columns=None, preview_rows: int = 50_000,
               observe=None, until=None, until_rows: int = 200,
-              relax=None, relax_rows: int = 100) -> SimulationResult:
+              relax=None, relax_rows: int = 100, stats_columns=None) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
@@ -201,7 +213,9 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         memory for long runs); ``data`` then holds the last row only and
         ``metadata["stream_stats"]`` the min/max/mean/rms of every column
     chunk_rows : int
-        Output rows per chunk (streaming and the compiled path)
+        Output rows per chunk (streaming and the compiled path); None:
+        :data:`IN_MEMORY_CHUNK_ROWS`, or :data:`HANDED_CHUNK_ROWS` where a second thread takes
+        the rows in (``stream_to`` or ``keep_columns`` on the compiled core), [-]
     stream_columns : list
         Columns to write when streaming (all signals and states if None)
     stream_every : int
@@ -243,6 +257,10 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         ignored by the other backends and where rows are streamed
     relax_rows : int
         Rows per block checked by the ``relax`` test, [-]
+    stats_columns : list
+        Columns whose min/max/mean/rms ``metadata["stream_stats"]`` holds, from every row, with
+        ``stream_to`` or ``keep_columns``; None: every column (a 10-minute run's statistics of
+        ~170 columns at every 0.1 ms row cost ~1.5 s)
 
     Returns
     -------
@@ -277,15 +295,17 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     columns = list(network.signal_names) + list(network.state_names)
     sink = OutputSink(columns, stream_to, stream_columns, stream_every, keep_columns, n_out + 1,
                       preview_columns, preview_rows, column_units(network) if stream_to else None,
-                      observe)
+                      observe, stats_columns)
     first = backend.signals_at(0.0, x, p)   # the compiled core's; else from the graph:
     model = network.compile() if first is None else None   # (a backend without signals)
     if first is None:
         sink.write(t_out(0, 1), x[None, :], None, model, p)
     else:
         sink.write(t_out(0, 1), None, np.concatenate([first, x])[None, :], None, p)
-    chunk_rows = max(int(chunk_rows), 1)
     bounded = stream_to is not None or keep_columns is not None
+    if chunk_rows is None:
+        chunk_rows = HANDED_CHUNK_ROWS if bounded and backend.chunked else IN_MEMORY_CHUNK_ROWS
+    chunk_rows = max(int(chunk_rows), 1)
     # a long run's rows are taken in (statistics, CSV text, observe) by a second thread while
     # the compiled core, which holds no Python lock, integrates the next chunk
     rows_in = RowWriter(sink) if bounded and backend.chunked else sink

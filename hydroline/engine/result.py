@@ -209,7 +209,10 @@ class SimulationResult:
     def to_parquet(self, path, every: int = 1):
         """Write all series to Parquet: a column ``time`` [s], then one per signal and state
         under its own name; the SI units in the file's metadata, as pandas reads them back
-        (``pandas.read_parquet(path).attrs["units"]``: column -> unit). Needs pyarrow.
+        (``pandas.read_parquet(path).attrs["units"]``: column -> unit). Needs pyarrow. Written
+        in row groups of :data:`PARQUET_ROW_GROUP` rows, each converted on its own (a long
+        run's table is not copied whole: a 10-minute run's ~80 MB of rows took ~450 MB
+        resident through a DataFrame).
 
         Parameters
         ----------
@@ -217,15 +220,35 @@ class SimulationResult:
             The file to write
         every : int
             Keep every n-th row (and the last), [-]
+
+        Raises
+        ------
+        ValueError
+            Where pyarrow is not installed (one line, naming the file).
         """
-        import pandas as pd
+        import json
+
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise ValueError(f"{path}: writing Parquet needs pyarrow: pip install pyarrow, "
+                             f"or write CSV or MAT") from None
 
         t, table = self._rows(every)
-        df = pd.DataFrame(table, columns=self.columns)
-        df.insert(0, "time", t)
         units = self.metadata.get("units", {})
-        df.attrs["units"] = {"time": "s", **{c: units[c] for c in self.columns if c in units}}
-        df.to_parquet(path, index=False)
+        names = ["time"] + list(self.columns)
+        # (the key pandas keeps DataFrame.attrs under, and reads them back from)
+        attrs = {"units": {"time": "s", **{c: units[c] for c in self.columns if c in units}}}
+        schema = pa.schema([(n, pa.float64()) for n in names],
+                           metadata={"PANDAS_ATTRS": json.dumps(attrs)})
+        with pq.ParquetWriter(path, schema) as writer:
+            for k in range(0, max(len(t), 1), PARQUET_ROW_GROUP):
+                part = np.asarray(table[k:k + PARQUET_ROW_GROUP], dtype=float)
+                writer.write_table(pa.Table.from_arrays(
+                    [pa.array(np.asarray(t[k:k + PARQUET_ROW_GROUP], dtype=float))]
+                    + [pa.array(np.ascontiguousarray(part[:, i])) for i in range(part.shape[1])],
+                    schema=schema))
 
     def to_mat(self, path, every: int = 1):
         """Write all series to a MATLAB file (``scipy.io.savemat``, MAT 5): one variable per
@@ -279,6 +302,9 @@ class SimulationResult:
             self, signals=signals, path=path, title=title)
 
 
+#: Rows per row group of a Parquet file (:meth:`SimulationResult.to_parquet`: each group
+#: converted on its own, ~10 MB at ~170 columns), [-].
+PARQUET_ROW_GROUP = 8192
 #: Longest variable name MATLAB accepts (``namelengthmax``).
 MATLAB_NAME_LENGTH = 63
 #: Names a MAT file of a run keeps for itself.
@@ -461,10 +487,13 @@ class OutputSink:
     observe : callable
         Called with ``(t [s], table [SI], columns)`` for every block of
         rows written (statistics of a long run chunk by chunk); None: none
+    stats : list[str]
+        Columns whose statistics are kept (streamed or ``keep``); None: every
+        column
     """
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
-                 preview=None, preview_rows=50_000, units=None, observe=None):
+                 preview=None, preview_rows=50_000, units=None, observe=None, stats=None):
         self.columns = columns
         self.observe = observe   # (issue 13: per-chunk statistics of a long run)
         self.path = path
@@ -482,12 +511,15 @@ class OutputSink:
             self.file.write(",".join(["time [s]"] + [f"{c} [{units[c]}]" if c in units else c
                                                     for c in self.keep_file]) + "\n")
             self.written = 0
-        if path is not None or keep is not None:   # statistics of every column
+        if path is not None or keep is not None:   # statistics of every column, or of ``stats``
             self.stats_names = list(columns)
-            n = len(columns)
+            self.stats_index = True
+            if stats is not None:
+                self.stats_names, self.stats_index = column_indices("stats_columns", stats,
+                                                                    columns)
+            n = len(self.stats_names)
             self.mn, self.mx = np.full(n, np.inf), np.full(n, -np.inf)
             self.sum, self.sumsq = np.zeros(n), np.zeros(n)
-            self.stats_index = True
         # rows kept in memory: the ``keep`` columns, or every column when nothing is streamed;
         # the count known, one preallocated table (no copy at the end), which a backend may
         # write into in place when it holds every column (:meth:`target`)
@@ -555,10 +587,11 @@ class OutputSink:
             if sel.any():
                 self.preview_parts.append((t[sel], block[np.ix_(sel, self.preview_index)]))
         if self.stats_index is not None:
-            self.mn = np.minimum(self.mn, block.min(axis=0))
-            self.mx = np.maximum(self.mx, block.max(axis=0))
-            self.sum += block.sum(axis=0)
-            self.sumsq += np.einsum("ij,ij->j", block, block)   # (no temporary block)
+            part = block if self.stats_index is True else block[:, self.stats_index]
+            self.mn = np.minimum(self.mn, part.min(axis=0))
+            self.mx = np.maximum(self.mx, part.max(axis=0))
+            self.sum += part.sum(axis=0)
+            self.sumsq += np.einsum("ij,ij->j", part, part)   # (no temporary block)
         if self.keep is not None or self.path is None:     # rows kept in memory
             if self.kept is not None and self.rows <= len(self.kept_t):
                 self.kept_t[i0:self.rows] = t
@@ -635,12 +668,13 @@ class OutputSink:
                 np.vstack([q[1] for q in self.preview_parts]), self.preview)
 
     def stats_frame(self, names=None):
-        """min, max, mean and rms of every column (rows: column names) as a DataFrame.
+        """min, max, mean and rms of every column (rows: column names) as a DataFrame: of every
+        column the sink keeps statistics of (its ``stats``).
 
         Parameters
         ----------
         names : list
-            Only these columns (all when None)
+            Only these columns, those of them with statistics (all when None)
 
         Returns
         -------
@@ -652,4 +686,4 @@ class OutputSink:
         n = max(self.rows, 1)
         frame = pd.DataFrame({"min": self.mn, "max": self.mx, "mean": self.sum / n,
                               "rms": np.sqrt(self.sumsq / n)}, index=self.stats_names)
-        return frame if names is None else frame.loc[list(names)]
+        return frame if names is None else frame.loc[[k for k in names if k in frame.index]]

@@ -24,8 +24,8 @@ from .experiments import Experiment, Scenario, build_scenario, default_scenario
 from .summaries import WindowEnd, metrics_window
 
 __all__ = ["simulate", "Simulation", "DEFAULT_SIMULATION", "describe_run", "rest_state",
-           "watched_pressures", "check_cavitation", "cavity_warnings", "CAVITATION_PRESSURE",
-           "WATCHED_NODES", "WATCHED_PRESSURES", "window_end"]
+           "watched_pressures", "axes_pressures", "check_cavitation", "cavity_warnings",
+           "CAVITATION_PRESSURE", "WATCHED_NODES", "WATCHED_PRESSURES", "window_end"]
 
 #: Pressures watched for gas release and cavitation (docs/model.md 8): below the rig's
 #: ``fluid.gas_release_pressure`` (absolute; default one atmosphere, the pressure at which oil
@@ -359,7 +359,24 @@ def watched_pressures(res: SimulationResult) -> list[str]:
     list of str
         Signal names.
     """
-    axes = res.metadata.get("axes") or {}
+    return axes_pressures(res.metadata.get("axes") or {})
+
+
+def axes_pressures(axes: dict) -> list[str]:
+    """Pressure signals watched for cavitation in a circuit with these axes (what
+    :func:`watched_pressures` gives for its runs, known before a run).
+
+    Parameters
+    ----------
+    axes : dict
+        Axis name -> :class:`~hydroline.circuit.Axis` (its signal handles); empty: the
+        template's signals (:data:`WATCHED_PRESSURES`)
+
+    Returns
+    -------
+    list of str
+        Signal names.
+    """
     if not axes:
         return list(WATCHED_PRESSURES)
     out = []
