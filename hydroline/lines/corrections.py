@@ -253,7 +253,8 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     return alphas.copy(), betas.copy()
 
 
-_SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"))
+_SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"),
+                         Path(__file__).with_name("bessel.py"))
 
 
 def _solve_correction_factors(line: Line, n_modes: int, form: str):
