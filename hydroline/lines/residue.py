@@ -275,6 +275,38 @@ def _bessel_zeros(order: int, count: int) -> np.ndarray:
     return bessel_j_zeros(int(order), int(count))
 
 
+#: Chebyshev points per viscous bracket: J0, J1 on a bracket of width <= 0.4 interpolated to
+#: below 1e-20 (the evaluation's rounding, a few 1e-16, is what is left), [-].
+BRACKET_NODES = 16
+
+
+@functools.lru_cache(maxsize=8)
+def _bracket_bessel(count: int):
+    """The first ``count`` viscous brackets ``[j_{2,m}, next zero of J0]`` (the same for every
+    line) and Chebyshev interpolants of J0, J1 on each: ``(lo, hi, mid, half, coef)``, lo..half
+    of shape (count, 1) but lo, hi (count,), coef (2, count, 1, BRACKET_NODES). A Newton step of
+    :func:`viscous_poles` then costs one Clenshaw sum instead of a Bessel evaluation."""
+    j2 = _bessel_zeros(2, count)
+    j0 = _bessel_zeros(0, count + 2)
+    lo, hi = j2, j0[np.searchsorted(j0, j2)]
+    mid, half = 0.5 * (hi + lo), 0.5 * (hi - lo)
+    k = np.arange(BRACKET_NODES)
+    angle = np.pi * (k + 0.5) / BRACKET_NODES
+    values = bessel_j01(mid[:, None] + half[:, None] * np.cos(angle)[None, :])  # (2, count, N)
+    basis = np.cos(np.outer(k, angle)) * (2.0 / BRACKET_NODES)                 # (j, node)
+    coef = np.einsum("vmk,jk->vmj", np.array(values), basis)
+    coef[..., 0] *= 0.5
+    return lo, hi, mid[:, None], half[:, None], coef[:, :, None, :]
+
+
+def _chebyshev(coef, t):
+    """Clenshaw's sum of Chebyshev series ``coef[..., j]`` at ``t`` in [-1, 1] (broadcast)."""
+    b1 = b2 = 0.0
+    for j in range(coef.shape[-1] - 1, 0, -1):
+        b1, b2 = 2.0 * t * b1 - b2 + coef[..., j], b1
+    return t * b1 - b2 + coef[..., 0]
+
+
 def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
                   n_roots: int = VISCOUS_ROOTS_PER_CLUSTER,
                   max_clusters: int = MAX_VISCOUS_CLUSTERS) -> np.ndarray:
@@ -306,13 +338,13 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
         keep = nu * j2**2 / r**2 <= rate_limit
         keep[0] = True
         j2 = j2[keep]
-    j0 = _bessel_zeros(0, len(j2) + 2)
-    lo = np.repeat(j2[:, None], n_roots, axis=1)
-    hi = np.repeat(j0[np.searchsorted(j0, j2)][:, None], n_roots, axis=1)
+    lo_m, hi_m, mid, half, coef = _bracket_bessel(len(j2))
+    lo = np.repeat(lo_m[:, None], n_roots, axis=1)
+    hi = np.repeat(hi_m[:, None], n_roots, axis=1)
     q = (modal_angles(n_roots, form)[None, :] / Dn) ** 2
 
     def g(x):                     # and dg/dx; J2 = 2 J1/x - J0, J2' = J1 - 2 J2/x
-        J0, J1 = bessel_j01(x)
+        J0, J1 = _chebyshev(coef, (x - mid) / half)
         J2 = 2.0 * J1 / x - J0
         x3 = x**3
         return x3 * x * J0 - q * J2, 4.0 * x3 * J0 - x3 * x * J1 - q * (J1 - 2.0 * J2 / x)
