@@ -41,7 +41,8 @@ ASYMPTOTIC_LIMIT = 20.0
 #: below 1e-17 by then), [-].
 ASYMPTOTIC_TERMS = 26
 
-#: Order Miller's backward recurrence starts from (``I_70(20)/I_0(20) ~ 1e-25``), [-].
+#: Order Miller's backward recurrence starts from at most; ``1.25 |z| + 30`` below that
+#: (``I_55(20)/I_0(20) ~ 1e-26``, ``J_55(20)/J_0(20) ~ 5e-18``), [-].
 MILLER_START = 70
 
 #: Terms of the power series for ``|z| <= 2`` (``1/(17!)^2 < 1e-29``), [-].
@@ -81,7 +82,7 @@ def _miller(z):
     two_over_z = 2.0 / z
     f_next, f = np.zeros_like(z), np.full_like(z, 1e-30)
     total = np.zeros_like(z)
-    start = min(MILLER_START, int(np.abs(z).max() * 1.5) + 40)
+    start = min(MILLER_START, int(np.abs(z).max() * 1.25) + 30)
     kept = []
     for k in range(start, 0, -1):              # f = f_k, f_next = f_{k+1}
         total += f
