@@ -94,24 +94,32 @@ def _miller(z):
     return np.array([f, kept[1], kept[0]]) * scale
 
 
-def _asymptotic(z):
-    """I0, I1, I2 of ``|z| >= 20`` times ``e^{-Re z}`` (DLMF 10.40.5), rows of one array."""
+def _asymptotic(z, orders):
+    """I_v of ``|z| >= 20`` times ``e^{-Re z}`` for v in ``orders`` (DLMF 10.40.5), rows of one
+    array. The ``e^{-z}`` series is left out where ``Re z >= 21`` everywhere: it is below
+    ``e^{-42} = 6e-19`` of the other there."""
     w = 1.0 / z
-    sigma = np.where(z.imag >= 0.0, 1.0, -1.0)
     root = np.sqrt(2.0 * np.pi * z)
     near = np.exp(1j * z.imag) / root                      # e^{z - Re z}/sqrt(2 pi z)
-    far = np.exp(-2.0 * z.real - 1j * z.imag) / root       # e^{-z - Re z}/sqrt(2 pi z)
-    a = _asymptotic_coefficients()
+    far_needed = z.real.min() < 21.0
+    rows = list(orders) + ([3 + v for v in orders] if far_needed else [])
+    a = _asymptotic_coefficients()[rows]
     # terms needed at the smallest |z|: |a_k|/|z|^k below 1e-18 from there on
     reach = np.abs(a).max(axis=0) / np.abs(z).min() ** np.arange(ASYMPTOTIC_TERMS)
     terms = int(np.argmax(reach < 1e-18)) + 1 if np.any(reach < 1e-18) else ASYMPTOTIC_TERMS
-    acc = np.zeros((6, z.size), dtype=complex)
+    acc = np.zeros((len(rows), z.size), dtype=complex)
     for k in range(terms - 1, -1, -1):                      # Horner in 1/z
         acc = acc * w + a[:, k:k + 1]
-    return near * acc[:3] + (sigma * 1j * far) * np.array([[1.0], [-1.0], [1.0]]) * acc[3:]
+    m = len(orders)
+    if not far_needed:
+        return near * acc
+    sigma = np.where(z.imag >= 0.0, 1.0, -1.0)
+    far = np.exp(-2.0 * z.real - 1j * z.imag) / root       # e^{-z - Re z}/sqrt(2 pi z)
+    sign = np.array([[(-1.0) ** v] for v in orders])
+    return near * acc[:m] + (sigma * 1j * far) * sign * acc[m:]
 
 
-def scaled_bessel_i012(z):
+def scaled_bessel_i012(z, orders=(0, 1, 2)):
     """``I0(z), I1(z), I2(z)`` times ``e^{-|Re z|}`` for complex z with ``Re z >= 0``.
 
     SciPy's ``ive(v, z)`` for v = 0, 1, 2, without importing :mod:`scipy.special`
@@ -122,11 +130,13 @@ def scaled_bessel_i012(z):
     ----------
     z : complex or array_like
         Argument with ``Re z >= 0``, e.g. ``kappa = r sqrt(s/nu)`` (principal root), [-].
+    orders : tuple of int
+        Which of the orders 0, 1, 2, in the order wanted (fewer cost less), [-].
 
     Returns
     -------
-    tuple of three complex ndarrays
-        ``ive(0, z), ive(1, z), ive(2, z)``, each of the shape of ``z``, [-].
+    tuple of complex ndarrays
+        ``ive(v, z)`` for v in ``orders``, each of the shape of ``z``, [-].
 
     Examples
     --------
@@ -139,18 +149,19 @@ def scaled_bessel_i012(z):
     z = z.ravel()
     size = np.abs(z)
     small, large = size <= SERIES_LIMIT, size >= ASYMPTOTIC_LIMIT
+    orders = [int(v) for v in orders]
     if large.all():
-        out = _asymptotic(z)
+        out = _asymptotic(z, orders)
     else:
-        out = np.empty((3, z.size), dtype=complex)
+        out = np.empty((len(orders), z.size), dtype=complex)
         middle = ~(small | large)
         if small.any():
             zs = z[small]
-            out[:, small] = _series(zs) * np.exp(-zs.real)
+            out[:, small] = _series(zs)[orders] * np.exp(-zs.real)
         if middle.any():
-            out[:, middle] = _miller(z[middle])
+            out[:, middle] = _miller(z[middle])[orders]
         if large.any():
-            out[:, large] = _asymptotic(z[large])
+            out[:, large] = _asymptotic(z[large], orders)
     return tuple(o.reshape(shape) for o in out)
 
 

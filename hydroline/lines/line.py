@@ -90,7 +90,7 @@ def bessel_ratio(kappa):
     kappa = np.asarray(kappa, dtype=complex)
     small = np.abs(kappa) < 1e-3
     k_safe = np.where(small, 1.0, kappa)
-    i0, _, i2 = scaled_bessel_i012(k_safe)
+    i0, i2 = scaled_bessel_i012(k_safe, (0, 2))
     ratio = i0 / i2
     k2 = np.where(small, kappa, 1.0) ** 2
     series = 8.0 / k2 + 4.0 / 3.0 + k2 / 24.0

@@ -280,12 +280,18 @@ def _bessel_zeros(order: int, count: int) -> np.ndarray:
 BRACKET_NODES = 16
 
 
-@functools.lru_cache(maxsize=8)
 def _bracket_bessel(count: int):
     """The first ``count`` viscous brackets ``[j_{2,m}, next zero of J0]`` (the same for every
-    line) and Chebyshev interpolants of J0, J1 on each: ``(lo, hi, mid, half, coef)``, lo..half
-    of shape (count, 1) but lo, hi (count,), coef (2, count, 1, BRACKET_NODES). A Newton step of
-    :func:`viscous_poles` then costs one Clenshaw sum instead of a Bessel evaluation."""
+    line) and Chebyshev interpolants of J0, J1 on each: ``(lo, hi, mid, half, coef)``, lo, hi
+    of shape (count,), mid, half (count, 1), coef (2, count, 1, BRACKET_NODES). A Newton step
+    of :func:`viscous_poles` then costs one Clenshaw sum instead of a Bessel evaluation."""
+    lo, hi, mid, half, coef = _bracket_interpolants(max(count, MAX_VISCOUS_CLUSTERS))
+    return lo[:count], hi[:count], mid[:count], half[:count], coef[:, :count]
+
+
+@functools.lru_cache(maxsize=4)
+def _bracket_interpolants(count: int):
+    """:func:`_bracket_bessel` of ``count`` brackets, computed."""
     j2 = _bessel_zeros(2, count)
     j0 = _bessel_zeros(0, count + 2)
     lo, hi = j2, j0[np.searchsorted(j0, j2)]
