@@ -171,7 +171,7 @@ COLUMN_EXACT_BRANCHES = 1
 COLUMN_OCTAVES = 5
 
 
-def propagation_derivative(line: Line, s):
+def propagation_derivative(line: Line, s, bessel=None):
     """Gamma(s), Zc(s) of the dissipative model (M6) and the derivative dGamma/ds.
 
     With ``B = I0(kappa)/I2(kappa)``, ``kappa = r sqrt(s/nu)``, ``Gamma = s tau sqrt(B)``:
@@ -182,6 +182,9 @@ def propagation_derivative(line: Line, s):
     ----------
     line : Line             The line
     s : array_like complex  Laplace variable off the origin, [1/s]
+    bessel : tuple or None  ``I0, I1, I2`` of ``kappa`` times ``e^{-|Re kappa|}`` where the
+                            caller has them (the viscous roots: from J0, J1 on the real axis),
+                            of the shape of ``s``; computed when None
 
     A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
     ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
@@ -194,7 +197,7 @@ def propagation_derivative(line: Line, s):
     s = np.asarray(s, dtype=complex)
     nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
     kappa = r * np.sqrt(s / nu)
-    i0, i1, i2 = scaled_bessel_i012(kappa)                    # scaling cancels in ratios
+    i0, i1, i2 = scaled_bessel_i012(kappa) if bessel is None else bessel   # scaling cancels
     B = i0 / i2
     sq = np.sqrt(B)
     dB = (i1 / i2) * (1.0 - B) + 2.0 * B / kappa
@@ -232,7 +235,7 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
     return np.array(roots)
 
 
-def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
+def modal_residues(line: Line, poles, form: str = "PQ", bessel=None) -> np.ndarray:
     """Exact residues of every entry of a form's transfer matrix at roots of its denominator.
 
     PQ/QP entries are ``N(s)/cosh Gamma`` and PP/QQ entries ``N(s)/sinh Gamma``; at a simple
@@ -244,6 +247,8 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
     line : Line             The line
     poles : array_like      Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
     form : str              "PQ", "QP", "PP" or "QQ"
+    bessel : tuple or None  ``I0, I1, I2`` at the poles where known
+                            (:func:`propagation_derivative`)
 
     Returns
     -------
@@ -251,7 +256,7 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
     """
     form = check_form(form)
     p = np.asarray(poles, dtype=complex)
-    G, Zc, dG = propagation_derivative(line, p)
+    G, Zc, dG = propagation_derivative(line, p, bessel)
     ch, sh = np.cosh(G), np.sinh(G)
     one = np.ones_like(G)
     if form == "PQ":
@@ -275,9 +280,9 @@ def _bessel_zeros(order: int, count: int) -> np.ndarray:
     return bessel_j_zeros(int(order), int(count))
 
 
-#: Chebyshev points per viscous bracket: J0, J1 on a bracket of width <= 0.4 interpolated to
+#: Chebyshev points per viscous bracket: J0, J1 on a bracket of width <= 0.39 interpolated to
 #: below 1e-20 (the evaluation's rounding, a few 1e-16, is what is left), [-].
-BRACKET_NODES = 16
+BRACKET_NODES = 12
 
 
 def _bracket_bessel(count: int):
@@ -336,6 +341,12 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     -------
     ndarray (clusters, n_roots) of real poles s < 0, [1/s]
     """
+    return _viscous_roots(line, form, rate_limit, n_roots, max_clusters)[0]
+
+
+def _viscous_roots(line: Line, form: str, rate_limit, n_roots: int, max_clusters: int):
+    """:func:`viscous_poles` [1/s] and ``I0, I1, I2`` there (``kappa = j x``: ``J0(x)``,
+    ``j J1(x)``, ``-J2(x)``), for :func:`modal_residues`."""
     form = check_form(form)
     Dn = line.dissipation_number
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -349,21 +360,22 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     hi = np.repeat(hi_m[:, None], n_roots, axis=1)
     q = (modal_angles(n_roots, form)[None, :] / Dn) ** 2
 
-    def g(x):                     # and dg/dx; J2 = 2 J1/x - J0, J2' = J1 - 2 J2/x
+    def g(x, q):                  # and dg/dx; J2 = 2 J1/x - J0, J2' = J1 - 2 J2/x
         J0, J1 = _chebyshev(coef, (x - mid) / half)
         J2 = 2.0 * J1 / x - J0
         x3 = x**3
         return x3 * x * J0 - q * J2, 4.0 * x3 * J0 - x3 * x * J1 - q * (J1 - 2.0 * J2 / x)
 
     # Newton's method on every bracket at once, kept inside the bracket (a step that leaves
-    # it bisects), from the secant of the ends: ~6 evaluations of g (each costs what 10 did
-    # with SciPy's j0, j1) to a step below 4e-16 relative; the bracket shrinks on the way
-    (g_lo, _), (g_hi, _) = g(lo), g(hi)
+    # it bisects), from the secant of the ends: ~5 evaluations of g to a step below 4e-16
+    # relative; the bracket shrinks on the way
+    g_ends = g(np.concatenate([lo, hi], axis=1), np.tile(q, 2))[0]
+    g_lo, g_hi = g_ends[:, :n_roots], g_ends[:, n_roots:]
     x = lo - g_lo * (hi - lo) / (g_hi - g_lo)
     x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))
     sign_lo = np.sign(g_lo)
     for _ in range(100):
-        g_x, slope = g(x)
+        g_x, slope = g(x, q)
         up = np.sign(g_x) == sign_lo              # the root lies in (x, hi): lo moves
         lo, hi = np.where(up, x, lo), np.where(up, hi, x)
         step = g_x / slope
@@ -373,7 +385,8 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
         new = x - step
         new = np.where((new > lo) & (new < hi), new, 0.5 * (lo + hi))
         x = np.where(done, x, new)
-    return -nu * x**2 / r**2
+    J0, J1 = _chebyshev(coef, (x - mid) / half)
+    return -nu * x**2 / r**2, (J0 + 0j, 1j * J1, J0 - 2.0 * J1 / x + 0j)
 
 
 def exact_moments(line: Line, form: str = "PQ"):
@@ -1317,8 +1330,9 @@ def _realise(line: Line, n: int, form: str):
         for e, sr in enumerate(wall_roots):
             blocks += _lumped_pole_blocks(line, sr, form, f"wall{e + 1}_", ends, rem0, rem1)
     else:
-        sv = viscous_poles(line, form, rate_limit=theta_next / tau)
-        Rv = modal_residues(line, sv, form).real
+        sv, bessel = _viscous_roots(line, form, theta_next / tau, VISCOUS_ROOTS_PER_CLUSTER,
+                                    MAX_VISCOUS_CLUSTERS)
+        Rv = modal_residues(line, sv, form, bessel).real
         rates = -sv.ravel()
         for o in range(2):
             for j in range(2):
