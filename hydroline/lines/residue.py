@@ -275,8 +275,8 @@ def modal_residues(line: Line, poles, form: str = "PQ", bessel=None) -> np.ndarr
 
 
 def _bessel_zeros(order: int, count: int) -> np.ndarray:
-    """The first ``count`` positive zeros of J_order (scipy's ``jn_zeros``, remembered: every
-    residue-line build asks for the same ones), [-]."""
+    """The first ``count`` positive zeros of J_order (:func:`bessel_j_zeros`, remembered:
+    every residue-line build asks for the same ones), [-]."""
     return bessel_j_zeros(int(order), int(count))
 
 
