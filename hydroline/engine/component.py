@@ -52,9 +52,11 @@ class Port:
 
     Parameters
     ----------
-    quantity : str      Kind of signal (a key of QUANTITY_UNITS); connecting ports of
-                        different kinds is a causality/quantity mismatch
-    description : str   What the signal is, with its sign convention
+    quantity : str
+        Kind of signal (a key of QUANTITY_UNITS); connecting ports of
+        different kinds is a causality/quantity mismatch
+    description : str
+        What the signal is, with its sign convention
     """
 
     quantity: str
@@ -62,6 +64,7 @@ class Port:
 
     @property
     def unit(self) -> str:
+        """The signal's SI unit (from :data:`QUANTITY_UNITS`)."""
         return QUANTITY_UNITS[self.quantity]
 
 
@@ -71,10 +74,14 @@ class State:
 
     Parameters
     ----------
-    name : str          Local name, e.g. ``"gas_volume"`` (the network prefixes the component)
-    unit : str          Its SI unit, e.g. ``"m^3"``
-    scale : float       Typical magnitude (absolute tolerance and steady-state scaling), [unit]
-    description : str   What it is
+    name : str
+        Local name, e.g. ``"gas_volume"`` (the network prefixes the component)
+    unit : str
+        Its SI unit, e.g. ``"m^3"``
+    scale : float
+        Typical magnitude (absolute tolerance and steady-state scaling), [unit]
+    description : str
+        What it is
     """
 
     name: str
@@ -92,12 +99,15 @@ class HydraulicEnd:
 
     Parameters
     ----------
-    pressure : str     Port of the pressure at that place; None for a flow junction (a node
-                       whose pressure another component gives)
-    flows : tuple      Ports of the flows crossing it; a flow port listed at two ends of one
-                       component passes through it from one to the other (a resistance, a pump)
-    compliant : bool   True where the component holds oil: its pressure follows from a volume
-                       of oil (a hose end, a chamber, an accumulator, a lumped volume)
+    pressure : str
+        Port of the pressure at that place; None for a flow junction (a node
+        whose pressure another component gives)
+    flows : tuple
+        Ports of the flows crossing it; a flow port listed at two ends of one
+        component passes through it from one to the other (a resistance, a pump)
+    compliant : bool
+        True where the component holds oil: its pressure follows from a volume
+        of oil (a hose end, a chamber, an accumulator, a lumped volume)
     """
 
     pressure: str | None
@@ -114,21 +124,30 @@ class Parameter:
 
     Parameters
     ----------
-    unit : str             SI unit ("-" dimensionless, "str" text, "list:<unit>" a list of
-                           quantities, e.g. "list:m")
-    description : str      What it is, with its symbol and equation (M#) where it has one
-    minimum : float        Lower bound, [unit]; None for none
-    maximum : float        Upper bound, [unit]; None for none
-    exclusive_minimum : bool  True: the value must be above ``minimum`` (> rather than >=)
-    optional : bool        True: None is allowed (the parameter is then not used)
-    choices : tuple        Allowed texts of a "str" parameter (empty: any text)
-    default : object       Default value [unit] (filled in from the component's field)
-    plausible : tuple      (low, high), [unit]: where a real rig's value lies (either None:
-                           open on that side). Wider than typical: it catches slips of unit or
-                           exponent (an area of 1e-30 m^2), not unusual designs. A value
-                           outside is refused unless the rig names the parameter in
-                           ``[rig] allow_implausible``; ``minimum``/``maximum`` are physical
-                           and cannot be overridden. None: no plausible range.
+    unit : str
+        SI unit ("-" dimensionless, "str" text, "list:<unit>" a list of
+        quantities, e.g. "list:m")
+    description : str
+        What it is, with its symbol and equation (M#) where it has one
+    minimum : float
+        Lower bound, [unit]; None for none
+    maximum : float
+        Upper bound, [unit]; None for none
+    exclusive_minimum : bool
+        True: the value must be above ``minimum`` (> rather than >=)
+    optional : bool
+        True: None is allowed (the parameter is then not used)
+    choices : tuple
+        Allowed texts of a "str" parameter (empty: any text)
+    default : object
+        Default value [unit] (filled in from the component's field)
+    plausible : tuple
+        (low, high), [unit]: where a real rig's value lies (either None:
+        open on that side). Wider than typical: it catches slips of unit or
+        exponent (an area of 1e-30 m^2), not unusual designs. A value
+        outside is refused unless the rig names the parameter in
+        ``[rig] allow_implausible``; ``minimum``/``maximum`` are physical
+        and cannot be overridden. None: no plausible range.
     """
 
     unit: str
@@ -142,7 +161,13 @@ class Parameter:
     plausible: tuple | None = None
 
     def rule(self) -> str:
-        """The bound as text, e.g. "> 0" or "within [1, 1.66667]"."""
+        """The bound as text, e.g. "> 0" or "within [1, 1.66667]".
+
+        Returns
+        -------
+        str
+            The bound, e.g. ``"> 0"``, ``"one of 'a', 'b'"`` or ``"finite"``.
+        """
         if self.choices:
             return "one of " + ", ".join(repr(c) for c in self.choices)
         if self.minimum is not None and self.maximum is not None:
@@ -158,7 +183,8 @@ class Parameter:
 
         Parameters
         ----------
-        value : object   The value, [unit] (a list for "list:" units, text for "str")
+        value : object
+            The value, [unit] (a list for "list:" units, text for "str")
 
         Returns
         -------
@@ -190,7 +216,13 @@ class Parameter:
 
         Parameters
         ----------
-        value : object   The value, [unit]
+        value : object
+            The value, [unit]
+
+        Returns
+        -------
+        str or None
+            The plausible range as text, or None when the value is plausible.
         """
         if self.plausible is None or value is None or self.unit == "str":
             return None
@@ -213,7 +245,13 @@ def is_number(value) -> bool:
 
     Parameters
     ----------
-    value : object   An attribute's value
+    value : object
+        An attribute's value
+
+    Returns
+    -------
+    bool
+        True for a run-time number.
     """
     if type(value) is float or isinstance(value, np.floating):
         return True
@@ -242,8 +280,15 @@ def range_text(low, high) -> str:
 
     Parameters
     ----------
-    low : float    Lower end, [unit]; None: open
-    high : float   Upper end, [unit]; None: open
+    low : float
+        Lower end, [unit]; None: open
+    high : float
+        Upper end, [unit]; None: open
+
+    Returns
+    -------
+    str
+        The range as text.
     """
     if low is None:
         return f"at most {high:g}"
@@ -259,16 +304,25 @@ def parameter(default, unit: str, description: str = "", *, minimum=None, maximu
 
     Parameters
     ----------
-    default : object       Default value, [unit]
-    unit : str             SI unit ("-", "str", "list:<unit>")
-    description : str      What it is
-    minimum : float        Lower bound (inclusive unless ``positive``), [unit]
-    maximum : float        Upper bound (inclusive), [unit]
-    positive : bool        Shorthand for "> 0" (``minimum`` 0, exclusive)
-    optional : bool        None allowed
-    choices : tuple        Allowed texts of a "str" parameter
-    plausible : tuple      (low, high) where a real rig's value lies, [unit] (see
-                           :class:`Parameter`); None: none
+    default : object
+        Default value, [unit]
+    unit : str
+        SI unit ("-", "str", "list:<unit>")
+    description : str
+        What it is
+    minimum : float
+        Lower bound (inclusive unless ``positive``), [unit]
+    maximum : float
+        Upper bound (inclusive), [unit]
+    positive : bool
+        Shorthand for "> 0" (``minimum`` 0, exclusive)
+    optional : bool
+        None allowed
+    choices : tuple
+        Allowed texts of a "str" parameter
+    plausible : tuple
+        (low, high) where a real rig's value lies, [unit] (see
+        :class:`Parameter`); None: none
 
     Returns
     -------
@@ -287,9 +341,11 @@ class Component:
 
     Parameters
     ----------
-    name : str          Unique name in the network (dots allowed: ``supply.section2``)
-    connections : dict  Local port name -> network signal name. Unlisted ports connect to
-                        a signal of the same name prefixed by nothing (the port name itself)
+    name : str
+        Unique name in the network (dots allowed: ``supply.section2``)
+    connections : dict
+        Local port name -> network signal name. Unlisted ports connect to
+        a signal of the same name prefixed by nothing (the port name itself)
     """
 
     name: str
@@ -324,7 +380,13 @@ class Component:
     @classmethod
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
-        (with its default filled in)."""
+        (with its default filled in).
+
+        Returns
+        -------
+        dict
+            Parameter name -> :class:`Parameter`.
+        """
         known = cls.__dict__.get("_declared_parameters")   # per class (not inherited)
         if known is None:
             known = {}
@@ -355,7 +417,8 @@ class Component:
 
         Returns
         -------
-        dict  attribute name -> float or tuple of floats, [SI]
+        dict
+            attribute name -> float or tuple of floats, [SI]
         """
         return {k: v for k, v in vars(self).items() if k != "name" and is_number(v)}
 
@@ -366,11 +429,13 @@ class Component:
 
         Parameters
         ----------
-        numbers : dict   attribute name -> value (a symbol, or a tuple of symbols)
+        numbers : dict
+            attribute name -> value (a symbol, or a tuple of symbols)
 
         Returns
         -------
-        Component  The copy (the component itself is not changed)
+        Component
+            The copy (the component itself is not changed)
         """
         view = copy.copy(self)
         for c in type(self).__mro__:
@@ -388,11 +453,13 @@ class Component:
 
         Parameters
         ----------
-        attributes : dict   The component's attributes, name -> value
+        attributes : dict
+            The component's attributes, name -> value
 
         Returns
         -------
-        dict  name -> value or mark
+        dict
+            name -> value or mark
         """
         return {k: ((NUMBER_MARK if not isinstance(v, (tuple, list)) else (NUMBER_MARK, len(v)))
                     if k != "name" and is_number(v) else v) for k, v in attributes.items()}
@@ -400,6 +467,7 @@ class Component:
     # ---- to be provided by subclasses --------------------------------------------------
     @property
     def states(self) -> list[State]:
+        """The component's states, :class:`State` entries (none by default)."""
         return []
 
     def outputs_of(self, t, x, u, p):
@@ -407,10 +475,14 @@ class Component:
 
         Parameters
         ----------
-        t : float   Time, [s]
-        x : dict    States, local name -> value [SI]
-        u : dict    Inputs, local port name -> value [SI] (empty when not ``feedthrough``)
-        p : dict    Runtime parameters, name -> value [SI]
+        t : float
+            Time, [s]
+        x : dict
+            States, local name -> value [SI]
+        u : dict
+            Inputs, local port name -> value [SI] (empty when not ``feedthrough``)
+        p : dict
+            Runtime parameters, name -> value [SI]
         """
         raise NotImplementedError
 
@@ -419,20 +491,41 @@ class Component:
 
         Parameters
         ----------
-        t : float   Time, [s]
-        x : dict    States, local name -> value [SI]
-        u : dict    Inputs, local port name -> value [SI]
-        p : dict    Runtime parameters, name -> value [SI]
+        t : float
+            Time, [s]
+        x : dict
+            States, local name -> value [SI]
+        u : dict
+            Inputs, local port name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        dict
+            State local name -> time derivative, [SI unit/s].
         """
         return {}
 
     # ---- optional hooks ------------------------------------------------------------------
     def runtime_parameters(self) -> dict:
-        """Parameters that may change without rebuilding the compiled model, name -> value."""
+        """Parameters that may change without rebuilding the compiled model, name -> value.
+
+        Returns
+        -------
+        dict
+            Parameter name -> value, [SI].
+        """
         return {}
 
     def initial_guess(self) -> dict:
-        """Guess of every state for the steady-state solver, local name -> value [SI]."""
+        """Guess of every state for the steady-state solver, local name -> value [SI].
+
+        Returns
+        -------
+        dict
+            State local name -> guess, [SI].
+        """
         return {s.name: 0.0 for s in self.states}
 
     def settle(self, x: dict, u: dict, p: dict):
@@ -441,9 +534,12 @@ class Component:
 
         Parameters
         ----------
-        x : dict   States at the steady state, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
-        p : dict   Runtime parameters, name -> value [SI]
+        x : dict
+            States at the steady state, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
         """
         return None
 
@@ -453,8 +549,15 @@ class Component:
 
         Parameters
         ----------
-        x : dict   States at the instant, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
+        x : dict
+            States at the instant, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
+
+        Returns
+        -------
+        dict
+            Runtime parameter name -> value to hold, [SI].
         """
         return {}
 
@@ -463,13 +566,25 @@ class Component:
 
         Parameters
         ----------
-        t_end : float   End of the run, [s]
+        t_end : float
+            End of the run, [s]
+
+        Returns
+        -------
+        list of float
+            The times, [s].
         """
         return []
 
     def hydraulic_ends(self) -> dict:
         """Where the component meets the oil, end name -> :class:`HydraulicEnd`; empty for a
-        component of signals only (a command, a controller, friction)."""
+        component of signals only (a command, a controller, friction).
+
+        Returns
+        -------
+        dict
+            End name -> :class:`HydraulicEnd`.
+        """
         return {}
 
     def signal(self, port: str) -> str:
@@ -477,6 +592,12 @@ class Component:
 
         Parameters
         ----------
-        port : str   Local port name
+        port : str
+            Local port name
+
+        Returns
+        -------
+        str
+            The network signal's name (the port's own name when not connected elsewhere).
         """
         return self.connections.get(port, port)

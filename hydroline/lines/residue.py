@@ -180,19 +180,28 @@ def propagation_derivative(line: Line, s, bessel=None):
 
     Parameters
     ----------
-    line : Line             The line
-    s : array_like complex  Laplace variable off the origin, [1/s]
-    bessel : tuple or None  ``I0, I1, I2`` of ``kappa`` times ``e^{-|Re kappa|}`` where the
-                            caller has them (the viscous roots: from J0, J1 on the real axis),
-                            of the shape of ``s``; computed when None
-
-    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
-    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
+    line : Line
+        The line
+    s : array_like complex
+        Laplace variable off the origin, [1/s]
+    bessel : tuple or None
+        ``I0, I1, I2`` of ``kappa`` times ``e^{-|Re kappa|}``, each of the shape of ``s``,
+        where the caller has them (the viscous roots: from J0, J1 on the real axis);
+        computed when None
 
     Returns
     -------
-    (Gamma [-], Zc [Pa s/m^3], dGamma/ds [s]) : complex arrays, principal square roots as in
-    :meth:`Line.propagation`
+    Gamma : ndarray
+        Propagation operator, complex, [-]
+    Zc : ndarray
+        Characteristic impedance, complex, [Pa s/m^3]
+    dGamma_ds : ndarray
+        dGamma/ds, complex, [s]; principal square roots as in :meth:`Line.propagation`
+
+    Notes
+    -----
+    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
+    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
     """
     s = np.asarray(s, dtype=complex)
     nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
@@ -217,9 +226,17 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
 
     Parameters
     ----------
-    line : Line      The line, SI
-    n_modes : int    Modes, [-]
-    form : str       Causal form: "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line, SI
+    n_modes : int
+        Modes, [-]
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
+
+    Returns
+    -------
+    ndarray
+        Complex poles, one per mode, [1/s].
     """
     thetas = modal_angles(n_modes, form)
     together = dissipative_roots(line, thetas)   # every mode at once: one Bessel call a step
@@ -244,15 +261,19 @@ def modal_residues(line: Line, poles, form: str = "PQ", bessel=None) -> np.ndarr
 
     Parameters
     ----------
-    line : Line             The line
-    poles : array_like      Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
-    form : str              "PQ", "QP", "PP" or "QQ"
-    bessel : tuple or None  ``I0, I1, I2`` at the poles where known
-                            (:func:`propagation_derivative`)
+    line : Line
+        The line
+    poles : array_like
+        Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
+    form : str
+        "PQ", "QP", "PP" or "QQ"
+    bessel : tuple or None
+        ``I0, I1, I2`` at the poles where known (:func:`propagation_derivative`)
 
     Returns
     -------
-    complex ndarray, shape ``poles.shape + (2, 2)``; [output unit * input unit^-1 / s]
+    ndarray
+        Complex, shape ``poles.shape + (2, 2)``, [output unit * input unit^-1 / s]
     """
     form = check_form(form)
     p = np.asarray(poles, dtype=complex)
@@ -326,20 +347,27 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     On the negative real axis ``kappa = j x``, ``x = r sqrt(-s/nu)``, and
     ``Gamma^2 = -theta^2`` becomes ``x^4 J0(x) Dn^2 = theta^2 J2(x)``: one root in every
     interval from a zero ``j_{2,m}`` of J2 to the next zero of J0, for every mode theta.
-    Solved by Newton's method inside the brackets for the modes 1..n_roots of the form and the clusters m whose
-    rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the first cluster).
+    Solved by Newton's method inside the brackets for the modes 1..n_roots of the form and
+    the clusters m whose rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the
+    first cluster).
 
     Parameters
     ----------
-    line : Line          The line, SI
-    form : str           Causal form: "PQ", "QP", "PP" or "QQ"
-    rate_limit : float   Largest cluster rate kept, [1/s] (None: the first cluster only)
-    n_roots : int        Roots per cluster (modes of the form), [-]
-    max_clusters : int   Clusters at most, [-]
+    line : Line
+        The line, SI
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
+    rate_limit : float
+        Largest cluster rate kept, [1/s] (None: the first cluster only)
+    n_roots : int
+        Roots per cluster (modes of the form), [-]
+    max_clusters : int
+        Clusters at most, [-]
 
     Returns
     -------
-    ndarray (clusters, n_roots) of real poles s < 0, [1/s]
+    ndarray
+        (clusters, n_roots) real poles s < 0, [1/s]
     """
     return _viscous_roots(line, form, rate_limit, n_roots, max_clusters)[0]
 
@@ -400,12 +428,17 @@ def exact_moments(line: Line, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line    The line, SI
-    form : str     Causal form: "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line, SI
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
-    (H0, H1) : real (2, 2) arrays in form order; H1 in [H0 unit * s]
+    H0 : ndarray
+        Real (2, 2), in form order, [SI of the form]
+    H1 : ndarray
+        Real (2, 2), in form order, [H0 unit * s]
     """
     form = check_form(form)
     tau, Z0, Dn = line.wave_time, line.impedance, line.dissipation_number
@@ -477,15 +510,23 @@ def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = N
 
     Parameters
     ----------
-    line : Line          The line, with its wall elements
-    form : str           Causal form: "PQ", "QP" or "PP"
-    rate_limit : float   Largest viscous cluster rate kept, [1/s] (None: the first only)
-    n_roots : int        Modes of the form, [-]
+    line : Line
+        The line, with its wall elements
+    form : str
+        Causal form: "PQ", "QP" or "PP"
+    rate_limit : float
+        Largest viscous cluster rate kept, [1/s] (None: the first only)
+    n_roots : int
+        Modes of the form, [-]
 
     Returns
     -------
-    (viscous, wall) : poles [1/s], complex arrays with both members of every complex pair:
-    the ones beside the viscous rates, and a list with one array per wall element
+    viscous : ndarray
+        Poles beside the viscous rates, complex, [1/s] (both members of every
+        complex pair)
+    wall : list of ndarray
+        Poles beside each wall element's retardation rate, one complex array per
+        element, [1/s]
     """
     form = check_form(form)
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -640,13 +681,17 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
 
     Parameters
     ----------
-    line : Line        The line (bore, fluid), SI
-    n_exact : int      Branches kept one by one, [-]
-    n_octaves : int    Octave groups after them (the last takes every further branch), [-]
+    line : Line
+        The line (bore, fluid), SI
+    n_exact : int
+        Branches kept one by one, [-]
+    n_octaves : int
+        Octave groups after them (the last takes every further branch), [-]
 
     Returns
     -------
-    list of (inertance [kg/m^4], resistance [Pa s/m^3]) pairs, the exact branches first
+    list of tuple
+        ``(inertance [kg/m^4], resistance [Pa s/m^3])`` pairs, the exact branches first
     """
     I, R = line.inertance, line.resistance
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -793,12 +838,15 @@ def tail_groups(n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    n_modes : int     Number of retained modes n >= 1, [-]
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
+    n_modes : int
+        Number of retained modes n >= 1, [-]
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
 
     Returns
     -------
-    list of (Omega tau [-], zeta [-]), one per group, in rising frequency
+    list of tuple
+        ``(Omega tau [-], zeta [-])``, one per group, in rising frequency
     """
     return list(_tail_groups(check_modes(n_modes), check_form(form)))
 
@@ -1014,13 +1062,18 @@ def _passive_remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1,
 
     Parameters
     ----------
-    line : Line          The line
-    n : int              Retained modes, [-]
-    form : str           "PP" or "QQ"
-    blocks : list        (A, B, C, names) blocks realised so far (column, modes, V)
+    line : Line
+        The line
+    n : int
+        Retained modes, [-]
+    form : str
+        "PP" or "QQ"
+    blocks : list
+        (A, B, C, names) blocks realised so far (column, modes, V)
     rem0, rem1 : ndarray (2, 2) DC gain and first moment the remainder must supply, [output
                          unit per input unit], [same * s]
-    moment2 : float, optional  Exact second moment of the common-mode admittance (PP)
+    moment2 : float, optional
+        Exact second moment of the common-mode admittance (PP)
 
     Returns
     -------
@@ -1207,16 +1260,21 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line       The line (needs Dn well below 1, as for (M15))
-    n_modes : int     Number of retained modes n >= 1 (two states each)
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
+    line : Line
+        The line (needs Dn well below 1, as for (M15))
+    n_modes : int
+        Number of retained modes n >= 1 (two states each)
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
 
     Returns
     -------
-    (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
-    form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
-    2 n modal + 4 viscous + tail (4 per group of :func:`tail_groups`, 16),
-    plus 6 column states (PP) or 1 (QQ).
+    A, B, C, D : ndarray
+        Real matrices, inputs and outputs in the form's order, [SI]; D = 0
+        (strictly proper)
+    state_names : list[str]
+        States as in the module docstring: 2 n modal + 4 viscous + tail (4 per
+        group of :func:`tail_groups`, 16), plus 6 column states (PP) or 1 (QQ)
     """
     if not isinstance(line, Line):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")
