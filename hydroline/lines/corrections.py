@@ -239,7 +239,7 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     """
     n_modes, form = check_modes(n_modes), check_form(form)
     # a pure function of these numbers, kept in this process and on disk: a later build of
-    # the same line skips the root finding (and the import of scipy.special)
+    # the same line skips the root finding
     key = (f"{_SOURCE_TAG}|{form}|{n_modes}|{line.length!r}|{line.diameter!r}|"
            f"{line.fluid.kinematic_viscosity!r}|{line.wave_time!r}")
 
@@ -253,7 +253,8 @@ def correction_factors(line: Line, n_modes: int, form: str = "PQ"):
     return alphas.copy(), betas.copy()
 
 
-_SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"))
+_SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"),
+                         Path(__file__).with_name("bessel.py"))
 
 
 def _solve_correction_factors(line: Line, n_modes: int, form: str):

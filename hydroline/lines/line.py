@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..fluid import Fluid, require_positive
+from .bessel import scaled_bessel_i012
 
 __all__ = ["Line", "FORMS", "FORM_PORTS", "check_form", "bessel_ratio"]
 
@@ -60,7 +61,8 @@ def check_form(form: str) -> str:
 def bessel_ratio(kappa):
     """I0(kappa)/I2(kappa) for complex kappa with Re(kappa) >= 0, overflow-free (M6).
 
-    Uses exponentially scaled Bessel functions (the scaling cancels in the ratio); for
+    Uses exponentially scaled Bessel functions (the scaling cancels in the ratio;
+    :func:`hydroline.lines.bessel.scaled_bessel_i012`, NumPy alone); for
     ``abs(kappa) < 1e-3`` the series ``8/kappa^2 + 4/3 + kappa^2/24`` avoids cancellation
     in I2.
 
@@ -85,12 +87,11 @@ def bessel_ratio(kappa):
     >>> round(float(bessel_ratio(k).real) - 8 / k**2, 6)     # 4/3
     1.333333
     """
-    from scipy import special   # here, not at import: a cached run never needs it
-
     kappa = np.asarray(kappa, dtype=complex)
     small = np.abs(kappa) < 1e-3
     k_safe = np.where(small, 1.0, kappa)
-    ratio = special.ive(0, k_safe) / special.ive(2, k_safe)
+    i0, i2 = scaled_bessel_i012(k_safe, (0, 2))
+    ratio = i0 / i2
     k2 = np.where(small, kappa, 1.0) ** 2
     series = 8.0 / k2 + 4.0 / 3.0 + k2 / 24.0
     return np.where(small, series, ratio)

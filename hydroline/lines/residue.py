@@ -94,6 +94,7 @@ from pathlib import Path
 import numpy as np
 
 from ..cache import source_tag
+from .bessel import bessel_j01, bessel_j_zeros, polygamma, scaled_bessel_i012
 from .corrections import check_modes, dissipative_root, dissipative_roots, modal_angles
 from .memo import LineMemo
 from .line import FORM_PORTS, Line, check_form
@@ -170,7 +171,7 @@ COLUMN_EXACT_BRANCHES = 1
 COLUMN_OCTAVES = 5
 
 
-def propagation_derivative(line: Line, s):
+def propagation_derivative(line: Line, s, bessel=None):
     """Gamma(s), Zc(s) of the dissipative model (M6) and the derivative dGamma/ds.
 
     With ``B = I0(kappa)/I2(kappa)``, ``kappa = r sqrt(s/nu)``, ``Gamma = s tau sqrt(B)``:
@@ -183,6 +184,10 @@ def propagation_derivative(line: Line, s):
         The line
     s : array_like complex
         Laplace variable off the origin, [1/s]
+    bessel : tuple or None
+        ``I0, I1, I2`` of ``kappa`` times ``e^{-|Re kappa|}``, each of the shape of ``s``,
+        where the caller has them (the viscous roots: from J0, J1 on the real axis);
+        computed when None
 
     Returns
     -------
@@ -198,12 +203,10 @@ def propagation_derivative(line: Line, s):
     A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
     ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
     """
-    from scipy import special   # (where a line is computed: not for one read from the cache)
-
     s = np.asarray(s, dtype=complex)
     nu, r, tau = line.fluid.kinematic_viscosity, line.radius, line.wave_time
     kappa = r * np.sqrt(s / nu)
-    i0, i1, i2 = (special.ive(k, kappa) for k in (0, 1, 2))   # scaling cancels in ratios
+    i0, i1, i2 = scaled_bessel_i012(kappa) if bessel is None else bessel   # scaling cancels
     B = i0 / i2
     sq = np.sqrt(B)
     dB = (i1 / i2) * (1.0 - B) + 2.0 * B / kappa
@@ -249,7 +252,7 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
     return np.array(roots)
 
 
-def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
+def modal_residues(line: Line, poles, form: str = "PQ", bessel=None) -> np.ndarray:
     """Exact residues of every entry of a form's transfer matrix at roots of its denominator.
 
     PQ/QP entries are ``N(s)/cosh Gamma`` and PP/QQ entries ``N(s)/sinh Gamma``; at a simple
@@ -264,6 +267,8 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
         Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
     form : str
         "PQ", "QP", "PP" or "QQ"
+    bessel : tuple or None
+        ``I0, I1, I2`` at the poles where known (:func:`propagation_derivative`)
 
     Returns
     -------
@@ -272,7 +277,7 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
     """
     form = check_form(form)
     p = np.asarray(poles, dtype=complex)
-    G, Zc, dG = propagation_derivative(line, p)
+    G, Zc, dG = propagation_derivative(line, p, bessel)
     ch, sh = np.cosh(G), np.sinh(G)
     one = np.ones_like(G)
     if form == "PQ":
@@ -290,17 +295,48 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
     return R
 
 
-@functools.lru_cache(maxsize=32)
-def _remembered_bessel_zeros(order: int, count: int) -> np.ndarray:
-    from scipy import special
-
-    return special.jn_zeros(order, count)
-
-
 def _bessel_zeros(order: int, count: int) -> np.ndarray:
-    """The first ``count`` positive zeros of J_order (scipy's ``jn_zeros``, remembered: every
-    residue-line build asks for the same ones), [-]."""
-    return _remembered_bessel_zeros(int(order), int(count)).copy()
+    """The first ``count`` positive zeros of J_order (:func:`bessel_j_zeros`, remembered:
+    every residue-line build asks for the same ones), [-]."""
+    return bessel_j_zeros(int(order), int(count))
+
+
+#: Chebyshev points per viscous bracket: J0, J1 on a bracket of width <= 0.39 interpolated to
+#: below 1e-20 (the evaluation's rounding, a few 1e-16, is what is left), [-].
+BRACKET_NODES = 12
+
+
+def _bracket_bessel(count: int):
+    """The first ``count`` viscous brackets ``[j_{2,m}, next zero of J0]`` (the same for every
+    line) and Chebyshev interpolants of J0, J1 on each: ``(lo, hi, mid, half, coef)``, lo, hi
+    of shape (count,), mid, half (count, 1), coef (2, count, 1, BRACKET_NODES). A Newton step
+    of :func:`viscous_poles` then costs one Clenshaw sum instead of a Bessel evaluation."""
+    lo, hi, mid, half, coef = _bracket_interpolants(max(count, MAX_VISCOUS_CLUSTERS))
+    return lo[:count], hi[:count], mid[:count], half[:count], coef[:, :count]
+
+
+@functools.lru_cache(maxsize=4)
+def _bracket_interpolants(count: int):
+    """:func:`_bracket_bessel` of ``count`` brackets, computed."""
+    j2 = _bessel_zeros(2, count)
+    j0 = _bessel_zeros(0, count + 2)
+    lo, hi = j2, j0[np.searchsorted(j0, j2)]
+    mid, half = 0.5 * (hi + lo), 0.5 * (hi - lo)
+    k = np.arange(BRACKET_NODES)
+    angle = np.pi * (k + 0.5) / BRACKET_NODES
+    values = bessel_j01(mid[:, None] + half[:, None] * np.cos(angle)[None, :])  # (2, count, N)
+    basis = np.cos(np.outer(k, angle)) * (2.0 / BRACKET_NODES)                 # (j, node)
+    coef = np.einsum("vmk,jk->vmj", np.array(values), basis)
+    coef[..., 0] *= 0.5
+    return lo, hi, mid[:, None], half[:, None], coef[:, :, None, :]
+
+
+def _chebyshev(coef, t):
+    """Clenshaw's sum of Chebyshev series ``coef[..., j]`` at ``t`` in [-1, 1] (broadcast)."""
+    b1 = b2 = 0.0
+    for j in range(coef.shape[-1] - 1, 0, -1):
+        b1, b2 = 2.0 * t * b1 - b2 + coef[..., j], b1
+    return t * b1 - b2 + coef[..., 0]
 
 
 def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
@@ -311,8 +347,9 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     On the negative real axis ``kappa = j x``, ``x = r sqrt(-s/nu)``, and
     ``Gamma^2 = -theta^2`` becomes ``x^4 J0(x) Dn^2 = theta^2 J2(x)``: one root in every
     interval from a zero ``j_{2,m}`` of J2 to the next zero of J0, for every mode theta.
-    Solved by bisection for the modes 1..n_roots of the form and the clusters m whose
-    rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the first cluster).
+    Solved by Newton's method inside the brackets for the modes 1..n_roots of the form and
+    the clusters m whose rate ``nu j_{2,m}^2/r^2`` is at most ``rate_limit`` (at least the
+    first cluster).
 
     Parameters
     ----------
@@ -332,6 +369,12 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
     ndarray
         (clusters, n_roots) real poles s < 0, [1/s]
     """
+    return _viscous_roots(line, form, rate_limit, n_roots, max_clusters)[0]
+
+
+def _viscous_roots(line: Line, form: str, rate_limit, n_roots: int, max_clusters: int):
+    """:func:`viscous_poles` [1/s] and ``I0, I1, I2`` there (``kappa = j x``: ``J0(x)``,
+    ``j J1(x)``, ``-J2(x)``), for :func:`modal_residues`."""
     form = check_form(form)
     Dn = line.dissipation_number
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -340,35 +383,38 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
         keep = nu * j2**2 / r**2 <= rate_limit
         keep[0] = True
         j2 = j2[keep]
-    j0 = _bessel_zeros(0, len(j2) + 2)
-    lo = np.repeat(j2[:, None], n_roots, axis=1)
-    hi = np.repeat(j0[np.searchsorted(j0, j2)][:, None], n_roots, axis=1)
+    lo_m, hi_m, mid, half, coef = _bracket_bessel(len(j2))
+    lo = np.repeat(lo_m[:, None], n_roots, axis=1)
+    hi = np.repeat(hi_m[:, None], n_roots, axis=1)
     q = (modal_angles(n_roots, form)[None, :] / Dn) ** 2
 
-    from scipy import special
+    def g(x, q):                  # and dg/dx; J2 = 2 J1/x - J0, J2' = J1 - 2 J2/x
+        J0, J1 = _chebyshev(coef, (x - mid) / half)
+        J2 = 2.0 * J1 / x - J0
+        x3 = x**3
+        return x3 * x * J0 - q * J2, 4.0 * x3 * J0 - x3 * x * J1 - q * (J1 - 2.0 * J2 / x)
 
-    def g(x):                     # J2 = 2 J1/x - J0: j0, j1 are ~10x faster than jv
-        J0 = special.j0(x)
-        return x**4 * J0 - q * (2.0 * special.j1(x) / x - J0)
-
-    # the Illinois variant of regula falsi on every bracket at once: superlinear, ~10
-    # evaluations of g instead of bisection's 50 for the same bracket width (~1e-15 relative)
-    g_lo, g_hi = g(lo), g(hi)
-    last = np.zeros(lo.shape)                    # +1: lo moved last time, -1: hi moved
+    # Newton's method on every bracket at once, kept inside the bracket (a step that leaves
+    # it bisects), from the secant of the ends: ~5 evaluations of g to a step below 4e-16
+    # relative; the bracket shrinks on the way
+    g_ends = g(np.concatenate([lo, hi], axis=1), np.tile(q, 2))[0]
+    g_lo, g_hi = g_ends[:, :n_roots], g_ends[:, n_roots:]
+    x = lo - g_lo * (hi - lo) / (g_hi - g_lo)
+    x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))
+    sign_lo = np.sign(g_lo)
     for _ in range(100):
-        if np.all(hi - lo <= 4e-16 * hi):
+        g_x, slope = g(x, q)
+        up = np.sign(g_x) == sign_lo              # the root lies in (x, hi): lo moves
+        lo, hi = np.where(up, x, lo), np.where(up, hi, x)
+        step = g_x / slope
+        done = (np.abs(step) <= 4e-16 * x) | (g_x == 0.0) | (hi - lo <= 4e-16 * hi)
+        if np.all(done):
             break
-        x = hi - g_hi * (hi - lo) / (g_hi - g_lo)
-        x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))   # (else bisect)
-        g_x = g(x)
-        up = np.sign(g_x) == np.sign(g_lo)       # the root lies in (x, hi): lo moves
-        g_hi = np.where(up & (last > 0), 0.5 * g_hi, g_hi)      # an end kept twice in a
-        g_lo = np.where(~up & (last < 0), 0.5 * g_lo, g_lo)     # row: its value halved
-        lo, g_lo = np.where(up, x, lo), np.where(up, g_x, g_lo)
-        hi, g_hi = np.where(up, hi, x), np.where(up, g_hi, g_x)
-        last = np.where(up, 1.0, -1.0)
-    x = 0.5 * (lo + hi)
-    return -nu * x**2 / r**2
+        new = x - step
+        new = np.where((new > lo) & (new < hi), new, 0.5 * (lo + hi))
+        x = np.where(done, x, new)
+    J0, J1 = _chebyshev(coef, (x - mid) / half)
+    return -nu * x**2 / r**2, (J0 + 0j, 1j * J1, J0 - 2.0 * J1 / x + 0j)
 
 
 def exact_moments(line: Line, form: str = "PQ"):
@@ -707,11 +753,9 @@ def _tail_omega(n_modes: int, form: str) -> float:
     ``S_k = sum_{i>n} theta_i^-k`` (polygamma sums); ``K s/(s^2 + Omega^2)`` matches both
     for ``(Omega tau)^2 = S2/S4``.
     """
-    from scipy import special
-
     a = n_modes + (0.5 if form in ("PQ", "QP") else 1.0)
-    S2 = special.polygamma(1, a) / np.pi**2
-    S4 = special.polygamma(3, a) / (6.0 * np.pi**4)
+    S2 = polygamma(1, a) / np.pi**2
+    S4 = polygamma(3, a) / (6.0 * np.pi**4)
     return float(np.sqrt(S2 / S4))
 
 
@@ -771,16 +815,14 @@ def _reflection_free(line: Line, s, form: str):
 def _angle_sums(a, b, form: str):
     """``S2 = sum theta_k^-2`` and ``S4 = sum theta_k^-4`` over modes ``a <= k < b`` (b may be
     inf), ``theta_k`` as in :func:`modal_angles` (polygamma sums), [-]."""
-    from scipy import special
-
     off = 0.5 if form in ("PQ", "QP") else 1.0
 
     def from_k(k):
         if not np.isfinite(k):
             return np.zeros(2)
         x = k - 1.0 + off
-        return np.array([special.polygamma(1, x) / np.pi**2,
-                         special.polygamma(3, x) / (6.0 * np.pi**4)])
+        return np.array([polygamma(1, x) / np.pi**2,
+                         polygamma(3, x) / (6.0 * np.pi**4)])
 
     return from_k(a) - from_k(b)
 
@@ -806,7 +848,13 @@ def tail_groups(n_modes: int, form: str = "PQ"):
     list of tuple
         ``(Omega tau [-], zeta [-])``, one per group, in rising frequency
     """
-    n = check_modes(n_modes)
+    return list(_tail_groups(check_modes(n_modes), check_form(form)))
+
+
+@functools.lru_cache(maxsize=64)
+def _tail_groups(n: int, form: str) -> tuple:
+    """:func:`tail_groups`, remembered: a function of (n, form) alone, asked for by every
+    line realised (~0.6 ms each, the polygamma sums)."""
     edges = [n + 1]
     for g in range(1, TAIL_GROUPS):
         edges.append(max(edges[-1] + 1, int(round((n + 1) * TAIL_GROUP_RATIO**g))))
@@ -817,7 +865,7 @@ def tail_groups(n_modes: int, form: str = "PQ"):
         Om = float(np.sqrt(S2 / S4))
         width = (b - a) * np.pi if np.isfinite(b) else 2.0 * Om
         out.append((Om, min(TAIL_ZETA_SCALE * width / (2.0 * Om), TAIL_ZETA_MAX)))
-    return out
+    return tuple(out)
 
 
 def _equality_lsq(Q, q, G, h):
@@ -1257,7 +1305,8 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
 #: Exact-pole realisations of the lines met in this process and on disk
 _REALISATIONS = LineMemo("residue_lines")
 _SOURCE_TAG = source_tag(__file__, Path(__file__).with_name("line.py"),
-                         Path(__file__).with_name("corrections.py"))
+                         Path(__file__).with_name("corrections.py"),
+                         Path(__file__).with_name("bessel.py"))
 
 
 def _lumped_pole_blocks(line: Line, poles, form: str, prefix: str, ends, rem0, rem1):
@@ -1339,8 +1388,9 @@ def _realise(line: Line, n: int, form: str):
         for e, sr in enumerate(wall_roots):
             blocks += _lumped_pole_blocks(line, sr, form, f"wall{e + 1}_", ends, rem0, rem1)
     else:
-        sv = viscous_poles(line, form, rate_limit=theta_next / tau)
-        Rv = modal_residues(line, sv, form).real
+        sv, bessel = _viscous_roots(line, form, theta_next / tau, VISCOUS_ROOTS_PER_CLUSTER,
+                                    MAX_VISCOUS_CLUSTERS)
+        Rv = modal_residues(line, sv, form, bessel).real
         rates = -sv.ravel()
         for o in range(2):
             for j in range(2):

@@ -183,11 +183,11 @@ def _mp_context():
     methods = mp.get_all_start_methods()
     if "forkserver" in methods:      # fresh, thread-free parent for workers; fast after the first
         ctx = mp.get_context("forkserver")
-        # scipy.special: the Bessel ratio of every new hose length's correction factors,
         # scipy.fft: the metrics' spectra, hydroline.compiled.codegen: CasADi and the C
         # writer (a new structure's graph; a single run of a known model needs neither);
-        # imported once in the server (0.4 s) instead of in every worker's first variant
-        ctx.set_forkserver_preload(["hydroline.studies.sweep", "scipy.special", "scipy.fft",
+        # imported once in the server instead of in every worker's first variant (a new hose
+        # length's line needs no scipy.special: hydroline.lines.bessel)
+        ctx.set_forkserver_preload(["hydroline.studies.sweep", "scipy.fft",
                                     "hydroline.compiled.codegen"])
         return ctx
     return mp.get_context("spawn")
