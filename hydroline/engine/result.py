@@ -542,7 +542,9 @@ class OutputSink:
             block = Y
         else:
             if Y is None:
-                Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
+                # (the parameters given once: CasADi's map repeats a column itself, where a
+                # tiled copy of them costs more to convert than the signals to evaluate)
+                Y = np.asarray(model.signals.map(len(t))(t, X.T, p[:, None])).T
             block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
         t = np.asarray(t, dtype=float)
         if self.observe is not None:
