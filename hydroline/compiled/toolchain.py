@@ -444,7 +444,8 @@ def prune_libraries(max_libraries: int | None = None) -> int:
 
 def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
     """Load the model's library from the cache, compiling it on a miss (without ``wait``: in
-    a background process, :func:`build_in_background`, raising :class:`LibraryPending`).
+    a background process, :func:`build_in_background`, raising :class:`LibraryPending`, or
+    returning that build's quick library, :func:`quick_location`, once it is there).
 
     The cached file is verified against the size, hash and key recorded at its build before
     it is loaded; one that fails (truncated, overwritten, another library, a damaged record)
@@ -466,7 +467,8 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
     Returns
     -------
     ctypes.CDLL
-        The loaded library, its functions declared
+        The loaded library (or, building in the background, its quick build), its
+        functions declared
 
     Raises
     ------
