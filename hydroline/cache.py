@@ -15,6 +15,12 @@ altered, another key's file, a damaged or truncated file) is discarded with one
 :class:`CacheWarning` naming the file, and computed again: a wrong entry is never used, and
 what follows from it is never blamed on the rig. An entry of the format before the checksums
 (no ``sha256`` field) is a quiet miss: computed again and overwritten.
+
+Shipped tables: the package holds the entries the default rig's first commands need
+(:data:`SHIPPED_TABLES`, written by ``tools/ship_tables.py``: its lines' realisations), in the
+cache's own format; :func:`load_table` reads one where the cache has none, so a first run
+after installing skips that work (and SciPy's Bessel functions). Their keys name the source
+of the code that computed them: after a change of that code they are simply not found.
 """
 from __future__ import annotations
 
@@ -29,7 +35,8 @@ from pathlib import Path
 
 __all__ = ["cache_dir", "load_table", "store_table", "source_tag", "prune_tables",
            "least_recently_used", "mark_used", "MAX_ENTRIES", "CacheWarning", "table_checksum",
-           "discard_table", "discard_entry", "BACKGROUND_BUILD_ENV", "builds_in_background"]
+           "discard_table", "discard_entry", "BACKGROUND_BUILD_ENV", "builds_in_background",
+           "SHIPPED_TABLES"]
 
 #: Most entries kept per table kind (a correction-factor entry is ~0.5 kB, a model record
 #: ~10 kB), [-]
@@ -37,6 +44,9 @@ MAX_ENTRIES = 2000
 #: One write in this many prunes its kind (at random; a pruning of 2000 entries costs ~15 ms),
 #: [-]
 PRUNE_EVERY = 100
+#: Directory of the tables shipped with the package (one sub-directory per kind, files named
+#: as in the cache), read where the cache has no entry
+SHIPPED_TABLES = Path(__file__).with_name("shipped_tables")
 #: A read refreshes an entry's modification time when it is older than this, [s]
 _TOUCH_AFTER = 3600.0
 
@@ -112,8 +122,9 @@ class CacheWarning(UserWarning):
     """
 
 
-def _table_path(kind: str, key: str) -> Path:
-    return cache_dir() / kind / (hashlib.sha256(key.encode()).hexdigest()[:32] + ".json")
+def _table_path(kind: str, key: str, root: Path | None = None) -> Path:
+    root = cache_dir() if root is None else root
+    return root / kind / (hashlib.sha256(key.encode()).hexdigest()[:32] + ".json")
 
 
 def table_checksum(key: str, value) -> str:
@@ -156,6 +167,9 @@ def load_table(kind: str, key: str):
     altered, a file copied from another key, damaged JSON) is discarded with one
     :class:`CacheWarning` naming the file (:func:`discard_entry`), so the caller computes the
     value again; an entry without a checksum (the format before them) is a quiet miss.
+    Where the cache has no file for ``key``, the package's shipped entry is read
+    (:data:`SHIPPED_TABLES`, verified alike; one that fails is a quiet miss, left there) and
+    stored in the cache.
 
     Parameters
     ----------
@@ -174,24 +188,49 @@ def load_table(kind: str, key: str):
         with open(path, "rb") as f:
             raw = f.read()
             mtime = os.fstat(f.fileno()).st_mtime
-    except OSError:
-        return None                 # absent (or unreadable: the cache only saves time)
+    except OSError:                 # absent (or unreadable: the cache only saves time)
+        value = _shipped_table(kind, key)
+        if value is not None:       # kept in the cache as if computed (and verified alike)
+            store_table(kind, key, value)
+        return value
+    value = _verified_value(raw, key)
+    if value is not _FAILED:
+        mark_used(path, mtime)      # recently used: kept by prune_tables
+        return value
+    why = _table_fault(raw, key)
+    if why:
+        discard_entry(path, why=why)
+    return None
+
+
+#: :func:`_verified_value`'s answer for a file that fails its check
+_FAILED = object()
+
+
+def _verified_value(raw: bytes, key: str):
+    """The value of a table file's text where it holds ``key`` and its checksum; else
+    :data:`_FAILED`."""
     head = _HEAD.format(json.dumps(key)).encode()
     start = len(head) + 64 + len(_MIDDLE)
     if (raw.startswith(head) and raw[start - len(_MIDDLE):start] == _MIDDLE.encode()
             and raw.endswith(b"}")
             and _checksum(key, raw[start:-1]).encode() == raw[len(head):len(head) + 64]):
         try:
-            value = json.loads(raw[start:-1])
+            return json.loads(raw[start:-1])
         except (ValueError, RecursionError):
             pass
-        else:
-            mark_used(path, mtime)  # recently used: kept by prune_tables
-            return value
-    why = _table_fault(raw, key)
-    if why:
-        discard_entry(path, why=why)
-    return None
+    return _FAILED
+
+
+def _shipped_table(kind: str, key: str):
+    """The value of the shipped entry (:data:`SHIPPED_TABLES`) for ``key``, verified as a
+    cached one; None where there is none or it fails (left as it is: a package's file)."""
+    try:
+        raw = _table_path(kind, key, SHIPPED_TABLES).read_bytes()
+    except OSError:
+        return None
+    value = _verified_value(raw, key)
+    return None if value is _FAILED else value
 
 
 def _table_fault(raw: bytes, key: str) -> str:

@@ -385,3 +385,49 @@ def test_kept_in_memory_is_per_thread_and_restored_after_overlapping_blocks():
         t.join()
     assert seen == {"a": False, "b": False, "main": True}
     assert memo._DISK.store is True
+
+
+def test_a_shipped_table_is_read_where_the_cache_has_none(monkeypatch, tmp_path):
+    """An entry shipped with the package (in the cache's format) is read where the cache has
+    no file for its key and copied into the cache; one that fails its check is a quiet miss,
+    and the package's file stays."""
+    import shutil
+    import warnings
+
+    shipped = tmp_path / "shipped"
+    monkeypatch.setattr(cache, "SHIPPED_TABLES", shipped)
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path / "made"))
+    cache.store_table("kind", "key a", [1.5, 2.5])
+    cache.store_table("kind", "key b", [3.0])
+    shutil.copytree(tmp_path / "made", shipped)
+    altered = shipped / "kind" / cache._table_path("kind", "key b", shipped).name
+    altered.write_text(altered.read_text().replace("3.0", "4.5"))
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path / "empty"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert cache.load_table("kind", "key a") == [1.5, 2.5]
+        assert cache.load_table("kind", "key b") is None
+        assert cache.load_table("kind", "key c") is None
+    assert _entries(tmp_path / "empty", "kind") == [cache._table_path("kind", "key a").name]
+    assert altered.exists()
+
+
+def test_the_default_rigs_line_realisations_are_shipped(monkeypatch, tmp_path):
+    """The default rig's lines (open-loop step) are realised from the shipped tables in an
+    empty cache, without computing one (they are out of date after a change of the line
+    code: ``python tools/ship_tables.py`` writes them anew)."""
+    from collections import OrderedDict
+
+    from hydroline.lines import residue
+    from hydroline.rigs import load_rig
+    from hydroline.system import build_circuit
+
+    def computed(*args):
+        raise AssertionError("a default-rig line was computed: its table is not shipped; "
+                             "run python tools/ship_tables.py")
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(residue._REALISATIONS, "memory", OrderedDict())
+    monkeypatch.setattr(residue, "_realise", computed)
+    build_circuit(load_rig(None))
+    assert _entries(tmp_path, "residue_lines")

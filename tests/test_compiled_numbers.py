@@ -183,3 +183,42 @@ def test_a_library_not_built_yet_is_built_in_the_background(monkeypatch, tmp_pat
     assert later.metadata["solver"] == "compiled"
     for res in (first, later):
         assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+
+
+@needs_cc
+def test_runs_during_a_background_build_use_its_quick_library(monkeypatch, tmp_path):
+    """While a background build goes on, a run finds its quick library (built first, at
+    ``QUICK_LEVEL``) and runs compiled, with the oscillator's exact step peak
+    1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm; the finished build replaces it (the quick
+    file removed) and a later run loads the full library."""
+    from hydroline.cache import BACKGROUND_BUILD_ENV
+    from hydroline.compiled import toolchain
+    from hydroline.engine import integrate
+    from test_compiled import _oscillator_peak, oscillator_network
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(BACKGROUND_BUILD_ENV, "1")
+    monkeypatch.setattr(toolchain, "_LIBS", {})
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
+    started = {}
+
+    def quick_made(path, full):   # the builder's first half, here: the full build "goes on"
+        started["path"], started["full"] = path, full() if callable(full) else full
+        toolchain._compile_locked(toolchain.compiler(), started["full"], path, quick=True)
+        return True
+
+    monkeypatch.setattr(toolchain, "build_in_background", quick_made)
+    during = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    path = started["path"]
+    assert during.metadata["solver"] == "compiled"
+    assert toolchain.quick_location(path).exists() and not path.exists()
+    source = tmp_path / "model.c"
+    source.write_text(started["full"])
+    toolchain.build_from_file(toolchain.compiler(), str(source), str(path))
+    assert toolchain.library_check(path)[0] and not toolchain.quick_location(path).exists()
+    after = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert after.metadata["solver"] == "compiled"
+    assert str(path) in toolchain._LIBS
+    for res in (during, after):
+        assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)

@@ -116,6 +116,8 @@ def test_traces_read_like_a_result():
     (["simulate", "--json", "--out=d"], True),
     (["simulate", "--json"], False),
     (["simulate", "--help"], False),
+    (["fit", "data.csv", "--json"], True),
+    (["fit", "-h"], False),
     (["sweep", "--set", "a=1"], False),
     ([], False),
 ])

@@ -246,9 +246,9 @@ def _closed_streams_replaced() -> None:
 
 def draws_a_figure(argv) -> bool:
     """Whether a command line will (most likely) draw a figure (``hydroline simulate``'s,
-    ``hydroline bode``'s, ``hydroline layout --out``'s): the figure process is started for it before the arguments are
-    parsed. A wrong guess costs little: a process not claimed is stopped, and one missing is
-    started when needed.
+    ``hydroline bode``'s, ``hydroline fit``'s, ``hydroline layout --out``'s): the figure
+    process is started for it before the arguments are parsed. A wrong guess costs little: a
+    process not claimed is stopped, and one missing is started when needed.
 
     Parameters
     ----------
@@ -260,14 +260,14 @@ def draws_a_figure(argv) -> bool:
     bool
         True when a figure is likely drawn.
     """
-    if not argv or argv[0] not in ("simulate", "bode", "layout"):
+    if not argv or argv[0] not in ("simulate", "bode", "fit", "layout"):
         return False
     options = {a.split("=", 1)[0] for a in argv[1:] if a.startswith("-")}
     if options & {"-h", "--help"}:
         return False
     if argv[0] == "layout":
         return "--out" in options
-    return argv[0] == "bode" or "--json" not in options or "--out" in options
+    return argv[0] in ("bode", "fit") or "--json" not in options or "--out" in options
 
 
 def _parse_and_run(argv) -> int:

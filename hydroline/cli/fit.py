@@ -5,6 +5,7 @@ from ..analysis.figures import plot_fit
 from ..analysis.fit import COLUMNS, STARTS, UNRESOLVED_CURVATURE, fit_parameters, read_measurements
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table
+from .figure_process import claim_figure_process
 
 _COLUMN_HELP = ", ".join(f"'{k} [{u}]'" for k, u in COLUMNS.items())
 
@@ -80,6 +81,13 @@ def run(args) -> int:
     int
         Exit code, 0 on success
     """
+    # Matplotlib imports in a second process while this one fits (started with the command:
+    # hydroline.cli.main); the figure is drawn there
+    with claim_figure_process() as figures:
+        return _run(args, figures)
+
+
+def _run(args, figures) -> int:
     rig_path, data_path = _files(args.files)
     if not 0 < args.confidence < 1:
         raise ValueError(f"--confidence must lie in (0, 1), got {args.confidence!r}")
@@ -110,10 +118,11 @@ def run(args) -> int:
         temp_rig.write_text(res.calibrated_toml(data_path))
         with open(temp("fit.json"), "w") as fh:     # strict JSON: NaN/inf as null
             dump_json(summary, fh)
-        plot_fit(t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma}, res.initial,
-                 res.fitted, path=temp("fit.png"), title=f"hydroline fit: {data_path}",
-                 windows=[(a - t[0], b - t[0]) for a, b in res.windows], rms=res.rms,
-                 start_rms=res.start_rms, worse=res.worse)
+        figures.draw(plot_fit, t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma},
+                     res.initial, res.fitted, path=str(temp("fit.png")),
+                     title=f"hydroline fit: {data_path}",
+                     windows=[(a - t[0], b - t[0]) for a, b in res.windows], rms=res.rms,
+                     start_rms=res.start_rms, worse=res.worse)
     if args.json:
         dump_json(summary)
         return 0

