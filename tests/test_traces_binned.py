@@ -75,3 +75,24 @@ def test_bins_without_rows_are_left_out_and_bad_bounds_refused():
     np.testing.assert_allclose(mean["y"], [2.0, 7.0])
     with pytest.raises(ValueError, match="t_end"):
         BinnedEnvelope(["y"], 1.0, 1.0)
+
+
+def test_long_run_figure_draws_the_band_and_the_tail(tmp_path):
+    from hydroline.plotting import Traces, plot_long_run
+
+    t, table = _signal(n=60_000)
+    columns = ["supply_port_pressure", "piston_velocity", "x"]
+    env = BinnedEnvelope(columns[:2], t[0], t[-1], bins=12, tail_rows=5000)
+    env.update(t, table, columns)
+    tm, lo, mean, hi = env.bands()
+    tail_t, tail = env.tail()
+    fig = plot_long_run(Traces(tm, lo), Traces(tm, mean, {"run": (t[0], t[-1])}), Traces(tm, hi),
+                        Traces(tail_t, tail, {"label": "the last 0.5 s"}),
+                        path=tmp_path / "long.png")
+    assert (tmp_path / "long.png").stat().st_size > 0
+    axes = fig.axes
+    assert len(axes) == 4                        # two panels, envelope and tail side by side
+    band = axes[0].collections[0].get_paths()[0].vertices[:, 1] * 1e6   # [MPa] -> [Pa]
+    np.testing.assert_allclose([band.min(), band.max()], [table[:, 0].min(), table[:, 0].max()])
+    assert axes[1].get_title() == "the last 0.5 s"
+    np.testing.assert_allclose(axes[1].get_xlim(), (0, (tail_t[-1] - tail_t[0]) * 1e3))   # [ms]
