@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_result", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
+__all__ = ["plot_result", "plot_long_run", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
            "column_envelope", "figure_title", "TITLE_CHARACTERS", "time_axis", "format_time",
            "shade_outside_window", "outside_window_handle", "metrics_window_of",
            "OUTSIDE_WINDOW_COLOR", "OUTSIDE_TRACE_COLOR", "OUTSIDE_WINDOW_LABEL",
@@ -342,13 +342,11 @@ def plot_result(result, signals=None, path=None, title=None):
     """
     from matplotlib.lines import Line2D
 
-    panels = PRESSURE_PANELS if signals is None else tuple((s, (s,), 1.0) for s in signals)
     series = {k: result[k] for k in result.columns}
     if signals is None and "position_reference" in result:   # closed loop: tracking
         series["tracking_error"] = result["position_reference"] - result["piston_position"]
-        panels = panels + (("Command and position [mm]", ("position_reference", "piston_position"), 1e3),
-                           ("Tracking error [mm]", ("tracking_error",), 1e3))
-    panels = tuple(p for p in panels if any(k in series for k in p[1]))
+    panels = (_panels(series) if signals is None else
+              tuple(p for p in ((s, (s,), 1.0) for s in signals) if p[1][0] in series))
     fig, axes = _figure(len(panels))
     dpi = 110
     # pixel columns of a panel: each line is drawn through its extremes per column
@@ -415,6 +413,136 @@ def plot_result(result, signals=None, path=None, title=None):
                         top=1 - (0.5 + 0.2 * rows) / height, bottom=0.5 / height, hspace=0.12)
     if path:
         save_png(fig, path, dpi=dpi)
+    return fig
+
+
+def _panels(columns):
+    """The default panels (label, keys, scale) of a run's figure that has ``columns``: the
+    paper's Figs. 10-12 and, closed loop, command, position and tracking error."""
+    panels = PRESSURE_PANELS
+    if "position_reference" in columns:
+        panels = panels + (("Command and position [mm]", ("position_reference", "piston_position"),
+                            1e3), ("Tracking error [mm]", ("tracking_error",), 1e3))
+    return tuple(p for p in panels if any(k in columns for k in p[1]))
+
+
+def plot_long_run(lowest, mean, highest, tail, path=None, title=None):
+    """A long run's figure (a fatigue test of minutes): in the left column the envelope over
+    the whole run -- per time bin the band from the lowest to the highest value, taken from
+    every row, and the bin's mean as a line -- so that drift or growth shows; in the right
+    column the last rows at full rate (the last command cycles), where the waveform and its
+    ripple can be read. Panels as :func:`plot_result`'s; grey, as in every figure, is outside
+    the metrics window (the legend says so).
+
+    Parameters
+    ----------
+    lowest : Traces
+        Per bin (``t``: the bin's middle, [s]) the lowest value of each column, [SI]
+        (:meth:`hydroline.traces.BinnedEnvelope.bands`)
+    mean : Traces
+        Per bin the mean, [SI]; its metadata: ``metrics_window``, ``t_disturbance``,
+        ``scenario``, ``bin_width`` [s] and ``run`` (first and last time, [s])
+    highest : Traces
+        Per bin the highest value, [SI]
+    tail : Traces
+        The last rows, every one, [SI]; ``metadata["label"]``: what they are
+        (e.g. the last two command cycles)
+    path : str
+        Write a PNG there when given
+    title : str
+        Figure title
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure (also written to ``path`` when given)
+    """
+    from matplotlib.lines import Line2D
+
+    panels = _panels(mean.columns)
+    n = len(panels)
+    fig = new_figure((12, 2.0 * n + 1.3))
+    axes = fig.subplots(n, 2, squeeze=False, sharex="col", gridspec_kw=dict(width_ratios=(2.5, 1)))
+    t_first, t_last = mean.metadata.get("run", (mean.t[0], mean.t[-1]))
+    factor, unit = time_axis(t_last - t_first)
+    tm = mean.t * factor
+    window = mean.metadata.get("metrics_window")
+    t0, t1 = (window[0], window[1]) if window is not None else (None, None)
+    if t1 is not None and (window[2] != "stop" or not t1 < t_last):
+        t1 = None
+    inside = mean.t <= t1 if t1 is not None else np.ones(len(mean.t), bool)
+    k1 = int(np.count_nonzero(inside))
+    tail_factor, tail_unit = time_axis(tail.t[-1] - tail.t[0]) if len(tail.t) > 1 else (1.0, "s")
+    tt = (tail.t - tail.t[0]) * tail_factor if len(tail.t) else tail.t
+    t_step = mean.metadata.get("t_disturbance")
+    for (left, right), (label, keys, scale) in zip(axes, panels):
+        shown = []
+        for j, k in enumerate(keys):
+            if k not in mean:
+                continue
+            color = f"C{j}"
+            lo, mid, hi = lowest[k] * scale, mean[k] * scale, highest[k] * scale
+            name = k.replace("_", " ")
+            left.fill_between(tm[:k1], lo[:k1], hi[:k1], color=color, alpha=0.3, lw=0, step="mid")
+            left.plot(tm[:k1], mid[:k1], color=color, lw=0.8, label=name)
+            if k1 < len(tm):   # after the stop: grey, and not in the y-range
+                s = slice(max(k1 - 1, 0), None)
+                left.fill_between(tm[s], lo[s], hi[s], color=OUTSIDE_TRACE_COLOR, alpha=0.3, lw=0,
+                                  step="mid")
+                left.plot(tm[s], mid[s], color=OUTSIDE_TRACE_COLOR, lw=0.8)
+            shown += [lo[:k1], hi[:k1]]
+            if k in tail:
+                right.plot(tt, tail[k] * scale, color=color, lw=0.9, label=name)
+        if t1 is not None and shown:
+            left.set_ylim(*_limits(np.concatenate(shown)))
+        left.set_ylabel(label)
+        for ax in (left, right):
+            ax.grid(True, alpha=0.3)
+        if len(keys) > 1:
+            left.legend(loc="upper right", fontsize=8)
+    shaded = False
+    for left, right in axes:
+        if t_step:
+            left.axvline(t_step * factor, color="k", lw=0.8, ls=":")
+        if window is not None:
+            shaded = shade_outside_window(left, t0, t1, t_first, t_last, factor) or shaded
+            if len(tail.t):   # (in the tail's time, from its first row)
+                a = tail.t[0]
+                shaded = shade_outside_window(right, None if t0 is None else t0 - a,
+                                              None if t1 is None else t1 - a, 0.0,
+                                              tail.t[-1] - a, tail_factor) or shaded
+        left.set_xlim(t_first * factor, t_last * factor)
+        if len(tt):
+            right.set_xlim(tt[0], tt[-1])
+    width = mean.metadata.get("bin_width")
+    axes[0, 0].set_title("whole run: band = lowest to highest value per "
+                         + (format_time(width, time_axis(width)[1]) if width else "bin")
+                         + " (every row), line = its mean", fontsize=9)
+    axes[0, 1].set_title(tail.metadata.get("label", "the end of the run, every row"), fontsize=9)
+    axes[-1, 0].set_xlabel(f"time [{unit}]")
+    if len(tail.t):
+        axes[-1, 1].set_xlabel(f"time - {format_time(tail.t[0], 's')} [{tail_unit}]")
+    handles = []
+    if shaded:
+        handles.append(outside_window_handle(
+            OUTSIDE_WINDOW_LABEL + (" (after the stop: not in the y-range)"
+                                    if t1 is not None else "")))
+    if t_step:
+        handles.append(Line2D([], [], color="k", lw=0.8, ls=":",
+                              label=f"disturbance ({format_time(t_step, unit)})"))
+    height = fig.get_figheight()   # fixed margins, [inch]
+    default = f"hydroline: {mean.metadata.get('scenario', 'simulation')}"
+    fig.suptitle(figure_title(title or default), y=1 - 0.1 / height, va="top")
+    rows = 0
+    if handles:
+        ncol = min(len(handles), 2)
+        rows = -(-len(handles) // ncol)
+        fig.legend(handles=handles, loc="upper center", ncol=ncol, fontsize=8,
+                   frameon=False, bbox_to_anchor=(0.5, 1 - 0.38 / height))
+    fig.subplots_adjust(left=0.07, right=0.985, top=1 - (0.9 + 0.2 * rows) / height,
+                        bottom=0.5 / height, hspace=0.12, wspace=0.16)
+    if path:
+        save_png(fig, path, dpi=100)
     return fig
 
 

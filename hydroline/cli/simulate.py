@@ -89,9 +89,13 @@ DT_OUT = 1e-4
 LONG_ROWS = 200_000
 #: Columns the summary needs at every output row, and the figure's (a decimated copy).
 SUMMARY_COLUMNS = ("supply_port_pressure", "return_port_pressure", "piston_position")
-#: Rows of the decimated copy a long run's figure is drawn from (a 10 min run has ~1200 sine
-#: cycles: more rows only slow the drawing).
-PREVIEW_ROWS = 20_000
+#: Time bins of a long run's figure: per bin the lowest, mean and highest value of each trace,
+#: from every row (:class:`hydroline.traces.BinnedEnvelope`), [-].
+FIGURE_BINS = 1500
+#: Command cycles at the end of a long closed-loop sine drawn at full rate beside the envelope,
+#: [-]; another long run shows its last :data:`TAIL_SECONDS` so.
+TAIL_CYCLES = 2
+TAIL_SECONDS = 0.5
 FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chamber_pressure",
                   "top_chamber_pressure", "piston_velocity", "piston_position")
 
@@ -290,7 +294,9 @@ def _prepare(args, write, figures) -> int:
 
     known = set(network.signal_names) | set(network.state_names)
     watched = [k for k in axes_pressures(circuit.axes) if k in known]
-    return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures, watched)
+    shown = [c for c in FIGURE_COLUMNS + ("position_reference",) if c in known]
+    return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures, watched,
+                figure_columns=shown, duration=duration)
 
 
 def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance", "scenario")):
@@ -320,11 +326,91 @@ def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance"
     return Traces(res.t, {c: res[c] for c in dict.fromkeys(columns) if c in res}, meta)
 
 
+def figure_envelope(duration: float, h: float, columns, period: float | None = None):
+    """What a long run's figure is drawn from, gathered as the rows arrive: per time bin
+    (at most :data:`FIGURE_BINS` over the run; under a periodic command a whole number of its
+    periods, so that a bin's mean is the cycle's and does not beat) the lowest, mean and
+    highest value of each column from every row, and the last :data:`TAIL_CYCLES` command cycles (or :data:`TAIL_SECONDS`) of
+    rows as they are; the tracking error too when the position and its reference are there.
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time, [s]
+    h : float
+        Output interval of the rows, [s]
+    columns : list[str]
+        The figure's columns the run has
+    period : float
+        Command period, [s] (None: not a periodic command)
+
+    Returns
+    -------
+    tuple
+        ``(envelope, label)``: the :class:`hydroline.traces.BinnedEnvelope` (pass its
+        ``update`` as ``observe`` to :func:`hydroline.simulate`) and what its last rows are,
+        in words.
+    """
+    import numpy as np
+
+    from ..traces import BinnedEnvelope
+
+    span = min(TAIL_CYCLES * period if period else TAIL_SECONDS, duration)
+    tracking = ("position_reference", "piston_position")
+    differences = ({"tracking_error": tracking} if all(c in columns for c in tracking) else None)
+    bins, t_end = FIGURE_BINS, duration
+    if period:   # whole cycles per bin
+        width = period * -(-duration // (period * FIGURE_BINS))
+        bins = max(1, int(np.ceil(duration / width * (1 - 1e-12))))
+        t_end = bins * width
+    envelope = BinnedEnvelope(columns, 0.0, t_end, bins=bins,
+                              tail_rows=int(round(span / h)) + 1, differences=differences)
+    cycles = {1: "command cycle", 2: "two command cycles"}.get(TAIL_CYCLES,
+                                                             f"{TAIL_CYCLES} command cycles")
+    label = (f"the last {cycles} ({1 / period:g} Hz),\nevery {h * 1e3:g} ms row" if period
+             else f"the last {span:g} s,\nevery {h * 1e3:g} ms row")
+    return envelope, label
+
+
+def envelope_traces(envelope, metadata: dict, label: str = "the last rows",
+                    run: tuple | None = None):
+    """A long run's figure data (:func:`hydroline.plotting.plot_long_run`'s arguments) from
+    its :func:`figure_envelope`: plain arrays, for the figure process.
+
+    Parameters
+    ----------
+    envelope : BinnedEnvelope
+        The envelope gathered during the run
+    metadata : dict
+        The run's metadata (``metrics_window``, ``t_disturbance``, ``scenario`` are kept)
+    label : str
+        What the envelope's last rows are, in words (the right column's title)
+    run : tuple
+        First and last time of the run, [s] (None: the bins' span)
+
+    Returns
+    -------
+    tuple
+        ``(lowest, mean, highest, tail)``, each a :class:`hydroline.plotting.Traces`, [SI].
+    """
+    from ..plotting import Traces
+
+    t, lowest, mean, highest = envelope.bands()
+    tail_t, tail = envelope.tail()
+    edges = envelope.edges
+    meta = {k: metadata[k] for k in ("metrics_window", "t_disturbance", "scenario")
+            if k in metadata}
+    meta.update(bin_width=float(edges[1] - edges[0]),
+                run=tuple(map(float, run)) if run else (float(edges[0]), float(edges[-1])))
+    return (Traces(t, lowest), Traces(t, mean, meta), Traces(t, highest),
+            Traces(tail_t, tail, {"label": label}))
+
+
 def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
-         watched=None) -> int:
+         watched=None, figure_columns=(), duration=None) -> int:
     from ..scenarios.running import simulate
     from ..scenarios.summaries import summarize
-    from ..plotting import plot_result
+    from ..plotting import plot_long_run, plot_result
 
     # (on an error or Ctrl-C the figure process is stopped first, then the temporary files
     # are removed: a figure still being drawn would write its file again)
@@ -347,8 +433,6 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
             if watched:
                 options["stats_columns"] = watched
             if write:
-                options.update(preview_columns=list(FIGURE_COLUMNS) + keep[len(SUMMARY_COLUMNS):],
-                               preview_rows=PREVIEW_ROWS)
                 if fmt == "csv":   # written as the run goes
                     options.update(stream_to=temp("results.csv"), stream_every=every)
                     if stream is not None:
@@ -357,6 +441,11 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
                     written = WrittenRows(every)
                     observers = [written.update] + ([stream.update] if stream else [])
                     options["observe"] = _each(observers)
+                # the figure: the envelope of every row over the run, and its end at full rate
+                envelope, tail_label = figure_envelope(duration, h, figure_columns,
+                                           stream.period if stream is not None else None)
+                options["observe"] = (_each([options["observe"], envelope.update])
+                                      if "observe" in options else envelope.update)
         res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
                        progress=progress_printer("simulating", not args.json), **options)
         if stream is not None:
@@ -366,11 +455,13 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
         scenario = res.metadata["scenario"]
         single = len(res.metadata.get("axes") or {}) <= 1   # (a multi-axis figure: _report_axes)
         if write and single:   # drawn by the figure process while the summary and CSV are made
-            figure = res.metadata["preview"] if long_run else res
+            title = f"{scenario} on {rig.get('rig.name', rig.source)}"
             if long_run:
-                figure.metadata.update({k: v for k, v in res.metadata.items() if k != "preview"})
-            figures.submit(plot_result, figure_result(figure), path=str(temp("pressures.png")),
-                           title=f"{scenario} on {rig.get('rig.name', rig.source)}")
+                drawn = envelope_traces(envelope, res.metadata, tail_label, (0.0, float(res.t[-1])))
+                figures.submit(plot_long_run, *drawn, path=str(temp("pressures.png")), title=title)
+            else:
+                figures.submit(plot_result, figure_result(res), path=str(temp("pressures.png")),
+                               title=title)
         if stream is None:
             summary = summarize(res, settling_band=args.settling_band)
         if write:   # replaced together, or none (previous results kept)
