@@ -304,9 +304,13 @@ def cavity_volume_fraction(pressure, cavity_pressure: float, pressure_drop: floa
     >>> float(cavity_volume_fraction(2e3, 1e3, 1e3)), float(cavity_volume_fraction(-1e3, 1e3, 1e3))
     (0.0, 1.5)
     """
+    import numpy as np
+
     from .engine import ops
 
     x = ops.fmax((cavity_pressure - pressure) / pressure_drop, 0.0)
+    if not ops.is_symbolic(x) and not np.any(np.asarray(x) > 0):   # (no cavity in a run)
+        return x
     xs = ops.fmin(x, 1.0)
     return xs**3 - 0.5 * xs**4 + ops.fmax(x - 1.0, 0.0)
 
