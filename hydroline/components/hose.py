@@ -17,6 +17,9 @@ _QUANTITY = {"pressure": "pressure", "flow": "flow"}
 #: The internal signal of a section with an end cavity (M45): ``|k| w``, what the cavity holds
 #: the end's pressure above the line's own, [Pa]
 CAVITY_LIFT = "cavity_lift"
+#: Runtime parameters ``<GAIN><row>`` of a section with an end cavity: ``[C b]_row``, the rate
+#: of each output per unit end flow (M45)
+GAIN = "cavity_gain"
 
 #: Hose sections made while this is True read their line's matrix entries (the nonzeros of A,
 #: B, C, D, M8-M14) from the runtime parameters ``p`` instead of the graph's constants, so
@@ -212,8 +215,43 @@ class HoseSection(Component):
         """
         if self.coefficient_pattern is None:
             return {}
-        return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
-                for name, i, j in self.coefficient_pattern}
+        out = {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
+               for name, i, j in self.coefficient_pattern}
+        if self.cavity_ends:
+            out.update((f"{GAIN}{r}", g) for r, g in enumerate(self._gains(None)))
+        return out
+
+    def parameters_for(self, model):
+        """The runtime parameters this section takes for a line model of the same pattern
+        (another length, bore or bulk modulus: a study's variant, without making a section
+        for it), in :meth:`runtime_parameters`' order: the matrices' nonzero entries, then,
+        with an end cavity (M45), the end flow's gains ``C b`` (the rate of each output per
+        unit end flow, of the matrices alone: a product per run, not per evaluation).
+
+        Parameters
+        ----------
+        model : StateSpaceLine
+            The line model (e.g. a variant's ``ModalLine`` of the same modes and form)
+
+        Returns
+        -------
+        list[float] or None
+            Values, [SI units of the state-space model]; None where the section does not
+            carry its matrices in the parameters, or the model's pattern differs
+        """
+        if self.coefficient_pattern is None:
+            return None
+        values = []
+        for name in _MATRICES:
+            a = np.asarray(getattr(model, name), dtype=float)
+            rows, cols = np.nonzero(a)
+            mine = [(i, j) for m, i, j in self.coefficient_pattern if m == name]
+            if mine != list(zip(rows.tolist(), cols.tolist())):
+                return None
+            values += a[rows, cols].tolist()
+        if self.cavity_ends:
+            values += self._gains(None, model)
+        return values
 
     def structure_attributes(self, attributes: dict) -> dict:
         """As :meth:`Component.structure_attributes`; where the line's matrix entries are
@@ -267,7 +305,7 @@ class HoseSection(Component):
         if self.cavity_ends:                   # y = C x = C z + (lift / k) C b (M45)
             (_, i, j, _), = self.cavity_ends
             lift = self._lift(xv, u, p)
-            gains = self._product("C", self._column("B", j, p, len(self._states)), p, rows)
+            gains = self._gains(p)
             per_k = lift / gains[i]
             y = ops.vertcat([y[r] + lift if r == i else y[r] + gains[r] * per_k
                              for r in range(rows)])
@@ -312,8 +350,17 @@ class HoseSection(Component):
         (M45; ``s k < 0``)."""
         (_, i, j, _), = self.cavity_ends
         b = self._column("B", j, p, len(self._states))
-        k = self._product("C", b, p, len(self.model.output_names))[i]
-        return z + b * (self._lift(z, u, p) / k)
+        return z + b * (self._lift(z, u, p) / self._gains(p)[i])
+
+    def _gains(self, p, model=None):
+        """``C b``: each output's rate per unit end flow (M45; ``k`` its end pressure's), from
+        the runtime parameters p where the matrices are there, else from ``model`` (this
+        section's by default)."""
+        if p is not None and self.coefficient_pattern is not None:
+            return [p[f"{GAIN}{r}"] for r in range(len(self.model.output_names))]
+        m = self.model if model is None else model
+        (_, _, j, _), = self.cavity_ends
+        return (np.asarray(m.C, dtype=float) @ np.asarray(m.B, dtype=float)[:, j]).tolist()
 
     def cavity_volumes(self, x, outputs=None):
         """Gas/vapour cavity volume at the end that holds one (M45), [m^3].
