@@ -62,7 +62,8 @@ def openblas_controls() -> list:
 
     Returns
     -------
-    list  (set(n), get() -> n) pairs of ctypes functions, one per OpenBLAS
+    list
+        (set(n), get() -> n) pairs of ctypes functions, one per OpenBLAS
     """
     loaded = tuple(m in sys.modules for m in _BLAS_MODULES)
     if loaded not in _CONTROLS:

@@ -46,12 +46,28 @@ SUBCOMMANDS = [
 
 
 class UsageError(ValueError):
-    """Bad input from the user: printed as one line, exit code 2."""
+    """Bad input from the user: printed as one line, exit code 2.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the option.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM, turned into an exception so that a run stops as cleanly as on Ctrl-C (temporary
-    files removed, finished sweep variants recorded); the command exits with 143."""
+    files removed, finished sweep variants recorded); the command exits with 143.
+
+    Parameters
+    ----------
+    *args : str
+        The message.
+    **kwargs : dict
+        None taken (as ``KeyboardInterrupt``).
+    """
 
 
 def raise_terminated(signum, frame):
@@ -59,8 +75,10 @@ def raise_terminated(signum, frame):
 
     Parameters
     ----------
-    signum : int     The signal number
-    frame : frame    The interrupted stack frame (unused)
+    signum : int
+        The signal number
+    frame : frame
+        The interrupted stack frame (unused)
     """
     raise Terminated
 
@@ -72,7 +90,13 @@ class ClosedStdout(io.TextIOBase):
     exit code 141 and no traceback."""
 
     def writable(self) -> bool:
-        """True: the command may try to write (and then learns that nobody reads)."""
+        """True: the command may try to write (and then learns that nobody reads).
+
+        Returns
+        -------
+        bool
+            Always True.
+        """
         return True
 
     def write(self, text) -> int:
@@ -80,18 +104,26 @@ class ClosedStdout(io.TextIOBase):
 
         Parameters
         ----------
-        text : str  What the command printed
+        text : str
+            What the command printed
 
         Raises
         ------
-        BrokenPipeError  Always (EPIPE)
+        BrokenPipeError
+            Always (EPIPE)
         """
         raise BrokenPipeError(errno.EPIPE, "stdout is closed")
 
 
 def version() -> str:
     """The installed version of hydroline (from the package metadata, without importing the
-    model)."""
+    model).
+
+    Returns
+    -------
+    str
+        The version, e.g. ``"0.9.0"``.
+    """
     from importlib import metadata
 
     try:
@@ -121,8 +153,9 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
 
     Parameters
     ----------
-    only : str or None  Module name of the one subcommand to register (``"line_response"``
-                        for ``line-response``); None registers all of them
+    only : str or None
+        Module name of the one subcommand to register (``"line_response"``
+        for ``line-response``); None registers all of them
 
     Returns
     -------
@@ -158,12 +191,14 @@ def main(argv=None) -> int:
 
     Parameters
     ----------
-    argv : list of str or None  The arguments after ``hydroline`` (``sys.argv[1:]`` when None)
+    argv : list of str or None
+        The arguments after ``hydroline`` (``sys.argv[1:]`` when None)
 
     Returns
     -------
-    int  Exit code: 0 success, 2 bad input (or no subcommand), 130 interrupted, 141 closed
-         stdout, 143 terminated, or the subcommand's own
+    int
+        Exit code: 0 success, 2 bad input (or no subcommand), 130 interrupted, 141 closed
+        stdout, 143 terminated, or the subcommand's own
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
@@ -217,7 +252,13 @@ def draws_a_figure(argv) -> bool:
 
     Parameters
     ----------
-    argv : list of str  The arguments after ``hydroline``
+    argv : list of str
+        The arguments after ``hydroline``
+
+    Returns
+    -------
+    bool
+        True when a figure is likely drawn.
     """
     if not argv or argv[0] not in ("simulate", "bode", "layout"):
         return False
@@ -292,11 +333,13 @@ def refuse_empty_values(args) -> None:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line
+    args : argparse.Namespace
+        The parsed command line
 
     Raises
     ------
-    UsageError  One line naming the option
+    UsageError
+        One line naming the option
     """
     for dest, value in vars(args).items():
         values = value if isinstance(value, (list, tuple)) else (value,)

@@ -18,9 +18,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser(
         "bode", help="frequency response of the linearised system: with the hoses and with an "
@@ -88,13 +89,16 @@ def summary_dict(res, op) -> dict:
 
     Parameters
     ----------
-    res : BodeResult      The frequency responses, bandwidths and resonances of the variants
-    op : OperatingPoint   Where the model was linearised (piston position [m] and velocity
-                          [m/s], :class:`~hydroline.analysis.linearize.OperatingPoint`)
+    res : BodeResult
+        The frequency responses, bandwidths and resonances of the variants
+    op : OperatingPoint
+        Where the model was linearised (piston position [m] and velocity
+        [m/s], :class:`~hydroline.analysis.linearize.OperatingPoint`)
 
     Returns
     -------
-    dict  Keys name their unit (``_hz``, ``_pa``, ``_m``, ...); ready for :func:`dump_json`
+    dict
+        Keys name their unit (``_hz``, ``_pa``, ``_m``, ...); ready for :func:`dump_json`
     """
     solved = res.operating_points[MODAL]
     out = {
@@ -138,11 +142,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     # Matplotlib imports in a second process while this one solves (started with the command:
     # hydroline.cli.main); the figure is drawn there

@@ -16,9 +16,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser("circuit", help="print a rig's circuit: components, connections, "
                        "causality; draw it as an ISO 1219 hydraulic schematic",
@@ -49,11 +50,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     if args.types:   # the reference of every type: nothing of a rig is read or drawn
         if args.rig is not None:

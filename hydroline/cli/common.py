@@ -23,7 +23,15 @@ __all__ = ["SCHEMA_VERSION", "quantity", "out_dir", "atomic_outputs", "OutputErr
 
 
 class OutputError(ValueError):
-    """An output path that cannot be written; the message is one line naming it."""
+    """An output path that cannot be written; the message is one line naming it.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the path.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 def quantity(text, unit, name):
@@ -31,14 +39,18 @@ def quantity(text, unit, name):
 
     Parameters
     ----------
-    text : str   The option's value as typed, e.g. ``"3000 psi"`` or ``"12.7mm"``
-    unit : str   The SI unit wanted, e.g. ``"Pa"``, ``"m"`` (see
-                 :func:`hydroline.units.parse_quantity`)
-    name : str   The option's name, for the message, e.g. ``"--position"``
+    text : str
+        The option's value as typed, e.g. ``"3000 psi"`` or ``"12.7mm"``
+    unit : str
+        The SI unit wanted, e.g. ``"Pa"``, ``"m"`` (see
+        :func:`hydroline.units.parse_quantity`)
+    name : str
+        The option's name, for the message, e.g. ``"--position"``
 
     Returns
     -------
-    float  The value in ``unit``, [unit]
+    float
+        The value in ``unit``, [unit]
     """
     return parse_quantity(text, unit, name)
 
@@ -48,10 +60,13 @@ def out_dir(path, files=(), option: str = "--out") -> Path:
 
     Parameters
     ----------
-    path : str or Path   The folder (created with its parents when missing)
-    files : iterable     Names of the files the command will write there; each must not be
-                         a folder
-    option : str         The option that named it, for the messages
+    path : str or Path
+        The folder (created with its parents when missing)
+    files : iterable
+        Names of the files the command will write there; each must not be
+        a folder
+    option : str
+        The option that named it, for the messages
 
     Returns
     -------
@@ -59,8 +74,9 @@ def out_dir(path, files=(), option: str = "--out") -> Path:
 
     Raises
     ------
-    OutputError  One line: an existing file (not a folder) at or above ``path``, a folder that
-                 cannot be created or written, or a file name taken by a folder
+    OutputError
+        One line: an existing file (not a folder) at or above ``path``, a folder that
+        cannot be created or written, or a file name taken by a folder
     """
     p = Path(path)
     if p.exists() and not p.is_dir():
@@ -103,12 +119,14 @@ def atomic_outputs(folder):
 
     Parameters
     ----------
-    folder : str or Path  The output folder (checked by :func:`out_dir`); the temporary
-                          files are made there, on the same file system as their targets
+    folder : str or Path
+        The output folder (checked by :func:`out_dir`); the temporary
+        files are made there, on the same file system as their targets
 
     Yields
     ------
-    callable  ``temp(name) -> Path``: the temporary path to write for the file ``name``
+    callable
+        ``temp(name) -> Path``: the temporary path to write for the file ``name``
     """
     folder = Path(folder)
     pending = {}
@@ -156,10 +174,13 @@ def print_table(headers, rows, file=None):
 
     Parameters
     ----------
-    headers : sequence of str  Column headings
-    rows : iterable            Rows, each a sequence of cells (a float is printed with four
-                               significant digits, None as "-")
-    file : file-like           Where to print (stdout when None)
+    headers : sequence of str
+        Column headings
+    rows : iterable
+        Rows, each a sequence of cells (a float is printed with four
+        significant digits, None as "-")
+    file : file-like
+        Where to print (stdout when None)
     """
     file = file or sys.stdout
     cells = [[str(h) for h in headers]] + [[_fmt(c) for c in r] for r in rows]
@@ -190,9 +211,11 @@ def dump_json(obj, file=None):
 
     Parameters
     ----------
-    obj : dict, list or scalar  The data (nested dicts, lists and tuples of numbers, strings,
-                                booleans and None)
-    file : file-like            Where to write (stdout when None)
+    obj : dict, list or scalar
+        The data (nested dicts, lists and tuples of numbers, strings,
+        booleans and None)
+    file : file-like
+        Where to write (stdout when None)
     """
     import math
 
@@ -214,13 +237,16 @@ def progress_printer(label, enabled=True):
 
     Parameters
     ----------
-    label : str      Text before the bar
-    enabled : bool   False: no bar (e.g. under ``--json``)
+    label : str
+        Text before the bar
+    enabled : bool
+        False: no bar (e.g. under ``--json``)
 
     Returns
     -------
-    callable or None  ``show(fraction)``, fraction done in 0..1 [-]; None when disabled or
-                      stderr is no terminal
+    callable or None
+        ``show(fraction)``, fraction done in 0..1 [-]; None when disabled or
+        stderr is no terminal
     """
     if not enabled or not sys.stderr.isatty():
         return None
@@ -245,12 +271,14 @@ def settling_cell(metrics: dict):
 
     Parameters
     ----------
-    metrics : dict  A port's metrics, holding ``settling_time_s`` [s] (or None),
-                    ``settling_method`` and ``settling_jump_s``
+    metrics : dict
+        A port's metrics, holding ``settling_time_s`` [s] (or None),
+        ``settling_method`` and ``settling_jump_s``
 
     Returns
     -------
-    float, str or None  Settling time, [ms]
+    float, str or None
+        Settling time, [ms]
     """
     v = metrics["settling_time_s"]
     if v is None:
@@ -267,13 +295,17 @@ def run_network(rig, scenario: str, duration: float):
 
     Parameters
     ----------
-    rig : Rig         The rig
-    scenario : str    The experiment's name
-    duration : float  Simulated time, [s]
+    rig : Rig
+        The rig
+    scenario : str
+        The experiment's name
+    duration : float
+        Simulated time, [s]
 
     Returns
     -------
-    tuple  (Circuit, Network)
+    tuple
+        (Circuit, Network)
     """
     from ..scenarios.experiments import build_scenario
     from ..system import build_circuit
@@ -291,18 +323,30 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
 
     Parameters
     ----------
-    command : str       The subcommand, for the note
-    network : Network   The run's model (:func:`run_network`)
-    solver : str        --solver: "auto" and "compiled" build the compiled core if needed
-    duration : float    Simulated time of one run, [s]
-    rows : int          Output rows of one run, [-]
-    columns : int       Output columns (time, signals, states), [-]
-    streamed : bool     The table is streamed to results.csv, not kept in memory
-    write : bool        results.csv is written
-    dt_out : float      --dt-out [s], or None (for the hint)
-    variants : int      Runs of the model (a sweep's variants), [-]
-    workers : int       Processes running them side by side, [-]
-    file : str          The file the rows are written to, for the note
+    command : str
+        The subcommand, for the note
+    network : Network
+        The run's model (:func:`run_network`)
+    solver : str
+        --solver: "auto" and "compiled" build the compiled core if needed
+    duration : float
+        Simulated time of one run, [s]
+    rows : int
+        Output rows of one run, [-]
+    columns : int
+        Output columns (time, signals, states), [-]
+    streamed : bool
+        The table is streamed to results.csv, not kept in memory
+    write : bool
+        results.csv is written
+    dt_out : float
+        --dt-out [s], or None (for the hint)
+    variants : int
+        Runs of the model (a sweep's variants), [-]
+    workers : int
+        Processes running them side by side, [-]
+    file : str
+        The file the rows are written to, for the note
     """
     from .. import compiled
     from ..limits import run_cost
@@ -344,7 +388,8 @@ def add_settling_band_option(parser):
 
     Parameters
     ----------
-    parser : argparse.ArgumentParser  The subcommand's parser
+    parser : argparse.ArgumentParser
+        The subcommand's parser
     """
     parser.add_argument("--settling-band", default="2%", metavar="BAND",
                         help="band the port pressures' settling time is read against: '2%%' "
@@ -362,12 +407,14 @@ def amplitude_cell(metrics: dict):
 
     Parameters
     ----------
-    metrics : dict  A port's metrics, holding ``amplitude_mpa`` [MPa] (or None) and
-                    ``ringing_periods`` [-]
+    metrics : dict
+        A port's metrics, holding ``amplitude_mpa`` [MPa] (or None) and
+        ``ringing_periods`` [-]
 
     Returns
     -------
-    float, str or None  Amplitude, [MPa]
+    float, str or None
+        Amplitude, [MPa]
     """
     from ..traces.metrics import VERDICT_MARGIN
 
@@ -383,9 +430,10 @@ def settling_legend(summaries) -> str:
 
     Parameters
     ----------
-    summaries : list of tuple  Port metrics (``settling_band``, ``settling_band_mpa``),
-                               labelled: ``[(label, metrics), ...]``; the half-widths of one
-                               label are given as their range
+    summaries : list of tuple
+        Port metrics (``settling_band``, ``settling_band_mpa``),
+        labelled: ``[(label, metrics), ...]``; the half-widths of one
+        label are given as their range
 
     Returns
     -------

@@ -20,8 +20,9 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser;
-                                      ``run`` is set as the subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser;
+        ``run`` is set as the subcommand's ``func``
     """
     p = sub.add_parser(
         "envelope", help="performance envelope: the largest sine amplitude the actuator holds "
@@ -77,12 +78,15 @@ def frequencies(text: str, points: int) -> np.ndarray:
 
     Parameters
     ----------
-    text : str     "LOW..HIGH" (``points`` log-spaced) or "f1, f2, ..." (units allowed)
-    points : int   Frequencies of a range, >= 1, [-]
+    text : str
+        "LOW..HIGH" (``points`` log-spaced) or "f1, f2, ..." (units allowed)
+    points : int
+        Frequencies of a range, >= 1, [-]
 
     Returns
     -------
-    ndarray  Ascending, [Hz]
+    ndarray
+        Ascending, [Hz]
     """
     if ".." in text:
         low, _, high = text.partition("..")
@@ -104,7 +108,13 @@ def distortion_value(text: str) -> float:
 
     Parameters
     ----------
-    text : str   As typed
+    text : str
+        As typed
+
+    Returns
+    -------
+    float
+        The fraction, [-].
     """
     m = re.fullmatch(r"\s*([0-9.eE+-]+)\s*(%?)\s*", text)
     try:
@@ -125,7 +135,9 @@ def write_csv(result, path) -> None:
     Parameters
     ----------
     result : EnvelopeResult
+        The study's outcome
     path : Path
+        CSV file to write
     """
     rows = result.rows()
     columns = list(dict.fromkeys(k for r in rows for k in r))
@@ -142,6 +154,12 @@ def json_document(result) -> dict:
     Parameters
     ----------
     result : EnvelopeResult
+        The study's outcome
+
+    Returns
+    -------
+    dict
+        The document.
     """
     return {"schema_version": SCHEMA_VERSION, **result.to_dict()}
 
@@ -151,11 +169,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     from ..studies.envelope import envelope
 

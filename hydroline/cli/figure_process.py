@@ -41,7 +41,13 @@ def start_early() -> None:
 
 
 def claim_figure_process() -> "FigureProcess":
-    """The figure process started by :func:`start_early`, or a new one when none was."""
+    """The figure process started by :func:`start_early`, or a new one when none was.
+
+    Returns
+    -------
+    FigureProcess
+        The process to send the figures to.
+    """
     global _early
     figures, _early = _early, None
     return figures if figures is not None else FigureProcess()
@@ -189,8 +195,10 @@ class FigureProcess:
 
         Parameters
         ----------
-        function : callable   A module-level function that writes the figure
-        args, kwargs          Its arguments (picklable)
+        function : callable
+            A module-level function that writes the figure
+        args, kwargs
+            Its arguments (picklable)
         """
         self._job = (function, args, kwargs)
         if self.pid is None:
@@ -242,8 +250,10 @@ class FigureProcess:
 
         Parameters
         ----------
-        function : callable   A module-level function that writes the figure
-        args, kwargs          Its arguments (picklable)
+        function : callable
+            A module-level function that writes the figure
+        args, kwargs
+            Its arguments (picklable)
         """
         self.submit(function, *args, **kwargs)
         self.wait()

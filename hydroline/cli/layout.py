@@ -18,9 +18,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser(
         "layout", help="hose-layout study: port pressure oscillations against the length of "
@@ -106,11 +107,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     from ..traces.metrics import SettlingBand
 

@@ -40,9 +40,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser("line-response", help="frequency response of one line: exact vs modal",
                        description="Magnitude and phase of every entry of a causal form, exact "
@@ -82,12 +83,17 @@ def smooth_step_filter(line: Line, n_modes: int):
 
     Parameters
     ----------
-    line : Line     The line (its wave time L/c sets the filter's corners)
-    n_modes : int   Modes of the models the step is for, [-]
+    line : Line
+        The line (its wave time L/c sets the filter's corners)
+    n_modes : int
+        Modes of the models the step is for, [-]
 
     Returns
     -------
-    (W, (A, B, C)) : W(s) callable and its state-space form (one input, one output), [1/s]
+    W : callable
+        ``W(s)``, the filter's transfer function, [-]
+    (A, B, C) : tuple of ndarray
+        Its state-space form (one input, one output), [1/s]
     """
     omega_n = (n_modes - 0.5) * np.pi / line.wave_time
     a = 4.0 / (20.0 / omega_n) * np.array([0.8, 0.93, 1.07, 1.2])
@@ -121,21 +127,36 @@ def blocked_step_errors(line: Line, models: dict, periods: int = 20,
 
     Parameters
     ----------
-    line : Line          The line
-    models : dict        label -> PQ-form model (:class:`StateSpaceLine`), all with the same
-                         number of modes ``n_modes``
-    periods : int        Wave periods (4 L/c each) simulated, >= 1, [-]
-    samples_per_period : int  Time samples per wave period, [-]
+    line : Line
+        The line
+    models : dict
+        label -> PQ-form model (:class:`StateSpaceLine`), all with the same
+        number of modes ``n_modes``
+    periods : int
+        Wave periods (4 L/c each) simulated, >= 1, [-]
+    samples_per_period : int
+        Time samples per wave period, [-]
 
     Returns
     -------
-    (t [s], exact [Pa/Pa], {label: response [Pa/Pa]}, {label: dict of errors}); errors in %
-    of the step: ``max_pct``, ``rms_pct`` over the whole run, ``max_settled_pct`` after
-    ``STEP_SETTLE_PERIODS`` wave periods, and ``max_smooth_pct``, over the whole run, for
-    the step through :func:`smooth_step_filter`. The exact response jumps at the wave
-    fronts, which no finite modal model follows (~half the jump next to the first ones,
-    Gibbs; on lightly damped lines the ringing lasts many periods), hence the smoothed
-    step, which the retained modes resolve: its error measures the model, not truncation.
+    t : ndarray
+        Times, [s]
+    exact : ndarray
+        The exact response, [Pa/Pa]
+    responses : dict
+        Label -> the model's response, [Pa/Pa]
+    errors : dict
+        Label -> dict of errors in % of the step: ``max_pct``, ``rms_pct`` over the
+        whole run, ``max_settled_pct`` after ``STEP_SETTLE_PERIODS`` wave periods, and
+        ``max_smooth_pct``, over the whole run, for the step through
+        :func:`smooth_step_filter`
+
+    Notes
+    -----
+    The exact response jumps at the wave fronts, which no finite modal model follows
+    (~half the jump next to the first ones, Gibbs; on lightly damped lines the ringing
+    lasts many periods), hence the smoothed step, which the retained modes resolve: its
+    error measures the model, not truncation.
     """
     if int(periods) != periods or periods < 1:
         raise ValueError(f"--step-periods must be an integer >= 1, got {periods!r}")
@@ -164,12 +185,17 @@ def plot_step(line, t, exact, responses, path):
 
     Parameters
     ----------
-    line : Line         The line (length, diameter, dissipation number in the title)
-    t : ndarray         Time samples, [s]
-    exact : ndarray     Exact P_d/P_u step response at ``t`` (as
-                        :func:`blocked_step_errors` returns it), [-]
-    responses : dict    label -> model's P_d/P_u step response at ``t``, [-]
-    path : str or Path  PNG to write
+    line : Line
+        The line (length, diameter, dissipation number in the title)
+    t : ndarray
+        Time samples, [s]
+    exact : ndarray
+        Exact P_d/P_u step response at ``t`` (as
+        :func:`blocked_step_errors` returns it), [-]
+    responses : dict
+        label -> model's P_d/P_u step response at ``t``, [-]
+    path : str or Path
+        PNG to write
     """
     from ..plotting import new_figure, save_png
 
@@ -214,11 +240,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     fluid = Fluid(quantity(args.density, "kg/m^3", "--density"),
                   quantity(args.viscosity, "m^2/s", "--viscosity"),

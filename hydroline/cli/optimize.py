@@ -56,8 +56,9 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser;
-                                      ``run`` is set as the subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser;
+        ``run`` is set as the subcommand's ``func``
     """
     p = sub.add_parser(
         "optimize", help="constrained design optimisation: which hose lengths, bores, "
@@ -118,11 +119,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code: 0, or 1 where the optimum found breaks a constraint
+    int
+        Exit code: 0, or 1 where the optimum found breaks a constraint
     """
     from ..studies.optimize import optimize, shown_value
 

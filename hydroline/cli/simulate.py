@@ -24,9 +24,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser("simulate", help="simulate the test system (default: the 2005 paper's rig, "
                        "50 mA open-loop step)",
@@ -121,8 +122,16 @@ def output_grid(t_end: float, dt_out: float | None):
 
     Parameters
     ----------
-    t_end : float    Simulated time, [s]
-    dt_out : float   Interval of the rows written, [s] (None: every 0.1 ms row)
+    t_end : float
+        Simulated time, [s]
+    dt_out : float
+        Interval of the rows written, [s] (None: every 0.1 ms row)
+
+    Returns
+    -------
+    tuple
+        ``(h, every, rows)``: integration output interval [s], write every ``every``-th
+        row [-], rows written [-].
     """
     if dt_out is None:
         return DT_OUT, 1, int(round(t_end / DT_OUT)) + 1
@@ -193,11 +202,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     write = args.out is not None or not args.json
     # Matplotlib (and NumPy) import in a second process while this one imports the model and
@@ -283,10 +294,18 @@ def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance"
 
     Parameters
     ----------
-    res : SimulationResult   The run (or its preview)
-    columns : list           Columns to keep (those of them ``res`` has); None: what
-                             :func:`hydroline.plotting.plot_result` draws
-    metadata : tuple         Metadata keys to keep (those ``res`` has)
+    res : SimulationResult
+        The run (or its preview)
+    columns : list
+        Columns to keep (those of them ``res`` has); None: what
+        :func:`hydroline.plotting.plot_result` draws
+    metadata : tuple
+        Metadata keys to keep (those ``res`` has)
+
+    Returns
+    -------
+    Traces
+        Time [s] and the kept columns [SI] with the kept metadata.
     """
     from ..plotting import Traces
 
@@ -498,10 +517,14 @@ def plot_axes(res, summary, path, title=""):
 
     Parameters
     ----------
-    res : SimulationResult   The run (``metadata["axes"]`` holds the handles)
-    summary : dict           Its summary (for the metrics window)
-    path : str or Path       PNG to write
-    title : str              Figure title
+    res : SimulationResult
+        The run (``metadata["axes"]`` holds the handles)
+    summary : dict
+        Its summary (for the metrics window)
+    path : str or Path
+        PNG to write
+    title : str
+        Figure title
     """
     import numpy as np
 

@@ -59,9 +59,10 @@ def register(sub):
 
     Parameters
     ----------
-    sub : argparse._SubParsersAction  The subparsers object of the ``hydroline`` parser
-                                      (from ``add_subparsers``); ``run`` is set as the
-                                      subcommand's ``func``
+    sub : argparse._SubParsersAction
+        The subparsers object of the ``hydroline`` parser
+        (from ``add_subparsers``); ``run`` is set as the
+        subcommand's ``func``
     """
     p = sub.add_parser(
         "sweep", help="parameter study: full factorial or random samples over rig parameters, "
@@ -148,11 +149,13 @@ def run(args) -> int:
 
     Parameters
     ----------
-    args : argparse.Namespace  The parsed command line, with the options :func:`register` adds
+    args : argparse.Namespace
+        The parsed command line, with the options :func:`register` adds
 
     Returns
     -------
-    int  Exit code, 0 on success
+    int
+        Exit code, 0 on success
     """
     rig = load_rig(args.rig)
     scenario = args.scenario or default_scenario(rig)

@@ -50,6 +50,12 @@
 #ifndef HL_BACKOFF
 #define HL_BACKOFF 50           /* steps before another drop, after the first that did not pay */
 #endif
+#ifndef HL_MAX_BACKOFF
+#define HL_MAX_BACKOFF 400      /* at most this many steps between two tries (3 doublings of 50): an
+                                 * uncapped backoff could lock a run at a limited order 3-5 with
+                                 * its steps held at that order's limit (0.05 m sections: 5 000
+                                 * or 37 000 steps by the rest state's rounding; capped, ~5 000) */
+#endif
 #ifndef HL_MSBP
 #define HL_MSBP 50              /* refactor W at least every this many steps */
 #endif
@@ -601,8 +607,9 @@ static int hl_step(hl_solver* S) {
         if (cp > best) { best = cp; delta = 1; }
         if (delta == 1 && order == 2 && S->order_limit[3] < INFINITY) {
             /* back up from order 2 below order 3's limit: the drop did not pay; try the next
-             * one only after twice as many steps as last time */
+             * one only after twice as many steps as last time, at most HL_MAX_BACKOFF */
             S->drop_backoff = S->drop_backoff ? 2 * S->drop_backoff : HL_BACKOFF;
+            if (S->drop_backoff > HL_MAX_BACKOFF) S->drop_backoff = HL_MAX_BACKOFF;
             S->drop_after = S->nsteps + S->drop_backoff;
         }
     }

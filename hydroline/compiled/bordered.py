@@ -33,7 +33,8 @@ class BorderedSystem:
 
     Parameters
     ----------
-    native : NativeModel   The compiled model (:func:`hydroline.compiled.native_model`)
+    native : NativeModel
+        The compiled model (:func:`hydroline.compiled.native_model`)
     """
 
     def __init__(self, native):
@@ -70,9 +71,17 @@ class BorderedSystem:
 
         Parameters
         ----------
-        t : float       Time, [s]
-        x : ndarray     States, [SI]
-        p : ndarray     Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            The nonzeros, [1/s] (cut signals' rows and columns in SI).
         """
         dp = ctypes.POINTER(ctypes.c_double)
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
@@ -90,19 +99,26 @@ class BorderedSystem:
 
         Parameters
         ----------
-        t : float       Time, [s]
-        x : ndarray     States, [SI]
-        p : ndarray     Runtime parameters, [SI]
-        shift : float   s, [1/s] (0: a Newton step, ``-J dz = b``)
-        b : ndarray     Right-hand side, scaled states per second, [1/s]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+        shift : float
+            s, [1/s] (0: a Newton step, ``-J dz = b``)
+        b : ndarray
+            Right-hand side, scaled states per second, [1/s]
 
         Returns
         -------
-        ndarray  dz, scaled states, [-]
+        ndarray
+            dz, scaled states, [-]
 
         Raises
         ------
-        numpy.linalg.LinAlgError  The matrix is singular
+        numpy.linalg.LinAlgError
+            The matrix is singular
         """
         diag = np.ones(self.size)
         diag[:self.n] = shift

@@ -9,14 +9,19 @@ sizes) share one compiled library, and the library's cache key is a hash of the 
 
 Generated functions (``z`` are the states scaled by their typical magnitudes, ``x = z s``):
 
-``hl_f(t, z, p, c, dz)``          dz/dt of the scaled states (docs/model.md M1-M24 as assembled)
-``hl_jac(t, z, p, c, jnz)``       the bordered Jacobian (below), nonzeros in compressed-column
-                                  order (``hl_ext_colind``, ``hl_ext_row``)
-``hl_signals(t, z, p, c, y)``     every network signal, [SI]
-``hl_lu_factor(jnz, g, a)``       sparse LU of the bordered ``W = I - g J`` without pivoting, in
-                                  a fill-reducing (minimum degree) order fixed at generation
-                                  time; returns the 1-based failing pivot or 0
-``hl_lu_solve(a, b)``             solves ``W v = b`` in place with the factors
+``hl_f(t, z, p, c, dz)``
+    dz/dt of the scaled states (docs/model.md M1-M24 as assembled)
+``hl_jac(t, z, p, c, jnz)``
+    the bordered Jacobian (below), nonzeros in compressed-column
+    order (``hl_ext_colind``, ``hl_ext_row``)
+``hl_signals(t, z, p, c, y)``
+    every network signal, [SI]
+``hl_lu_factor(jnz, g, a)``
+    sparse LU of the bordered ``W = I - g J`` without pivoting, in
+    a fill-reducing (minimum degree) order fixed at generation
+    time; returns the 1-based failing pivot or 0
+``hl_lu_solve(a, b)``
+    solves ``W v = b`` in place with the factors
 
 The bordered Jacobian. A hose section's states couple to its neighbours' only through the
 few signals at its ends (a pressure, a flow), yet every state of one section moves every
@@ -80,18 +85,31 @@ def assignments(fun: ca.Function, binary: dict, unary: dict, inputs: list[str], 
 
     Parameters
     ----------
-    fun : casadi.Function     An SX function
-    binary, unary : dict      CasADi operation code -> expression template (``{a}``, ``{b}``):
-                              the target language's spelling of each operation
-    inputs : list[str]        Per function input, how to read nonzero ``{nz}`` (``"z[{nz}]"``)
-    output : str              How to write output nonzero ``{nz}`` (``"dz[{nz}]"``)
-    constants : list[float]   Constants found are appended here and read as ``c[k]``
+    fun : casadi.Function
+        An SX function
+    binary, unary : dict
+        CasADi operation code -> expression template (``{a}``, ``{b}``):
+        the target language's spelling of each operation
+    inputs : list[str]
+        Per function input, how to read nonzero ``{nz}`` (``"z[{nz}]"``)
+    output : str
+        How to write output nonzero ``{nz}`` (``"dz[{nz}]"``)
+    constants : list[float]
+        Constants found are appended here and read as ``c[k]``
 
-    Work variables are ``w0, w1, ...`` (``fun.sz_w()`` of them).
+    Returns
+    -------
+    list of tuple
+        ``(target, expression)`` pairs, in execution order.
 
     Raises
     ------
-    UnsupportedOperation  An operation without a template (e.g. a call to an interpolant)
+    UnsupportedOperation
+        An operation without a template (e.g. a call to an interpolant)
+
+    Notes
+    -----
+    Work variables are ``w0, w1, ...`` (``fun.sz_w()`` of them).
     """
     for k in range(fun.n_instructions()):
         op = fun.instruction_id(k)
@@ -149,11 +167,13 @@ def scaled_functions(model):
 
     Parameters
     ----------
-    model : CompiledModel   The network's CasADi graph
+    model : CompiledModel
+        The network's CasADi graph
 
     Returns
     -------
-    (f, jac, signals) : casadi.Function of (t, z, p) or (t, z, p, c): dz/dt, the bordered
+    (f, jac, signals) : tuple of casadi.Function
+        Functions of (t, z, p) or (t, z, p, c): dz/dt, the bordered
         Jacobian (:func:`bordered_jacobian`; d(dz/dt)/dz itself where the network is not
         cut), every signal [SI]
     """
@@ -190,12 +210,14 @@ def interface_signals(network) -> list:
 
     Parameters
     ----------
-    network : Network   The assembled model
+    network : Network
+        The assembled model
 
     Returns
     -------
     list
-        Signal names (str), then (component name, internal signal name) pairs.
+        Signal names (str), in the network's signal order, then (component name, internal
+        signal name) pairs.
     """
     if not callable(getattr(network, "evaluate", None)) or not hasattr(network, "producer"):
         return []
@@ -216,21 +238,28 @@ def bordered_jacobian(model, z, x_of_z, y, dz, inverse_scales=None, equations=No
 
     Parameters
     ----------
-    model : CompiledModel   The network's CasADi graph
-    z : casadi.SX           The scaled states, [-]
-    x_of_z : casadi.SX      The states in terms of z, [SI]
-    y : casadi.SX           Every signal in terms of z, [SI]
-    dz : casadi.SX          dz/dt in terms of z, [1/s]
+    model : CompiledModel
+        The network's CasADi graph
+    z : casadi.SX
+        The scaled states, [-]
+    x_of_z : casadi.SX
+        The states in terms of z, [SI]
+    y : casadi.SX
+        Every signal in terms of z, [SI]
+    dz : casadi.SX
+        dz/dt in terms of z, [1/s]
     inverse_scales : casadi.SX or DM
                             1 / each state's scale, [1/SI] (symbols where the numbers
                             are); None: the network's
-    equations : dict        Component name -> the object whose equations stand for it (its
-                            numbers as symbols, :meth:`~hydroline.engine.Network.evaluate`);
-                            None: the components' own
+    equations : dict
+        Component name -> the object whose equations stand for it (its
+        numbers as symbols, :meth:`~hydroline.engine.Network.evaluate`);
+        None: the components' own
 
     Returns
     -------
-    casadi.SX  (n + n_v) x (n + n_v), sparse
+    casadi.SX
+        (n + n_v) x (n + n_v), sparse
     """
     net = model.network
     cut = interface_signals(net)
@@ -257,13 +286,17 @@ def schur_pattern(n: int, colind, row):
 
     Parameters
     ----------
-    n : int          States, [-]
-    colind : array   Column starts of the bordered pattern, [-]
-    row : array      Row of each of its nonzeros, [-]
+    n : int
+        States, [-]
+    colind : array
+        Column starts of the bordered pattern, [-]
+    row : array
+        Row of each of its nonzeros, [-]
 
     Returns
     -------
-    (colind, row) : ndarray, ndarray  J's compressed-column pattern, rows ascending, [-]
+    (colind, row) : ndarray, ndarray
+        J's compressed-column pattern, rows ascending, [-]
     """
     size = len(colind) - 1
     M = np.zeros((size, size), dtype=bool)
@@ -287,8 +320,15 @@ def minimum_degree_order(n: int, pattern) -> list[int]:
 
     Parameters
     ----------
-    n : int            Matrix size (states), [-]
-    pattern : iterable (row, column) pairs of the nonzeros
+    n : int
+        Matrix size (states), [-]
+    pattern : iterable
+        ``(row, column)`` pairs of the nonzeros
+
+    Returns
+    -------
+    list of int
+        The elimination order.
     """
     adj = [set() for _ in range(n)]
     for i, j in pattern:
@@ -315,11 +355,16 @@ class LUPlan:
 
     Parameters
     ----------
-    order : list    Pivot k is state ``order[k]``
-    slots : dict    (i, j) in pivot coordinates -> index in the factor array
-    lower : list    ``lower[k]``: rows i > k with L[i, k] != 0
-    upper : list    ``upper[k]``: columns j > k with U[k, j] != 0
-    flops : int     Multiply-adds of one factorisation, [-]
+    order : list
+        Pivot k is state ``order[k]``
+    slots : dict
+        (i, j) in pivot coordinates -> index in the factor array
+    lower : list
+        ``lower[k]``: rows i > k with L[i, k] != 0
+    upper : list
+        ``upper[k]``: columns j > k with U[k, j] != 0
+    flops : int
+        Multiply-adds of one factorisation, [-]
     """
 
     order: list          # pivot k is state order[k]
@@ -334,9 +379,17 @@ def lu_plan(n: int, rows, cols) -> LUPlan:
 
     Parameters
     ----------
-    n : int        Matrix size (states), [-]
-    rows : list    Row index of each Jacobian nonzero
-    cols : list    Column index of each Jacobian nonzero
+    n : int
+        Matrix size (states), [-]
+    rows : list
+        Row index of each Jacobian nonzero
+    cols : list
+        Column index of each Jacobian nonzero
+
+    Returns
+    -------
+    LUPlan
+        Elimination order, fill-in slots, the L and U entries and the flop count.
     """
     pattern = set(zip(rows, cols)) | {(i, i) for i in range(n)}
     order = minimum_degree_order(n, pattern)
@@ -458,7 +511,13 @@ def structure_key(functions) -> str:
 
     Parameters
     ----------
-    functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
+    functions : tuple
+        ``(f, jac, signals)`` of :func:`scaled_functions`
+
+    Returns
+    -------
+    str
+        Hex digest.
     """
     h = hashlib.sha256()
     for fun in functions:
@@ -478,7 +537,13 @@ def constant_positions(functions) -> list[list[int]]:
 
     Parameters
     ----------
-    functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
+    functions : tuple
+        ``(f, jac, signals)`` of :func:`scaled_functions`
+
+    Returns
+    -------
+    list of list of int
+        Instruction indices, one list per function.
     """
     return [[k for k in range(fun.n_instructions()) if fun.instruction_id(k) == ca.OP_CONST]
             for fun in functions]
@@ -490,11 +555,19 @@ def constants_at(functions, positions, network=None) -> np.ndarray:
 
     Parameters
     ----------
-    functions : tuple   ``(f, jac, signals)`` of :func:`scaled_functions`
-    positions : list    Per function, the indices of its constant instructions
-    network : Network   The model's network, whose numbers and scales come first where the
-                        functions take them (:func:`number_prefix`); None: the graph's
-                        constants only
+    functions : tuple
+        ``(f, jac, signals)`` of :func:`scaled_functions`
+    positions : list
+        Per function, the indices of its constant instructions
+    network : Network
+        The model's network, whose numbers and scales come first where the
+        functions take them (:func:`number_prefix`); None: the graph's
+        constants only
+
+    Returns
+    -------
+    ndarray
+        The constants ``c``, [SI] (numbers and state scales first where the functions take them).
     """
     graph = np.array([fun.instruction_constant(k) for fun, ks in zip(functions, positions)
                       for k in ks], dtype=float)
@@ -508,8 +581,15 @@ def generate(model, functions=None) -> GeneratedModel:
 
     Parameters
     ----------
-    model : CompiledModel   The network's CasADi graph (``network.compile()``)
-    functions : tuple       Its :func:`scaled_functions`, when already made
+    model : CompiledModel
+        The network's CasADi graph (``network.compile()``)
+    functions : tuple
+        Its :func:`scaled_functions`, when already made
+
+    Returns
+    -------
+    GeneratedModel
+        The C source, its key, the constants [SI] and the sizes.
     """
     net = model.network
     n, m = len(net.state_names), len(net.parameter_names)

@@ -10,7 +10,15 @@ __all__ = ["GeneratedModel", "UnsupportedOperation", "number_prefix"]
 
 
 class UnsupportedOperation(NotImplementedError):
-    """The graph holds an operation the C writer does not know (the caller falls back)."""
+    """The graph holds an operation the C writer does not know (the caller falls back).
+
+    Parameters
+    ----------
+    *args : str
+        The message: the operation.
+    **kwargs : dict
+        None taken (as ``NotImplementedError``).
+    """
 
 
 @dataclass
@@ -19,11 +27,16 @@ class GeneratedModel:
 
     Attributes
     ----------
-    source : str            C code (structure only)
-    key : str               SHA-256 of the source, the cache key
-    constants : ndarray     Values read by the code as ``c[k]``, [SI]
-    n_states, n_parameters, n_signals, jac_nnz, lu_slots, lu_flops : int   Sizes, [-]
-    jac_colind, jac_row : ndarray  Compressed-column pattern of the Jacobian (indices), [-]
+    source : str
+        C code (structure only)
+    key : str
+        SHA-256 of the source, the cache key
+    constants : ndarray
+        Values read by the code as ``c[k]``, [SI]
+    n_states, n_parameters, n_signals, jac_nnz, lu_slots, lu_flops : int
+        Sizes, [-]
+    jac_colind, jac_row : ndarray
+        Compressed-column pattern of the Jacobian (indices), [-]
     """
 
     source: str
@@ -48,11 +61,13 @@ def number_prefix(network) -> np.ndarray:
 
     Parameters
     ----------
-    network : Network   The assembled model
+    network : Network
+        The assembled model
 
     Returns
     -------
-    ndarray  [SI]
+    ndarray
+        [SI]
     """
     scales = np.asarray(network.state_scales, dtype=float)
     return np.concatenate([network.compiled_numbers()[1], scales, 1.0 / scales])

@@ -33,17 +33,24 @@ class NativeModel:
 
     Attributes
     ----------
-    generated : GeneratedModel   Source, hash key, constants, sizes
-    lib : ctypes.CDLL            The loaded library
-    library_path : Path          Where the library is cached
-    build_time : float           Seconds spent generating (and, on a cache miss, compiling)
-    found_by : str               "definition", "graph", "structure" or "generated" (below)
+    generated : GeneratedModel
+        Source, hash key, constants, sizes
+    lib : ctypes.CDLL
+        The loaded library
+    library_path : Path
+        Where the library is cached
+    build_time : float
+        Seconds spent generating (and, on a cache miss, compiling)
+    found_by : str
+        "definition", "graph", "structure" or "generated" (below)
 
     Parameters
     ----------
-    network : Network   The assembled model (:class:`hydroline.engine.Network`)
-    wait : bool         Compile a library not built yet here and now (False: in a background
-                        process, raising :class:`~hydroline.compiled.toolchain.LibraryPending`)
+    network : Network
+        The assembled model (:class:`hydroline.engine.Network`)
+    wait : bool
+        Compile a library not built yet here and now (False: in a background
+        process, raising :class:`~hydroline.compiled.toolchain.LibraryPending`)
     """
 
     def __init__(self, network, wait: bool = True):
@@ -163,7 +170,13 @@ class NativeModel:
 
         Parameters
         ----------
-        jnz : ndarray   Nonzeros, [1/s]
+        jnz : ndarray
+            Nonzeros, [1/s]
+
+        Returns
+        -------
+        ndarray
+            The Jacobian, n x n, [1/s].
         """
         g = self.generated
         if self._jac_index is None:
@@ -180,11 +193,13 @@ class NativeModel:
 
         Parameters
         ----------
-        jnz : ndarray   Nonzeros of the scaled Jacobian, [1/s]
+        jnz : ndarray
+            Nonzeros of the scaled Jacobian, [1/s]
 
         Returns
         -------
-        tuple  (h_1, ..., h_5), [s] (inf: no limit)
+        tuple
+            (h_1, ..., h_5), [s] (inf: no limit)
         """
         from .stability import block_eigenvalues, order_step_limits
 
@@ -210,17 +225,30 @@ class NativeModel:
 
         Parameters
         ----------
-        p : ndarray           Runtime parameters, [SI] (the network's when None)
-        rtol : float          Relative tolerance, [-]
-        atol : float          Absolute tolerance on the scaled states, [-]
-        max_step : float      Largest step, [s] (0: none)
-        fixed_step : float    > 0: fixed-step BDF without error control, [s]
-        max_order : int       Highest BDF order (1-5)
-        newton_coef : float   Newton tolerance relative to the error-test tolerance, [-]
-        order_limits : bool   Keep each NDF order 3-5 below the step where the model's
-                              lightly damped fast modes would make it unstable
-                              (:mod:`.stability`; False: the orders are chosen by accuracy
-                              alone, as before)
+        p : ndarray
+            Runtime parameters, [SI] (the network's when None)
+        rtol : float
+            Relative tolerance, [-]
+        atol : float
+            Absolute tolerance on the scaled states, [-]
+        max_step : float
+            Largest step, [s] (0: none)
+        fixed_step : float
+            > 0: fixed-step BDF without error control, [s]
+        max_order : int
+            Highest BDF order (1-5)
+        newton_coef : float
+            Newton tolerance relative to the error-test tolerance, [-]
+        order_limits : bool
+            Keep each NDF order 3-5 below the step where the model's
+            lightly damped fast modes would make it unstable
+            (:mod:`.stability`; False: the orders are chosen by accuracy
+            alone, as before)
+
+        Returns
+        -------
+        NativeSolver
+            A fresh solver with these settings.
         """
         return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef,
                             order_limits)
@@ -231,17 +259,26 @@ class NativeSolver:
 
     Parameters
     ----------
-    model : NativeModel The compiled library and its constants
-    p : ndarray         Runtime parameters, [SI]
-    rtol : float        Relative tolerance, [-]
-    atol : float        Absolute tolerance on the scaled states (fraction of each state's
-                        typical magnitude), [-]
-    max_step : float    Largest step, [s] (0: none)
-    fixed_step : float  > 0: fixed-step BDF of order max_order without error control, [s]
-    max_order : int     Highest BDF order (1-5)
-    newton_coef : float Newton convergence tolerance relative to the error-test tolerance, [-]
-    order_limits : bool Stability limits of the NDF orders 3-5 on the model's fast modes
-                        (:mod:`.stability`), set before the first step
+    model : NativeModel
+        The compiled library and its constants
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol : float
+        Absolute tolerance on the scaled states (fraction of each state's
+        typical magnitude), [-]
+    max_step : float
+        Largest step, [s] (0: none)
+    fixed_step : float
+        > 0: fixed-step BDF of order max_order without error control, [s]
+    max_order : int
+        Highest BDF order (1-5)
+    newton_coef : float
+        Newton convergence tolerance relative to the error-test tolerance, [-]
+    order_limits : bool
+        Stability limits of the NDF orders 3-5 on the model's fast modes
+        (:mod:`.stability`), set before the first step
     """
 
     #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
@@ -267,8 +304,10 @@ class NativeSolver:
         self._start = None
         self._jnz = None                                  # (scaled_jacobian's buffer)
         self._h = lib.hl_new()
+        self._settings = (max_step, fixed_step, int(max_order), newton_coef)
+        self.rtol, self.atol = float(rtol), float(atol)
         lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
-                     max_step, fixed_step, int(max_order), newton_coef)
+                     *self._settings)
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
 
     def _checked_parameters(self, p) -> np.ndarray:
@@ -289,7 +328,8 @@ class NativeSolver:
 
         Parameters
         ----------
-        p : ndarray   Runtime parameters, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         p = self._checked_parameters(p)
         if p.tobytes() == self.p.tobytes():
@@ -297,14 +337,39 @@ class NativeSolver:
         self.p = p
         self._lib.hl_set_parameters(self._h, _ptr(self.p))
 
+    def set_tolerances(self, rtol: float, atol: float) -> None:
+        """Use other tolerances from the next step on, keeping the step size, the order and
+        the history of the run in progress (e.g. looser once every metric's window has ended).
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance, [-]
+        atol : float
+            Absolute tolerance on the scaled states, [-]
+        """
+        if not (rtol > 0 and atol > 0):
+            raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
+        self.rtol, self.atol = float(rtol), float(atol)
+        # (hl_setup sets numbers and settings only; the run's state stays; it clears the
+        # order limits, set again here)
+        self._lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale),
+                           self.rtol, self.atol, *self._settings)
+        if self._limits:
+            arr = np.ascontiguousarray(self._limits, dtype=float)
+            self._lib.hl_set_order_limits(self._h, _ptr(arr))
+
     def start(self, t0: float, x0, t_bound: float):
         """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0).
 
         Parameters
         ----------
-        t0 : float        Segment start, [s]
-        x0 : ndarray      States there, [SI]
-        t_bound : float   Segment end, [s]
+        t0 : float
+            Segment start, [s]
+        x0 : ndarray
+            States there, [SI]
+        t_bound : float
+            Segment end, [s]
         """
         x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
         if x0.shape != (self.model.n,):
@@ -334,17 +399,24 @@ class NativeSolver:
 
         Parameters
         ----------
-        t_out : ndarray   Output times, [s]
-        signals : bool    Also return every signal at those times
-        table : bool      One array, signals then states, instead of a pair
-        out : ndarray     Where to write the rows: C-contiguous float64, one row per output
-                          time of (signals then) states, e.g. a slice of a run's whole table
-                          (no array made, nothing copied afterwards); None: a new array, [SI]
+        t_out : ndarray
+            Output times, [s]
+        signals : bool
+            Also return every signal at those times
+        table : bool
+            One array, signals then states, instead of a pair
+        out : ndarray
+            Where to write the rows: C-contiguous float64, one row per output
+            time of (signals then) states, e.g. a slice of a run's whole table
+            (no array made, nothing copied afterwards); None: a new array, [SI]
 
         Returns
         -------
-        (X, Y) : states [n_out, n_states] and signals [n_out, n_signals] (None if not asked), SI;
-                 with ``table=True`` one array [n_out, n_signals + n_states] (signals first)
+        X : ndarray
+            States, [n_out, n_states], [SI]; with ``table=True`` the only result:
+            one array [n_out, n_signals + n_states] (signals first), [SI]
+        Y : ndarray
+            Signals, [n_out, n_signals], [SI] (None if not asked)
         """
         t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
         if self._t_bound is None:
@@ -390,14 +462,28 @@ class NativeSolver:
         return block if table else (X, Y)
 
     def state(self):
-        """Current (x [SI], t [s])."""
+        """Current (x [SI], t [s]).
+
+        Returns
+        -------
+        x : ndarray
+            States, [SI].
+        t : float
+            Time, [s].
+        """
         x = np.empty(self.model.n)
         t = ctypes.c_double()
         self._lib.hl_get_state(self._h, _ptr(x), ctypes.byref(t))
         return x, t.value
 
     def stats(self) -> dict:
-        """Steps, f and Jacobian evaluations, LU factorizations, rejected steps, ..."""
+        """Steps, f and Jacobian evaluations, LU factorizations, rejected steps, ...
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         s = (ctypes.c_longlong * 7)()
         self._lib.hl_stats(self._h, s)
         keys = ("nsteps", "nfevals", "njevals", "nlu", "nrejected", "nnewton_fail", "ndense_lu")
@@ -413,9 +499,17 @@ class NativeSolver:
 
         Parameters
         ----------
-        t : float         Time, [s]
-        x : ndarray       States, [SI]
-        out : ndarray     Array to fill, [1/s] (made when None)
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        out : ndarray
+            Array to fill, [1/s] (made when None)
+
+        Returns
+        -------
+        ndarray
+            The nonzeros, [1/s].
         """
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
         if x.shape != (self.model.n,):
@@ -431,8 +525,15 @@ class NativeSolver:
 
         Parameters
         ----------
-        t : float         Time, [s]
-        x : ndarray       States, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+
+        Returns
+        -------
+        ndarray
+            The Jacobian, n x n, [1/s].
         """
         self._jnz = self.scaled_jacobian_nonzeros(t, x, self._jnz)
         return self.model.dense_jacobian(self._jnz)
@@ -444,8 +545,15 @@ class NativeSolver:
 
         Parameters
         ----------
-        t : float       Time, [s]
-        x : ndarray     States, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+
+        Returns
+        -------
+        ndarray
+            Signal values, [SI].
         """
         self.start(t, x, t + max(1.0, abs(t)))
         _, y = self.advance([t])       # an output at the segment's start: no step taken
@@ -456,8 +564,15 @@ class NativeSolver:
 
         Parameters
         ----------
-        t : float       Time, [s]
-        x : ndarray     States, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+
+        Returns
+        -------
+        ndarray
+            dx/dt, [SI/s].
         """
         x = np.ascontiguousarray(np.asarray(x, dtype=float))
         if x.shape != (self.model.n,):
@@ -476,11 +591,13 @@ def needs_build(network) -> bool:
 
     Parameters
     ----------
-    network : Network   The assembled model
+    network : Network
+        The assembled model
 
     Returns
     -------
-    bool  True when the first run will compile (seconds to minutes, by the model's size)
+    bool
+        True when the first run will compile (seconds to minutes, by the model's size)
     """
     if network.__dict__.get("_native_model") is not None:
         return False
@@ -503,17 +620,27 @@ def native_model(network, wait: bool | None = None) -> NativeModel:
 
     Parameters
     ----------
-    network : Network   The assembled model
-    wait : bool         Compile a library not built yet here and now; False: start its
-                        build in a background process and raise ``LibraryPending`` (the
-                        caller goes on without it); None: False where
-                        :func:`builds_in_background`, else True
+    network : Network
+        The assembled model
+    wait : bool
+        Compile a library not built yet here and now; False: start its
+        build in a background process and raise ``LibraryPending`` (the
+        caller goes on without it); None: False where
+        :func:`builds_in_background`, else True
 
     Raises
     ------
-    CompilerUnavailable   No C compiler, or it failed
-    UnsupportedOperation  The graph holds an operation the C writer does not know
-    LibraryPending        Not ``wait``: the library is being built in the background
+    CompilerUnavailable
+        No C compiler, or it failed
+    UnsupportedOperation
+        The graph holds an operation the C writer does not know
+    LibraryPending
+        Not ``wait``: the library is being built in the background
+
+    Returns
+    -------
+    NativeModel
+        The loaded model.
     """
     nm = network.__dict__.get("_native_model")
     if nm is None:

@@ -35,7 +35,13 @@ def model_fingerprint(model) -> str:
 
     Parameters
     ----------
-    model : CompiledModel   The network's CasADi functions (:class:`hydroline.engine.CompiledModel`)
+    model : CompiledModel
+        The network's CasADi functions (:class:`hydroline.engine.CompiledModel`)
+
+    Returns
+    -------
+    str
+        Hex digest.
     """
     scales = np.asarray(model.network.state_scales, dtype=float).tobytes()
     return _hash_parts(model.f.serialize(), model.signals.serialize(), _CODE_TAG,
@@ -63,7 +69,13 @@ def definition_key(network) -> str | None:
 
     Parameters
     ----------
-    network : Network   The assembled model
+    network : Network
+        The assembled model
+
+    Returns
+    -------
+    str or None
+        The key, ``"definition:<hex digest>"``; None where the network gives none.
     """
     describe = getattr(network, "definition_fingerprint", None)
     digest = describe() if describe is not None else None
@@ -84,7 +96,13 @@ def numbers_key(network) -> str | None:
 
     Parameters
     ----------
-    network : Network   The assembled model
+    network : Network
+        The assembled model
+
+    Returns
+    -------
+    str or None
+        The key, ``"numbers:<hex digest>"``; None where the network gives none.
     """
     describe = getattr(network, "definition_fingerprint", None)
     try:
@@ -105,8 +123,15 @@ def known_numbers_model(key: str | None, network):
 
     Parameters
     ----------
-    key : str           :func:`numbers_key` of the network; None: unknown
-    network : Network   The assembled model the record must fit
+    key : str
+        :func:`numbers_key` of the network; None: unknown
+    network : Network
+        The assembled model the record must fit
+
+    Returns
+    -------
+    tuple
+        ``(GeneratedModel, library tag)``, or ``(None, None)`` when unknown.
     """
     if key is None:
         return None, None
@@ -142,10 +167,14 @@ def remember_numbers_model(key: str | None, gen, n_prefix: int, library_path: Pa
 
     Parameters
     ----------
-    key : str              :func:`numbers_key` of the network (None: not recorded)
-    gen : GeneratedModel   The model
-    n_prefix : int         Its constants' numbers and state scales, [-]
-    library_path : Path    Its library in the cache directory
+    key : str
+        :func:`numbers_key` of the network (None: not recorded)
+    gen : GeneratedModel
+        The model
+    n_prefix : int
+        Its constants' numbers and state scales, [-]
+    library_path : Path
+        Its library in the cache directory
     """
     if key is None or key in _NUMBERS:
         return
@@ -165,9 +194,16 @@ def known_model(fingerprint: str | None, network):
 
     Parameters
     ----------
-    fingerprint : str   The model's record key (:func:`definition_key`,
-                        :func:`model_fingerprint`); None: unknown
-    network : Network   The assembled model the record must fit
+    fingerprint : str
+        The model's record key (:func:`definition_key`,
+        :func:`model_fingerprint`); None: unknown
+    network : Network
+        The assembled model the record must fit
+
+    Returns
+    -------
+    tuple
+        ``(GeneratedModel, library tag)``, or ``(None, None)`` when unknown.
     """
     if fingerprint is None:
         return None, None
@@ -220,8 +256,14 @@ def structure_record_key(functions) -> str:
 
     Parameters
     ----------
-    functions : object   The model's scaled CasADi functions
-                         (:func:`hydroline.compiled.codegen.scaled_functions`)
+    functions : object
+        The model's scaled CasADi functions
+        (:func:`hydroline.compiled.codegen.scaled_functions`)
+
+    Returns
+    -------
+    str
+        The key.
     """
     settings = hashlib.sha256(build_settings().encode()).hexdigest()[:16]
     from .codegen import structure_key
@@ -238,9 +280,17 @@ def known_structure(functions, key: str, network):
 
     Parameters
     ----------
-    functions : object   The model's scaled CasADi functions
-    key : str            The structure's record key (:func:`structure_record_key`)
-    network : Network    The assembled model the record must fit
+    functions : object
+        The model's scaled CasADi functions
+    key : str
+        The structure's record key (:func:`structure_record_key`)
+    network : Network
+        The assembled model the record must fit
+
+    Returns
+    -------
+    tuple
+        ``(GeneratedModel, library tag)``, or ``(None, None)`` when unknown.
     """
     rec = _STRUCTURES.get(key)
     if rec is None:
@@ -272,9 +322,12 @@ def remember_structure(functions, gen, library_path: Path) -> None:
 
     Parameters
     ----------
-    functions : object     The model's scaled CasADi functions
-    gen : GeneratedModel   The generated model
-    library_path : Path    Its library in the cache directory
+    functions : object
+        The model's scaled CasADi functions
+    gen : GeneratedModel
+        The generated model
+    library_path : Path
+        Its library in the cache directory
     """
     from .codegen import constant_positions
 
@@ -297,10 +350,13 @@ def remember_model(fingerprint: str, gen, library_path: Path) -> None:
 
     Parameters
     ----------
-    fingerprint : str      The model's record key (:func:`definition_key`,
-                           :func:`model_fingerprint`)
-    gen : GeneratedModel   The model
-    library_path : Path    Its library in the cache directory
+    fingerprint : str
+        The model's record key (:func:`definition_key`,
+        :func:`model_fingerprint`)
+    gen : GeneratedModel
+        The model
+    library_path : Path
+        Its library in the cache directory
     """
     tag = library_path.stem[3:]
     if fingerprint in _MODELS:
@@ -317,10 +373,13 @@ def forget_record(record: tuple, model_key: str | None, why: str) -> None:
 
     Parameters
     ----------
-    record : tuple     (table kind, key): ("models", key) or ("structures", key)
-    model_key : str    The model's record key (:func:`definition_key` or
-                       :func:`model_fingerprint`)
-    why : str          What does not fit, for the warning
+    record : tuple
+        (table kind, key): ("models", key) or ("structures", key)
+    model_key : str
+        The model's record key (:func:`definition_key` or
+        :func:`model_fingerprint`)
+    why : str
+        What does not fit, for the warning
     """
     discard_table(*record, why=why)
     _MODELS.pop(model_key, None)

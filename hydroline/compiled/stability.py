@@ -6,10 +6,10 @@ Reichelt (SIAM J. Sci. Comput. 18, 1997), in backward-difference form with the c
 
     sum_{m=1..q} (1/m) w^m - kappa_q gamma_q w^(q+1) = z,   w = 1 - 1/zeta,  z = h lambda,
 
-(gamma_q = 1 + 1/2 + ... + 1/q), and it is stable where every root zeta has |zeta| <= 1.
+(gamma_q = 1 + 1/2 + ... + 1/q), and it is stable where every root zeta has ``|zeta| <= 1``.
 Orders 1 and 2 are A-stable; orders 3-5 are only A(alpha)-stable (alpha ~ 81, 66 and 51
 degrees): a lightly damped mode (lambda near the imaginary axis, e.g. a short hose's upper
-modes at 10-25 kHz and 5 % damping) makes them unstable once |h lambda| passes ~0.6-0.9.
+modes at 10-25 kHz and 5 % damping) makes them unstable once ``|h lambda|`` passes ~0.6-0.9.
 The step-size control then holds h just below that limit at orders 3-4 (tens of thousands of
 3.9 us steps for a 0.05 m hose section) where order 2 would take steps set by accuracy alone.
 
@@ -42,17 +42,20 @@ def _gamma(q: int) -> float:
 
 
 def locus(q: int, n: int = 8192) -> np.ndarray:
-    """The boundary locus z(theta) of NDF order q (|zeta| = 1), theta in (0, pi] (the curve is
+    """The boundary locus z(theta) of NDF order q (``|zeta| = 1``), theta in (0, pi] (the curve is
     symmetric about the real axis).
 
     Parameters
     ----------
-    q : int   Order, 1-5
-    n : int   Points, [-]
+    q : int
+        Order, 1-5
+    n : int
+        Points, [-]
 
     Returns
     -------
-    ndarray  complex z = h lambda on the boundary, [-]
+    ndarray
+        complex z = h lambda on the boundary, [-]
     """
     theta = np.linspace(0.0, np.pi, n + 1)[1:]
     w = 1.0 - np.exp(-1j * theta)
@@ -91,17 +94,20 @@ def _onset_table(q: int):
 
 
 def unstable_onset(q: int, angle) -> np.ndarray:
-    """Smallest |h lambda| at which NDF order q becomes unstable on a mode whose eigenvalue
+    """Smallest ``|h lambda|`` at which NDF order q becomes unstable on a mode whose eigenvalue
     makes ``angle`` with the negative real axis; inf where the whole ray is stable.
 
     Parameters
     ----------
-    q : int          Order, 1-5
-    angle : array    Angle of h lambda from the negative real axis, [rad] (0..pi/2)
+    q : int
+        Order, 1-5
+    angle : array
+        Angle of h lambda from the negative real axis, [rad] (0..pi/2)
 
     Returns
     -------
-    ndarray  |h lambda| at the onset, [-]
+    ndarray
+        ``|h lambda|`` at the onset, [-]
     """
     grid, onset = _onset_table(q)
     idx = np.clip(np.searchsorted(grid, np.asarray(angle, dtype=float)), 0, len(grid) - 1)
@@ -115,11 +121,13 @@ def order_step_limits(eigenvalues) -> tuple:
 
     Parameters
     ----------
-    eigenvalues : array   Eigenvalues of the Jacobian, [1/s]
+    eigenvalues : array
+        Eigenvalues of the Jacobian, [1/s]
 
     Returns
     -------
-    tuple  (h_1, ..., h_5), [s]
+    tuple
+        (h_1, ..., h_5), [s]
     """
     lam = np.asarray(eigenvalues, dtype=complex).ravel()
     lam = lam[np.isfinite(lam) & (lam.real < 0) & (lam.imag != 0)]
@@ -159,12 +167,15 @@ def block_eigenvalues(jacobian, blocks) -> np.ndarray:
 
     Parameters
     ----------
-    jacobian : ndarray   Dense Jacobian, [1/s] (scaled or not: similar blocks)
-    blocks : list        Slices or index arrays of the states of each block
+    jacobian : ndarray
+        Dense Jacobian, [1/s] (scaled or not: similar blocks)
+    blocks : list
+        Slices or index arrays of the states of each block
 
     Returns
     -------
-    ndarray  complex, [1/s]
+    ndarray
+        complex, [1/s]
     """
     out = []
     for b in blocks:

@@ -47,7 +47,15 @@ MAX_LIBRARIES = 200
 
 
 class CompilerUnavailable(RuntimeError):
-    """No working C compiler: the compiled core cannot be built on this machine."""
+    """No working C compiler: the compiled core cannot be built on this machine.
+
+    Parameters
+    ----------
+    *args : str
+        The message: what failed.
+    **kwargs : dict
+        None taken (as ``RuntimeError``).
+    """
 
 
 class LibraryPending(RuntimeError):
@@ -56,8 +64,10 @@ class LibraryPending(RuntimeError):
 
     Parameters
     ----------
-    message : str   What is being built
-    path : Path     The library
+    message : str
+        What is being built
+    path : Path
+        The library
     """
 
     def __init__(self, message: str, path=None):
@@ -67,7 +77,13 @@ class LibraryPending(RuntimeError):
 
 def compiler() -> str | None:
     """The C compiler's path: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH; None
-    without one."""
+    without one.
+
+    Returns
+    -------
+    str or None
+        The compiler's path, or None.
+    """
     cc = os.environ.get("CC")
     if cc and shutil.which(cc):
         return shutil.which(cc)
@@ -79,7 +95,13 @@ def compiler() -> str | None:
 
 
 def available() -> bool:
-    """True when a C compiler is on the PATH (the compiled core can be built)."""
+    """True when a C compiler is on the PATH (the compiled core can be built).
+
+    Returns
+    -------
+    bool
+        True when a compiler is found.
+    """
     return compiler() is not None
 
 
@@ -110,14 +132,26 @@ def _bdf_source() -> str:
 def native_flags() -> list[str]:
     """The CPU-specific compiler flags of a build: :data:`NATIVE_FLAGS`, or none when
     ``$HYDROLINE_PORTABLE_BUILD`` is set (and not ``0``). Read at each build, so a process
-    can build both kinds; their libraries and records have separate cache keys."""
+    can build both kinds; their libraries and records have separate cache keys.
+
+    Returns
+    -------
+    list of str
+        The flags (empty for a portable build).
+    """
     portable = os.environ.get(PORTABLE_ENV, "").strip() not in ("", "0")
     return [] if portable else list(NATIVE_FLAGS)
 
 
 def build_settings() -> str:
     """What a library's machine code depends on besides its source: the compiler flags, the
-    platform and this CPU."""
+    platform and this CPU.
+
+    Returns
+    -------
+    str
+        Flags, platform and CPU identifier, as one text.
+    """
     return " ".join(CFLAGS + native_flags()) + sys.platform + _cpu_id()
 
 
@@ -133,11 +167,13 @@ def library_location(gen: GeneratedModel) -> tuple[Path, str]:
 
     Parameters
     ----------
-    gen : GeneratedModel   The model's C source (:func:`hydroline.compiled.codegen.generate`)
+    gen : GeneratedModel
+        The model's C source (:func:`hydroline.compiled.codegen.generate`)
 
     Returns
     -------
-    tuple  (path of the library in the cache directory, its source)
+    tuple
+        (path of the library in the cache directory, its source)
     """
     full = gen.source + "\n" + _bdf_source()
     return cache_dir() / f"hl_{_library_key(full)[:32]}.so", full
@@ -161,13 +197,15 @@ def library_check(path: Path) -> tuple[bool, str]:
 
     Parameters
     ----------
-    path : Path   The library in the cache directory
+    path : Path
+        The library in the cache directory
 
     Returns
     -------
-    tuple  (True, "") when it is; (False, "") when there is nothing to check (no library;
-           no record, or a record of the format before keys: a quiet miss); (False, why)
-           when it fails its record (to be said in a warning)
+    tuple
+        (True, "") when it is; (False, "") when there is nothing to check (no library;
+        no record, or a record of the format before keys: a quiet miss); (False, why)
+        when it fails its record (to be said in a warning)
     """
     try:
         size = path.stat().st_size
@@ -222,14 +260,17 @@ def build_in_background(path: Path, full) -> bool:
 
     Parameters
     ----------
-    path : Path               The library in the cache directory (:func:`library_location`)
-    full : str or callable    Its source, or a callable that makes it
+    path : Path
+        The library in the cache directory (:func:`library_location`)
+    full : str or callable
+        Its source, or a callable that makes it
 
     Returns
     -------
-    bool  True when a build is running (started here or by another process); False when
-          none could be started (no compiler, no ``fcntl`` to hand the lock over, the cache
-          directory not writable) or the library is there already
+    bool
+        True when a build is running (started here or by another process); False when
+        none could be started (no compiler, no ``fcntl`` to hand the lock over, the cache
+        directory not writable) or the library is there already
     """
     cc = compiler()
     try:
@@ -277,9 +318,12 @@ def build_from_file(cc: str, source: str, path: str) -> None:
 
     Parameters
     ----------
-    cc : str       The C compiler
-    source : str   The library's source file (removed afterwards)
-    path : str     The library in the cache directory
+    cc : str
+        The C compiler
+    source : str
+        The library's source file (removed afterwards)
+    path : str
+        The library in the cache directory
     """
     try:
         full = Path(source).read_text()
@@ -326,11 +370,13 @@ def prune_libraries(max_libraries: int | None = None) -> int:
 
     Parameters
     ----------
-    max_libraries : int   Libraries kept at most, [-] (:data:`MAX_LIBRARIES` when None)
+    max_libraries : int
+        Libraries kept at most, [-] (:data:`MAX_LIBRARIES` when None)
 
     Returns
     -------
-    int  Libraries removed, [-]
+    int
+        Libraries removed, [-]
     """
     keep = MAX_LIBRARIES if max_libraries is None else max(int(max_libraries), 0)
     libs = []
@@ -372,20 +418,26 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
 
     Parameters
     ----------
-    path : Path               The library in the cache directory (:func:`library_location`)
-    full : str or callable    The library source, or a callable that makes it (only a
-                              rebuild needs it)
-    wait : bool               Compile a missing library here and now (False: in the
-                              background, unless none can be started there)
+    path : Path
+        The library in the cache directory (:func:`library_location`)
+    full : str or callable
+        The library source, or a callable that makes it (only a
+        rebuild needs it)
+    wait : bool
+        Compile a missing library here and now (False: in the
+        background, unless none can be started there)
 
     Returns
     -------
-    ctypes.CDLL  The loaded library, its functions declared
+    ctypes.CDLL
+        The loaded library, its functions declared
 
     Raises
     ------
-    LibraryPending        Without ``wait``: the library is being built in the background
-    CompilerUnavailable   No compiler, or the build or load failed
+    LibraryPending
+        Without ``wait``: the library is being built in the background
+    CompilerUnavailable
+        No compiler, or the build or load failed
     """
     if str(path) in _LIBS:
         return _LIBS[str(path)]

@@ -14,6 +14,8 @@ Every backend has the same small interface, which :func:`hydroline.engine.integr
 * ``stats()``: solver statistics (function and Jacobian evaluations, steps);
 * ``signals_at(t, x, p)``: every signal at one (t, x) where the backend computes them
   (the compiled core), else None (they are then evaluated on the CasADi graph);
+* ``relax(rtol, atol_scale)``: looser tolerances from the next step on, keeping the run's
+  history (the compiled core; the others ignore it: they restart at every call);
 * ``chunked``: True when output in chunks costs nothing (the compiled core keeps its history
   across ``advance`` calls); the others restart at every call, so they are given a whole
   segment unless memory must stay bounded.
@@ -40,11 +42,16 @@ class CompiledBackend:
 
     Parameters
     ----------
-    network : Network      The model
-    native : object        Its :class:`hydroline.compiled.NativeModel`
-    p : ndarray            Runtime parameters, [SI]
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    native : object
+        Its :class:`hydroline.compiled.NativeModel`
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "compiled"
@@ -59,10 +66,14 @@ class CompiledBackend:
 
         Parameters
         ----------
-        a : float     Segment start, [s]
-        x : ndarray   States at ``a``, [SI]
-        b : float     Segment end (a breakpoint or sampling instant), [s]
-        p : ndarray   Runtime parameters over the segment, [SI]
+        a : float
+            Segment start, [s]
+        x : ndarray
+            States at ``a``, [SI]
+        b : float
+            Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray
+            Runtime parameters over the segment, [SI]
         """
         self.solver.set_parameters(p)   # (a sampled component may have changed one)
         self.solver.start(a, x, b)
@@ -73,9 +84,17 @@ class CompiledBackend:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            Signal values, [SI].
         """
         self.solver.set_parameters(p)
         y = self.solver.signals(t, x)
@@ -87,21 +106,49 @@ class CompiledBackend:
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Where to write the table (C-contiguous rows of signals then states,
-                         one per time), or None (a new array), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Where to write the table (C-contiguous rows of signals then states,
+            one per time), or None (a new array), [SI]
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; signals and states side by side [SI]
-                     (``table`` is ``out`` where given)
+        X : ndarray
+            States, one row per time, [SI]
+        table : ndarray
+            Signals and states side by side, [SI] (``out`` where given)
         """
         table = self.solver.advance(grid, table=True, out=out)   # signals and states
         return table[:, self.n_signals:], table
 
     def stats(self) -> dict:
-        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        """Solver statistics: function and Jacobian evaluations, steps (counts).
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         return self.solver.stats()
+
+    def relax(self, rtol: float, atol_scale: float) -> bool:
+        """Use these tolerances from the next step on (step size, order and history kept).
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance, [-]
+        atol_scale : float
+            Absolute tolerance as a fraction of each state's scale, [-]
+
+        Returns
+        -------
+        bool
+            True (done)
+        """
+        self.solver.set_tolerances(rtol, atol_scale)
+        return True
 
 
 class CvodesBackend:
@@ -110,9 +157,12 @@ class CvodesBackend:
 
     Parameters
     ----------
-    network : Network      The model
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "cvodes"
@@ -134,10 +184,14 @@ class CvodesBackend:
 
         Parameters
         ----------
-        a : float     Segment start, [s]
-        x : ndarray   States at ``a``, [SI]
-        b : float     Segment end (a breakpoint or sampling instant), [s]
-        p : ndarray   Runtime parameters over the segment, [SI]
+        a : float
+            Segment start, [s]
+        x : ndarray
+            States at ``a``, [SI]
+        b : float
+            Segment end (a breakpoint or sampling instant), [s]
+        p : ndarray
+            Runtime parameters over the segment, [SI]
         """
         self.t, self.x, self.p = a, np.asarray(x, dtype=float), np.asarray(p, dtype=float)
 
@@ -146,12 +200,17 @@ class CvodesBackend:
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        X : ndarray
+            States, one row per time, [SI]
+        table : None
+            None (the sink evaluates the signals)
         """
         import casadi as ca
 
@@ -170,11 +229,31 @@ class CvodesBackend:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
         """
         return None
+
+    def relax(self, rtol: float, atol_scale: float) -> bool:
+        """Not done on this backend (its tolerances stay): it restarts at every call.
+
+        Parameters
+        ----------
+        rtol : float
+            Relative tolerance, [-]
+        atol_scale : float
+            Absolute tolerance as a fraction of each state's scale, [-]
+
+        Returns
+        -------
+        bool
+            False (not done)
+        """
+        return False
 
     def _accept(self, grid, X):
         if not np.all(np.isfinite(X)):
@@ -184,7 +263,13 @@ class CvodesBackend:
         return X
 
     def stats(self) -> dict:
-        """Solver statistics: function and Jacobian evaluations, steps (counts)."""
+        """Solver statistics: function and Jacobian evaluations, steps (counts).
+
+        Returns
+        -------
+        dict
+            Counter name -> count.
+        """
         return dict(self.counts)
 
 
@@ -194,9 +279,12 @@ class ScipyBackend(CvodesBackend):
 
     Parameters
     ----------
-    network : Network      The model
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
     """
 
     name = "scipy"
@@ -211,12 +299,17 @@ class ScipyBackend(CvodesBackend):
 
         Parameters
         ----------
-        grid : ndarray   Output times within the segment, increasing, [s]
-        out : ndarray    Ignored (the sink evaluates the signals and copies the rows), [SI]
+        grid : ndarray
+            Output times within the segment, increasing, [s]
+        out : ndarray
+            Ignored (the sink evaluates the signals and copies the rows), [SI]
 
         Returns
         -------
-        (X, table) : states, one row per time [SI]; None (the sink evaluates the signals)
+        X : ndarray
+            States, one row per time, [SI]
+        table : None
+            None (the sink evaluates the signals)
         """
         from scipy.integrate import solve_ivp
 
@@ -235,16 +328,25 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
 
     Parameters
     ----------
-    network : Network      The model
-    solver : str           "auto", "compiled", "cvodes" or "scipy"
-    p : ndarray            Runtime parameters, [SI]
-    rtol : float           Relative tolerance, [-]
-    atol_scale : float     Absolute tolerance as a fraction of each state's scale, [-]
+    network : Network
+        The model
+    solver : str
+        "auto", "compiled", "cvodes" or "scipy"
+    p : ndarray
+        Runtime parameters, [SI]
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's scale, [-]
 
     Returns
     -------
-    (backend, note, build_time) : the backend object; None or the reason "auto" did not get
-        the compiled core; seconds spent building or loading the compiled library [s]
+    backend : object
+        The backend object
+    note : str or None
+        None, or the reason "auto" did not get the compiled core
+    build_time : float
+        Time spent building or loading the compiled library, [s]
     """
     import time
     import warnings

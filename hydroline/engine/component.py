@@ -54,9 +54,11 @@ class Port:
 
     Parameters
     ----------
-    quantity : str      Kind of signal (a key of QUANTITY_UNITS); connecting ports of
-                        different kinds is a causality/quantity mismatch
-    description : str   What the signal is, with its sign convention
+    quantity : str
+        Kind of signal (a key of QUANTITY_UNITS); connecting ports of
+        different kinds is a causality/quantity mismatch
+    description : str
+        What the signal is, with its sign convention
     """
 
     quantity: str
@@ -64,6 +66,7 @@ class Port:
 
     @property
     def unit(self) -> str:
+        """The signal's SI unit (from :data:`QUANTITY_UNITS`)."""
         return QUANTITY_UNITS[self.quantity]
 
 
@@ -73,10 +76,14 @@ class State:
 
     Parameters
     ----------
-    name : str          Local name, e.g. ``"gas_volume"`` (the network prefixes the component)
-    unit : str          Its SI unit, e.g. ``"m^3"``
-    scale : float       Typical magnitude (absolute tolerance and steady-state scaling), [unit]
-    description : str   What it is
+    name : str
+        Local name, e.g. ``"gas_volume"`` (the network prefixes the component)
+    unit : str
+        Its SI unit, e.g. ``"m^3"``
+    scale : float
+        Typical magnitude (absolute tolerance and steady-state scaling), [unit]
+    description : str
+        What it is
     """
 
     name: str
@@ -94,12 +101,15 @@ class HydraulicEnd:
 
     Parameters
     ----------
-    pressure : str     Port of the pressure at that place; None for a flow junction (a node
-                       whose pressure another component gives)
-    flows : tuple      Ports of the flows crossing it; a flow port listed at two ends of one
-                       component passes through it from one to the other (a resistance, a pump)
-    compliant : bool   True where the component holds oil: its pressure follows from a volume
-                       of oil (a hose end, a chamber, an accumulator, a lumped volume)
+    pressure : str
+        Port of the pressure at that place; None for a flow junction (a node
+        whose pressure another component gives)
+    flows : tuple
+        Ports of the flows crossing it; a flow port listed at two ends of one
+        component passes through it from one to the other (a resistance, a pump)
+    compliant : bool
+        True where the component holds oil: its pressure follows from a volume
+        of oil (a hose end, a chamber, an accumulator, a lumped volume)
     """
 
     pressure: str | None
@@ -116,21 +126,30 @@ class Parameter:
 
     Parameters
     ----------
-    unit : str             SI unit ("-" dimensionless, "str" text, "list:<unit>" a list of
-                           quantities, e.g. "list:m")
-    description : str      What it is, with its symbol and equation (M#) where it has one
-    minimum : float        Lower bound, [unit]; None for none
-    maximum : float        Upper bound, [unit]; None for none
-    exclusive_minimum : bool  True: the value must be above ``minimum`` (> rather than >=)
-    optional : bool        True: None is allowed (the parameter is then not used)
-    choices : tuple        Allowed texts of a "str" parameter (empty: any text)
-    default : object       Default value [unit] (filled in from the component's field)
-    plausible : tuple      (low, high), [unit]: where a real rig's value lies (either None:
-                           open on that side). Wider than typical: it catches slips of unit or
-                           exponent (an area of 1e-30 m^2), not unusual designs. A value
-                           outside is refused unless the rig names the parameter in
-                           ``[rig] allow_implausible``; ``minimum``/``maximum`` are physical
-                           and cannot be overridden. None: no plausible range.
+    unit : str
+        SI unit ("-" dimensionless, "str" text, "list:<unit>" a list of
+        quantities, e.g. "list:m")
+    description : str
+        What it is, with its symbol and equation (M#) where it has one
+    minimum : float
+        Lower bound, [unit]; None for none
+    maximum : float
+        Upper bound, [unit]; None for none
+    exclusive_minimum : bool
+        True: the value must be above ``minimum`` (> rather than >=)
+    optional : bool
+        True: None is allowed (the parameter is then not used)
+    choices : tuple
+        Allowed texts of a "str" parameter (empty: any text)
+    default : object
+        Default value [unit] (filled in from the component's field)
+    plausible : tuple
+        (low, high), [unit]: where a real rig's value lies (either None:
+        open on that side). Wider than typical: it catches slips of unit or
+        exponent (an area of 1e-30 m^2), not unusual designs. A value
+        outside is refused unless the rig names the parameter in
+        ``[rig] allow_implausible``; ``minimum``/``maximum`` are physical
+        and cannot be overridden. None: no plausible range.
     """
 
     unit: str
@@ -144,7 +163,13 @@ class Parameter:
     plausible: tuple | None = None
 
     def rule(self) -> str:
-        """The bound as text, e.g. "> 0" or "within [1, 1.66667]"."""
+        """The bound as text, e.g. "> 0" or "within [1, 1.66667]".
+
+        Returns
+        -------
+        str
+            The bound, e.g. ``"> 0"``, ``"one of 'a', 'b'"`` or ``"finite"``.
+        """
         if self.choices:
             return "one of " + ", ".join(repr(c) for c in self.choices)
         if self.minimum is not None and self.maximum is not None:
@@ -160,7 +185,8 @@ class Parameter:
 
         Parameters
         ----------
-        value : object   The value, [unit] (a list for "list:" units, text for "str")
+        value : object
+            The value, [unit] (a list for "list:" units, text for "str")
 
         Returns
         -------
@@ -192,7 +218,13 @@ class Parameter:
 
         Parameters
         ----------
-        value : object   The value, [unit]
+        value : object
+            The value, [unit]
+
+        Returns
+        -------
+        str or None
+            The plausible range as text, or None when the value is plausible.
         """
         if self.plausible is None or value is None or self.unit == "str":
             return None
@@ -215,7 +247,13 @@ def is_number(value) -> bool:
 
     Parameters
     ----------
-    value : object   An attribute's value
+    value : object
+        An attribute's value
+
+    Returns
+    -------
+    bool
+        True for a run-time number.
     """
     if type(value) is float or isinstance(value, np.floating):
         return True
@@ -244,8 +282,15 @@ def range_text(low, high) -> str:
 
     Parameters
     ----------
-    low : float    Lower end, [unit]; None: open
-    high : float   Upper end, [unit]; None: open
+    low : float
+        Lower end, [unit]; None: open
+    high : float
+        Upper end, [unit]; None: open
+
+    Returns
+    -------
+    str
+        The range as text.
     """
     if low is None:
         return f"at most {high:g}"
@@ -261,16 +306,25 @@ def parameter(default, unit: str, description: str = "", *, minimum=None, maximu
 
     Parameters
     ----------
-    default : object       Default value, [unit]
-    unit : str             SI unit ("-", "str", "list:<unit>")
-    description : str      What it is
-    minimum : float        Lower bound (inclusive unless ``positive``), [unit]
-    maximum : float        Upper bound (inclusive), [unit]
-    positive : bool        Shorthand for "> 0" (``minimum`` 0, exclusive)
-    optional : bool        None allowed
-    choices : tuple        Allowed texts of a "str" parameter
-    plausible : tuple      (low, high) where a real rig's value lies, [unit] (see
-                           :class:`Parameter`); None: none
+    default : object
+        Default value, [unit]
+    unit : str
+        SI unit ("-", "str", "list:<unit>")
+    description : str
+        What it is
+    minimum : float
+        Lower bound (inclusive unless ``positive``), [unit]
+    maximum : float
+        Upper bound (inclusive), [unit]
+    positive : bool
+        Shorthand for "> 0" (``minimum`` 0, exclusive)
+    optional : bool
+        None allowed
+    choices : tuple
+        Allowed texts of a "str" parameter
+    plausible : tuple
+        (low, high) where a real rig's value lies, [unit] (see
+        :class:`Parameter`); None: none
 
     Returns
     -------
@@ -289,9 +343,11 @@ class Component:
 
     Parameters
     ----------
-    name : str          Unique name in the network (dots allowed: ``supply.section2``)
-    connections : dict  Local port name -> network signal name. Unlisted ports connect to
-                        a signal of the same name prefixed by nothing (the port name itself)
+    name : str
+        Unique name in the network (dots allowed: ``supply.section2``)
+    connections : dict
+        Local port name -> network signal name. Unlisted ports connect to
+        a signal of the same name prefixed by nothing (the port name itself)
     """
 
     name: str
@@ -335,7 +391,13 @@ class Component:
     @classmethod
     def parameters(cls) -> dict:
         """The declared parameters of this component type, name -> :class:`Parameter`
-        (with its default filled in)."""
+        (with its default filled in).
+
+        Returns
+        -------
+        dict
+            Parameter name -> :class:`Parameter`.
+        """
         known = cls.__dict__.get("_declared_parameters")   # per class (not inherited)
         if known is None:
             known = {}
@@ -366,7 +428,8 @@ class Component:
 
         Returns
         -------
-        dict  attribute name -> float or tuple of floats, [SI]
+        dict
+            attribute name -> float or tuple of floats, [SI]
         """
         return {k: v for k, v in vars(self).items() if k != "name" and is_number(v)}
 
@@ -377,11 +440,13 @@ class Component:
 
         Parameters
         ----------
-        numbers : dict   attribute name -> value (a symbol, or a tuple of symbols)
+        numbers : dict
+            attribute name -> value (a symbol, or a tuple of symbols)
 
         Returns
         -------
-        Component  The copy (the component itself is not changed)
+        Component
+            The copy (the component itself is not changed)
         """
         view = copy.copy(self)
         for c in type(self).__mro__:
@@ -399,11 +464,13 @@ class Component:
 
         Parameters
         ----------
-        attributes : dict   The component's attributes, name -> value
+        attributes : dict
+            The component's attributes, name -> value
 
         Returns
         -------
-        dict  name -> value or mark
+        dict
+            name -> value or mark
         """
         return {k: ((NUMBER_MARK if not isinstance(v, (tuple, list)) else (NUMBER_MARK, len(v)))
                     if k != "name" and is_number(v) else v) for k, v in attributes.items()}
@@ -411,6 +478,7 @@ class Component:
     # ---- to be provided by subclasses --------------------------------------------------
     @property
     def states(self) -> list[State]:
+        """The component's states, :class:`State` entries (none by default)."""
         return []
 
     def outputs_of(self, t, x, u, p):
@@ -418,10 +486,14 @@ class Component:
 
         Parameters
         ----------
-        t : float   Time, [s]
-        x : dict    States, local name -> value [SI]
-        u : dict    Inputs, local port name -> value [SI] (empty when not ``feedthrough``)
-        p : dict    Runtime parameters, name -> value [SI]
+        t : float
+            Time, [s]
+        x : dict
+            States, local name -> value [SI]
+        u : dict
+            Inputs, local port name -> value [SI] (empty when not ``feedthrough``)
+        p : dict
+            Runtime parameters, name -> value [SI]
         """
         raise NotImplementedError
 
@@ -430,10 +502,19 @@ class Component:
 
         Parameters
         ----------
-        t : float   Time, [s]
-        x : dict    States, local name -> value [SI]
-        u : dict    Inputs, local port name -> value [SI]
-        p : dict    Runtime parameters, name -> value [SI]
+        t : float
+            Time, [s]
+        x : dict
+            States, local name -> value [SI]
+        u : dict
+            Inputs, local port name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        dict
+            State local name -> time derivative, [SI unit/s].
         """
         return {}
 
@@ -455,11 +536,23 @@ class Component:
         return {}
 
     def runtime_parameters(self) -> dict:
-        """Parameters that may change without rebuilding the compiled model, name -> value."""
+        """Parameters that may change without rebuilding the compiled model, name -> value.
+
+        Returns
+        -------
+        dict
+            Parameter name -> value, [SI].
+        """
         return {}
 
     def initial_guess(self) -> dict:
-        """Guess of every state for the steady-state solver, local name -> value [SI]."""
+        """Guess of every state for the steady-state solver, local name -> value [SI].
+
+        Returns
+        -------
+        dict
+            State local name -> guess, [SI].
+        """
         return {s.name: 0.0 for s in self.states}
 
     def settle(self, x: dict, u: dict, p: dict):
@@ -468,9 +561,12 @@ class Component:
 
         Parameters
         ----------
-        x : dict   States at the steady state, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
-        p : dict   Runtime parameters, name -> value [SI]
+        x : dict
+            States at the steady state, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
         """
         return None
 
@@ -480,8 +576,15 @@ class Component:
 
         Parameters
         ----------
-        x : dict   States at the instant, local name -> value [SI]
-        u : dict   Inputs there, local port name -> value [SI]
+        x : dict
+            States at the instant, local name -> value [SI]
+        u : dict
+            Inputs there, local port name -> value [SI]
+
+        Returns
+        -------
+        dict
+            Runtime parameter name -> value to hold, [SI].
         """
         return {}
 
@@ -490,13 +593,25 @@ class Component:
 
         Parameters
         ----------
-        t_end : float   End of the run, [s]
+        t_end : float
+            End of the run, [s]
+
+        Returns
+        -------
+        list of float
+            The times, [s].
         """
         return []
 
     def hydraulic_ends(self) -> dict:
         """Where the component meets the oil, end name -> :class:`HydraulicEnd`; empty for a
-        component of signals only (a command, a controller, friction)."""
+        component of signals only (a command, a controller, friction).
+
+        Returns
+        -------
+        dict
+            End name -> :class:`HydraulicEnd`.
+        """
         return {}
 
     def signal(self, port: str) -> str:
@@ -504,6 +619,12 @@ class Component:
 
         Parameters
         ----------
-        port : str   Local port name
+        port : str
+            Local port name
+
+        Returns
+        -------
+        str
+            The network signal's name (the port's own name when not connected elsewhere).
         """
         return self.connections.get(port, port)

@@ -54,7 +54,15 @@ LOADED_AT = time.time()
 
 
 class Undescribable(Exception):
-    """Part of a network that cannot be described by value (no fingerprint)."""
+    """Part of a network that cannot be described by value (no fingerprint).
+
+    Parameters
+    ----------
+    *args : str
+        The message: the part.
+    **kwargs : dict
+        None taken (as ``Exception``).
+    """
 
 
 def _in_package(module_name: str) -> bool:
@@ -69,16 +77,19 @@ def module_source_tag(name: str) -> str:
 
     Parameters
     ----------
-    name : str   Module name, e.g. ``"hydroline.components.servovalve"``
+    name : str
+        Module name, e.g. ``"hydroline.components.servovalve"``
 
     Returns
     -------
-    str  hex digest
+    str
+        hex digest
 
     Raises
     ------
-    Undescribable  The module has no file, or its file was modified after this process
-                   loaded its code (the code that runs may not be the file's)
+    Undescribable
+        The module has no file, or its file was modified after this process
+        loaded its code (the code that runs may not be the file's)
     """
     path = getattr(sys.modules.get(name), "__file__", None)
     if not path:
@@ -105,7 +116,13 @@ def used_modules(name: str) -> frozenset:
 
     Parameters
     ----------
-    name : str   Module name
+    name : str
+        Module name
+
+    Returns
+    -------
+    frozenset of str
+        Module names.
     """
     out = _USES.get(name)
     if out is None:
@@ -210,7 +227,13 @@ def module_bindings(name: str) -> list:
 
     Parameters
     ----------
-    name : str   Module name
+    name : str
+        Module name
+
+    Returns
+    -------
+    list
+        ``(name, value)`` of a plain value, ``(name, kind, where)`` of anything else.
     """
     out = []   # (name, value) of a plain value, (name, kind, where) of anything else
     for key, value in vars(sys.modules[name]).items():
@@ -309,12 +332,15 @@ def components_signature(components, substitute=None) -> str | None:
 
     Parameters
     ----------
-    components : sequence   Components (e.g. ``network.components``)
-    substitute : callable   ``(component, dict) -> dict``, or None
+    components : sequence
+        Components (e.g. ``network.components``)
+    substitute : callable
+        ``(component, dict) -> dict``, or None
 
     Returns
     -------
-    str or None  hex digest; None where some part cannot be described by value
+    str or None
+        hex digest; None where some part cannot be described by value
     """
     d = _Describer()
     try:
@@ -342,12 +368,15 @@ def definition_fingerprint(network, structure: bool = False) -> str | None:
 
     Parameters
     ----------
-    network : Network   The assembled model
-    structure : bool    Leave out the numbers (see above)
+    network : Network
+        The assembled model
+    structure : bool
+        Leave out the numbers (see above)
 
     Returns
     -------
-    str or None  hex digest
+    str or None
+        hex digest
     """
     d = _Describer(structure)
     try:

@@ -27,9 +27,17 @@ def segments(t_end: float, breakpoints, sample_time: float | None = None) -> lis
 
     Parameters
     ----------
-    t_end : float          End of the run, [s]
-    breakpoints : list     Times where inputs jump, [s]
-    sample_time : float    Zero-order-hold period of a sampled component, [s] (None: none)
+    t_end : float
+        End of the run, [s]
+    breakpoints : list
+        Times where inputs jump, [s]
+    sample_time : float
+        Zero-order-hold period of a sampled component, [s] (None: none)
+
+    Returns
+    -------
+    list of float
+        The edges, [s].
     """
     edges = {0.0, float(t_end)}
     edges.update(b for b in breakpoints if 0 < b < t_end)
@@ -45,14 +53,20 @@ def apply_samples(network: Network, sampled: list, t: float, x, p, signals=None)
 
     Parameters
     ----------
-    network : Network   The model
-    sampled : list      Components with a ``sample_time``
-    t : float           Sampling instant, [s]
-    x : ndarray         States there, [SI]
-    p : ndarray         Runtime parameters, [SI]; changed in place
-    signals : ndarray   Every signal at (t, x) in ``network.signal_names`` order, [SI], where
-                        known (the compiled core's last output row of the segment before);
-                        None: evaluated here by the components' Python code (~1 ms)
+    network : Network
+        The model
+    sampled : list
+        Components with a ``sample_time``
+    t : float
+        Sampling instant, [s]
+    x : ndarray
+        States there, [SI]
+    p : ndarray
+        Runtime parameters, [SI]; changed in place
+    signals : ndarray
+        Every signal at (t, x) in ``network.signal_names`` order, [SI], where
+        known (the compiled core's last output row of the segment before);
+        None: evaluated here by the components' Python code (~1 ms)
     """
     if signals is None:
         sig = network.signals_at(t, x, p)
@@ -77,8 +91,10 @@ class RowWriter:
 
     Parameters
     ----------
-    sink : OutputSink   Where the rows go
-    depth : int         Blocks waiting at most (memory: each is one chunk of rows), [-]
+    sink : OutputSink
+        Where the rows go
+    depth : int
+        Blocks waiting at most (memory: each is one chunk of rows), [-]
     """
 
     def __init__(self, sink, depth: int = 2):
@@ -113,12 +129,17 @@ class RowWriter:
 
         Parameters
         ----------
-        t : ndarray       Output times, [s]
-        X : ndarray       States, one row per time, [SI] (None: ``Y`` is the whole table)
-        Y : ndarray       Signals (or the whole table), one row per time, [SI]
-        model : CompiledModel   Evaluates the signals when ``Y`` is None
-        p : ndarray       Runtime parameters, [SI] (copied: a sampled component changes
-                          them in place)
+        t : ndarray
+            Output times, [s]
+        X : ndarray
+            States, one row per time, [SI] (None: ``Y`` is the whole table)
+        Y : ndarray
+            Signals (or the whole table), one row per time, [SI]
+        model : CompiledModel
+            Evaluates the signals when ``Y`` is None
+        p : ndarray
+            Runtime parameters, [SI] (copied: a sampled component changes
+            them in place)
         """
         self._raise()
         if self.error is None:
@@ -129,7 +150,8 @@ class RowWriter:
 
         Parameters
         ----------
-        raise_error : bool   Raise the sink's exception (False: only wait)
+        raise_error : bool
+            Raise the sink's exception (False: only wait)
         """
         if self.thread.is_alive():
             self.blocks.put(None)
@@ -145,58 +167,87 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
               progress=None, stream_to=None, chunk_rows: int = 20000,
               stream_columns=None, stream_every: int = 1, keep_columns=None,
               preview_columns=None, preview_rows: int = 50_000,
-              observe=None, until=None, until_rows: int = 200) -> SimulationResult:
+              observe=None, until=None, until_rows: int = 200,
+              relax=None, relax_rows: int = 100) -> SimulationResult:
     """Integrate the network from x0 over [0, t_end], sampled every dt_out.
 
     Parameters
     ----------
-    network : Network   The model
-    x0 : array          Initial state (e.g. ``solve_steady_state(...).x``), [SI]
-    t_end : float       End time, [s]
-    dt_out : float      Output interval, [s]
-    p : array           Runtime parameters, [SI] (network defaults when None)
-    solver : str        "auto" (default: "compiled" where a C compiler is available, else
-                        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
-                        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
-                        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
-                        (reference: per-component Python right-hand side, SciPy BDF)
-    rtol : float        Relative tolerance, [-]
-    atol_scale : float  Absolute tolerance as a fraction of each state's typical magnitude, [-]
-    progress : callable Called with the fraction done (0..1) after each segment or chunk
-    stream_to : path    Write the time series to this CSV file chunk by chunk as the run
-                        goes, keeping only per-column summary statistics in memory (constant
-                        memory for long runs); ``data`` then holds the last row only and
-                        ``metadata["stream_stats"]`` the min/max/mean/rms of every column
-    chunk_rows : int    Output rows per chunk (streaming and the compiled path)
-    stream_columns : list  Columns to write when streaming (all signals and states if None)
-    stream_every : int  Write every n-th output row to ``stream_to`` (decimation; the last row
-                        always), [-]
-    keep_columns : list Keep only these columns in memory (every output row): ``data`` then
-                        holds them, and ``metadata["stream_stats"]`` has the statistics of
-                        every column (bounded memory for long runs without a file)
-    preview_columns : list  Also keep these columns at every k-th row, at most
-                        ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
-                        a figure of a long run)
-    preview_rows : int  Most rows of the preview, [-]
-    observe : callable  Called with ``(t, table, columns)`` for every block of output rows as
-                        the run goes (times [s], rows of signals and states [SI], their names):
-                        statistics of a long run computed chunk by chunk, in constant memory.
-                        With ``stream_to`` or ``keep_columns`` on the compiled core it is
-                        called from a second thread (:class:`RowWriter`), block after block in
-                        order, while the next block is integrated; ``progress`` stays in the
-                        caller's thread
-    until : callable    Called with ``(t, table, columns)`` of every row so far (times [s],
-                        signals and states [SI], their names) after each block of at most
-                        ``until_rows`` rows (each segment on CVODES and SciPy); True ends the
-                        run there: the result holds the rows up to that block's end (a run
-                        whose metrics are all it is for, :class:`~hydroline.scenarios.
-                        summaries.WindowEnd`). Rows kept in memory only (no ``stream_to``,
-                        ``keep_columns``)
-    until_rows : int    Rows per block checked by ``until``, [-]
+    network : Network
+        The model
+    x0 : array
+        Initial state (e.g. ``solve_steady_state(...).x``), [SI]
+    t_end : float
+        End time, [s]
+    dt_out : float
+        Output interval, [s]
+    p : array
+        Runtime parameters, [SI] (network defaults when None)
+    solver : str
+        "auto" (default: "compiled" where a C compiler is available, else
+        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
+        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
+        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
+        (reference: per-component Python right-hand side, SciPy BDF)
+    rtol : float
+        Relative tolerance, [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's typical magnitude, [-]
+    progress : callable
+        Called with the fraction done (0..1) after each segment or chunk
+    stream_to : path
+        Write the time series to this CSV file chunk by chunk as the run
+        goes, keeping only per-column summary statistics in memory (constant
+        memory for long runs); ``data`` then holds the last row only and
+        ``metadata["stream_stats"]`` the min/max/mean/rms of every column
+    chunk_rows : int
+        Output rows per chunk (streaming and the compiled path)
+    stream_columns : list
+        Columns to write when streaming (all signals and states if None)
+    stream_every : int
+        Write every n-th output row to ``stream_to`` (decimation; the last row
+        always), [-]
+    keep_columns : list
+        Keep only these columns in memory (every output row): ``data`` then
+        holds them, and ``metadata["stream_stats"]`` has the statistics of
+        every column (bounded memory for long runs without a file)
+    preview_columns : list
+        Also keep these columns at every k-th row, at most
+        ``preview_rows`` rows (``metadata["preview"]``, a SimulationResult:
+        a figure of a long run)
+    preview_rows : int
+        Most rows of the preview, [-]
+    observe : callable
+        Called with ``(t, table, columns)`` for every block of output rows as
+        the run goes (times [s], rows of signals and states [SI], their names):
+        statistics of a long run computed chunk by chunk, in constant memory.
+        With ``stream_to`` or ``keep_columns`` on the compiled core it is
+        called from a second thread (:class:`RowWriter`), block after block in
+        order, while the next block is integrated; ``progress`` stays in the
+        caller's thread
+    until : callable
+        Called with ``(t, table, columns)`` of every row so far (times [s],
+        signals and states [SI], their names) after each block of at most
+        ``until_rows`` rows (each segment on CVODES and SciPy); True ends the
+        run there: the result holds the rows up to that block's end (a run
+        whose metrics are all it is for, :class:`~hydroline.scenarios.
+        summaries.WindowEnd`). Rows kept in memory only (no ``stream_to``,
+        ``keep_columns``)
+    until_rows : int
+        Rows per block checked by ``until``, [-]
+    relax : tuple
+        ``(test, rtol, atol_scale)``: once ``test``, asked as ``until`` after each block of
+        ``relax_rows`` rows, says True, the compiled core goes on at these looser tolerances
+        (history kept): e.g. after the piston's stop, where no metric looks
+        (:func:`hydroline.scenarios.simulate`'s ``after_stop_rtol``). Rows in memory only;
+        ignored by the other backends and where rows are streamed
+    relax_rows : int
+        Rows per block checked by the ``relax`` test, [-]
 
     Returns
     -------
     SimulationResult
+        Times [s], signals and states [SI], solver statistics and metadata.
     """
     if not t_end > 0:
         raise ValueError(f"t_end must be > 0 [s], got {t_end!r}")
@@ -204,7 +255,10 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         raise ValueError(f"solver must be one of {', '.join(SOLVERS)}, got {solver!r}")
     if not (rtol > 0 and atol_scale > 0):
         raise ValueError(f"rtol and atol_scale must be > 0 [-], got {rtol!r} and {atol_scale!r}")
-    if until is not None and (stream_to is not None or keep_columns is not None):
+    bounded_rows = stream_to is not None or keep_columns is not None
+    if relax is not None and not (relax[1] > 0 and relax[2] > 0):
+        raise ValueError(f"relax's rtol and atol_scale must be > 0 [-], got {relax[1:]!r}")
+    if until is not None and bounded_rows:
         raise ValueError("until needs every row in memory: give it without stream_to and "
                          "keep_columns")
     p = network.parameter_values.copy() if p is None else np.asarray(p, dtype=float).copy()
@@ -237,10 +291,14 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     rows_in = RowWriter(sink) if bounded and backend.chunked else sink
     tic = _time.perf_counter()
     try:
+        relaxing = None
+        if relax is not None and backend.chunked and not bounded_rows:
+            relaxing = (_Until(relax[0], max(int(relax_rows), 1), sink, columns),
+                        float(relax[1]), float(relax[2]))
         _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
                   backend, rows_in, model, x, p, progress,
                   None if until is None else _Until(until, max(int(until_rows), 1), sink,
-                                                    columns))
+                                                    columns), relaxing)
     except BaseException:
         if rows_in is not sink:
             rows_in.close(raise_error=False)   # the integration's own error is the one to see
@@ -250,6 +308,8 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     wall = _time.perf_counter() - tic
     stats = backend.stats()
     stats["build_time"] = build_time
+    if relaxing is not None and relaxing[0].when is not None:
+        stats["relaxed_at"] = relaxing[0].when
     t_rows, table, kept = sink.result()
     res = SimulationResult(times=t_rows, table=table, columns=kept, wall_time=wall,
                            stats=stats, warnings=[])
@@ -274,18 +334,23 @@ class _Until:
 
     def __init__(self, ask, rows: int, sink, columns):
         self.ask, self.rows, self.sink, self.columns = ask, rows, sink, columns
+        self.when = None   # the last row's time [s] when first reached
 
     def reached(self) -> bool:
         """True when the run may end after the rows written so far."""
         so_far = self.sink.rows_so_far()
-        return so_far is not None and bool(self.ask(so_far[0], so_far[1], self.columns))
+        done = so_far is not None and bool(self.ask(so_far[0], so_far[1], self.columns))
+        if done and self.when is None:
+            self.when = float(so_far[0][-1])
+        return done
 
 
 def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, bounded,
-              backend, rows_in, model, x, p, progress, until=None) -> None:
+              backend, rows_in, model, x, p, progress, until=None, relaxing=None) -> None:
     """The segment loop of :func:`integrate`: each segment between breakpoints and sampling
     instants started on the backend, its output rows handed to ``rows_in`` chunk by chunk;
-    it ends early where ``until`` (:class:`_Until`) is reached."""
+    it ends early where ``until`` (:class:`_Until`) is reached; the backend's tolerances are
+    relaxed where ``relaxing`` (its :class:`_Until`, rtol, atol_scale) is."""
     n_signals = len(network.signal_names)
     target = getattr(rows_in, "target", None)
     at_edge = None   # the signals at the segment's start, where the backend gave them
@@ -301,8 +366,11 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
         step = chunk_rows if (backend.chunked or bounded) else n_grid
         if until is not None and backend.chunked:
             step = min(step, until.rows)
+        if relaxing is not None:
+            step = min(step, relaxing[0].rows)
         backend.start(a, x, b, p)
-        for k in range(0, n_grid, step):
+        k = 0
+        while k < n_grid:
             g = t_out(i0 + k, i0 + min(k + step, n_in))
             if k + step >= n_grid and not ends_on_grid:
                 g = np.append(g, b)
@@ -323,5 +391,10 @@ def _segments(network, sampled, edges, h_out, n_out, t_last, t_out, chunk_rows, 
                 if progress:
                     progress(1.0)
                 return
+            k += step
+            if relaxing is not None and m > 0 and relaxing[0].reached():
+                backend.relax(relaxing[1], relaxing[2])
+                relaxing = None
+                step = chunk_rows if until is None else min(chunk_rows, until.rows)
         if progress:
             progress(b / t_last)

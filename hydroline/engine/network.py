@@ -20,12 +20,28 @@ __all__ = ["Network", "NetworkError", "CompiledModel", "UnusedSignalWarning", "c
 
 
 class NetworkError(ValueError):
-    """A network that cannot be assembled: the message names components and signals."""
+    """A network that cannot be assembled: the message names components and signals.
+
+    Parameters
+    ----------
+    *args : str
+        The message: one line naming the components and signals.
+    **kwargs : dict
+        None taken (as ``ValueError``).
+    """
 
 
 class UnusedSignalWarning(UserWarning):
     """A flow that no component reads: the fluid leaves the circuit there (a wiring mistake,
-    unless it flows into a prescribed-pressure boundary, which absorbs it)."""
+    unless it flows into a prescribed-pressure boundary, which absorbs it).
+
+    Parameters
+    ----------
+    *args : str
+        The message: the lost flows.
+    **kwargs : dict
+        None taken (as ``UserWarning``).
+    """
 
 
 def connection_table(components) -> list[dict]:
@@ -33,11 +49,13 @@ def connection_table(components) -> list[dict]:
 
     Parameters
     ----------
-    components : list[Component]   The components (commands of an experiment included or not)
+    components : list[Component]
+        The components (commands of an experiment included or not)
 
     Returns
     -------
-    list of dict  keys ``signal``; ``producer`` ("component.port", None when no component
+    list of dict
+        keys ``signal``; ``producer`` ("component.port", None when no component
         outputs it); ``consumers`` (list of "component.port"); ``quantity``; ``unit``
     """
     by_signal = {}
@@ -59,10 +77,12 @@ class Network:
 
     Parameters
     ----------
-    components : list[Component]   The components; names must be unique
-    warn_lost_flows : bool         Warn (:class:`UnusedSignalWarning`) of flows no component
-                                   reads (:meth:`lost_flows`); False for a network cut open on
-                                   purpose (e.g. the line-free part of a linearisation)
+    components : list[Component]
+        The components; names must be unique
+    warn_lost_flows : bool
+        Warn (:class:`UnusedSignalWarning`) of flows no component
+        reads (:meth:`lost_flows`); False for a network cut open on
+        purpose (e.g. the line-free part of a linearisation)
     """
 
     def __init__(self, components: list[Component], warn_lost_flows: bool = True):
@@ -170,12 +190,24 @@ class Network:
 
     # ---- connections -------------------------------------------------------------------
     def connection_table(self) -> list[dict]:
-        """One row per signal: producer, consumers, quantity, unit (see :func:`connection_table`)."""
+        """One row per signal: producer, consumers, quantity, unit (see :func:`connection_table`).
+
+        Returns
+        -------
+        list of dict
+            As :func:`connection_table`.
+        """
         return connection_table(self.components)
 
     def unused_signals(self) -> list[str]:
         """Signals that some component outputs and no component reads (most are observations:
-        a port pressure, a chamber pressure; see :meth:`lost_flows` for the ones that matter)."""
+        a port pressure, a chamber pressure; see :meth:`lost_flows` for the ones that matter).
+
+        Returns
+        -------
+        list of str
+            Signal names.
+        """
         read = {c.signal(p) for c in self.components for p in c.inputs}
         return [s for s in self.producer if s not in read]
 
@@ -188,6 +220,11 @@ class Network:
         reads the pressures of both ends. When every such pressure comes from a boundary (a
         component with no inputs, e.g. a pressure source or the tank) the boundaries absorb
         the flow. Any other unread flow leaves the circuit: mass is not conserved.
+
+        Returns
+        -------
+        list of str
+            ``"signal (component.port)"`` per lost flow.
         """
         out = []
         for sig in self.unused_signals():
@@ -208,7 +245,18 @@ class Network:
 
         Parameters
         ----------
-        name : str   Component name
+        name : str
+            Component name
+
+        Returns
+        -------
+        Component
+            The component.
+
+        Raises
+        ------
+        KeyError
+            No component of that name.
         """
         for c in self.components:
             if c.name == name:
@@ -220,7 +268,13 @@ class Network:
 
         Parameters
         ----------
-        name : str   Component name
+        name : str
+            Component name
+
+        Returns
+        -------
+        slice
+            Its indices in the state vector.
         """
         return self._state_slices[name]
 
@@ -229,13 +283,17 @@ class Network:
 
         Parameters
         ----------
-        c : Component   One of the network's components
-        x : sequence    All states, [SI] (numbers or symbols)
-        p : sequence    All runtime parameters, [SI]
+        c : Component
+            One of the network's components
+        x : sequence
+            All states, [SI] (numbers or symbols)
+        p : sequence
+            All runtime parameters, [SI]
 
         Returns
         -------
-        (dict, dict)  states name -> value, parameters name -> value [SI]
+        (dict, dict)
+            states name -> value, parameters name -> value [SI]
         """
         sl = self._state_slices[c.name]
         xs = {s.name: x[sl.start + i] for i, s in enumerate(c.states)}
@@ -247,25 +305,33 @@ class Network:
 
         Parameters
         ----------
-        t : float         Time, [s]
-        x : sequence      States, [SI] (numbers or symbols)
-        p : sequence      Runtime parameters, [SI]; the network's values when None
-        equations : dict  Component name -> the object whose equations stand for it (a copy
-                          holding symbols for its numbers, :meth:`Component.with_numbers`);
-                          None: the components' own
-        given : dict      Signal name -> value [SI] that the components reading that signal
-                          take instead of its producer's output (the network cut open at
-                          those connections, e.g. to differentiate each component apart from
-                          its neighbours); the producer's own output is still returned in
-                          ``signals``. A key ``(component name, internal signal name)`` cuts
-                          a component open at one of its
-                          :attr:`~hydroline.engine.component.Component.internal_signals`: it
-                          reads the value given, and its own value is returned in ``signals``
-                          under that key. None: no connection cut
+        t : float
+            Time, [s]
+        x : sequence
+            States, [SI] (numbers or symbols)
+        p : sequence
+            Runtime parameters, [SI]; the network's values when None
+        equations : dict
+            Component name -> the object whose equations stand for it (a copy
+            holding symbols for its numbers, :meth:`Component.with_numbers`);
+            None: the components' own
+        given : dict
+            Signal name -> value [SI] that the components reading that signal
+            take instead of its producer's output (the network cut open at
+            those connections, e.g. to differentiate each component apart from
+            its neighbours); the producer's own output is still returned in
+            ``signals``. A key ``(component name, internal signal name)`` cuts a
+            component open at one of its
+            :attr:`~hydroline.engine.component.Component.internal_signals`: it
+            reads the value given, and its own value is returned in ``signals``
+            under that key. None: no connection cut
 
         Returns
         -------
-        (dx, signals) : list of derivatives in state order, dict signal -> value
+        dx : list
+            Derivatives in state order, [SI/s] (numbers or symbols)
+        signals : dict
+            Signal name -> value, [SI]
         """
         p = self.parameter_values if p is None else p
         equations = equations or {}
@@ -311,9 +377,17 @@ class Network:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]; the network's values when None
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]; the network's values when None
+
+        Returns
+        -------
+        ndarray
+            dx/dt, [SI/s].
         """
         dx, _ = self.evaluate(t, np.asarray(x, dtype=float), p)
         return np.array([float(v) for v in dx])
@@ -323,9 +397,17 @@ class Network:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]; the network's values when None
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]; the network's values when None
+
+        Returns
+        -------
+        dict
+            Signal name -> value, [SI].
         """
         _, sig = self.evaluate(t, np.asarray(x, dtype=float), p)
         return {k: float(v) for k, v in sig.items()}
@@ -336,8 +418,9 @@ class Network:
 
         Returns
         -------
-        (list, ndarray)  names ``<component>.<attribute>`` (``...[k]`` for a tuple's item) and
-                         values, [SI]
+        (list, ndarray)
+            names ``<component>.<attribute>`` (``...[k]`` for a tuple's item) and
+            values, [SI]
         """
         names, values = [], []
         for c in self.components:
@@ -351,7 +434,13 @@ class Network:
         return names, np.array(values, dtype=float)
 
     def compile(self):
-        """The assembled model as CasADi functions (built once per network)."""
+        """The assembled model as CasADi functions (built once per network).
+
+        Returns
+        -------
+        CompiledModel
+            The CasADi functions of the right-hand side, its Jacobian and the signals.
+        """
         if self._compiled is None:
             self._compiled = CompiledModel(self)
         return self._compiled
@@ -372,14 +461,26 @@ class Network:
 
         Parameters
         ----------
-        structure : bool   Leave out the numbers the compiled model takes at run time (the
-                           components' own numbers, the state scales): networks that differ
-                           only in them share this fingerprint
+        structure : bool
+            Leave out the numbers the compiled model takes at run time (the
+            components' own numbers, the state scales): networks that differ
+            only in them share this fingerprint
+
+        Returns
+        -------
+        str or None
+            Hex digest, or None.
         """
         return definition_fingerprint(self, structure)
 
     def guess(self) -> np.ndarray:
-        """Initial guess of all states from the components, [SI]."""
+        """Initial guess of all states from the components, [SI].
+
+        Returns
+        -------
+        ndarray
+            States, [SI].
+        """
         x = np.zeros(len(self.state_names))
         for c in self.components:
             g = c.initial_guess()
@@ -393,7 +494,13 @@ class Network:
 
         Parameters
         ----------
-        t_end : float   End of the run, [s]
+        t_end : float
+            End of the run, [s]
+
+        Returns
+        -------
+        list of float
+            The times, [s].
         """
         pts = set()
         for c in self.components:
@@ -407,7 +514,8 @@ class CompiledModel:
 
     Parameters
     ----------
-    network : Network   The assembled network (states, parameters and signals in its order)
+    network : Network
+        The assembled network (states, parameters and signals in its order)
     """
 
     network: Network
@@ -506,9 +614,17 @@ class CompiledModel:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            dx/dt, [SI/s].
         """
         return np.asarray(self.f(t, x, p)).ravel()
 
@@ -517,9 +633,17 @@ class CompiledModel:
 
         Parameters
         ----------
-        t : float     Time, [s]
-        x : ndarray   States, [SI]
-        p : ndarray   Runtime parameters, [SI]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+
+        Returns
+        -------
+        ndarray
+            d(dx/dt)/dx, n x n, [1/s in state units].
         """
         import casadi as ca
 

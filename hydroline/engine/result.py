@@ -21,20 +21,42 @@ class SimulationResult:
 
     Parameters
     ----------
-    metadata : dict           Run description (rig, scenario, ``units``: column -> SI unit)
-    times : array_like        Output times, [s] (when ``data`` is None)
-    table : array_like        One row per time, one column per name in ``columns``, [SI]
+    data : pandas.DataFrame
+        Index ``time`` [s]; one column per signal and per state, [SI]; None: built
+        from ``times``, ``table`` and ``columns``
+    steady_state : SteadyState
+        The steady state the run started from
+    wall_time : float
+        Integration wall time, [s]
+    stats : dict
+        Solver statistics (function/Jacobian evaluations, steps)
+    warnings : list[str]
+        Validity warnings (e.g. pressure below zero absolute)
+    metadata : dict
+        Run description (rig, scenario, ``units``: column -> SI unit)
+    times : array_like
+        Output times, [s] (when ``data`` is None)
+    table : array_like
+        One row per time, one column per name in ``columns``, [SI]
+    columns : list[str]
+        Column names of ``table`` (when ``data`` is None), signals first
 
     Attributes
     ----------
-    data : pandas.DataFrame   Index ``time`` [s]; one column per signal and per state
-                              (``<component>.<state>``), SI units (made on first access;
-                              ``res[name]``, ``res.t`` and ``name in res`` need no pandas)
-    columns : list[str]       Column names of ``data``, signals first
+    data : pandas.DataFrame
+        Index ``time`` [s]; one column per signal and per state
+        (``<component>.<state>``), SI units (made on first access;
+        ``res[name]``, ``res.t`` and ``name in res`` need no pandas)
+    columns : list[str]
+        Column names of ``data``, signals first
     steady_state : SteadyState
-    wall_time : float         Integration wall time, [s]
-    stats : dict              Solver statistics (function/Jacobian evaluations, steps)
-    warnings : list[str]      Validity warnings (e.g. pressure below zero absolute)
+        The steady state the run started from
+    wall_time : float
+        Integration wall time, [s]
+    stats : dict
+        Solver statistics (function/Jacobian evaluations, steps)
+    warnings : list[str]
+        Validity warnings (e.g. pressure below zero absolute)
     """
 
     #: ``summarizer(result) -> dict``: the summary its repr shows, registered by the module
@@ -60,6 +82,7 @@ class SimulationResult:
 
     @property
     def data(self):
+        """The table as a DataFrame: index ``time`` [s], one column per name, [SI]."""
         if self._data is None:
             import pandas as pd
 
@@ -69,6 +92,7 @@ class SimulationResult:
 
     @property
     def t(self) -> np.ndarray:
+        """Output times, [s]."""
         return self._times
 
     def __getitem__(self, key) -> np.ndarray:
@@ -140,7 +164,13 @@ class SimulationResult:
 
     def csv_header(self) -> list[str]:
         """``time [s]``, then every column with its SI unit (``supply_port_pressure [Pa]``), as
-        ``hydroline fit`` reads it."""
+        ``hydroline fit`` reads it.
+
+        Returns
+        -------
+        list of str
+            Column headings.
+        """
         units = self.metadata.get("units", {})
         return ["time [s]"] + [f"{c} [{units[c]}]" if c in units else c for c in self.columns]
 
@@ -151,8 +181,10 @@ class SimulationResult:
 
         Parameters
         ----------
-        path : str or Path   The CSV file to write
-        every : int          Keep every n-th row (and the last), [-]
+        path : str or Path
+            The CSV file to write
+        every : int
+            Keep every n-th row (and the last), [-]
         """
         rows = slice(None)
         if every > 1:
@@ -181,8 +213,10 @@ class SimulationResult:
 
         Parameters
         ----------
-        path : str or Path   The file to write
-        every : int          Keep every n-th row (and the last), [-]
+        path : str or Path
+            The file to write
+        every : int
+            Keep every n-th row (and the last), [-]
         """
         import pandas as pd
 
@@ -202,8 +236,10 @@ class SimulationResult:
 
         Parameters
         ----------
-        path : str or Path   The file to write
-        every : int          Keep every n-th row (and the last), [-]
+        path : str or Path
+            The file to write
+        every : int
+            Keep every n-th row (and the last), [-]
         """
         from scipy.io import savemat
 
@@ -224,9 +260,17 @@ class SimulationResult:
 
         Parameters
         ----------
-        signals : list   Columns to plot (default: port and chamber pressures, velocity)
-        path : str       Write the figure there (PNG) when given
-        title : str      Figure title
+        signals : list
+            Columns to plot (default: port and chamber pressures, velocity)
+        path : str
+            Write the figure there (PNG) when given
+        title : str
+            Figure title
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
         """
         import importlib
 
@@ -280,9 +324,12 @@ def write_csv_rows(file, t, block):
 
     Parameters
     ----------
-    file : file object   Open text file to append to
-    t : ndarray          Times, [s]
-    block : ndarray      One row per time, [SI]
+    file : file object
+        Open text file to append to
+    t : ndarray
+        Times, [s]
+    block : ndarray
+        One row per time, [SI]
     """
     data = np.column_stack([np.asarray(t, dtype=float), np.asarray(block, dtype=float)])
     step = max(1, 100_000 // max(data.shape[1], 1))
@@ -302,7 +349,13 @@ def column_units(network: Network) -> dict:
 
     Parameters
     ----------
-    network : Network   The model
+    network : Network
+        The model
+
+    Returns
+    -------
+    dict
+        Name -> SI unit text.
     """
     units = network.__dict__.get("_column_units")   # made once per network
     if units is None:
@@ -321,9 +374,24 @@ def column_indices(what, names, columns):
 
     Parameters
     ----------
-    what : str        The option being checked (for the message)
-    names : list      Requested column names
-    columns : list    The available columns
+    what : str
+        The option being checked (for the message)
+    names : list
+        Requested column names
+    columns : list
+        The available columns
+
+    Returns
+    -------
+    names : list of str
+        The names, as given.
+    indices : ndarray of int
+        Their indices in ``columns``, [-].
+
+    Raises
+    ------
+    ValueError
+        Naming ``what`` and the unknown names.
     """
     names = list(names)
     unknown = [k for k in names if k not in columns]
@@ -339,7 +407,13 @@ def csv_rows(rows) -> str:
 
     Parameters
     ----------
-    rows : ndarray   2-D array of values, [SI]
+    rows : ndarray
+        2-D array of values, [SI]
+
+    Returns
+    -------
+    str
+        The CSV text, one line per row.
     """
     rows = np.asarray(rows, dtype=float)
     line = ",".join(["%.9g"] * rows.shape[1]) + "\n"
@@ -364,19 +438,29 @@ class OutputSink:
 
     Parameters
     ----------
-    columns : list[str]    Names of all output columns (signals, then states), in row order
-    path : str             CSV file to stream to; None: nothing written
-    stream : list[str]     Columns written to the CSV; None: all
-    every : int            Write every ``every``-th row (the last row always), [-]
-    keep : list[str]       Columns kept in memory; None: none kept
-    n_total : int          Rows the run will give, when known: what is kept (every row of every
-                           column when neither a file nor ``keep`` is given) is then one
-                           preallocated table, [-]
-    preview : list[str]    Columns of the preview (for a figure); None: no preview
-    preview_rows : int     Rows of the preview at most, [-]
-    units : dict           Column -> SI unit, written into the CSV header (``name [unit]``)
-    observe : callable     Called with ``(t [s], table [SI], columns)`` for every block of
-                           rows written (statistics of a long run chunk by chunk); None: none
+    columns : list[str]
+        Names of all output columns (signals, then states), in row order
+    path : str
+        CSV file to stream to; None: nothing written
+    stream : list[str]
+        Columns written to the CSV; None: all
+    every : int
+        Write every ``every``-th row (the last row always), [-]
+    keep : list[str]
+        Columns kept in memory; None: none kept
+    n_total : int
+        Rows the run will give, when known: what is kept (every row of every
+        column when neither a file nor ``keep`` is given) is then one
+        preallocated table, [-]
+    preview : list[str]
+        Columns of the preview (for a figure); None: no preview
+    preview_rows : int
+        Rows of the preview at most, [-]
+    units : dict
+        Column -> SI unit, written into the CSV header (``name [unit]``)
+    observe : callable
+        Called with ``(t [s], table [SI], columns)`` for every block of
+        rows written (statistics of a long run chunk by chunk); None: none
     """
 
     def __init__(self, columns, path, stream=None, every=1, keep=None, n_total=None,
@@ -425,7 +509,13 @@ class OutputSink:
 
         Parameters
         ----------
-        n : int   Rows, [-]
+        n : int
+            Rows, [-]
+
+        Returns
+        -------
+        ndarray or None
+            A view of ``n`` rows of the table, [SI], or None.
         """
         if self.keep is not None or self.kept is None or self.rows + n > len(self.kept):
             return None
@@ -437,11 +527,16 @@ class OutputSink:
 
         Parameters
         ----------
-        t : ndarray       Output times, [s]
-        X : ndarray       States, one row per time, [SI] (None: ``Y`` is the whole table)
-        Y : ndarray       Signals, one row per time, [SI] (None: evaluated from ``X``)
-        model : CompiledModel   Evaluates the signals when ``Y`` is None
-        p : ndarray       Runtime parameters, [SI]
+        t : ndarray
+            Output times, [s]
+        X : ndarray
+            States, one row per time, [SI] (None: ``Y`` is the whole table)
+        Y : ndarray
+            Signals, one row per time, [SI] (None: evaluated from ``X``)
+        model : CompiledModel
+            Evaluates the signals when ``Y`` is None
+        p : ndarray
+            Runtime parameters, [SI]
         """
         if X is None:
             block = Y
@@ -494,14 +589,26 @@ class OutputSink:
 
     def rows_so_far(self):
         """(times [s], table [SI]) of the rows written so far where every column is kept in one
-        table; None otherwise (streamed, ``keep``, or gone on in parts)."""
+        table; None otherwise (streamed, ``keep``, or gone on in parts).
+
+        Returns
+        -------
+        tuple or None
+            ``(times [s], table [SI])``, or None.
+        """
         if self.keep is not None or self.path is not None or self.kept is None:
             return None
         return self.kept_t[:self.rows], self.kept[:self.rows]
 
     def result(self):
         """(times, table, columns): the rows kept (all columns, or the ``keep`` columns), or the
-        last row of every column when streaming without ``keep``."""
+        last row of every column when streaming without ``keep``.
+
+        Returns
+        -------
+        tuple
+            ``(times [s], table [SI], column names)``.
+        """
         if self.path is not None:
             self.file.close()
         if self.keep is None and self.path is not None:
@@ -515,7 +622,13 @@ class OutputSink:
                 np.vstack([q[1] for q in self.parts]), columns)
 
     def preview_result(self):
-        """(times, table, columns) of the preview, or None."""
+        """(times, table, columns) of the preview, or None.
+
+        Returns
+        -------
+        tuple or None
+            ``(times [s], table [SI], column names)``, or None without a preview.
+        """
         if self.preview is None or not self.preview_parts:
             return None
         return (np.concatenate([q[0] for q in self.preview_parts]),
@@ -526,7 +639,13 @@ class OutputSink:
 
         Parameters
         ----------
-        names : list   Only these columns (all when None)
+        names : list
+            Only these columns (all when None)
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``min``, ``max``, ``mean``, ``rms``, [SI of each row].
         """
         import pandas as pd
 

@@ -25,12 +25,19 @@ class SteadyStateError(RuntimeError):
 
     Parameters
     ----------
-    message : str      One line: what did not settle and which parameters to look at
+    message : str
+        One line: what did not settle and which parameters to look at
+    state : str
+        The state with the largest scaled residual (None when unknown)
+    residual : float
+        Its scaled residual, [1/s] (None when unknown)
 
     Attributes
     ----------
-    state : str        The state with the largest scaled residual (None when unknown)
-    residual : float   Its scaled residual, [1/s]
+    state : str
+        The state with the largest scaled residual (None when unknown)
+    residual : float
+        Its scaled residual, [1/s]
     """
 
     def __init__(self, message, state=None, residual=None):
@@ -44,10 +51,14 @@ class SteadyState:
 
     Attributes
     ----------
-    x : ndarray          States, [SI]
-    p : ndarray          Runtime parameters after settling, [SI]
-    residual : float     max_i |dx_i/dt| / scale_i at x, [1/s] (0 for an exact rest state)
-    worst_state : str    Name of the state with the largest scaled residual
+    x : ndarray
+        States, [SI]
+    p : ndarray
+        Runtime parameters after settling, [SI]
+    residual : float
+        ``max_i |dx_i/dt| / scale_i`` at x, [1/s] (0 for an exact rest state)
+    worst_state : str
+        Name of the state with the largest scaled residual
     """
 
     x: np.ndarray
@@ -93,11 +104,16 @@ class _CompiledRest:
 
         Parameters
         ----------
-        t : float       Time, [s]
-        x : ndarray     States, [SI]
-        p : ndarray     Runtime parameters, [SI]
-        shift : float   s, [1/s]
-        b : ndarray     Right-hand side, [1/s]
+        t : float
+            Time, [s]
+        x : ndarray
+            States, [SI]
+        p : ndarray
+            Runtime parameters, [SI]
+        shift : float
+            s, [1/s]
+        b : ndarray
+            Right-hand side, [1/s]
         """
         from ..compiled.bordered import BorderedSystem
 
@@ -185,19 +201,28 @@ def pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
 
     Parameters
     ----------
-    model : object     ``rhs(t, x, p)`` [state units/s] and ``jacobian(t, x, p)`` (or
-                       ``scaled_jacobian``) of the equations to bring to rest
-    t0 : float         Time at which the inputs are taken, [s]
-    x : ndarray        Start, [SI]
-    p : ndarray        Runtime parameters, [SI]
-    scales : ndarray   Typical magnitude of each state, [SI]
-    tol : float        Required scaled residual max|f_i/scale_i|, [1/s]
-    dt0 : float        First pseudo time step (in scaled time), [s]
-    max_iter : int     Steps of the first attempt (later, shorter-start attempts get more)
+    model : object
+        ``rhs(t, x, p)`` [state units/s] and ``jacobian(t, x, p)`` (or
+        ``scaled_jacobian``) of the equations to bring to rest
+    t0 : float
+        Time at which the inputs are taken, [s]
+    x : ndarray
+        Start, [SI]
+    p : ndarray
+        Runtime parameters, [SI]
+    scales : ndarray
+        Typical magnitude of each state, [SI]
+    tol : float
+        Required scaled residual max|f_i/scale_i|, [1/s]
+    dt0 : float
+        First pseudo time step (in scaled time), [s]
+    max_iter : int
+        Steps of the first attempt (later, shorter-start attempts get more)
 
     Returns
     -------
-    ndarray  The best state reached, [SI] (check its residual: it may not meet ``tol``)
+    ndarray
+        The best state reached, [SI] (check its residual: it may not meet ``tol``)
     """
     z0 = x / scales
     best, best_res = z0, np.inf
@@ -278,11 +303,16 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
 
     Parameters
     ----------
-    network : Network   The assembled model
-    t0 : float          Time at which the inputs are taken (before the disturbance), [s]
-    x_guess : array     Start for the solver, [SI]; the components' guesses when None
-    tol : float         Required scaled residual, [1/s]
-    max_rounds : int    Solve-and-settle rounds at most (components adopting the rest state)
+    network : Network
+        The assembled model
+    t0 : float
+        Time at which the inputs are taken (before the disturbance), [s]
+    x_guess : array
+        Start for the solver, [SI]; the components' guesses when None
+    tol : float
+        Required scaled residual, [1/s]
+    max_rounds : int
+        Solve-and-settle rounds at most (components adopting the rest state)
 
     Returns
     -------
@@ -322,15 +352,21 @@ def settle_components(network: Network, components, x, p, signals: dict) -> bool
 
     Parameters
     ----------
-    network : Network      The model
-    components : list      The components to ask (those that define ``settle``)
-    x : ndarray            Solved states, [SI]; changed in place
-    p : ndarray            Runtime parameters, [SI]; changed in place
-    signals : dict         Every signal at (x, p), name -> value [SI]
+    network : Network
+        The model
+    components : list
+        The components to ask (those that define ``settle``)
+    x : ndarray
+        Solved states, [SI]; changed in place
+    p : ndarray
+        Runtime parameters, [SI]; changed in place
+    signals : dict
+        Every signal at (x, p), name -> value [SI]
 
     Returns
     -------
-    bool  True when a state moved by more than 1e-12 of its scale (solve again)
+    bool
+        True when a state moved by more than 1e-12 of its scale (solve again)
     """
     changed = False
     scales = network.state_scales

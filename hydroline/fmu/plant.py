@@ -316,4 +316,4 @@ def symbolic_model(plant: Plant):
     kk = ca.vertcat(numbers, *extra)
     dx_n, y_n = ca.substitute([dx, y], [kk], [ca.DM(all_values)])
     return SimpleNamespace(network=shim, t=t, x=x, p=p, dx=dx_n, y=y_n, k=kk, dx_general=dx,
-                           y_general=y)
+                           y_general=y, number_equations=None)   # not cut open: no copies

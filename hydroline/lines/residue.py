@@ -179,16 +179,24 @@ def propagation_derivative(line: Line, s):
 
     Parameters
     ----------
-    line : Line             The line
-    s : array_like complex  Laplace variable off the origin, [1/s]
-
-    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
-    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
+    line : Line
+        The line
+    s : array_like complex
+        Laplace variable off the origin, [1/s]
 
     Returns
     -------
-    (Gamma [-], Zc [Pa s/m^3], dGamma/ds [s]) : complex arrays, principal square roots as in
-    :meth:`Line.propagation`
+    Gamma : ndarray
+        Propagation operator, complex, [-]
+    Zc : ndarray
+        Characteristic impedance, complex, [Pa s/m^3]
+    dGamma_ds : ndarray
+        dGamma/ds, complex, [s]; principal square roots as in :meth:`Line.propagation`
+
+    Notes
+    -----
+    A viscoelastic wall (M44): ``Gamma sqrt(W)``, ``Zc/sqrt(W)`` and
+    ``dGamma/ds sqrt(W) + Gamma W'/(2 sqrt(W))``.
     """
     from scipy import special   # (where a line is computed: not for one read from the cache)
 
@@ -215,9 +223,17 @@ def modal_poles(line: Line, n_modes: int, form: str = "PQ") -> np.ndarray:
 
     Parameters
     ----------
-    line : Line      The line, SI
-    n_modes : int    Modes, [-]
-    form : str       Causal form: "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line, SI
+    n_modes : int
+        Modes, [-]
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
+
+    Returns
+    -------
+    ndarray
+        Complex poles, one per mode, [1/s].
     """
     thetas = modal_angles(n_modes, form)
     together = dissipative_roots(line, thetas)   # every mode at once: one Bessel call a step
@@ -242,13 +258,17 @@ def modal_residues(line: Line, poles, form: str = "PQ") -> np.ndarray:
 
     Parameters
     ----------
-    line : Line             The line
-    poles : array_like      Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
-    form : str              "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line
+    poles : array_like
+        Roots of cosh Gamma (PQ/QP) or sinh Gamma (PP/QQ), [1/s]
+    form : str
+        "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
-    complex ndarray, shape ``poles.shape + (2, 2)``; [output unit * input unit^-1 / s]
+    ndarray
+        Complex, shape ``poles.shape + (2, 2)``, [output unit * input unit^-1 / s]
     """
     form = check_form(form)
     p = np.asarray(poles, dtype=complex)
@@ -296,15 +316,21 @@ def viscous_poles(line: Line, form: str = "PQ", rate_limit: float | None = None,
 
     Parameters
     ----------
-    line : Line          The line, SI
-    form : str           Causal form: "PQ", "QP", "PP" or "QQ"
-    rate_limit : float   Largest cluster rate kept, [1/s] (None: the first cluster only)
-    n_roots : int        Roots per cluster (modes of the form), [-]
-    max_clusters : int   Clusters at most, [-]
+    line : Line
+        The line, SI
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
+    rate_limit : float
+        Largest cluster rate kept, [1/s] (None: the first cluster only)
+    n_roots : int
+        Roots per cluster (modes of the form), [-]
+    max_clusters : int
+        Clusters at most, [-]
 
     Returns
     -------
-    ndarray (clusters, n_roots) of real poles s < 0, [1/s]
+    ndarray
+        (clusters, n_roots) real poles s < 0, [1/s]
     """
     form = check_form(form)
     Dn = line.dissipation_number
@@ -356,12 +382,17 @@ def exact_moments(line: Line, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line    The line, SI
-    form : str     Causal form: "PQ", "QP", "PP" or "QQ"
+    line : Line
+        The line, SI
+    form : str
+        Causal form: "PQ", "QP", "PP" or "QQ"
 
     Returns
     -------
-    (H0, H1) : real (2, 2) arrays in form order; H1 in [H0 unit * s]
+    H0 : ndarray
+        Real (2, 2), in form order, [SI of the form]
+    H1 : ndarray
+        Real (2, 2), in form order, [H0 unit * s]
     """
     form = check_form(form)
     tau, Z0, Dn = line.wave_time, line.impedance, line.dissipation_number
@@ -433,15 +464,23 @@ def retardation_poles(line: Line, form: str = "PQ", rate_limit: float | None = N
 
     Parameters
     ----------
-    line : Line          The line, with its wall elements
-    form : str           Causal form: "PQ", "QP" or "PP"
-    rate_limit : float   Largest viscous cluster rate kept, [1/s] (None: the first only)
-    n_roots : int        Modes of the form, [-]
+    line : Line
+        The line, with its wall elements
+    form : str
+        Causal form: "PQ", "QP" or "PP"
+    rate_limit : float
+        Largest viscous cluster rate kept, [1/s] (None: the first only)
+    n_roots : int
+        Modes of the form, [-]
 
     Returns
     -------
-    (viscous, wall) : poles [1/s], complex arrays with both members of every complex pair:
-    the ones beside the viscous rates, and a list with one array per wall element
+    viscous : ndarray
+        Poles beside the viscous rates, complex, [1/s] (both members of every
+        complex pair)
+    wall : list of ndarray
+        Poles beside each wall element's retardation rate, one complex array per
+        element, [1/s]
     """
     form = check_form(form)
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -596,13 +635,17 @@ def column_branches(line: Line, n_exact: int = COLUMN_EXACT_BRANCHES,
 
     Parameters
     ----------
-    line : Line        The line (bore, fluid), SI
-    n_exact : int      Branches kept one by one, [-]
-    n_octaves : int    Octave groups after them (the last takes every further branch), [-]
+    line : Line
+        The line (bore, fluid), SI
+    n_exact : int
+        Branches kept one by one, [-]
+    n_octaves : int
+        Octave groups after them (the last takes every further branch), [-]
 
     Returns
     -------
-    list of (inertance [kg/m^4], resistance [Pa s/m^3]) pairs, the exact branches first
+    list of tuple
+        ``(inertance [kg/m^4], resistance [Pa s/m^3])`` pairs, the exact branches first
     """
     I, R = line.inertance, line.resistance
     nu, r = line.fluid.kinematic_viscosity, line.radius
@@ -753,12 +796,15 @@ def tail_groups(n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    n_modes : int     Number of retained modes n >= 1, [-]
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
+    n_modes : int
+        Number of retained modes n >= 1, [-]
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (sets theta_k), [-]
 
     Returns
     -------
-    list of (Omega tau [-], zeta [-]), one per group, in rising frequency
+    list of tuple
+        ``(Omega tau [-], zeta [-])``, one per group, in rising frequency
     """
     n = check_modes(n_modes)
     edges = [n + 1]
@@ -968,13 +1014,18 @@ def _passive_remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1,
 
     Parameters
     ----------
-    line : Line          The line
-    n : int              Retained modes, [-]
-    form : str           "PP" or "QQ"
-    blocks : list        (A, B, C, names) blocks realised so far (column, modes, V)
+    line : Line
+        The line
+    n : int
+        Retained modes, [-]
+    form : str
+        "PP" or "QQ"
+    blocks : list
+        (A, B, C, names) blocks realised so far (column, modes, V)
     rem0, rem1 : ndarray (2, 2) DC gain and first moment the remainder must supply, [output
                          unit per input unit], [same * s]
-    moment2 : float, optional  Exact second moment of the common-mode admittance (PP)
+    moment2 : float, optional
+        Exact second moment of the common-mode admittance (PP)
 
     Returns
     -------
@@ -1161,16 +1212,21 @@ def residue_realisation(line: Line, n_modes: int, form: str = "PQ"):
 
     Parameters
     ----------
-    line : Line       The line (needs Dn well below 1, as for (M15))
-    n_modes : int     Number of retained modes n >= 1 (two states each)
-    form : str        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
+    line : Line
+        The line (needs Dn well below 1, as for (M15))
+    n_modes : int
+        Number of retained modes n >= 1 (two states each)
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ" (docs/model.md table 2.1)
 
     Returns
     -------
-    (A, B, C, D, state_names) : real ndarrays and list[str]; inputs and outputs in the
-    form's order, SI units; D = 0 (strictly proper). States as in the module docstring:
-    2 n modal + 4 viscous + tail (4 per group of :func:`tail_groups`, 16),
-    plus 6 column states (PP) or 1 (QQ).
+    A, B, C, D : ndarray
+        Real matrices, inputs and outputs in the form's order, [SI]; D = 0
+        (strictly proper)
+    state_names : list[str]
+        States as in the module docstring: 2 n modal + 4 viscous + tail (4 per
+        group of :func:`tail_groups`, 16), plus 6 column states (PP) or 1 (QQ)
     """
     if not isinstance(line, Line):
         raise ValueError(f"line must be a hydroline.lines.Line, got {type(line).__name__}")

@@ -51,14 +51,22 @@ def describe_run(res: SimulationResult, rig: Rig, circuit, net, sc: "Scenario", 
 
     Parameters
     ----------
-    res : SimulationResult   The run (modified)
-    rig : Rig                Parameters (SI)
-    circuit : Circuit        The rig's circuit (axis handles)
-    net : Network            The run's network (its components give stroke and w_h)
-    sc : Scenario            The experiment's commands and times
-    ss : SteadyState         The rest state the run started from
-    tic : float              ``time.perf_counter()`` at the run's start, [s]
-    window : bool            Take the metrics window (False for a streamed run)
+    res : SimulationResult
+        The run (modified)
+    rig : Rig
+        Parameters (SI)
+    circuit : Circuit
+        The rig's circuit (axis handles)
+    net : Network
+        The run's network (its components give stroke and w_h)
+    sc : Scenario
+        The experiment's commands and times
+    ss : SteadyState
+        The rest state the run started from
+    tic : float
+        ``time.perf_counter()`` at the run's start, [s]
+    window : bool
+        Take the metrics window (False for a streamed run)
     """
     res.steady_state = ss
     first = next(iter(circuit.axes.values()))
@@ -99,7 +107,8 @@ class Simulation:
 
     Parameters
     ----------
-    models_kept : int   How many recent models are kept (the oldest goes first)
+    models_kept : int
+        How many recent models are kept (the oldest goes first)
     """
 
     def __init__(self, models_kept: int = 8):
@@ -114,9 +123,17 @@ class Simulation:
 
         Parameters
         ----------
-        rig : Rig                     Parameters (SI)
-        scenario : str or Experiment  The experiment
-        t_end : float                 Simulated time, [s] (None: the experiment's own)
+        rig : Rig
+            Parameters (SI)
+        scenario : str or Experiment
+            The experiment
+        t_end : float
+            Simulated time, [s] (None: the experiment's own)
+
+        Returns
+        -------
+        tuple or None
+            The key, or None when the model is not kept.
         """
         if not isinstance(scenario, str) or any(k.endswith(".file") for k in rig.values):
             return None
@@ -128,8 +145,10 @@ class Simulation:
 
         Parameters
         ----------
-        key : tuple    From :meth:`model_key`
-        model : tuple  (circuit, scenario, network, steady state)
+        key : tuple
+            From :meth:`model_key`
+        model : tuple
+            (circuit, scenario, network, steady state)
         """
         if key is None:
             return
@@ -140,27 +159,32 @@ class Simulation:
     def run(self, rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
             t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
             progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-            stream_columns=None, metrics_only: bool = False, **options) -> SimulationResult:
+            stream_columns=None, metrics_only: bool = False, after_stop_rtol: float | None = None,
+            **options) -> SimulationResult:
         """Run a scenario on a rig, from its solved steady state, reusing this simulation's
         recent models (:func:`simulate` runs on :data:`DEFAULT_SIMULATION`).
 
         Parameters
         ----------
-        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only :
-            As :func:`simulate` (the same keywords and defaults; ``options`` too): the rig,
+        rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to, stream_columns, metrics_only, after_stop_rtol :
+            As :func:`simulate` (the same keywords and defaults): the rig,
             the experiment, simulated time [s], output step [s], the integrator and its
-            tolerances [-], the streamed output, a run only for its metrics
+            tolerances [-], the streamed output, a run only for its metrics, the tolerance
+            after the metrics window's stop [-]
+        **options
+            Further keywords of :func:`simulate`
 
         Returns
         -------
-        SimulationResult  As :func:`simulate`
+        SimulationResult
+            As :func:`simulate`
         """
         with one_blas_thread():   # (small dense matrices: a BLAS library's threads only spin)
             return self._run(rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale,
-                             stream_to, stream_columns, metrics_only, options)
+                             stream_to, stream_columns, metrics_only, options, after_stop_rtol)
 
     def _run(self, rig, scenario, t_end, dt_out, solver, progress, rtol, atol_scale, stream_to,
-             stream_columns, metrics_only, options):
+             stream_columns, metrics_only, options, after_stop_rtol=None):
         tic = _time.perf_counter()
         if not isinstance(rig, Rig):
             rig = load_rig(rig)
@@ -188,6 +212,9 @@ class Simulation:
         ss = replace(ss, x=ss.x.copy(), p=ss.p.copy())
         if metrics_only:
             options["until"] = window_end(circuit, sc)
+        elif after_stop_rtol is not None and after_stop_rtol != rtol:
+            options["relax"] = (window_end(circuit, sc), after_stop_rtol,
+                                atol_scale * after_stop_rtol / rtol)
         res = integrate(net, ss.x, sc.t_end, dt_out=dt_out, p=ss.p, solver=solver,
                         progress=progress, rtol=rtol, atol_scale=atol_scale, stream_to=stream_to,
                         stream_columns=stream_columns, **options)
@@ -206,8 +233,10 @@ def window_end(circuit, sc) -> WindowEnd:
 
     Parameters
     ----------
-    circuit : Circuit   The rig's circuit (axis handles: position signals, strokes)
-    sc : Scenario       The experiment's commands and times (its disturbance)
+    circuit : Circuit
+        The rig's circuit (axis handles: position signals, strokes)
+    sc : Scenario
+        The experiment's commands and times (its disturbance)
 
     Returns
     -------
@@ -219,51 +248,70 @@ def window_end(circuit, sc) -> WindowEnd:
 def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" = None,
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
-             stream_columns=None, metrics_only: bool = False, **options) -> SimulationResult:
+             stream_columns=None, metrics_only: bool = False, after_stop_rtol: float | None = None,
+             **options) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state, on :data:`DEFAULT_SIMULATION`
     (a repeated run of the same rig reuses its model: :class:`Simulation`).
 
     Parameters
     ----------
-    rig : Rig, str or None   A parsed rig, a path to a rig TOML file, or None for the
-                             embedded default (the 2005 paper's rig)
-    scenario : str or Experiment  A name (one of
-                             :data:`~hydroline.scenarios.experiments.SCENARIOS` or the rig's own
-                             ``[scenario.NAME]``) or an experiment object
-                             (:class:`~hydroline.scenarios.experiments.Experiment`); None: the
-                             rig's ``rig.scenario``, else "open-loop-step"
-    t_end : float            Simulated time, [s] (the scenario's default when None)
-    dt_out : float           Output sampling interval, [s]
-    solver : str             "auto" (the compiled C core where a C compiler exists, else
-                             "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
-                             (reference Python path); see :func:`hydroline.engine.integrate`
-    progress : callable      Called with the fraction done
-    rtol : float             Relative tolerance of the integrator (default 1e-6: the default
-                             scenario's port pressures and piston velocity then lie within
-                             6e-3 % of their excursion from a 1e-10 reference, benchmarks/), [-]
-    atol_scale : float       Absolute tolerance as a fraction of each state's typical
-                             magnitude, [-]
-    stream_to : path         Stream the time series to this CSV file in constant memory (long
-                             runs); ``data`` then holds the last row only and
-                             ``metadata["stream_stats"]`` per-column min/max/mean/rms
-    stream_columns : list    Columns to stream (all when None)
-    metrics_only : bool      A run only for its metrics (a study's): it ends at the end of its
-                             metrics window (the piston at the stop it moves toward,
-                             :func:`~hydroline.scenarios.summaries.metrics_window`), where
-                             every metric ends: the same metrics, less to integrate; its rows,
-                             and the gas-release check, end there too
-    options                  Further keywords of :func:`hydroline.engine.integrate`
-                             (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
+    rig : Rig, str or None
+        A parsed rig, a path to a rig TOML file, or None for the
+        embedded default (the 2005 paper's rig)
+    scenario : str or Experiment
+        A name (one of
+        :data:`~hydroline.scenarios.experiments.SCENARIOS` or the rig's own
+        ``[scenario.NAME]``) or an experiment object
+        (:class:`~hydroline.scenarios.experiments.Experiment`); None: the
+        rig's ``rig.scenario``, else "open-loop-step"
+    t_end : float
+        Simulated time, [s] (the scenario's default when None)
+    dt_out : float
+        Output sampling interval, [s]
+    solver : str
+        "auto" (the compiled C core where a C compiler exists, else
+        "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
+        (reference Python path); see :func:`hydroline.engine.integrate`
+    progress : callable
+        Called with the fraction done
+    rtol : float
+        Relative tolerance of the integrator (default 1e-6: the default
+        scenario's port pressures and piston velocity then lie within
+        6e-3 % of their excursion from a 1e-10 reference, benchmarks/), [-]
+    atol_scale : float
+        Absolute tolerance as a fraction of each state's typical
+        magnitude, [-]
+    stream_to : path
+        Stream the time series to this CSV file in constant memory (long
+        runs); ``data`` then holds the last row only and
+        ``metadata["stream_stats"]`` per-column min/max/mean/rms
+    stream_columns : list
+        Columns to stream (all when None)
+    metrics_only : bool
+        A run only for its metrics (a study's): it ends at the end of its
+        metrics window (the piston at the stop it moves toward,
+        :func:`~hydroline.scenarios.summaries.metrics_window`), where
+        every metric ends: the same metrics, less to integrate; its rows,
+        and the gas-release check, end there too
+    after_stop_rtol : float
+        Relative tolerance once the piston has reached the stop that ends the metrics
+        window (no metric looks there; ``atol_scale`` scaled alike), on the compiled core
+        with rows in memory; None: ``rtol`` throughout, [-]
+    options
+        Further keywords of :func:`hydroline.engine.integrate`
+        (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
 
     Returns
     -------
-    SimulationResult  (``.data`` has every signal and state; ``.metadata`` the scenario,
-    the disturbance time, the actuator's hydraulic natural frequency)
+    SimulationResult
+        (``.data`` has every signal and state; ``.metadata`` the scenario,
+        the disturbance time, the actuator's hydraulic natural frequency)
     """
     return DEFAULT_SIMULATION.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
                                   progress=progress, rtol=rtol, atol_scale=atol_scale,
                                   stream_to=stream_to, stream_columns=stream_columns,
-                                  metrics_only=metrics_only, **options)
+                                  metrics_only=metrics_only, after_stop_rtol=after_stop_rtol,
+                                  **options)
 
 
 def rest_state(net, x_guess=None):
@@ -272,8 +320,10 @@ def rest_state(net, x_guess=None):
 
     Parameters
     ----------
-    net : Network     The rig's network with the experiment's commands
-    x_guess : array   Start for the solver, [SI]; the components' guesses when None
+    net : Network
+        The rig's network with the experiment's commands
+    x_guess : array
+        Start for the solver, [SI]; the components' guesses when None
 
     Returns
     -------
@@ -281,7 +331,8 @@ def rest_state(net, x_guess=None):
 
     Raises
     ------
-    SteadyStateError  Naming the balance that does not close and the parameters to look at
+    SteadyStateError
+        Naming the balance that does not close and the parameters to look at
     """
     try:
         return solve_steady_state(net, t0=0.0, x_guess=x_guess)
@@ -301,7 +352,13 @@ def watched_pressures(res: SimulationResult) -> list[str]:
 
     Parameters
     ----------
-    res : SimulationResult  A run
+    res : SimulationResult
+        A run
+
+    Returns
+    -------
+    list of str
+        Signal names.
     """
     axes = res.metadata.get("axes") or {}
     if not axes:
@@ -330,17 +387,20 @@ class _LazyColumns(Mapping):
 
 
 def cavity_warnings(res: SimulationResult, net) -> list[str]:
-    """One warning per chamber or volume in which a gas/vapour cavity opened (M42): when, and
-    how large it grew (from the run's state columns; none for a run that did not keep them).
+    """One warning per chamber, volume or hose end in which a gas/vapour cavity opened (M42,
+    M45: the component's ``cavity_equation``): when, and how large it grew (from the run's state columns; none for a run that did not keep them).
 
     Parameters
     ----------
-    res : SimulationResult   The run
-    net : Network            Its network (components with ``cavity_volumes``)
+    res : SimulationResult
+        The run
+    net : Network
+        Its network (components with ``cavity_volumes``)
 
     Returns
     -------
-    list[str]  One line each
+    list[str]
+        One line each
     """
     out = []
     for c in net.components:
@@ -363,7 +423,8 @@ def cavity_warnings(res: SimulationResult, net) -> list[str]:
             out.append(f"{c.name} {where}: a gas/vapour cavity opened below "
                        f"fluid.cavity_pressure = {fluid.cavity_pressure / 1e3:.3g} kPa absolute "
                        f"from t = {first * 1e3:.1f} ms; largest {v[i] * 1e6:.3g} cm^3 at "
-                       f"{res.t[i] * 1e3:.1f} ms, {v[-1] * 1e6:.3g} cm^3 at the end (M42)")
+                       f"{res.t[i] * 1e3:.1f} ms, {v[-1] * 1e6:.3g} cm^3 at the end "
+                       f"({getattr(c, 'cavity_equation', 'M42')})")
     return out
 
 
@@ -374,7 +435,14 @@ def check_cavitation(res: SimulationResult, threshold: float = CAVITATION_PRESSU
     Parameters
     ----------
     res : SimulationResult
-    threshold : float      Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
+        A run
+    threshold : float
+        Gas-release pressure, absolute, [Pa] (``fluid.gas_release_pressure``)
+
+    Returns
+    -------
+    list of str
+        One warning per pressure that fell below ``threshold``.
     """
     out = []
     for k in watched_pressures(res):

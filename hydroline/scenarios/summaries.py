@@ -32,14 +32,17 @@ def metrics_window(res: SimulationResult, margin: float = 1e-3) -> tuple[float, 
 
     Parameters
     ----------
-    res : SimulationResult  With ``piston_position`` [m] and metadata ``t_disturbance`` [s],
-                            ``stroke`` [m]
-    margin : float          Distance from a stop that counts as arrived, [m]
+    res : SimulationResult
+        With ``piston_position`` [m] and metadata ``t_disturbance`` [s],
+        ``stroke`` [m]
+    margin : float
+        Distance from a stop that counts as arrived, [m]
 
     Returns
     -------
-    tuple  ``(t_start [s], t_end [s], reason)``; ``reason`` is "stop" (the piston reached the
-           stop it moves toward) or "end" (the run ended first)
+    tuple
+        ``(t_start [s], t_end [s], reason)``; ``reason`` is "stop" (the piston reached the
+        stop it moves toward) or "end" (the run ended first)
     """
     t0 = float(res.metadata.get("t_disturbance", 0.0))
     axes = res.metadata.get("axes") or {}
@@ -54,15 +57,20 @@ def window_of(t, pistons: dict, t0: float, margin: float = 1e-3) -> tuple[float,
 
     Parameters
     ----------
-    t : ndarray      Output times, ascending, [s]
-    pistons : dict   Per axis, its position signal -> (position trace at ``t`` [m], full
-                     stroke [m])
-    t0 : float       The disturbance, the window's start, [s]
-    margin : float   Distance from a stop that counts as arrived, [m]
+    t : ndarray
+        Output times, ascending, [s]
+    pistons : dict
+        Per axis, its position signal -> (position trace at ``t`` [m], full
+        stroke [m])
+    t0 : float
+        The disturbance, the window's start, [s]
+    margin : float
+        Distance from a stop that counts as arrived, [m]
 
     Returns
     -------
-    tuple  ``(t_start [s], t_end [s], reason)``, as :func:`metrics_window`
+    tuple
+        ``(t_start [s], t_end [s], reason)``, as :func:`metrics_window`
     """
     end, reason = float(t[-1]), "end"
     for x, stroke in pistons.values():     # the first axis to arrive at the stop it moves toward
@@ -88,9 +96,12 @@ class WindowEnd:
 
     Parameters
     ----------
-    t0 : float        The disturbance, the window's start, [s]
-    pistons : dict    Per axis, its position signal -> full stroke [m]
-    margin : float    Distance from a stop that counts as arrived, [m]
+    t0 : float
+        The disturbance, the window's start, [s]
+    pistons : dict
+        Per axis, its position signal -> full stroke [m]
+    margin : float
+        Distance from a stop that counts as arrived, [m]
     """
 
     def __init__(self, t0: float, pistons: dict, margin: float = 1e-3):
@@ -107,9 +118,12 @@ class WindowEnd:
 
         Parameters
         ----------
-        t : ndarray         The run's output times so far, [s]
-        rows : ndarray      Its rows so far, signals and states side by side, [SI]
-        columns : list      The rows' column names
+        t : ndarray
+            The run's output times so far, [s]
+        rows : ndarray
+            Its rows so far, signals and states side by side, [SI]
+        columns : list
+            The rows' column names
         """
         if len(t) == 0 or t[-1] < self.t0:
             return False
@@ -166,12 +180,14 @@ def ripple_metrics(ripple) -> dict:
 
     Parameters
     ----------
-    ripple : list of float   Peak-to-peak pressure of each full cycle in the window, [Pa]
+    ripple : list of float
+        Peak-to-peak pressure of each full cycle in the window, [Pa]
 
     Returns
     -------
-    dict  ``frequency_hz``, ``amplitude_mpa``, ``ripple_pp_mpa``, ``ripple_pp_mpa_per_cycle``,
-          ``settling_time_s`` and ``amplitude_note`` (why there is no amplitude)
+    dict
+        ``frequency_hz``, ``amplitude_mpa``, ``ripple_pp_mpa``, ``ripple_pp_mpa_per_cycle``,
+        ``settling_time_s`` and ``amplitude_note`` (why there is no amplitude)
     """
     top = max(ripple) if ripple else None
     return {"frequency_hz": None,
@@ -204,10 +220,12 @@ def summarize(res: SimulationResult, settling_band=SETTLING_BAND) -> dict:
 
     Parameters
     ----------
-    res : SimulationResult  A run of :func:`simulate`
-    settling_band : SettlingBand or str  The port pressures' settling band
-                            (:meth:`hydroline.traces.metrics.SettlingBand.parse`: "2%" of the
-                            final absolute pressure, the default, or e.g. "5% of change")
+    res : SimulationResult
+        A run of :func:`simulate`
+    settling_band : SettlingBand or str
+        The port pressures' settling band
+        (:meth:`hydroline.traces.metrics.SettlingBand.parse`: "2%" of the
+        final absolute pressure, the default, or e.g. "5% of change")
 
     Returns
     -------
@@ -233,10 +251,14 @@ def run_summary(res: SimulationResult, window_start: str, sine: bool,
 
     Parameters
     ----------
-    res : SimulationResult  A run of :func:`hydroline.scenarios.running.simulate`
-    window_start : str      What the metrics window starts at (its note)
-    sine : bool             Ripple per command cycle and tracking error instead of step metrics
-    settling_band : SettlingBand  The port pressures' settling band
+    res : SimulationResult
+        A run of :func:`hydroline.scenarios.running.simulate`
+    window_start : str
+        What the metrics window starts at (its note)
+    sine : bool
+        Ripple per command cycle and tracking error instead of step metrics
+    settling_band : SettlingBand
+        The port pressures' settling band
 
     Returns
     -------
@@ -285,13 +307,19 @@ class SineSummaryStream:
 
     Parameters
     ----------
-    t_disturbance : float   Start of the metrics window, [s]
-    stroke : float          Full stroke, [m]
-    frequency : float       Command frequency, [Hz]
-    supply, ret, position, reference : str   Signal names: port pressures [Pa], piston
-                            position and its reference [m]
-    margin : float          Distance from a stop that counts as arrived, [m]
-    window_start : str      What the metrics window starts at (its note)
+    t_disturbance : float
+        Start of the metrics window, [s]
+    stroke : float
+        Full stroke, [m]
+    frequency : float
+        Command frequency, [Hz]
+    supply, ret, position, reference : str
+        Signal names: port pressures [Pa], piston
+        position and its reference [m]
+    margin : float
+        Distance from a stop that counts as arrived, [m]
+    window_start : str
+        What the metrics window starts at (its note)
     """
 
     def __init__(self, t_disturbance, stroke, frequency, supply="supply_port_pressure",
@@ -316,9 +344,12 @@ class SineSummaryStream:
 
         Parameters
         ----------
-        t : ndarray         Ascending output times, [s]
-        table : ndarray     One row per time: signals and states side by side, [SI]
-        columns : list[str] Names of the table's columns
+        t : ndarray
+            Ascending output times, [s]
+        table : ndarray
+            One row per time: signals and states side by side, [SI]
+        columns : list[str]
+            Names of the table's columns
         """
         if self.arrived or len(t) == 0:
             return
@@ -368,7 +399,8 @@ class SineSummaryStream:
 
         Parameters
         ----------
-        res : SimulationResult  The run (need not hold the trace: its metadata and warnings)
+        res : SimulationResult
+            The run (need not hold the trace: its metadata and warnings)
 
         Returns
         -------

@@ -58,9 +58,19 @@ class HarmonicCommand(Component):
 
     Parameters
     ----------
-    quantity : str    What the command drives ("position": [m])
-    offset : float    Mean value, [SI unit of ``quantity``]
+    quantity : str
+        What the command drives ("position": [m])
+    offset : float
+        Mean value, [SI unit of ``quantity``]
 
+    Other Parameters
+    ----------------
+    name, connections
+        As for every component (:class:`~hydroline.engine.component.Component`):
+        its unique name in the network and its port -> signal map.
+
+    Notes
+    -----
     Runtime parameters: ``sine_amplitude`` and ``cosine_amplitude`` [SI unit of quantity],
     ``frequency`` [Hz].
     """
@@ -96,13 +106,16 @@ def fundamental(y, samples_per_period: int) -> complex:
 
     Parameters
     ----------
-    y : array_like            One whole period (or whole periods), sampled evenly from phase 0,
-                              the end point left out, [any unit]
-    samples_per_period : int  Samples per period, [-]
+    y : array_like
+        One whole period (or whole periods), sampled evenly from phase 0,
+        the end point left out, [any unit]
+    samples_per_period : int
+        Samples per period, [-]
 
     Returns
     -------
-    complex  [unit of y]
+    complex
+        [unit of y]
     """
     y = np.asarray(y, dtype=float)
     ph = 2.0 * np.pi * np.arange(len(y)) / samples_per_period
@@ -115,12 +128,15 @@ def harmonic_distortion(y, harmonics: int = 10) -> float:
 
     Parameters
     ----------
-    y : array_like   One whole period, evenly sampled, the end point left out, [any unit]
-    harmonics : int  Highest harmonic counted, [-]
+    y : array_like
+        One whole period, evenly sampled, the end point left out, [any unit]
+    harmonics : int
+        Highest harmonic counted, [-]
 
     Returns
     -------
-    float  [-] (inf for a trace without fundamental)
+    float
+        [-] (inf for a trace without fundamental)
     """
     c = np.fft.rfft(np.asarray(y, dtype=float))
     a1 = abs(c[1])
@@ -135,12 +151,15 @@ def periodic_change(previous, last, scale: float) -> float:
 
     Parameters
     ----------
-    previous, last : array_like   Two consecutive periods sampled alike, [any unit]
-    scale : float                 What the change is measured against (the amplitude), [unit]
+    previous, last : array_like
+        Two consecutive periods sampled alike, [any unit]
+    scale : float
+        What the change is measured against (the amplitude), [unit]
 
     Returns
     -------
-    float  [-]
+    float
+        [-]
     """
     return float(np.max(np.abs(np.asarray(last) - np.asarray(previous))) / scale)
 
@@ -158,18 +177,24 @@ def largest_passing(passes, start: float, low: float, high: float, rtol: float =
 
     Parameters
     ----------
-    passes : callable   ``passes(value) -> (bool, info)``
-    start : float       First value tried (a neighbour's answer), [any unit]
-    low, high : float   Search range, > 0, [unit]
-    rtol : float        Ratio of neighbouring grid values less one: the final bracket's
-                        relative width, [-]
-    step : float        Bracketing step factor, > 1, [-]
+    passes : callable
+        ``passes(value) -> (bool, info)``
+    start : float
+        First value tried (a neighbour's answer), [any unit]
+    low, high : float
+        Search range, > 0, [unit]
+    rtol : float
+        Ratio of neighbouring grid values less one: the final bracket's
+        relative width, [-]
+    step : float
+        Bracketing step factor, > 1, [-]
 
     Returns
     -------
-    (value, info_pass, value_fail, info_fail)  The largest passing value (``low`` with
-    ``info_pass`` None where even ``low`` fails), the smallest failing one (None where
-    ``high`` passes) and what ``passes`` said of each
+    (value, info_pass, value_fail, info_fail)
+        The largest passing value (``low`` with
+        ``info_pass`` None where even ``low`` fails), the smallest failing one (None where
+        ``high`` passes) and what ``passes`` said of each
     """
     grid = math.log1p(rtol)
     k_low, k_high = math.floor(math.log(low) / grid), math.ceil(math.log(high) / grid)
@@ -224,13 +249,16 @@ def constant_supply_circuit(circuit, pressures: dict):
 
     Parameters
     ----------
-    circuit : Circuit   The rig's circuit (:func:`hydroline.system.build_circuit`)
-    pressures : dict    Axis name -> (supply, return) pressure at its valve's ports, absolute, [Pa]
+    circuit : Circuit
+        The rig's circuit (:func:`hydroline.system.build_circuit`)
+    pressures : dict
+        Axis name -> (supply, return) pressure at its valve's ports, absolute, [Pa]
 
     Returns
     -------
-    Circuit  Kept: each axis's valve, actuator, friction, load and controller (and any
-    component that is not part of the hydraulic supply: no hydraulic ends)
+    Circuit
+        Kept: each axis's valve, actuator, friction, load and controller (and any
+        component that is not part of the hydraulic supply: no hydraulic ends)
     """
     from ..circuit.builder import Axis, Circuit
     from ..components import PressureSource
@@ -271,20 +299,32 @@ class PeriodicResponse:
 
     Attributes
     ----------
-    frequency : float    Test frequency, [Hz]
-    command : dict       Axis -> reference phasor ``a_s + i a_c`` (:class:`HarmonicCommand`), [m]
-    position : dict      Axis -> the piston position's fundamental phasor, [m]
-    distortion : dict    Axis -> the position's total harmonic distortion, [-]
-    force : dict         Axis -> amplitude of the hydraulic force's fundamental, [N]
-    excursion : dict     Axis -> largest |position| over the period, [m]
-    traces : dict        Signal -> its last period (``SineRig.SAMPLES`` samples): the driven
-                         axes' ports, chambers, current and spool, every axis's position, [SI]
-    periods : int        Periods run until periodic, [-]
-    change : float       Largest period-to-period change at the end (position over its
-                         amplitude, port pressures over the supply's drop), [-]
-    x_end : ndarray      State at the end (phase 0), [SI]
-    warnings : list      Gas release: watched pressures below ``fluid.gas_release_pressure``
-    gas_release_at : list  The watched signals below it, [-]
+    frequency : float
+        Test frequency, [Hz]
+    command : dict
+        Axis -> reference phasor ``a_s + i a_c`` (:class:`HarmonicCommand`), [m]
+    position : dict
+        Axis -> the piston position's fundamental phasor, [m]
+    distortion : dict
+        Axis -> the position's total harmonic distortion, [-]
+    force : dict
+        Axis -> amplitude of the hydraulic force's fundamental, [N]
+    excursion : dict
+        Axis -> largest ``|position|`` over the period, [m]
+    traces : dict
+        Signal -> its last period (``SineRig.SAMPLES`` samples): the driven
+        axes' ports, chambers, current and spool, every axis's position, [SI]
+    periods : int
+        Periods run until periodic, [-]
+    change : float
+        Largest period-to-period change at the end (position over its
+        amplitude, port pressures over the supply's drop), [-]
+    x_end : ndarray
+        State at the end (phase 0), [SI]
+    warnings : list
+        Gas release: watched pressures below ``fluid.gas_release_pressure``
+    gas_release_at : list
+        The watched signals below it, [-]
     """
 
     frequency: float
@@ -307,16 +347,23 @@ class SineRig:
 
     Parameters
     ----------
-    rig : Rig            Parameters (SI)
-    supply : str         "hoses" (the rig as it is) or "constant" (:func:`constant_supply_circuit`)
-    axis : str           The driven axis (None: the first; "all": every axis together, in phase);
-                         the others hold mid-stroke under their controllers (references of
-                         zero amplitude: one compiled model for every choice of axis)
-    pressures : dict     Axis -> (supply, return) port pressures of the constant supply, [Pa]
-                         (None: the rig's rest state with its lines)
-    solver : str         See :func:`hydroline.engine.integrate`
-    periodic_tolerance : float  Period-to-period change that counts as periodic, [-]
-    max_periods : int    Most periods run for one periodic state, [-]
+    rig : Rig
+        Parameters (SI)
+    supply : str
+        "hoses" (the rig as it is) or "constant" (:func:`constant_supply_circuit`)
+    axis : str
+        The driven axis (None: the first; "all": every axis together, in phase);
+        the others hold mid-stroke under their controllers (references of
+        zero amplitude: one compiled model for every choice of axis)
+    pressures : dict
+        Axis -> (supply, return) port pressures of the constant supply, [Pa]
+        (None: the rig's rest state with its lines)
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    periodic_tolerance : float
+        Period-to-period change that counts as periodic, [-]
+    max_periods : int
+        Most periods run for one periodic state, [-]
     """
 
     #: Samples per period of the output, [-].
@@ -385,7 +432,13 @@ class SineRig:
         self.nominal = pressures if pressures is not None else self.port_pressures()
 
     def port_pressures(self) -> dict:
-        """Axis -> (supply, return) pressure at its valve's ports in the rest state, [Pa]."""
+        """Axis -> (supply, return) pressure at its valve's ports in the rest state, [Pa].
+
+        Returns
+        -------
+        dict
+            Axis name -> ``(supply, return)`` pressures, [Pa].
+        """
         sig = self.network.signals_at(0.0, self.rest.x, self.rest.p)
         return {name: (sig[ax.supply_pressure], sig[ax.return_pressure])
                 for name, ax in self.axes.items()}
@@ -395,9 +448,12 @@ class SineRig:
 
         Parameters
         ----------
-        frequency : float   [Hz]
-        command : dict      Axis -> reference phasor ``a_s + i a_c``, [m] (driven axes)
-        x0 : array          Start state at phase 0, [SI] (None: the rest state)
+        frequency : float
+            [Hz]
+        command : dict
+            Axis -> reference phasor ``a_s + i a_c``, [m] (driven axes)
+        x0 : array
+            Start state at phase 0, [SI] (None: the rest state)
 
         Returns
         -------
@@ -488,18 +544,25 @@ class SineRig:
 
         Parameters
         ----------
-        frequency : float   [Hz]
-        target : float      Wanted displacement amplitude, [m]
-        gains : dict        Axis -> closed-loop gain estimate (position over reference
-                            phasor, [-]); a neighbour's
-        x0 : array          Start state at phase 0, [SI] (None: the rest state)
-        tolerance : float   Relative amplitude error accepted, [-]
-        iterations : int    Most runs, [-]
+        frequency : float
+            [Hz]
+        target : float
+            Wanted displacement amplitude, [m]
+        gains : dict
+            Axis -> closed-loop gain estimate (position over reference
+            phasor, [-]); a neighbour's
+        x0 : array
+            Start state at phase 0, [SI] (None: the rest state)
+        tolerance : float
+            Relative amplitude error accepted, [-]
+        iterations : int
+            Most runs, [-]
 
         Returns
         -------
-        (PeriodicResponse, bool, dict)  The last run, whether every amplitude was reached,
-        the gains measured
+        (PeriodicResponse, bool, dict)
+            The last run, whether every amplitude was reached,
+            the gains measured
         """
         gains = dict(gains)
         x = x0
@@ -565,10 +628,14 @@ def diagnose(response: PeriodicResponse, rig: SineRig, reached: bool, distortion
 
     Parameters
     ----------
-    response : PeriodicResponse   The failing run
-    rig : SineRig                 Its rig (limits, rest pressures, axis handles)
-    reached : bool                The amplitude control reached the target
-    distortion : float            Harmonic distortion allowed, [-]
+    response : PeriodicResponse
+        The failing run
+    rig : SineRig
+        Its rig (limits, rest pressures, axis handles)
+    reached : bool
+        The amplitude control reached the target
+    distortion : float
+        Harmonic distortion allowed, [-]
 
     Returns
     -------
@@ -626,13 +693,17 @@ def port_ripple_gain(response: PeriodicResponse, rig: SineRig, axis: str | None 
 
     Parameters
     ----------
-    response : PeriodicResponse   A run (its traces)
-    rig : SineRig                 Its rig
-    axis : str                    The axis (None: the first driven one)
+    response : PeriodicResponse
+        A run (its traces)
+    rig : SineRig
+        Its rig
+    axis : str
+        The axis (None: the first driven one)
 
     Returns
     -------
-    float  [-]
+    float
+        [-]
     """
     name = axis or rig.driven[0]
     ax = rig.axes[name]
@@ -658,14 +729,17 @@ def vendor_parameters(rig: SineRig, axis: str | None = None) -> dict:
 
     Parameters
     ----------
-    rig : SineRig   The rig (its constant supply's pressures: the rest pressures at the ports)
-    axis : str      The axis (None: the first driven one)
+    rig : SineRig
+        The rig (its constant supply's pressures: the rest pressures at the ports)
+    axis : str
+        The axis (None: the first driven one)
 
     Returns
     -------
-    dict  stroke [m], area [m^2], mass [kg], supply_pressure, return_pressure [Pa],
-          rated_flow [m^3/s], rated_pressure_drop [Pa], load_force (friction's Coulomb and
-          gravity, the worse direction) [N], viscous (friction) [N s/m], coulomb [N]
+    dict
+        stroke [m], area [m^2], mass [kg], supply_pressure, return_pressure [Pa],
+        rated_flow [m^3/s], rated_pressure_drop [Pa], load_force (friction's Coulomb and
+        gravity, the worse direction) [N], viscous (friction) [N s/m], coulomb [N]
     """
     from ..components import Load
 
@@ -692,12 +766,15 @@ def clipped_sine_gain(distortion: float, samples: int = 2048) -> float:
 
     Parameters
     ----------
-    distortion : float   Displacement THD allowed, [-] (0: a pure sine, gain 1)
-    samples : int        Samples of the period, [-]
+    distortion : float
+        Displacement THD allowed, [-] (0: a pure sine, gain 1)
+    samples : int
+        Samples of the period, [-]
 
     Returns
     -------
-    float  Fundamental over the clip level, >= 1, [-]
+    float
+        Fundamental over the clip level, >= 1, [-]
     """
     if distortion <= 0:
         return 1.0
@@ -733,26 +810,38 @@ def analytic_envelope(frequencies, stroke: float, area: float, mass: float,
 
     Parameters
     ----------
-    frequencies : array_like   [Hz]
-    stroke : float             Full stroke, [m]
-    area : float               Piston area, [m^2]
-    mass : float               Moving mass, [kg]
-    supply_pressure, return_pressure : float   At the valve's ports, [Pa]
-    rated_flow : float         Q_N, [m^3/s]
-    rated_pressure_drop : float  dp_N over the valve (two edges), [Pa]
-    load_force : float         Force at peak velocity besides viscous friction (Coulomb
-                               friction, weight), [N]
-    viscous : float            Viscous friction coefficient, [N s/m]
-    distortion : float         Displacement THD allowed, [-] (0: the vendor's pure sine)
-    coulomb : float            Coulomb friction, [N] (the force's fundamental: mass times
-                               acceleration in quadrature with the friction's fundamental,
-                               ``c v + 4 F_c / pi``)
+    frequencies : array_like
+        [Hz]
+    stroke : float
+        Full stroke, [m]
+    area : float
+        Piston area, [m^2]
+    mass : float
+        Moving mass, [kg]
+    supply_pressure, return_pressure : float
+        At the valve's ports, [Pa]
+    rated_flow : float
+        Q_N, [m^3/s]
+    rated_pressure_drop : float
+        dp_N over the valve (two edges), [Pa]
+    load_force : float
+        Force at peak velocity besides viscous friction (Coulomb
+        friction, weight), [N]
+    viscous : float
+        Viscous friction coefficient, [N s/m]
+    distortion : float
+        Displacement THD allowed, [-] (0: the vendor's pure sine)
+    coulomb : float
+        Coulomb friction, [N] (the force's fundamental: mass times
+        acceleration in quadrature with the friction's fundamental,
+        ``c v + 4 F_c / pi``)
 
     Returns
     -------
-    dict  ``frequency_hz``, ``displacement_amplitude_m``, ``velocity_amplitude_m_s``,
-          ``acceleration_amplitude_m_s2``, ``force_amplitude_n`` (mass and friction), ``limited_by``
-          ("stroke", "valve", "force") per frequency; ``flow_limited_velocity_m_s`` [m/s]
+    dict
+        ``frequency_hz``, ``displacement_amplitude_m``, ``velocity_amplitude_m_s``,
+        ``acceleration_amplitude_m_s2``, ``force_amplitude_n`` (mass and friction), ``limited_by``
+        ("stroke", "valve", "force") per frequency; ``flow_limited_velocity_m_s`` [m/s]
     """
     f = np.asarray(frequencies, dtype=float)
     w = 2.0 * np.pi * f
@@ -783,9 +872,17 @@ def default_frequencies(points: int = 20, low: float = 0.5, high: float = 200.0)
 
     Parameters
     ----------
-    points : int   How many, >= 1, [-]
-    low : float    Lowest, [Hz]
-    high : float   Highest, [Hz]
+    points : int
+        How many, >= 1, [-]
+    low : float
+        Lowest, [Hz]
+    high : float
+        Highest, [Hz]
+
+    Returns
+    -------
+    ndarray
+        The frequencies, [Hz].
     """
     if points == 1:
         return np.array([float(low)])
@@ -800,25 +897,34 @@ def envelope_points(srig: SineRig, frequencies, guesses, distortion: float = 0.0
 
     Parameters
     ----------
-    srig : SineRig             The rig
-    frequencies : array_like   Ascending, [Hz]
-    guesses : array_like       First amplitude tried at each, [m] (the analytic envelope)
-    distortion : float         Harmonic distortion of the position allowed, [-]
-    rtol : float               Relative width of the bisection's last bracket, [-]
-    amplitude_tolerance : float  Relative error of the reached amplitude accepted, [-]
-    stroke_margin : float      The amplitude searched up to ``(1 - margin) stroke/2``, [-]
-    progress : callable        Called with the number of frequencies done
+    srig : SineRig
+        The rig
+    frequencies : array_like
+        Ascending, [Hz]
+    guesses : array_like
+        First amplitude tried at each, [m] (the analytic envelope)
+    distortion : float
+        Harmonic distortion of the position allowed, [-]
+    rtol : float
+        Relative width of the bisection's last bracket, [-]
+    amplitude_tolerance : float
+        Relative error of the reached amplitude accepted, [-]
+    stroke_margin : float
+        The amplitude searched up to ``(1 - margin) stroke/2``, [-]
+    progress : callable
+        Called with the number of frequencies done
 
     Returns
     -------
-    list of dict  Per frequency: ``frequency_hz``, ``displacement_amplitude_m``,
-    ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
-    ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
-    and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
-    ``port_ripple_gain`` (:func:`port_ripple_gain` of the passing run),
-    ``held_motion_m`` (the largest half peak-to-peak motion of an axis held, [m]),
-    ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
-    ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
+    list of dict
+        Per frequency: ``frequency_hz``, ``displacement_amplitude_m``,
+        ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
+        ``limited_by``, ``distortion``, ``command_gain`` (reference over displacement amplitude)
+        and ``command_phase_deg``, ``supply_min_pa``, ``return_max_pa`` (at the valve's ports),
+        ``port_ripple_gain`` (:func:`port_ripple_gain` of the passing run),
+        ``held_motion_m`` (the largest half peak-to-peak motion of an axis held, [m]),
+        ``runs``, ``periods``, ``failing_amplitude_m`` (the bracket's smallest failing one) and
+        ``limit_note`` (its port pressures' range and distortion, or the gas-release warning)
     """
     top = min(srig.limits[n]["stroke"] for n in srig.driven) / 2 * (1 - stroke_margin)
     warm = {"x": None, "gains": {n: 1.0 + 0j for n in srig.driven}}
@@ -888,11 +994,16 @@ class EnvelopeRunner:
 
     Parameters
     ----------
-    rig : Rig           Parameters (SI)
-    axis : str          Driven axis (None: the first; "all": all together)
-    pressures : dict    Axis -> the constant supply's (supply, return) pressures, [Pa]
-    options : dict      Keywords of :func:`envelope_points` (distortion, rtol, ...)
-    solver : str        See :func:`hydroline.engine.integrate`
+    rig : Rig
+        Parameters (SI)
+    axis : str
+        Driven axis (None: the first; "all": all together)
+    pressures : dict
+        Axis -> the constant supply's (supply, return) pressures, [Pa]
+    options : dict
+        Keywords of :func:`envelope_points` (distortion, rtol, ...)
+    solver : str
+        See :func:`hydroline.engine.integrate`
     """
 
     def __init__(self, rig: Rig, axis, pressures: dict, options: dict, solver: str = "auto"):
@@ -911,7 +1022,13 @@ class EnvelopeRunner:
 
         Parameters
         ----------
-        supply : str   "hoses" or "constant"
+        supply : str
+            "hoses" or "constant"
+
+        Returns
+        -------
+        SineRig
+            The rig of that supply.
         """
         if supply not in self._rigs:
             self._rigs[supply] = SineRig(self.rig, supply, self.axis, self.pressures, self.solver)
@@ -946,15 +1063,24 @@ class EnvelopeResult:
 
     Attributes
     ----------
-    frequency_hz : list      Test frequencies, [Hz]
-    hoses : list             Per frequency the point of :func:`envelope_points` (lines in the loop)
-    constant_supply : list   The same from an ideal constant supply and tank (empty: not run)
-    analytic : dict          :func:`analytic_envelope` for that supply
-    rig : str                The rig's source
-    axis : str               The driven axis ("all": every axis together)
-    distortion : float       Harmonic distortion allowed, [-]
-    wall_time : float        [s]
-    errors : list            Shares that failed ("supply: Type: reason")
+    frequency_hz : list
+        Test frequencies, [Hz]
+    hoses : list
+        Per frequency the point of :func:`envelope_points` (lines in the loop)
+    constant_supply : list
+        The same from an ideal constant supply and tank (empty: not run)
+    analytic : dict
+        :func:`analytic_envelope` for that supply
+    rig : str
+        The rig's source
+    axis : str
+        The driven axis ("all": every axis together)
+    distortion : float
+        Harmonic distortion allowed, [-]
+    wall_time : float
+        [s]
+    errors : list
+        Shares that failed ("supply: Type: reason")
     """
 
     frequency_hz: list
@@ -973,7 +1099,13 @@ class EnvelopeResult:
 
         Parameters
         ----------
-        points : list of dict   From :func:`envelope_points`
+        points : list of dict
+            From :func:`envelope_points`
+
+        Returns
+        -------
+        dict
+            Key -> list with one value per frequency, [the key's unit].
         """
         keys = [k for k in (points[0] if points else {}) if k != "frequency_hz"]
         return {k: [p[k] for p in points] for k in keys}
@@ -982,7 +1114,13 @@ class EnvelopeResult:
         """The JSON form: ``frequency_hz``, the hose curve's lists (``displacement_amplitude_m``,
         ``velocity_amplitude_m_s``, ``acceleration_amplitude_m_s2``, ``force_amplitude_n``,
         ``limited_by``, ...), ``constant_supply`` and ``analytic`` with the same keys, and the
-        study's settings."""
+        study's settings.
+
+        Returns
+        -------
+        dict
+            The JSON document (plain numbers and texts).
+        """
         out = {"frequency_hz": list(self.frequency_hz), **self.curve(self.hoses)}
         if self.constant_supply:
             out["constant_supply"] = self.curve(self.constant_supply)
@@ -993,7 +1131,13 @@ class EnvelopeResult:
 
     def rows(self) -> list[dict]:
         """One CSV row per frequency: the hose curve, the constant supply's and the analytic
-        one side by side (``constant_supply.<key>``, ``analytic.<key>``)."""
+        one side by side (``constant_supply.<key>``, ``analytic.<key>``).
+
+        Returns
+        -------
+        list of dict
+            Column name -> value, one dict per frequency.
+        """
         rows = []
         for k, f in enumerate(self.frequency_hz):
             row = {"frequency_hz": f}
@@ -1033,8 +1177,10 @@ def envelope_figure(result: EnvelopeResult, path=None):
 
     Parameters
     ----------
-    result : EnvelopeResult   From :func:`envelope`
-    path : str or Path        PNG to write (None: not written)
+    result : EnvelopeResult
+        From :func:`envelope`
+    path : str or Path
+        PNG to write (None: not written)
 
     Returns
     -------
@@ -1099,20 +1245,31 @@ def envelope(rig: "Rig | str | None" = None, frequencies=None, *, points: int = 
 
     Parameters
     ----------
-    rig : Rig, str or None     The rig (a path or shipped name; None: the paper's)
-    frequencies : array_like   Test frequencies, [Hz] (None: ``points`` from 0.5 to 200 Hz,
-                               log-spaced)
-    points : int               Frequencies when ``frequencies`` is None, [-]
-    axis : str                 Driven axis (None: the first; "all": every axis together, in
-                               phase); the others hold
-    distortion : float         Total harmonic distortion of the position allowed, [-]
-    constant_supply : bool     Also run the ideal constant supply
-    rtol : float               Relative resolution of the amplitude, [-]
-    workers : int              Local worker processes (the lines' frequencies split in
-                               ``workers`` runs of neighbours, each warm-started in itself), [-]
-    scheduler : str or Client  A Dask scheduler ("tcp://host:port", "local", a Client)
-    solver : str               See :func:`hydroline.engine.integrate`
-    progress : callable        ``progress(done, total)``: frequencies done over all curves
+    rig : Rig, str or None
+        The rig (a path or shipped name; None: the paper's)
+    frequencies : array_like
+        Test frequencies, [Hz] (None: ``points`` from 0.5 to 200 Hz,
+        log-spaced)
+    points : int
+        Frequencies when ``frequencies`` is None, [-]
+    axis : str
+        Driven axis (None: the first; "all": every axis together, in
+        phase); the others hold
+    distortion : float
+        Total harmonic distortion of the position allowed, [-]
+    constant_supply : bool
+        Also run the ideal constant supply
+    rtol : float
+        Relative resolution of the amplitude, [-]
+    workers : int
+        Local worker processes (the lines' frequencies split in
+        ``workers`` runs of neighbours, each warm-started in itself), [-]
+    scheduler : str or Client
+        A Dask scheduler ("tcp://host:port", "local", a Client)
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    progress : callable
+        ``progress(done, total)``: frequencies done over all curves
 
     Returns
     -------

@@ -111,6 +111,8 @@ class BudgetExhausted(Exception):
     ----------
     *args : str
         The message
+    **kwargs : dict
+        None taken (as ``Exception``).
     """
 
 
@@ -122,10 +124,14 @@ class Variable:
 
     Attributes
     ----------
-    paths : tuple[str]   Rig paths that take the same value
-    unit : str           Their SI unit
-    low, high : float    Bounds of a continuous variable, [unit] (None for choices)
-    choices : tuple      Values of a discrete variable, [unit] (None for a range)
+    paths : tuple[str]
+        Rig paths that take the same value
+    unit : str
+        Their SI unit
+    low, high : float
+        Bounds of a continuous variable, [unit] (None for choices)
+    choices : tuple
+        Values of a discrete variable, [unit] (None for a range)
     """
 
     paths: tuple
@@ -149,7 +155,13 @@ class Variable:
 
         Parameters
         ----------
-        z : float   Scaled coordinate, [-]
+        z : float
+            Scaled coordinate, [-]
+
+        Returns
+        -------
+        object
+            The value, [unit] (a number, or a choice's value).
         """
         if self.discrete:
             return self.choices[int(np.clip(round(float(z)), 0, len(self.choices) - 1))]
@@ -160,7 +172,13 @@ class Variable:
 
         Parameters
         ----------
-        value : float   [unit]
+        value : float
+            [unit]
+
+        Returns
+        -------
+        float or None
+            The scaled coordinate, [-]; None out of range.
         """
         if self.discrete:
             return float(self.choices.index(value)) if value in self.choices else None
@@ -169,7 +187,13 @@ class Variable:
         return (value - self.low) / (self.high - self.low)
 
     def describe(self) -> str:
-        """The range or choices as text with the unit."""
+        """The range or choices as text with the unit.
+
+        Returns
+        -------
+        str
+            E.g. ``"5 m .. 20 m"`` or ``"{0.01 m, 0.02 m}"``.
+        """
         def text(v):
             number, unit = shown_value(v, self.unit)
             return f"{number:g} {unit}".strip() if isinstance(number, float) else str(number)
@@ -189,17 +213,22 @@ def parse_variables(vary=(), choose=(), rig: Rig | None = None) -> list[Variable
 
     Parameters
     ----------
-    vary : sequence of str     ``"PATH=LOW..HIGH"``
-    choose : sequence of str   ``"PATH=V1,V2,..."``
-    rig : Rig                  The base rig
+    vary : sequence of str
+        ``"PATH=LOW..HIGH"``
+    choose : sequence of str
+        ``"PATH=V1,V2,..."``
+    rig : Rig
+        The base rig
 
     Returns
     -------
-    list[Variable]  The ranges first, then the choices, in the order given
+    list[Variable]
+        The ranges first, then the choices, in the order given
 
     Raises
     ------
-    RigError  One line naming the option and path.
+    RigError
+        One line naming the option and path.
     """
     params, out = [], []
     for text in vary:
@@ -246,9 +275,12 @@ class Constraint:
 
     Attributes
     ----------
-    metric : str   Metric name (:func:`metric_names`)
-    sense : str    "<=" or ">="
-    bound : float  [the metric's unit, the end of its name]
+    metric : str
+        Metric name (:func:`metric_names`)
+    sense : str
+        "<=" or ">="
+    bound : float
+        [the metric's unit, the end of its name]
     """
 
     metric: str
@@ -256,7 +288,13 @@ class Constraint:
     bound: float
 
     def describe(self) -> str:
-        """The constraint as text, ``METRIC<=VALUE``."""
+        """The constraint as text, ``METRIC<=VALUE``.
+
+        Returns
+        -------
+        str
+            ``METRIC<=VALUE`` or ``METRIC>=VALUE``.
+        """
         return f"{self.metric}{self.sense}{self.bound:g}"
 
     def margin(self, value: float) -> float:
@@ -264,7 +302,13 @@ class Constraint:
 
         Parameters
         ----------
-        value : float   The metric, [its unit] (NaN: failed, -inf returned)
+        value : float
+            The metric, [its unit] (NaN: failed, -inf returned)
+
+        Returns
+        -------
+        float
+            The margin, [-].
         """
         if not math.isfinite(value):
             return -math.inf
@@ -278,12 +322,19 @@ def parse_constraint(text) -> Constraint:
 
     Parameters
     ----------
-    text : str or Constraint   VALUE a plain number in the unit the metric's name ends with,
-                               or a quantity with a unit of that dimension ("12 Hz", "2 bar")
+    text : str or Constraint
+        VALUE a plain number in the unit the metric's name ends with,
+        or a quantity with a unit of that dimension ("12 Hz", "2 bar")
 
     Raises
     ------
-    RigError  One line naming ``--subject-to`` and the text.
+    RigError
+        One line naming ``--subject-to`` and the text.
+
+    Returns
+    -------
+    Constraint
+        The constraint (``text`` itself when it is one).
     """
     if isinstance(text, Constraint):
         return text
@@ -315,15 +366,18 @@ def metric_names(axes=(), scenario: str = "open-loop-step") -> list[str]:
 
     Parameters
     ----------
-    axes : sequence of str   The rig's servo axes
-    scenario : str           Scenario name (closed-loop-sine adds the tracking errors)
+    axes : sequence of str
+        The rig's servo axes
+    scenario : str
+        Scenario name (closed-loop-sine adds the tracking errors)
 
     Returns
     -------
-    list[str]  The sweep's metric columns (:func:`hydroline.studies.sweep.metric_columns`)
-               with a dot after the side (``supply.amplitude_mpa``; per axis
-               ``axis2.supply.amplitude_mpa`` as they are), :data:`LINEAR_METRICS`
-               (per axis ``axis2.position_bandwidth_hz``), then :data:`COST_METRICS`
+    list[str]
+        The sweep's metric columns (:func:`hydroline.studies.sweep.metric_columns`)
+        with a dot after the side (``supply.amplitude_mpa``; per axis
+        ``axis2.supply.amplitude_mpa`` as they are), :data:`LINEAR_METRICS`
+        (per axis ``axis2.position_bandwidth_hz``), then :data:`COST_METRICS`
     """
     axes = list(axes)
     single = len(axes) <= 1
@@ -354,11 +408,16 @@ class LinearMetricsRunner:
 
     Parameters
     ----------
-    runner : callable  The simulation's runner (``runner(index, values) -> row``)
-    rig : Rig          The base rig
-    units : dict       Rig path -> SI unit of the varied values
-    metrics : list     Linear metric names (:func:`metric_names`) to compute
-    simulate : bool    Run ``runner`` too (False: the row holds the inputs and these metrics)
+    runner : callable
+        The simulation's runner (``runner(index, values) -> row``)
+    rig : Rig
+        The base rig
+    units : dict
+        Rig path -> SI unit of the varied values
+    metrics : list
+        Linear metric names (:func:`metric_names`) to compute
+    simulate : bool
+        Run ``runner`` too (False: the row holds the inputs and these metrics)
     """
 
     def __init__(self, runner, rig: Rig, units: dict, metrics, simulate: bool = True):
@@ -402,13 +461,15 @@ def cost_metrics(values: dict) -> dict:
 
     Parameters
     ----------
-    values : dict   Rig path -> SI value (``Rig.values``, with the variant's values over it)
+    values : dict
+        Rig path -> SI value (``Rig.values``, with the variant's values over it)
 
     Returns
     -------
-    dict  ``total_hose_length_m``: every hose section's length (template
-          ``<side>.section<n>.length``, circuit components of type "hose"), [m];
-          ``accumulator_volume_l``: every accumulator's gas capacity, [L]
+    dict
+        ``total_hose_length_m``: every hose section's length (template
+        ``<side>.section<n>.length``, circuit components of type "hose"), [m];
+        ``accumulator_volume_l``: every accumulator's gas capacity, [L]
     """
     types = {k[:-5]: v for k, v in values.items()
              if k.startswith("circuit.") and k.endswith(".type")}
@@ -533,19 +594,29 @@ def objective_gradient(vary, rig=None, *, minimize: str, at: dict | None = None,
 
     Parameters
     ----------
-    vary : sequence of str   ``"PATH=LOW..HIGH"`` continuous variables with units
-    rig : Rig, str or None   The base rig (None: the embedded 2005 paper's rig)
-    minimize : str           The metric (:func:`metric_names`)
-    at : dict                Rig path -> SI value of the point (None: the base rig's values)
-    step : float             Forward-difference step in the scaled variables (range = 1), [-]
-    scenario : str           Scenario name (None: the rig's, else open-loop-step)
-    t_end : float            Simulated time per evaluation, [s]
-    solver : str             See :func:`hydroline.engine.integrate`
-    runner : callable        ``runner(index, values) -> row`` instead of the rig's simulation
+    vary : sequence of str
+        ``"PATH=LOW..HIGH"`` continuous variables with units
+    rig : Rig, str or None
+        The base rig (None: the embedded 2005 paper's rig)
+    minimize : str
+        The metric (:func:`metric_names`)
+    at : dict
+        Rig path -> SI value of the point (None: the base rig's values)
+    step : float
+        Forward-difference step in the scaled variables (range = 1), [-]
+    scenario : str
+        Scenario name (None: the rig's, else open-loop-step)
+    t_end : float
+        Simulated time per evaluation, [s]
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    runner : callable
+        ``runner(index, values) -> row`` instead of the rig's simulation
 
     Returns
     -------
-    dict  Variable name -> d metric / d value, [the metric's unit per the variable's SI unit]
+    dict
+        Variable name -> d metric / d value, [the metric's unit per the variable's SI unit]
     """
     if not isinstance(rig, Rig):
         rig = load_rig(rig)
@@ -774,17 +845,23 @@ def pareto_front(solve, objectives, first, ev, points: int = 5) -> list[dict]:
 
     Parameters
     ----------
-    solve : callable         ``solve(metric, extra_constraints) -> (problem, converged,
-                             message)``: one single-objective problem (as :func:`optimize`)
-    objectives : list[str]   The metrics, at least two
-    first : object           The problem of the first objective, already solved
-    ev : object              The evaluations (rows of every point evaluated)
-    points : int             Levels of each further objective, its ends included, [-]
+    solve : callable
+        ``solve(metric, extra_constraints) -> (problem, converged,
+        message)``: one single-objective problem (as :func:`optimize`)
+    objectives : list[str]
+        The metrics, at least two
+    first : object
+        The problem of the first objective, already solved
+    ev : object
+        The evaluations (rows of every point evaluated)
+    points : int
+        Levels of each further objective, its ends included, [-]
 
     Returns
     -------
-    list[dict]  ``{"variables": {PATH: SI value}, "objectives": {METRIC: value}}`` sorted by
-                the first objective (its minimum first)
+    list[dict]
+        ``{"variables": {PATH: SI value}, "objectives": {METRIC: value}}`` sorted by
+        the first objective (its minimum first)
     """
     import itertools
 
@@ -834,35 +911,60 @@ class OptimizeResult:
 
     Attributes
     ----------
-    optimum : dict            Rig path -> SI value of the best point
-    objective : float         The objective there, [its unit]
-    objective_name : str      The metric minimised
-    metrics : dict            Every metric there (:func:`metric_names`), [their units]
-    evaluations : int         Points this optimisation evaluated (from the results file too)
-    n_computed : int          Of those, run by this call
-    feasible : bool           The optimum meets every constraint
-    active_constraints : list Constraints at their bound at the optimum (``METRIC<=VALUE``)
-    at_bounds : list          Variables at a bound of their range (``PATH=low``/``=high``)
-    converged : bool          The method ended by its convergence test (not by the budget)
-    message : str             What the method said
-    method : str              "local" or "global"
-    baseline : dict           Rig path -> SI value of the base rig
-    baseline_objective : float The objective of the base rig, [its unit]
-    baseline_metrics : dict   Every metric of the base rig
-    constraints : list[str]   The constraints, as text
-    variables : list[str]     The variables with their ranges or choices, as text
-    history : list[dict]      Per evaluation in order: ``evaluation``, ``objective``,
-                              ``feasible``, ``error`` (and ``objectives`` with several)
-    rig : Rig                 The base rig with the optimum set
-    scenario : str            The scenario every evaluation ran
-    wall_time : float         [s]
-    files : dict              "journal", "rig", "json", "figure" -> Path written
-    objectives : list[str]    The metrics minimised (several: a Pareto front)
-    front : list[dict]        With several objectives, the front from the first objective's
-                              minimum on: ``{"variables": {PATH: SI value}, "objectives":
-                              {METRIC: value}}`` and, once written to ``out``, ``"rig"``:
-                              the point's rig file name (None with one objective)
-    units : dict              Rig path -> SI unit of the varied values ("m", "m^3", "Pa")
+    optimum : dict
+        Rig path -> SI value of the best point
+    objective : float
+        The objective there, [its unit]
+    objective_name : str
+        The metric minimised
+    metrics : dict
+        Every metric there (:func:`metric_names`), [their units]
+    evaluations : int
+        Points this optimisation evaluated (from the results file too)
+    n_computed : int
+        Of those, run by this call
+    feasible : bool
+        The optimum meets every constraint
+    active_constraints : list
+        Constraints at their bound at the optimum (``METRIC<=VALUE``)
+    at_bounds : list
+        Variables at a bound of their range (``PATH=low``/``=high``)
+    converged : bool
+        The method ended by its convergence test (not by the budget)
+    message : str
+        What the method said
+    method : str
+        "local" or "global"
+    baseline : dict
+        Rig path -> SI value of the base rig
+    baseline_objective : float
+        The objective of the base rig, [its unit]
+    baseline_metrics : dict
+        Every metric of the base rig
+    constraints : list[str]
+        The constraints, as text
+    variables : list[str]
+        The variables with their ranges or choices, as text
+    history : list[dict]
+        Per evaluation in order: ``evaluation``, ``objective``,
+        ``feasible``, ``error`` (and ``objectives`` with several)
+    rig : Rig
+        The base rig with the optimum set
+    scenario : str
+        The scenario every evaluation ran
+    wall_time : float
+        [s]
+    files : dict
+        "journal", "rig", "json", "figure" -> Path written
+    objectives : list[str]
+        The metrics minimised (several: a Pareto front)
+    front : list[dict]
+        With several objectives, the front from the first objective's
+        minimum on: ``{"variables": {PATH: SI value}, "objectives":
+        {METRIC: value}}`` and, once written to ``out``, ``"rig"``:
+        the point's rig file name (None with one objective)
+    units : dict
+        Rig path -> SI unit of the varied values ("m", "m^3", "Pa")
     """
 
     optimum: dict
@@ -894,7 +996,13 @@ class OptimizeResult:
     def to_dict(self) -> dict:
         """The JSON document: ``optimum`` (PATH: SI value), ``objective``, ``metrics``,
         ``evaluations``, ``feasible``, ``active_constraints``, ``converged``, ``front`` (with
-        several objectives) and the rest of the attributes but ``rig`` (files as text)."""
+        several objectives) and the rest of the attributes but ``rig`` (files as text).
+
+        Returns
+        -------
+        dict
+            The document (plain numbers, texts, lists and dicts).
+        """
         def plain(v):
             if isinstance(v, float) and not math.isfinite(v):
                 return None
@@ -921,14 +1029,19 @@ def optimised_rig_text(rig: Rig, optimum: dict, units: dict, why: str) -> str:
 
     Parameters
     ----------
-    rig : Rig       The base rig
-    optimum : dict  Rig path -> SI value
-    units : dict    Rig path -> SI unit
-    why : str       What it was optimised for (the objective and constraints)
+    rig : Rig
+        The base rig
+    optimum : dict
+        Rig path -> SI value
+    units : dict
+        Rig path -> SI unit
+    why : str
+        What it was optimised for (the objective and constraints)
 
     Returns
     -------
-    str  TOML text
+    str
+        TOML text
     """
     opt = _with_values(rig, optimum, units)
     lines, section = [], ""
@@ -993,12 +1106,16 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     Parameters
     ----------
     result : OptimizeResult
-    traces : dict   "baseline"/"optimum" -> (t [s], supply [Pa], return [Pa]), or None
-    path : path     PNG file to write (None: only return the figure)
+        The optimisation's outcome
+    traces : dict
+        "baseline"/"optimum" -> (t [s], supply [Pa], return [Pa]), or None
+    path : path
+        PNG file to write (None: only return the figure)
 
     Returns
     -------
     matplotlib.figure.Figure
+        The figure.
     """
     from ..plotting import new_figure, save_png, wrap_title
 
@@ -1071,47 +1188,72 @@ def optimize(vary=(), rig=None, *, choose=(), minimize: str, subject_to=(),
 
     Parameters
     ----------
-    vary : sequence of str     ``"PATH=LOW..HIGH"`` continuous variables with units
-    rig : Rig, str or None     The base rig (None: the embedded 2005 paper's rig)
-    choose : sequence of str   ``"PATH=V1,V2,..."`` discrete variables with units
-    minimize : str or list     The metric (:func:`metric_names`); several give a Pareto
-                               front (epsilon-constraint method, see :func:`pareto_front`):
-                               the optimum reported is then the first metric's minimum
-    subject_to : sequence      ``"METRIC<=VALUE"`` / ``"METRIC>=VALUE"``
-    scenario : str             Scenario name (None: the rig's, else open-loop-step)
-    t_end : float              Simulated time per evaluation, [s] (the scenario's when None)
-    solver : str               See :func:`hydroline.engine.integrate`
-    method : str               "auto" (local without choices, global with), "local", "global"
-    starts : int               Space-filling starting points of the local method (default
-                               3 + 2 per continuous variable), [-]
-    local_runs : int           SLSQP runs, from the best starting points (the base rig's
-                               among them), [-]
-    max_evaluations : int      Evaluations allowed (default 40 + 30 per variable), per
-                               single-objective problem of a front, [-]
-    maxiter : int              SLSQP iterations at most, [-]
-    step : float               Forward-difference step in the scaled variables (range = 1), [-]
-    seed : int                 Seed of the starting points and of differential evolution
-    workers : int              Local worker processes (or workers of ``scheduler="local"``)
-    scheduler : str or Client  None, "local" or "tcp://host:port" (as :func:`sweep`)
-    out : path                 Folder for optimize.jsonl, optimum.toml, optimize.json and
-                               optimize.png (and front_NN.toml, one rig per point of a
-                               Pareto front); None keeps everything in memory
-    resume : bool              Continue from the results file in ``out``
-    figure : bool              Write optimize.png (two more runs: baseline and optimum traces)
-    runner : callable          ``runner(index, values) -> row`` instead of the rig's
-                               simulation (:class:`~hydroline.studies.sweep.VariantRunner`);
-                               a surrogate or analytic model with the sweep's row columns
-    progress : callable        ``progress(evaluations, budget)`` after each new evaluation
-    front_points : int         Levels of each further objective across its range on the
-                               front (its two ends included), [-]
+    vary : sequence of str
+        ``"PATH=LOW..HIGH"`` continuous variables with units
+    rig : Rig, str or None
+        The base rig (None: the embedded 2005 paper's rig)
+    choose : sequence of str
+        ``"PATH=V1,V2,..."`` discrete variables with units
+    minimize : str or list
+        The metric (:func:`metric_names`); several give a Pareto
+        front (epsilon-constraint method, see :func:`pareto_front`):
+        the optimum reported is then the first metric's minimum
+    subject_to : sequence
+        ``"METRIC<=VALUE"`` / ``"METRIC>=VALUE"``
+    scenario : str
+        Scenario name (None: the rig's, else open-loop-step)
+    t_end : float
+        Simulated time per evaluation, [s] (the scenario's when None)
+    solver : str
+        See :func:`hydroline.engine.integrate`
+    method : str
+        "auto" (local without choices, global with), "local", "global"
+    starts : int
+        Space-filling starting points of the local method (default
+        3 + 2 per continuous variable), [-]
+    local_runs : int
+        SLSQP runs, from the best starting points (the base rig's
+        among them), [-]
+    max_evaluations : int
+        Evaluations allowed (default 40 + 30 per variable), per
+        single-objective problem of a front, [-]
+    maxiter : int
+        SLSQP iterations at most, [-]
+    step : float
+        Forward-difference step in the scaled variables (range = 1), [-]
+    seed : int
+        Seed of the starting points and of differential evolution
+    workers : int
+        Local worker processes (or workers of ``scheduler="local"``)
+    scheduler : str or Client
+        None, "local" or "tcp://host:port" (as :func:`sweep`)
+    out : path
+        Folder for optimize.jsonl, optimum.toml, optimize.json and
+        optimize.png (and front_NN.toml, one rig per point of a
+        Pareto front); None keeps everything in memory
+    resume : bool
+        Continue from the results file in ``out``
+    figure : bool
+        Write optimize.png (two more runs: baseline and optimum traces)
+    runner : callable
+        ``runner(index, values) -> row`` instead of the rig's
+        simulation (:class:`~hydroline.studies.sweep.VariantRunner`);
+        a surrogate or analytic model with the sweep's row columns
+    progress : callable
+        ``progress(evaluations, budget)`` after each new evaluation
+    front_points : int
+        Levels of each further objective across its range on the
+        front (its two ends included), [-]
 
     Returns
     -------
     OptimizeResult
+        The optimum, its metrics and the history of the evaluations.
 
     Raises
     ------
-    ValueError (RigError, SweepFileError) on bad input, one line naming it.
+    ValueError
+        (RigError, SweepFileError) on bad input, one line naming it.
     """
     tic = _time.perf_counter()
     if not isinstance(rig, Rig):

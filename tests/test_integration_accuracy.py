@@ -1,0 +1,87 @@
+"""The default tolerances against the issue-25 accuracy target (benchmarks/bench_integration.py).
+
+Target: every user metric within 0.05 % and the traces (port pressures, piston position and
+velocity) within 0.5 % of their excursion of a tight reference up to the piston's stop. The
+reference is a different integrator, CVODES through CasADi at rtol 1e-9 (it agrees with the
+compiled core at rtol 1e-10 to ~2e-7 relative on these metrics), run to the metrics window's end.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import hydroline
+from hydroline.scenarios import summarize
+
+TRACES = ("supply_port_pressure", "return_port_pressure", "piston_position", "piston_velocity")
+
+
+def metrics_of(summary) -> dict:
+    """Every numeric metric of both ports, name -> value."""
+    return {f"{side}.{k}": float(v) for side in ("supply", "return")
+            for k, v in summary[side].items()
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)}
+
+
+def errors(rig):
+    """(largest trace error up to the stop [% of excursion], metric -> error [%]) of a
+    default-tolerance run against the tight CVODES reference."""
+    ref = hydroline.simulate(rig, solver="cvodes", rtol=1e-9, atol_scale=1e-10, metrics_only=True)
+    res = hydroline.simulate(rig, metrics_only=True)
+    t0, t1, reason = ref.metadata["metrics_window"]
+    assert reason == "stop" and res.metadata["metrics_window"] == ref.metadata["metrics_window"]
+    n = min(len(res.t), len(ref.t))
+    upto = ref.t[:n] <= t1
+    trace = max(np.max(np.abs(res[k][:n][upto] - ref[k][:n][upto])) / np.ptp(ref[k][:n][upto])
+                for k in TRACES) * 100
+    got, want = metrics_of(summarize(res)), metrics_of(summarize(ref))
+    assert set(got) == set(want)
+    return trace, {k: abs(got[k] - want[k]) / abs(want[k]) * 100 for k in want if want[k]}
+
+
+def test_default_rig_meets_the_accuracy_target():
+    trace, metric = errors(hydroline.load_rig())
+    assert trace <= 0.5
+    worst = max(metric, key=metric.get)
+    assert metric[worst] <= 0.05, (worst, metric[worst])
+
+
+def test_short_hose_traces_meet_the_target_its_ringing_metrics_within_one_percent():
+    """Sections II of 0.3 m ring at 284 Hz for ~14 periods. Their upper modes (kHz, lightly
+    damped) hold the NDF orders 3-5 beyond their stability limits, so the ringing is stepped at
+    order 2, whose phase error (~(2/9) (h omega)^2 per radian) shifts the zero-crossing
+    frequency by ~0.5 % at rtol 1e-6 (0.09 % at 1e-7, 0.02 % at 1e-8), and with it the ringing
+    periods (0.2 %) and the amplitude read over them (0.16 %): the traces meet the target, these
+    metrics miss 0.05 % (benchmarks/README.md, bench_integration); the bound here is the
+    measured miss with a 2x margin, what the default tolerances promise on short hoses."""
+    rig = hydroline.load_rig().set("supply.section2.length", "0.3 m").set(
+        "return.section2.length", "0.3 m")
+    trace, metric = errors(rig)
+    assert trace <= 0.5
+    worst = max(metric, key=metric.get)
+    assert metric[worst] <= 1.0, (worst, metric[worst])
+    steady = [k for k in metric if k.endswith(("steady_change_mpa", "first_excursion_mpa"))]
+    assert max(metric[k] for k in steady) <= 0.05
+
+
+def test_a_looser_tolerance_after_the_stop_keeps_the_rows_before_it():
+    """after_stop_rtol: the same rows up to the stop (the same steps), fewer steps after it,
+    the traces after it within 0.5 % of their excursion of the run at rtol throughout."""
+    rig = hydroline.load_rig()
+    full = hydroline.simulate(rig, solver="compiled")
+    relaxed = hydroline.simulate(rig, solver="compiled", after_stop_rtol=1e-5)
+    t_relaxed = relaxed.stats["relaxed_at"]
+    t1 = full.metadata["metrics_window"][1]
+    assert t1 <= t_relaxed <= t1 + 0.011        # checked every 100 rows (10 ms)
+    before = full.t <= t_relaxed
+    for k in TRACES:
+        np.testing.assert_array_equal(relaxed[k][before], full[k][before])
+        assert np.max(np.abs(relaxed[k] - full[k])) <= 5e-3 * np.ptp(full[k])
+    assert relaxed.stats["nsteps"] < 0.9 * full.stats["nsteps"]
+
+
+def test_relax_needs_positive_tolerances():
+    with pytest.raises(ValueError, match="relax"):
+        hydroline.engine.integrate(None, [0.0], 1.0, relax=(lambda *a: True, 0.0, 1e-6))
