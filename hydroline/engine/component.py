@@ -524,9 +524,12 @@ class Component:
 
         Parameters
         ----------
-        t : float   Time, [s]
-        x : dict    States, local name -> value [SI]
-        p : dict    Runtime parameters, name -> value [SI]
+        t : float
+            Time, [s]
+        x : dict
+            States, local name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
 
         Returns
         -------
