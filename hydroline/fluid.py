@@ -74,7 +74,9 @@ class Fluid:
     cavity_pressure : float or None
         Absolute pressure p_cav held by a gas/vapour cavity, [Pa]: below it chambers and
         volumes (M42) and the hose ends whose pressure a line puts out (M45) open a cavity;
-        None: no cavity model (pressures may fall below it, as before; the run warns).
+        None (a ``Fluid``'s default; a rig's ``cavity_pressure = "off"``): no cavity model
+        (pressures may fall below it, as before; the run warns). A rig's oil takes 5 kPa
+        unless the rig says otherwise (:func:`hydroline.circuit.rig_fluid`).
     cavity_pressure_drop : float
         Regularisation of the cavity (M42): the pressure falls this much below ``cavity_pressure``
         per unit cavity volume fraction (0 would be an ideal constant-pressure cavity), [Pa].
