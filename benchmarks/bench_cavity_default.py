@@ -1,11 +1,14 @@
-"""Issue 30: what turning the cavity model (fluid.cavity_pressure: M42 in chambers and
-volumes, M45 at hose ends) on by default would change. Prints three tables:
+"""Issue 30: what the cavity model (fluid.cavity_pressure: M42 in chambers and volumes, M45
+at hose ends), on by default at 5 kPa since issue 30, changes against "off". Prints three
+tables:
 
 1. the default rig's open-loop-step metrics per port without and with the model (compiled C
    core and CVODES);
 2. its run cost: steps, f and Jacobian evaluations, integration CPU (median of interleaved
    repeats, model built once), cold-cache CPU of a whole `hydroline simulate --json` in a
-   fresh process, with M42 alone (hose-end cavities left out) beside M42 + M45;
+   fresh process, with M42 alone (hose-end cavities left out) beside M42 + M45; the
+   compiled model's size: the bordered Jacobian's nonzeros, the CasADi instructions of f
+   and J, the sparse LU's slots and flops, the C source;
 3. the lowest watched absolute pressure of the shipped rigs and of the fuzz campaigns'
    plausible cavitating rigs, without the model, with M42 alone and with M42 + M45.
 
@@ -22,7 +25,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 from hydroline.components import hose
@@ -57,8 +60,7 @@ def chambers_only():
 def variant(rig, cav, kind):
     """(Simulation with the model built, rig) for kind "off", "M42" or "M42+M45"."""
     rig = copy.deepcopy(rig)                 # Rig.set changes the rig itself
-    if kind != "off":
-        rig.set("fluid.cavity_pressure", cav)
+    rig.set("fluid.cavity_pressure", "off" if kind == "off" else cav)
     sim = Simulation()
     if kind == "M42":
         with chambers_only():
@@ -66,10 +68,27 @@ def variant(rig, cav, kind):
     return sim, rig
 
 
+def model_size(rig, kind):
+    """The compiled model's size: bordered Jacobian nonzeros, f + J instructions, LU."""
+    from hydroline.compiled import codegen
+    from hydroline.scenarios import build_scenario
+    from hydroline.system import build_circuit
+
+    with chambers_only() if kind == "M42" else nullcontext():
+        circuit = build_circuit(rig)
+        sc = build_scenario(rig, axes=circuit.axes)
+        model = circuit.network(sc.commands).compile()
+    f, jac, _ = codegen.scaled_functions(model)
+    gen = codegen.generate(model, (f, jac, _))
+    return (f"bordered J {jac.sparsity_out(0).size1()}^2, {jac.sparsity_out(0).nnz()} nonzeros; "
+            f"instructions f {f.n_instructions()} + J {jac.n_instructions()}; "
+            f"LU {gen.lu_slots} slots, {gen.lu_flops} flops; C source {len(gen.source) / 1e3:.0f} kB")
+
+
 def cold_cpu(cav):
     """CPU [s] of `hydroline simulate --json` in a fresh process with an empty cache."""
     out = []
-    for text in ("", f'[fluid]\ncavity_pressure = "{cav}"\n'):
+    for text in ('[fluid]\ncavity_pressure = "off"\n', f'[fluid]\ncavity_pressure = "{cav}"\n'):
         with tempfile.TemporaryDirectory() as d:
             f = Path(d) / "rig.toml"
             f.write_text('[rig]\nbase = "default"\n' + text)
@@ -118,6 +137,8 @@ def main():
             c = statistics.median(cpu[k])
             print(f"  {solver:8s} {k:8s} steps {stats[k]['nsteps']:5d}  f {stats[k]['nfevals']:5d}"
                   f"  J {stats[k]['njevals']:4d}  run CPU {c * 1e3:8.2f} ms ({c / ref - 1:+.0%})")
+    for k, (sim, rig) in sims.items():
+        print(f"  compiled model {k:8s} " + model_size(rig, k))
     off, on = cold_cpu(cav)
     print(f"  cold `simulate --json` (empty cache, fresh process) CPU: {off:.2f} s off, "
           f"{on:.2f} s M42+M45 ({on / off - 1:+.0%})")

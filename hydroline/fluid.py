@@ -74,7 +74,9 @@ class Fluid:
     cavity_pressure : float or None
         Absolute pressure p_cav held by a gas/vapour cavity, [Pa]: below it chambers and
         volumes (M42) and the hose ends whose pressure a line puts out (M45) open a cavity;
-        None: no cavity model (pressures may fall below it, as before; the run warns).
+        None (a ``Fluid``'s default; a rig's ``cavity_pressure = "off"``): no cavity model
+        (pressures may fall below it, as before; the run warns). A rig's oil takes 5 kPa
+        unless the rig says otherwise (:func:`hydroline.circuit.rig_fluid`).
     cavity_pressure_drop : float
         Regularisation of the cavity (M42): the pressure falls this much below ``cavity_pressure``
         per unit cavity volume fraction (0 would be an ideal constant-pressure cavity), [Pa].
@@ -304,9 +306,13 @@ def cavity_volume_fraction(pressure, cavity_pressure: float, pressure_drop: floa
     >>> float(cavity_volume_fraction(2e3, 1e3, 1e3)), float(cavity_volume_fraction(-1e3, 1e3, 1e3))
     (0.0, 1.5)
     """
+    import numpy as np
+
     from .engine import ops
 
     x = ops.fmax((cavity_pressure - pressure) / pressure_drop, 0.0)
+    if not ops.is_symbolic(x) and not np.any(np.asarray(x) > 0):   # (no cavity in a run)
+        return x
     xs = ops.fmin(x, 1.0)
     return xs**3 - 0.5 * xs**4 + ops.fmax(x - 1.0, 0.0)
 

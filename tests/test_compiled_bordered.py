@@ -17,10 +17,12 @@ from hydroline.system import build_network
 needs_cc = pytest.mark.skipif(not compiled.available(), reason="no C compiler")
 
 
-def default_network(modes=None):
+def default_network(modes=None, cavity_pressure=None):
     rig = load_rig(None)
     if modes is not None:
         rig.set("rig.modes_per_section", modes)
+    if cavity_pressure is not None:
+        rig.set("fluid.cavity_pressure", cavity_pressure)
     sc = build_scenario(rig, "open-loop-step")
     return build_network(rig, sc.commands, sc.position_guess)
 
@@ -40,11 +42,88 @@ def test_a_network_cut_open_at_its_signals_evaluates_as_connected(rig_at_rest):
     network's derivatives and signals, bit for bit."""
     net, x, p = rig_at_rest
     dx, signals = net.evaluate(0.01, x, p)
-    cut = interface_signals(net)
+    # (the connections; the hose ends' cavities, cut open inside, below)
+    cut = [s for s in interface_signals(net) if isinstance(s, str)]
     assert cut and set(cut) <= set(signals)
     dx_cut, signals_cut = net.evaluate(0.01, x, p, given={s: signals[s] for s in cut})
     assert np.array_equal(np.array(dx_cut, dtype=float), np.array(dx, dtype=float))
     assert signals_cut == signals
+
+
+@pytest.fixture(scope="module")
+def cavitating_rig():
+    """The default rig with its cavity model on (M42, M45), near its rest state, with the
+    return hose's valve end (its upstream end) pulled to its cavity pressure: the end cavity's
+    rank-one term in d(dz/dt)/dz is then at its full size (dw/dp~ = -1/(2|k|))."""
+    net = default_network(cavity_pressure="5 kPa")
+    ss = solve_steady_state(net)
+    rng = np.random.default_rng(11)
+    x = ss.x + 0.02 * rng.normal(size=len(ss.x)) * net.state_scales
+    hose = next(c for c in net.components if c.name == "return.section1")
+    (_, i, _, _), = hose.cavity_ends
+    c = np.asarray(hose.model.C, dtype=float)[i]
+    index = [net.state_names.index(f"{hose.name}.{s.name}") for s in hose.states]
+    q = int(np.argmax(np.abs(c)))
+    x[index[q]] += (5e3 - c @ x[index]) / c[q]          # p~ = p_cav
+    assert c @ x[index] == pytest.approx(5e3, abs=1e-3)
+    return net, x, ss.p, hose
+
+
+def test_a_hose_end_cavity_is_cut_open_as_one_signal(cavitating_rig):
+    """The end cavity's lift (M45, the hose's internal signal) given its own value, the
+    network cut open there and at its connections evaluates as connected, bit for bit; the
+    bordered Jacobian's blocks of the hose sections are their lines' A, as without a cavity
+    model (the cavity adds one border row and column per end, not a dense block)."""
+    net, x, p, hose = cavitating_rig
+    assert hose.internal_signals == ("cavity_lift",)
+    cut = interface_signals(net)
+    ends = [(c.name, "cavity_lift") for c in net.components if getattr(c, "cavity_ends", ())]
+    assert len(ends) == 4 and cut[-4:] == ends
+    dx, signals = net.evaluate(0.01, x, p)
+    # (an internal signal's own value: returned where it is cut, whatever it was given)
+    _, own = net.evaluate(0.01, x, p, given={s: 0.0 for s in ends})
+    own.update(signals)
+    dx_cut, signals_cut = net.evaluate(0.01, x, p, given={s: own[s] for s in cut})
+    assert np.array_equal(np.array(dx_cut, dtype=float), np.array(dx, dtype=float))
+    assert {k: v for k, v in signals_cut.items() if isinstance(k, str)} == signals
+    # the lift at p~ = p_cav: softplus(0, delta) = delta ln 2
+    assert float(signals_cut[(hose.name, "cavity_lift")]) == pytest.approx(1e3 * np.log(2))
+
+    def hose_blocks(network):
+        pattern = generate_pattern(network)
+        out = {}
+        for c in network.components:
+            if isinstance(c, type(hose)):
+                rows = [network.state_names.index(f"{c.name}.{s.name}") for s in c.states]
+                out[c.name] = pattern[np.ix_(rows, rows)]
+        return out
+
+    plain = hose_blocks(default_network())
+    for name, block in hose_blocks(net).items():
+        assert np.array_equal(block, plain[name]), name
+
+
+def generate_pattern(network):
+    """The bordered Jacobian's pattern (states first), dense booleans."""
+    from hydroline.compiled.codegen import scaled_functions
+
+    _, jac, _ = scaled_functions(network.compile())
+    sp = jac.sparsity_out(0)
+    M = np.zeros(sp.shape, dtype=bool)
+    M[sp.row(), sp.get_col()] = True
+    return M
+
+
+@needs_cc
+def test_jacobian_with_open_end_cavities_is_casadis(cavitating_rig):
+    """As below, with the cavity model on and the return hose's end at its cavity pressure:
+    the rank-one term of the end cavity (through the cut lift) is in the assembled J."""
+    net, x, p, _ = cavitating_rig
+    s = net.state_scales
+    ref = net.compile().jacobian(0.01, x, p) * s[None, :] / s[:, None]
+    J = compiled.native_model(net).solver(p).scaled_jacobian(0.01, x)
+    assert np.abs(J - ref).max() <= 1e-10 * np.abs(ref).max()
+    assert np.all((ref != 0) <= (J != 0) | (np.abs(ref) < 1e-12 * np.abs(ref).max()))
 
 
 @needs_cc

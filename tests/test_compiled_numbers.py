@@ -26,9 +26,12 @@ def network_of(rig, scenario="open-loop-step"):
 
 def numeric_paths(rig):
     """The rig's numeric values (numbers and lists of numbers), but the rig's own switches
-    (``rig.*``: modes per section, line method) and the modes, which are structure."""
+    (``rig.*``: modes per section, line method), the modes, and the oil's cavity model
+    (M42, M45: what a chamber or hose reads of the oil is in its graph), which are
+    structure."""
     return sorted(path for path, v in rig.values.items()
                   if not path.startswith("rig.") and not path.endswith(".modes")
+                  and not path.startswith("fluid.cavity_pressure")
                   and not isinstance(v, bool)
                   and (isinstance(v, float) or (isinstance(v, list) and v
                                                 and all(isinstance(a, float) for a in v))))
@@ -125,7 +128,9 @@ def test_the_oil_s_chamber_model_is_structure_its_other_properties_are_not():
     with_air = key_with(air_content=0.01)
     assert with_air != key                                   # air-free -> air: a new graph
     assert key_with(air_content=0.02) not in (key, with_air)  # its number is in that graph
-    assert key_with(cavity_pressure=5e3) not in (key, with_air)
+    off = key_with(cavity_pressure=None)          # the rig's cavity model (on by default)
+    assert off not in (key, with_air)
+    assert key_with(cavity_pressure=2e3) not in (key, with_air, off)
 
 
 def test_a_python_branch_on_a_number_keeps_that_network_s_numbers_in_its_graph():

@@ -235,3 +235,21 @@ def test_cavity_collapse_does_not_hang_on_the_rest_states_rounding():
         assert cavity == pytest.approx(reference[0], rel=0.01), seed
         assert port == pytest.approx(reference[1], rel=0.01), seed
         assert np.abs(balance).max() < 0.02 * port, seed
+
+
+def test_a_rig_has_the_cavity_model_unless_it_says_off():
+    """Issue 30: a rig's oil holds cavities at 5 kPa unless the rig gives another pressure or
+    "off" / "none" (any case); a value that is neither is refused in one line naming both."""
+    from hydroline import load_rig
+    from hydroline.circuit import rig_fluid
+    from hydroline.rigs import RigError
+
+    rig = load_rig(None)
+    assert rig_fluid(rig).cavity_pressure == 5e3
+    del rig.values["fluid.cavity_pressure"]                   # not in the rig: the default
+    assert rig_fluid(rig).cavity_pressure == 5e3
+    for text in ("off", "none", " Off "):
+        assert rig_fluid(load_rig(None).set("fluid.cavity_pressure", text)).cavity_pressure is None
+    assert rig_fluid(load_rig(None).set("fluid.cavity_pressure", "2 kPa")).cavity_pressure == 2e3
+    with pytest.raises(RigError, match=r'^fluid\.cavity_pressure: .*; or "off"'):
+        load_rig(None).set("fluid.cavity_pressure", "of")

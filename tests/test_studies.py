@@ -791,11 +791,13 @@ def test_graph_signature_tells_structures_apart():
     assert graph_signature(other) != base and graph_signature(other) != graph_signature(net)
 
 
-def test_hose_variant_parameters_equal_a_full_build():
+@pytest.mark.parametrize("cavity_pressure", ["off", "5 kPa"])
+def test_hose_variant_parameters_equal_a_full_build(cavity_pressure):
     """A variant that differs only in hose length, bore or bulk modulus gets, without a
     network build, exactly the p a full build of it gives (the hoses' matrix entries, M8-M14,
-    and every other parameter); anything else (a section removed, another pre-charge, a
-    fluid property) is left to the full build."""
+    with the cavity model their end cavities' gains C b, M45, and every other parameter);
+    anything else (a section removed, another pre-charge, a fluid property) is left to the
+    full build."""
     from hydroline.components.hose import coefficients_as_parameters
     from hydroline.scenarios import build_scenario
     from hydroline.studies.sweep import SharedModel
@@ -808,7 +810,10 @@ def test_hose_variant_parameters_equal_a_full_build():
             return circuit.network(sc.commands), circuit, sc
 
     base = load_rig()
+    base.set("fluid.cavity_pressure", cavity_pressure)
     model = SharedModel(*built(base), base.values)
+    assert any(k.endswith(".cavity_gain0") for k in model.network.parameter_names) \
+        == (cavity_pressure != "off")
     for changes in ({"supply.section2.length": "0.4 m", "return.section2.length": "2.5 m"},
                     {"supply.section1.diameter": "20 mm", "return.section2.bulk_modulus": "300 MPa"},
                     {"supply.section2.length": "1.7 m", "supply.section2.bulk_modulus": "150 MPa"}):

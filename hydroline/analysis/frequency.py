@@ -37,9 +37,9 @@ from .. import components as comp
 from ..components import HoseSection
 from ..engine import Network
 from ..rigs import Rig, load_rig
-from .linearize import (OperatingPoint, SolvedOperatingPoint, axis_signal, check_names,
-                        friction_slope, input_parameter, jacobians, linear_network, transfer_state,
-                        solve_operating_point)
+from .linearize import (OperatingPoint, SolvedOperatingPoint, axis_signal, balancing_scales,
+                        check_names, friction_slope, input_parameter, jacobians, linear_network,
+                        transfer_state, solve_operating_point)
 
 __all__ = ["state_space_response", "bandwidth", "passband", "Passband", "Resonance", "resonances",
            "LineCoupledModel", "line_coupled_model", "exact_resonances", "highest_retained_mode"]
@@ -541,7 +541,7 @@ def line_coupled_model(rig: Rig | str | None = None, operating_point: OperatingP
         A[:, iv] += slope * B[:, -1]
         C[:, iv] += slope * D[:, -1]
         B, D = B[:, :-1], D[:, :-1]
-    return LineCoupledModel(hoses, inputs, outputs, A, B, C, D, rest.state_scales.copy(), solved)
+    return LineCoupledModel(hoses, inputs, outputs, A, B, C, D, balancing_scales(rest, x), solved)
 
 
 def highest_retained_mode(model: LineCoupledModel) -> float:

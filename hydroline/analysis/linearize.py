@@ -64,7 +64,7 @@ from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import hold_other_axes
 from ..system import build_circuit
 
-__all__ = ["OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
+__all__ = ["balancing_scales", "OperatingPointError", "INPUTS", "DEFAULT_INPUTS", "DEFAULT_OUTPUTS", "OperatingPoint", "SolvedOperatingPoint",
            "solve_operating_point", "linearize", "linear_network", "jacobians", "SUPPLIES",
            "AXIS_SIGNALS", "VALVE_COMMAND", "select_axis", "axis_network", "axis_signal", "input_parameter", "check_names",
            "transfer_state", "friction_slope", "LinearModel", "linear_model"]
@@ -748,7 +748,29 @@ def linear_model(rig: Rig | str | None = None, operating_point: OperatingPoint |
     solved = solve_operating_point(rig, operating_point, supply, axis=axis)
     net, x, p, A, B, C, D = _linear_parts(rig, solved, inputs, outputs, friction)
     return LinearModel(A, B, C, D, list(net.state_names), inputs, outputs, solved,
-                       net.state_scales.copy())
+                       balancing_scales(net, x))
+
+
+def balancing_scales(net: Network, x) -> np.ndarray:
+    """Typical state magnitudes at an operating point, to balance A before numerical work:
+    the network's state scales, or the state's own size where that is larger (a chamber
+    pressure with a cavity model has its integrators' scale at 100 ``cavity_pressure_drop``,
+    ``fluid.chamber_pressure_scale``, far below the ~10 MPa it holds: balanced on it, the
+    eigenvectors of the default rig's A were numerically singular).
+
+    Parameters
+    ----------
+    net : Network
+        The linearised network
+    x : ndarray
+        Its states at the operating point, [SI]
+
+    Returns
+    -------
+    ndarray
+        Scales, [SI]
+    """
+    return np.maximum(np.asarray(net.state_scales, dtype=float), np.abs(np.asarray(x, dtype=float)))
 
 
 def linearize(rig: Rig | str | None = None, operating_point: OperatingPoint | None = None,

@@ -397,7 +397,9 @@ def rewire(parts: list, overrides: dict, allow_unknown: bool = False):
 
 
 def rig_fluid(rig) -> Fluid:
-    """The rig's oil (``[fluid]``: density, kinematic viscosity, bulk modulus).
+    """The rig's oil (``[fluid]``: density, kinematic viscosity, bulk modulus; entrained air
+    where given; the cavity model at ``cavity_pressure``, 5 kPa unless the rig gives another
+    or ``"off"``).
 
     Parameters
     ----------
@@ -414,10 +416,15 @@ def rig_fluid(rig) -> Fluid:
     CircuitError
         One line naming the fluid parameter at fault
     """
+    from .types import FLUID_PARAMETERS
+
     try:
         extra = {k: rig[f"fluid.{k}"] for k in ("air_content", "air_polytropic_exponent",
-                                                  "cavity_pressure", "cavity_pressure_drop")
+                                                  "cavity_pressure_drop")
                  if rig.get(f"fluid.{k}") is not None}
+        # the cavity model: on by default (M42, M45); a rig's "off" is held as None
+        extra["cavity_pressure"] = rig.get("fluid.cavity_pressure",
+                                           FLUID_PARAMETERS["cavity_pressure"].default)
         return Fluid(rig["fluid.density"], rig["fluid.kinematic_viscosity"], rig["fluid.bulk_modulus"],
                      **extra)
     except ValueError as e:

@@ -72,12 +72,15 @@ FLUID_PARAMETERS = {
     "air_polytropic_exponent": Parameter("-", "n of the entrained air: 1 isothermal ... 1.4 "
                                          "adiabatic (M40)", 1.0, 5.0 / 3.0, default=1.0,
                                          plausible=(1.0, 1.4)),
-    # cavitation (M42): vapour pressure of mineral oil ~1e1-1e3 Pa at 40 degC, gas release
-    # (air saturation) up to 1 atm (Totten, Handbook of Hydraulic Fluid Technology, 2000;
-    # Wylie & Streeter, Fluid Transients, 1993, ch. 8 for the cavity treatment)
+    # cavitation (M42, M45): vapour pressure of mineral oil ~1e1-1e3 Pa at 40 degC, gas
+    # release (air saturation) up to 1 atm (Totten, Handbook of Hydraulic Fluid Technology,
+    # 2000; Wylie & Streeter, Fluid Transients, 1993, ch. 8 for the cavity treatment). On by
+    # default at 5 kPa, above the vapour pressures (Hopsan's lines clamp at 0 Pa): no rig
+    # reads a negative absolute pressure; "off" (or "none") in a rig file: no cavity model
     "cavity_pressure": Parameter("Pa", "absolute pressure of a gas/vapour cavity; below it "
-                                 "chambers, volumes (M42) and hose ends (M45) open a cavity; absent: none",
-                                 0.0, 1e7, optional=True, plausible=(0.0, 2e5)),
+                                 "chambers, volumes (M42) and hose ends (M45) open a cavity; "
+                                 "\"off\": none", 0.0, 1e7, optional=True, default=5e3,
+                                 plausible=(0.0, 2e5)),
     "cavity_pressure_drop": Parameter("Pa", "regularisation: pressure fall per unit cavity "
                                       "volume fraction (M42), width of a hose end's (M45)", 0.0, exclusive_minimum=True,
                                       default=1e3, plausible=(1.0, 1e5)),

@@ -199,11 +199,14 @@ def scaled_functions(model):
             ca.Function("hl_signals", inputs, [y]))
 
 
-def interface_signals(network) -> list[str]:
+def interface_signals(network) -> list:
     """The connections the bordered Jacobian cuts open: every signal some component reads
     whose producer has states or feed-through (a value that moves with the states), in the
-    network's signal order; none where the network cannot be evaluated cut open (a model
-    without :meth:`~hydroline.engine.Network.evaluate`, e.g. the FMU's plant).
+    network's signal order, then every component's
+    :attr:`~hydroline.engine.component.Component.internal_signals` as ``(component name,
+    internal name)`` (a hose end's cavity-free pressure: read by all the section's states,
+    it would make its block dense); none where the network cannot be evaluated cut open (a
+    model without :meth:`~hydroline.engine.Network.evaluate`, e.g. the FMU's plant).
 
     Parameters
     ----------
@@ -212,8 +215,9 @@ def interface_signals(network) -> list[str]:
 
     Returns
     -------
-    list of str
-        Signal names, in the network's signal order.
+    list
+        Signal names (str), in the network's signal order, then (component name, internal
+        signal name) pairs.
     """
     if not callable(getattr(network, "evaluate", None)) or not hasattr(network, "producer"):
         return []
@@ -223,7 +227,7 @@ def interface_signals(network) -> list[str]:
         c, _ = network.producer[sig]
         if sig in read and (c.states or c.feedthrough):
             out.append(sig)
-    return out
+    return out + [(c.name, name) for c in network.components for name in c.internal_signals]
 
 
 def bordered_jacobian(model, z, x_of_z, y, dz, inverse_scales=None, equations=None):
@@ -271,7 +275,9 @@ def bordered_jacobian(model, z, x_of_z, y, dz, inverse_scales=None, equations=No
                       *[ca.SX(sig[s]) for s in cut])
     jac = ca.jacobian(rows, ca.vertcat(z, v))
     at = {s: k for k, s in enumerate(net.signal_names)}
-    return ca.substitute(jac, v, ca.vertcat(*[y[at[s]] for s in cut]))
+    # (an internal signal's value is its component's, of the states alone: sig holds it)
+    return ca.substitute(jac, v, ca.vertcat(*[y[at[s]] if s in at else ca.SX(sig[s])
+                                              for s in cut]))
 
 
 def schur_pattern(n: int, colind, row):

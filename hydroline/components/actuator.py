@@ -238,13 +238,16 @@ class Actuator(Component):
             / self.moving_mass,
         }
 
-    def cavity_volumes(self, x):
+    def cavity_volumes(self, x, outputs=None):
         """Gas/vapour cavity volume in each chamber (M42), [m^3].
 
         Parameters
         ----------
         x : dict
             States (arrays of a run allowed), local name -> value [SI]
+        outputs : dict, optional
+            Its outputs there, local port name -> value [SI] (not needed: the pressures
+            are states)
 
         Returns
         -------

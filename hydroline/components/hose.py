@@ -14,6 +14,12 @@ from ..fluid import Fluid
 __all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
 _QUANTITY = {"pressure": "pressure", "flow": "flow"}
+#: The internal signal of a section with an end cavity (M45): ``|k| w``, what the cavity holds
+#: the end's pressure above the line's own, [Pa]
+CAVITY_LIFT = "cavity_lift"
+#: Runtime parameters ``<GAIN><row>`` of a section with an end cavity: ``[C b]_row``, the rate
+#: of each output per unit end flow (M45)
+GAIN = "cavity_gain"
 
 #: Hose sections made while this is True read their line's matrix entries (the nonzeros of A,
 #: B, C, D, M8-M14) from the runtime parameters ``p`` instead of the graph's constants, so
@@ -86,7 +92,12 @@ class HoseSection(Component):
     :func:`hydroline.engine.ops.softplus`): the ideal cavity of the discrete vapour cavity
     model at the line's end, smoothed. The cavity closes when the oil it misses has come
     back; the collapse peak is the line's own water hammer. Without a cavity model the
-    states are the line's own.
+    states are the line's own. ``|k| w`` (the end's pressure above ``p~``) is the section's
+    internal signal ``cavity_lift``
+    (:attr:`~hydroline.engine.component.Component.internal_signals`), computed once per
+    evaluation: every state reads it, so the compiled core's bordered Jacobian takes it as
+    one row and column (the rank-one term ``-s (A b) (dw/dp~) c^T`` of ``d(dz/dt)/dz``) and
+    the section's block stays as sparse as the line's A.
     """
 
     model: StateSpaceLine = None
@@ -158,9 +169,39 @@ class HoseSection(Component):
         return {end: HydraulicEnd(f"{end}_pressure", (f"{end}_flow",), compliant=True)
                 for end in ("upstream", "downstream")}
 
+    @property
+    def internal_signals(self):
+        """``("cavity_lift",)`` with an end cavity (M45: ``|k| w``, what the cavity holds the
+        end's pressure above the line's own ``p~``), else none."""
+        return (CAVITY_LIFT,) if self.cavity_ends else ()
+
+    def internal_values(self, t, x, p):
+        """The end cavity's lift ``|k| w = softplus(p_cav - p~, delta)`` with an end cavity
+        (M45), [Pa].
+
+        Parameters
+        ----------
+        t : float
+            Time, [s]
+        x : dict
+            States (the shifted ``z``), local name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        dict
+            ``{"cavity_lift": |k| w}``, [Pa]; empty without an end cavity.
+        """
+        if not self.cavity_ends:
+            return {}
+        xv, _ = self._vectors(x, {})
+        return {CAVITY_LIFT: self._lift(xv, {}, p)}
+
     def _vectors(self, x, u):
         xv = ops.vertcat([x[s.name] for s in self._states])
-        uv = ops.vertcat([u[n] for n in self.model.input_names]) if u else None
+        names = self.model.input_names
+        uv = ops.vertcat([u[n] for n in names]) if names and names[0] in u else None
         return xv, uv
 
     def runtime_parameters(self):
@@ -174,8 +215,43 @@ class HoseSection(Component):
         """
         if self.coefficient_pattern is None:
             return {}
-        return {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
-                for name, i, j in self.coefficient_pattern}
+        out = {f"{name}{i}_{j}": float(getattr(self.model, name)[i, j])
+               for name, i, j in self.coefficient_pattern}
+        if self.cavity_ends:
+            out.update((f"{GAIN}{r}", g) for r, g in enumerate(self._gains(None)))
+        return out
+
+    def parameters_for(self, model):
+        """The runtime parameters this section takes for a line model of the same pattern
+        (another length, bore or bulk modulus: a study's variant, without making a section
+        for it), in :meth:`runtime_parameters`' order: the matrices' nonzero entries, then,
+        with an end cavity (M45), the end flow's gains ``C b`` (the rate of each output per
+        unit end flow, of the matrices alone: a product per run, not per evaluation).
+
+        Parameters
+        ----------
+        model : StateSpaceLine
+            The line model (e.g. a variant's ``ModalLine`` of the same modes and form)
+
+        Returns
+        -------
+        list[float] or None
+            Values, [SI units of the state-space model]; None where the section does not
+            carry its matrices in the parameters, or the model's pattern differs
+        """
+        if self.coefficient_pattern is None:
+            return None
+        values = []
+        for name in _MATRICES:
+            a = np.asarray(getattr(model, name), dtype=float)
+            rows, cols = np.nonzero(a)
+            mine = [(i, j) for m, i, j in self.coefficient_pattern if m == name]
+            if mine != list(zip(rows.tolist(), cols.tolist())):
+                return None
+            values += a[rows, cols].tolist()
+        if self.cavity_ends:
+            values += self._gains(None, model)
+        return values
 
     def structure_attributes(self, attributes: dict) -> dict:
         """As :meth:`Component.structure_attributes`; where the line's matrix entries are
@@ -224,56 +300,101 @@ class HoseSection(Component):
 
     def outputs_of(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
-        if self.cavity_ends:
-            xv = self._line_states(xv, p)
         rows = len(self.model.output_names)
         y = self._product("C", xv, p, rows)
+        if self.cavity_ends:                   # y = C x = C z + (lift / k) C b (M45)
+            (_, i, j, _), = self.cavity_ends
+            lift = self._lift(xv, u, p)
+            gains = self._gains(p)
+            per_k = lift / gains[i]
+            y = ops.vertcat([y[r] + lift if r == i else y[r] + gains[r] * per_k
+                             for r in range(rows)])
         if self.feedthrough:
             y = y + self._product("D", uv, p, rows)
         return {n: y[i] for i, n in enumerate(self.model.output_names)}
 
     def derivatives(self, t, x, u, p):
         xv, uv = self._vectors(x, u)
-        if self.cavity_ends:
-            xv = self._line_states(xv, p)       # dz/dt = A x + B u (M45)
+        if self.cavity_ends:                   # dz/dt = A x + B u (M45)
+            xv = self._line_states(xv, u, p)
         rows = len(self._states)
         dx = self._product("A", xv, p, rows) + self._product("B", uv, p, rows)
         return {s.name: dx[i] for i, s in enumerate(self._states)}
 
-    def _line_states(self, z, p):
-        """The line's states ``x = z - s w b`` from the shifted states z (M45)."""
-        (_, i, j, s), = self.cavity_ends
-        rows, n_out = len(self._states), len(self.model.output_names)
-        unit = [0.0] * len(self.model.input_names)
-        unit[j] = 1.0
-        b = self._product("B", ops.vertcat(unit), p, rows)
-        k = self._product("C", b, p, n_out)[i]               # s k < 0
-        free = self._product("C", z, p, n_out)[i]            # p~, the end without the cavity
-        w = ops.softplus(self.fluid.cavity_pressure - free,
-                         self.fluid.cavity_pressure_drop) / (-s * k)
-        return z - b * (s * w)
+    def _free_pressure(self, z, p):
+        """p~ = [C z], the cavity end's pressure without the cavity (M45), [Pa]."""
+        (_, i, _, _), = self.cavity_ends
+        return self._product("C", z, p, len(self.model.output_names))[i]
 
-    def cavity_volumes(self, x):
+    def _lift(self, z, u, p):
+        """``|k| w = softplus(p_cav - p~, delta)``: what the end cavity holds the end's
+        pressure above the line's own (M45), [Pa]; given in u (the network's, computed once
+        per evaluation, or the bordered Jacobian's cut), else from z."""
+        if CAVITY_LIFT in u:
+            return u[CAVITY_LIFT]
+        return ops.softplus(self.fluid.cavity_pressure - self._free_pressure(z, p),
+                            self.fluid.cavity_pressure_drop)
+
+    def _column(self, name, j, p, rows):
+        """Column j of matrix ``name`` (from p where its entries are parameters)."""
+        if self.coefficient_pattern is None:
+            return ops.vertcat([float(v) for v in np.asarray(getattr(self.model, name))[:, j]])
+        column = [0.0] * rows
+        for m, r, c in self.coefficient_pattern:
+            if m == name and c == j:
+                column[r] = p[f"{m}{r}_{c}"]
+        return ops.vertcat(column)
+
+    def _line_states(self, z, u, p):
+        """The line's states ``x = z - s w b = z + (|k| w / k) b`` from the shifted states z
+        (M45; ``s k < 0``)."""
+        (_, i, j, _), = self.cavity_ends
+        b = self._column("B", j, p, len(self._states))
+        return z + b * (self._lift(z, u, p) / self._gains(p)[i])
+
+    def _gains(self, p, model=None):
+        """``C b``: each output's rate per unit end flow (M45; ``k`` its end pressure's), from
+        the runtime parameters p where the matrices are there, else from ``model`` (this
+        section's by default)."""
+        if p is not None and self.coefficient_pattern is not None:
+            return [p[f"{GAIN}{r}"] for r in range(len(self.model.output_names))]
+        m = self.model if model is None else model
+        (_, _, j, _), = self.cavity_ends
+        return (np.asarray(m.C, dtype=float) @ np.asarray(m.B, dtype=float)[:, j]).tolist()
+
+    def cavity_volumes(self, x, outputs=None):
         """Gas/vapour cavity volume at the end that holds one (M45), [m^3].
 
         Parameters
         ----------
         x : dict
             States (arrays of a run allowed), local name -> value [SI]
+        outputs : dict, optional
+            Its outputs there, local port name -> value [SI]: where the end's pressure
+            stays ``38 delta`` above ``p_cav``, so does ``p~`` (``p_end - p_cav =
+            softplus(p~ - p_cav, delta)``), and the states are not read
 
         Returns
         -------
         dict
             ``{"upstream end": w}`` or ``{"downstream end": w}``, [m^3]; empty without an
-            end cavity
+            end cavity. Zero where ``p~`` lies more than ``37 delta`` above ``p_cav``: the
+            lift ``|k| w < 1e-16 delta`` is then below the rounding of ``p~`` (no pressure of
+            the model moves)
         """
         if not self.cavity_ends:
             return {}
         (end, i, j, s), = self.cavity_ends
         C, B = np.asarray(self.model.C, dtype=float), np.asarray(self.model.B, dtype=float)
-        z = np.array([np.asarray(x[st.name], dtype=float) for st in self._states])
-        free = np.tensordot(C[i], z, axes=1)
-        w = ops.softplus(self.fluid.cavity_pressure - free, self.fluid.cavity_pressure_drop)
+        delta = self.fluid.cavity_pressure_drop
+        p_end = (outputs or {}).get(f"{end}_pressure")
+        if p_end is not None and np.min(p_end) > self.fluid.cavity_pressure + 38.0 * delta:
+            return {f"{end} end": np.zeros_like(np.asarray(p_end, dtype=float))}
+        free = sum(C[i, r] * np.asarray(x[self._states[r].name], dtype=float)
+                   for r in np.flatnonzero(C[i]))
+        y = self.fluid.cavity_pressure - free
+        lifted = y > -37.0 * delta
+        w = np.where(lifted, ops.softplus(y, delta), 0.0) if np.any(lifted) else np.zeros_like(y)
         return {f"{end} end": w / (-s * float(C[i] @ B[:, j]))}
 
     def initial_guess(self):

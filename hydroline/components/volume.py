@@ -108,13 +108,16 @@ class HydraulicVolume(Component):
         return {"pressure": net / oil_compliance(self.volume, x["pressure"],      # (M41)
                                                  self.bulk_modulus, self.fluid)}
 
-    def cavity_volumes(self, x):
+    def cavity_volumes(self, x, outputs=None):
         """Gas/vapour cavity volume in the node (M42), [m^3].
 
         Parameters
         ----------
         x : dict
             States (arrays of a run allowed), local name -> value [SI]
+        outputs : dict, optional
+            Its outputs there, local port name -> value [SI] (not needed: the pressures
+            are states)
 
         Returns
         -------

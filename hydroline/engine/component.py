@@ -15,10 +15,12 @@ algebraic loops.
 
 Optional parts of the contract: ``runtime_parameters()`` (values that may change between runs
 without recompiling), ``initial_guess()`` and ``settle()`` (the steady-state solve),
-``breakpoints()`` (times where an input jumps), and for a *sampled* component (a digital
-controller) ``sample_time`` [s] with ``sample(x, u)``: at every multiple of the sample time the
-integrator stops, calls ``sample`` with the states and inputs there, and holds the runtime
-parameters it returns until the next instant (zero-order hold).
+``breakpoints()`` (times where an input jumps), ``internal_signals`` with
+``internal_values()`` (values of its own states it reads back through one number, which the
+compiled core's bordered Jacobian cuts open as a connection), and for a *sampled* component
+(a digital controller) ``sample_time`` [s] with ``sample(x, u)``: at every multiple of the
+sample time the integrator stops, calls ``sample`` with the states and inputs there, and holds
+the runtime parameters it returns until the next instant (zero-order hold).
 """
 from __future__ import annotations
 
@@ -375,6 +377,15 @@ class Component:
     #: that outputs the signal of that port (a load's mass rides on the actuator whose
     #: position it reads)
     adds_to = ()
+    #: Names of values the component computes from its own states and parameters
+    #: (:meth:`internal_values`) and reads back in its outputs and derivatives through that one
+    #: number (a hose end's cavity-free pressure, M45). The compiled core's bordered Jacobian
+    #: cuts the component open there as at a connection (:mod:`hydroline.compiled.codegen`): a
+    #: value that moves every state stays one row and one column instead of a dense block.
+    #: ``outputs_of`` and ``derivatives`` find such a value in ``u`` under its name where the
+    #: network is cut open there (:meth:`~hydroline.engine.Network.evaluate` with ``given``)
+    #: and compute it themselves otherwise
+    internal_signals = ()
 
     # ---- parameters ----------------------------------------------------------------------
     @classmethod
@@ -508,6 +519,25 @@ class Component:
         return {}
 
     # ---- optional hooks ------------------------------------------------------------------
+    def internal_values(self, t, x, p) -> dict:
+        """The values of :attr:`internal_signals` at (t, x), name -> value [SI].
+
+        Parameters
+        ----------
+        t : float
+            Time, [s]
+        x : dict
+            States, local name -> value [SI]
+        p : dict
+            Runtime parameters, name -> value [SI]
+
+        Returns
+        -------
+        dict
+            Internal signal name -> value [SI]; empty without internal signals.
+        """
+        return {}
+
     def runtime_parameters(self) -> dict:
         """Parameters that may change without rebuilding the compiled model, name -> value.
 

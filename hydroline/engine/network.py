@@ -320,7 +320,11 @@ class Network:
             take instead of its producer's output (the network cut open at
             those connections, e.g. to differentiate each component apart from
             its neighbours); the producer's own output is still returned in
-            ``signals``. None: no connection cut
+            ``signals``. A key ``(component name, internal signal name)`` cuts a
+            component open at one of its
+            :attr:`~hydroline.engine.component.Component.internal_signals`: it
+            reads the value given, and its own value is returned in ``signals``
+            under that key. None: no connection cut
 
         Returns
         -------
@@ -335,15 +339,25 @@ class Network:
         signals = {}
         split = {}
 
-        def read(c):
-            return {port: given[c.signal(port)] if c.signal(port) in given
-                    else signals[c.signal(port)] for port in c.inputs}
+        internal = {}       # component -> its internal signals as it reads them
+
+        def read(c, ports=True):
+            u = {port: given[c.signal(port)] if c.signal(port) in given
+                 else signals[c.signal(port)] for port in c.inputs} if ports else {}
+            u.update(internal.get(c.name, {}))
+            return u
 
         for c in self._order:
             xs, ps = self.component_values(c, x, p)
             split[c.name] = (xs, ps)
-            u = read(c) if c.feedthrough else {}
-            y = equations.get(c.name, c).outputs_of(t, xs, u, ps)
+            eq = equations.get(c.name, c)
+            if c.internal_signals:       # once per evaluation; given: the component cut open
+                values = eq.internal_values(t, xs, ps)
+                internal[c.name] = {name: given.get((c.name, name), values[name])
+                                    for name in c.internal_signals}
+                signals.update({(c.name, name): values[name] for name in c.internal_signals
+                                if (c.name, name) in given})
+            y = eq.outputs_of(t, xs, read(c, c.feedthrough), ps)
             for port in c.outputs:
                 signals[c.signal(port)] = y[port]
         dx = [None] * len(self.state_names)

@@ -150,7 +150,9 @@ static int hl_solve_steady(hl_fmu* m) {
         if (!finite || nn > 10. * norm) { dt *= 0.1; if (dt < 1e-14) break; continue; }
         memcpy(z, zn, sizeof z);
         memcpy(f, fn, sizeof f);
-        dt = fmin(dt * fmax(norm / fmax(nn, 1e-300), 0.5), 1e12);
+        /* grown by the residual ratio and at least 1.5x per accepted step, as the Python
+         * solver does (hydroline.engine.steady_state): a slow transient would creep */
+        dt = fmin(dt * fmax(norm / fmax(nn, 1e-300), 1.5), 1e12);
         norm = nn;
         if (r < HL_FMU_STEADY_TOL) {
             for (int i = 0; i < HL_N; i++) m->x[i] = z[i] * m->S.scale[i];

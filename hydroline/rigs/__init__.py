@@ -228,7 +228,19 @@ def _parse(path: str, raw, context: dict | None = None):
     if unit is None:
         raise RigError(f"{path}: unknown parameter '{key}' of '{section}' "
                        f"(known: {', '.join(sorted(SCHEMA[section]))})")
+    if path in SWITCHED_OFF_BY_TEXT:
+        if isinstance(raw, str) and raw.strip().lower() in ("off", "none"):
+            return None
+        try:
+            return _parse_as(path, raw, unit)
+        except RigError as e:
+            raise RigError(f'{e}; or "off" (the feature switched off)') from None
     return _parse_as(path, raw, unit)
+
+
+#: Parameters whose feature is on by default and which a rig switches off with the text
+#: "off" (or "none"), held as None: the cavity model (M42, M45)
+SWITCHED_OFF_BY_TEXT = frozenset({"fluid.cavity_pressure"})
 
 
 def _parse_as(path: str, raw, unit: str):

@@ -75,8 +75,8 @@ class Parameter:
         When the parameter changes a run: "always", a scenario name,
         "close-coupled" (section II of zero length), "lugre" (friction model),
         "modal-accumulator", "load-spring" (a load stiffness given),
-        "entrained-air" (a fluid.air_content given), "cavity" (a
-        fluid.cavity_pressure given), "viscoelastic" (a hose wall given)
+        "entrained-air" (a fluid.air_content given), "cavity" (the cavity model
+        on: fluid.cavity_pressure not "off"), "viscoelastic" (a hose wall given)
     zero_allowed : bool
         0 is accepted below ``low`` (a length of 0 removes a hose section)
     integer : bool
@@ -218,11 +218,12 @@ PARAMETERS: Mapping = DerivedTable({
     "fluid.density": Declared(),
     "fluid.kinematic_viscosity": Declared(),
     "fluid.bulk_modulus": Declared(),
-    # entrained air, cavities and viscoelastic walls: off unless the rig turns them on (their
-    # defaults are not reported as used by a rig without them)
+    # entrained air and viscoelastic walls: off unless the rig turns them on (their defaults
+    # are not reported as used by a rig without them); cavities: on unless the rig says
+    # cavity_pressure = "off" (issue 30: no negative absolute pressure)
     "fluid.air_content": Declared(COMPONENT_DEFAULT, scope="entrained-air"),
     "fluid.air_polytropic_exponent": Declared(COMPONENT_DEFAULT, scope="entrained-air"),
-    "fluid.cavity_pressure": Declared(default=None),
+    "fluid.cavity_pressure": Declared(COMPONENT_DEFAULT),
     "fluid.cavity_pressure_drop": Declared(COMPONENT_DEFAULT, scope="cavity"),
     "fluid.gas_release_pressure": Parameter(
         "Pa", 0.0, 1e6, "absolute pressure below which dissolved air leaves the oil (the line "
@@ -539,7 +540,7 @@ def _in_scope(rig, p: Parameter, path: str, scenario: str | None) -> bool:
     if p.scope == "entrained-air":
         return bool(rig.get("fluid.air_content"))
     if p.scope == "cavity":
-        return rig.get("fluid.cavity_pressure") is not None
+        return _value(rig, "fluid.cavity_pressure") is not None
     if p.scope == "viscoelastic":
         section = path.rpartition(".")[0]
         return bool(rig.get(f"{section}.creep_compliances") or

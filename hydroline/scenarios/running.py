@@ -9,6 +9,7 @@ module's :data:`DEFAULT_SIMULATION`.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 import time as _time
 from dataclasses import replace
 
@@ -386,6 +387,22 @@ def axes_pressures(axes: dict) -> list[str]:
     return out + [s for s in WATCHED_NODES if s not in out]
 
 
+class _LazyColumns(Mapping):
+    """A run's state columns by local state name, each read when asked for."""
+
+    def __init__(self, res, columns: dict):
+        self._res, self._columns = res, columns
+
+    def __getitem__(self, name):
+        return self._res[self._columns[name]]
+
+    def __iter__(self):
+        return iter(self._columns)
+
+    def __len__(self):
+        return len(self._columns)
+
+
 def cavity_warnings(res: SimulationResult, net) -> list[str]:
     """One warning per chamber, volume or hose end in which a gas/vapour cavity opened (M42,
     M45: the component's ``cavity_equation``): when, and how large it grew (from the run's state columns; none for a run that did not keep them).
@@ -410,7 +427,11 @@ def cavity_warnings(res: SimulationResult, net) -> list[str]:
         cols = {s.name: f"{c.name}.{s.name}" for s in c.states}
         if not all(k in res for k in cols.values()):
             continue
-        for where, v in c.cavity_volumes({k: res[col] for k, col in cols.items()}).items():
+        # (each column read when asked for: a hose end reads its end pressure, or a few of
+        # its modes)
+        outputs = _LazyColumns(res, {port: c.signal(port) for port in c.outputs
+                                     if c.signal(port) in res})
+        for where, v in c.cavity_volumes(_LazyColumns(res, cols), outputs).items():
             v = np.asarray(v, dtype=float)
             i = int(np.argmax(v))
             if v[i] <= 0:

@@ -480,23 +480,18 @@ class SharedModel:
     """
 
     def __init__(self, network, circuit, scenario, values: dict):
-        from ..components.hose import COEFFICIENT_MATRICES, HoseSection
+        from ..components.hose import HoseSection
 
         self.network, self.circuit, self.scenario = network, circuit, scenario
         self.values = dict(values)
         self.p = network.parameter_values.copy()
         self.hoses, self.hose_entries = {}, {}
-        self._patterns = {}     # hose -> ((matrix, rows, columns), ...) of its entries in p
         for c in network.components:
             if isinstance(c, HoseSection) and c.coefficient_pattern is not None:
                 self.hoses[c.name] = c
                 self.hose_entries[c.name] = np.array(
                     [network.parameter_names.index(f"{c.name}.{k}")
                      for k in c.runtime_parameters()], dtype=np.intp)
-                self._patterns[c.name] = tuple(
-                    (m, np.array([i for n, i, _ in c.coefficient_pattern if n == m], dtype=np.intp),
-                     np.array([j for n, _, j in c.coefficient_pattern if n == m], dtype=np.intp))
-                    for m in COEFFICIENT_MATRICES)
         self.rest = None
 
     def changed_hoses(self, rig: Rig):
@@ -558,19 +553,12 @@ class SharedModel:
                 return None
             m = old.model
             new = ModalLine(lines[name], m.n_modes, m.form, method=m.method)
-            # its matrices' nonzero entries, in the order of the hose's runtime parameters
-            # (HoseSection.coefficient_pattern: matrix by matrix, row-major), where the
-            # pattern is the kept hose's; a hose section is not built for them
-            entries = []
-            for matrix, rows, cols in self._patterns[name]:
-                a = np.asarray(getattr(new, matrix), dtype=float)
-                i, j = np.nonzero(a)
-                if not (np.array_equal(i, rows) and np.array_equal(j, cols)):
-                    return None
-                entries.append(a[rows, cols])
-            if sum(len(e) for e in entries) != len(self.hose_entries[name]):
+            # its runtime parameters (the matrices' nonzero entries, and an end cavity's
+            # gains) where the pattern is the kept hose's; a hose section is not built
+            values = old.parameters_for(new)
+            if values is None or len(values) != len(self.hose_entries[name]):
                 return None
-            p[self.hose_entries[name]] = np.concatenate(entries)
+            p[self.hose_entries[name]] = values
         return p
 
 
