@@ -105,6 +105,8 @@ class HoseSection(Component):
     fluid: Fluid | None = None
 
     conducts = True
+    #: The model reference's equation of its end cavities (named in the run's cavity warnings).
+    cavity_equation = "M45"
 
     def __post_init__(self):
         m = self.model
