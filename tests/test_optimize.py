@@ -15,8 +15,9 @@ import pytest
 from hydroline.cli import main
 from hydroline.rigs import RigError, load_rig
 from hydroline.studies.journal import SweepFileError
-from hydroline.studies.optimize import (COST_METRICS, cost_metrics, metric_names,
-                                        objective_gradient, optimize, parse_constraint)
+from hydroline.studies.optimize import (COST_METRICS, FEASIBILITY_TOLERANCE, cost_metrics,
+                                        metric_names, objective_gradient, optimize,
+                                        parse_constraint)
 from hydroline.studies.sweep import VariantRunner
 
 L_BEST, D_BEST, C_BEST = 1.7, 0.0159, 2e-3
@@ -131,7 +132,8 @@ def test_real_rig_one_variable_respects_constraint_and_beats_baseline():
                  max_evaluations=14, maxiter=4)
     L = r.optimum["supply.section2.length"]
     assert 2.5 <= L <= 3.5
-    assert r.feasible and r.metrics["supply.frequency_hz"] >= 38.0 - 1e-6
+    # feasible to the optimiser's tolerance, relative to the bound (FEASIBILITY_TOLERANCE)
+    assert r.feasible and r.metrics["supply.frequency_hz"] >= 38.0 * (1 - FEASIBILITY_TOLERANCE)
     assert r.objective <= r.baseline_objective
     assert r.evaluations <= 14
 
