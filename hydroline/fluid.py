@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 __all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive",
            "entrained_air_bulk_modulus", "oil_compliance", "cavity_volume_fraction",
-           "chamber_pressure_scale", "cavity_compliance", "ATMOSPHERE"]
+           "chamber_pressure_scale", "cavity_compliance", "chamber_structure", "ATMOSPHERE"]
 
 #: Standard atmosphere, the pressure at which ``Fluid.air_content`` is stated, [Pa] absolute.
 ATMOSPHERE = 101325.0
@@ -153,6 +153,28 @@ class Fluid:
     def dynamic_viscosity(self) -> float:
         """Dynamic viscosity mu = rho*nu, [Pa s]."""
         return self.density * self.kinematic_viscosity
+
+
+def chamber_structure(attributes: dict) -> dict:
+    """A chamber component's structure attributes with its oil standing as what its pressure
+    equation reads of it (:meth:`Fluid.chamber_model`), for
+    :meth:`~hydroline.engine.Component.structure_attributes` of the actuator and the
+    hydraulic volume.
+
+    Parameters
+    ----------
+    attributes : dict
+        Name -> value or mark, as the component's base class gives them (changed in place).
+
+    Returns
+    -------
+    dict
+        The same dict, its ``"fluid"`` entry (where not None) replaced by
+        ``("chamber model", fluid.chamber_model())``.
+    """
+    if attributes.get("fluid") is not None:
+        attributes["fluid"] = ("chamber model", attributes["fluid"].chamber_model())
+    return attributes
 
 
 #: ISO VG 32 mineral hydraulic oil near 40 degC: rho = 870 kg/m^3, nu = 32 cSt

@@ -7,7 +7,8 @@ import numpy as np
 
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
-from ..fluid import Fluid, cavity_volume_fraction, chamber_pressure_scale, oil_compliance
+from ..fluid import (Fluid, cavity_volume_fraction, chamber_pressure_scale, chamber_structure,
+                     oil_compliance)
 
 __all__ = ["Actuator"]
 
@@ -151,10 +152,7 @@ class Actuator(Component):
         dict
             Name -> value or mark.
         """
-        out = super().structure_attributes(attributes)
-        if out.get("fluid") is not None:
-            out["fluid"] = ("chamber model", out["fluid"].chamber_model())
-        return out
+        return chamber_structure(super().structure_attributes(attributes))
 
     def hydraulic_natural_frequency(self, position: float = 0.0, bottom_pressure: float | None = None,
                                     top_pressure: float | None = None) -> float:

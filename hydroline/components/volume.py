@@ -4,7 +4,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
-from ..fluid import Fluid, cavity_volume_fraction, chamber_pressure_scale, oil_compliance
+from ..fluid import (Fluid, cavity_volume_fraction, chamber_pressure_scale, chamber_structure,
+                     oil_compliance)
 
 __all__ = ["HydraulicVolume"]
 
@@ -81,10 +82,7 @@ class HydraulicVolume(Component):
         dict
             Name -> value or mark.
         """
-        out = super().structure_attributes(attributes)
-        if out.get("fluid") is not None:
-            out["fluid"] = ("chamber model", out["fluid"].chamber_model())
-        return out
+        return chamber_structure(super().structure_attributes(attributes))
 
     def hydraulic_ends(self):
         """One node holding oil: its pressure and the flows into it.
