@@ -37,7 +37,7 @@ SERIES_LIMIT = 2.0
 #: From this modulus the asymptotic expansion, [-].
 ASYMPTOTIC_LIMIT = 20.0
 
-#: Terms of the asymptotic expansion (the smallest term of the v = 2 series at |z| = 20 is
+#: Terms of the asymptotic expansion (the smallest term of the v = 2 series at ``|z| = 20`` is
 #: below 1e-17 by then), [-].
 ASYMPTOTIC_TERMS = 26
 
