@@ -52,7 +52,8 @@ import reprlib
 
 from .unit_table import si_value
 
-__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "exact_quantity",
+__all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "convert_quantity",
+           "exact_quantity",
            "split_header", "csv_column", "QUANTITY_GRAMMAR", "MAX_QUANTITY_LENGTH"]
 
 
@@ -336,19 +337,48 @@ def format_quantity(value_si: float, unit: str, display_unit: str | None = None,
     """
     if isinstance(digits, bool) or not isinstance(digits, numbers.Integral) or digits < 1:
         raise ValueError(f"digits must be an integer >= 1, got {digits!r}")
-    value = _finite("value_si", value_si, value_si)
-    _load_pint()
-    source = _target_units(unit)
     shown_unit = str(unit).strip() if display_unit is None else str(display_unit).strip()
-    target = _target_units(shown_unit)
-    if source.dimensionality != target.dimensionality:
-        raise UnitError(f"display_unit: {shown_unit!r} is not of the dimension of {unit!r}")
-    if _angle_exponent(source) != _angle_exponent(target):
-        raise UnitError(f"display_unit: {shown_unit!r} mixes angular and cyclic units "
-                        f"with {unit!r}")
-    shown = ureg.Quantity(value, source).to(target).magnitude
+    shown = convert_quantity(value_si, unit, shown_unit)
     text = f"{shown:.{int(digits)}g}"
     return f"{text} {shown_unit}" if shown_unit not in _DIMENSIONLESS else text
+
+
+def convert_quantity(value_si: float, unit: str, display_unit: str) -> float:
+    """An SI value in another unit of its dimension, e.g. ``2.951e-3`` m^3 in L: ``2.951``.
+
+    Parameters
+    ----------
+    value_si : float
+        The value in ``unit``, [unit]
+    unit : str
+        The unit ``value_si`` is in, e.g. ``"m^3"``, [-]
+    display_unit : str
+        The unit wanted, e.g. ``"L"``, [-]
+
+    Returns
+    -------
+    float
+        The value in ``display_unit``, [display_unit]
+
+    Raises
+    ------
+    UnitError
+        ``display_unit`` of another dimension, or mixing angular and cyclic units.
+
+    Examples
+    --------
+    >>> convert_quantity(2.5e7, "Pa", "MPa")
+    25.0
+    """
+    value = _finite("value_si", value_si, value_si)
+    _load_pint()
+    source, target = _target_units(unit), _target_units(display_unit)
+    if source.dimensionality != target.dimensionality:
+        raise UnitError(f"display_unit: {display_unit!r} is not of the dimension of {unit!r}")
+    if _angle_exponent(source) != _angle_exponent(target):
+        raise UnitError(f"display_unit: {display_unit!r} mixes angular and cyclic units "
+                        f"with {unit!r}")
+    return float(ureg.Quantity(value, source).to(target).magnitude)
 
 
 def split_header(col) -> tuple[str, str | None]:

@@ -58,7 +58,7 @@ import numpy as np
 
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import default_scenario, scenario_names
-from ..units import UnitError, exact_quantity, format_quantity, parse_quantity
+from ..units import UnitError, convert_quantity, exact_quantity, parse_quantity
 from .design import parse_parameter, parse_parameters
 from .executors import MAX_WORKERS, call_runner, dask_client, failure_reason, worker_pool
 from .journal import FORMAT_VERSION, Journal, check_same_sweep, read_journal, rig_hash
@@ -1088,7 +1088,7 @@ def shown_value(value, unit):
     if not isinstance(value, (int, float)) or isinstance(value, bool) or unit in (None, "-", "str"):
         return value, ""
     if unit in SHOWN_UNITS:
-        return float(format_quantity(value, unit, SHOWN_UNITS[unit], 12).split()[0]), SHOWN_UNITS[unit]
+        return convert_quantity(value, unit, SHOWN_UNITS[unit]), SHOWN_UNITS[unit]
     return value, unit
 
 
