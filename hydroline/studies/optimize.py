@@ -355,7 +355,7 @@ def parse_constraint(text) -> Constraint:
                 raise RigError(f"--subject-to {text!r}: {e}") from None
     if not math.isfinite(bound):
         raise RigError(f"--subject-to {text!r}: VALUE must be a finite number, plain in the "
-                       f"unit the metric's name ends with (_mpa, _hz, _s, _mm, _m, _l) or "
+                       f"unit the metric's name ends with ({', '.join(METRIC_SUFFIX_UNITS)}) or "
                        f"with a unit of that dimension")
     sense = {"<": "<=", ">": ">="}.get(m.group(2), m.group(2))
     return Constraint(m.group(1), sense, bound)
