@@ -72,6 +72,13 @@ the imposed flow), each reach end keeping its own friction memory, and its oil b
 a step, implicit (``psi = 1``), ``V_ref phi(p) = V_old + dt (q+ - q-)``, decreasing in p, is
 solved by Newton from below (convex: monotone). A node without cavity whose liquid pressure
 stays above p_cav is the scheme above, and a cavity closes when the step's inflow fills it.
+
+A rising line (``elevation_rise`` of :meth:`CharacteristicsLine.simulate`: x = L lies that
+high above x = 0, the axis straight): gravity adds ``rho g sin(theta)`` to the momentum
+equation, which the piezometric pressure ``p + rho g z(x)`` absorbs exactly, so the scheme
+runs on it unchanged; the cavity law and the outputs read the pressure itself,
+``p = p_pz - rho g z(x)`` (the line at rest holds its hydrostatic profile, and a cavity
+opens first at the top).
 """
 from __future__ import annotations
 
@@ -330,7 +337,8 @@ class CharacteristicsLine:
 
     def simulate(self, t_end: float, upstream_pressure=1.0, downstream_flow=0.0,
                  initial_pressure: float = 0.0, initial_flow: float = 0.0,
-                 theta: float = 0.5) -> CharacteristicsResult:
+                 theta: float = 0.5, elevation_rise: float = 0.0,
+                 gravity: float = 9.81) -> CharacteristicsResult:
         """Simulate the line with a pressure imposed upstream and a flow imposed downstream.
 
         Parameters
@@ -351,6 +359,12 @@ class CharacteristicsLine:
             Weight of the head (new time level) in the friction integral along a
             characteristic, 0 (explicit, friction at the foot only) ... 1; 0.5 = trapezoidal
             (default) [-].
+        elevation_rise : float
+            Height of the downstream end (x = L) above the upstream end, the line straight
+            between them (negative: it falls) [m]. The pressures in and out are the ends'
+            own; the line at rest holds ``initial_pressure - rho g z(x)``.
+        gravity : float
+            Acceleration of gravity, [m/s^2].
 
         Returns
         -------
@@ -365,7 +379,9 @@ class CharacteristicsLine:
         if not 0 <= theta <= 1:
             raise ValueError(f"theta must lie in [0, 1] [-], got {theta!r}")
         for name, v, unit in (("initial_pressure", initial_pressure, "Pa"),
-                              ("initial_flow", initial_flow, "m^3/s")):
+                              ("initial_flow", initial_flow, "m^3/s"),
+                              ("elevation_rise", elevation_rise, "m"),
+                              ("gravity", gravity, "m/s^2")):
             if not np.isfinite(float(v)):
                 raise ValueError(f"{name} must be finite [{unit}], got {v!r}")
         pu_fun = _as_signal(upstream_pressure, "upstream_pressure", "Pa")
@@ -388,10 +404,12 @@ class CharacteristicsLine:
         a_foot = Z0 * dt * (1.0 - theta)
         a_head = Z0 * dt * theta
 
-        # initial steady state (M12): uniform flow, linear laminar pressure drop
+        # initial steady state (M12): uniform flow, linear laminar pressure drop; p is the
+        # piezometric pressure (referred to x = 0's height), `lift` what it exceeds p by
         x = np.linspace(0.0, 1.0, N + 1)
         q = np.full(N + 1, float(initial_flow))
         p = float(initial_pressure) - self.line.resistance * float(initial_flow) * x
+        lift = self.line.fluid.density * float(gravity) * float(elevation_rise) * x
         Y = np.zeros((N + 1, decay.size))
 
         out_pd = np.empty(n_steps + 1)
@@ -419,7 +437,7 @@ class CharacteristicsLine:
 
         fluid = self.line.fluid
         if fluid.cavity_pressure is not None:
-            return self._simulate_with_cavities(t, pu, qd, p, q, Y, zeff, a_foot, a_head)
+            return self._simulate_with_cavities(t, pu, qd, p, q, Y, zeff, a_foot, a_head, lift)
 
         # t = 0: the inputs take their t = 0 values (a step from the initial state); the steady
         # initial state is a fixed point of the scheme, so one step from it moves only the
@@ -429,11 +447,14 @@ class CharacteristicsLine:
         for k in range(1, n_steps + 1):
             p, q, Y = advance(p, q, Y, pu[k], qd[k])
             out_pu[k], out_pd[k], out_qu[k], out_qd[k] = p[0], p[-1], q[0], q[-1]
+        if lift[-1] != 0.0:
+            out_pd -= lift[-1]
         return CharacteristicsResult(t, out_pu, out_pd, out_qu, out_qd)
 
-    def _simulate_with_cavities(self, t, pu, qd, p, q, Y, zeff, a_foot, a_head):
+    def _simulate_with_cavities(self, t, pu, qd, p, q, Y, zeff, a_foot, a_head, lift):
         """The scheme of :meth:`simulate` with a discrete cavity at every node but x = 0
-        (DVCM with the cavity law M42, see the module docstring)."""
+        (DVCM with the cavity law M42, see the module docstring); ``p`` piezometric, the
+        node's own pressure ``p - lift``."""
         fluid, N, dt, Z0 = self.line.fluid, self.n_reaches, self.dt, self.line.impedance
         Rs, cu, decay, mphi = self._steady, self._unsteady, self._decay, self._mphi
         pc, delta = fluid.cavity_pressure, fluid.cavity_pressure_drop
@@ -473,13 +494,13 @@ class CharacteristicsLine:
             p_liq[1:-1] = 0.5 * (cp[1:-1] + cm[1:-1])
             p_liq[-1] = cp[-1] - zeff * qd[n]
             pn = p_liq.copy()
-            open_ = (vc > 0) | (p_liq < pc)
+            open_ = (vc > 0) | (p_liq - lift < pc)
             open_[0] = False
             i = np.flatnonzero(open_)
-            if i.size:
-                pn[i] = node_pressure(p_liq[i], vc[i], i)
+            if i.size:               # the cavity law in the node's own pressure
+                pn[i] = node_pressure(p_liq[i] - lift[i], vc[i], i) + lift[i]
             vn = np.zeros(N + 1)
-            vn[i] = v_ref[i] * cavity_volume_fraction(pn[i], pc, delta)
+            vn[i] = v_ref[i] * cavity_volume_fraction(pn[i] - lift[i], pc, delta)
             qmn, qpn = np.empty(N + 1), np.empty(N + 1)
             qpn[0] = (pu[n] - cm[0]) / zeff
             qmn[0] = qpn[0]
@@ -489,7 +510,8 @@ class CharacteristicsLine:
             Ym = Ym * decay + np.outer(qmn - qm, mphi)
             Yp = Yp * decay + np.outer(qpn - qp, mphi)
             p, qm, qp, vc = pn, qmn, qpn, vn
-            out["pu"][n], out["pd"][n], out["qu"][n], out["qd"][n] = p[0], p[-1], qp[0], qp[-1]
+            out["pu"][n], out["pd"][n], out["qu"][n], out["qd"][n] = (p[0], p[-1] - lift[-1],
+                                                                      qp[0], qp[-1])
             out["vc"][n], out["vd"][n] = vc.sum(), vc[-1]
         return CharacteristicsResult(t, out["pu"], out["pd"], out["qu"], out["qd"],
                                      cavity_volume=out["vc"], downstream_cavity_volume=out["vd"])
