@@ -201,9 +201,10 @@ def test_column_separation_at_a_modal_hose_end_matches_the_wave_solution(numeric
 # sentence labels the run 1.4 m/s, which cannot be: at 1.4 m/s Joukowsky's rise alone is
 # 1.84 MPa. Read as absolute: a third party's digitisation of He et al.'s 1.4 m/s figure
 # (github.com/jlillywh/RTHYM-MOC, validation/datasets/bergant_adelaide/
-# severe_valve_trace_reference.csv) has its cavity near 0 kPa and its Joukowsky plateau at
-# ~2.08 MPa, the absolute values; gauge would be -99 kPa and 1.99 MPa. Read as gauge, 1116
-# kPa abs, the result below is 4 % under it). Independently, Zhou et al.'s Fig. 8 (the same
+# severe_valve_trace_reference.csv) has its cavity at about -15 kPa and its Joukowsky plateau
+# at ~2.08 MPa, near the absolute values (2 kPa; 2.10 MPa with Blasius' friction loss) and
+# far from the gauge ones (-99 kPa; 2.00 MPa). Read as gauge, 1116 kPa abs, the result below
+# is 4 % under it). Independently, Zhou et al.'s Fig. 8 (the same
 # run's measured trace), as digitised by another third party (github.com/Unstoppable-onion/
 # teste, zhou2018_fvm_dgcm/data/digitized/fig08_main_experiment.csv, 0.33 m per pixel),
 # peaks at a head of 96.2 m above the inlet: 101.3 + 998.2 9.81 (96.2 - 2.077) = 1023 kPa
