@@ -192,7 +192,7 @@ def test_column_separation_at_a_modal_hose_end_matches_the_wave_solution(numeric
 # pipe L = 37.2 m, D = 22.1 mm, c = 1319 m/s, rising 3.2 deg from the upstream tank to the
 # valve (37.2 sin 3.2deg = 2.077 m), tank head H_r = 22.0 m above the pipe inlet, V0 = 0.30
 # m/s, valve closed in 9 ms (< 2L/c = 56.4 ms, and < the pulse below: an instant closure
-# here; a 9 ms flow ramp moves the pulse by 0.03 %). Water at 20 degC (not stated: rho =
+# here; a 9 ms flow ramp moves the pulse by <= 0.3 %). Water at 20 degC (not stated: rho =
 # 998.2 kg/m^3, nu = 1.004e-6 m^2/s, p_v = 2.34 kPa abs, which enters the pulse as 4 p_v,
 # 1 %), atmosphere 101.325 kPa.
 # Measured: the largest pressure at the valve, the short pulse after the first cavity
@@ -204,9 +204,9 @@ def test_column_separation_at_a_modal_hose_end_matches_the_wave_solution(numeric
 # severe_valve_trace_reference.csv) has its cavity at about -15 kPa and its Joukowsky plateau
 # at ~2.08 MPa, near the absolute values (2 kPa; 2.10 MPa with Blasius' friction loss) and
 # far from the gauge ones (-99 kPa; 2.00 MPa). Read as gauge, 1116 kPa abs, the result below
-# is 4 % under it). Independently, Zhou et al.'s Fig. 8 (the same
-# run's measured trace), as digitised by another third party (github.com/Unstoppable-onion/
-# teste, zhou2018_fvm_dgcm/data/digitized/fig08_main_experiment.csv, 0.33 m per pixel),
+# is 4 % under it). Independently, Zhou et al.'s Fig. 8 (the same run's measured trace), as
+# digitised by another third party (github.com/Unstoppable-onion/teste,
+# zhou2018_fvm_dgcm/data/digitized/fig08_main_experiment.csv, 0.33 m per pixel),
 # peaks at a head of 96.2 m above the inlet: 101.3 + 998.2 9.81 (96.2 - 2.077) = 1023 kPa
 # abs (0.8 % from 1015), some 55 ms after the collapse (here 45 ms lossless, 56 ms with
 # unsteady friction); its Joukowsky plateau is 60.8 m (676 kPa abs; here 691-701 kPa).
@@ -214,9 +214,9 @@ def test_column_separation_at_a_modal_hose_end_matches_the_wave_solution(numeric
 # P0 = 101.325 + rho g (22.0 - 2.077) - R q0 (laminar, 0.73 kPa) = 295.69 kPa abs; the
 # first peak (Joukowsky) P0 + Z v0 = 690.7 kPa; the cavity opens at 2L/c, and the wave
 # solution's collapse pulse (above) 5 P0 - 4 p_v - Z v0 = 1074.1 kPa, 5.8 % above the
-# measurement (the real pulse loses a little to wall friction and to the gas a real cavity
-# holds). Re = 6600: turbulent; the MOC's laminar friction stands in (the pulse moves 0.5 %
-# between "none" and "unsteady").
+# measurement (left to what the model lacks: turbulent unsteady friction, the gas a real
+# cavity holds, the valve's closure law). Re = 6600: turbulent; the MOC's laminar friction
+# stands in (the pulse moves 0.5 % between "none" and "unsteady").
 ADL_L, ADL_D, ADL_C, ADL_V0, ADL_HR = 37.2, 0.0221, 1319.0, 0.30, 22.0
 ADL_RISE = 37.2 * np.sin(np.radians(3.2))
 ADL_RHO, ADL_G, ADL_PATM, ADL_PV = 998.2, 9.81, 101325.0, 2340.0
