@@ -426,3 +426,14 @@ def test_a_rig_without_a_rest_state_is_refused_in_one_line(tmp_path, capsys):
     line = _refused(capsys, _rig_file(tmp_path, _NO_REST), "steady state not found",
                     "'block'", "'block.pressure'", "375 1/s")
     assert "relief valve" in line
+
+
+@pytest.mark.parametrize("line, suggestion", [
+    ('base = "default"', "[rig] base"),
+    ('pressure = "3000 psi"', "[return] pressure or [supply] pressure"),
+])
+def test_a_top_level_key_is_pointed_to_the_tables_that_hold_it(tmp_path, line, suggestion):
+    path = _rig_file(tmp_path, line + "\n")
+    with pytest.raises(RigError, match=r"did you mean " + suggestion.replace("[", r"\[")
+                       .replace("]", r"\]") + r"\?"):
+        load_rig(path)

@@ -223,7 +223,11 @@ def _parse(path: str, raw, context: dict | None = None):
                 raise RigError(str(e)) from None
     if section not in SCHEMA:
         known = ", ".join(sorted(SCHEMA))
-        raise RigError(f"{path}: unknown component/section '{section or key}' (known: {known})")
+        owners = [name for name in sorted(SCHEMA) if key in SCHEMA[name]] if not section else []
+        hint = (f"; a top-level '{key}' belongs in a table: did you mean "
+                + " or ".join(f"[{name}] {key}" for name in owners) + "?") if owners else ""
+        raise RigError(f"{path}: unknown component/section '{section or key}'{hint} "
+                       f"(known: {known})")
     unit = SCHEMA[section].get(key)
     if unit is None:
         raise RigError(f"{path}: unknown parameter '{key}' of '{section}' "
