@@ -69,12 +69,15 @@ def test_short_hose_traces_meet_the_target_its_ringing_metrics_within_one_percen
 def test_a_looser_tolerance_after_the_stop_keeps_the_rows_before_it():
     """after_stop_rtol: the same rows up to the stop (the same steps), fewer steps after it,
     the traces after it within 0.5 % of their excursion of the run at rtol throughout."""
+    from hydroline.engine.integrate import NEAR_ROWS
+
     rig = hydroline.load_rig()
     full = hydroline.simulate(rig, solver="compiled")
     relaxed = hydroline.simulate(rig, solver="compiled", after_stop_rtol=1e-5)
     t_relaxed = relaxed.stats["relaxed_at"]
     t1 = full.metadata["metrics_window"][1]
-    assert t1 <= t_relaxed <= t1 + 0.011        # checked every 100 rows (10 ms)
+    # checked in blocks that shrink to NEAR_ROWS rows as the piston nears its stop at ~1 m/s
+    assert t1 <= t_relaxed <= t1 + NEAR_ROWS * 1e-4 + 1e-12
     before = full.t <= t_relaxed
     for k in TRACES:
         np.testing.assert_array_equal(relaxed[k][before], full[k][before])

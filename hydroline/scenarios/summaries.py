@@ -92,7 +92,10 @@ class WindowEnd:
     piston at the stop it moves toward, :func:`metrics_window`): pass as ``until`` to
     :func:`hydroline.engine.integrate`, so that a run whose metrics are all it is for stops
     there. The rows it keeps then give the same window, and so the same metrics. Each call
-    looks at the rows it has not seen (a long run costs what its rows cost).
+    looks at the rows it has not seen (a long run costs what its rows cost). After a call that
+    said False, :meth:`time_ahead` estimates how soon it may say True (the pistons at their
+    last speeds): :func:`~hydroline.engine.integrate` shortens its blocks toward it, so that
+    the run ends within a few rows of the window's end rather than within a block.
 
     Parameters
     ----------
@@ -111,6 +114,7 @@ class WindowEnd:
         self.seen = 0
         self.x0 = {}          # signal -> position at t0
         self.moved = {}       # signal -> (direction, time of the first clear displacement)
+        self.ahead = math.inf  # time_ahead(): [s] from the last row looked at
 
     def __call__(self, t, rows, columns) -> bool:
         """True when the rows so far (times ``t`` [s], the run's table ``rows`` with its
@@ -131,6 +135,7 @@ class WindowEnd:
             self.index = {k: list(columns).index(k) for k in self.pistons if k in columns}
         start = max(self.seen - 1, 0)
         self.seen = len(t)
+        self.ahead = math.inf
         for signal, i in self.index.items():
             x = rows[:, i]
             if signal not in self.x0:      # (as metrics_window: interpolated at t0)
@@ -146,7 +151,25 @@ class WindowEnd:
             if np.any(after & (direction * xx >= self.pistons[signal] - self.margin)
                       & (tt > t_moved - 1e-12)):
                 return True
+            if len(tt) >= 2 and tt[-1] > tt[-2]:   # at its last speed toward the stop
+                speed = direction * (xx[-1] - xx[-2]) / (tt[-1] - tt[-2])
+                if speed > 0:
+                    gap = self.pistons[signal] - self.margin - direction * xx[-1]
+                    self.ahead = min(self.ahead, gap / speed)
         return False
+
+    def time_ahead(self) -> float:
+        """How soon, after the last row looked at, the window may end: the least time any
+        moving piston needs at its last speed to come within ``margin`` of the stop it moves
+        toward (inf before a piston has clearly moved or while none moves toward its stop).
+        An estimate: a piston that speeds up arrives sooner.
+
+        Returns
+        -------
+        float
+            Time, [s]
+        """
+        return self.ahead
 
 
 def _window_note(t0, t1, reason, start):
