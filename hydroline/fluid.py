@@ -10,7 +10,8 @@ from dataclasses import dataclass
 
 __all__ = ["Fluid", "effective_bulk_modulus", "MINERAL_OIL", "require_positive",
            "entrained_air_bulk_modulus", "oil_compliance", "cavity_volume_fraction",
-           "chamber_pressure_scale", "cavity_compliance", "chamber_structure", "ATMOSPHERE"]
+           "chamber_pressure_scale", "cavity_compliance", "chamber_structure", "oil_numbers",
+           "ATMOSPHERE"]
 
 #: Standard atmosphere, the pressure at which ``Fluid.air_content`` is stated, [Pa] absolute.
 ATMOSPHERE = 101325.0
@@ -127,32 +128,84 @@ class Fluid:
                            _positive("cavity_pressure_drop", self.cavity_pressure_drop, "Pa"))
 
     @property
+    def entrained_air(self) -> bool:
+        """True where the oil carries entrained air (M40): ``air_content`` not 0 (or a
+        compiled model's symbol for it, :func:`oil_numbers`)."""
+        return _symbolic(self.air_content) or self.air_content != 0.0
+
+    @property
     def plain(self) -> bool:
         """True for air-free oil without a cavity model: every compliance is ``V/beta`` (M22)."""
-        return self.air_content == 0.0 and self.cavity_pressure is None
+        return not self.entrained_air and self.cavity_pressure is None
 
     def chamber_model(self) -> tuple:
-        """What a chamber's pressure equation reads of the oil (:func:`oil_compliance`,
+        """Which of the oil's models a chamber's pressure equation reads (:func:`oil_compliance`,
         M40-M42): nothing for :attr:`plain` oil; its density, viscosity and bulk modulus
         never (a chamber has its own modulus; the hoses take the oil's through their line
-        matrices). A compiled chamber's structure holds this instead of the whole oil, so
-        that oils that differ only in the rest share its library.
+        matrices). A compiled chamber's structure holds this instead of the whole oil: the
+        numbers of the models it reads are runtime numbers of the compiled model
+        (:func:`oil_numbers`), so that oils that differ only in numbers share its library.
 
         Returns
         -------
         tuple
-            ``()`` for plain oil, else ``(air_content, air_polytropic_exponent,
-            cavity_pressure, cavity_pressure_drop)`` [-, -, Pa, Pa].
+            ``()`` for plain oil, else ``(entrained air, cavity model)``, each True or False.
         """
         if self.plain:
             return ()
-        return (self.air_content, self.air_polytropic_exponent, self.cavity_pressure,
-                self.cavity_pressure_drop)
+        return (self.entrained_air, self.cavity_pressure is not None)
 
     @property
     def dynamic_viscosity(self) -> float:
         """Dynamic viscosity mu = rho*nu, [Pa s]."""
         return self.density * self.kinematic_viscosity
+
+
+def _symbolic(value) -> bool:
+    """True for a CasADi expression (a compiled model's symbol for a number)."""
+    return type(value).__module__.startswith("casadi")
+
+
+def oil_numbers(fluid: "Fluid | None", air: bool = True) -> dict:
+    """The numbers of the oil's entrained air (M40) and cavity model (M42, M45) that a
+    chamber's or a hose end's equations read, as the component's runtime numbers of the
+    compiled model (:meth:`~hydroline.engine.Component.compiled_numbers`): a rig that differs
+    only in them (another cavity pressure, air content) runs on the same compiled library.
+    Whether each model is on (air-free oil, ``cavity_pressure`` None) is structure
+    (:meth:`Fluid.chamber_model`). The state scales that follow from them
+    (:func:`chamber_pressure_scale`) are runtime numbers as every state scale is.
+
+    Parameters
+    ----------
+    fluid : Fluid or None
+        The rig's oil; None: none.
+    air : bool
+        Include the entrained air's numbers (a chamber's compliance reads them; a hose end's
+        cavity does not).
+
+    Returns
+    -------
+    dict
+        ``"fluid.<field>"`` -> value, [SI]: ``air_content`` [-] and
+        ``air_polytropic_exponent`` [-] with entrained air, ``cavity_pressure`` [Pa] and
+        ``cavity_pressure_drop`` [Pa] with a cavity model; empty for plain oil.
+
+    Examples
+    --------
+    >>> oil = Fluid(870.0, 32e-6, 1.4e9, cavity_pressure=5e3)
+    >>> oil_numbers(oil)
+    {'fluid.cavity_pressure': 5000.0, 'fluid.cavity_pressure_drop': 1000.0}
+    """
+    if fluid is None:
+        return {}
+    out = {}
+    if air and fluid.entrained_air:
+        out["fluid.air_content"] = fluid.air_content
+        out["fluid.air_polytropic_exponent"] = fluid.air_polytropic_exponent
+    if fluid.cavity_pressure is not None:
+        out["fluid.cavity_pressure"] = fluid.cavity_pressure
+        out["fluid.cavity_pressure_drop"] = fluid.cavity_pressure_drop
+    return out
 
 
 def chamber_structure(attributes: dict) -> dict:
@@ -288,7 +341,7 @@ def entrained_air_bulk_modulus(pressure, oil_bulk_modulus: float, air_content: f
     >>> round(float(entrained_air_bulk_modulus(20e6, 1.5e9, 0.01)) / 1e9, 3)
     1.494
     """
-    if not air_content:
+    if not _symbolic(air_content) and not air_content:
         return oil_bulk_modulus
     from .engine import ops      # here: the lines import this module without the engine
 

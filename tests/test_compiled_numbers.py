@@ -25,13 +25,11 @@ def network_of(rig, scenario="open-loop-step"):
 
 
 def numeric_paths(rig):
-    """The rig's numeric values (numbers and lists of numbers), but the rig's own switches
-    (``rig.*``: modes per section, line method), the modes, and the oil's cavity model
-    (M42, M45: what a chamber or hose reads of the oil is in its graph), which are
-    structure."""
+    """The rig's numeric values (numbers and lists of numbers, the oil's cavity pressure and
+    its drop among them), but the rig's own switches (``rig.*``: modes per section, line
+    method) and the modes, which are structure."""
     return sorted(path for path, v in rig.values.items()
                   if not path.startswith("rig.") and not path.endswith(".modes")
-                  and not path.startswith("fluid.cavity_pressure")
                   and not isinstance(v, bool)
                   and (isinstance(v, float) or (isinstance(v, list) and v
                                                 and all(isinstance(a, float) for a in v))))
@@ -109,10 +107,12 @@ def test_a_variant_gets_the_constants_a_code_generation_writes_and_runs_as_its_c
                   <= rounding_bound(net, 0.02, x, ss.p))
 
 
-def test_the_oil_s_chamber_model_is_structure_its_other_properties_are_not():
-    """A chamber folds what it reads of the oil (entrained air, cavity: M40-M42) into its
-    graph, so those values key its library; the oil's density, viscosity and bulk modulus
-    reach the graph only through the hoses' runtime matrices, so they do not."""
+def test_the_oil_s_models_are_structure_their_numbers_are_not():
+    """Whether the oil carries entrained air (M40) and has a cavity model (M42, M45) keys a
+    chamber's and a hose end's library; the models' numbers (air content, polytropic
+    exponent, cavity pressure and its drop) are runtime numbers of the chambers and hose ends
+    that read them, as the oil's density, viscosity and bulk modulus (which reach the graph
+    only through the hoses' runtime matrices) are not structure at all."""
     from hydroline.compiled import numbers_key
 
     rig = load_rig()
@@ -127,10 +127,22 @@ def test_the_oil_s_chamber_model_is_structure_its_other_properties_are_not():
                     bulk_modulus=1.1 * rig.values["fluid.bulk_modulus"]) == key
     with_air = key_with(air_content=0.01)
     assert with_air != key                                   # air-free -> air: a new graph
-    assert key_with(air_content=0.02) not in (key, with_air)  # its number is in that graph
+    assert key_with(air_content=0.02, air_polytropic_exponent=1.4) == with_air
     off = key_with(cavity_pressure=None)          # the rig's cavity model (on by default)
     assert off not in (key, with_air)
-    assert key_with(cavity_pressure=2e3) not in (key, with_air, off)
+    assert key_with(cavity_pressure=2e4, cavity_pressure_drop=2e3) == key
+    # (the graph takes them as symbols: its numbers, not its constants, hold them)
+    variant = rig.copy()
+    variant.values.update({"fluid.air_content": 0.01, "fluid.air_polytropic_exponent": 1.2})
+    net = network_of(variant)
+    assert net.compile().k is not None
+    names, values = net.compiled_numbers()
+    held = dict(zip(names, values))
+    assert held["actuator.fluid.air_content"] == 0.01
+    assert held["actuator.fluid.air_polytropic_exponent"] == 1.2
+    assert held["actuator.fluid.cavity_pressure"] == 5e3
+    assert held["return.section2.fluid.cavity_pressure_drop"] == 1e3
+    assert "return.section2.fluid.air_content" not in held   # (a hose end reads no air)
 
 
 def test_a_python_branch_on_a_number_keeps_that_network_s_numbers_in_its_graph():

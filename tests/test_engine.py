@@ -125,6 +125,41 @@ def test_backends_agree_with_the_exact_vessel_charge(solver):
     assert np.max(np.abs(res["p_v"] - ref["p_v"])) < 1e-6 * 4.5e6
 
 
+def test_the_cvodes_path_cuts_the_network_open_where_the_compiled_core_does():
+    """The CVODES path integrates the default rig (hose-end cavities on) cut open at its
+    interface signals (engine.backends.CUT_OPEN): its DAE's Jacobian in (z, v) holds fewer
+    nonzeros than the ODE's d(dz/dt)/dz (where every path through a connection, and a hose
+    end's cavity lift read by every state of its section, fills a block), and the cut values
+    and rates it starts a segment from are the components' own Python equations'
+    (Network.evaluate, Network.rhs) at a moving state, within the rounding bound."""
+    import casadi as ca
+    from rounding_bound import rounding_bound
+
+    from hydroline.engine.backends import CvodesBackend
+    from hydroline.rigs import load_rig
+    from hydroline.scenarios import build_scenario
+    from hydroline.system import build_network
+
+    rig = load_rig()
+    sc = build_scenario(rig, "open-loop-step")
+    net = build_network(rig, sc.commands, sc.position_guess)
+    backend = CvodesBackend(net, 1e-6, 1e-7)
+    dae = backend.dae
+    assert backend.consistent is not None and dae["z"].numel() > 0
+    model = net.compile()
+    ode_nnz = ca.jacobian(model.dx, model.x).nnz()
+    both = ca.vertcat(dae["x"], dae["z"])
+    assert ca.jacobian(ca.vertcat(dae["ode"], dae["alg"]), both).nnz() < 0.5 * ode_nnz
+    ss = solve_steady_state(net)
+    x = ss.x * (1.0 + 1e-3)
+    x[net.state_names.index("actuator.velocity")] = 0.05
+    v, rates = backend.consistent(0.02, x / backend.scales, ss.p)
+    np.testing.assert_array_less(np.abs(np.asarray(rates) * backend.scales - net.rhs(0.02, x, ss.p)),
+                                 rounding_bound(net, 0.02, x, ss.p) + 1e-300)
+    residual = ca.Function("alg", [dae["t"], dae["x"], dae["z"], dae["p"]], [dae["alg"]])
+    assert np.abs(np.asarray(residual(0.02, x / backend.scales, v, ss.p))).max() < 1e-12
+
+
 def test_cli_says_lost_flow_once_in_one_line(tmp_path, capsys):
     """two_axis with axis 2's supply hose left off the manifold node: the CLI names the flow
     and the port in one warning line (and still runs: the circuit is legal, only leaky)."""

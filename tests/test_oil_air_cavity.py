@@ -139,12 +139,13 @@ def test_closed_volume_emptied_and_refilled_conserves_oil():
     assert abs(sol.sol(0.2)[0] - 1e6) < 1e-4 * 1e-6 / (1e-5 / 1.5e9)
 
 
-def top_chamber_oil_balance(res, act):
+def top_chamber_oil_balance(res, act, p_cav=5e3, drop=1e3):
     """The top chamber's oil balance ``int q_in dt - dV - int V/K dp + int V dphi`` along a run
-    of the cavity reproducer (p_cav 5 kPa, delta 1 kPa) [m^3], and its largest cavity [m^3]."""
+    of the cavity reproducer (p_cav, delta [Pa]: 5 kPa, 1 kPa unless given) [m^3], and its
+    largest cavity [m^3]."""
     t, p, xp = res.t, res["actuator.top_pressure"], res["actuator.position"]
     V = act.top_volume - act.top_area * xp
-    phi = cavity_volume_fraction(p, 5e3, 1e3)
+    phi = cavity_volume_fraction(p, p_cav, drop)
     q_in = -res["top_chamber_flow"]
     cum = integrate.cumulative_trapezoid
     balance = (cum(q_in, t, initial=0) - (V - V[0]) - cum(V / act.bulk_modulus * np.gradient(p, t), t, initial=0)
@@ -235,6 +236,62 @@ def test_cavity_collapse_does_not_hang_on_the_rest_states_rounding():
         assert cavity == pytest.approx(reference[0], rel=0.01), seed
         assert port == pytest.approx(reference[1], rel=0.01), seed
         assert np.abs(balance).max() < 0.02 * port, seed
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_another_cavity_pressure_runs_on_the_same_library_and_holds_its_cavities(monkeypatch):
+    """The cavity pressure and its drop are runtime numbers (issue 25 item 1): the reproducer
+    at 20 kPa and a 2 kPa drop finds the 5 kPa rig's compiled library without building a
+    CasADi graph or writing C; its constants are exactly those a fresh code generation of its
+    own graph writes, and that generation names the same library (the same C), so the run is
+    a fresh build's. On it the cavities hold their checks at the new pressure: the valve's
+    ports (M45) stay at or above 20 kPa (to the rounding of ``p~ + |k| w``), the chambers
+    positive, and the top chamber's oil balance (M42 at 20 kPa, 2 kPa) closes to a small
+    fraction of the run's cavity."""
+    from hydroline.compiled import codegen
+    from hydroline.compiled.toolchain import library_location
+    from hydroline.engine import Network
+    from hydroline.engine import integrate as run
+    from hydroline.scenarios.experiments import build_scenario
+    from hydroline.scenarios.running import rest_state
+    from hydroline.system import build_circuit
+
+    def network(rig):
+        circuit = build_circuit(rig)
+        return circuit, circuit.network(build_scenario(rig, "open-loop-step", 0.1,
+                                                       axes=circuit.axes).commands)
+
+    known = compiled.native_model(network(cavity_reproducer())[1])    # (built or found)
+    p_cav, drop = 2e4, 2e3
+    rig = cavity_reproducer().set("fluid.cavity_pressure", "20 kPa").set(
+        "fluid.cavity_pressure_drop", "2 kPa")
+    circuit, net = network(rig)
+    with monkeypatch.context() as m:
+        def built(*args, **kwargs):
+            raise AssertionError("a graph or C made for a rig that differs only in numbers")
+
+        m.setattr(Network, "compile", built)
+        m.setattr(codegen, "generate", built)
+        assert not compiled.needs_build(net)
+        native = compiled.native_model(net)
+    assert native.found_by == "numbers" and native.library_path == known.library_path
+    fresh = codegen.generate(network(rig)[1].compile())
+    np.testing.assert_array_equal(native.generated.constants, fresh.constants)
+    assert library_location(fresh)[0] == native.library_path
+    assert p_cav in fresh.constants and drop in fresh.constants
+
+    ss = rest_state(net)
+    res = run(net, ss.x, 0.1, dt_out=5e-6, p=ss.p, solver="compiled", rtol=1e-6,
+              atol_scale=1e-7)
+    assert res.metadata["solver"] == "compiled"
+    assert res["actuator.top_pressure"].min() > 0 and res["actuator.bottom_pressure"].min() > 0
+    w, rounding = return_port_cavity(res, circuit)
+    for port in ("return_port_pressure", "supply_port_pressure"):
+        assert res[port].min() >= p_cav - rounding
+    assert res["return_port_pressure"].min() < p_cav + drop       # (the cavity reached)
+    balance, cavity = top_chamber_oil_balance(res, circuit.component("actuator"), p_cav, drop)
+    assert w.max() > 5e-6 and cavity > 0
+    assert np.abs(balance).max() < 0.02 * w.max()
 
 
 def test_a_rig_has_the_cavity_model_unless_it_says_off():

@@ -138,3 +138,22 @@ def test_parquet_without_pyarrow_says_what_to_install(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyarrow", None)      # import pyarrow -> ImportError
     with pytest.raises(ValueError, match="needs pyarrow: pip install pyarrow"):
         res.to_parquet(tmp_path / "r.parquet")
+
+
+def test_simulate_without_pyarrow_refuses_parquet_before_the_run(tmp_path, monkeypatch, capsys):
+    """``simulate --format parquet`` without pyarrow: one line naming the file and what to
+    install, exit 2, before any run (a long run found it only when writing, at its end)."""
+    import sys
+
+    from hydroline.scenarios import running
+
+    monkeypatch.setitem(sys.modules, "pyarrow", None)      # import pyarrow -> ImportError
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("the run started")
+
+    monkeypatch.setattr(running, "simulate", no_run)
+    assert main(["simulate", "--t-end", "600 s", "--scenario", "closed-loop-sine", "--format",
+                 "parquet", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "results.parquet: writing Parquet needs pyarrow" in err[0]

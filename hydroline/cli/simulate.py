@@ -263,6 +263,10 @@ def _prepare(args, write, figures) -> int:
     if write:
         out = out_dir(args.out if args.out is not None else "hydroline-out",
                       (RESULT_FILES[fmt],) + OUTPUT_FILES[1:])
+        if fmt == "parquet":   # refused before the run, not when its file is written
+            from ..engine.result import parquet_writer
+
+            parquet_writer(out / RESULT_FILES[fmt])
     if long_run:   # (memory bounded: streamed, or only the written rows kept)
         if write and fmt != "csv":   # the rows written are kept until the file is written
             est = output_estimate(duration, h * every, columns - 1)

@@ -8,7 +8,7 @@ import numpy as np
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 from ..fluid import (Fluid, cavity_volume_fraction, chamber_pressure_scale, chamber_structure,
-                     oil_compliance)
+                     oil_compliance, oil_numbers)
 
 __all__ = ["Actuator"]
 
@@ -138,9 +138,20 @@ class Actuator(Component):
                 State("position", "m", self.stroke / 2),
                 State("velocity", "m/s", 1.0)]
 
+    def compiled_numbers(self) -> dict:
+        """As :meth:`Component.compiled_numbers`, with the numbers of the oil's entrained air
+        and cavity model that the chamber equations read (:func:`~hydroline.fluid.oil_numbers`).
+
+        Returns
+        -------
+        dict
+            Name -> float or tuple of floats, [SI].
+        """
+        return {**super().compiled_numbers(), **oil_numbers(self.fluid)}
+
     def structure_attributes(self, attributes: dict) -> dict:
-        """As :meth:`Component.structure_attributes`; the oil stands as what the chamber
-        equations read of it (:meth:`~hydroline.fluid.Fluid.chamber_model`).
+        """As :meth:`Component.structure_attributes`; the oil stands as which of its models
+        the chamber equations read (:meth:`~hydroline.fluid.Fluid.chamber_model`).
 
         Parameters
         ----------

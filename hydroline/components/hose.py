@@ -9,7 +9,7 @@ import numpy as np
 from ..lines.modal import StateSpaceLine
 from ..engine import ops
 from ..engine.component import Component, HydraulicEnd, Port, State
-from ..fluid import Fluid
+from ..fluid import Fluid, oil_numbers
 
 __all__ = ["HoseSection", "COEFFICIENT_MATRICES"]
 
@@ -255,13 +255,27 @@ class HoseSection(Component):
             values += self._gains(None, model)
         return values
 
+    def compiled_numbers(self) -> dict:
+        """As :meth:`Component.compiled_numbers`, with the cavity model's numbers
+        (:func:`~hydroline.fluid.oil_numbers`) where an end holds a cavity (M45).
+
+        Returns
+        -------
+        dict
+            Name -> float or tuple of floats, [SI].
+        """
+        numbers = super().compiled_numbers()
+        if self.cavity_ends:
+            numbers.update(oil_numbers(self.fluid, air=False))
+        return numbers
+
     def structure_attributes(self, attributes: dict) -> dict:
         """As :meth:`Component.structure_attributes`; where the line's matrix entries are
         runtime parameters, the line model stands as its kind, form, port and state names
         (its matrices' pattern is :attr:`coefficient_pattern`): their values are not
-        structure. The oil stands as what the end cavity (M45) reads of it: nothing without
-        a cavity model (its density, viscosity and bulk modulus reach the hose through the
-        line's matrices).
+        structure. The oil stands as whether it has a cavity model (M45): the cavity's
+        numbers are runtime numbers (:meth:`compiled_numbers`), and its density, viscosity
+        and bulk modulus reach the hose through the line's matrices.
 
         Parameters
         ----------
@@ -286,8 +300,7 @@ class HoseSection(Component):
             out["_states"] = len(attributes.get("_states", ()))
         fluid = out.get("fluid")
         if fluid is not None:
-            out["fluid"] = ("end cavity", () if fluid.cavity_pressure is None
-                            else (fluid.cavity_pressure, fluid.cavity_pressure_drop))
+            out["fluid"] = ("end cavity", fluid.cavity_pressure is not None)
         return out
 
     def _product(self, name, v, p, rows):

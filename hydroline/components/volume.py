@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 
 from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 from ..fluid import (Fluid, cavity_volume_fraction, chamber_pressure_scale, chamber_structure,
-                     oil_compliance)
+                     oil_compliance, oil_numbers)
 
 __all__ = ["HydraulicVolume"]
 
@@ -68,9 +68,20 @@ class HydraulicVolume(Component):
         return [State("pressure", "Pa",
                       chamber_pressure_scale(max(self.nominal_pressure, 1e5), self.fluid))]
 
+    def compiled_numbers(self) -> dict:
+        """As :meth:`Component.compiled_numbers`, with the numbers of the oil's entrained air
+        and cavity model that the chamber equations read (:func:`~hydroline.fluid.oil_numbers`).
+
+        Returns
+        -------
+        dict
+            Name -> float or tuple of floats, [SI].
+        """
+        return {**super().compiled_numbers(), **oil_numbers(self.fluid)}
+
     def structure_attributes(self, attributes: dict) -> dict:
-        """As :meth:`Component.structure_attributes`; the oil stands as what the chamber
-        equations read of it (:meth:`~hydroline.fluid.Fluid.chamber_model`).
+        """As :meth:`Component.structure_attributes`; the oil stands as which of its models
+        the chamber equations read (:meth:`~hydroline.fluid.Fluid.chamber_model`).
 
         Parameters
         ----------

@@ -441,7 +441,10 @@ class Component:
         Parameters
         ----------
         numbers : dict
-            attribute name -> value (a symbol, or a tuple of symbols)
+            attribute name -> value (a symbol, or a tuple of symbols); a name
+            ``"<attribute>.<field>"`` stands for a field of an object the component holds
+            (the oil's cavity pressure, ``"fluid.cavity_pressure"``): the copy holds a copy
+            of that object with the field replaced
 
         Returns
         -------
@@ -453,7 +456,15 @@ class Component:
             for name, attr in vars(c).items():
                 if isinstance(attr, cached_property):
                     view.__dict__.pop(name, None)
-        view.__dict__.update(numbers)
+        held = {}
+        for name, value in numbers.items():
+            owner, dot, item = name.partition(".")
+            if not dot:
+                view.__dict__[name] = value
+                continue
+            if owner not in held:
+                held[owner] = view.__dict__[owner] = copy.copy(getattr(self, owner))
+            object.__setattr__(held[owner], item, value)    # (frozen dataclasses too)
         return view
 
     def structure_attributes(self, attributes: dict) -> dict:

@@ -228,13 +228,7 @@ class SimulationResult:
         """
         import json
 
-        try:
-            import pyarrow as pa
-            import pyarrow.parquet as pq
-        except ImportError:
-            raise ValueError(f"{path}: writing Parquet needs pyarrow: pip install pyarrow, "
-                             f"or write CSV or MAT") from None
-
+        pa, pq = parquet_writer(path)
         t, table = self._rows(every)
         units = self.metadata.get("units", {})
         names = ["time"] + list(self.columns)
@@ -300,6 +294,37 @@ class SimulationResult:
         # the figure lives above the engine; loaded by name so the engine imports nothing above it
         return importlib.import_module("hydroline.plotting").plot_result(
             self, signals=signals, path=path, title=title)
+
+
+def parquet_writer(path):
+    """pyarrow and its Parquet module, for writing ``path``; a command that will write
+    Parquet asks before its run (a long run's rows would otherwise find pyarrow missing only
+    when the file is written, at the run's end).
+
+    Parameters
+    ----------
+    path : str or Path
+        The Parquet file to be written (named in the error).
+
+    Returns
+    -------
+    pa : module
+        ``pyarrow``.
+    pq : module
+        ``pyarrow.parquet``.
+
+    Raises
+    ------
+    ValueError
+        Where pyarrow is not installed (one line, naming the file).
+    """
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise ValueError(f"{path}: writing Parquet needs pyarrow: pip install pyarrow, "
+                         f"or write CSV or MAT") from None
+    return pa, pq
 
 
 #: Rows per row group of a Parquet file (:meth:`SimulationResult.to_parquet`: each group
