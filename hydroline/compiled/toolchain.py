@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from ..cache import cache_dir, discard_entry, least_recently_used, mark_used
@@ -46,8 +47,20 @@ QUICK_LEVEL = "-O0"
 #: Environment variable that asks for a portable build (no ``-march=native``: baseline x86-64,
 #: no fused multiply-add on that target), e.g. for a cache shared by different CPUs
 PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
+#: Longest a process waits, in all, for the quick library of a background build, once one
+#: of its runs went on without it (:func:`load_library`), [s]
+QUICK_WAIT = 1.5
+#: Niceness the background build takes once its quick library is made: the full build
+#: then uses the CPU that the command's own processes leave (on two cores a cold
+#: ``hydroline simulate`` with its figure, or a layout study, is three processes), [-]
+BACKGROUND_NICENESS = 10
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
+#: Library (its path) -> the first run of this process that went on without it while its
+#: background build ran (:func:`load_library`)
+_PENDING: dict = {}
+#: Library (its path) -> how long this process has waited for its quick build, [s]
+_WAITED: dict = {}
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -358,6 +371,10 @@ def build_from_file(cc: str, source: str, path: str) -> None:
                 _compile_locked(cc, full, Path(path), quick=True)
             except CompilerUnavailable:
                 pass                    # (the library itself may still build)
+        try:
+            os.nice(BACKGROUND_NICENESS)   # (the compiler it starts inherits it)
+        except (AttributeError, OSError):
+            pass
         _compile_locked(cc, full, Path(path))
         _discard(quick_location(Path(path)))   # (a process that loaded it keeps its copy)
         prune_libraries()               # a library more: the oldest beyond the bound go
@@ -442,7 +459,7 @@ def prune_libraries(max_libraries: int | None = None) -> int:
     return removed
 
 
-def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
+def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
     """Load the model's library from the cache, compiling it on a miss (without ``wait``: in
     a background process, :func:`build_in_background`, raising :class:`LibraryPending`, or
     returning that build's quick library, :func:`quick_location`, once it is there).
@@ -463,6 +480,11 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
     wait : bool
         Compile a missing library here and now (False: in the
         background, unless none can be started there)
+    run : hashable
+        Who asks (e.g. the id of a run's model), without ``wait``: the first
+        run that asks while the library is being built goes on without it;
+        a later one (a study's next run) waits for its quick build, at most
+        :data:`QUICK_WAIT` in all (None: never waits)
 
     Returns
     -------
@@ -494,6 +516,9 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
                 # on CVODES is progress)
                 if not wait and attempt == 0 and build_in_background(path, full):
                     quick = _quick_library(path)
+                    if quick is None and run is not None and \
+                            _PENDING.setdefault(str(path), run) != run:   # a later run
+                        quick = _await_quick_library(path)
                     if quick is not None:
                         return quick
                     raise LibraryPending(f"{path.name} is being built in the background", path)
@@ -516,6 +541,45 @@ def load_library(path: Path, full, wait: bool = True) -> ctypes.CDLL:
     return lib
 
 
+def _await_quick_library(path: Path):
+    """The quick build of the library at ``path``, waited for while the background build
+    that makes it goes on (this process at most :data:`QUICK_WAIT` in all, per library); the
+    library itself where that build ended meanwhile; None when neither came (the run then
+    goes on without). Called where a run of this process went on without the library before
+    (a study's, a fit's next run): the quick build takes about what one run on CVODES does,
+    whose CPU the build, and a figure drawn beside it, would otherwise share."""
+    import fcntl
+
+    start = time.monotonic()
+    try:
+        while time.monotonic() - start < QUICK_WAIT - _WAITED.get(str(path), 0.0):
+            time.sleep(0.01)
+            quick = _quick_library(path)
+            if quick is not None:
+                return quick
+            try:
+                with open(path.with_suffix(".lock")) as lock:
+                    fcntl.flock(lock, fcntl.LOCK_SH | fcntl.LOCK_NB)   # the build has ended
+            except OSError:
+                continue                    # still building (or no lock file to read)
+            return _loaded(path) if library_check(path)[0] else None
+        return None
+    finally:
+        _WAITED[str(path)] = _WAITED.get(str(path), 0.0) + time.monotonic() - start
+
+
+def _loaded(path: Path):
+    """The library at ``path`` loaded and declared (cached per process), or None where it
+    cannot be loaded."""
+    try:
+        lib = ctypes.CDLL(str(path))
+        _declare(lib)
+    except (OSError, AttributeError):
+        return None
+    _LIBS[str(path)] = lib
+    return lib
+
+
 def _quick_library(path: Path):
     """The quick build of the library at ``path`` (:func:`quick_location`), loaded, where the
     background build has made it and it passes its record; else None."""
@@ -524,13 +588,7 @@ def _quick_library(path: Path):
         return _LIBS[str(quick)]
     if not library_check(quick)[0]:
         return None
-    try:
-        lib = ctypes.CDLL(str(quick))
-        _declare(lib)
-    except (OSError, AttributeError):
-        return None
-    _LIBS[str(quick)] = lib
-    return lib
+    return _loaded(quick)
 
 
 def _declare(lib):
