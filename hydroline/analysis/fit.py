@@ -768,7 +768,9 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         Estimates, intervals, residuals and the calibrated rig.
     """
     from scipy.optimize import least_squares
-    from scipy.stats import t as student_t
+    # Student's t quantile: stdtrit is what scipy.stats.t.ppf computes, without the import of
+    # scipy.stats (~0.3 s: its distributions' docstrings are assembled at import)
+    from scipy.special import stdtrit
 
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     params = list(params)
@@ -895,7 +897,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
             pass
     cov = cov + np.diag(shift ** 2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
-    tq = float(student_t.ppf(0.5 + confidence / 2, dof))
+    tq = float(stdtrit(dof, 0.5 + confidence / 2))
     est = np.exp(sol.x)
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)

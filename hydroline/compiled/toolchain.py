@@ -7,6 +7,7 @@ Compiler: ``$CC``, else ``cc``/``gcc``/``clang`` on the PATH; without one,
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import hashlib
@@ -26,7 +27,7 @@ __all__ = ["CompilerUnavailable", "LibraryPending", "build_in_background", "buil
            "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
            "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
            "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE", "QUICK_LEVEL",
-           "quick_location"]
+           "quick_location", "many_runs", "QUICK_WAIT", "BACKGROUND_NICENESS"]
 
 #: Flags for the system compiler (no -ffast-math: the integrator relies on IEEE semantics;
 #: -fno-math-errno only lets sqrt compile to one instruction; -ffp-contract=fast lets a*b+c
@@ -50,8 +51,8 @@ PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
 #: Longest a process waits, in all, for the quick library of a background build, once one
 #: of its runs went on without it (:func:`load_library`), [s]
 QUICK_WAIT = 1.5
-#: Niceness the background build takes once its quick library is made: the full build
-#: then uses the CPU that the command's own processes leave (on two cores a cold
+#: Niceness the background build's compiler takes for the full library, once the quick one
+#: is made: it then uses the CPU that the command's own processes leave (on two cores a cold
 #: ``hydroline simulate`` with its figure, or a layout study, is three processes), [-]
 BACKGROUND_NICENESS = 10
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
@@ -61,6 +62,8 @@ _LIBS: dict = {}
 _PENDING: dict = {}
 #: Library (its path) -> how long this process has waited for its quick build, [s]
 _WAITED: dict = {}
+#: Inside :func:`many_runs`: a first run waits for the quick build too
+_MANY_RUNS = False
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -350,10 +353,11 @@ def build_in_background(path: Path, full) -> bool:
 def build_from_file(cc: str, source: str, path: str) -> None:
     """The background builder's work (:func:`build_in_background`, in its own process, the
     library's lock inherited): compile ``source`` into the library ``path`` with its record,
-    its quick build (:data:`QUICK_LEVEL`) first, for the runs that start meanwhile, removed
-    once the library is there (at the priority of the commands that run meanwhile: a run
-    that waits for it gets it soonest); errors are dropped (a run that needs the library
-    builds it then).
+    its quick build (:data:`QUICK_LEVEL`) first, for the runs that start meanwhile (at the
+    priority of the command: its runs wait for it), then the library itself at
+    :data:`BACKGROUND_NICENESS` (the command's runs go on with the quick one, its figure
+    beside them), which replaces the quick build; errors are dropped (a run that needs the
+    library builds it then).
 
     Parameters
     ----------
@@ -371,11 +375,7 @@ def build_from_file(cc: str, source: str, path: str) -> None:
                 _compile_locked(cc, full, Path(path), quick=True)
             except CompilerUnavailable:
                 pass                    # (the library itself may still build)
-        try:
-            os.nice(BACKGROUND_NICENESS)   # (the compiler it starts inherits it)
-        except (AttributeError, OSError):
-            pass
-        _compile_locked(cc, full, Path(path))
+        _compile_locked(cc, full, Path(path), niceness=BACKGROUND_NICENESS)
         _discard(quick_location(Path(path)))   # (a process that loaded it keeps its copy)
         prune_libraries()               # a library more: the oldest beyond the bound go
     except (OSError, CompilerUnavailable):
@@ -387,9 +387,11 @@ def build_from_file(cc: str, source: str, path: str) -> None:
             pass
 
 
-def _compile_locked(cc: str, full: str, path: Path, quick: bool = False) -> None:
+def _compile_locked(cc: str, full: str, path: Path, quick: bool = False,
+                    niceness: int = 0) -> None:
     """:func:`_compile`'s work, the library's lock held by the caller (``quick``: its quick
-    build, :data:`QUICK_LEVEL`, into :func:`quick_location`)."""
+    build, :data:`QUICK_LEVEL`, into :func:`quick_location`; the compiler run at
+    ``niceness`` more than this process's, where the system has ``os.nice``)."""
     flags = [QUICK_LEVEL if f.startswith("-O") else f for f in CFLAGS] if quick else CFLAGS
     if quick:
         path = quick_location(path)
@@ -400,11 +402,12 @@ def _compile_locked(cc: str, full: str, path: Path, quick: bool = False) -> None
         src = Path(tmp) / "model.c"
         src.write_text(full)
         out = Path(tmp) / "model.so"
+        nicer = (lambda: os.nice(niceness)) if niceness and hasattr(os, "nice") else None
         proc = subprocess.run([cc, *flags, *native_flags(), "-o", str(out), str(src),
-                               "-lm"], capture_output=True, text=True)
+                               "-lm"], capture_output=True, text=True, preexec_fn=nicer)
         if proc.returncode != 0 and native_flags():   # a compiler without -march=native
             proc = subprocess.run([cc, *flags, "-o", str(out), str(src), "-lm"],
-                                  capture_output=True, text=True)
+                                  capture_output=True, text=True, preexec_fn=nicer)
         if proc.returncode != 0:
             raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
         size, digest = _digest(out)
@@ -482,9 +485,10 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
         background, unless none can be started there)
     run : hashable
         Who asks (e.g. the id of a run's model), without ``wait``: the first
-        run that asks while the library is being built goes on without it;
-        a later one (a study's next run) waits for its quick build, at most
-        :data:`QUICK_WAIT` in all (None: never waits)
+        run that asks while the library is being built goes on without it
+        (inside :func:`many_runs`, it too waits); a later one (a study's
+        next run) waits for its quick build, at most :data:`QUICK_WAIT` in
+        all (None: never waits)
 
     Returns
     -------
@@ -516,9 +520,9 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
                 # on CVODES is progress)
                 if not wait and attempt == 0 and build_in_background(path, full):
                     quick = _quick_library(path)
-                    if quick is None and run is not None and \
-                            _PENDING.setdefault(str(path), run) != run:   # a later run
-                        quick = _await_quick_library(path)
+                    if quick is None and run is not None and (
+                            _PENDING.setdefault(str(path), run) != run or _MANY_RUNS):
+                        quick = _await_quick_library(path)   # (a later run, or a study's)
                     if quick is not None:
                         return quick
                     raise LibraryPending(f"{path.name} is being built in the background", path)
@@ -539,6 +543,23 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
             raise CompilerUnavailable(f"compiled library unusable at {path}: {e}") from None
     _LIBS[str(path)] = lib
     return lib
+
+
+@contextlib.contextmanager
+def many_runs():
+    """Within this context the process makes many runs of one model (a fit, a layout
+    study): its first run that finds the library being built in the background waits for
+    the quick build (:func:`load_library`, at most :data:`QUICK_WAIT`) as its later runs do,
+    instead of going on without it. A run on CVODES costs more than the wait (a fit's first
+    run 0.6 s of CPU against ~0.5 s for the quick build, during which the command's figure
+    process imports Matplotlib), and its CPU is taken from the build; a single run (a
+    ``hydroline simulate``) is quicker on CVODES than after the wait."""
+    global _MANY_RUNS
+    before, _MANY_RUNS = _MANY_RUNS, True
+    try:
+        yield
+    finally:
+        _MANY_RUNS = before
 
 
 def _await_quick_library(path: Path):
