@@ -51,9 +51,10 @@ PORTABLE_ENV = "HYDROLINE_PORTABLE_BUILD"
 #: Longest a process waits, in all, for the quick library of a background build, once one
 #: of its runs went on without it (:func:`load_library`), [s]
 QUICK_WAIT = 1.5
-#: Niceness the background build's compiler takes for the full library, once the quick one
-#: is made: it then uses the CPU that the command's own processes leave (on two cores a cold
-#: ``hydroline simulate`` with its figure, or a layout study, is three processes), [-]
+#: Niceness of the background build (:func:`build_in_background`): it uses the CPU that the
+#: command's own processes leave (on two cores a cold ``hydroline simulate`` with its figure,
+#: or a layout study, is three processes with the build); a run that needs its quick library
+#: waits for it, and the build then has that CPU, [-]
 BACKGROUND_NICENESS = 10
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
@@ -342,7 +343,7 @@ def build_in_background(path: Path, full) -> bool:
         subprocess.Popen([sys.executable, "-c", code, cc, str(source), str(path)],
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL, pass_fds=(lock.fileno(),),
-                         start_new_session=True, close_fds=True)
+                         start_new_session=True, close_fds=True, preexec_fn=_nicer)
         return True
     except (OSError, ValueError, subprocess.SubprocessError):
         return False
@@ -350,14 +351,20 @@ def build_in_background(path: Path, full) -> bool:
         lock.close()
 
 
+def _nicer() -> None:
+    """In the background builder's process before it starts: :data:`BACKGROUND_NICENESS`."""
+    try:
+        os.nice(BACKGROUND_NICENESS)
+    except OSError:
+        pass
+
+
 def build_from_file(cc: str, source: str, path: str) -> None:
     """The background builder's work (:func:`build_in_background`, in its own process, the
     library's lock inherited): compile ``source`` into the library ``path`` with its record,
-    its quick build (:data:`QUICK_LEVEL`) first, for the runs that start meanwhile (at the
-    priority of the command: its runs wait for it), then the library itself at
-    :data:`BACKGROUND_NICENESS` (the command's runs go on with the quick one, its figure
-    beside them), which replaces the quick build; errors are dropped (a run that needs the
-    library builds it then).
+    its quick build (:data:`QUICK_LEVEL`) first, for the runs that start meanwhile, removed
+    once the library is there (the process started at :data:`BACKGROUND_NICENESS`); errors
+    are dropped (a run that needs the library builds it then).
 
     Parameters
     ----------
@@ -375,7 +382,7 @@ def build_from_file(cc: str, source: str, path: str) -> None:
                 _compile_locked(cc, full, Path(path), quick=True)
             except CompilerUnavailable:
                 pass                    # (the library itself may still build)
-        _compile_locked(cc, full, Path(path), niceness=BACKGROUND_NICENESS)
+        _compile_locked(cc, full, Path(path))
         _discard(quick_location(Path(path)))   # (a process that loaded it keeps its copy)
         prune_libraries()               # a library more: the oldest beyond the bound go
     except (OSError, CompilerUnavailable):
@@ -387,11 +394,9 @@ def build_from_file(cc: str, source: str, path: str) -> None:
             pass
 
 
-def _compile_locked(cc: str, full: str, path: Path, quick: bool = False,
-                    niceness: int = 0) -> None:
+def _compile_locked(cc: str, full: str, path: Path, quick: bool = False) -> None:
     """:func:`_compile`'s work, the library's lock held by the caller (``quick``: its quick
-    build, :data:`QUICK_LEVEL`, into :func:`quick_location`; the compiler run at
-    ``niceness`` more than this process's, where the system has ``os.nice``)."""
+    build, :data:`QUICK_LEVEL`, into :func:`quick_location`)."""
     flags = [QUICK_LEVEL if f.startswith("-O") else f for f in CFLAGS] if quick else CFLAGS
     if quick:
         path = quick_location(path)
@@ -402,12 +407,11 @@ def _compile_locked(cc: str, full: str, path: Path, quick: bool = False,
         src = Path(tmp) / "model.c"
         src.write_text(full)
         out = Path(tmp) / "model.so"
-        nicer = (lambda: os.nice(niceness)) if niceness and hasattr(os, "nice") else None
         proc = subprocess.run([cc, *flags, *native_flags(), "-o", str(out), str(src),
-                               "-lm"], capture_output=True, text=True, preexec_fn=nicer)
+                               "-lm"], capture_output=True, text=True)
         if proc.returncode != 0 and native_flags():   # a compiler without -march=native
             proc = subprocess.run([cc, *flags, "-o", str(out), str(src), "-lm"],
-                                  capture_output=True, text=True, preexec_fn=nicer)
+                                  capture_output=True, text=True)
         if proc.returncode != 0:
             raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
         size, digest = _digest(out)

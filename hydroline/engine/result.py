@@ -360,15 +360,16 @@ def write_csv_rows(file, t, block):
         One row per time, [SI]
     """
     data = np.column_stack([np.asarray(t, dtype=float), np.asarray(block, dtype=float)])
-    step = max(1, 100_000 // max(data.shape[1], 1))
+    line = ",".join(["%r"] * data.shape[1]) + "\n"   # (one % per piece: ~1/4 less time than
+    step = max(1, 100_000 // max(data.shape[1], 1))  # a join of each row's reprs)
     for k in range(0, len(data), step):
         part = data[k:k + step]
-        rows = part.tolist()
         if np.isnan(part).any():
-            text = "\n".join(",".join("" if v != v else repr(v) for v in r) for r in rows)
+            text = "".join(",".join("" if v != v else repr(v) for v in r) + "\n"
+                           for r in part.tolist())
         else:
-            text = "\n".join(",".join(map(repr, r)) for r in rows)
-        file.write(text + "\n")
+            text = (line * len(part)) % tuple(part.ravel().tolist())
+        file.write(text)
 
 
 def csv_cells(values) -> list:
