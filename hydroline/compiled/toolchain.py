@@ -27,7 +27,7 @@ __all__ = ["CompilerUnavailable", "LibraryPending", "build_in_background", "buil
            "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
            "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
            "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE", "QUICK_LEVEL",
-           "quick_location", "many_runs", "QUICK_WAIT", "BACKGROUND_NICENESS"]
+           "quick_location", "many_runs", "QUICK_WAIT", "BACKGROUND_NICENESS", "nicer"]
 
 #: Flags for the system compiler (no -ffast-math: the integrator relies on IEEE semantics;
 #: -fno-math-errno only lets sqrt compile to one instruction; -ffp-contract=fast lets a*b+c
@@ -337,13 +337,14 @@ def build_in_background(path: Path, full) -> bool:
         with os.fdopen(fd, "w") as f:
             f.write(full() if callable(full) else full)
         os.replace(tmp, source)
-        code = ("import sys\nfrom hydroline.compiled.toolchain import build_from_file\n"
-                "build_from_file(sys.argv[1], sys.argv[2], sys.argv[3])\n")
+        # (niced first thing: a preexec_fn would make subprocess fork this whole process)
+        code = ("import sys\nfrom hydroline.compiled.toolchain import build_from_file, nicer\n"
+                "nicer()\nbuild_from_file(sys.argv[1], sys.argv[2], sys.argv[3])\n")
         # (the child inherits the locked descriptor: the lock is its until it exits)
         subprocess.Popen([sys.executable, "-c", code, cc, str(source), str(path)],
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL, pass_fds=(lock.fileno(),),
-                         start_new_session=True, close_fds=True, preexec_fn=_nicer)
+                         start_new_session=True, close_fds=True)
         return True
     except (OSError, ValueError, subprocess.SubprocessError):
         return False
@@ -351,11 +352,12 @@ def build_in_background(path: Path, full) -> bool:
         lock.close()
 
 
-def _nicer() -> None:
-    """In the background builder's process before it starts: :data:`BACKGROUND_NICENESS`."""
+def nicer() -> None:
+    """Lower this process's priority by :data:`BACKGROUND_NICENESS` (the background builder
+    does, first thing), where the system allows it."""
     try:
         os.nice(BACKGROUND_NICENESS)
-    except OSError:
+    except (AttributeError, OSError):
         pass
 
 
