@@ -712,17 +712,6 @@ RECORD_RTOL = 1e-6
 RECORD_ATOL_SCALE = 1e-7
 
 
-def _import_quietly(name: str) -> None:
-    """Import a module (from a thread, ahead of its use); a failure is left to the import
-    where it is used, which raises it."""
-    import importlib
-
-    try:
-        importlib.import_module(name)
-    except Exception:   # noqa: BLE001  (said where the module is imported for use)
-        pass
-
-
 def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=None,
                    confidence: float = 0.95, max_evaluations: int = 60, bound_factor: float = 10.0,
                    sigma: dict | None = None, start: str = "auto", offsets=None,
@@ -778,13 +767,6 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     FitResult
         Estimates, intervals, residuals and the calibrated rig.
     """
-    import threading
-
-    # SciPy's optimiser imported (~0.3 s) beside the first run, which on a first use waits
-    # for its compiled library to be built (the import done while it waits)
-    optimizer = threading.Thread(target=_import_quietly, args=("scipy.optimize",),
-                                 name="import-scipy.optimize", daemon=True)
-    optimizer.start()
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     params = list(params)
     if not params:
@@ -858,7 +840,8 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     initial = model(theta0)
     if initial is None:
         raise ValueError("the model does not run with the starting rig on this record")
-    optimizer.join()
+    # (SciPy's optimiser, ~0.3 s to import, after the first run: the command line's fit
+    # imports it while that run waits for its compiled library, compiled.many_runs)
     from scipy.optimize import least_squares
     # Student's t quantile: stdtrit is what scipy.stats.t.ppf computes, without the import of
     # scipy.stats (~0.3 s: its distributions' docstrings are assembled at import)

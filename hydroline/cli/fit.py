@@ -1,6 +1,9 @@
 """``hydroline fit``: calibrate rig parameters to a measured record (nonlinear least squares)."""
 from __future__ import annotations
 
+import functools
+import importlib
+
 from ..analysis.figures import plot_fit
 from ..analysis.fit import COLUMNS, STARTS, UNRESOLVED_CURVATURE, fit_parameters, read_measurements
 from ..compiled.toolchain import many_runs
@@ -106,7 +109,9 @@ def _run(args, figures) -> int:
         for s in offsets:
             if s not in meas.data:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
-    with many_runs():   # (its first run too waits for the quick library, not CVODES)
+    # (its first run too waits for the quick library, not CVODES; SciPy's optimiser is
+    # imported while it waits)
+    with many_runs(meanwhile=[functools.partial(importlib.import_module, "scipy.optimize")]):
         res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
                              max_evaluations=args.max_evals, start=args.start, offsets=offsets,
                              axis=args.axis,

@@ -65,6 +65,8 @@ _PENDING: dict = {}
 _WAITED: dict = {}
 #: Inside :func:`many_runs`: a first run waits for the quick build too
 _MANY_RUNS = False
+#: :func:`many_runs`' work to do while a run waits for a quick library
+_MEANWHILE: list = []
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -552,20 +554,30 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
 
 
 @contextlib.contextmanager
-def many_runs():
-    """Within this context the process makes many runs of one model (a fit, a layout
-    study): its first run that finds the library being built in the background waits for
-    the quick build (:func:`load_library`, at most :data:`QUICK_WAIT`) as its later runs do,
-    instead of going on without it. A run on CVODES costs more than the wait (a fit's first
-    run 0.6 s of CPU against ~0.5 s for the quick build, during which the command's figure
-    process imports Matplotlib), and its CPU is taken from the build; a single run (a
-    ``hydroline simulate``) is quicker on CVODES than after the wait."""
+def many_runs(meanwhile=()):
+    """Within this context the process makes many runs of one model (a fit): its first run
+    that finds the library being built in the background waits for the quick build
+    (:func:`load_library`, at most :data:`QUICK_WAIT`) as its later runs do, instead of
+    going on without it. A run on CVODES costs more than the wait (a fit's first run 0.6 s
+    of CPU against ~0.5 s for the quick build, during which the command's figure process
+    imports Matplotlib), and its CPU is taken from the build; a single run (a ``hydroline
+    simulate``) is quicker on CVODES than after the wait.
+
+    Parameters
+    ----------
+    meanwhile : sequence of callable
+        Work the command does later anyway (an import), done by the first run that waits,
+        before it waits: on the CPU the build leaves (an error in it is left to where the
+        work is done again)
+    """
     global _MANY_RUNS
     before, _MANY_RUNS = _MANY_RUNS, True
+    _MEANWHILE.extend(meanwhile)
     try:
         yield
     finally:
         _MANY_RUNS = before
+        del _MEANWHILE[:]
 
 
 def _await_quick_library(path: Path):
@@ -577,6 +589,11 @@ def _await_quick_library(path: Path):
     whose CPU the build, and a figure drawn beside it, would otherwise share."""
     import fcntl
 
+    while _MEANWHILE:   # (the command's own work first, on the CPU the build leaves)
+        try:
+            _MEANWHILE.pop(0)()
+        except Exception:   # noqa: BLE001  (done again, and said, where it is needed)
+            pass
     start = time.monotonic()
     try:
         while time.monotonic() - start < QUICK_WAIT - _WAITED.get(str(path), 0.0):
