@@ -574,7 +574,7 @@ LABEL_SPOTS = (((5, 4), "left", "bottom"), ((5, -4), "left", "top"),
                ((-5, 13), "right", "bottom"), ((-5, -13), "right", "top"))
 
 
-def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, laid_out: bool = False):
+def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bool = True):
     """Write value labels beside their points where none overlaps another, a marker, a line
     of the panel, its legend or the panel's edge: each label takes the first free spot of
     :data:`LABEL_SPOTS`; when none is free, the one overlapping least, a line counting a
@@ -592,10 +592,11 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, laid_out: bool
         keep clear of, [pixels]
     fontsize : float
         Size of the labels, [points]
-    laid_out : bool
-        The figure was drawn (without rendering) since its last change other than value
-        labels in other panels (e.g. by this function for another panel): the draw that lays
-        it out (a third of the figure's drawing time) is not repeated
+    draw_first : bool
+        Draw the figure (without rendering) first, so that autoscaled limits and a legend's
+        place are those drawn; False where the panel's limits are set and its legend has a
+        fixed location (found when asked, without a draw): the layout figure's labels, where
+        that draw was a third of the figure's drawing time
 
     Returns
     -------
@@ -606,7 +607,7 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, laid_out: bool
 
     fig = ax.figure
     renderer = fig.canvas.get_renderer()
-    if not laid_out:
+    if draw_first:
         fig.draw_without_rendering()   # the legend's place and the limits as they will be drawn
     frame = ax.get_window_extent(renderer)
     boxes = list(avoid)
@@ -904,8 +905,9 @@ def plot_layout(lengths, runs, summaries, wave_speeds, sides, title, path=None):
     fig.legend(handles=handles, loc="upper center", ncol=len(handles), fontsize=8,
                frameon=False, bbox_to_anchor=(0.5, 1 - (0.3 + extra) / height))
     fig.subplots_adjust(left=0.07, right=0.98, top=1 - (0.85 + extra) / height, bottom=0.05)
-    place_value_labels(ax_f, values["f"])
-    place_value_labels(ax_a, values["a"], laid_out=True)   # (the labels of ax_f move nothing here)
+    # (both panels' limits set above, their legends at fixed corners: no draw needed first)
+    place_value_labels(ax_f, values["f"], draw_first=False)
+    place_value_labels(ax_a, values["a"], draw_first=False)
     if path is not None:
         save_png(fig, path, dpi=110)
     return fig
