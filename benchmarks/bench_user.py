@@ -3,7 +3,9 @@ beside its target and Hopsan's figure where one exists, in one command.
 
 Cold is a new user's first run: an empty hydroline cache (a fresh temporary directory as
 ``$HYDROLINE_CACHE_DIR`` for each run: no compiled library, no model record, no line tables);
-Matplotlib's font cache and Python's bytecode are kept, as after an install. Warm is the median
+Matplotlib's font cache and Python's bytecode are kept, as after an install; the detached
+background build a cold run starts is awaited before the next run (its CPU is not the
+command's: the cold cell's CPU is the command's own, its figure process included). Warm is the median
 of ``--repeat`` runs after one warm-up in a cache of the benchmark's own. Whole processes are
 timed from outside (``subprocess``: wall, and the children's CPU from ``getrusage``); the
 in-process rows run in this process, with one BLAS thread as the command line has it.
@@ -75,16 +77,32 @@ def run(cmd, cache: Path, cwd: Path) -> tuple[float, float]:
     return wall, after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
 
 
+def background_builds_ended(cache: Path) -> None:
+    """Wait until no background build goes on in ``cache`` (each holds its library's lock
+    until it ends): a cold run's build, detached, would otherwise share the CPU with the
+    next run."""
+    import fcntl
+
+    for lock in cache.glob("*.lock"):
+        with open(lock) as f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+
+
 def cold_and_warm(cmd, warm_cache: Path, work: Path, cold: int, repeat: int):
-    """(cold wall, warm wall) medians [s]: ``cold`` runs each in an empty cache, then
-    ``repeat`` runs after a warm-up in ``warm_cache``."""
+    """(cold cell, warm wall): the medians of ``cold`` runs each in an empty cache (its
+    background build awaited before the next run) as "wall (CPU ...)" text, the command's
+    CPU with its figure process, not the detached build; the median wall [s] of ``repeat``
+    runs after a warm-up in ``warm_cache``."""
     colds = []
     for _ in range(cold):
         with tempfile.TemporaryDirectory(dir=work) as empty:
-            colds.append(run(cmd, Path(empty), work)[0])
+            colds.append(run(cmd, Path(empty), work))
+            background_builds_ended(Path(empty))
     run(cmd, warm_cache, work)
     warms = [run(cmd, warm_cache, work)[0] for _ in range(repeat)]
-    return statistics.median(colds) if colds else None, statistics.median(warms)
+    cell = (f"{s(statistics.median(w for w, _ in colds))} "
+            f"(CPU {s(statistics.median(c for _, c in colds))})") if colds else "-"
+    return cell, statistics.median(warms)
 
 
 def libraries(cache: Path) -> int:
@@ -304,25 +322,25 @@ def main():
         if only & {"simulate", "changed"}:
             cold, warm_json = cold_and_warm([*BIN, "simulate", "--json"], cache, work,
                                             args.cold, args.repeat)
-            rows.append(("hydroline simulate --json (whole process)", s(cold), s(warm_json),
+            rows.append(("hydroline simulate --json (whole process)", cold, s(warm_json),
                          "cold <= 1.0 s, warm <= 0.2 s",
                          f"{HOPSAN_WHOLE_PROCESS * 1e3:.0f} ms (start-up 7 ms)"))
         if "out" in only:
             cold, warm = cold_and_warm([*BIN, "simulate", "--out", str(work / "out")], cache,
                                        work, args.cold, args.repeat)
-            rows.append(("hydroline simulate with CSV + PNG", s(cold), s(warm), "cold <= 1.5 s",
+            rows.append(("hydroline simulate with CSV + PNG", cold, s(warm), "cold <= 1.5 s",
                          ""))
         for name in ("layout", "bode"):
             if name in only:
                 cold, warm = cold_and_warm([*BIN, name, "--out", str(work / name)], cache, work,
                                            args.cold, args.repeat)
-                rows.append((f"hydroline {name}", s(cold), s(warm), "cold <= 2 s", ""))
+                rows.append((f"hydroline {name}", cold, s(warm), "cold <= 2 s", ""))
         if "fit" in only:
             run([*BIN, "simulate", "--out", str(work / "record")], cache, work)
             cold, warm = cold_and_warm([*BIN, "fit", str(work / "record" / "results.csv"),
                                         "--params", BULK, "--out", str(work / "fit")],
                                        cache, work, args.cold, args.repeat)
-            rows.append(("hydroline fit (section II bulk moduli)", s(cold), s(warm),
+            rows.append(("hydroline fit (section II bulk moduli)", cold, s(warm),
                          "cold <= 2 s", ""))
         if "changed" in only:
             for what, wall, ratio, built, runs in changed_numbers(cache, work, args.repeat,

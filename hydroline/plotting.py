@@ -7,7 +7,7 @@ __all__ = ["plot_result", "plot_long_run", "PRESSURE_PANELS", "new_figure", "sav
            "column_envelope", "figure_title", "TITLE_CHARACTERS", "time_axis", "format_time",
            "shade_outside_window", "outside_window_handle", "metrics_window_of",
            "OUTSIDE_WINDOW_COLOR", "OUTSIDE_TRACE_COLOR", "OUTSIDE_WINDOW_LABEL",
-           "ratio_unit", "place_value_labels", "wrap_title"]
+           "ratio_unit", "place_value_labels", "wrap_title", "plot_layout"]
 
 #: The paper's Figs. 10-12: valve port pressures, chamber pressures, piston velocity.
 PRESSURE_PANELS = (
@@ -574,7 +574,7 @@ LABEL_SPOTS = (((5, 4), "left", "bottom"), ((5, -4), "left", "top"),
                ((-5, 13), "right", "bottom"), ((-5, -13), "right", "top"))
 
 
-def place_value_labels(ax, labels, avoid=(), fontsize: float = 7):
+def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bool = True):
     """Write value labels beside their points where none overlaps another, a marker, a line
     of the panel, its legend or the panel's edge: each label takes the first free spot of
     :data:`LABEL_SPOTS`; when none is free, the one overlapping least, a line counting a
@@ -592,6 +592,11 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7):
         keep clear of, [pixels]
     fontsize : float
         Size of the labels, [points]
+    draw_first : bool
+        Draw the figure (without rendering) first, so that autoscaled limits and a legend's
+        place are those drawn; False where the panel's limits are set and its legend has a
+        fixed location (found when asked, without a draw): the layout figure's labels, where
+        that draw was a third of the figure's drawing time
 
     Returns
     -------
@@ -602,7 +607,8 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7):
 
     fig = ax.figure
     renderer = fig.canvas.get_renderer()
-    fig.draw_without_rendering()   # the legend's place and the limits as they will be drawn
+    if draw_first:
+        fig.draw_without_rendering()   # the legend's place and the limits as they will be drawn
     frame = ax.get_window_extent(renderer)
     boxes = list(avoid)
     legend = ax.get_legend()
@@ -749,4 +755,159 @@ def plot_line_response(line, models, f, form, path=None, title=None, references=
     fig.tight_layout()
     if path:
         save_png(fig, path, dpi=100)
+    return fig
+
+
+def plot_layout(lengths, runs, summaries, wave_speeds, sides, title, path=None):
+    """The layout study's figure (:meth:`hydroline.studies.LayoutStudy.plot`): port-pressure
+    traces of every length stacked (the paper's Figs. 13-14: supply left, return right;
+    dotted: step and piston stop, green dashed: a measured settling time; grey, as in every
+    figure, outside the metrics window, said in the legend) above frequency and amplitude
+    against length, each point labelled with its value where the label overlaps nothing
+    (:func:`place_value_labels`). Its arguments are arrays and plain values
+    (:meth:`~hydroline.studies.LayoutStudy.figure_data`), so that a figure process draws it
+    without importing the model.
+
+    Parameters
+    ----------
+    lengths : list of float
+        Section lengths, [m]
+    runs : list of Traces
+        Per length, the ``supply`` and ``return`` port pressures [Pa]; ``t_disturbance``
+        [s] and ``metrics_window`` in its metadata
+    summaries : list of dict
+        Per length, ``{"supply": {...}, "return": {...}}``: ``frequency_hz`` [Hz],
+        ``amplitude_mpa``, ``first_excursion_mpa`` [MPa], ``settling_time_s`` [s] and
+        ``settling_method`` (None where a metric does not exist)
+    wave_speeds : dict
+        Side -> wave speed of its section II, [m/s]
+    sides : tuple
+        The sides whose sections were set
+    title : str
+        Figure title
+    path : str or Path
+        Write the figure there (PNG) when given
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure (written as PNG to ``path`` when given).
+    """
+    from matplotlib.lines import Line2D
+
+    ports = ("supply", "return")
+    n = len(lengths)
+    fig = new_figure((11, 1.7 * n + 4.4))
+    outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
+    gs = outer[0].subgridspec(n, 2, hspace=0.12)
+    first, lims = {}, {}
+    factor, unit = time_axis(max(res.t[-1] - res.t[0] for res in runs))
+    shaded = stopped = measured = False
+    for r, (L, res) in enumerate(zip(lengths, runs)):
+        t_s = res.t * factor
+        t0 = res.metadata.get("t_disturbance", 0.0)
+        window = metrics_window_of(res)
+        t1 = window[1] if window is not None else None
+        for c, side in enumerate(ports):
+            ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
+            first.setdefault("x", ax)
+            first.setdefault(side, ax)
+            y = res[side] / 1e6
+            k1 = int(np.count_nonzero(res.t <= t1)) if t1 else y.size
+            ax.plot(t_s[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
+            lims.setdefault(side, []).extend([float(np.min(y[:k1])), float(np.max(y[:k1]))])
+            if t1:   # after the far stop: grey, outside the metrics
+                ax.plot(t_s[k1 - 1:], y[k1 - 1:], lw=0.7, color=OUTSIDE_TRACE_COLOR)
+                ax.axvline(t1 * factor, color="r", lw=0.7, ls=":")
+                stopped = True
+            if window is not None:
+                shaded |= shade_outside_window(ax, window[0], t1, res.t[0], res.t[-1], factor)
+            ax.axvline(t0 * factor, color="k", lw=0.7, ls=":")
+            ts = summaries[r][side].get("settling_time_s")
+            if ts is not None and summaries[r][side].get("settling_method") == "measured":
+                ax.axvline((t0 + ts) * factor, color="C2", lw=0.8, ls="--")   # (an estimate
+                # lies past the stop, where the trace shows the stop's own transient)
+                measured = True
+            ax.grid(True, alpha=0.3)
+            label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
+            ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
+                    bbox=dict(facecolor="white", edgecolor="none", alpha=0.7))
+            if r == 0:
+                ax.set_title(f"{side} port pressure [MPa]", fontsize=10)
+            if r < n - 1:
+                ax.tick_params(labelbottom=False)
+            else:
+                ax.set_xlabel(f"time [{unit}]")
+                ax.set_xlim(t_s[0], t_s[-1])
+    for side, values in lims.items():   # y-range from the metrics windows only
+        lo, hi = min(values), max(values)
+        pad = 0.08 * (hi - lo) if hi > lo else 0.05
+        first[side].set_ylim(lo - pad, hi + pad)
+    sub = outer[1].subgridspec(1, 2, wspace=0.25)
+    ax_f, ax_a = fig.add_subplot(sub[0, 0]), fig.add_subplot(sub[0, 1])
+    order = np.argsort(np.asarray(lengths, dtype=float), kind="quicksort")   # (as a table sorts)
+    by_length = np.asarray(lengths, dtype=float)[order]
+
+    def metric(side, key):   # one metric of every length, in the order of by_length; NaN: none
+        values = [summaries[k][side].get(key) for k in order]
+        return np.array([np.nan if v is None else v for v in values], dtype=float)
+
+    values = {"f": [], "a": []}   # value labels, placed when the panels are laid out
+    for side, color in (("supply", "C0"), ("return", "C3")):
+        frequency, amplitude = metric(side, "frequency_hz"), metric(side, "amplitude_mpa")
+        ax_f.plot(by_length, frequency, "o-", color=color, label=side)
+        ax_a.plot(by_length, amplitude, "o-", color=color, label=f"{side}: oscillation amplitude")
+        ax_a.plot(by_length, metric(side, "first_excursion_mpa"), "^:", color=color, alpha=0.6,
+                  ms=4, label=f"{side}: first excursion |p - p0|")
+        for L, fv, av in zip(by_length, frequency, amplitude):
+            if np.isfinite(fv):
+                values["f"].append((L, fv, f"{fv:.0f}", color))
+            if np.isfinite(av):
+                values["a"].append((L, av, f"{av:.2f}", color))
+        c = wave_speeds.get(side)
+        if c and side in sides and max(lengths) > 0:
+            lo = min([L for L in lengths if L > 0] + [max(lengths)])
+            Ls = np.linspace(0.8 * lo, max(lengths), 100)
+            ax_f.plot(Ls, c / (4 * Ls), ls="--", lw=0.8, color=color,
+                      label=f"{side}: c/(4L) of section II alone")
+    ax_f.set_ylabel("oscillation frequency [Hz]")
+    ax_a.set_ylabel("port pressure [MPa]")
+    longest = max(max(lengths), 1e-3)
+    for ax in (ax_f, ax_a):
+        ax.set_xlabel("section II length [m]")
+        ax.grid(True, alpha=0.3)
+        # room on the right for the labels of the longest section's points
+        ax.set_xlim(-0.06 * longest, 1.1 * longest)
+    ax_f.legend(fontsize=7, loc="upper right")
+    ax_a.legend(fontsize=7, loc="lower right")
+    lo, hi = ax_a.get_ylim()   # from 0 (markers at 0 whole), room above the top labels
+    ax_a.set_ylim(-0.06 * hi, 1.08 * hi)
+    lo, hi = ax_f.get_ylim()
+    ax_f.set_ylim(lo - 0.06 * (hi - lo), hi + 0.06 * (hi - lo))
+    flat = sorted({L for L, s in zip(lengths, summaries)
+                   if any(s[side].get("frequency_hz") is None for side in ports)})
+    if flat:
+        ax_f.text(0.02, 0.04, "no point at " + ", ".join(f"{L:g}" for L in flat) +
+                  " m: no oscillation", transform=ax_f.transAxes, fontsize=8, color="0.4")
+    height = fig.get_figheight()
+    text = wrap_title(title, fig.get_figwidth(), 11)
+    fig.suptitle(text, fontsize=11, y=1 - 0.08 / height, va="top")
+    extra = 0.2 * text.count("\n")   # [inch] below a title of more lines
+    handles = [outside_window_handle(OUTSIDE_WINDOW_LABEL + (
+        " (after the piston's stop: not in the y-range)" if stopped else ""))] \
+        if shaded else []
+    handles.append(Line2D([], [], color="k", lw=0.7, ls=":", label="valve step"))
+    if stopped:
+        handles.append(Line2D([], [], color="r", lw=0.7, ls=":", label="piston at its stop"))
+    if measured:
+        handles.append(Line2D([], [], color="C2", lw=0.8, ls="--",
+                              label="settled (measured settling time)"))
+    fig.legend(handles=handles, loc="upper center", ncol=len(handles), fontsize=8,
+               frameon=False, bbox_to_anchor=(0.5, 1 - (0.3 + extra) / height))
+    fig.subplots_adjust(left=0.07, right=0.98, top=1 - (0.85 + extra) / height, bottom=0.05)
+    # (both panels' limits set above, their legends at fixed corners: no draw needed first)
+    place_value_labels(ax_f, values["f"], draw_first=False)
+    place_value_labels(ax_a, values["a"], draw_first=False)
+    if path is not None:
+        save_png(fig, path, dpi=110)
     return fig

@@ -5,6 +5,8 @@ known compiled library, found without writing C or building a CasADi graph
 Checked structurally (no timing): every numeric value of the default rig, changed, needs no
 build and no graph; the constants such a variant is given are those a full code generation
 of it writes; and its run agrees with the SciPy reference path of its own components."""
+import time
+
 import numpy as np
 import pytest
 
@@ -238,4 +240,81 @@ def test_runs_during_a_background_build_use_its_quick_library(monkeypatch, tmp_p
     assert after.metadata["solver"] == "compiled"
     assert str(path) in toolchain._LIBS
     for res in (during, after):
+        assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+
+
+def _slow_background_build(monkeypatch, toolchain, release):
+    """``build_in_background`` replaced by a build that holds the library's lock, waits for
+    ``release`` and a further 0.3 s, then makes the quick library: a run that asks for it
+    meanwhile finds the build going on and its quick library not there yet."""
+    import fcntl
+    import threading
+
+    started = {}
+
+    def slow(path, full):
+        if "path" in started:
+            return True
+        started["path"] = path
+        source = full() if callable(full) else full
+        lock = open(path.with_suffix(".lock"), "w")
+        fcntl.flock(lock, fcntl.LOCK_EX)
+
+        def build():
+            try:
+                release.wait(30)
+                time.sleep(0.3)
+                toolchain._compile_locked(toolchain.compiler(), source, path, quick=True)
+            finally:
+                lock.close()
+
+        started["thread"] = threading.Thread(target=build, daemon=True)
+        started["thread"].start()
+        return True
+
+    monkeypatch.setattr(toolchain, "build_in_background", slow)
+    return started
+
+
+@needs_cc
+@pytest.mark.parametrize("many", [False, True])
+def test_a_later_run_waits_for_the_quick_library(monkeypatch, tmp_path, many):
+    """While a background build goes on, the first run of a process goes on with CVODES and
+    a later run (another model of the same structure: a study's next variant) waits for the
+    quick library instead of a second CVODES run; inside ``many_runs`` (a fit, whose every
+    run is of one structure) the first run waits too, after the work given to do meanwhile.
+    Every run gives the oscillator's
+    exact step peak 1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm."""
+    import threading
+
+    from hydroline.cache import BACKGROUND_BUILD_ENV
+    from hydroline.compiled import toolchain
+    from hydroline.engine import integrate
+    from test_compiled import _oscillator_peak, oscillator_network
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(BACKGROUND_BUILD_ENV, "1")
+    for name in ("_LIBS", "_PENDING", "_WAITED"):
+        monkeypatch.setattr(toolchain, name, {})
+    monkeypatch.setattr(toolchain, "QUICK_WAIT", 60.0)   # (a slow machine's compiler)
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
+    release = threading.Event()
+    started = _slow_background_build(monkeypatch, toolchain, release)
+    runs = []
+    if many:   # (its work meanwhile done once, by the run that waits)
+        done = []
+        release.set()
+        with toolchain.many_runs(meanwhile=[lambda: done.append(1)]):
+            runs.append(integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05))
+        assert runs[0].metadata["solver"] == "compiled" and done == [1]
+    else:
+        runs.append(integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05))
+        assert runs[0].metadata["solver"] == "cvodes"
+        release.set()
+        runs.append(integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05))
+        assert runs[1].metadata["solver"] == "compiled"
+    assert toolchain._WAITED[str(started["path"])] > 0.2     # it waited for the build
+    started["thread"].join()
+    for res in runs:
         assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)

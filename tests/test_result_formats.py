@@ -157,3 +157,26 @@ def test_simulate_without_pyarrow_refuses_parquet_before_the_run(tmp_path, monke
                  "parquet", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "results.parquet: writing Parquet needs pyarrow" in err[0]
+
+
+def test_csv_table_is_the_text_pandas_writes(tmp_path):
+    """``write_csv_table`` (the layout's and bode's CSV files without pandas' import) writes
+    what ``DataFrame(columns).to_csv(index=False)`` writes: every kind of column a table of
+    metrics holds (floats with NaN and None, integers, integers beside floats, notes with
+    commas, quotes and line breaks, flags, empty text), drawn from a seeded pool."""
+    import io
+
+    from hydroline.engine.result import write_csv_table
+
+    pool = [None, np.nan, 1, 2.5, np.float64(3.0), np.int64(4), True, False, "x", "a,b", 'q"',
+            "", "two\nlines", -0.0, np.inf, -np.inf, 1e-300, 12345678901234567.0, 7]
+    rng = np.random.default_rng(25)
+    for _ in range(300):
+        rows = int(rng.integers(1, 5))
+        columns = {f"c{j}, [unit]": [pool[i] for i in rng.integers(0, len(pool), rows)]
+                   for j in range(int(rng.integers(2, 5)))}
+        columns["floats"] = rng.standard_normal(rows) * 10.0 ** rng.integers(-30, 30, rows)
+        expected = io.StringIO()
+        pd.DataFrame(columns).to_csv(expected, index=False)
+        write_csv_table(tmp_path / "t.csv", columns)
+        assert (tmp_path / "t.csv").read_bytes().decode() == expected.getvalue(), columns

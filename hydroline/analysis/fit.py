@@ -767,9 +767,6 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     FitResult
         Estimates, intervals, residuals and the calibrated rig.
     """
-    from scipy.optimize import least_squares
-    from scipy.stats import t as student_t
-
     rig = rig if isinstance(rig, Rig) else load_rig(rig)
     params = list(params)
     if not params:
@@ -843,6 +840,12 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     initial = model(theta0)
     if initial is None:
         raise ValueError("the model does not run with the starting rig on this record")
+    # (SciPy's optimiser, ~0.3 s to import, after the first run: the command line's fit
+    # imports it while that run waits for its compiled library, compiled.many_runs)
+    from scipy.optimize import least_squares
+    # Student's t quantile: stdtrit is what scipy.stats.t.ppf computes, without the import of
+    # scipy.stats (~0.3 s: its distributions' docstrings are assembled at import)
+    from scipy.special import stdtrit
     left_out = unresolved_samples(initial) if unresolved == "window" else np.zeros(n_samples, bool)
 
     def solve(x0, nfev):
@@ -895,7 +898,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
             pass
     cov = cov + np.diag(shift ** 2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
-    tq = float(student_t.ppf(0.5 + confidence / 2, dof))
+    tq = float(stdtrit(dof, 0.5 + confidence / 2))
     est = np.exp(sol.x)
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)

@@ -75,6 +75,8 @@ def _response(A, B, C, D, s, scales=None):
     n = A.shape[0]
     if n == 0:
         return np.broadcast_to(np.asarray(D, complex), s.shape + np.shape(D)).copy()
+    if len(s) >= SCHUR_POINTS:
+        return C @ _schur_solve(A, B, s) + D
     # (frequencies a block at a time: the whole stack of (s I - A), 1202 x 138 x 138 complex
     # on the default rig, is 370 MB of memory traffic; the same solves, 5x quicker)
     Bc = B.astype(complex)
@@ -88,6 +90,60 @@ def _response(A, B, C, D, s, scales=None):
 
 #: Frequencies whose ``(s I - A)`` are solved together, [-]
 RESPONSE_BLOCK = 64
+#: From this many values of s on, ``(s I - A)^-1 B`` is solved through A's Schur form
+#: (:func:`_schur_solve`) instead of one LU per s, [-]
+SCHUR_POINTS = 32
+
+
+def _schur_solve(A, B, s):
+    """``X[k] = (s[k] I - A)^-1 B`` for many s: A's complex Schur form ``A = Z T Z^H`` once
+    (O(n^3)), then per s a back-substitution with the triangular ``s I - T`` (O(n^2), every s
+    at once), and one step of iterative refinement with the residual in A's own basis, which
+    brings the outputs' error (up to ~4e-11 relative after the back-substitution alone, on
+    the default rig's port pressures) to that of an LU solve per s (~1e-14, against
+    40-digit solves). The default rig's 1202 frequencies: 0.1 s instead of 0.55 s.
+
+    Parameters
+    ----------
+    A : ndarray
+        (n, n) real, [1/s]
+    B : ndarray
+        (n, m) real, [SI]
+    s : ndarray
+        Values of the Laplace variable, complex, [1/s]
+
+    Returns
+    -------
+    ndarray
+        Complex, shape ``(len(s), n, m)``, [SI]
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        Some ``s I - A`` is singular (s an eigenvalue of A).
+    """
+    from scipy.linalg import schur
+
+    n, m = B.shape
+    T, Z = schur(A, output="complex")
+    shifted = s[None, :] - np.diag(T)[:, None]              # (n, len(s)): diagonal of s I - T
+    if not np.all(shifted != 0):
+        raise np.linalg.LinAlgError("Singular matrix")
+    ZH = Z.conj().T
+
+    def triangular(rhs):   # rhs (n, len(s), m) in the Schur basis -> (s I - T)^-1 rhs
+        for j in range(n - 1, -1, -1):
+            if j < n - 1:
+                rhs[j] += np.tensordot(T[j, j + 1:], rhs[j + 1:], axes=(0, 0))
+            rhs[j] /= shifted[j][:, None]
+        return rhs
+
+    Y = triangular(np.broadcast_to((ZH @ B)[:, None, :], (n, len(s), m)).copy())
+    X = (Z @ Y.reshape(n, -1)).reshape(n, len(s), m)
+    residual = B[:, None, :] - s[None, :, None] * X + (A @ X.reshape(n, -1)).reshape(X.shape)
+    X += (Z @ triangular((ZH @ residual.reshape(n, -1)).reshape(X.shape)).reshape(n, -1)
+          ).reshape(X.shape)
+    return np.moveaxis(X, 0, 1)
 
 
 def bandwidth(f, H, reference=None):

@@ -1,11 +1,14 @@
 """``hydroline bode``: frequency response of the linearised test system, hoses vs ideal supply."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from ..analysis.figures import plot_bode
 from ..analysis.frequency import MODAL, bode_analysis, rated_velocity
 from ..analysis.linearize import INPUTS, OperatingPoint
+from ..engine.result import write_csv_table
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table, quantity
 from .figure_process import claim_figure_process
@@ -134,6 +137,26 @@ def summary_dict(res, op) -> dict:
     return out
 
 
+def figure_passbands(res) -> dict:
+    """The passbands as the figure reads them (whether the first -3 dB crossing lies in a
+    notch, and up to where the gain stays within 3 dB), in plain objects: unpickling the
+    analysis' own would import the model into the figure process.
+
+    Parameters
+    ----------
+    res : BodeResult
+        The frequency responses and their passbands
+
+    Returns
+    -------
+    dict
+        Label -> {output: ``types.SimpleNamespace(in_notch, within_3db_up_to_hz)``}
+    """
+    return {label: {o: SimpleNamespace(in_notch=b.in_notch, within_3db_up_to_hz=b.within_3db_up_to_hz)
+                    for o, b in bands.items()}
+            for label, bands in res.passbands.items()}
+
+
 def run(args) -> int:
     """Run ``hydroline bode``: the frequency response of the linearised test system, with the hoses and with an ideal supply: a Bode plot, bandwidths and resonances.
 
@@ -172,8 +195,6 @@ def _run(args, figures) -> int:
         for j, o in enumerate(outputs):
             cols[f"{o}/{args.input} |H| [SI] ({label})"] = np.abs(H[:, j])
             cols[f"{o}/{args.input} phase [deg] ({label})"] = np.degrees(np.angle(H[:, j]))
-    import pandas as pd
-
     name = rig.get("rig.name", rig.source)
     title = (f"{name}: x_p = {op.piston_position * 1e3:g} mm, v_p = {op.piston_velocity:.3g} m/s, "
              f"i = {res.operating_points[MODAL].valve_current * 1e3:.3g} mA")
@@ -182,8 +203,8 @@ def _run(args, figures) -> int:
             dump_json(summary, fh)
         figures.submit(plot_bode, res.f, res.curves, args.input, outputs, res.bandwidths,
                        path=str(temp("bode.png")), title=title,
-                       highest_mode_hz=res.highest_mode_hz, passbands=res.passbands)
-        pd.DataFrame(cols).to_csv(temp("bode.csv"), index=False)
+                       highest_mode_hz=res.highest_mode_hz, passbands=figure_passbands(res))
+        write_csv_table(temp("bode.csv"), cols)   # (pandas' text, without its import)
         figures.wait()
     if args.json:
         dump_json(summary)

@@ -1,8 +1,12 @@
 """``hydroline fit``: calibrate rig parameters to a measured record (nonlinear least squares)."""
 from __future__ import annotations
 
+import functools
+import importlib
+
 from ..analysis.figures import plot_fit
 from ..analysis.fit import COLUMNS, STARTS, UNRESOLVED_CURVATURE, fit_parameters, read_measurements
+from ..compiled.toolchain import many_runs
 from ..rigs import load_rig
 from .common import atomic_outputs, dump_json, out_dir, print_table
 from .figure_process import claim_figure_process
@@ -105,9 +109,13 @@ def _run(args, figures) -> int:
         for s in offsets:
             if s not in meas.data:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
-    res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
-                         max_evaluations=args.max_evals, start=args.start, offsets=offsets,
-                         axis=args.axis, unresolved="keep" if args.keep_unresolved else "window")
+    # (its first run too waits for the quick library, not CVODES; SciPy's optimiser is
+    # imported while it waits)
+    with many_runs(meanwhile=[functools.partial(importlib.import_module, "scipy.optimize")]):
+        res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
+                             max_evaluations=args.max_evals, start=args.start, offsets=offsets,
+                             axis=args.axis,
+                             unresolved="keep" if args.keep_unresolved else "window")
     rig_file = out / "calibrated_rig.toml"
     summary = res.to_dict()
     summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),

@@ -151,7 +151,7 @@ class NativeModel:
         """Load (or build) the library and check that it fits the model's sizes; a misfit
         of a model found by its record is that record's fault (:class:`_RecordMismatch`)."""
         self.cache_hit = self.library_path.exists()
-        self.lib = load_library(self.library_path, full, wait)
+        self.lib = load_library(self.library_path, full, wait, run=id(self.network))
         sizes = (ctypes.c_longlong * 7)()
         self.lib.hl_sizes(sizes)
         g = self.generated

@@ -4,13 +4,15 @@ per-column statistics, decimated preview), and the CSV writers.
 """
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 from .network import Network
 from .steady_state import SteadyState
 
 __all__ = ["SimulationResult", "OutputSink", "column_units", "column_indices", "write_csv_rows",
-           "matlab_names"]
+           "write_csv_table", "csv_cells", "matlab_names"]
 
 
 class SimulationResult:
@@ -383,15 +385,68 @@ def write_csv_rows(file, t, block):
         One row per time, [SI]
     """
     data = np.column_stack([np.asarray(t, dtype=float), np.asarray(block, dtype=float)])
-    step = max(1, 100_000 // max(data.shape[1], 1))
+    line = ",".join(["%r"] * data.shape[1]) + "\n"   # (one % per piece: ~1/4 less time than
+    step = max(1, 100_000 // max(data.shape[1], 1))  # a join of each row's reprs)
     for k in range(0, len(data), step):
         part = data[k:k + step]
-        rows = part.tolist()
         if np.isnan(part).any():
-            text = "\n".join(",".join("" if v != v else repr(v) for v in r) for r in rows)
+            text = "".join(",".join("" if v != v else repr(v) for v in r) + "\n"
+                           for r in part.tolist())
         else:
-            text = "\n".join(",".join(map(repr, r)) for r in rows)
-        file.write(text + "\n")
+            text = (line * len(part)) % tuple(part.ravel().tolist())
+        file.write(text)
+
+
+def csv_cells(values) -> list:
+    """One column's values as the text of its CSV cells, as pandas writes the column of a
+    DataFrame made of them (``DataFrame({name: values}).to_csv()``): a column of numbers
+    with a float or a missing value among them is a float column (each value in Python's
+    shortest round-trip form, ``1.0`` for 1), one of integers alone an integer column, any
+    other ``str`` of each value; a missing value (None, NaN) an empty cell.
+
+    Parameters
+    ----------
+    values : sequence
+        The column: numbers, strings, None
+
+    Returns
+    -------
+    list of str
+        The cells' text, one per value.
+    """
+    if isinstance(values, np.ndarray) and values.dtype.kind == "f":
+        return ["" if v != v else repr(v) for v in values.astype(float).tolist()]
+    values = values.tolist() if isinstance(values, np.ndarray) else list(values)
+    missing = [v is None or (isinstance(v, (float, np.floating)) and v != v) for v in values]
+    present = [v for v, m in zip(values, missing) if not m]
+    numeric = bool(present) and all(isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+                                    for v in present)
+    if numeric and not any(missing) and all(isinstance(v, numbers.Integral) for v in present):
+        return [str(int(v)) for v in values]
+    if numeric:
+        return ["" if m else repr(float(v)) for v, m in zip(values, missing)]
+    return ["" if m else str(v) for v, m in zip(values, missing)]
+
+
+def write_csv_table(path, columns: dict) -> None:
+    """Write a table as CSV the way ``pandas.DataFrame(columns).to_csv(path, index=False)``
+    does (the same text: the header row, then each row's cells by :func:`csv_cells`, quoted
+    where a cell holds a comma, a quote or a line break), without importing pandas.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file to write
+    columns : dict
+        Column name -> its values (a sequence or 1-D array; all of one length)
+    """
+    import csv
+
+    cells = [csv_cells(v) for v in columns.values()]
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        writer = csv.writer(f, lineterminator="\n")
+        writer.writerow(list(columns))
+        writer.writerows(zip(*cells))
 
 
 def column_units(network: Network) -> dict:

@@ -51,14 +51,15 @@ import numpy as np
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import scenario_names
 from ..scenarios.running import simulate
-from ..engine import SteadyStateError
+from ..engine import SimulationResult, SteadyStateError
+from ..engine.result import write_csv_table
 from ..lines import Line
 from ..system import make_fluid
 from ..units import parse_quantity
 from .settling import BAND, SettlingBand, port_summary
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion",
-           "layout_sections", "plot_study"]
+           "layout_sections"]
 
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
@@ -231,6 +232,17 @@ class LayoutStudy:
         """
         import pandas as pd     # here: a sweep's worker imports this module, never a table
 
+        return pd.DataFrame(self.table_rows())
+
+    def table_rows(self) -> list[dict]:
+        """The rows of :meth:`table`, as dicts (column -> value; NaN where a metric does not
+        exist), without pandas.
+
+        Returns
+        -------
+        list[dict]
+            One row per length, in the order of :attr:`lengths`.
+        """
         rows = []
         for L, s in zip(self.lengths, self.summaries):
             row = {"section2_length_m": float(L)}
@@ -253,7 +265,7 @@ class LayoutStudy:
             row["wall_time_s"] = s["wall_time_s"]
             row["warnings"] = "; ".join(s["warnings"])
             rows.append(row)
-        return pd.DataFrame(rows)
+        return rows
 
     def port_pressure(self, res, side: str) -> np.ndarray:
         """A run's valve port pressure on one side: the reported axis's on a multi-axis rig.
@@ -287,13 +299,24 @@ class LayoutStudy:
         """
         import pandas as pd
 
+        return pd.DataFrame(self.trace_columns())
+
+    def trace_columns(self) -> dict:
+        """The columns of :meth:`traces`, without pandas.
+
+        Returns
+        -------
+        dict
+            ``time_s`` [s] and ``{supply,return}_port_pressure_pa@L=<length>m`` [Pa] -> their
+            values (NumPy arrays of one length; NaN after a run's end).
+        """
         t = max((res.t for res in self.results), key=len)
         cols = {"time_s": t}
         for L, res in zip(self.lengths, self.results):
             for side in SIDES:
                 y = self.port_pressure(res, side)
                 cols[f"{side}_port_pressure_pa@L={L:g}m"] = np.interp(t, res.t, y, right=np.nan)
-        return pd.DataFrame(cols)
+        return cols
 
     #: The files :meth:`save` writes, by role (the traces as CSV; see :meth:`file_names`).
     FILES = {"csv": "layout.csv", "traces": "layout_traces.csv", "figure": "layout.png"}
@@ -352,20 +375,21 @@ class LayoutStudy:
         names = self.file_names(traces_format)
         self.files = {role: folder / name for role, name in names.items()}
         where = {role: (temp(name) if temp else folder / name) for role, name in names.items()}
-        if figures is not None:
-            figures.submit(plot_study, self, str(where["figure"]))
-        self.table().to_csv(where["csv"], index=False)
-        traces = self.traces()
-        if traces_format == "csv":
-            traces.to_csv(where["traces"], index=False)
-        else:   # written as a run's time series are (units in the file)
-            from ..engine import SimulationResult
+        if figures is not None:   # (arrays: the figure process imports neither model nor pandas)
+            from ..plotting import plot_layout
 
-            columns = [c for c in traces.columns if c != "time_s"]
+            figures.submit(plot_layout, **self.figure_data(), path=str(where["figure"]))
+        rows = self.table_rows()   # (the CSV files as pandas writes them, without its import)
+        write_csv_table(where["csv"], {k: [row[k] for row in rows] for k in rows[0]})
+        traces = self.trace_columns()
+        if traces_format == "csv":
+            write_csv_table(where["traces"], traces)
+        else:   # written as a run's time series are (units in the file)
+            columns = [c for c in traces if c != "time_s"]
             names = [c.replace("_pa@", "@") for c in columns]   # the unit in the file instead
-            result = SimulationResult(times=traces["time_s"].to_numpy(),
-                                      table=traces[columns].to_numpy(), columns=names,
-                                      metadata={"units": dict.fromkeys(names, "Pa")})
+            result = SimulationResult(times=traces["time_s"],
+                                      table=np.column_stack([traces[c] for c in columns]),
+                                      columns=names, metadata={"units": dict.fromkeys(names, "Pa")})
             getattr(result, f"to_{traces_format}")(where["traces"])
         if figures is not None:
             figures.wait()
@@ -392,127 +416,50 @@ class LayoutStudy:
         matplotlib.figure.Figure
             The figure (written as PNG to ``path`` when given).
         """
-        from matplotlib.lines import Line2D
+        from ..plotting import plot_layout
 
-        from ..plotting import (OUTSIDE_TRACE_COLOR, OUTSIDE_WINDOW_LABEL, metrics_window_of,
-                                new_figure, outside_window_handle, place_value_labels,
-                                save_png, shade_outside_window, time_axis, wrap_title)
+        return plot_layout(**self.figure_data(title), path=path)
 
-        n = len(self.lengths)
-        fig = new_figure((11, 1.7 * n + 4.4))
-        outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
-        gs = outer[0].subgridspec(n, 2, hspace=0.12)
-        first, lims = {}, {}
-        factor, unit = time_axis(max(res.t[-1] - res.t[0] for res in self.results))
-        shaded = stopped = measured = False
-        for r, (L, res) in enumerate(zip(self.lengths, self.results)):
-            t_s = res.t * factor
-            t0 = res.metadata.get("t_disturbance", 0.0)
-            window = metrics_window_of(res)
-            t1 = window[1] if window is not None else None
-            for c, side in enumerate(SIDES):
-                ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
-                first.setdefault("x", ax)
-                first.setdefault(side, ax)
-                y = self.port_pressure(res, side) / 1e6
-                k1 = int(np.count_nonzero(res.t <= t1)) if t1 else y.size
-                ax.plot(t_s[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
-                lims.setdefault(side, []).extend([float(np.min(y[:k1])), float(np.max(y[:k1]))])
-                if t1:   # after the far stop: grey, outside the metrics
-                    ax.plot(t_s[k1 - 1:], y[k1 - 1:], lw=0.7, color=OUTSIDE_TRACE_COLOR)
-                    ax.axvline(t1 * factor, color="r", lw=0.7, ls=":")
-                    stopped = True
-                if window is not None:
-                    shaded |= shade_outside_window(ax, window[0], t1, res.t[0], res.t[-1], factor)
-                ax.axvline(t0 * factor, color="k", lw=0.7, ls=":")
-                ts = self.summaries[r][side].get("settling_time_s")
-                if ts is not None and self.summaries[r][side].get("settling_method") == "measured":
-                    ax.axvline((t0 + ts) * factor, color="C2", lw=0.8, ls="--")   # (an estimate
-                    # lies past the stop, where the trace shows the stop's own transient)
-                    measured = True
-                ax.grid(True, alpha=0.3)
-                label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
-                ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
-                        bbox=dict(facecolor="white", edgecolor="none", alpha=0.7))
-                if r == 0:
-                    ax.set_title(f"{side} port pressure [MPa]", fontsize=10)
-                if r < n - 1:
-                    ax.tick_params(labelbottom=False)
-                else:
-                    ax.set_xlabel(f"time [{unit}]")
-                    ax.set_xlim(t_s[0], t_s[-1])
-        for side, values in lims.items():   # y-range from the metrics windows only
-            lo, hi = min(values), max(values)
-            pad = 0.08 * (hi - lo) if hi > lo else 0.05
-            first[side].set_ylim(lo - pad, hi + pad)
-        sub = outer[1].subgridspec(1, 2, wspace=0.25)
-        ax_f, ax_a = fig.add_subplot(sub[0, 0]), fig.add_subplot(sub[0, 1])
-        tab = self.table().sort_values("section2_length_m")
-        values = {"f": [], "a": []}   # value labels, placed when the panels are laid out
-        for side, color in (("supply", "C0"), ("return", "C3")):
-            ax_f.plot(tab["section2_length_m"], tab[f"{side}_frequency_hz"], "o-", color=color,
-                      label=side)
-            ax_a.plot(tab["section2_length_m"], tab[f"{side}_amplitude_mpa"], "o-", color=color,
-                      label=f"{side}: oscillation amplitude")
-            ax_a.plot(tab["section2_length_m"], tab[f"{side}_first_excursion_mpa"], "^:",
-                      color=color, alpha=0.6, ms=4, label=f"{side}: first excursion |p - p0|")
-            for L, fv, av in zip(tab["section2_length_m"], tab[f"{side}_frequency_hz"],
-                                 tab[f"{side}_amplitude_mpa"]):
-                if np.isfinite(fv):
-                    values["f"].append((L, fv, f"{fv:.0f}", color))
-                if np.isfinite(av):
-                    values["a"].append((L, av, f"{av:.2f}", color))
-            c = self.wave_speeds.get(side)
-            if c and side in self.sides and max(self.lengths) > 0:
-                lo = min([L for L in self.lengths if L > 0] + [max(self.lengths)])
-                Ls = np.linspace(0.8 * lo, max(self.lengths), 100)
-                ax_f.plot(Ls, c / (4 * Ls), ls="--", lw=0.8, color=color,
-                          label=f"{side}: c/(4L) of section II alone")
-        ax_f.set_ylabel("oscillation frequency [Hz]")
-        ax_a.set_ylabel("port pressure [MPa]")
-        longest = max(max(self.lengths), 1e-3)
-        for ax in (ax_f, ax_a):
-            ax.set_xlabel("section II length [m]")
-            ax.grid(True, alpha=0.3)
-            # room on the right for the labels of the longest section's points
-            ax.set_xlim(-0.06 * longest, 1.1 * longest)
-        ax_f.legend(fontsize=7, loc="upper right")
-        ax_a.legend(fontsize=7, loc="lower right")
-        lo, hi = ax_a.get_ylim()   # from 0 (markers at 0 whole), room above the top labels
-        ax_a.set_ylim(-0.06 * hi, 1.08 * hi)
-        lo, hi = ax_f.get_ylim()
-        ax_f.set_ylim(lo - 0.06 * (hi - lo), hi + 0.06 * (hi - lo))
-        flat = sorted({L for L, s in zip(self.lengths, self.summaries)
-                       if any(s[side]["frequency_hz"] is None for side in SIDES)})
-        if flat:
-            ax_f.text(0.02, 0.04, "no point at " + ", ".join(f"{L:g}" for L in flat) +
-                      " m: no oscillation", transform=ax_f.transAxes, fontsize=8, color="0.4")
+    #: What the figure reads of a run's summary, per port (:meth:`figure_data`).
+    FIGURE_METRICS = ("frequency_hz", "amplitude_mpa", "first_excursion_mpa", "settling_time_s",
+                      "settling_method")
+
+    def figure_data(self, title=None) -> dict:
+        """What :meth:`plot` draws, as NumPy arrays and plain values: the arguments of
+        :func:`hydroline.plotting.plot_layout`, which a figure process receives without
+        importing the model (nor pandas).
+
+        Parameters
+        ----------
+        title : str
+            Figure title (None: the study's scenario, rig and sections)
+
+        Returns
+        -------
+        dict
+            ``lengths`` [m], ``runs`` (a :class:`hydroline.plotting.Traces` per length: the
+            ``supply`` and ``return`` port pressures [Pa], ``t_disturbance`` and
+            ``metrics_window`` in its metadata), ``summaries`` (per length and port, the
+            metrics of :data:`FIGURE_METRICS`), ``wave_speeds`` [m/s], ``sides`` and ``title``.
+        """
+        from ..plotting import Traces
+
+        runs = []
+        for res in self.results:
+            meta = {"t_disturbance": res.metadata.get("t_disturbance", 0.0),
+                    "metrics_window": res.metadata.get("metrics_window")}
+            runs.append(Traces(res.t, {side: self.port_pressure(res, side) for side in SIDES},
+                               meta))
+        summaries = [{side: {k: s[side].get(k) for k in self.FIGURE_METRICS} for side in SIDES}
+                     for s in self.summaries]
         what = (f"sections II of {' and '.join(self.sides)} set" if not self.sections or
                 set(self.sections) == {f"{s}.section2" for s in self.sides} else
                 f"{', '.join(self.sections)} set" + (f"; ports of {self.axis}" if self.axis else ""))
-        height = fig.get_figheight()
-        text = wrap_title(title or f"Section II layout study: {self.scenario} on "
-                          f"{self.rig_name} ({what})", fig.get_figwidth(), 11)
-        fig.suptitle(text, fontsize=11, y=1 - 0.08 / height, va="top")
-        extra = 0.2 * text.count("\n")   # [inch] below a title of more lines
-        handles = [outside_window_handle(OUTSIDE_WINDOW_LABEL + (
-            " (after the piston's stop: not in the y-range)" if stopped else ""))] \
-            if shaded else []
-        handles.append(Line2D([], [], color="k", lw=0.7, ls=":", label="valve step"))
-        if stopped:
-            handles.append(Line2D([], [], color="r", lw=0.7, ls=":", label="piston at its stop"))
-        if measured:
-            handles.append(Line2D([], [], color="C2", lw=0.8, ls="--",
-                                  label="settled (measured settling time)"))
-        fig.legend(handles=handles, loc="upper center", ncol=len(handles), fontsize=8,
-                   frameon=False, bbox_to_anchor=(0.5, 1 - (0.3 + extra) / height))
-        fig.subplots_adjust(left=0.07, right=0.98, top=1 - (0.85 + extra) / height,
-                            bottom=0.05)
-        place_value_labels(ax_f, values["f"])
-        place_value_labels(ax_a, values["a"])
-        if path is not None:
-            save_png(fig, path, dpi=110)
-        return fig
+        return {"lengths": [float(L) for L in self.lengths], "runs": runs,
+                "summaries": summaries, "wave_speeds": dict(self.wave_speeds),
+                "sides": tuple(self.sides),
+                "title": title or f"Section II layout study: {self.scenario} on "
+                                  f"{self.rig_name} ({what})"}
 
 
 def _flow_change(res, flow_signal: str):
@@ -527,20 +474,6 @@ def _flow_change(res, flow_signal: str):
     q0 = float(np.interp(t0, t, q))
     q1 = float(np.mean(qw[tw >= t1 - 0.2 * (t1 - t0)]))
     return tw, qw, q0, q1
-
-
-def plot_study(study: LayoutStudy, path: str) -> None:
-    """Write a layout study's figure (:meth:`LayoutStudy.plot`): what a figure process is
-    handed (a function of the module and its arguments).
-
-    Parameters
-    ----------
-    study : LayoutStudy
-        The study.
-    path : str
-        The PNG to write.
-    """
-    study.plot(path)
 
 
 def _flow_rise_time(res, flow_signal: str = "supply_port_flow") -> float:
