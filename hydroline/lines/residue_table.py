@@ -1,0 +1,180 @@
+"""Exact-pole line realisations interpolated over the dissipation number, for sweeps.
+
+In the line's own units (time ``tau = L/c``, pressure ``Z0`` times flow) the exact
+transfer matrix of (M6) depends on the dissipation number ``Dn`` alone: ``Gamma`` and
+``Zc/Z0`` are functions of ``s tau`` and ``kappa^2 = s tau/Dn``. So is the residue line of
+:func:`hydroline.lines.residue.residue_realisation` (form, modes and the viscous clusters
+it resolves being given): with the states in the same units (a pressure state over Z0), its
+matrices ``A tau``, ``B tau`` and C are functions of Dn, smooth between the Dn where the
+number of resolved viscous clusters changes (:func:`~hydroline.lines.residue.viscous_clusters`).
+
+A layout sweep realises a new line per variant (~4 ms each, two hoses a variant: ~40 % of
+a variant's CPU). Inside :class:`interpolated_lines` (entered by a sweep's runner) a line
+is instead interpolated from nodes on a fixed grid of ``log10 Dn``
+(:data:`NODES_PER_DECADE`), each node realised directly (with the target's cluster count,
+so that no stencil spans a change of it) and kept in this process: a polynomial of degree
+:data:`DEGREE` through the nearest nodes, accepted where it differs from the one of the
+degree below by at most :data:`TOLERANCE` of each state equation's largest entry; else,
+and where a node's realisation made a choice that does not vary smoothly with Dn (the
+tail's envelope bound enforced, a lumped viscous pole outside its cluster), the line is
+realised directly. PQ and QP forms of elastic-walled lines; the others are always
+realised directly.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+
+import numpy as np
+
+from .line import FORM_PORTS, Line
+from .residue import realisation_with_notes, viscous_clusters
+
+__all__ = ["interpolated_lines", "in_use", "interpolated_realisation", "NODES_PER_DECADE", "DEGREE",
+           "TOLERANCE"]
+
+#: Grid of the nodes: ``log10 Dn = i/NODES_PER_DECADE``, [-].
+NODES_PER_DECADE = 16
+#: Degree of the interpolating polynomial in ``log10 Dn`` (DEGREE + 1 nodes), [-].
+DEGREE = 5
+#: Largest accepted difference between the interpolants of degree DEGREE and DEGREE - 1,
+#: relative to the largest entry of the state equation's row of ``[A tau, B tau]``, [-].
+#: The direct realisation itself carries up to ~4e-7 of it (a 0.05 m hose: the residues at
+#: the viscous roots amplify the roots' last bit); the line models' accuracy is ~1e-2.
+TOLERANCE = 1e-5
+#: A node whose first tail fit came this close to the envelope bound (``|H|/bound``) or
+#: above is not interpolated across (the bound's enforcement is a discrete choice), [-].
+TAIL_PEAK_LIMIT = 0.98
+#: Nor one whose lumped viscous pole lies within this relative distance of its cluster's
+#: range of rates (outside it another rule applies), [-].
+LUMPED_MARGIN = 1e-3
+#: Nodes kept in this process (~10 kB each), [-].
+NODES_KEPT = 4000
+
+
+class _Use(threading.local):
+    """Per thread: True inside :class:`interpolated_lines`."""
+
+    on = False
+
+
+_USE = _Use()
+_NODES: dict = {}
+
+
+class interpolated_lines:
+    """Context manager: within it (in this thread) :func:`interpolated_realisation` is used
+    by :class:`~hydroline.lines.ModalLine` for residue lines (a sweep's runner enters it)."""
+
+    def __enter__(self):
+        self._saved, _USE.on = _USE.on, True
+        return self
+
+    def __exit__(self, *exc):
+        _USE.on = self._saved
+        return False
+
+
+def in_use() -> bool:
+    """True inside :class:`interpolated_lines` (in this thread)."""
+    return _USE.on
+
+
+def _units(line: Line, form: str, names):
+    """The line's units of its states, inputs and outputs: Z0 for a pressure, 1 for a flow
+    (the residue line's states are pressures and flows: :mod:`hydroline.lines.residue`),
+    [Pa s/m^3 or 1]."""
+    z0 = line.impedance
+
+    def unit(name):
+        return z0 if "pressure" in name.rsplit(".", 1)[-1] else 1.0
+
+    inputs, outputs = FORM_PORTS[form]
+    return (np.array([unit(n) for n in names]), np.array([unit(n) for n in inputs]),
+            np.array([unit(n) for n in outputs]))
+
+
+def _node(line: Line, n: int, form: str, clusters: int, i: int):
+    """The realisation at ``log10 Dn = i/NODES_PER_DECADE`` in the line's units:
+    ``(names, A tau, B tau, C, ok)``, ok False where it may not be interpolated across."""
+    key = (form, n, clusters, i)
+    got = _NODES.get(key)
+    if got is not None:
+        return got
+    dn = 10.0 ** (i / NODES_PER_DECADE)
+    at = dataclasses.replace(line, length=line.length * dn / line.dissipation_number)
+    A, B, C, _, names, notes = realisation_with_notes(at, n, form, clusters)
+    tau = at.wave_time
+    s, w_in, w_out = _units(at, form, names)
+    Ad = tau * A * s[None, :] / s[:, None]
+    Bd = tau * B * w_in[None, :] / s[:, None]
+    Cd = C * s[None, :] / w_out[:, None]
+    ok = (notes.get("tail_peak", 0.0) < TAIL_PEAK_LIMIT
+          and notes.get("lumped_margin", np.inf) > LUMPED_MARGIN)
+    if len(_NODES) >= NODES_KEPT:
+        _NODES.clear()
+    got = _NODES[key] = (tuple(names), Ad, Bd, Cd, ok)
+    return got
+
+
+def _lagrange(u, nodes):
+    """Weights of the polynomial through ``nodes`` at ``u``, [-]."""
+    w = np.ones(len(nodes))
+    for k, uk in enumerate(nodes):
+        for m, um in enumerate(nodes):
+            if m != k:
+                w[k] *= (u - um) / (uk - um)
+    return w
+
+
+def interpolated_realisation(line: Line, n_modes: int, form: str):
+    """The residue line's matrices (:func:`~hydroline.lines.residue.residue_realisation`)
+    interpolated over the dissipation number (module docstring), or None where they are
+    not (another form, a viscoelastic wall, a node that may not be interpolated across, an
+    interpolant off by more than :data:`TOLERANCE`): the caller realises the line directly.
+
+    Parameters
+    ----------
+    line : Line
+        The line, SI
+    n_modes : int
+        Retained modes, [-]
+    form : str
+        Causal form (canonical: "PQ", "QP", "PP" or "QQ")
+
+    Returns
+    -------
+    tuple or None
+        ``(A, B, C, D, state_names)`` as :func:`~hydroline.lines.residue.residue_realisation`.
+    """
+    if line.viscoelastic or form not in ("PQ", "QP"):
+        return None
+    clusters = viscous_clusters(line, n_modes, form)
+    u = math.log10(line.dissipation_number) * NODES_PER_DECADE
+    first = math.floor(u) - (DEGREE - 1) // 2
+    idx = list(range(first, first + DEGREE + 1))
+    nodes = [_node(line, n_modes, form, clusters, i) for i in idx]
+    names = nodes[0][0]
+    if not all(nd[4] and nd[0] == names for nd in nodes) or \
+            not all(np.array_equal(nd[3], nodes[0][3]) for nd in nodes):
+        return None
+    Ad = np.stack([nd[1] for nd in nodes])
+    Bd = np.stack([nd[2] for nd in nodes])
+    w = _lagrange(u, idx)
+    A_hi, B_hi = np.tensordot(w, Ad, 1), np.tensordot(w, Bd, 1)
+    # the degree below, without the node farthest from u
+    drop = 0 if abs(u - idx[0]) > abs(u - idx[-1]) else len(idx) - 1
+    keep = [k for k in range(len(idx)) if k != drop]
+    w_lo = _lagrange(u, [idx[k] for k in keep])
+    A_lo, B_lo = np.tensordot(w_lo, Ad[keep], 1), np.tensordot(w_lo, Bd[keep], 1)
+    row = np.maximum(np.abs(A_hi).max(axis=1), np.abs(B_hi).max(axis=1))
+    err = np.maximum(np.abs(A_hi - A_lo).max(axis=1), np.abs(B_hi - B_lo).max(axis=1))
+    if not np.all(err <= TOLERANCE * row):
+        return None
+    tau = line.wave_time
+    s, w_in, w_out = _units(line, form, names)
+    A = A_hi * s[:, None] / s[None, :] / tau
+    B = B_hi * s[:, None] / (tau * w_in[None, :])
+    C = nodes[0][3] * w_out[:, None] / s[None, :]
+    return A, B, C, np.zeros((2, 2)), list(names)
