@@ -1,9 +1,15 @@
 """The rest state's Newton iteration where rounding keeps the residual above the tolerance
 (issue 25: a layout sweep's short hoses fell back to the pseudo-transient continuation on
-about 1 variant in 5, 5-170 ms each, though Newton had converged to ~1e-14 of the states)."""
+about 1 variant in 5, 5-170 ms each, though Newton had converged to ~1e-14 of the states),
+and its chord steps (one inverse Jacobian kept through the solves of a network)."""
 import numpy as np
+import pytest
 
-from hydroline.engine import steady_state
+from hydroline import compiled
+from hydroline.engine import solve_steady_state, steady_state
+from hydroline.rigs import load_rig
+from hydroline.scenarios import build_scenario
+from hydroline.system import build_network
 
 
 class NoisyLinear:
@@ -49,3 +55,39 @@ def test_newton_stalled_far_above_rounding_is_not_converged():
     x, converged = steady_state._newton(model, 0.0, x0, None, np.ones(3), tol=1e-9)
     assert not converged
     assert np.array_equal(x, x0)
+
+
+def test_chord_steps_converge_where_the_kept_inverse_is_another_states():
+    """An inverse Jacobian kept from another model (rows scaled by 1.5, 1, 0.7: its chord
+    steps would cut the error by 0.33-0.43 a step, not to CHORD_RATE): it is replaced by
+    the inverse at the current state, and the iteration ends at x*."""
+    model = NoisyLinear(noise=0.0)
+    chord = {"inverse": np.linalg.inv(model.J * np.array([1.5, 1.0, 0.7]))}
+    x, converged = steady_state._newton(model, 0.0, np.zeros(3), None, np.ones(3), tol=1e-9,
+                                        chord=chord)
+    assert converged and np.abs(x - model.x_star).max() < 1e-12
+    assert np.allclose(chord["inverse"] @ model.J, np.eye(3), atol=1e-12)
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_rest_state_by_chord_steps_is_the_one_by_newtons_steps(monkeypatch):
+    """The default rig's rest state with chord steps (an inverse kept through the rounds and
+    for the next solve of the network) and with a Newton step through the bordered system at
+    every iteration (CHORD_STATES = 0): the same states to the solver's tolerance (a scaled
+    residual of 1e-9 1/s: the states within 1e-6 of their scales, as in
+    test_compiled_bordered), the second solve of the same network too."""
+    rig = load_rig(None)
+
+    def network():
+        sc = build_scenario(rig, "open-loop-step")
+        return build_network(rig, sc.commands, sc.position_guess)
+
+    monkeypatch.setattr(steady_state, "CHORD_STATES", 0)
+    ref = solve_steady_state(network())
+    monkeypatch.undo()
+    net = network()
+    first = solve_steady_state(net)
+    second = solve_steady_state(net, x_guess=first.x * (1.0 + 1e-3))   # the inverse kept
+    for ss in (first, second):
+        assert ss.residual < 1e-6
+        assert np.all(np.abs(ss.x - ref.x) <= 1e-6 * net.state_scales)
