@@ -909,7 +909,8 @@ def _inequality_lsq(Q, q, G, h, A, b):
     return zp + N @ solve_triangular(Rc, u + c)
 
 
-def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends, notes=None):
+def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends, notes=None,
+                      shared=None):
     """Pseudo-modes that stand for the dropped modes k > n (module docstring, "Remainder").
 
     Per output, one damped pair ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` per group of
@@ -921,7 +922,8 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends, n
     exceeds ``TAIL_BOUND`` times the exact envelope above the band, those frequencies are
     pulled onto 0.97 of the bound with growing weight (``TAIL_ITERATIONS`` rounds).
     ``notes`` (a dict, where given) gets ``"tail_peak"``: the first fit's largest
-    ``|H|/bound`` above the band (above 1: the bound was enforced), [-].
+    ``|H|/bound`` above the band (above 1: the bound was enforced), [-]; the exact responses
+    on the fit's grids are kept in (and taken from) the dict ``shared`` where given.
 
     Returns
     -------
@@ -940,22 +942,32 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends, n
         D = sig**2 + 2.0 * ze * Om * sig + Om**2
         return np.hstack([sig / D, 1.0 / D])
 
-    def remaining(x, target):     # target minus the blocks so far
+    def blocks_at(s, key):        # the blocks so far (the modes' part kept in shared)
+        if shared is None:
+            return _blocks_transfer(blocks, s)
+        k = len(shared["modes"][0])
+        return _kept(shared, key, lambda: _blocks_transfer(blocks[:k], s)) + \
+            _blocks_transfer(blocks[k:], s)
+
+    def remaining(x, target, key):     # target minus the blocks so far
         s = 1j * x / tau
-        return target(s) - _blocks_transfer(blocks, s)
+        return target(s) - blocks_at(s, key)
 
     x_in = np.linspace(theta_band / TAIL_FIT_POINTS, theta_band, TAIL_FIT_POINTS)
     x_up = theta_band * np.geomspace(1.0, Om[-1] / theta_band, TAIL_FIT_POINTS)[1:]
-    E_in = remaining(x_in, lambda s: line.transfer(s, form))
-    E_up = remaining(x_up, lambda s: _reflection_free(line, s, form))
+    E_in = remaining(x_in, lambda s: _kept(shared, "tail_in", lambda: line.transfer(s, form)),
+                     "modes_in")
+    E_up = remaining(x_up, lambda s: _kept(shared, "tail_up",
+                                           lambda: _reflection_free(line, s, form)), "modes_up")
     F_in, F_up = basis(x_in), TAIL_MEAN_WEIGHT * basis(x_up)
     # envelope grid: running maximum of |H_exact| from above, to twice the last pseudo-mode
     top = 2.0 * Om[-1]
     x_c = np.arange(theta_band, top + 2.0 * np.pi, np.pi / TAIL_POINTS_PER_SPACING)
-    env = np.maximum.accumulate(np.abs(line.transfer(1j * x_c[::-1] / tau, form)), axis=0)[::-1]
+    env = _kept(shared, "tail_envelope", lambda: np.maximum.accumulate(
+        np.abs(line.transfer(1j * x_c[::-1] / tau, form)), axis=0)[::-1])
     keep = x_c <= top
     x_c, bound = x_c[keep], TAIL_BOUND * env[keep]
-    base_c = _blocks_transfer(blocks, 1j * x_c / tau)
+    base_c = blocks_at(1j * x_c / tau, "modes_envelope")
     F_c = basis(x_c)
     # DC: sum b0_i/Om_i^2 = rem0; first moment in sigma: sum b1_i/Om_i^2 - 2 zeta_i b0_i/Om_i^3
     G = np.vstack([np.concatenate([np.zeros(m), Om**-2.0]),
@@ -1377,7 +1389,7 @@ def viscous_clusters(line: Line, n_modes: int, form: str = "PQ") -> int:
     return max(1, int(np.sum(keep)))
 
 
-def realisation_with_notes(line: Line, n_modes: int, form: str, clusters: int):
+def realisation_with_notes(line: Line, n_modes: int, form: str, clusters: int, shared=None):
     """:func:`residue_realisation` of an elastic-walled line computed (not remembered) with
     ``clusters`` viscous clusters, and notes on its choices that do not vary smoothly with
     the line's numbers (for :mod:`hydroline.lines.residue_table`).
@@ -1392,6 +1404,10 @@ def realisation_with_notes(line: Line, n_modes: int, form: str, clusters: int):
         Causal form "PQ" or "QP"
     clusters : int
         Viscous clusters resolved (:func:`viscous_clusters` gives the line's own), [-]
+    shared : dict or None
+        Where given, what does not depend on ``clusters`` (the modes, the viscous roots of
+        every cluster, the exact responses of the tail fit) is kept in it and taken from it:
+        a realisation of the same line with another cluster count then costs ~1/3
 
     Returns
     -------
@@ -1409,14 +1425,21 @@ def realisation_with_notes(line: Line, n_modes: int, form: str, clusters: int):
     if line.viscoelastic or check_form(form) not in ("PQ", "QP"):
         raise ValueError("realisation_with_notes: elastic-walled lines in the PQ or QP form")
     notes = {}
-    return (*_realise(line, check_modes(n_modes), form, int(clusters), notes), notes)
+    return (*_realise(line, check_modes(n_modes), form, int(clusters), notes, shared), notes)
 
 
-def _realise(line: Line, n: int, form: str, clusters=None, notes=None):
-    """:func:`residue_realisation`'s matrices, computed (an elastic wall: with ``clusters``
-    viscous clusters where given, notes on the choices in the dict ``notes``)."""
-    ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
-    tau = line.wave_time
+def _kept(shared, key, compute):
+    """``compute()``, kept in the dict ``shared`` under ``key`` (where given)."""
+    if shared is None:
+        return compute()
+    if key not in shared:
+        shared[key] = compute()
+    return shared[key]
+
+
+def _mode_blocks(line: Line, n: int, form: str):
+    """The k = 0 terms and the retained modes of :func:`_realise`: their blocks (A, B, C,
+    names) and their DC gain and first moment (2 x 2 each)."""
     blocks = []                                                     # (A, B, C, names)
 
     # k = 0 terms
@@ -1447,6 +1470,24 @@ def _realise(line: Line, n: int, form: str, clusters=None, notes=None):
             X = np.linalg.solve(A, B)
             H0m -= C @ X
             H1m -= C @ np.linalg.solve(A, X)
+    return blocks, H0m, H1m
+
+
+def _all_viscous(line: Line, form: str):
+    """The viscous roots of every cluster (:data:`MAX_VISCOUS_CLUSTERS`) [1/s] and the real
+    parts of their residues (:func:`modal_residues`)."""
+    sv, bessel = _viscous_roots(line, form, None, VISCOUS_ROOTS_PER_CLUSTER, MAX_VISCOUS_CLUSTERS)
+    return sv, modal_residues(line, sv, form, bessel).real
+
+
+def _realise(line: Line, n: int, form: str, clusters=None, notes=None, shared=None):
+    """:func:`residue_realisation`'s matrices, computed (an elastic wall: with ``clusters``
+    viscous clusters where given, notes on the choices in the dict ``notes``, what does not
+    depend on the cluster count kept in the dict ``shared``)."""
+    ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
+    tau = line.wave_time
+    blocks, H0m, H1m = _kept(shared, "modes", lambda: _mode_blocks(line, n, form))
+    blocks = list(blocks)
     H0, H1 = exact_moments(line, form)
     rem0, rem1 = H0 - H0m, H1 - H1m
 
@@ -1462,9 +1503,13 @@ def _realise(line: Line, n: int, form: str, clusters=None, notes=None):
         if clusters is None:
             sv, bessel = _viscous_roots(line, form, theta_next / tau, VISCOUS_ROOTS_PER_CLUSTER,
                                         MAX_VISCOUS_CLUSTERS)
-        else:
+            Rv = modal_residues(line, sv, form, bessel).real
+        elif shared is None:
             sv, bessel = _viscous_roots(line, form, None, VISCOUS_ROOTS_PER_CLUSTER, clusters)
-        Rv = modal_residues(line, sv, form, bessel).real
+            Rv = modal_residues(line, sv, form, bessel).real
+        else:    # every cluster's roots, each solved on its own bracket: the first rows
+            sv, Rv = _kept(shared, "viscous", lambda: _all_viscous(line, form))
+            sv, Rv = sv[:clusters], Rv[:clusters]
         rates = -sv.ravel()
         margin = np.inf
         for o in range(2):
@@ -1488,7 +1533,7 @@ def _realise(line: Line, n: int, form: str, clusters=None, notes=None):
 
     # T: dropped modes; exact DC gain and first moment
     if form in ("PQ", "QP"):      # well-damped grouped pseudo-modes, fitted and bounded
-        blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends, notes)
+        blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends, notes, shared)
     else:                         # grouped pseudo-modes per port channel, kept passive
         tail = _passive_remainder_blocks(
             line, n, form, blocks, rem0, rem1,

@@ -51,6 +51,11 @@ TAIL_PEAK_LIMIT = 0.98
 LUMPED_MARGIN = 1e-3
 #: Nodes kept in this process (~10 kB each), [-].
 NODES_KEPT = 4000
+#: Grid points whose cluster-independent parts (~0.1 MB each: the modes, every cluster's
+#: viscous roots, the tail fit's exact responses) are kept for nodes of other cluster
+#: counts there, [-]. (Where the count changes every ~0.02-0.04 decade of Dn, a node of
+#: the next count at the same point then costs ~1/3.)
+SHARED_KEPT = 64
 
 
 class _Use(threading.local):
@@ -61,6 +66,7 @@ class _Use(threading.local):
 
 _USE = _Use()
 _NODES: dict = {}
+_SHARED: dict = {}
 
 
 class interpolated_lines:
@@ -102,9 +108,15 @@ def _node(line: Line, n: int, form: str, clusters: int, i: int):
     got = _NODES.get(key)
     if got is not None:
         return got
-    dn = 10.0 ** (i / NODES_PER_DECADE)
-    at = dataclasses.replace(line, length=line.length * dn / line.dissipation_number)
-    A, B, C, _, names, notes = realisation_with_notes(at, n, form, clusters)
+    # the line at that Dn, and what its realisations with other cluster counts share
+    at, shared = _SHARED.pop((form, n, i), (None, None))
+    if at is None:
+        dn = 10.0 ** (i / NODES_PER_DECADE)
+        at, shared = dataclasses.replace(line, length=line.length * dn / line.dissipation_number), {}
+    _SHARED[(form, n, i)] = at, shared                  # (most recently used last)
+    if len(_SHARED) > SHARED_KEPT:
+        _SHARED.pop(next(iter(_SHARED)))
+    A, B, C, _, names, notes = realisation_with_notes(at, n, form, clusters, shared)
     tau = at.wave_time
     s, w_in, w_out = _units(at, form, names)
     Ad = tau * A * s[None, :] / s[:, None]
