@@ -1407,7 +1407,7 @@ def realisation_with_notes(line: Line, n_modes: int, form: str, clusters: int, s
     shared : dict or None
         Where given, what does not depend on ``clusters`` (the modes, the viscous roots of
         every cluster, the exact responses of the tail fit) is kept in it and taken from it:
-        a realisation of the same line with another cluster count then costs ~1/3
+        a realisation of the same line with another cluster count then costs about a fifth
 
     Returns
     -------

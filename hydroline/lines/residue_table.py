@@ -31,8 +31,8 @@ import numpy as np
 from .line import FORM_PORTS, Line
 from .residue import realisation_with_notes, viscous_clusters
 
-__all__ = ["interpolated_lines", "in_use", "interpolated_realisation", "NODES_PER_DECADE", "DEGREE",
-           "TOLERANCE"]
+__all__ = ["interpolated_lines", "in_use", "interpolated_realisation", "NODES_PER_DECADE",
+           "DEGREE", "TOLERANCE"]
 
 #: Grid of the nodes: ``log10 Dn = i/NODES_PER_DECADE``, [-].
 NODES_PER_DECADE = 16
@@ -54,7 +54,7 @@ NODES_KEPT = 4000
 #: Grid points whose cluster-independent parts (~0.1 MB each: the modes, every cluster's
 #: viscous roots, the tail fit's exact responses) are kept for nodes of other cluster
 #: counts there, [-]. (Where the count changes every ~0.02-0.04 decade of Dn, a node of
-#: the next count at the same point then costs ~1/3.)
+#: the next count at the same point then costs about a fifth of the first.)
 SHARED_KEPT = 64
 
 
@@ -83,7 +83,13 @@ class interpolated_lines:
 
 
 def in_use() -> bool:
-    """True inside :class:`interpolated_lines` (in this thread)."""
+    """Whether this thread is inside :class:`interpolated_lines`.
+
+    Returns
+    -------
+    bool
+        True inside it.
+    """
     return _USE.on
 
 
