@@ -21,6 +21,14 @@ OIL = Fluid(870.0, 3.2e-5, 1.5e9)
 OTHER_OIL = Fluid(850.0, 4.6e-5, 1.7e9)
 
 
+@pytest.fixture(autouse=True)
+def own_cache(tmp_path, monkeypatch):
+    """An empty cache and no nodes in memory: every node realised here."""
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    residue_table._NODES.clear()
+    residue_table._SHARED.clear()
+
+
 def with_dn(diameter, fluid, bulk_modulus, dn):
     """The line of this bore and oil whose dissipation number is dn, [-]."""
     probe = Line(1.0, diameter, fluid, bulk_modulus=bulk_modulus)
@@ -110,3 +118,18 @@ def test_modal_line_interpolates_only_inside_the_context():
     assert np.array_equal(inside.A, table[0]) and np.array_equal(inside.B, table[1])
     assert not residue_table.in_use()
     assert MAX_VISCOUS_CLUSTERS >= 30          # (the boundary tested above exists)
+
+
+def test_nodes_read_back_from_the_cache_give_the_same_line(monkeypatch):
+    """A later process (here: the memory cleared) reads the nodes from the on-disk cache and
+    realises none: the same matrices bit for bit."""
+    line = Line(0.8123, 0.01343, OIL, bulk_modulus=1.2e9)
+    first = residue_table.interpolated_realisation(line, 6, "QP")
+    residue_table._NODES.clear()
+    residue_table._SHARED.clear()
+    monkeypatch.setattr(residue_table, "realisation_with_notes",
+                        lambda *a: pytest.fail("a node realised again"))
+    again = residue_table.interpolated_realisation(line, 6, "QP")
+    for a, b in zip(first[:4], again[:4]):
+        assert np.array_equal(a, b)
+    assert first[4] == again[4]

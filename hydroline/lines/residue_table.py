@@ -12,7 +12,8 @@ A layout sweep realises a new line per variant (~4 ms each, two hoses a variant:
 a variant's CPU). Inside :class:`interpolated_lines` (entered by a sweep's runner) a line
 is instead interpolated from nodes on a fixed grid of ``log10 Dn``
 (:data:`NODES_PER_DECADE`), each node realised directly (with the target's cluster count,
-so that no stencil spans a change of it) and kept in this process: a polynomial of degree
+so that no stencil spans a change of it) and kept in this process and on disk (a later
+sweep, or the sweep's other worker, reads it: ~0.3 ms instead of 1-4 ms): a polynomial of degree
 :data:`DEGREE` through the nearest nodes, accepted where it differs from the one of the
 degree below by at most :data:`TOLERANCE` of each state equation's largest entry; else,
 and where a node's realisation made a choice that does not vary smoothly with Dn (the
@@ -25,9 +26,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import threading
+from pathlib import Path
 
 import numpy as np
 
+from ..cache import load_table, source_tag, store_table
 from .line import FORM_PORTS, Line
 from .residue import realisation_with_notes, viscous_clusters
 
@@ -49,6 +52,10 @@ TAIL_PEAK_LIMIT = 0.98
 #: Nor one whose lumped viscous pole lies within this relative distance of its cluster's
 #: range of rates (outside it another rule applies), [-].
 LUMPED_MARGIN = 1e-3
+#: The on-disk cache's table of nodes (:mod:`hydroline.cache`; ~5 kB each, a bounded set:
+#: the grid points of the Dn that sweeps met, per form, modes and cluster count), kept
+#: for later sweeps and processes (a sweep's other workers among them).
+NODE_TABLE = "residue_line_nodes"
 #: Nodes kept in this process (~10 kB each), [-].
 NODES_KEPT = 4000
 #: Grid points whose cluster-independent parts (~0.1 MB each: the modes, every cluster's
@@ -67,6 +74,9 @@ class _Use(threading.local):
 _USE = _Use()
 _NODES: dict = {}
 _SHARED: dict = {}
+#: The line code's source (the nodes' key on disk)
+_SOURCE_TAG = source_tag(*(Path(__file__).with_name(f) for f in (
+    "residue_table.py", "residue.py", "line.py", "corrections.py", "bessel.py")))
 
 
 class interpolated_lines:
@@ -109,11 +119,25 @@ def _units(line: Line, form: str, names):
 
 def _node(line: Line, n: int, form: str, clusters: int, i: int):
     """The realisation at ``log10 Dn = i/NODES_PER_DECADE`` in the line's units:
-    ``(names, A tau, B tau, C, ok)``, ok False where it may not be interpolated across."""
+    ``(names, A tau, B tau, C, ok)``, ok False where it may not be interpolated across;
+    kept in this process and in the on-disk cache (:data:`NODE_TABLE`)."""
     key = (form, n, clusters, i)
     got = _NODES.get(key)
     if got is not None:
         return got
+    disk_key = f"{_SOURCE_TAG}|{form}|{n}|{clusters}|{i}/{NODES_PER_DECADE}"
+    got = _decoded(load_table(NODE_TABLE, disk_key))
+    if got is None:
+        got = _realised_node(line, n, form, clusters, i)
+        store_table(NODE_TABLE, disk_key, _encoded(got))
+    if len(_NODES) >= NODES_KEPT:
+        _NODES.clear()
+    _NODES[key] = got
+    return got
+
+
+def _realised_node(line: Line, n: int, form: str, clusters: int, i: int):
+    """:func:`_node`, computed."""
     # the line at that Dn, and what its realisations with other cluster counts share
     at, shared = _SHARED.pop((form, n, i), (None, None))
     if at is None:
@@ -130,10 +154,33 @@ def _node(line: Line, n: int, form: str, clusters: int, i: int):
     Cd = C * s[None, :] / w_out[:, None]
     ok = (notes.get("tail_peak", 0.0) < TAIL_PEAK_LIMIT
           and notes.get("lumped_margin", np.inf) > LUMPED_MARGIN)
-    if len(_NODES) >= NODES_KEPT:
-        _NODES.clear()
-    got = _NODES[key] = (tuple(names), Ad, Bd, Cd, ok)
-    return got
+    return tuple(names), Ad, Bd, Cd, bool(ok)
+
+
+def _encoded(node) -> dict:
+    """A node as JSON (A by its nonzeros: ~50 of its ~1000 entries)."""
+    names, Ad, Bd, Cd, ok = node
+    rows, cols = np.nonzero(Ad)
+    return {"names": list(names), "rows": rows.tolist(), "cols": cols.tolist(),
+            "A": Ad[rows, cols].tolist(), "B": Bd.tolist(), "C": Cd.tolist(), "ok": ok}
+
+
+def _decoded(stored):
+    """:func:`_encoded`'s node, or None where ``stored`` is None or does not fit."""
+    if stored is None:
+        return None
+    try:
+        names = tuple(stored["names"])
+        N = len(names)
+        Ad = np.zeros((N, N))
+        Ad[np.array(stored["rows"], dtype=np.intp), np.array(stored["cols"], dtype=np.intp)] = \
+            np.array(stored["A"], dtype=float)
+        Bd, Cd = np.array(stored["B"], dtype=float), np.array(stored["C"], dtype=float)
+        if Bd.shape != (N, 2) or Cd.shape != (2, N):
+            return None
+        return names, Ad, Bd, Cd, bool(stored["ok"])
+    except (TypeError, ValueError, KeyError, IndexError):
+        return None
 
 
 def _lagrange(u, nodes):
