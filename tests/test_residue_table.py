@@ -27,6 +27,7 @@ def own_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
     residue_table._NODES.clear()
     residue_table._SHARED.clear()
+    residue_table._STENCILS.clear()
 
 
 def with_dn(diameter, fluid, bulk_modulus, dn):
@@ -85,7 +86,6 @@ def test_nodes_of_one_hose_serve_another_of_the_same_dissipation_number():
     """The realisation in the line's own units (tau, Z0) depends on Dn alone: nodes realised
     for one hose and oil, then a hose of another bore, oil and modulus at Dn between them
     is its own direct realisation to TOLERANCE."""
-    residue_table._NODES.clear()
     dn = 1.234e-3
     first = with_dn(0.01343, OIL, 1.2e9, dn * 1.0001)
     assert residue_table.interpolated_realisation(first, 6, "PQ") is not None
@@ -125,8 +125,8 @@ def test_nodes_read_back_from_the_cache_give_the_same_line(monkeypatch):
     realises none: the same matrices bit for bit."""
     line = Line(0.8123, 0.01343, OIL, bulk_modulus=1.2e9)
     first = residue_table.interpolated_realisation(line, 6, "QP")
-    residue_table._NODES.clear()
-    residue_table._SHARED.clear()
+    for kept in (residue_table._NODES, residue_table._SHARED, residue_table._STENCILS):
+        kept.clear()
     monkeypatch.setattr(residue_table, "realisation_with_notes",
                         lambda *a: pytest.fail("a node realised again"))
     again = residue_table.interpolated_realisation(line, 6, "QP")

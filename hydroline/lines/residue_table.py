@@ -73,6 +73,7 @@ class _Use(threading.local):
 
 _USE = _Use()
 _NODES: dict = {}
+_STENCILS: dict = {}
 _SHARED: dict = {}
 #: The line code's source (the nodes' key on disk)
 _SOURCE_TAG = source_tag(*(Path(__file__).with_name(f) for f in (
@@ -103,18 +104,18 @@ def in_use() -> bool:
     return _USE.on
 
 
-def _units(line: Line, form: str, names):
-    """The line's units of its states, inputs and outputs: Z0 for a pressure, 1 for a flow
-    (the residue line's states are pressures and flows: :mod:`hydroline.lines.residue`),
-    [Pa s/m^3 or 1]."""
-    z0 = line.impedance
-
-    def unit(name):
-        return z0 if "pressure" in name.rsplit(".", 1)[-1] else 1.0
-
+def _pressures(form: str, names):
+    """Which states (``names``), inputs and outputs of a residue line in ``form`` are
+    pressures (the rest are flows: :mod:`hydroline.lines.residue`), three boolean arrays."""
     inputs, outputs = FORM_PORTS[form]
-    return (np.array([unit(n) for n in names]), np.array([unit(n) for n in inputs]),
-            np.array([unit(n) for n in outputs]))
+    return tuple(np.array(["pressure" in x.rsplit(".", 1)[-1] for x in group])
+                 for group in (names, inputs, outputs))
+
+
+def _units(line: Line, form: str, names):
+    """The line's units of its states, inputs and outputs: Z0 for a pressure, 1 for a flow,
+    [Pa s/m^3 or 1]."""
+    return tuple(np.where(m, line.impedance, 1.0) for m in _pressures(form, names))
 
 
 def _node(line: Line, n: int, form: str, clusters: int, i: int):
@@ -218,28 +219,44 @@ def interpolated_realisation(line: Line, n_modes: int, form: str):
     clusters = viscous_clusters(line, n_modes, form)
     u = math.log10(line.dissipation_number) * NODES_PER_DECADE
     first = math.floor(u) - (DEGREE - 1) // 2
-    idx = list(range(first, first + DEGREE + 1))
-    nodes = [_node(line, n_modes, form, clusters, i) for i in idx]
-    names = nodes[0][0]
-    if not all(nd[4] and nd[0] == names for nd in nodes) or \
-            not all(np.array_equal(nd[3], nodes[0][3]) for nd in nodes):
+    stencil = _stencil(line, n_modes, form, clusters, first)
+    if stencil is None:
         return None
-    Ad = np.stack([nd[1] for nd in nodes])
-    Bd = np.stack([nd[2] for nd in nodes])
-    w = _lagrange(u, idx)
-    A_hi, B_hi = np.tensordot(w, Ad, 1), np.tensordot(w, Bd, 1)
-    # the degree below, without the node farthest from u
-    drop = 0 if abs(u - idx[0]) > abs(u - idx[-1]) else len(idx) - 1
-    keep = [k for k in range(len(idx)) if k != drop]
-    w_lo = _lagrange(u, [idx[k] for k in keep])
-    A_lo, B_lo = np.tensordot(w_lo, Ad[keep], 1), np.tensordot(w_lo, Bd[keep], 1)
-    row = np.maximum(np.abs(A_hi).max(axis=1), np.abs(B_hi).max(axis=1))
-    err = np.maximum(np.abs(A_hi - A_lo).max(axis=1), np.abs(B_hi - B_lo).max(axis=1))
-    if not np.all(err <= TOLERANCE * row):
+    names, M, Cd, pressure = stencil
+    idx = range(first, first + DEGREE + 1)
+    # the weights of degree DEGREE, and of the degree below without the node farthest from u
+    W = np.zeros((2, DEGREE + 1))
+    W[0] = _lagrange(u, idx)
+    drop = 0 if abs(u - idx[0]) > abs(u - idx[-1]) else DEGREE
+    keep = [k for k in range(DEGREE + 1) if k != drop]
+    W[1, keep] = _lagrange(u, [idx[k] for k in keep])
+    hi, lo = np.tensordot(W, M, 1)                     # [A tau, B tau] of both
+    if not np.all(np.abs(hi - lo).max(axis=1) <= TOLERANCE * np.abs(hi).max(axis=1)):
         return None
-    tau = line.wave_time
-    s, w_in, w_out = _units(line, form, names)
-    A = A_hi * s[:, None] / s[None, :] / tau
-    B = B_hi * s[:, None] / (tau * w_in[None, :])
-    C = nodes[0][3] * w_out[:, None] / s[None, :]
+    tau, z0 = line.wave_time, line.impedance
+    s, w_in, w_out = (np.where(m, z0, 1.0) for m in pressure)
+    N = len(names)
+    A = hi[:, :N] * (s[:, None] / tau) / s[None, :]
+    B = hi[:, N:] * s[:, None] / (tau * w_in[None, :])
+    C = Cd * w_out[:, None] / s[None, :]
     return A, B, C, np.zeros((2, 2)), list(names)
+
+
+def _stencil(line: Line, n: int, form: str, clusters: int, first: int):
+    """The nodes ``first .. first + DEGREE`` together: ``(names, [A tau, B tau] stacked,
+    C, (pressure states, inputs, outputs))``, or None where one may not be interpolated
+    across or their states differ (kept: a sweep's neighbours share a stencil)."""
+    key = (form, n, clusters, first)
+    got = _STENCILS.get(key, False)
+    if got is not False:
+        return got
+    nodes = [_node(line, n, form, clusters, i) for i in range(first, first + DEGREE + 1)]
+    names, Cd = nodes[0][0], nodes[0][3]
+    got = None
+    if all(nd[4] and nd[0] == names and np.array_equal(nd[3], Cd) for nd in nodes):
+        M = np.stack([np.hstack([nd[1], nd[2]]) for nd in nodes])
+        got = names, M, Cd, _pressures(form, names)
+    if len(_STENCILS) >= NODES_KEPT:
+        _STENCILS.clear()
+    _STENCILS[key] = got
+    return got
