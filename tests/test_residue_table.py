@@ -97,13 +97,22 @@ def test_nodes_of_one_hose_serve_another_of_the_same_dissipation_number():
     assert same and err <= residue_table.TOLERANCE
 
 
-def test_other_forms_and_viscoelastic_walls_are_left_to_the_direct_realisation():
+def test_other_forms_and_viscoelastic_walls_are_left_to_the_direct_realisation(monkeypatch):
+    """PP, QQ and viscoelastic walls are not tabulated; nor is a line whose stencil holds a
+    node whose tail fit came near its envelope bound (here: every node, the limit at 0), and
+    a ModalLine in the sweep's context is then the direct realisation."""
     line = Line(1.0, 0.01343, OIL, bulk_modulus=1.2e9)
     assert residue_table.interpolated_realisation(line, 6, "PP") is None
     assert residue_table.interpolated_realisation(line, 6, "QQ") is None
     wall = Line(1.0, 0.01343, OIL, bulk_modulus=1.2e9, creep_compliances=(1e-10,),
                 retardation_times=(0.01,))
     assert residue_table.interpolated_realisation(wall, 6, "PQ") is None
+    monkeypatch.setattr(residue_table, "TAIL_PEAK_LIMIT", 0.0)
+    assert residue_table.interpolated_realisation(line, 6, "PQ") is None
+    with kept_in_memory(), residue_table.interpolated_lines():
+        model = ModalLine(line, 6, "PQ", method="residue")
+    ref = direct(line, "PQ")
+    assert np.array_equal(model.A, ref[0]) and np.array_equal(model.B, ref[1])
 
 
 def test_modal_line_interpolates_only_inside_the_context():
