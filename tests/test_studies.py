@@ -747,11 +747,16 @@ def test_sweep_variants_write_no_cache_file_per_hose(monkeypatch):
     realisation of the default line, here interpolated from nodes over the dissipation
     number, the Yang-Tobler corrections) stay in the worker's memory instead of one cache
     file each (and a repeated line is not solved again)."""
-    from hydroline.lines import memo, residue
+    from hydroline.lines import memo, residue, residue_table
     from hydroline.studies.sweep import VariantRunner
 
     written, solved = [], []
     monkeypatch.setattr(memo, "store_table", lambda kind, key, value: written.append(kind))
+    # (the table's nodes realised here, not read from an earlier run's cache)
+    monkeypatch.setattr(residue_table, "load_table", lambda kind, key: None)
+    monkeypatch.setattr(residue_table, "store_table", lambda kind, key, value: None)
+    residue_table._NODES.clear()
+    residue_table._STENCILS.clear()
     real_realise = residue._realise
     monkeypatch.setattr(residue, "_realise",
                         lambda *a: solved.append(a[0].length) or real_realise(*a))

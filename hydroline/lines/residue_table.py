@@ -58,6 +58,8 @@ LUMPED_MARGIN = 1e-3
 NODE_TABLE = "residue_line_nodes"
 #: Nodes kept in this process (~10 kB each), [-].
 NODES_KEPT = 4000
+#: Stencils kept stacked (~50 kB each; made again from the nodes in ~0.05 ms), [-].
+STENCILS_KEPT = 256
 #: Grid points whose cluster-independent parts (~0.1 MB each: the modes, every cluster's
 #: viscous roots, the tail fit's exact responses) are kept for nodes of other cluster
 #: counts there, [-]. (Where the count changes every ~0.02-0.04 decade of Dn, a node of
@@ -256,7 +258,7 @@ def _stencil(line: Line, n: int, form: str, clusters: int, first: int):
     if all(nd[4] and nd[0] == names and np.array_equal(nd[3], Cd) for nd in nodes):
         M = np.stack([np.hstack([nd[1], nd[2]]) for nd in nodes])
         got = names, M, Cd, _pressures(form, names)
-    if len(_STENCILS) >= NODES_KEPT:
+    if len(_STENCILS) >= STENCILS_KEPT:
         _STENCILS.clear()
     _STENCILS[key] = got
     return got
