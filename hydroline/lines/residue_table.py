@@ -43,8 +43,9 @@ NODES_PER_DECADE = 16
 DEGREE = 5
 #: Largest accepted difference between the interpolants of degree DEGREE and DEGREE - 1,
 #: relative to the largest entry of the state equation's row of ``[A tau, B tau]``, [-].
-#: The direct realisation itself carries up to ~4e-7 of it (a 0.05 m hose: the residues at
-#: the viscous roots amplify the roots' last bit); the line models' accuracy is ~1e-2.
+#: The direct realisation itself carries up to ~4e-7 of it at 6 modes (a 0.05 m hose: the
+#: residues at the viscous roots amplify the roots' last bit), ~2e-5 at 20 modes (a 0.5 m
+#: hose: a 1e-6 change of the length moves it by 1.6e-5); the line models' accuracy is ~1e-2.
 TOLERANCE = 1e-5
 #: A node whose first tail fit came this close to the envelope bound (``|H|/bound``) or
 #: above is not interpolated across (the bound's enforcement is a discrete choice), [-].
