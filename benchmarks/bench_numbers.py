@@ -14,8 +14,9 @@ alternation (the machine is shared: a row's two trees run in the same minutes):
   0.05-3.048 m, per line;
 * ``variant``: the layout sweep's runner (``VariantRunner``, its shared model: the sweep's
   own path) over ``--variants`` section II lengths in one process, CPU time per variant and
-  in its stages (the two hoses' line realisations, rest state, integration, metrics, the
-  rest), means; CPU, not wall: other jobs move it less.
+  in its stages (the two hoses' line realisations -- since issue 25 item 3 the nodes of the
+  sweep's Dn table that were realised, none where the cache held them --, rest state,
+  integration, metrics, the rest), means; CPU, not wall: other jobs move it less.
 
 Usage: python benchmarks/bench_numbers.py [--only changed,line,variant] [--rounds 10]
                                           [--variants 60] [--before TREE]
@@ -141,8 +142,10 @@ def in_process(tree, only, variants) -> dict:
     env = dict(CHILD_ENV, MPLBACKEND="Agg")
     if tree:
         env["PYTHONPATH"] = tree
+    # (in a neutral directory: ``python -c`` puts the working directory first on sys.path,
+    # so run from a source tree both children imported that tree)
     done = subprocess.run([sys.executable, "-c", CHILD, ",".join(only), str(variants)],
-                          env=env, capture_output=True, text=True)
+                          env=env, capture_output=True, text=True, cwd=tempfile.gettempdir())
     if done.returncode:
         raise SystemExit(f"bench_numbers: the run failed:\n{done.stderr[-2000:]}")
     return json.loads(done.stdout.strip().splitlines()[-1])

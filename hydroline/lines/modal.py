@@ -359,10 +359,13 @@ class ModalLine(StateSpaceLine):
         self.method = method
         if method == "residue":
             from .residue import residue_realisation
+            from .residue_table import in_use, interpolated_realisation
 
             self.alpha = self.beta = None
-            self.A, self.B, self.C, self.D, self.state_names = residue_realisation(
-                line, self.n_modes, self.form)
+            # (a sweep's runner: interpolated over Dn where that is within its tolerance)
+            got = interpolated_realisation(line, self.n_modes, self.form) if in_use() else None
+            self.A, self.B, self.C, self.D, self.state_names = (
+                got if got is not None else residue_realisation(line, self.n_modes, self.form))
             self._set_ports()
             return
         if method != "yang-tobler":

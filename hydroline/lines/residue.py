@@ -100,7 +100,8 @@ from .memo import LineMemo
 from .line import FORM_PORTS, Line, check_form
 
 __all__ = ["residue_realisation", "propagation_derivative", "modal_poles", "modal_residues",
-           "viscous_poles", "retardation_poles", "exact_moments", "column_branches", "tail_groups"]
+           "viscous_poles", "retardation_poles", "exact_moments", "column_branches", "tail_groups",
+           "viscous_clusters", "realisation_with_notes"]
 
 #: PP and QQ forms, fallback only (:func:`_single_tail_blocks`, used if the passive fit
 #: fails): damping ratio of the single pseudo-mode per output that stands for the dropped
@@ -908,7 +909,8 @@ def _inequality_lsq(Q, q, G, h, A, b):
     return zp + N @ solve_triangular(Rc, u + c)
 
 
-def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
+def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends, notes=None,
+                      shared=None):
     """Pseudo-modes that stand for the dropped modes k > n (module docstring, "Remainder").
 
     Per output, one damped pair ``(b1 s + b0)/(s^2 + 2 zeta Omega s + Omega^2)`` per group of
@@ -919,12 +921,16 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
     ``rem0`` and first moment ``rem1`` of the entry (equality constraints). Where the result
     exceeds ``TAIL_BOUND`` times the exact envelope above the band, those frequencies are
     pulled onto 0.97 of the bound with growing weight (``TAIL_ITERATIONS`` rounds).
+    ``notes`` (a dict, where given) gets ``"tail_peak"``: the first fit's largest
+    ``|H|/bound`` above the band (above 1: the bound was enforced), [-]; the exact responses
+    on the fit's grids are kept in (and taken from) the dict ``shared`` where given.
 
     Returns
     -------
     list of (A, B, C, names) blocks, [1/s] and the output's unit per input unit
     """
     tau = line.wave_time
+    peak = 0.0
     groups = tail_groups(n, form)
     m = len(groups)
     Om = np.array([g[0] for g in groups])                 # in units of 1/tau
@@ -936,22 +942,32 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
         D = sig**2 + 2.0 * ze * Om * sig + Om**2
         return np.hstack([sig / D, 1.0 / D])
 
-    def remaining(x, target):     # target minus the blocks so far
+    def blocks_at(s, key):        # the blocks so far (the modes' part kept in shared)
+        if shared is None:
+            return _blocks_transfer(blocks, s)
+        k = len(shared["modes"][0])
+        return _kept(shared, key, lambda: _blocks_transfer(blocks[:k], s)) + \
+            _blocks_transfer(blocks[k:], s)
+
+    def remaining(x, target, key):     # target minus the blocks so far
         s = 1j * x / tau
-        return target(s) - _blocks_transfer(blocks, s)
+        return target(s) - blocks_at(s, key)
 
     x_in = np.linspace(theta_band / TAIL_FIT_POINTS, theta_band, TAIL_FIT_POINTS)
     x_up = theta_band * np.geomspace(1.0, Om[-1] / theta_band, TAIL_FIT_POINTS)[1:]
-    E_in = remaining(x_in, lambda s: line.transfer(s, form))
-    E_up = remaining(x_up, lambda s: _reflection_free(line, s, form))
+    E_in = remaining(x_in, lambda s: _kept(shared, "tail_in", lambda: line.transfer(s, form)),
+                     "modes_in")
+    E_up = remaining(x_up, lambda s: _kept(shared, "tail_up",
+                                           lambda: _reflection_free(line, s, form)), "modes_up")
     F_in, F_up = basis(x_in), TAIL_MEAN_WEIGHT * basis(x_up)
     # envelope grid: running maximum of |H_exact| from above, to twice the last pseudo-mode
     top = 2.0 * Om[-1]
     x_c = np.arange(theta_band, top + 2.0 * np.pi, np.pi / TAIL_POINTS_PER_SPACING)
-    env = np.maximum.accumulate(np.abs(line.transfer(1j * x_c[::-1] / tau, form)), axis=0)[::-1]
+    env = _kept(shared, "tail_envelope", lambda: np.maximum.accumulate(
+        np.abs(line.transfer(1j * x_c[::-1] / tau, form)), axis=0)[::-1])
     keep = x_c <= top
     x_c, bound = x_c[keep], TAIL_BOUND * env[keep]
-    base_c = _blocks_transfer(blocks, 1j * x_c / tau)
+    base_c = blocks_at(1j * x_c / tau, "modes_envelope")
     F_c = basis(x_c)
     # DC: sum b0_i/Om_i^2 = rem0; first moment in sigma: sum b1_i/Om_i^2 - 2 zeta_i b0_i/Om_i^3
     G = np.vstack([np.concatenate([np.zeros(m), Om**-2.0]),
@@ -982,11 +998,13 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
         Gz, hz = np.vstack(Gz), np.array(hz)
         z = _equality_lsq(Qz, qz, Gz, hz)
         weight = 0.03 / TAIL_FIT_POINTS      # per point, against the in-band fit
-        for _ in range(TAIL_ITERATIONS):
+        for it in range(TAIL_ITERATIONS):
             added = False
             for j in range(2):
                 Lj = L[o][j]
                 H = base_c[:, o, j] + F_c @ (Lj @ z)
+                if it == 0:
+                    peak = max(peak, float(np.max(np.abs(H) / bound[:, o, j])))
                 over = np.flatnonzero(np.abs(H) > bound[:, o, j])
                 if over.size:
                     added = True
@@ -1001,6 +1019,8 @@ def _remainder_blocks(line: Line, n: int, form: str, blocks, rem0, rem1, ends):
             weight *= 4.0
         for j in range(2):
             beta[o, j] = L[o][j] @ z
+    if notes is not None:
+        notes["tail_peak"] = peak
 
     out = []
     for o in range(2):
@@ -1342,10 +1362,84 @@ def _lumped_pole_blocks(line: Line, poles, form: str, prefix: str, ends, rem0, r
     return out
 
 
-def _realise(line: Line, n: int, form: str):
-    """:func:`residue_realisation`'s matrices, computed."""
-    ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
-    tau = line.wave_time
+def viscous_clusters(line: Line, n_modes: int, form: str = "PQ") -> int:
+    """Viscous clusters (zeros of I2) a residue line of ``n_modes`` modes resolves: those
+    whose rate ``nu j_{2,m}^2/r^2`` is at most the first dropped mode's ``theta_{n+1}/tau``,
+    at least one and at most :data:`MAX_VISCOUS_CLUSTERS`, [-]. (In the line's dimensionless
+    terms: ``j_{2,m}^2 Dn <= theta_{n+1}``.)
+
+    Parameters
+    ----------
+    line : Line
+        The line, SI
+    n_modes : int
+        Retained modes, [-]
+    form : str
+        Causal form "PQ", "QP", "PP" or "QQ"
+
+    Returns
+    -------
+    int
+        The number of clusters, [-].
+    """
+    form = check_form(form)
+    theta_next = modal_angles(check_modes(n_modes) + 1, form)[-1]
+    nu, r = line.fluid.kinematic_viscosity, line.radius
+    keep = nu * _bessel_zeros(2, MAX_VISCOUS_CLUSTERS) ** 2 / r**2 <= theta_next / line.wave_time
+    return max(1, int(np.sum(keep)))
+
+
+def realisation_with_notes(line: Line, n_modes: int, form: str, clusters: int, shared=None):
+    """:func:`residue_realisation` of an elastic-walled line computed (not remembered) with
+    ``clusters`` viscous clusters, and notes on its choices that do not vary smoothly with
+    the line's numbers (for :mod:`hydroline.lines.residue_table`).
+
+    Parameters
+    ----------
+    line : Line
+        The line (no viscoelastic wall), SI
+    n_modes : int
+        Retained modes, [-]
+    form : str
+        Causal form "PQ" or "QP"
+    clusters : int
+        Viscous clusters resolved (:func:`viscous_clusters` gives the line's own), [-]
+    shared : dict or None
+        Where given, what does not depend on ``clusters`` (the modes, the viscous roots of
+        every cluster, the exact responses of the tail fit) is kept in it and taken from it:
+        a realisation of the same line with another cluster count then costs about a fifth
+
+    Returns
+    -------
+    A, B, C, D : ndarray
+        As :func:`residue_realisation`, [SI]
+    state_names : list[str]
+        The states
+    notes : dict
+        ``"lumped_margin"``: the smallest relative distance, over the entries, of the
+        lumped viscous pole ``-V0/V1`` inside its cluster's range of rates (negative: the
+        pole fell outside and the weighted mean rate was taken), [-]; ``"tail_peak"``: the
+        first tail fit's largest ``|H|/bound`` above the band (above 1: the bound was
+        enforced), [-]
+    """
+    if line.viscoelastic or check_form(form) not in ("PQ", "QP"):
+        raise ValueError("realisation_with_notes: elastic-walled lines in the PQ or QP form")
+    notes = {}
+    return (*_realise(line, check_modes(n_modes), form, int(clusters), notes, shared), notes)
+
+
+def _kept(shared, key, compute):
+    """``compute()``, kept in the dict ``shared`` under ``key`` (where given)."""
+    if shared is None:
+        return compute()
+    if key not in shared:
+        shared[key] = compute()
+    return shared[key]
+
+
+def _mode_blocks(line: Line, n: int, form: str):
+    """The k = 0 terms and the retained modes of :func:`_realise`: their blocks (A, B, C,
+    names) and their DC gain and first moment (2 x 2 each)."""
     blocks = []                                                     # (A, B, C, names)
 
     # k = 0 terms
@@ -1376,6 +1470,24 @@ def _realise(line: Line, n: int, form: str):
             X = np.linalg.solve(A, B)
             H0m -= C @ X
             H1m -= C @ np.linalg.solve(A, X)
+    return blocks, H0m, H1m
+
+
+def _all_viscous(line: Line, form: str):
+    """The viscous roots of every cluster (:data:`MAX_VISCOUS_CLUSTERS`) [1/s] and the real
+    parts of their residues (:func:`modal_residues`)."""
+    sv, bessel = _viscous_roots(line, form, None, VISCOUS_ROOTS_PER_CLUSTER, MAX_VISCOUS_CLUSTERS)
+    return sv, modal_residues(line, sv, form, bessel).real
+
+
+def _realise(line: Line, n: int, form: str, clusters=None, notes=None, shared=None):
+    """:func:`residue_realisation`'s matrices, computed (an elastic wall: with ``clusters``
+    viscous clusters where given, notes on the choices in the dict ``notes``, what does not
+    depend on the cluster count kept in the dict ``shared``)."""
+    ends = [name.split("_") for name in FORM_PORTS[form][1]]   # [("downstream", "pressure"), ...]
+    tau = line.wave_time
+    blocks, H0m, H1m = _kept(shared, "modes", lambda: _mode_blocks(line, n, form))
+    blocks = list(blocks)
     H0, H1 = exact_moments(line, form)
     rem0, rem1 = H0 - H0m, H1 - H1m
 
@@ -1388,15 +1500,26 @@ def _realise(line: Line, n: int, form: str):
         for e, sr in enumerate(wall_roots):
             blocks += _lumped_pole_blocks(line, sr, form, f"wall{e + 1}_", ends, rem0, rem1)
     else:
-        sv, bessel = _viscous_roots(line, form, theta_next / tau, VISCOUS_ROOTS_PER_CLUSTER,
-                                    MAX_VISCOUS_CLUSTERS)
-        Rv = modal_residues(line, sv, form, bessel).real
+        if clusters is None:
+            sv, bessel = _viscous_roots(line, form, theta_next / tau, VISCOUS_ROOTS_PER_CLUSTER,
+                                        MAX_VISCOUS_CLUSTERS)
+            Rv = modal_residues(line, sv, form, bessel).real
+        elif shared is None:
+            sv, bessel = _viscous_roots(line, form, None, VISCOUS_ROOTS_PER_CLUSTER, clusters)
+            Rv = modal_residues(line, sv, form, bessel).real
+        else:    # every cluster's roots, each solved on its own bracket: the first rows
+            sv, Rv = _kept(shared, "viscous", lambda: _all_viscous(line, form))
+            sv, Rv = sv[:clusters], Rv[:clusters]
         rates = -sv.ravel()
+        margin = np.inf
         for o in range(2):
             for j in range(2):
                 res = Rv[..., o, j].ravel()
                 V0, V1 = np.sum(res / rates), -np.sum(res / rates**2)
                 lam = _lumped_rate(V0, V1, rates, res / rates)
+                if notes is not None:
+                    ratio = -V0 / V1 if V1 != 0 else -np.inf
+                    margin = min(margin, ratio / rates.min() - 1.0, 1.0 - ratio / rates.max())
                 Bv = np.zeros((1, 2))
                 Bv[0, j] = lam * V0
                 Cv = np.zeros((2, 1))
@@ -1405,10 +1528,12 @@ def _realise(line: Line, n: int, form: str):
                 blocks.append((np.array([[-lam]]), Bv, Cv, [f"viscous_{end}{j + 1}.{kind}"]))
                 rem0[o, j] -= V0
                 rem1[o, j] -= -V0 / lam
+        if notes is not None:
+            notes["lumped_margin"] = float(margin)
 
     # T: dropped modes; exact DC gain and first moment
     if form in ("PQ", "QP"):      # well-damped grouped pseudo-modes, fitted and bounded
-        blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends)
+        blocks += _remainder_blocks(line, n, form, blocks, rem0, rem1, ends, notes, shared)
     else:                         # grouped pseudo-modes per port channel, kept passive
         tail = _passive_remainder_blocks(
             line, n, form, blocks, rem0, rem1,

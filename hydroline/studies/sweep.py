@@ -369,6 +369,7 @@ class VariantRunner:
         import scipy.fft  # noqa: F401
 
         from ..lines.corrections import kept_in_memory
+        from ..lines.residue_table import interpolated_lines
 
         tic = _time.perf_counter()
         row = _empty_row(index, values, self.axes, self.scenario)
@@ -376,9 +377,9 @@ class VariantRunner:
             r = self.rig.copy()
             for path, v in values.items():
                 _set_si(r, path, v, self.units.get(path) or parameter_unit(path, self.rig))
-            # (no cache file per variant's hose; the lines' and the model's small dense
-            # matrices on one BLAS thread)
-            with kept_in_memory(), one_blas_thread():
+            # (no cache file per variant's hose, its exact-pole lines interpolated over Dn;
+            # the lines' and the model's small dense matrices on one BLAS thread)
+            with kept_in_memory(), interpolated_lines(), one_blas_thread():
                 res = self.simulate(r)
             _fill_metrics(row, port_summary(res))
         except Exception as e:   # a failed variant is recorded, never sinks the sweep

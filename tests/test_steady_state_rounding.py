@@ -1,0 +1,93 @@
+"""The rest state's Newton iteration where rounding keeps the residual above the tolerance
+(issue 25: a layout sweep's short hoses fell back to the pseudo-transient continuation on
+about 1 variant in 5, 5-170 ms each, though Newton had converged to ~1e-14 of the states),
+and its chord steps (one inverse Jacobian kept through the solves of a network)."""
+import numpy as np
+import pytest
+
+from hydroline import compiled
+from hydroline.engine import solve_steady_state, steady_state
+from hydroline.rigs import load_rig
+from hydroline.scenarios import build_scenario
+from hydroline.system import build_network
+
+
+class NoisyLinear:
+    """``f(x) = J (x - x*)`` plus a deterministic "rounding" term that changes with every bit
+    of x, of amplitude ``noise`` on the fastest equation and in proportion to each
+    equation's rate on the others (the rounding of a sum scales with its terms), [1/s].
+    ``J``: rates up to 1e6 1/s, like a short hose's fast tail states."""
+
+    def __init__(self, noise):
+        self.J = np.array([[-1e6, 2e3, 0.0], [0.0, -5e3, 1.0], [10.0, 0.0, -2.0]])
+        self.x_star = np.array([0.3, -1.2, 2.5])
+        self.noise = noise
+        self.calls = 0
+
+    def rhs(self, t, x, p):
+        self.calls += 1
+        bits = np.frombuffer(np.asarray(x, dtype=float).tobytes(), dtype=np.uint64)
+        jitter = ((bits * np.uint64(2654435761)) % np.uint64(1000)).astype(float) / 500.0 - 1.0
+        rate = np.abs(np.diag(self.J))
+        return self.J @ (x - self.x_star) + self.noise * rate / rate.max() * jitter
+
+    def jacobian(self, t, x, p):
+        return self.J
+
+
+def test_newton_stalled_by_rounding_counts_as_converged():
+    """With a rounding floor of 1e-8 1/s (ten times the tolerance) Newton's steps shrink to
+    ~1e-14 and the residual stops falling: the state is x* to ~1e-14 (J^-1 times the
+    floor), and that is converged, not a case for the continuation."""
+    model = NoisyLinear(noise=1e-8)
+    scales = np.ones(3)
+    x, converged = steady_state._newton(model, 0.0, np.zeros(3), None, scales, tol=1e-9)
+    assert converged
+    assert np.max(np.abs(model.rhs(0.0, x, None))) > 1e-9       # the floor: above tol
+    assert np.abs(x - model.x_star).max() < 1e-12         # |J^-1 floor| ~ 1e-14
+
+
+def test_newton_stalled_far_above_rounding_is_not_converged():
+    """A floor of 1e-3 1/s is no rounding (a kink, a state still moving): Newton reports
+    no convergence and the caller goes on to the continuation."""
+    model = NoisyLinear(noise=1e-3)
+    x0 = np.zeros(3)
+    x, converged = steady_state._newton(model, 0.0, x0, None, np.ones(3), tol=1e-9)
+    assert not converged
+    assert np.array_equal(x, x0)
+
+
+def test_chord_steps_converge_where_the_kept_inverse_is_another_states():
+    """An inverse Jacobian kept from another model (rows scaled by 1.5, 1, 0.7: its chord
+    steps would cut the error by 0.33-0.43 a step, not to CHORD_RATE): it is replaced by
+    the inverse at the current state, and the iteration ends at x*."""
+    model = NoisyLinear(noise=0.0)
+    chord = {"inverse": np.linalg.inv(model.J * np.array([1.5, 1.0, 0.7]))}
+    x, converged = steady_state._newton(model, 0.0, np.zeros(3), None, np.ones(3), tol=1e-9,
+                                        chord=chord)
+    assert converged and np.abs(x - model.x_star).max() < 1e-12
+    assert np.allclose(chord["inverse"] @ model.J, np.eye(3), atol=1e-12)
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_rest_state_by_chord_steps_is_the_one_by_newtons_steps(monkeypatch):
+    """The default rig's rest state with chord steps (an inverse kept through the rounds and
+    for the next solve of the network) and with a Newton step through the bordered system at
+    every iteration (CHORD_STATES = 0): the same states to the solver's tolerance (a scaled
+    residual of 1e-9 1/s: the states within 1e-6 of their scales, as in
+    test_compiled_bordered), the second solve of the same network too."""
+    rig = load_rig(None)
+
+    def network():
+        sc = build_scenario(rig, "open-loop-step")
+        return build_network(rig, sc.commands, sc.position_guess)
+
+    monkeypatch.setattr(steady_state, "CHORD_STATES", 0)
+    ref = solve_steady_state(network())
+    monkeypatch.undo()
+    net = network()
+    first = solve_steady_state(net)
+    second = solve_steady_state(net, x_guess=first.x * (1.0 + 1e-3))   # the inverse kept
+    for ss in (first, second):
+        assert ss.residual < 1e-6
+        assert np.all(np.abs(ss.x - ref.x) <= 1e-6 * net.state_scales)
