@@ -84,18 +84,21 @@ def test_oscillator_step_matches_exact_solution():
 
 
 @needs_cc
-def test_step_control_keeps_the_error_on_a_ringing_mode_with_few_rejected_steps():
+@pytest.mark.parametrize("solver", ["compiled", "radau"])
+def test_step_control_keeps_the_error_on_a_ringing_mode_with_few_rejected_steps(solver):
     # a hose-like mode (300 Hz, damping ratio 1 %) ringing for 75 periods after a step, at
     # simulate()'s tolerances and two decades tighter: the error against the exact response
     # stays within a few hundred rtol of the step and falls with the tolerance; the step-size
-    # choice (safety 0.8, bdf.c) rejects few steps (SciPy's 0.9 rejected 7 % here)
+    # choice (safety 0.8, bdf.c) rejects few steps (SciPy's 0.9 rejected 7 % here); Radau IIA
+    # (order 5, bdf.c's second method) the same, in fewer steps
     w, z, u = 2 * np.pi * 300.0, 0.01, 1e-3
     net = oscillator_network(w, z)
     wd = w * np.sqrt(1 - z * z)
     err = {}
     for rtol in (1e-6, 1e-8):
-        res = integrate(net, np.zeros(2), 0.25, dt_out=1e-4, solver="compiled", rtol=rtol,
+        res = integrate(net, np.zeros(2), 0.25, dt_out=1e-4, solver=solver, rtol=rtol,
                         atol_scale=rtol / 10)
+        assert res.metadata["solver"] == solver
         t = res.t
         exact = u * (1 - np.exp(-z * w * t) * (np.cos(wd * t)
                                                + z / np.sqrt(1 - z * z) * np.sin(wd * t)))
@@ -135,7 +138,8 @@ class ModalBlock(Component):
 
 
 @needs_cc
-def test_stiff_modal_block_matches_the_matrix_exponential():
+@pytest.mark.parametrize("solver", ["compiled", "radau"])
+def test_stiff_modal_block_matches_the_matrix_exponential(solver):
     # modes from 40 Hz to 16 kHz (damping 1 % to 30 %): eigenvalues from -2.5 to -3e4 1/s in
     # real part, the stiffness of a hose's modal line (M10) next to its slow first mode; the
     # exact solution of x' = A x + b u (u constant) is x(t) = e^{At} x0 + A^-1 (e^{At} - I) b u
@@ -153,8 +157,8 @@ def test_stiff_modal_block_matches_the_matrix_exponential():
         b[2 * i + 1] = w * w * g * u
     x0 = np.zeros(n)
     x0[0], x0[3] = 2e-3, -1.0                # start away from rest in the slow and a fast mode
-    res = integrate(net, x0, 0.05, dt_out=2e-4, solver="compiled", rtol=1e-8, atol_scale=1e-9)
-    assert res.metadata["solver"] == "compiled"
+    res = integrate(net, x0, 0.05, dt_out=2e-4, solver=solver, rtol=1e-8, atol_scale=1e-9)
+    assert res.metadata["solver"] == solver
     names = net.state_names
     worst = 0.0
     for k in (10, 50, 125, 250):            # 2, 10, 25, 50 ms
@@ -165,7 +169,7 @@ def test_stiff_modal_block_matches_the_matrix_exponential():
             q = 2 * i
             swing = max(abs(x0[q]), abs(gains[i] * u), 1e-3 * abs(x0[q + 1]) / omegas[i])
             worst = max(worst, abs(got[q] - exact[q]) / swing)
-    # a tolerance-controlled BDF's global error: some hundred rtol of the swing
+    # a tolerance-controlled integrator's global error: some hundred rtol of the swing
     assert worst < 1e-5
 
 @needs_cc

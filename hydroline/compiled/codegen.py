@@ -462,9 +462,23 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
     def table(name, values):
         return f"static const int {name}[] = {{" + (",".join(map(str, values)) or "0") + "};"
 
-    out = [table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
+    # the factors' pattern by pivot (pivot coordinates), for solves other than the real
+    # straight-line one (radau.c's complex system): pivot -> row or column of the matrix, the
+    # row of each L entry (beside hl_lu_lslot), each U row's columns and slots
+    lrow = [i for k in range(size) for i in plan.lower[k]]
+    urowstart, ucol, uslot = [0], [], []
+    for k in range(size):
+        for j in plan.upper[k]:
+            ucol.append(j)
+            uslot.append(S[(k, j)])
+        urowstart.append(len(ucol))
+    out = [f"#define HL_LU_NJ {len(jslot)}", f"#define HL_LU_NSIG {len(signal_nz)}",
+           table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
            table("hl_lu_lslot", lslot), table("hl_lu_ustart", ustart), table("hl_lu_tgt", tgt),
-           table("hl_lu_src", src), table("hl_lu_signal_nz", signal_nz)]
+           table("hl_lu_src", src), table("hl_lu_signal_nz", signal_nz),
+           table("hl_lu_perm", plan.order), table("hl_lu_lrow", lrow),
+           table("hl_lu_urowstart", urowstart), table("hl_lu_ucol", ucol),
+           table("hl_lu_uslot", uslot)]
     out.append(f"""static int hl_lu_factor(const double* jnz, double g, double* a) {{
   memset(a, 0, sizeof(double) * HL_NLU);
   for (int k = 0; k < {len(jslot)}; k++) a[hl_lu_jslot[k]] = -g * jnz[k];
