@@ -810,35 +810,36 @@ static int hl_lu_factor_z(const double* jnz, double gr, double gi, double* a) {
     return 0;
 }
 
-/* Solve (I - g J) x = b in place with hl_lu_factor_z's factors (b = br + i bi, states only) */
+/* Solve (I - g J) x = b in place with hl_lu_factor_z's factors (b = br + i bi, states only):
+ * both substitutions by rows (each unknown gathered once, re and im side by side in v) */
 static void hl_lu_solve_z(const double* a, double* br, double* bi) {
-    double vr[HL_NE], vi[HL_NE];
-    for (int k = 0; k < HL_NE; k++) {
-        int o = hl_lu_perm[k];
-        if (o < HL_N) { vr[k] = br[o]; vi[k] = bi[o]; } else { vr[k] = 0.; vi[k] = 0.; }
-    }
-    for (int k = 0; k < HL_NE; k++) {               /* L (unit diagonal), by columns */
-        double xr = vr[k], xi = vi[k];
-        for (int m = hl_lu_lstart[k]; m < hl_lu_lstart[k + 1]; m++) {
-            int i = hl_lu_lrow[m], s = hl_lu_lslot[m];
-            vr[i] -= a[2 * s] * xr - a[2 * s + 1] * xi;
-            vi[i] -= a[2 * s] * xi + a[2 * s + 1] * xr;
+    double v[2 * HL_NE];
+    for (int i = 0; i < HL_NE; i++) {               /* L (unit diagonal) */
+        int o = hl_lu_perm[i];
+        double sr = o < HL_N ? br[o] : 0., si = o < HL_N ? bi[o] : 0.;
+        for (int m = hl_lu_lrowstart[i]; m < hl_lu_lrowstart[i + 1]; m++) {
+            int k = hl_lu_lcol[m], s = hl_lu_lrslot[m];
+            double ar = a[2 * s], ai = a[2 * s + 1], xr = v[2 * k], xi = v[2 * k + 1];
+            sr -= ar * xr - ai * xi;
+            si -= ar * xi + ai * xr;
         }
+        v[2 * i] = sr; v[2 * i + 1] = si;
     }
-    for (int k = HL_NE - 1; k >= 0; k--) {          /* U, by rows; its diagonal stored inverted */
-        double sr = vr[k], si = vi[k];
+    for (int k = HL_NE - 1; k >= 0; k--) {          /* U; its diagonal stored inverted */
+        double sr = v[2 * k], si = v[2 * k + 1];
         for (int q = hl_lu_urowstart[k]; q < hl_lu_urowstart[k + 1]; q++) {
             int j = hl_lu_ucol[q], s = hl_lu_uslot[q];
-            sr -= a[2 * s] * vr[j] - a[2 * s + 1] * vi[j];
-            si -= a[2 * s] * vi[j] + a[2 * s + 1] * vr[j];
+            double ar = a[2 * s], ai = a[2 * s + 1], xr = v[2 * j], xi = v[2 * j + 1];
+            sr -= ar * xr - ai * xi;
+            si -= ar * xi + ai * xr;
         }
         int d = hl_lu_diag[k];
-        vr[k] = sr * a[2 * d] - si * a[2 * d + 1];
-        vi[k] = sr * a[2 * d + 1] + si * a[2 * d];
+        v[2 * k] = sr * a[2 * d] - si * a[2 * d + 1];
+        v[2 * k + 1] = sr * a[2 * d + 1] + si * a[2 * d];
     }
     for (int k = 0; k < HL_NE; k++) {
         int o = hl_lu_perm[k];
-        if (o < HL_N) { br[o] = vr[k]; bi[o] = vi[k]; }
+        if (o < HL_N) { br[o] = v[2 * k]; bi[o] = v[2 * k + 1]; }
     }
 }
 

@@ -462,10 +462,19 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
     def table(name, values):
         return f"static const int {name}[] = {{" + (",".join(map(str, values)) or "0") + "};"
 
-    # the factors' pattern by pivot (pivot coordinates), for solves other than the real
-    # straight-line one (radau.c's complex system): pivot -> row or column of the matrix, the
-    # row of each L entry (beside hl_lu_lslot), each U row's columns and slots
-    lrow = [i for k in range(size) for i in plan.lower[k]]
+    # the factors' pattern by rows (pivot coordinates), for solves other than the real
+    # straight-line one (bdf.c's complex system, Radau IIA): pivot -> row or column of the
+    # matrix, each L row's columns and slots, each U row's columns and slots
+    lower_rows = [[] for _ in range(size)]
+    for k in range(size):
+        for i in plan.lower[k]:
+            lower_rows[i].append(k)
+    lrowstart, lcol, lrslot = [0], [], []
+    for i in range(size):
+        for k in lower_rows[i]:
+            lcol.append(k)
+            lrslot.append(S[(i, k)])
+        lrowstart.append(len(lcol))
     urowstart, ucol, uslot = [0], [], []
     for k in range(size):
         for j in plan.upper[k]:
@@ -476,7 +485,8 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
            table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
            table("hl_lu_lslot", lslot), table("hl_lu_ustart", ustart), table("hl_lu_tgt", tgt),
            table("hl_lu_src", src), table("hl_lu_signal_nz", signal_nz),
-           table("hl_lu_perm", plan.order), table("hl_lu_lrow", lrow),
+           table("hl_lu_perm", plan.order), table("hl_lu_lrowstart", lrowstart),
+           table("hl_lu_lcol", lcol), table("hl_lu_lrslot", lrslot),
            table("hl_lu_urowstart", urowstart), table("hl_lu_ucol", ucol),
            table("hl_lu_uslot", uslot)]
     out.append(f"""static int hl_lu_factor(const double* jnz, double g, double* a) {{
