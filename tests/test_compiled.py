@@ -517,6 +517,10 @@ def test_native_solver_refuses_wrong_sizes_and_times():
         ns.advance([0.005, 0.02])
     with pytest.raises(ValueError, match="rtol"):
         integrate(net, np.zeros(2), 0.01, rtol=0.0)
+    with pytest.raises(ValueError, match="method"):
+        nm.solver(method="euler")
+    with pytest.raises(ValueError, match="fixed_step"):
+        nm.solver(method="radau", fixed_step=1e-4)
 
 
 @dataclass(kw_only=True)
