@@ -78,6 +78,11 @@ typedef struct {
     double order_limit[HL_MAX_ORDER + 2];
     /* state */
     double t, h_abs, t_bound;
+    /* the segment's end as seen by f: the double just below t_bound (an input that jumps at
+     * t_bound, a step command's t >= time, belongs to the next segment; seen at t_bound
+     * itself, every try to land there failed the error test and the step shrank geometrically
+     * toward it: 40-50 steps before each breakpoint) */
+    double t_left;
     double D[HL_MAX_ORDER + 3][HL_N];
     int order, n_equal_steps;
     /* stability-limited orders: steps left at order 2 after dropping there (no increase), and
@@ -405,7 +410,7 @@ static int hl_newton(hl_solver* S, double t_new, const double* y_predict, double
     double gfac = 2. / (1. + c / S->c_lu);   /* CVODE's correction for a stale c in W */
     for (int k = 0; k < HL_NEWTON_MAXITER; k++) {   /* y, d: set by the first iteration */
         *n_iter = k + 1;
-        hl_eval_f(S, t_new, k ? y : y_predict, f);
+        hl_eval_f(S, fmin(t_new, S->t_left), k ? y : y_predict, f);
         if (k == 0)
             for (int i = 0; i < HL_N; i++) dy[i] = c * f[i] - psi[i];
         else
@@ -489,6 +494,7 @@ int hl_init(hl_solver* S, double t0, const double* x0, double t_bound) {
     double z[HL_N], f0[HL_N], f1[HL_N], y1[HL_N], w[HL_N], df[HL_N];
     for (int i = 0; i < HL_N; i++) z[i] = x0[i] / S->scale[i];
     S->t = t0; S->t_bound = t_bound; S->order = 1; S->n_equal_steps = 0;
+    S->t_left = nextafter(t_bound, -INFINITY);
     S->probation = 0; S->drop_after = 0; S->drop_backoff = 0;
     S->have_lu = 0; S->crate = 1.; S->status = 0; S->h_step = 0.;
     hl_eval_f(S, t0, z, f0);
@@ -895,7 +901,7 @@ static int hl_radau_newton(hl_solver* S, double t, const double* y, double h, do
         *n_iter = k + 1;
         for (int i = 0; i < 3; i++) {
             for (int n = 0; n < HL_N; n++) zi[n] = y[n] + Z[i][n];
-            hl_eval_f(S, t + hl_rc[i] * h, zi, F[i]);
+            hl_eval_f(S, fmin(t + hl_rc[i] * h, S->t_left), zi, F[i]);
             if (!hl_all_finite(F[i], &S->last_nonfinite)) return 0;
         }
         for (int n = 0; n < HL_N; n++) {
@@ -1034,7 +1040,7 @@ static int hl_radau_step(hl_solver* S) {
     int recompute_jac = n_iter > 2 && rate > 1e-3;
     double factor = fmin(HL_MAX_FACTOR, safety * hl_radau_factor_of(h_abs, h_old, error_norm, err_old));
     if (!recompute_jac && factor < 1.2) factor = 1.;   /* keep the step (and the factors) */
-    hl_eval_f(S, t_new, y_new, f_new);
+    hl_eval_f(S, fmin(t_new, S->t_left), y_new, f_new);
     S->nsteps++;
     memcpy(S->ry_old, y, sizeof(double) * HL_N);
     memcpy(y, y_new, sizeof(double) * HL_N);
