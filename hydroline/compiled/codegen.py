@@ -22,6 +22,9 @@ Generated functions (``z`` are the states scaled by their typical magnitudes, ``
     time; returns the 1-based failing pivot or 0
 ``hl_lu_solve(a, b)``
     solves ``W v = b`` in place with the factors
+``hl_lu_*`` tables
+    the factors' pattern (slots, updates, and by rows), from which ``bdf.c``
+    factors and solves ``W`` for a complex ``g`` too (its Radau IIA)
 
 The bordered Jacobian. A hose section's states couple to its neighbours' only through the
 few signals at its ends (a pressure, a flow), yet every state of one section moves every
@@ -511,11 +514,7 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
     out.append(f"  double v[{size}];")
     # forward substitution by rows: each v[i] written once, its terms in the order of the
     # columns (the same sums as column by column, fewer stores); a cut signal's right-hand
-    # side is zero
-    lower_rows = [[] for _ in range(size)]
-    for k in range(size):
-        for i in plan.lower[k]:
-            lower_rows[i].append(k)
+    # side is zero (lower_rows: above)
     for i in range(size):
         first = f"b[{plan.order[i]}]" if plan.order[i] < n else "0."
         out.append(f"  v[{i}]={_sum_c(first, [(S[(i, k)], k) for k in lower_rows[i]])};")
