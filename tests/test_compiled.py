@@ -63,6 +63,24 @@ class Hold(Component):
         return {"value": self.value}
 
 
+@dataclass(kw_only=True)
+class StepSource(Component):
+    """A position that steps from ``initial`` to ``final`` at ``time`` (``t >= time``, as
+    :class:`hydroline.components.StepCommand`), declared as a breakpoint."""
+
+    initial: float = 1e-3
+    final: float = 2e-3
+    time: float = 0.01
+    outputs = {"u": Port("position")}
+    feedthrough = False
+
+    def outputs_of(self, t, x, u, p):
+        return {"u": ops.if_else(t >= self.time, self.final, self.initial)}
+
+    def breakpoints(self, t_end):
+        return [self.time] if 0 < self.time < t_end else []
+
+
 def oscillator_network(omega=2 * np.pi * 50.0, zeta=0.05):
     return Network([Hold(name="source"), Oscillator(name="osc", omega=omega, zeta=zeta)])
 
@@ -171,6 +189,29 @@ def test_stiff_modal_block_matches_the_matrix_exponential(solver):
             worst = max(worst, abs(got[q] - exact[q]) / swing)
     # a tolerance-controlled integrator's global error: some hundred rtol of the swing
     assert worst < 1e-5
+
+@needs_cc
+@pytest.mark.parametrize("solver", ["compiled", "radau"])
+def test_a_segment_at_rest_ends_on_its_breakpoint_in_few_steps(solver):
+    # at rest up to a step at 10 ms: the exact solution is constant there, so the steps grow
+    # by the largest factor (10) from the first one (~1 us) and the segment takes a handful;
+    # f evaluated at the breakpoint itself saw the stepped input (t >= time) and every try to
+    # land there failed: 40-50 steps shrinking toward it. After it, the step response.
+    u0, u1, w, z = 1e-3, 2e-3, 2 * np.pi * 50.0, 0.05
+    net = Network([StepSource(name="source", initial=u0, final=u1),
+                   Oscillator(name="osc", omega=w, zeta=z)])
+    rest = integrate(net, np.array([u0, 0.0]), 0.01, dt_out=1e-3, solver=solver, rtol=1e-6,
+                     atol_scale=1e-7)
+    assert rest.stats["nsteps"] <= 15
+    assert np.allclose(rest["osc.x"], u0, rtol=0, atol=1e-12)
+    res = integrate(net, np.array([u0, 0.0]), 0.05, dt_out=1e-4, solver=solver, rtol=1e-8,
+                    atol_scale=1e-9)
+    t = res.t - 0.01
+    wd = w * np.sqrt(1 - z * z)
+    exact = np.where(t < 0, u0, u0 + (u1 - u0) * (1 - np.exp(-z * w * t) * (
+        np.cos(wd * t) + z / np.sqrt(1 - z * z) * np.sin(wd * t))))
+    assert np.max(np.abs(res["osc.x"] - exact)) < 2e-5 * (u1 - u0)
+
 
 @needs_cc
 def test_runtime_parameters_and_constants_need_no_recompile():
