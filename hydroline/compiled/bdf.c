@@ -949,6 +949,17 @@ static double hl_radau_factor_of(double h, double h_old, double err, double err_
     return err > 0. ? fmin(1., mult) * pow(err, -0.25) : HL_MAX_FACTOR;
 }
 
+/* The stages' predictor for a step h from t: the last step's collocation polynomial,
+ * extrapolated (zero at a segment's start) */
+static void hl_radau_predict(const hl_solver* S, double t, double h, double Z[3][HL_N]) {
+    if (!S->have_sol) { memset(Z, 0, sizeof(double) * 3 * HL_N); return; }
+    for (int i = 0; i < 3; i++) {
+        double x = (t + hl_rc[i] * h - S->t_old) / S->h_step;
+        for (int n = 0; n < HL_N; n++)
+            Z[i][n] = ((S->rQ[2][n] * x + S->rQ[1][n]) * x + S->rQ[0][n]) * x - S->rZ[2][n];
+    }
+}
+
 /* One accepted Radau IIA step; 0, or <0 as hl_step */
 static int hl_radau_step(hl_solver* S) {
     double Z[3][HL_N], winv[HL_N], y_new[HL_N], err[HL_N], tmp[HL_N], f_new[HL_N];
@@ -968,15 +979,7 @@ static int hl_radau_step(hl_solver* S) {
         if (t_new - S->t_bound > 0 || S->t_bound - t_new < min_step) t_new = S->t_bound;
         double h = t_new - t;
         h_abs = h;
-        if (S->have_sol) {          /* the last step's polynomial, extrapolated */
-            for (int i = 0; i < 3; i++) {
-                double x = (t + hl_rc[i] * h - S->t_old) / S->h_step;
-                for (int n = 0; n < HL_N; n++)
-                    Z[i][n] = ((S->rQ[2][n] * x + S->rQ[1][n]) * x + S->rQ[0][n]) * x - S->rZ[2][n];
-            }
-        } else {
-            memset(Z, 0, sizeof Z);
-        }
+        hl_radau_predict(S, t, h, Z);
         hl_inverse_weights(S, y, winv);
         int converged = 0;
         for (;;) {
@@ -986,15 +989,7 @@ static int hl_radau_step(hl_solver* S) {
             converged = hl_radau_newton(S, t, y, h, Z, winv, tol, &n_iter, &rate);
             if (converged || S->current_jac) break;
             hl_radau_jacobian(S, t, y);       /* a stale Jacobian: fresh one, same step */
-            if (S->have_sol) {
-                for (int i = 0; i < 3; i++) {
-                    double x = (t + hl_rc[i] * h - S->t_old) / S->h_step;
-                    for (int n = 0; n < HL_N; n++)
-                        Z[i][n] = ((S->rQ[2][n] * x + S->rQ[1][n]) * x + S->rQ[0][n]) * x - S->rZ[2][n];
-                }
-            } else {
-                memset(Z, 0, sizeof Z);
-            }
+            hl_radau_predict(S, t, h, Z);
         }
         if (!converged) {
             S->nnewton_fail++;
@@ -1013,7 +1008,8 @@ static int hl_radau_step(hl_solver* S) {
         hl_solve(S, err);
         double ew[HL_N];
         for (int n = 0; n < HL_N; n++) {
-            float m = (float)fmax(fabs(y[n]), fabs(y_new[n]));
+            double a = fabs(y[n]), b = fabs(y_new[n]);
+            float m = (float)(a > b ? a : b);
             ew[n] = 1.f / ((float)S->atol + (float)S->rtol * m);
         }
         error_norm = hl_wrms(err, ew);
