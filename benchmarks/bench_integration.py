@@ -2,7 +2,8 @@
 0.05 % and the traces within 0.5 % of a tight reference up to the stop (stretch >= 90x).
 
 For the default rig and a short-hose variant (sections II 0.3 m, lightly damped fast ringing),
-per integrator setting (tolerances, order, the treatment after the piston's stop) it prints:
+per integrator setting (tolerances, the C core's method -- its BDF, or ``solver="radau"``, its
+Radau IIA --, the treatment after the piston's stop) it prints:
 the integration time of the whole default run (best of ``--repeat``, wall of the integration
 loop on one core) and its real-time factor (simulated s per s), the steps taken before the
 valve step, while the piston moves (the valve step to the stop) and after the stop, the largest
@@ -11,7 +12,7 @@ excursion there) and over the whole run, and the largest change of every numeric
 ports (% of the reference value), all against the compiled core at rtol 1e-10 / atol 1e-11.
 
 Usage: python benchmarks/bench_integration.py [--repeat 15] [--lengths 3.048 0.3]
-       [--settings default loose ...]
+       [--settings 1e-6/1e-7 "radau 1e-5/1e-6" ...] [--modes 30]
 """
 from __future__ import annotations
 
@@ -33,6 +34,11 @@ SETTINGS = {
     "1e-6, 1e-5 after stop": dict(rtol=1e-6, atol_scale=1e-7, after_stop_rtol=1e-5),
     "3e-6, 1e-4 after stop": dict(rtol=3e-6, atol_scale=3e-7, after_stop_rtol=1e-4),
     "1e-7, 1e-4 after stop": dict(rtol=1e-7, atol_scale=1e-8, after_stop_rtol=1e-4),
+    "1e-8/1e-9": dict(rtol=1e-8, atol_scale=1e-9),
+    # the C core's Radau IIA (order 5, L-stable) instead of its BDF
+    "radau 1e-5/1e-6": dict(solver="radau", rtol=1e-5, atol_scale=1e-6),
+    "radau 3e-6/3e-7": dict(solver="radau", rtol=3e-6, atol_scale=3e-7),
+    "radau 1e-6/1e-7": dict(solver="radau", rtol=1e-6, atol_scale=1e-7),
 }
 
 
@@ -74,6 +80,7 @@ def main(argv=None):
     ap.add_argument("--lengths", type=float, nargs="+", default=(3.048, 0.3),
                     help="sections II [m] (3.048: the default rig)")
     ap.add_argument("--settings", nargs="+", default=list(SETTINGS), choices=list(SETTINGS))
+    ap.add_argument("--modes", type=int, default=None, help="modes per hose section (rig default: 6)")
     args = ap.parse_args(argv)
     import hydroline
     from hydroline.scenarios import summarize
@@ -83,17 +90,19 @@ def main(argv=None):
         rig = hydroline.load_rig()
         rig = rig if length == 3.048 else rig.set("supply.section2.length", f"{length} m").set(
             "return.section2.length", f"{length} m")
+        if args.modes:
+            rig = rig.set("rig.modes_per_section", args.modes)
         ref = hydroline.simulate(rig, solver="compiled", rtol=1e-10, atol_scale=1e-11)
         t0, t_stop, _ = ref.metadata["metrics_window"]
         t_end = float(ref.t[-1])
         ref_metrics = metrics_of(summarize(ref))
         for name in args.settings:
-            kw = SETTINGS[name]
-            res = hydroline.simulate(rig, solver="compiled", **kw)
+            kw = {"solver": "compiled", **SETTINGS[name]}
+            res = hydroline.simulate(rig, **kw)
             walls = [res.wall_time]
             for _ in range(args.repeat - 1):
-                walls.append(hydroline.simulate(rig, solver="compiled", **kw).wall_time)
-            steps = [hydroline.simulate(rig, solver="compiled", t_end=t, **kw).stats["nsteps"]
+                walls.append(hydroline.simulate(rig, **kw).wall_time)
+            steps = [hydroline.simulate(rig, t_end=t, **kw).stats["nsteps"]
                      for t in (t0 + 1e-4, t_stop)] + [res.stats["nsteps"]]
             up, whole, moved, which = compare(res, ref, ref_metrics, t_stop)
             best = min(walls)

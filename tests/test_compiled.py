@@ -63,6 +63,24 @@ class Hold(Component):
         return {"value": self.value}
 
 
+@dataclass(kw_only=True)
+class StepSource(Component):
+    """A position that steps from ``initial`` to ``final`` at ``time`` (``t >= time``, as
+    :class:`hydroline.components.StepCommand`), declared as a breakpoint."""
+
+    initial: float = 1e-3
+    final: float = 2e-3
+    time: float = 0.01
+    outputs = {"u": Port("position")}
+    feedthrough = False
+
+    def outputs_of(self, t, x, u, p):
+        return {"u": ops.if_else(t >= self.time, self.final, self.initial)}
+
+    def breakpoints(self, t_end):
+        return [self.time] if 0 < self.time < t_end else []
+
+
 def oscillator_network(omega=2 * np.pi * 50.0, zeta=0.05):
     return Network([Hold(name="source"), Oscillator(name="osc", omega=omega, zeta=zeta)])
 
@@ -84,18 +102,21 @@ def test_oscillator_step_matches_exact_solution():
 
 
 @needs_cc
-def test_step_control_keeps_the_error_on_a_ringing_mode_with_few_rejected_steps():
+@pytest.mark.parametrize("solver", ["compiled", "radau"])
+def test_step_control_keeps_the_error_on_a_ringing_mode_with_few_rejected_steps(solver):
     # a hose-like mode (300 Hz, damping ratio 1 %) ringing for 75 periods after a step, at
     # simulate()'s tolerances and two decades tighter: the error against the exact response
     # stays within a few hundred rtol of the step and falls with the tolerance; the step-size
-    # choice (safety 0.8, bdf.c) rejects few steps (SciPy's 0.9 rejected 7 % here)
+    # choice (safety 0.8, bdf.c) rejects few steps (SciPy's 0.9 rejected 7 % here); Radau IIA
+    # (order 5, bdf.c's second method) the same, in fewer steps
     w, z, u = 2 * np.pi * 300.0, 0.01, 1e-3
     net = oscillator_network(w, z)
     wd = w * np.sqrt(1 - z * z)
     err = {}
     for rtol in (1e-6, 1e-8):
-        res = integrate(net, np.zeros(2), 0.25, dt_out=1e-4, solver="compiled", rtol=rtol,
+        res = integrate(net, np.zeros(2), 0.25, dt_out=1e-4, solver=solver, rtol=rtol,
                         atol_scale=rtol / 10)
+        assert res.metadata["solver"] == solver
         t = res.t
         exact = u * (1 - np.exp(-z * w * t) * (np.cos(wd * t)
                                                + z / np.sqrt(1 - z * z) * np.sin(wd * t)))
@@ -135,7 +156,8 @@ class ModalBlock(Component):
 
 
 @needs_cc
-def test_stiff_modal_block_matches_the_matrix_exponential():
+@pytest.mark.parametrize("solver", ["compiled", "radau"])
+def test_stiff_modal_block_matches_the_matrix_exponential(solver):
     # modes from 40 Hz to 16 kHz (damping 1 % to 30 %): eigenvalues from -2.5 to -3e4 1/s in
     # real part, the stiffness of a hose's modal line (M10) next to its slow first mode; the
     # exact solution of x' = A x + b u (u constant) is x(t) = e^{At} x0 + A^-1 (e^{At} - I) b u
@@ -153,8 +175,8 @@ def test_stiff_modal_block_matches_the_matrix_exponential():
         b[2 * i + 1] = w * w * g * u
     x0 = np.zeros(n)
     x0[0], x0[3] = 2e-3, -1.0                # start away from rest in the slow and a fast mode
-    res = integrate(net, x0, 0.05, dt_out=2e-4, solver="compiled", rtol=1e-8, atol_scale=1e-9)
-    assert res.metadata["solver"] == "compiled"
+    res = integrate(net, x0, 0.05, dt_out=2e-4, solver=solver, rtol=1e-8, atol_scale=1e-9)
+    assert res.metadata["solver"] == solver
     names = net.state_names
     worst = 0.0
     for k in (10, 50, 125, 250):            # 2, 10, 25, 50 ms
@@ -165,8 +187,31 @@ def test_stiff_modal_block_matches_the_matrix_exponential():
             q = 2 * i
             swing = max(abs(x0[q]), abs(gains[i] * u), 1e-3 * abs(x0[q + 1]) / omegas[i])
             worst = max(worst, abs(got[q] - exact[q]) / swing)
-    # a tolerance-controlled BDF's global error: some hundred rtol of the swing
+    # a tolerance-controlled integrator's global error: some hundred rtol of the swing
     assert worst < 1e-5
+
+@needs_cc
+@pytest.mark.parametrize("solver", ["compiled", "radau"])
+def test_a_segment_at_rest_ends_on_its_breakpoint_in_few_steps(solver):
+    # at rest up to a step at 10 ms: the exact solution is constant there, so the steps grow
+    # by the largest factor (10) from the first one (~1 us) and the segment takes a handful;
+    # f evaluated at the breakpoint itself saw the stepped input (t >= time) and every try to
+    # land there failed: 40-50 steps shrinking toward it. After it, the step response.
+    u0, u1, w, z = 1e-3, 2e-3, 2 * np.pi * 50.0, 0.05
+    net = Network([StepSource(name="source", initial=u0, final=u1),
+                   Oscillator(name="osc", omega=w, zeta=z)])
+    rest = integrate(net, np.array([u0, 0.0]), 0.01, dt_out=1e-3, solver=solver, rtol=1e-6,
+                     atol_scale=1e-7)
+    assert rest.stats["nsteps"] <= 15
+    assert np.allclose(rest["osc.x"], u0, rtol=0, atol=1e-12)
+    res = integrate(net, np.array([u0, 0.0]), 0.05, dt_out=1e-4, solver=solver, rtol=1e-8,
+                    atol_scale=1e-9)
+    t = res.t - 0.01
+    wd = w * np.sqrt(1 - z * z)
+    exact = np.where(t < 0, u0, u0 + (u1 - u0) * (1 - np.exp(-z * w * t) * (
+        np.cos(wd * t) + z / np.sqrt(1 - z * z) * np.sin(wd * t))))
+    assert np.max(np.abs(res["osc.x"] - exact)) < 2e-5 * (u1 - u0)
+
 
 @needs_cc
 def test_runtime_parameters_and_constants_need_no_recompile():
@@ -513,6 +558,10 @@ def test_native_solver_refuses_wrong_sizes_and_times():
         ns.advance([0.005, 0.02])
     with pytest.raises(ValueError, match="rtol"):
         integrate(net, np.zeros(2), 0.01, rtol=0.0)
+    with pytest.raises(ValueError, match="method"):
+        nm.solver(method="euler")
+    with pytest.raises(ValueError, match="fixed_step"):
+        nm.solver(method="radau", fixed_step=1e-4)
 
 
 @dataclass(kw_only=True)

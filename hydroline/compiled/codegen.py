@@ -22,6 +22,9 @@ Generated functions (``z`` are the states scaled by their typical magnitudes, ``
     time; returns the 1-based failing pivot or 0
 ``hl_lu_solve(a, b)``
     solves ``W v = b`` in place with the factors
+``hl_lu_*`` tables
+    the factors' pattern (slots, updates, and by rows), from which ``bdf.c``
+    factors and solves ``W`` for a complex ``g`` too (its Radau IIA)
 
 The bordered Jacobian. A hose section's states couple to its neighbours' only through the
 few signals at its ends (a pressure, a flow), yet every state of one section moves every
@@ -462,9 +465,33 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
     def table(name, values):
         return f"static const int {name}[] = {{" + (",".join(map(str, values)) or "0") + "};"
 
-    out = [table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
+    # the factors' pattern by rows (pivot coordinates), for solves other than the real
+    # straight-line one (bdf.c's complex system, Radau IIA): pivot -> row or column of the
+    # matrix, each L row's columns and slots, each U row's columns and slots
+    lower_rows = [[] for _ in range(size)]
+    for k in range(size):
+        for i in plan.lower[k]:
+            lower_rows[i].append(k)
+    lrowstart, lcol, lrslot = [0], [], []
+    for i in range(size):
+        for k in lower_rows[i]:
+            lcol.append(k)
+            lrslot.append(S[(i, k)])
+        lrowstart.append(len(lcol))
+    urowstart, ucol, uslot = [0], [], []
+    for k in range(size):
+        for j in plan.upper[k]:
+            ucol.append(j)
+            uslot.append(S[(k, j)])
+        urowstart.append(len(ucol))
+    out = [f"#define HL_LU_NJ {len(jslot)}", f"#define HL_LU_NSIG {len(signal_nz)}",
+           table("hl_lu_jslot", jslot), table("hl_lu_diag", diag), table("hl_lu_lstart", lstart),
            table("hl_lu_lslot", lslot), table("hl_lu_ustart", ustart), table("hl_lu_tgt", tgt),
-           table("hl_lu_src", src), table("hl_lu_signal_nz", signal_nz)]
+           table("hl_lu_src", src), table("hl_lu_signal_nz", signal_nz),
+           table("hl_lu_perm", plan.order), table("hl_lu_lrowstart", lrowstart),
+           table("hl_lu_lcol", lcol), table("hl_lu_lrslot", lrslot),
+           table("hl_lu_urowstart", urowstart), table("hl_lu_ucol", ucol),
+           table("hl_lu_uslot", uslot)]
     out.append(f"""static int hl_lu_factor(const double* jnz, double g, double* a) {{
   memset(a, 0, sizeof(double) * HL_NLU);
   for (int k = 0; k < {len(jslot)}; k++) a[hl_lu_jslot[k]] = -g * jnz[k];
@@ -487,11 +514,7 @@ def _lu_c(n: int, jrows, jcols, plan: LUPlan) -> str:
     out.append(f"  double v[{size}];")
     # forward substitution by rows: each v[i] written once, its terms in the order of the
     # columns (the same sums as column by column, fewer stores); a cut signal's right-hand
-    # side is zero
-    lower_rows = [[] for _ in range(size)]
-    for k in range(size):
-        for i in plan.lower[k]:
-            lower_rows[i].append(k)
+    # side is zero (lower_rows: above)
     for i in range(size):
         first = f"b[{plan.order[i]}]" if plan.order[i] < n else "0."
         out.append(f"  v[{i}]={_sum_c(first, [(S[(i, k)], k) for k in lower_rows[i]])};")

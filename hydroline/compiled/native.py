@@ -220,7 +220,7 @@ class NativeModel:
 
     def solver(self, p=None, rtol: float = 1e-7, atol: float = 1e-8, max_step: float = 0.0,
                fixed_step: float = 0.0, max_order: int = 5, newton_coef: float = 0.1,
-               order_limits: bool = True):
+               order_limits: bool = True, method: str = "bdf"):
         """A fresh :class:`NativeSolver` with runtime parameters p (network defaults if None).
 
         Parameters
@@ -244,6 +244,9 @@ class NativeModel:
             lightly damped fast modes would make it unstable
             (:mod:`.stability`; False: the orders are chosen by accuracy
             alone, as before)
+        method : str
+            "bdf": the variable-order NDF/BDF; "radau": Radau IIA of order 5
+            (:class:`NativeSolver`)
 
         Returns
         -------
@@ -251,7 +254,7 @@ class NativeModel:
             A fresh solver with these settings.
         """
         return NativeSolver(self, p, rtol, atol, max_step, fixed_step, max_order, newton_coef,
-                            order_limits)
+                            order_limits, method)
 
 
 class NativeSolver:
@@ -278,17 +281,29 @@ class NativeSolver:
         Newton convergence tolerance relative to the error-test tolerance, [-]
     order_limits : bool
         Stability limits of the NDF orders 3-5 on the model's fast modes
-        (:mod:`.stability`), set before the first step
+        (:mod:`.stability`), set before the first step (BDF only)
+    method : str
+        "bdf" (the default): the variable-order NDF/BDF of ``bdf.c``;
+        "radau": the three-stage Radau IIA collocation method of order 5
+        (L-stable: no order limits; no fixed-step mode)
     """
 
     #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
     #: control instead of hanging in C, where Ctrl-C cannot reach it).
     max_steps_per_call = 5_000_000
 
+    #: Integration methods of the C core, name -> its number in ``hl_set_method``
+    METHODS = {"bdf": 0, "radau": 1}
+
     def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
-                 newton_coef, order_limits: bool = True):
+                 newton_coef, order_limits: bool = True, method: str = "bdf"):
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
+        if method not in self.METHODS:
+            raise ValueError(f"method must be one of {', '.join(self.METHODS)}, got {method!r}")
+        if method == "radau" and fixed_step > 0:
+            raise ValueError("fixed_step is a mode of the BDF method only (method='bdf')")
+        self.method = method
         self.model = model
         lib = model.lib
         self._lib = lib
@@ -300,7 +315,7 @@ class NativeSolver:
         self._scale = np.ascontiguousarray(np.asarray(net.state_scales, dtype=float))
         self._t_bound = None
         # () : not yet set (before the first step); None: none (fixed step, or not asked)
-        self._limits = () if order_limits and not fixed_step > 0 else None
+        self._limits = () if order_limits and not fixed_step > 0 and method == "bdf" else None
         self._start = None
         self._jnz = None                                  # (scaled_jacobian's buffer)
         self._h = lib.hl_new()
@@ -309,6 +324,7 @@ class NativeSolver:
         lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
                      *self._settings)
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
+        lib.hl_set_method(self._h, self.METHODS[method])
 
     def _checked_parameters(self, p) -> np.ndarray:
         p = np.atleast_1d(np.array(p, dtype=float))   # a copy: the caller may change its own

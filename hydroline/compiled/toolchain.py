@@ -657,3 +657,4 @@ def _declare(lib):
     lib.hl_last_nonfinite.argtypes = [vp]
     lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
     lib.hl_set_order_limits.argtypes = [vp, dp]
+    lib.hl_set_method.argtypes = [vp, ctypes.c_int]

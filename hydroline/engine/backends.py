@@ -33,8 +33,9 @@ from .network import Network
 
 __all__ = ["CompiledBackend", "CvodesBackend", "ScipyBackend", "make_backend", "SOLVERS"]
 
-#: Names accepted by ``solver=``; "auto" is "compiled" where a C compiler exists, else "cvodes".
-SOLVERS = ("auto", "compiled", "cvodes", "scipy")
+#: Names accepted by ``solver=``; "auto" is "compiled" where a C compiler exists, else "cvodes";
+#: "radau" is the compiled core with its Radau IIA integrator instead of the BDF.
+SOLVERS = ("auto", "compiled", "cvodes", "scipy", "radau")
 
 
 class CompiledBackend:
@@ -52,14 +53,20 @@ class CompiledBackend:
         Relative tolerance, [-]
     atol_scale : float
         Absolute tolerance as a fraction of each state's scale, [-]
+    method : str
+        The C core's integrator: "bdf" (variable-order NDF/BDF) or "radau"
+        (Radau IIA of order 5, :class:`hydroline.compiled.NativeSolver`)
     """
 
     name = "compiled"
     chunked = True
 
-    def __init__(self, network: Network, native, p, rtol: float, atol_scale: float):
+    def __init__(self, network: Network, native, p, rtol: float, atol_scale: float,
+                 method: str = "bdf"):
         self.n_signals = len(network.signal_names)
-        self.solver = native.solver(p, rtol=rtol, atol=atol_scale)
+        self.solver = native.solver(p, rtol=rtol, atol=atol_scale, method=method)
+        if method != "bdf":
+            self.name = method
 
     def start(self, a: float, x, b: float, p) -> None:
         """Begin a segment.
@@ -408,7 +415,8 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
     network : Network
         The model
     solver : str
-        "auto", "compiled", "cvodes" or "scipy"
+        "auto", "compiled", "cvodes", "scipy" or "radau" (the compiled core
+        with Radau IIA)
     p : ndarray
         Runtime parameters, [SI]
     rtol : float
@@ -430,16 +438,16 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
 
     note = None
     build_time = 0.0
-    if solver in ("auto", "compiled"):
+    if solver in ("auto", "compiled", "radau"):
         from .. import compiled
 
         tic = time.perf_counter()
         try:
-            native = compiled.native_model(network, wait=True if solver == "compiled" else None)
+            native = compiled.native_model(network, wait=True if solver != "auto" else None)
         except compiled.LibraryPending:   # built in the background for the next runs
             note = "compiled core being built in the background; this run used CVODES"
         except (compiled.CompilerUnavailable, compiled.UnsupportedOperation) as e:
-            if solver == "compiled":
+            if solver != "auto":
                 raise
             note = f"compiled core unavailable ({e}); used CVODES"
             if isinstance(e, compiled.CompilerUnavailable):   # a machine problem: say it once
@@ -447,7 +455,9 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
             # (an operation the C writer lacks, e.g. a long interpolation table, is by design)
         else:
             build_time = time.perf_counter() - tic
-            return CompiledBackend(network, native, p, rtol, atol_scale), None, build_time
+            method = "radau" if solver == "radau" else "bdf"
+            return (CompiledBackend(network, native, p, rtol, atol_scale, method), None,
+                    build_time)
         build_time = time.perf_counter() - tic
     if solver == "scipy":
         return ScipyBackend(network, rtol, atol_scale), note, build_time

@@ -199,8 +199,10 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
         "auto" (default: "compiled" where a C compiler is available, else
         "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
         BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
-        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian) or "scipy"
-        (reference: per-component Python right-hand side, SciPy BDF)
+        "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian), "scipy"
+        (reference: per-component Python right-hand side, SciPy BDF) or
+        "radau" (the compiled C core with Radau IIA of order 5 instead of its
+        BDF: docs/engine.md says when it pays)
     rtol : float
         Relative tolerance, [-]
     atol_scale : float

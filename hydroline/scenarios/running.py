@@ -270,8 +270,9 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
         Output sampling interval, [s]
     solver : str
         "auto" (the compiled C core where a C compiler exists, else
-        "cvodes"), "compiled", "cvodes" (CasADi + CVODES) or "scipy"
-        (reference Python path); see :func:`hydroline.engine.integrate`
+        "cvodes"), "compiled", "cvodes" (CasADi + CVODES), "scipy"
+        (reference Python path) or "radau" (the C core's Radau IIA); see
+        :func:`hydroline.engine.integrate`
     progress : callable
         Called with the fraction done
     rtol : float
