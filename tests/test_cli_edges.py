@@ -242,3 +242,21 @@ def test_a_note_before_a_large_run(tmp_path, monkeypatch, capsys):
     assert len(notes) == 1 and "410 states, 60 s simulated" in notes[0]
     assert main(["simulate", "--json"]) == 130                # the default rig: no note
     assert "large run" not in capsys.readouterr().err
+
+
+def test_every_command_with_a_solver_offers_every_solver_the_engine_has():
+    """``--solver``'s choices are the engine's :data:`SOLVERS` (radau included), in every
+    command that takes one."""
+    import argparse
+
+    from hydroline.cli.common import add_solver_option
+    from hydroline.engine.backends import SOLVERS
+
+    parser = argparse.ArgumentParser()
+    add_solver_option(parser)
+    for solver in SOLVERS:
+        assert parser.parse_args(["--solver", solver]).solver == solver
+    for command in ("simulate", "layout", "sweep", "envelope", "optimize"):
+        with pytest.raises(SystemExit) as stop:
+            main([command, "--solver", "euler"])
+        assert stop.value.code == 2

@@ -383,6 +383,24 @@ def note_cost(command, network, solver, duration, rows, columns, *, streamed=Fal
           file=sys.stderr, flush=True)
 
 
+def add_solver_option(parser):
+    """Add ``--solver`` (the integrator, one of :data:`hydroline.engine.backends.SOLVERS`) to a
+    subcommand's parser.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The subcommand's parser
+    """
+    parser.add_argument("--solver", default="auto",
+                        choices=("auto", "compiled", "radau", "cvodes", "scipy"),
+                        help="auto (default: the compiled C core where a C compiler exists, else "
+                        "CVODES), compiled (its variable-order BDF), radau (the compiled core's "
+                        "Radau IIA, order 5, which keeps its order on short hoses' and many "
+                        "modes' lightly damped upper modes; docs/engine.md), cvodes (CasADi + "
+                        "SUNDIALS) or the reference SciPy path")
+
+
 def add_settling_band_option(parser):
     """Add ``--settling-band`` (the port pressures' settling band) to a subcommand's parser.
 

@@ -8,6 +8,7 @@ import re
 import numpy as np
 
 from ..rigs import load_rig
+from .common import add_solver_option
 from .common import SCHEMA_VERSION, atomic_outputs, dump_json, out_dir, print_table, \
     progress_printer, quantity
 
@@ -62,7 +63,7 @@ def register(sub):
     p.add_argument("--scheduler", metavar="ADDR",
                    help="a Dask scheduler ('tcp://host:port', or 'local' for a local cluster "
                    "of --workers processes)")
-    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
+    add_solver_option(p)
     p.add_argument("--out", metavar="DIR", help="folder for envelope.csv, envelope.json and "
                    "envelope.png")
     p.add_argument("--json", action="store_true",

@@ -5,6 +5,7 @@ import math
 
 from ..rigs import load_rig
 from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
+from .common import add_solver_option
 from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
                      dump_json, out_dir, print_table, progress_printer, quantity, settling_cell,
                      settling_legend)
@@ -57,7 +58,7 @@ def register(sub):
                    "position-step or the rig's own [scenario.NAME] (default: the rig's "
                    "rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time with unit, e.g. '0.25 s' (scenario default)")
-    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
+    add_solver_option(p)
     p.add_argument("--out", help="folder for layout.csv, layout_traces.csv and layout.png")
     p.add_argument("--format", default="csv", choices=LayoutStudy.TRACE_FORMATS,
                    help="the traces' file: csv (layout_traces.csv; default), parquet "

@@ -6,6 +6,7 @@ import signal
 import sys
 
 from ..rigs import load_rig
+from .common import add_solver_option
 from .common import dump_json, out_dir, print_table, progress_printer, quantity
 
 #: Files written in ``--out`` besides the results file optimize.jsonl.
@@ -85,7 +86,7 @@ def register(sub):
     p.add_argument("--scenario", metavar="NAME", help="the experiment each evaluation runs "
                    "(default: the rig's rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time per evaluation with unit, e.g. '0.25 s'")
-    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
+    add_solver_option(p)
     p.add_argument("--method", default="auto",
                    choices=("auto", "local", "derivative-free", "global"),
                    help="local: SLSQP from space-filling starts, COBYQA where it stalls "

@@ -4,6 +4,7 @@ from __future__ import annotations
 import contextlib
 import sys
 
+from .common import add_solver_option
 from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
                      dump_json, note_cost, out_dir, print_table, progress_printer, quantity,
                      run_network, settling_cell, settling_legend)
@@ -54,9 +55,7 @@ def register(sub):
                    "parquet (results.parquet, units in its metadata: pandas.read_parquet(...)"
                    ".attrs['units']; needs pyarrow) or mat (results.mat for MATLAB: one "
                    "variable per signal, the struct 'units'); hydroline fit reads all three")
-    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"),
-                   help="auto (default: the compiled C core where a C compiler exists, else "
-                   "CVODES), compiled, cvodes (CasADi + SUNDIALS) or the reference SciPy path")
+    add_solver_option(p)
     add_settling_band_option(p)
     p.set_defaults(func=run)
 

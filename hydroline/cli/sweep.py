@@ -12,6 +12,7 @@ import numpy as np
 from ..rigs import load_rig
 from ..scenarios.experiments import default_scenario
 from ..studies.sweep import sweep
+from .common import add_solver_option
 from .common import dump_json, note_cost, print_table, quantity, run_network
 
 EPILOG = """\
@@ -82,7 +83,7 @@ def register(sub):
                    "position-step or the rig's own [scenario.NAME] (default: the rig's "
                    "rig.scenario, else open-loop-step)")
     p.add_argument("--t-end", help="simulated time per variant with unit, e.g. '0.25 s' (scenario default)")
-    p.add_argument("--solver", default="auto", choices=("auto", "compiled", "cvodes", "scipy"))
+    add_solver_option(p)
     p.add_argument("--workers", type=int, metavar="W",
                    help="local worker processes, or workers of --scheduler local (default: CPU count)")
     p.add_argument("--scheduler", metavar="ADDRESS",
