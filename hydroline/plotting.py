@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_result", "plot_long_run", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
+__all__ = ["plot_result", "plot_long_run", "PRESSURE_PANELS", "new_figure", "save_png", "tight_layout", "Traces",
            "column_envelope", "figure_title", "TITLE_CHARACTERS", "time_axis", "format_time",
            "shade_outside_window", "outside_window_handle", "metrics_window_of",
            "OUTSIDE_WINDOW_COLOR", "OUTSIDE_TRACE_COLOR", "OUTSIDE_WINDOW_LABEL",
@@ -170,6 +170,25 @@ def save_png(fig, path, dpi: int = 100) -> None:
         Resolution, [dots per inch]
     """
     fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
+
+
+def tight_layout(fig) -> None:
+    """Lay a figure out as ``fig.tight_layout()`` does, without leaving it the placeholder
+    layout engine that call leaves: ``savefig`` draws a figure that has an engine once
+    without rendering before it draws it (a placeholder lays out nothing), a fifth of the
+    figure's drawing time; the figure written is the same.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, its panels in place
+    """
+    from matplotlib.layout_engine import TightLayoutEngine
+
+    if fig.get_layout_engine() is not None:   # (rcParams' figure.autolayout, ...): as asked
+        fig.tight_layout()
+        return
+    TightLayoutEngine().execute(fig)
 
 
 def _figure(n):
@@ -752,7 +771,7 @@ def plot_line_response(line, models, f, form, path=None, title=None, references=
         ax.set_xlabel("frequency [Hz]")
     fig.suptitle(figure_title(title or f"{form} line: L = {line.length:g} m, "
                               f"d = {line.diameter * 1e3:g} mm, Dn = {line.dissipation_number:.3g}"))
-    fig.tight_layout()
+    tight_layout(fig)
     if path:
         save_png(fig, path, dpi=100)
     return fig

@@ -107,7 +107,7 @@ def _run(args, figures) -> int:
         offsets = [] if args.offsets.strip().lower() == "none" else \
             [s.strip() for s in args.offsets.split(",") if s.strip()]
         for s in offsets:
-            if s not in meas.data:
+            if s not in meas.names:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
     # (its first run too waits for the quick library, not CVODES; SciPy's optimiser is
     # imported while it waits)
@@ -126,7 +126,7 @@ def _run(args, figures) -> int:
         temp_rig.write_text(res.calibrated_toml(data_path))
         with open(temp("fit.json"), "w") as fh:     # strict JSON: NaN/inf as null
             dump_json(summary, fh)
-        figures.draw(plot_fit, t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma},
+        figures.draw(plot_fit, t - t[0], {s: meas.column(s) for s in res.sigma},
                      res.initial, res.fitted, path=str(temp("fit.png")),
                      title=f"hydroline fit: {data_path}",
                      windows=[(a - t[0], b - t[0]) for a, b in res.windows], rms=res.rms,

@@ -637,7 +637,7 @@ def plot_axes(res, summary, path, title=""):
     import numpy as np
 
     from ..plotting import (figure_title, new_figure, outside_window_handle, save_png,
-                            shade_outside_window, time_axis)
+                            shade_outside_window, tight_layout, time_axis)
 
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
@@ -663,7 +663,7 @@ def plot_axes(res, summary, path, title=""):
     ax[2].set_yscale("symlog", linthresh=1e-4)
     ax[2].set_xlabel(f"time [{unit}]")
     fig.suptitle(figure_title(title), fontsize=10)
-    fig.tight_layout()
+    tight_layout(fig)
     save_png(fig, path, dpi=110)
 
 
