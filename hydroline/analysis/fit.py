@@ -521,25 +521,30 @@ def start_mode(rig: Rig, meas: Measurements, start: str = "auto", axis: str | No
         "hold" (the measured initial position held) or "rest" (the steady state at the
         first current).
     """
+    return _start_mode(meas, start, lambda: select_axis(rig, axis))
+
+
+def _start_mode(meas: Measurements, start: str, axis_of) -> str:
+    """:func:`start_mode`, the axis (``axis_of()``, an ``Axis``) found only where needed."""
     if start not in STARTS:
         raise ValueError(f"start must be one of {', '.join(STARTS)}; got {start!r}")
     x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.names else None
     if start == "hold" and x0 is None:
         raise DataError(f"{meas.source}: start 'hold' needs a 'piston_position [m]' column")
     if start == "auto":
-        half = select_axis(rig, axis).stroke / 2
+        half = axis_of().stroke / 2
         return "hold" if x0 is not None and abs(x0) < half - 1e-3 else "rest"
     return start
 
 
-def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto", axis=None):
-    """Network and initial state of the record's model (module docstring)."""
+def _start(rig: Rig, meas: Measurements, times, current, start: str, ax):
+    """Network and initial state of the record's model (module docstring); ``ax``: the
+    rig's axis the record is of (:func:`select_axis`: the rig's circuit built once a run)."""
     t0 = meas.t[0]
-    ax = select_axis(rig, axis)
     half = ax.stroke / 2
     x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.names else None
     times, current = command_table(times - t0, current)
-    if start_mode(rig, meas, start, ax.name) == "hold":
+    if _start_mode(meas, start, lambda: ax) == "hold":
         hold = solve_operating_point(rig, OperatingPoint(piston_position=float(x0)), axis=ax.name)
         values = current - current[0] + hold.valve_current
         cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times, values=values,
@@ -593,7 +598,7 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     # numbers, share one compiled model instead of compiling one each (the residue line's
     # entries depend on the bulk modulus, length and bore)
     with coefficients_as_parameters():
-        st = _start(rig, meas, t, meas.column("valve_current"), start, ax.name)
+        st = _start(rig, meas, t, meas.column("valve_current"), start, ax)
     span = t[-1] - t[0]
     dt = float(np.median(np.diff(t)))
     n = int(np.ceil(span / dt - 1e-9))
@@ -820,7 +825,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                    confidence: float = 0.95, max_evaluations: int = 60, bound_factor: float = 10.0,
                    sigma: dict | None = None, start: str = "auto", offsets=None,
                    progress=None, axis: str | None = None, unresolved: str = "window",
-                   record_rtol: float = RECORD_RTOL) -> FitResult:
+                   record_rtol: float = RECORD_RTOL, on_fitted=None) -> FitResult:
     """Fit rig parameters to a measured record (see the module docstring).
 
     Parameters
@@ -865,6 +870,11 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         (``hydroline simulate``'s): the shift of the estimate under
         that integration error is added in quadrature to each
         standard error (negligible beside a sensor's noise), [-]
+    on_fitted : callable
+        Called once the traces the result shows are known, before the run that
+        measures the integration error (the command line's figure is drawn meanwhile),
+        with a dict of the result's ``sigma``, ``initial``, ``fitted``, ``rms``,
+        ``start_rms``, ``windows`` and ``worse`` (as :class:`FitResult` holds them)
 
     Returns
     -------
@@ -987,25 +997,6 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                      f"intervals are widened {np.sqrt(inflation):.3g}x for the "
                      f"~{N / inflation:.0f} independent residuals and still assume the model "
                      f"is right")
-    # a simulated record is exact only to its integration tolerance: the estimate's shift under
-    # that error (the model at the optimum run at record_rtol) joins the standard error
-    shift = np.zeros(k)
-    if best is not None and record_rtol > 0:
-        try:
-            loose = simulate_record(calibrated(sol.x), meas, signals, rtol=record_rtol,
-                                    start=start, axis=axis,
-                                    atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
-            count["n"] += 1
-            dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(best, use))
-            shift = np.abs(np.linalg.lstsq(J, dr, rcond=None)[0])
-        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError):
-            pass
-    cov = cov + np.diag(shift ** 2)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
-    tq = float(stdtrit(dof, 0.5 + confidence / 2))
-    est = np.exp(sol.x)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(sd, sd)
     fitted = dict(best or {})
     for s in offsets:
         if s in fitted:                 # shown with the fitted sensor offset
@@ -1043,6 +1034,29 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                            f"weighted by its noise level)")
                 worse[s] = why
                 notes.append(f"{s}: fitted rms {rms[s]:.4g} > start {start_rms[s]:.4g} [SI]: {why}")
+    if on_fitted is not None:   # (e.g. the figure drawn while the run below goes on)
+        on_fitted({"sigma": {s: float(v) for s, v in sigma.items()}, "initial": initial,
+                   "fitted": fitted, "rms": rms, "start_rms": start_rms, "windows": windows,
+                   "worse": worse})
+    # a simulated record is exact only to its integration tolerance: the estimate's shift under
+    # that error (the model at the optimum run at record_rtol) joins the standard error
+    shift = np.zeros(k)
+    if best is not None and record_rtol > 0:
+        try:
+            loose = simulate_record(calibrated(sol.x), meas, signals, rtol=record_rtol,
+                                    start=start, axis=axis,
+                                    atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
+            count["n"] += 1
+            dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(best, use))
+            shift = np.abs(np.linalg.lstsq(J, dr, rcond=None)[0])
+        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError):
+            pass
+    cov = cov + np.diag(shift ** 2)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
+    tq = float(stdtrit(dof, 0.5 + confidence / 2))
+    est = np.exp(sol.x)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
     if shift.any():
         notes.append(f"intervals include the estimate's shift under the integration error of a "
                      f"simulated record (rtol {record_rtol:g}): up to {np.max(shift):.2g} in "
