@@ -622,18 +622,19 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bo
     list
         The ``matplotlib.text.Annotation`` of each label.
     """
-    from matplotlib.transforms import Bbox
-
     fig = ax.figure
     renderer = fig.canvas.get_renderer()
     if draw_first:
         fig.draw_without_rendering()   # the legend's place and the limits as they will be drawn
     frame = ax.get_window_extent(renderer)
-    boxes = list(avoid)
+    # boxes as rows (x0, y0, x1, y1), [pixels]; their overlaps with a label summed in order
+    # (as Python's sum: the same costs to the last bit, the same places)
+    boxes = [(b.x0, b.y0, b.x1, b.y1) for b in avoid]
     legend = ax.get_legend()
     if legend is not None:
-        boxes.append(legend.get_window_extent(renderer))
-    segments = []   # points along the lines: a quarter of the weight
+        b = legend.get_window_extent(renderer)
+        boxes.append((b.x0, b.y0, b.x1, b.y1))
+    segments = [np.empty((0, 4))]   # points along the lines: a quarter of the weight
     px = fig.dpi / 72.0
     for line in ax.get_lines():   # markers and (sampled) segments
         xy = ax.transData.transform(np.column_stack(line.get_data()).astype(float))
@@ -644,29 +645,33 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bo
             else 1.5 * px
         for (x0, y0), (x1, y1) in zip(xy[:-1], xy[1:]):
             n = int(min(max(np.hypot(x1 - x0, y1 - y0) / (4 * px), 1), 200))
-            for f in np.linspace(0, 1, n + 1)[1:-1]:
-                x, y = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
-                segments.append(Bbox([[x - 1.5 * px, y - 1.5 * px],
-                                      [x + 1.5 * px, y + 1.5 * px]]))
-        for x, y in xy:
-            boxes.append(Bbox([[x - r, y - r], [x + r, y + r]]))
+            f = np.linspace(0, 1, n + 1)[1:-1]
+            x, y = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
+            segments.append(np.column_stack([x - 1.5 * px, y - 1.5 * px, x + 1.5 * px,
+                                             y + 1.5 * px]))
+        x, y = xy[:, 0], xy[:, 1]
+        boxes.extend(np.column_stack([x - r, y - r, x + r, y + r]))
+    segments = np.concatenate(segments)
 
-    def overlap(a, b):
-        w = min(a.x1, b.x1) - max(a.x0, b.x0)
-        h = min(a.y1, b.y1) - max(a.y0, b.y0)
-        return w * h if w > 0 and h > 0 else 0.0
+    def overlap(a, others):   # the overlap areas of box a with each row, summed in order
+        if not len(others):
+            return 0.0
+        others = np.asarray(others, dtype=float)
+        w = np.minimum(a.x1, others[:, 2]) - np.maximum(a.x0, others[:, 0])
+        h = np.minimum(a.y1, others[:, 3]) - np.maximum(a.y0, others[:, 1])
+        return float(np.add.accumulate(np.where((w > 0) & (h > 0), w * h, 0.0))[-1])
 
     placed = []
     for x, y, text, color in labels:
         best = None
+        rows = np.asarray(boxes, dtype=float).reshape(-1, 4)
         for offset, ha, va in LABEL_SPOTS:
             t = ax.annotate(text, (x, y), textcoords="offset points", xytext=offset,
                             fontsize=fontsize, color=color, ha=ha, va=va)
             box = t.get_window_extent(renderer)
             outside = (max(frame.x0 - box.x0, 0) + max(box.x1 - frame.x1, 0)
                        + max(frame.y0 - box.y0, 0) + max(box.y1 - frame.y1, 0)) * box.height
-            cost = (outside + sum(overlap(box, b) for b in boxes)
-                    + 0.25 * sum(overlap(box, b) for b in segments))
+            cost = outside + overlap(box, rows) + 0.25 * overlap(box, segments)
             if best is None or cost < best[0]:
                 if best is not None:
                     best[1].remove()
@@ -675,7 +680,7 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bo
                 t.remove()
             if cost == 0:
                 break
-        boxes.append(best[2])
+        boxes.append((best[2].x0, best[2].y0, best[2].x1, best[2].y1))
         placed.append(best[1])
     return placed
 
