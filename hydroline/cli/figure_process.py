@@ -144,7 +144,9 @@ class FigureProcess:
     """A forked process that imports Matplotlib now and draws one figure later.
 
     Use :meth:`draw` once with a module-level drawing function and its arguments (all
-    picklable: arrays, not open files), or :meth:`cancel`. :meth:`draw` returns when the
+    picklable: arrays, not open files), or :meth:`cancel`; parts of the figure can be made
+    before it, while the command goes on (:meth:`prepare`: a layout's panels as its runs
+    end), and :meth:`submit` hands the figure over without waiting for it. :meth:`draw` returns when the
     figure is written; an error in the child is raised again in the parent (the same exception
     where it can be pickled, else ``RuntimeError`` with its text), and its warnings are
     warned again in the parent. As a context manager (``with figures:``) it is cancelled when
