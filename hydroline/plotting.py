@@ -3,11 +3,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_result", "plot_long_run", "PRESSURE_PANELS", "new_figure", "save_png", "Traces",
+__all__ = ["plot_result", "plot_long_run", "PRESSURE_PANELS", "new_figure", "save_png", "tight_layout", "Traces",
            "column_envelope", "figure_title", "TITLE_CHARACTERS", "time_axis", "format_time",
            "shade_outside_window", "outside_window_handle", "metrics_window_of",
            "OUTSIDE_WINDOW_COLOR", "OUTSIDE_TRACE_COLOR", "OUTSIDE_WINDOW_LABEL",
-           "ratio_unit", "place_value_labels", "wrap_title", "plot_layout"]
+           "ratio_unit", "place_value_labels", "wrap_title", "plot_layout",
+           "layout_panels", "layout_trace_row", "prepare_layout_row"]
 
 #: The paper's Figs. 10-12: valve port pressures, chamber pressures, piston velocity.
 PRESSURE_PANELS = (
@@ -170,6 +171,25 @@ def save_png(fig, path, dpi: int = 100) -> None:
         Resolution, [dots per inch]
     """
     fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
+
+
+def tight_layout(fig) -> None:
+    """Lay a figure out as ``fig.tight_layout()`` does, without leaving it the placeholder
+    layout engine that call leaves: ``savefig`` draws a figure that has an engine once
+    without rendering before it draws it (a placeholder lays out nothing), a fifth of the
+    figure's drawing time; the figure written is the same.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure, its panels in place
+    """
+    from matplotlib.layout_engine import TightLayoutEngine
+
+    if fig.get_layout_engine() is not None:   # (rcParams' figure.autolayout, ...): as asked
+        fig.tight_layout()
+        return
+    TightLayoutEngine().execute(fig)
 
 
 def _figure(n):
@@ -603,18 +623,19 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bo
     list
         The ``matplotlib.text.Annotation`` of each label.
     """
-    from matplotlib.transforms import Bbox
-
     fig = ax.figure
     renderer = fig.canvas.get_renderer()
     if draw_first:
         fig.draw_without_rendering()   # the legend's place and the limits as they will be drawn
     frame = ax.get_window_extent(renderer)
-    boxes = list(avoid)
+    # boxes as rows (x0, y0, x1, y1), [pixels]; their overlaps with a label summed in order
+    # (as Python's sum: the same costs to the last bit, the same places)
+    boxes = [(b.x0, b.y0, b.x1, b.y1) for b in avoid]
     legend = ax.get_legend()
     if legend is not None:
-        boxes.append(legend.get_window_extent(renderer))
-    segments = []   # points along the lines: a quarter of the weight
+        b = legend.get_window_extent(renderer)
+        boxes.append((b.x0, b.y0, b.x1, b.y1))
+    segments = [np.empty((0, 4))]   # points along the lines: a quarter of the weight
     px = fig.dpi / 72.0
     for line in ax.get_lines():   # markers and (sampled) segments
         xy = ax.transData.transform(np.column_stack(line.get_data()).astype(float))
@@ -625,29 +646,33 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bo
             else 1.5 * px
         for (x0, y0), (x1, y1) in zip(xy[:-1], xy[1:]):
             n = int(min(max(np.hypot(x1 - x0, y1 - y0) / (4 * px), 1), 200))
-            for f in np.linspace(0, 1, n + 1)[1:-1]:
-                x, y = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
-                segments.append(Bbox([[x - 1.5 * px, y - 1.5 * px],
-                                      [x + 1.5 * px, y + 1.5 * px]]))
-        for x, y in xy:
-            boxes.append(Bbox([[x - r, y - r], [x + r, y + r]]))
+            f = np.linspace(0, 1, n + 1)[1:-1]
+            x, y = x0 + f * (x1 - x0), y0 + f * (y1 - y0)
+            segments.append(np.column_stack([x - 1.5 * px, y - 1.5 * px, x + 1.5 * px,
+                                             y + 1.5 * px]))
+        x, y = xy[:, 0], xy[:, 1]
+        boxes.extend(np.column_stack([x - r, y - r, x + r, y + r]))
+    segments = np.concatenate(segments)
 
-    def overlap(a, b):
-        w = min(a.x1, b.x1) - max(a.x0, b.x0)
-        h = min(a.y1, b.y1) - max(a.y0, b.y0)
-        return w * h if w > 0 and h > 0 else 0.0
+    def overlap(a, others):   # the overlap areas of box a with each row, summed in order
+        if not len(others):
+            return 0.0
+        others = np.asarray(others, dtype=float)
+        w = np.minimum(a.x1, others[:, 2]) - np.maximum(a.x0, others[:, 0])
+        h = np.minimum(a.y1, others[:, 3]) - np.maximum(a.y0, others[:, 1])
+        return float(np.add.accumulate(np.where((w > 0) & (h > 0), w * h, 0.0))[-1])
 
     placed = []
     for x, y, text, color in labels:
         best = None
+        rows = np.asarray(boxes, dtype=float).reshape(-1, 4)
         for offset, ha, va in LABEL_SPOTS:
             t = ax.annotate(text, (x, y), textcoords="offset points", xytext=offset,
                             fontsize=fontsize, color=color, ha=ha, va=va)
             box = t.get_window_extent(renderer)
             outside = (max(frame.x0 - box.x0, 0) + max(box.x1 - frame.x1, 0)
                        + max(frame.y0 - box.y0, 0) + max(box.y1 - frame.y1, 0)) * box.height
-            cost = (outside + sum(overlap(box, b) for b in boxes)
-                    + 0.25 * sum(overlap(box, b) for b in segments))
+            cost = outside + overlap(box, rows) + 0.25 * overlap(box, segments)
             if best is None or cost < best[0]:
                 if best is not None:
                     best[1].remove()
@@ -656,7 +681,7 @@ def place_value_labels(ax, labels, avoid=(), fontsize: float = 7, draw_first: bo
                 t.remove()
             if cost == 0:
                 break
-        boxes.append(best[2])
+        boxes.append((best[2].x0, best[2].y0, best[2].x1, best[2].y1))
         placed.append(best[1])
     return placed
 
@@ -752,13 +777,148 @@ def plot_line_response(line, models, f, form, path=None, title=None, references=
         ax.set_xlabel("frequency [Hz]")
     fig.suptitle(figure_title(title or f"{form} line: L = {line.length:g} m, "
                               f"d = {line.diameter * 1e3:g} mm, Dn = {line.dissipation_number:.3g}"))
-    fig.tight_layout()
+    tight_layout(fig)
     if path:
         save_png(fig, path, dpi=100)
     return fig
 
 
-def plot_layout(lengths, runs, summaries, wave_speeds, sides, title, path=None):
+def layout_panels(n: int, factor: float, unit: str) -> dict:
+    """The layout figure (:func:`plot_layout`) before its panels: the figure and its grid,
+    for ``n`` lengths drawn in the time unit ``unit`` (``factor`` per second); its trace
+    panels are added, a length at a time, by :func:`layout_trace_row` (in a figure process
+    while the next lengths run: :func:`prepare_layout_row`).
+
+    Parameters
+    ----------
+    n : int
+        Number of lengths
+    factor : float
+        Time unit per second (:func:`time_axis`), [unit/s]
+    unit : str
+        The time unit's name
+
+    Returns
+    -------
+    dict
+        What :func:`layout_trace_row` and :func:`plot_layout` build on: ``fig``, the grids,
+        the rows made (``rows``) and what they found.
+    """
+    fig = new_figure((11, 1.7 * n + 4.4))
+    outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
+    return {"fig": fig, "outer": outer, "grid": outer[0].subgridspec(n, 2, hspace=0.12),
+            "n": n, "factor": factor, "unit": unit, "rows": 0, "first": {}, "lims": {},
+            "shaded": False, "stopped": False, "measured": False, "inputs": []}
+
+
+def layout_trace_row(panels: dict, r: int, length: float, res, summary: dict) -> None:
+    """Add one length's port-pressure panels (supply left, return right) to the layout figure
+    (:func:`layout_panels`), rows in order.
+
+    Parameters
+    ----------
+    panels : dict
+        The figure being made (:func:`layout_panels`)
+    r : int
+        The row: the length's index
+    length : float
+        The section length, [m]
+    res : Traces
+        Its run: ``supply`` and ``return`` port pressures [Pa], ``t_disturbance`` [s] and
+        ``metrics_window`` in its metadata
+    summary : dict
+        Its metrics per port (``settling_time_s`` [s], ``settling_method``)
+    """
+    if r != panels["rows"]:
+        raise ValueError(f"layout figure: row {r} given after {panels['rows']} rows")
+    ports = ("supply", "return")
+    fig, gs, first, lims = panels["fig"], panels["grid"], panels["first"], panels["lims"]
+    n, factor, unit = panels["n"], panels["factor"], panels["unit"]
+    L = length
+    t_s = res.t * factor
+    t0 = res.metadata.get("t_disturbance", 0.0)
+    window = metrics_window_of(res)
+    t1 = window[1] if window is not None else None
+    for c, side in enumerate(ports):
+        ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
+        first.setdefault("x", ax)
+        first.setdefault(side, ax)
+        y = res[side] / 1e6
+        k1 = int(np.count_nonzero(res.t <= t1)) if t1 else y.size
+        ax.plot(t_s[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
+        lims.setdefault(side, []).extend([float(np.min(y[:k1])), float(np.max(y[:k1]))])
+        if t1:   # after the far stop: grey, outside the metrics
+            ax.plot(t_s[k1 - 1:], y[k1 - 1:], lw=0.7, color=OUTSIDE_TRACE_COLOR)
+            ax.axvline(t1 * factor, color="r", lw=0.7, ls=":")
+            panels["stopped"] = True
+        if window is not None:
+            panels["shaded"] |= shade_outside_window(ax, window[0], t1, res.t[0], res.t[-1],
+                                                     factor)
+        ax.axvline(t0 * factor, color="k", lw=0.7, ls=":")
+        ts = summary[side].get("settling_time_s")
+        if ts is not None and summary[side].get("settling_method") == "measured":
+            ax.axvline((t0 + ts) * factor, color="C2", lw=0.8, ls="--")   # (an estimate
+            # lies past the stop, where the trace shows the stop's own transient)
+            panels["measured"] = True
+        ax.grid(True, alpha=0.3)
+        label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
+        ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
+                bbox=dict(facecolor="white", edgecolor="none", alpha=0.7))
+        if r == 0:
+            ax.set_title(f"{side} port pressure [MPa]", fontsize=10)
+        if r < n - 1:
+            ax.tick_params(labelbottom=False)
+        else:
+            ax.set_xlabel(f"time [{unit}]")
+            ax.set_xlim(t_s[0], t_s[-1])
+    panels["rows"] += 1
+    panels["inputs"].append((L, res, summary))
+
+
+def _same_rows(panels, n, factor, lengths, runs, summaries) -> bool:
+    """Whether the rows made beforehand (:func:`prepare_layout_row`) are the first rows of this
+    figure: the same number of lengths, time unit and, row by row, inputs."""
+    if panels["n"] != n or panels["factor"] != factor or panels["rows"] > n:
+        return False
+    for (L, res, summary), L1, res1, summary1 in zip(panels["inputs"], lengths, runs, summaries):
+        same = (L == L1 and summary == summary1 and res.metadata == res1.metadata
+                and np.array_equal(res.t, res1.t)
+                and all(np.array_equal(res[p], res1[p]) for p in ("supply", "return")))
+        if not same:
+            return False
+    return True
+
+
+def prepare_layout_row(prepared: dict, n: int, r: int, length: float, res, summary: dict) -> None:
+    """In a figure process (:meth:`hydroline.cli.figure_process.FigureProcess.prepare`), while
+    the next lengths run: one length's trace panels of the layout figure, made now in the
+    time unit of this run's length (the first row makes the figure); :func:`plot_layout`
+    goes on from them where it finds the same rows and time unit, else starts anew.
+
+    Parameters
+    ----------
+    prepared : dict
+        What the figure process keeps for the figure (``"layout"``: the panels)
+    n : int
+        Number of lengths of the study
+    r : int
+        The length's index
+    length : float
+        The section length, [m]
+    res : Traces
+        Its run, as :func:`layout_trace_row` takes it
+    summary : dict
+        Its metrics per port, as :func:`layout_trace_row` takes them
+    """
+    if r == 0:
+        prepared["layout"] = layout_panels(n, *time_axis(res.t[-1] - res.t[0]))
+    panels = prepared.get("layout")
+    if panels is not None and panels["rows"] == r:
+        layout_trace_row(panels, r, length, res, summary)
+
+
+def plot_layout(lengths, runs, summaries, wave_speeds, sides, title, path=None,
+                prepared=None):
     """The layout study's figure (:meth:`hydroline.studies.LayoutStudy.plot`): port-pressure
     traces of every length stacked (the paper's Figs. 13-14: supply left, return right;
     dotted: step and piston stop, green dashed: a measured settling time; grey, as in every
@@ -787,6 +947,9 @@ def plot_layout(lengths, runs, summaries, wave_speeds, sides, title, path=None):
         Figure title
     path : str or Path
         Write the figure there (PNG) when given
+    prepared : dict
+        What a figure process made beforehand (:func:`prepare_layout_row`): its trace panels
+        are used where they are this figure's first rows
 
     Returns
     -------
@@ -797,48 +960,15 @@ def plot_layout(lengths, runs, summaries, wave_speeds, sides, title, path=None):
 
     ports = ("supply", "return")
     n = len(lengths)
-    fig = new_figure((11, 1.7 * n + 4.4))
-    outer = fig.add_gridspec(2, 1, height_ratios=[1.7 * n, 2.6], hspace=0.16)
-    gs = outer[0].subgridspec(n, 2, hspace=0.12)
-    first, lims = {}, {}
     factor, unit = time_axis(max(res.t[-1] - res.t[0] for res in runs))
-    shaded = stopped = measured = False
-    for r, (L, res) in enumerate(zip(lengths, runs)):
-        t_s = res.t * factor
-        t0 = res.metadata.get("t_disturbance", 0.0)
-        window = metrics_window_of(res)
-        t1 = window[1] if window is not None else None
-        for c, side in enumerate(ports):
-            ax = fig.add_subplot(gs[r, c], sharex=first.get("x"), sharey=first.get(side))
-            first.setdefault("x", ax)
-            first.setdefault(side, ax)
-            y = res[side] / 1e6
-            k1 = int(np.count_nonzero(res.t <= t1)) if t1 else y.size
-            ax.plot(t_s[:k1], y[:k1], lw=0.9, color="C0" if side == "supply" else "C3")
-            lims.setdefault(side, []).extend([float(np.min(y[:k1])), float(np.max(y[:k1]))])
-            if t1:   # after the far stop: grey, outside the metrics
-                ax.plot(t_s[k1 - 1:], y[k1 - 1:], lw=0.7, color=OUTSIDE_TRACE_COLOR)
-                ax.axvline(t1 * factor, color="r", lw=0.7, ls=":")
-                stopped = True
-            if window is not None:
-                shaded |= shade_outside_window(ax, window[0], t1, res.t[0], res.t[-1], factor)
-            ax.axvline(t0 * factor, color="k", lw=0.7, ls=":")
-            ts = summaries[r][side].get("settling_time_s")
-            if ts is not None and summaries[r][side].get("settling_method") == "measured":
-                ax.axvline((t0 + ts) * factor, color="C2", lw=0.8, ls="--")   # (an estimate
-                # lies past the stop, where the trace shows the stop's own transient)
-                measured = True
-            ax.grid(True, alpha=0.3)
-            label = "close-coupled (0 m)" if L == 0 else f"L = {L:g} m"
-            ax.text(0.99, 0.93, label, transform=ax.transAxes, ha="right", va="top", fontsize=8,
-                    bbox=dict(facecolor="white", edgecolor="none", alpha=0.7))
-            if r == 0:
-                ax.set_title(f"{side} port pressure [MPa]", fontsize=10)
-            if r < n - 1:
-                ax.tick_params(labelbottom=False)
-            else:
-                ax.set_xlabel(f"time [{unit}]")
-                ax.set_xlim(t_s[0], t_s[-1])
+    panels = prepared.get("layout") if prepared else None
+    if panels is None or not _same_rows(panels, n, factor, lengths, runs, summaries):
+        panels = layout_panels(n, factor, unit)   # (those made while the runs went on: as they are)
+    for r in range(panels["rows"], n):
+        layout_trace_row(panels, r, lengths[r], runs[r], summaries[r])
+    fig, first, lims = panels["fig"], panels["first"], panels["lims"]
+    outer, shaded, stopped, measured = (panels[k] for k in ("outer", "shaded", "stopped",
+                                                             "measured"))
     for side, values in lims.items():   # y-range from the metrics windows only
         lo, hi = min(values), max(values)
         pad = 0.08 * (hi - lo) if hi > lo else 0.05

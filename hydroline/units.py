@@ -54,7 +54,7 @@ from .unit_table import si_value
 
 __all__ = ["ureg", "UnitError", "parse_quantity", "format_quantity", "convert_quantity",
            "exact_quantity",
-           "split_header", "csv_column", "QUANTITY_GRAMMAR", "MAX_QUANTITY_LENGTH"]
+           "split_header", "csv_column", "csv_unit_factor", "QUANTITY_GRAMMAR", "MAX_QUANTITY_LENGTH"]
 
 
 
@@ -402,6 +402,40 @@ def split_header(col) -> tuple[str, str | None]:
     return name.strip(), unit.strip()
 
 
+def csv_unit_factor(col, unit: str, src: str, example: str | None = None) -> float:
+    """The factor that converts a CSV column whose header carries its unit to SI.
+
+    Parameters
+    ----------
+    col : str
+        Column header, e.g. ``"time [ms]"``
+    unit : str
+        SI unit the column must convert to (dimension check)
+    src : str
+        File name, for the messages
+    example : str
+        Name to suggest in the no-unit message (the header's name if None)
+
+    Returns
+    -------
+    float
+        The column's values times this are in ``unit``, [unit / header's unit]
+
+    Raises
+    ------
+    ValueError
+        One line naming the file and the column: a header without a unit, or one of
+        another dimension
+    """
+    name, u = split_header(col)
+    if u is None:
+        raise ValueError(f"{src}: column '{col}' has no unit; write e.g. '{example or name} [{unit}]'")
+    try:
+        return parse_quantity(f"1 {u}", unit, f"{src}: column '{col}'")
+    except UnitError as e:
+        raise ValueError(str(e)) from None
+
+
 def csv_column(raw, col, unit: str, src: str, example: str | None = None):
     """One column of a CSV table whose header carries its unit, converted to SI.
 
@@ -431,13 +465,7 @@ def csv_column(raw, col, unit: str, src: str, example: str | None = None):
     import numpy as np
     import pandas as pd
 
-    name, u = split_header(col)
-    if u is None:
-        raise ValueError(f"{src}: column '{col}' has no unit; write e.g. '{example or name} [{unit}]'")
-    try:
-        factor = parse_quantity(f"1 {u}", unit, f"{src}: column '{col}'")
-    except UnitError as e:
-        raise ValueError(str(e)) from None
+    factor = csv_unit_factor(col, unit, src, example)
     values = pd.to_numeric(raw[col], errors="coerce").to_numpy(dtype=float)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:

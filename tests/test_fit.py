@@ -56,6 +56,58 @@ def test_read_measurements_converts_units(tmp_path):
     assert m.ignored == ["oil temperature [degC]"]
 
 
+def _mixed_record(path, quoted=False):
+    """A CSV record written as instruments and spreadsheets write them: numbers in several
+    formats, spaces after the commas, CRLF line ends, blank lines, a text column (ignored)."""
+    rng = np.random.default_rng(11)
+    n = 40
+    t_ms = np.cumsum(rng.uniform(0.5, 1.5, n))
+    formats = (repr, lambda v: f"{v:.6e}", lambda v: f"{v:g}", lambda v: f"  {v:.17g}")
+    header = ["time [ms]", "valve_current [mA]", "oil temperature [degC]",
+              "supply_port_pressure [bar]", "piston_position [mm]"]
+    if quoted:
+        header[0] = '"time [ms]"'
+    cols = [t_ms, rng.normal(0, 5, n), None, 200 + rng.normal(0, 3, n), rng.uniform(-50, 50, n)]
+    lines = [",".join(header)]
+    for i in range(n):
+        cells = ["warm" if c is None else formats[(i + j) % 4](float(c[i]))
+                 for j, c in enumerate(cols)]
+        lines.append(",".join(cells))
+        if i % 13 == 5:
+            lines.append("")
+    path.write_bytes(("\r\n".join(lines) + "\r\n").encode())
+
+
+@pytest.mark.parametrize("quoted", [False, True], ids=["plain", "quoted header (pandas)"])
+def test_read_measurements_reads_what_pandas_reads(tmp_path, quoted):
+    """A plain CSV record is read without pandas: the numbers are the ones pandas' reader
+    gives (bit for bit), times each header's unit factor written out here; a file with a
+    quote character goes to pandas, with the same result."""
+    path = tmp_path / "mixed.csv"
+    _mixed_record(path, quoted)
+    ref = pd.read_csv(path, skipinitialspace=True)
+    m = read_measurements(path)
+    for name, header, factor in (("time", "time [ms]", 1e-3), ("valve_current", "valve_current [mA]", 1e-3),
+                                 ("supply_port_pressure", "supply_port_pressure [bar]", 1e5),
+                                 ("piston_position", "piston_position [mm]", 1e-3)):
+        np.testing.assert_array_equal(m.column(name), ref[header].to_numpy(dtype=float) * factor)
+    assert m.ignored == ["oil temperature [degC]"] and len(m.t) == 40
+    np.testing.assert_array_equal(m.data["time"].to_numpy(), m.t)   # the table made on request
+
+
+def test_reading_a_csv_record_imports_no_pandas(tmp_path):
+    import subprocess
+    import sys
+
+    path = tmp_path / "mixed.csv"
+    _mixed_record(path)
+    code = (f"import sys\nfrom hydroline.analysis.fit import read_measurements\n"
+            f"m = read_measurements({str(path)!r})\nm.t, m.column('piston_position'), m.signals\n"
+            f"print('pandas' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
 def test_noise_level_of_white_noise_on_a_smooth_signal():
     rng = np.random.default_rng(3)
     t = np.linspace(0, 0.1, 2001)

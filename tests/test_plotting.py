@@ -309,3 +309,49 @@ def test_speed_is_said_as_faster_or_slower_than_real_time():
 
     assert speed_against_real_time(1.0, 0.1) == "10.0x faster than real time"
     assert speed_against_real_time(0.25, 1.0) == "4.0x slower than real time"
+
+
+def _layout_figure_args(durations=(0.1, 0.1, 0.1)):
+    """A layout figure's arguments from made-up runs: decaying rings after a step at 10 ms,
+    the piston's stop at 80 ms."""
+    runs, summaries = [], []
+    for f, t_end in zip((40.0, 65.0, 90.0), durations):
+        t = np.linspace(0.0, t_end, 400)
+        ring = np.where(t > 0.01, np.sin(2 * np.pi * f * (t - 0.01)) * np.exp(-25 * t), 0.0)
+        runs.append(Traces(t, {"supply": 2.0e7 + 3e5 * ring, "return": 3e5 - 1e5 * ring},
+                           {"t_disturbance": 0.01, "metrics_window": (0.01, 0.08, "stop")}))
+        summaries.append({side: {"frequency_hz": f, "amplitude_mpa": 0.3 * f / 90,
+                                 "first_excursion_mpa": 0.4, "settling_time_s": 0.04,
+                                 "settling_method": "measured"} for side in ("supply", "return")})
+    return dict(lengths=[3.0, 1.5, 0.0], runs=runs, summaries=summaries,
+                wave_speeds={"supply": 1200.0, "return": 1150.0}, sides=("supply", "return"),
+                title="layout figure, rows made beforehand")
+
+
+@pytest.mark.parametrize("durations", [(0.1, 0.1, 0.1), (0.1, 0.1, 2.5)],
+                         ids=["same time unit", "the last run longer: another unit"])
+def test_layout_rows_made_beforehand_draw_the_same_figure(tmp_path, durations):
+    """The layout figure's trace rows made while the runs go on (in a figure process, as the
+    command does, and in this one) give the PNG drawn at once, byte for byte; where the rows
+    were made in another time unit than the whole study's they are not used."""
+    from hydroline.cli.figure_process import FigureProcess
+    from hydroline.plotting import plot_layout, prepare_layout_row
+
+    args = _layout_figure_args(durations)
+    plot_layout(**args, path=tmp_path / "at_once.png")
+    prepared = {}
+    for r in range(2):
+        prepare_layout_row(prepared, 3, r, args["lengths"][r], args["runs"][r],
+                           args["summaries"][r])
+    assert prepared["layout"]["rows"] == 2
+    fig = plot_layout(**args, path=tmp_path / "here.png", prepared=prepared)
+    assert (fig is prepared["layout"]["fig"]) == (durations[-1] < 2.0)   # (used where it fits)
+    figures = FigureProcess()
+    for r in range(3):
+        figures.prepare(prepare_layout_row, 3, r, args["lengths"][r], args["runs"][r],
+                        args["summaries"][r])
+    figures.submit(plot_layout, **args, path=str(tmp_path / "child.png"))
+    figures.wait()
+    png = (tmp_path / "at_once.png").read_bytes()
+    assert (tmp_path / "here.png").read_bytes() == png
+    assert (tmp_path / "child.png").read_bytes() == png

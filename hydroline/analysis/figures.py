@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plotting import figure_title, ratio_unit
+from ..plotting import figure_title, ratio_unit, tight_layout
 
 __all__ = ["plot_bode", "plot_fit", "plot_friction", "SIGNAL_DISPLAY"]
 
@@ -137,7 +137,7 @@ def plot_bode(f, curves: dict, input_name: str, outputs, bandwidths: dict | None
             ax.grid(True, which="both", alpha=0.3)
     axes[0, 0].legend(fontsize=8, loc="best")
     fig.suptitle(figure_title(title or "hydroline bode"), fontsize=10)
-    fig.tight_layout()
+    tight_layout(fig)
     if path:
         _save_png(fig, path)
     return fig
@@ -205,7 +205,7 @@ def plot_fit(t, measured: dict, initial: dict, fitted: dict, path=None, title=No
         ax.legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel(f"time [{unit_t}]")
     fig.suptitle(figure_title(title or "hydroline fit: measured vs fitted"))
-    fig.tight_layout()
+    tight_layout(fig)
     if path:
         _save_png(fig, path)
     return fig
@@ -259,7 +259,7 @@ def plot_friction(points: dict, fit, path=None, title=None):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title(figure_title(title or "friction identification"))
-    fig.tight_layout()
+    tight_layout(fig)
     if path:
         _save_png(fig, path)
     return fig

@@ -76,13 +76,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from .. import components as comp
 from ..components.hose import coefficients_as_parameters
 from ..rigs import SCHEMA, Rig, RigError, load_rig
 from ..engine import integrate, solve_steady_state
-from ..units import csv_column, exact_quantity, split_header
+from ..units import csv_column, csv_unit_factor, exact_quantity, split_header
 from .linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal, select_axis,
                         solve_operating_point, transfer_state)
 
@@ -120,33 +119,80 @@ class DataError(ValueError):
     """
 
 
-@dataclass
 class Measurements:
     """A measured record in SI units.
 
+    Parameters
+    ----------
+    data : pandas.DataFrame or dict
+        Columns named as in :data:`COLUMNS` (no units), SI: a table, or name -> 1-D array
+        (read from a CSV file: the table is made from them when :attr:`data` is first read,
+        and pandas imported then)
+    source : str
+        Where it came from
+    ignored : list[str]
+        Columns that were not understood
+
     Attributes
     ----------
-    data : pandas.DataFrame
-        Columns named as in :data:`COLUMNS` (no units), SI
     source : str
         Where it came from
     ignored : list[str]
         Columns that were not understood
     """
 
-    data: pd.DataFrame
-    source: str = ""
-    ignored: list = field(default_factory=list)
+    def __init__(self, data, source: str = "", ignored=None):
+        self._table = data
+        self.source = source
+        self.ignored = [] if ignored is None else ignored
+
+    @property
+    def data(self) -> "pandas.DataFrame":
+        """The record as a table, columns named as in :data:`COLUMNS` (no units), SI; a
+        change made to it is the record's."""
+        if isinstance(self._table, dict):
+            import pandas as pd
+
+            self._table = pd.DataFrame(self._table)
+        return self._table
+
+    @data.setter
+    def data(self, table):
+        self._table = table
+
+    @property
+    def names(self) -> list:
+        """The record's columns, named as in :data:`COLUMNS`."""
+        return list(self._table.keys()) if isinstance(self._table, dict) else \
+            [str(c) for c in self._table.columns]
+
+    def column(self, name: str) -> np.ndarray:
+        """One column of the record (without making its table).
+
+        Parameters
+        ----------
+        name : str
+            The column's name (a key of :data:`COLUMNS`)
+
+        Returns
+        -------
+        numpy.ndarray
+            Its values, [SI]
+        """
+        if isinstance(self._table, dict):
+            return self._table[name]
+        return self._table[name].to_numpy()
 
     @property
     def t(self) -> np.ndarray:
         """Sample times, [s]"""
-        return self.data["time"].to_numpy()
+        return self.column("time")
 
     @property
     def signals(self) -> list:
         """Measured signals a fit can use."""
-        return [c for c in MEASURABLE if c in self.data]
+        names = self.names
+        return [c for c in MEASURABLE if c in names]
 
     def to_csv(self, path):
         """Write with ``name [SI unit]`` headers.
@@ -158,12 +204,66 @@ class Measurements:
         """
         self.data.rename(columns={c: f"{c} [{COLUMNS[c]}]" for c in self.data}).to_csv(path, index=False)
 
+    def __repr__(self) -> str:
+        return f"Measurements({self.source!r}: {', '.join(self.names)}; {len(self.t)} samples)"
 
-def _read_table(path, src) -> pd.DataFrame:
+
+#: A number in a CSV cell as :func:`read_measurements` reads it without pandas: spaces, a
+#: sign, digits with at most one decimal point, an optional exponent (anything else: pandas
+#: reads the file).
+_PLAIN_NUMBER = r" *[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+
+
+def _read_plain_csv(path):
+    """A CSV record's understood columns (:data:`COLUMNS`) read without pandas (whose import
+    costs a fit's first run ~0.3 s): ``(header, {header: values [unit of its header]},
+    rows)``; None where the file is not a plain table of numbers in those columns (a quote
+    character, a cell that is not a plain number or is missing, a row of another length, a
+    header twice or empty, text that is not UTF-8), which pandas then reads as before, with
+    its messages. As ``pandas.read_csv(skipinitialspace=True)``: blank lines skipped, spaces
+    before a cell dropped. The numbers are Python's (correctly rounded; pandas' parser reads
+    the same from the 17 significant digits ``hydroline simulate`` writes)."""
+    import re
+
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            text = f.read()
+    except UnicodeDecodeError:
+        return None
+    if '"' in text:
+        return None
+    if "\r" in text:
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
+    lines = [line for line in text.split("\n") if line]
+    if len(lines) < 2:
+        return None
+    header = [h.lstrip(" ") for h in lines[0].split(",")]
+    width = len(header)
+    if len(set(header)) != width or not all(header) or \
+            any(line.count(",") != width - 1 for line in lines):
+        return None
+    wanted = [j for j, col in enumerate(header) if split_header(col)[0] in COLUMNS]
+    last = max(wanted, default=0) + 1   # (the cells after the last one read are not split)
+    body = [line.split(",", last) for line in lines[1:]]
+    number = re.compile(rf"(?:{_PLAIN_NUMBER}\n)*")
+    columns = {}
+    for j in wanted:
+        cells = [r[j] for r in body]
+        if not number.fullmatch("\n".join(cells) + "\n"):
+            return None
+        columns[header[j]] = np.array([float(c) for c in cells])
+        if not np.all(np.isfinite(columns[header[j]])):   # (an overflow: pandas' message)
+            return None
+    return header, columns, len(body)
+
+
+def _read_table(path, src) -> "pd.DataFrame":
     """A record as a table with ``name [unit]`` columns: a CSV as it is; a Parquet file with
     its units in the metadata (``attrs["units"]``, as ``hydroline simulate --format parquet``
     writes it); a MAT file of one variable per signal with the structs ``units`` and
     ``names`` (``--format mat``)."""
+    import pandas as pd
+
     suffix = Path(path).suffix.lower()
     try:
         if suffix == ".parquet":
@@ -221,9 +321,14 @@ def read_measurements(path, required=("time", "valve_current"), need_signal: boo
     src = str(path)
     if not Path(path).is_file():
         raise DataError(f"{src}: data file not found")
-    raw = _read_table(path, src)
+    plain = None if Path(path).suffix.lower() in (".parquet", ".mat") else _read_plain_csv(path)
+    if plain is not None:
+        header, values, n = plain
+    else:
+        raw = _read_table(path, src)
+        header, n = list(raw.columns), len(raw)
     cols, ignored = {}, []
-    for col in raw.columns:
+    for col in header:
         name, _ = split_header(col)
         if name not in COLUMNS:
             ignored.append(str(col))
@@ -231,18 +336,17 @@ def read_measurements(path, required=("time", "valve_current"), need_signal: boo
         if name in cols:
             raise DataError(f"{src}: column '{name}' appears twice")
         try:
-            values = csv_column(raw, col, COLUMNS[name], src)
+            cols[name] = (values[col] * csv_unit_factor(col, COLUMNS[name], src)
+                          if plain is not None else csv_column(raw, col, COLUMNS[name], src))
         except ValueError as e:
             raise DataError(str(e)) from None
-        cols[name] = values
     for name in required:
         if name not in cols:
             raise DataError(f"{src}: missing column '{name} [{COLUMNS[name]}]' "
-                            f"(columns: {', '.join(map(str, raw.columns))})")
+                            f"(columns: {', '.join(map(str, header))})")
     if need_signal and not any(c in cols for c in MEASURABLE):
         raise DataError(f"{src}: no measured signal; give at least one of "
                         + ", ".join(f"'{c} [{COLUMNS[c]}]'" for c in MEASURABLE))
-    n = len(raw)
     if n < 3:
         raise DataError(f"{src}: needs at least 3 rows of data, got {n}")
     if "time" in cols:
@@ -253,7 +357,7 @@ def read_measurements(path, required=("time", "valve_current"), need_signal: boo
             raise DataError(f"{src}: column 'time' must increase strictly; data row {k + 1} "
                             f"(t = {cols['time'][k]:.6g} s) is not after row {k} "
                             f"(t = {cols['time'][k - 1]:.6g} s)")
-    return Measurements(pd.DataFrame(cols), src, ignored)
+    return Measurements(cols, src, ignored)
 
 
 def noise_level(y) -> float:
@@ -389,8 +493,8 @@ class _Start:
 def _initial_value(meas: Measurements, column: str) -> float:
     """Mean of a column over the record's quiet start: the samples before the valve current
     first moves from its initial value (at most 50 samples, at least 1), [SI]."""
-    y = meas.data[column].to_numpy()
-    i = meas.data["valve_current"].to_numpy()
+    y = meas.column(column)
+    i = meas.column("valve_current")
     tol = max(1e-3 * np.ptp(i), 10 * noise_level(i), 1e-12)
     moved = np.flatnonzero(np.abs(i - i[0]) > tol)
     n = int(min(moved[0] if moved.size else len(y), 50))
@@ -422,25 +526,30 @@ def start_mode(rig: Rig, meas: Measurements, start: str = "auto", axis: str | No
         "hold" (the measured initial position held) or "rest" (the steady state at the
         first current).
     """
+    return _start_mode(meas, start, lambda: select_axis(rig, axis))
+
+
+def _start_mode(meas: Measurements, start: str, axis_of) -> str:
+    """:func:`start_mode`, the axis (``axis_of()``, an ``Axis``) found only where needed."""
     if start not in STARTS:
         raise ValueError(f"start must be one of {', '.join(STARTS)}; got {start!r}")
-    x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.data else None
+    x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.names else None
     if start == "hold" and x0 is None:
         raise DataError(f"{meas.source}: start 'hold' needs a 'piston_position [m]' column")
     if start == "auto":
-        half = select_axis(rig, axis).stroke / 2
+        half = axis_of().stroke / 2
         return "hold" if x0 is not None and abs(x0) < half - 1e-3 else "rest"
     return start
 
 
-def _start(rig: Rig, meas: Measurements, times, current, start: str = "auto", axis=None):
-    """Network and initial state of the record's model (module docstring)."""
+def _start(rig: Rig, meas: Measurements, times, current, start: str, ax):
+    """Network and initial state of the record's model (module docstring); ``ax``: the
+    rig's axis the record is of (:func:`select_axis`: the rig's circuit built once a run)."""
     t0 = meas.t[0]
-    ax = select_axis(rig, axis)
     half = ax.stroke / 2
-    x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.data else None
+    x0 = _initial_value(meas, "piston_position") if "piston_position" in meas.names else None
     times, current = command_table(times - t0, current)
-    if start_mode(rig, meas, start, ax.name) == "hold":
+    if _start_mode(meas, start, lambda: ax) == "hold":
         hold = solve_operating_point(rig, OperatingPoint(piston_position=float(x0)), axis=ax.name)
         values = current - current[0] + hold.valve_current
         cmd = comp.TableCommand(name=VALVE_COMMAND, quantity="current", times=times, values=values,
@@ -494,7 +603,7 @@ def simulate_record(rig: Rig, meas: Measurements, signals=None, rtol: float = 1e
     # numbers, share one compiled model instead of compiling one each (the residue line's
     # entries depend on the bulk modulus, length and bore)
     with coefficients_as_parameters():
-        st = _start(rig, meas, t, meas.data["valve_current"].to_numpy(), start, ax.name)
+        st = _start(rig, meas, t, meas.column("valve_current"), start, ax)
     span = t[-1] - t[0]
     dt = float(np.median(np.diff(t)))
     n = int(np.ceil(span / dt - 1e-9))
@@ -727,7 +836,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                    confidence: float = 0.95, max_evaluations: int = 60, bound_factor: float = 10.0,
                    sigma: dict | None = None, start: str = "auto", offsets=None,
                    progress=None, axis: str | None = None, unresolved: str = "window",
-                   record_rtol: float = RECORD_RTOL) -> FitResult:
+                   record_rtol: float = RECORD_RTOL, on_fitted=None) -> FitResult:
     """Fit rig parameters to a measured record (see the module docstring).
 
     Parameters
@@ -772,6 +881,11 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         (``hydroline simulate``'s): the shift of the estimate under
         that integration error is added in quadrature to each
         standard error (negligible beside a sensor's noise), [-]
+    on_fitted : callable
+        Called once the traces the result shows are known, before the run that
+        measures the integration error (the command line's figure is drawn meanwhile),
+        with a dict of the result's ``sigma``, ``initial``, ``fitted``, ``rms``,
+        ``start_rms``, ``windows`` and ``worse`` (as :class:`FitResult` holds them)
 
     Returns
     -------
@@ -789,11 +903,11 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     units = [parameter_unit(rig, k) for k in params]
     signals = meas.signals if signals is None else list(signals)
     for s in signals:
-        if s not in meas.data:
+        if s not in meas.names:
             raise DataError(f"{meas.source}: no column '{s} [{COLUMNS.get(s, 'SI')}]' to fit")
     if not signals:
         raise DataError(f"{meas.source}: no measured signal to fit")
-    y = {s: meas.data[s].to_numpy() for s in signals}
+    y = {s: meas.column(s) for s in signals}
     if offsets is None:
         hold = start_mode(rig, meas, start, axis) == "hold"
         offsets = ["piston_position"] if hold and "piston_position" in signals else []
@@ -894,33 +1008,6 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                      f"intervals are widened {np.sqrt(inflation):.3g}x for the "
                      f"~{N / inflation:.0f} independent residuals and still assume the model "
                      f"is right")
-    # a simulated record is exact only to its integration tolerance: the estimate's shift under
-    # that error (the model at the optimum run at record_rtol) joins the standard error
-    # The record's own integration error is one realisation; the model's error at the optimum
-    # is another (a ppm change of a parameter changes the integrator's step decisions), so the
-    # shift is taken as the largest of INTEGRATION_DRAWS realisations: the optimum, and the
-    # optimum moved by +-INTEGRATION_NUDGE in every ln(value), each against its own tight run
-    shift = np.zeros(k)
-    if best is not None and record_rtol > 0:
-        try:
-            for nudge in INTEGRATION_NUDGE * np.arange(INTEGRATION_DRAWS) * \
-                    (-1.0) ** np.arange(INTEGRATION_DRAWS):
-                theta = sol.x + nudge
-                tight = best if nudge == 0 else model(theta)
-                loose = simulate_record(calibrated(theta), meas, signals, rtol=record_rtol,
-                                        start=start, axis=axis,
-                                        atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
-                count["n"] += 1
-                dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(tight, use))
-                shift = np.maximum(shift, np.abs(np.linalg.lstsq(J, dr, rcond=None)[0]))
-        except (RuntimeError, ArithmeticError, TypeError, np.linalg.LinAlgError):
-            pass
-    cov = cov + np.diag(shift ** 2)
-    sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
-    tq = float(stdtrit(dof, 0.5 + confidence / 2))
-    est = np.exp(sol.x)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov / np.outer(sd, sd)
     fitted = dict(best or {})
     for s in offsets:
         if s in fitted:                 # shown with the fitted sensor offset
@@ -958,6 +1045,37 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                            f"weighted by its noise level)")
                 worse[s] = why
                 notes.append(f"{s}: fitted rms {rms[s]:.4g} > start {start_rms[s]:.4g} [SI]: {why}")
+    if on_fitted is not None:   # (e.g. the figure drawn while the run below goes on)
+        on_fitted({"sigma": {s: float(v) for s, v in sigma.items()}, "initial": initial,
+                   "fitted": fitted, "rms": rms, "start_rms": start_rms, "windows": windows,
+                   "worse": worse})
+    # a simulated record is exact only to its integration tolerance: the estimate's shift under
+    # that error joins the standard error. The record's own error is one realisation; the
+    # model's at the optimum is another (a ppm change of a parameter changes the integrator's
+    # step decisions), so the shift is the largest of INTEGRATION_DRAWS realisations: the
+    # optimum, and the optimum moved by +-INTEGRATION_NUDGE in every ln(value), each against
+    # its own tight run
+    shift = np.zeros(k)
+    if best is not None and record_rtol > 0:
+        try:
+            for nudge in INTEGRATION_NUDGE * np.arange(INTEGRATION_DRAWS) * \
+                    (-1.0) ** np.arange(INTEGRATION_DRAWS):
+                theta = sol.x + nudge
+                tight = best if nudge == 0 else model(theta)
+                loose = simulate_record(calibrated(theta), meas, signals, rtol=record_rtol,
+                                        start=start, axis=axis,
+                                        atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
+                count["n"] += 1
+                dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(tight, use))
+                shift = np.maximum(shift, np.abs(np.linalg.lstsq(J, dr, rcond=None)[0]))
+        except (RuntimeError, ArithmeticError, TypeError, np.linalg.LinAlgError):
+            pass
+    cov = cov + np.diag(shift ** 2)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
+    tq = float(stdtrit(dof, 0.5 + confidence / 2))
+    est = np.exp(sol.x)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
     if shift.any():
         notes.append(f"intervals include the estimate's shift under the integration error of a "
                      f"simulated record (rtol {record_rtol:g}; the largest of {INTEGRATION_DRAWS} "

@@ -69,7 +69,7 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
     """
     import networkx as nx
 
-    from ..plotting import figure_title, new_figure, save_png
+    from ..plotting import figure_title, new_figure, save_png, tight_layout
 
     g = nx.DiGraph()
     for c in circuit.components:
@@ -102,5 +102,5 @@ def draw_circuit(circuit: Circuit, path, title: str = "") -> None:
                               "to its readers (p pressure, f flow/force, c current, v velocity)"),
                  fontsize=9)
     ax.axis("off")
-    fig.tight_layout()
+    tight_layout(fig)
     save_png(fig, path, dpi=120)

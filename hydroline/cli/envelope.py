@@ -8,9 +8,8 @@ import re
 import numpy as np
 
 from ..rigs import load_rig
-from .common import add_solver_option
-from .common import SCHEMA_VERSION, atomic_outputs, dump_json, out_dir, print_table, \
-    progress_printer, quantity
+from .common import SCHEMA_VERSION, add_solver_option, atomic_outputs, dump_json, out_dir, \
+    print_table, progress_printer, quantity
 
 #: Files written by ``--out``.
 FILES = ("envelope.csv", "envelope.json", "envelope.png")

@@ -22,6 +22,7 @@ import contextlib
 import gc
 import os
 import pickle
+import queue
 import signal
 import sys
 import threading
@@ -119,6 +120,20 @@ def _read_all(fd: int) -> bytes:
         chunks.append(b)
 
 
+def _read_exact(fd: int, n: int) -> bytes:
+    """``n`` bytes from ``fd``; b"" at its end before the first byte."""
+    chunks, got = [], 0
+    while got < n:
+        b = os.read(fd, min(n - got, 1 << 20))
+        if not b:
+            if got:
+                raise EOFError("a figure job cut short")
+            return b""
+        chunks.append(b)
+        got += len(b)
+    return b"".join(chunks)
+
+
 def _write_all(fd: int, data: bytes) -> None:
     view = memoryview(data)
     while view:
@@ -129,7 +144,9 @@ class FigureProcess:
     """A forked process that imports Matplotlib now and draws one figure later.
 
     Use :meth:`draw` once with a module-level drawing function and its arguments (all
-    picklable: arrays, not open files), or :meth:`cancel`. :meth:`draw` returns when the
+    picklable: arrays, not open files), or :meth:`cancel`; parts of the figure can be made
+    before it, while the command goes on (:meth:`prepare`: a layout's panels as its runs
+    end), and :meth:`submit` hands the figure over without waiting for it. :meth:`draw` returns when the
     figure is written; an error in the child is raised again in the parent (the same exception
     where it can be pickled, else ``RuntimeError`` with its text), and its warnings are
     warned again in the parent. As a context manager (``with figures:``) it is cancelled when
@@ -140,7 +157,9 @@ class FigureProcess:
 
     def __init__(self):
         self.pid = None
-        self._job_w = self._done_r = None
+        self._job_w = self._done_r = self._sender = None
+        self._jobs = []                 # (kind, function, args, kwargs) wait() does here
+        self._queue = queue.Queue()
         if not hasattr(os, "fork") or os.environ.get("HYDROLINE_FIGURE_PROCESS", "1") == "0":
             return
         import numpy  # noqa: F401  (both processes need it: imported once, before the fork)
@@ -167,11 +186,19 @@ class FigureProcess:
             gc.disable()
             import_matplotlib()   # (the import being overlapped)
 
-            job = _read_all(job_r)
+            prepared = {}   # what the jobs sent with prepare() made, for the figure
             with warnings.catch_warnings(record=True) as said:
-                if job:
-                    function, args, kwargs = pickle.loads(job)
-                    function(*args, **kwargs)
+                while True:   # jobs framed by their length, the figure's last; then EOF
+                    head = _read_exact(job_r, 8)
+                    if not head:
+                        break
+                    kind, function, args, kwargs = pickle.loads(
+                        _read_exact(job_r, int.from_bytes(head, "big")))
+                    if kind == "prepare":
+                        function(prepared, *args, **kwargs)
+                    else:
+                        function(*args, **(dict(kwargs, prepared=prepared) if prepared
+                                           else kwargs))
             # its warnings (e.g. Matplotlib's about glyphs) are said by the parent, in the
             # command's one-line form
             _write_all(done_w, b"ok" + pickle.dumps([str(w.message) for w in said]))
@@ -189,6 +216,22 @@ class FigureProcess:
         finally:
             os._exit(status)
 
+    def prepare(self, function, *args, **kwargs) -> None:
+        """Hand the child work for the figure that :meth:`submit` will hand it later (e.g. the
+        panels of a run that has ended while the next ones go on), and return at once: the
+        child calls ``function(prepared, *args, **kwargs)`` now, ``prepared`` a dict it keeps
+        and gives the figure's function as its keyword ``prepared`` (in this process, where
+        there is no child, all of it is done by :meth:`wait`).
+
+        Parameters
+        ----------
+        function : callable
+            A module-level function that takes the dict first
+        args, kwargs
+            Its arguments (picklable)
+        """
+        self._send(("prepare", function, args, kwargs))
+
     def submit(self, function, *args, **kwargs) -> None:
         """Hand the child ``function(*args, **kwargs)`` to draw now, and return at once (in
         this process, where there is no child, it is drawn by :meth:`wait`).
@@ -200,31 +243,52 @@ class FigureProcess:
         args, kwargs
             Its arguments (picklable)
         """
-        self._job = (function, args, kwargs)
-        if self.pid is None:
+        self._send(("figure", function, args, kwargs))
+        self._send(None)   # (the last job: the child then reads the end of the pipe)
+
+    def _send(self, job) -> None:
+        """Queue a job (None: the end) for the thread that writes them to the child: a job
+        can be larger than a pipe holds, and the child may still be importing Matplotlib."""
+        if self.pid is None:   # (done by wait(), in this process)
+            if job is not None:
+                self._jobs.append(job)
             return
-        data, fd = pickle.dumps(self._job, protocol=5), self._job_w
-        self._job_w = None   # (its number may be reused by a file opened later)
+        if self._sender is None:
+            fd, self._job_w = self._job_w, None   # (its number may be reused by a file opened later)
+            if fd is None:
+                return
 
-        def send():   # the job is larger than a pipe holds: written while this process goes on
-            try:
-                _write_all(fd, data)
-            except OSError:   # the child is gone: wait() reports it
-                pass
-            finally:
-                os.close(fd)
+            def send():
+                try:
+                    while True:
+                        data = self._queue.get()
+                        if data is None:
+                            return
+                        _write_all(fd, data)
+                except OSError:   # the child is gone: wait() reports it
+                    pass
+                finally:
+                    os.close(fd)
 
-        self._sender = threading.Thread(target=send, name="figure-job", daemon=True)
-        self._sender.start()
+            self._sender = threading.Thread(target=send, name="figure-jobs", daemon=True)
+            self._sender.start()
+        if job is None:
+            self._queue.put(None)
+            return
+        data = pickle.dumps(job, protocol=5)
+        self._queue.put(len(data).to_bytes(8, "big") + data)
 
     def wait(self) -> None:
         """Wait for the figure handed over by :meth:`submit`; raise the child's error here."""
         if self.pid is None:
-            job, self._job = getattr(self, "_job", None), None
-            if job is not None:
-                function, args, kwargs = job
-                function(*args, **kwargs)
+            jobs, self._jobs, prepared = self._jobs, [], {}
+            for kind, function, args, kwargs in jobs:
+                if kind == "prepare":
+                    function(prepared, *args, **kwargs)
+                else:
+                    function(*args, **(dict(kwargs, prepared=prepared) if prepared else kwargs))
             return
+        self._send(None)   # (the end of the jobs, if submit() did not send it)
         answer = _read_all(self._done_r)
         self._join_sender()
         os.close(self._done_r)
@@ -241,8 +305,9 @@ class FigureProcess:
         raise RuntimeError(f"drawing the figure failed: {text}")
 
     def _join_sender(self) -> None:
-        sender, self._sender = getattr(self, "_sender", None), None
+        sender, self._sender = self._sender, None
         if sender is not None:
+            self._queue.put(None)   # (a sender waiting for more jobs ends)
             sender.join()
 
     def draw(self, function, *args, **kwargs) -> None:

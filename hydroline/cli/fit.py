@@ -107,30 +107,37 @@ def _run(args, figures) -> int:
         offsets = [] if args.offsets.strip().lower() == "none" else \
             [s.strip() for s in args.offsets.split(",") if s.strip()]
         for s in offsets:
-            if s not in meas.data:
+            if s not in meas.names:
                 raise ValueError(f"--offsets: '{s}' is not a measured signal of {data_path}")
-    # (its first run too waits for the quick library, not CVODES; SciPy's optimiser is
-    # imported while it waits)
-    with many_runs(meanwhile=[functools.partial(importlib.import_module, "scipy.optimize")]):
-        res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
-                             max_evaluations=args.max_evals, start=args.start, offsets=offsets,
-                             axis=args.axis,
-                             unresolved="keep" if args.keep_unresolved else "window")
-    rig_file = out / "calibrated_rig.toml"
-    summary = res.to_dict()
-    summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),
-                   ignored_columns=meas.ignored)
     t = meas.t
-    with atomic_outputs(out) as temp:   # the three files replaced together, or none
+    # the three files replaced together, or none (the figure process stopped first on an error)
+    with atomic_outputs(out) as temp, figures:
+        png = temp("fit.png")
+
+        def draw(view):   # the figure drawn while the fit's last run (its integration error) goes on
+            figures.submit(plot_fit, t - t[0], {s: meas.column(s) for s in view["sigma"]},
+                           view["initial"], view["fitted"], path=str(png),
+                           title=f"hydroline fit: {data_path}",
+                           windows=[(a - t[0], b - t[0]) for a, b in view["windows"]],
+                           rms=view["rms"], start_rms=view["start_rms"], worse=view["worse"])
+
+        # (its first run too waits for the quick library, not CVODES; SciPy's optimiser is
+        # imported while it waits)
+        with many_runs(meanwhile=[functools.partial(importlib.import_module, "scipy.optimize")]):
+            res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
+                                 max_evaluations=args.max_evals, start=args.start, offsets=offsets,
+                                 axis=args.axis,
+                                 unresolved="keep" if args.keep_unresolved else "window",
+                                 on_fitted=draw)
+        rig_file = out / "calibrated_rig.toml"
+        summary = res.to_dict()
+        summary.update(data=data_path, rig=rig.source, calibrated_rig=str(rig_file),
+                       ignored_columns=meas.ignored)
         temp_rig = temp(rig_file.name)
         temp_rig.write_text(res.calibrated_toml(data_path))
         with open(temp("fit.json"), "w") as fh:     # strict JSON: NaN/inf as null
             dump_json(summary, fh)
-        figures.draw(plot_fit, t - t[0], {s: meas.data[s].to_numpy() for s in res.sigma},
-                     res.initial, res.fitted, path=str(temp("fit.png")),
-                     title=f"hydroline fit: {data_path}",
-                     windows=[(a - t[0], b - t[0]) for a, b in res.windows], rms=res.rms,
-                     start_rms=res.start_rms, worse=res.worse)
+        figures.wait()
     if args.json:
         dump_json(summary)
         return 0

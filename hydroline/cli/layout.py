@@ -1,12 +1,14 @@
 """``hydroline layout``: the section II hose-layout study (the 2005 paper's Figs. 13-14)."""
 from __future__ import annotations
 
+import contextlib
 import math
 
 from ..rigs import load_rig
-from ..studies.layout import DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections
-from .common import add_solver_option
-from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
+from ..studies.layout import (DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections,
+                               parse_lengths)
+from .common import (SCHEMA_VERSION, add_settling_band_option, add_solver_option,
+                     amplitude_cell, atomic_outputs,
                      dump_json, out_dir, print_table, progress_printer, quantity, settling_cell,
                      settling_legend)
 from .figure_process import claim_figure_process
@@ -100,6 +102,22 @@ def _progress(enabled):
     return None if bar is None else (lambda done, total: bar(done / total))
 
 
+def _figure_rows(figures, lengths):
+    """The study's ``on_run``: each length's trace panels handed to the figure process as its
+    run ends (:func:`hydroline.plotting.prepare_layout_row`); None without a figure."""
+    if figures is None:
+        return None
+    from ..plotting import prepare_layout_row
+
+    n = len(parse_lengths(lengths))
+
+    def on_run(k, length, res, summary, axis):
+        run, metrics = LayoutStudy.figure_run(res, summary, axis)
+        figures.prepare(prepare_layout_row, n, k, float(length), run, metrics)
+
+    return on_run
+
+
 def run(args) -> int:
     """Run ``hydroline layout``: the hose-layout study (port pressure oscillations against the length of the varied sections), its table, figure and conclusion.
 
@@ -129,14 +147,18 @@ def run(args) -> int:
     names = LayoutStudy.file_names(fmt)
     out = out_dir(args.out, tuple(names.values())) if args.out else None
     sections = layout_sections(rig, args.sections, sides)   # refused before any run
-    study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
-                   scenario=args.scenario, t_end=t_end, solver=args.solver,
-                   progress=_progress(not args.json), settling_band=band)
-    files = {}
-    if args.out:   # all three files replaced together, or none (a failed write keeps the old)
-        # (the figure drawn by the figure process, which imported Matplotlib meanwhile)
-        with atomic_outputs(out) as temp, claim_figure_process() as figures:
-            files = study.save(out, temp, traces_format=fmt, figures=figures)
+    # the figure process (Matplotlib imported meanwhile) makes each length's panels while the
+    # next lengths run, and draws the figure once the study's tables are written
+    figures = claim_figure_process() if args.out else None
+    with figures if figures is not None else contextlib.nullcontext():
+        study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
+                       scenario=args.scenario, t_end=t_end, solver=args.solver,
+                       progress=_progress(not args.json), settling_band=band,
+                       on_run=_figure_rows(figures, args.lengths))
+        files = {}
+        if args.out:   # all three files replaced together, or none (a failed write keeps the old)
+            with atomic_outputs(out) as temp, figures:
+                files = study.save(out, temp, traces_format=fmt, figures=figures)
     if args.json:
         dump_json(json_document(study))
         return 0

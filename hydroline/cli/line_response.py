@@ -197,7 +197,7 @@ def plot_step(line, t, exact, responses, path):
     path : str or Path
         PNG to write
     """
-    from ..plotting import new_figure, save_png
+    from ..plotting import new_figure, save_png, tight_layout
 
     fig = new_figure((9, 6.5))
     ay, ae = fig.subplots(2, 1, sharex=True)
@@ -217,7 +217,7 @@ def plot_step(line, t, exact, responses, path):
         ax.legend(fontsize=8, loc="best")
     fig.suptitle(f"blocked line, pressure step: L = {line.length:g} m, d = {line.diameter * 1e3:g} mm, "
                  f"Dn = {line.dissipation_number:.3g}")
-    fig.tight_layout()
+    tight_layout(fig)
     save_png(fig, path, dpi=100)
 
 

@@ -6,8 +6,8 @@ import signal
 import sys
 
 from ..rigs import load_rig
-from .common import add_solver_option
-from .common import dump_json, out_dir, print_table, progress_printer, quantity
+from .common import (add_solver_option, dump_json, out_dir, print_table, progress_printer,
+                     quantity)
 
 #: Files written in ``--out`` besides the results file optimize.jsonl.
 FILES = ("optimum.toml", "optimize.json", "optimize.png")

@@ -4,8 +4,8 @@ from __future__ import annotations
 import contextlib
 import sys
 
-from .common import add_solver_option
-from .common import (SCHEMA_VERSION, add_settling_band_option, amplitude_cell, atomic_outputs,
+from .common import (SCHEMA_VERSION, add_settling_band_option, add_solver_option,
+                     amplitude_cell, atomic_outputs,
                      dump_json, note_cost, out_dir, print_table, progress_printer, quantity,
                      run_network, settling_cell, settling_legend)
 from .figure_process import claim_figure_process
@@ -636,7 +636,7 @@ def plot_axes(res, summary, path, title=""):
     import numpy as np
 
     from ..plotting import (figure_title, new_figure, outside_window_handle, save_png,
-                            shade_outside_window, time_axis)
+                            shade_outside_window, tight_layout, time_axis)
 
     axes = res.metadata["axes"]
     t0, t1 = summary["metrics_window_s"]
@@ -662,7 +662,7 @@ def plot_axes(res, summary, path, title=""):
     ax[2].set_yscale("symlog", linthresh=1e-4)
     ax[2].set_xlabel(f"time [{unit}]")
     fig.suptitle(figure_title(title), fontsize=10)
-    fig.tight_layout()
+    tight_layout(fig)
     save_png(fig, path, dpi=110)
 
 

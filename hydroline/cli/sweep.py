@@ -12,8 +12,8 @@ import numpy as np
 from ..rigs import load_rig
 from ..scenarios.experiments import default_scenario
 from ..studies.sweep import sweep
-from .common import add_solver_option
-from .common import dump_json, note_cost, print_table, quantity, run_network
+from .common import (add_solver_option, dump_json, note_cost, print_table, quantity,
+                     run_network)
 
 EPILOG = """\
 values (after PATH=; PATH is a parameter's dotted path in the rig file, values carry units):

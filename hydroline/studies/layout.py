@@ -282,10 +282,7 @@ class LayoutStudy:
         numpy.ndarray
             The pressure at every output time, [Pa].
         """
-        axes = res.metadata.get("axes") or {}
-        if self.axis is not None and self.axis in axes:
-            return res[getattr(axes[self.axis], f"{side}_pressure")]
-        return res[f"{side}_port_pressure"]
+        return _port_pressure(res, side, self.axis)
 
     def traces(self) -> "pandas.DataFrame":
         """Port pressures of every run on the common output grid (on a multi-axis rig those of
@@ -424,6 +421,34 @@ class LayoutStudy:
     FIGURE_METRICS = ("frequency_hz", "amplitude_mpa", "first_excursion_mpa", "settling_time_s",
                       "settling_method")
 
+    @classmethod
+    def figure_run(cls, res, summary: dict, axis=None) -> tuple:
+        """What the figure draws of one length's run: its entries of :meth:`figure_data`'s
+        ``runs`` and ``summaries`` (also sent to a figure process as each run ends).
+
+        Parameters
+        ----------
+        res : SimulationResult
+            The length's run
+        summary : dict
+            Its metrics (the study's summary of that length)
+        axis : str
+            The reported axis of a multi-axis rig (None: the rig's only one)
+
+        Returns
+        -------
+        tuple
+            (:class:`hydroline.plotting.Traces` of the ``supply`` and ``return`` port
+            pressures [Pa], ``t_disturbance`` and ``metrics_window`` in its metadata; per port
+            the metrics of :data:`FIGURE_METRICS`)
+        """
+        from ..plotting import Traces
+
+        meta = {"t_disturbance": res.metadata.get("t_disturbance", 0.0),
+                "metrics_window": res.metadata.get("metrics_window")}
+        run = Traces(res.t, {side: _port_pressure(res, side, axis) for side in SIDES}, meta)
+        return run, {side: {k: summary[side].get(k) for k in cls.FIGURE_METRICS} for side in SIDES}
+
     def figure_data(self, title=None) -> dict:
         """What :meth:`plot` draws, as NumPy arrays and plain values: the arguments of
         :func:`hydroline.plotting.plot_layout`, which a figure process receives without
@@ -442,16 +467,11 @@ class LayoutStudy:
             ``metrics_window`` in its metadata), ``summaries`` (per length and port, the
             metrics of :data:`FIGURE_METRICS`), ``wave_speeds`` [m/s], ``sides`` and ``title``.
         """
-        from ..plotting import Traces
-
-        runs = []
-        for res in self.results:
-            meta = {"t_disturbance": res.metadata.get("t_disturbance", 0.0),
-                    "metrics_window": res.metadata.get("metrics_window")}
-            runs.append(Traces(res.t, {side: self.port_pressure(res, side) for side in SIDES},
-                               meta))
-        summaries = [{side: {k: s[side].get(k) for k in self.FIGURE_METRICS} for side in SIDES}
-                     for s in self.summaries]
+        runs, summaries = [], []
+        for res, s in zip(self.results, self.summaries):
+            run, summary = self.figure_run(res, s, self.axis)
+            runs.append(run)
+            summaries.append(summary)
         what = (f"sections II of {' and '.join(self.sides)} set" if not self.sections or
                 set(self.sections) == {f"{s}.section2" for s in self.sides} else
                 f"{', '.join(self.sections)} set" + (f"; ports of {self.axis}" if self.axis else ""))
@@ -690,6 +710,14 @@ def _section_side(section: str) -> str | None:
     return None
 
 
+def _port_pressure(res, side: str, axis) -> np.ndarray:
+    """A run's valve port pressure on one side (the axis ``axis``'s on a multi-axis rig), [Pa]."""
+    axes = res.metadata.get("axes") or {}
+    if axis is not None and axis in axes:
+        return res[getattr(axes[axis], f"{side}_pressure")]
+    return res[f"{side}_port_pressure"]
+
+
 def _report_axis(res, sections, axis):
     """The axis whose ports the study reports: the one given, else the one whose name
     prefixes the first section's, else the experiment's stepped axis."""
@@ -736,7 +764,7 @@ def _valve(rig: Rig, res, chosen):
 
 def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axis=None,
            scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
-           progress=None, settling_band=BAND) -> LayoutStudy:
+           progress=None, settling_band=BAND, on_run=None) -> LayoutStudy:
     """The section II layout study: the scenario run once per hose length.
 
     Parameters
@@ -771,6 +799,10 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         The port pressures' settling band
         (:meth:`hydroline.traces.metrics.SettlingBand.parse`; default +-2 %
         of the final absolute pressure)
+    on_run : callable
+        ``on_run(index, length, result, summary, axis)`` after each length's run and
+        metrics (the reported axis: None on a single-axis rig), e.g. to hand its traces to
+        a figure process while the next lengths run
 
     Returns
     -------
@@ -820,6 +852,8 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         summary["flow"] = {"flow_rise_time_ms": rise * 1e3}
         summaries.append(summary)
         results.append(res)
+        if on_run is not None:
+            on_run(k, L, res, summary, chosen)
         if progress is not None:
             progress(k + 1, len(lengths))
     fluid = make_fluid(rig)

@@ -1117,7 +1117,7 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
     matplotlib.figure.Figure
         The figure.
     """
-    from ..plotting import new_figure, save_png, wrap_title
+    from ..plotting import new_figure, save_png, tight_layout, wrap_title
 
     n = (3 if traces else 1) + (1 if result.front else 0)
     fig = new_figure((8, 2.5 * n + 1.0))
@@ -1169,7 +1169,7 @@ def optimize_figure(result: OptimizeResult, traces=None, path=None):
                      for p, v in result.optimum.items())
     fig.suptitle(wrap_title(f"minimise {result.objective_name}: {what} "
                             f"({result.evaluations} evaluations)", 8, 10), fontsize=10)
-    fig.tight_layout()
+    tight_layout(fig)
     if path is not None:
         save_png(fig, path)
     return fig
