@@ -18,8 +18,9 @@ sweep, or the sweep's other worker, reads it: ~0.3 ms instead of 1-4 ms): a poly
 degree below by at most :data:`TOLERANCE` of each state equation's largest entry; else,
 and where a node's realisation made a choice that does not vary smoothly with Dn (the
 tail's envelope bound enforced, a lumped viscous pole outside its cluster), the line is
-realised directly. PQ and QP forms of elastic-walled lines; the others are always
-realised directly.
+realised directly. PQ and QP forms of elastic-walled lines (a QP node is the PQ node seen
+from the line's other end, :func:`_mirrored`: one realisation serves both); the others are
+always realised directly.
 """
 from __future__ import annotations
 
