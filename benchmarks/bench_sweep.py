@@ -20,7 +20,7 @@ hoses' matrix entries in p, graph signature, steady state, integration, metrics,
 (the machine is shared and noisy: only ratios from one run mean much).
 
 Usage: python benchmarks/bench_sweep.py [--variants N] [--workers W ...] [--stages N]
-                                        [--before TREE] [--repeat R]
+                                        [--before TREE] [--repeat R] [--first]
 """
 from __future__ import annotations
 
@@ -257,6 +257,11 @@ def measure(args) -> dict:
     out = {"walls": {}, "failed": {}, "python": sys.executable}
     sweep(lengths_of(4, seed), max(args.workers))        # warm-up: the library built/cached
     for w in dict.fromkeys(args.workers):
+        if args.first:           # a first sweep: none of the line table's nodes on disk
+            import shutil
+
+            from hydroline.cache import cache_dir
+            shutil.rmtree(cache_dir() / "residue_line_nodes", ignore_errors=True)
         rows, wall = sweep(lengths_of(args.variants, seed + w), w)
         out["walls"][w] = wall
         out["failed"][w] = sum("error" in r for r in rows)
@@ -273,6 +278,8 @@ def main(argv=None):
     ap.add_argument("--stages", type=int, default=30, help="variants timed stage by stage (0: skip)")
     ap.add_argument("--before", metavar="TREE", help="source tree to compare with (PYTHONPATH)")
     ap.add_argument("--repeat", type=int, default=1, help="alternate runs per tree (--before)")
+    ap.add_argument("--first", action="store_true",
+                    help="each sweep starts with no line-table nodes in the cache (a first sweep)")
     ap.add_argument("--json", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.json:
@@ -289,7 +296,7 @@ def main(argv=None):
                 env["PYTHONPATH"] = tree
             cmd = [sys.executable, os.path.abspath(__file__), "--json", "--variants",
                    str(args.variants), "--stages", str(args.stages), "--workers",
-                   *map(str, args.workers)]
+                   *map(str, args.workers), *(["--first"] if args.first else [])]
             cwd = tree or os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
             done = subprocess.run(cmd, env=env, cwd=cwd, capture_output=True, text=True)
             if done.returncode:

@@ -142,3 +142,30 @@ def test_nodes_read_back_from_the_cache_give_the_same_line(monkeypatch):
     for a, b in zip(first[:4], again[:4]):
         assert np.array_equal(a, b)
     assert first[4] == again[4]
+
+
+@pytest.mark.parametrize("n_modes", [6, 10])
+def test_qp_nodes_are_the_pq_nodes_seen_from_the_other_end(monkeypatch, n_modes):
+    """A QP line is the PQ line mirrored (ends exchanged, flows' signs changed): its nodes
+    are the PQ nodes' states permuted and signed, equal to QP's own realisation to rounding
+    (1e-12 of each row, far inside TOLERANCE), and no QP node is realised."""
+    from hydroline.lines.residue import viscous_clusters
+
+    realised = []
+    real = residue_table.realisation_with_notes
+    monkeypatch.setattr(residue_table, "realisation_with_notes",
+                        lambda line, n, form, *a: realised.append(form) or real(line, n, form, *a))
+    d, beta = 0.01343, 1.2e9
+    for i in (-70, -55, -41, -30):                   # Dn 4e-5 ... 1.3e-2
+        line = with_dn(d, OIL, beta, 10.0 ** (i / residue_table.NODES_PER_DECADE))
+        clusters = viscous_clusters(line, n_modes, "QP")
+        assert clusters == viscous_clusters(line, n_modes, "PQ")
+        got = residue_table._node(line, n_modes, "QP", clusters, i)
+        with kept_in_memory():
+            ref = residue_table._realised_node(line, n_modes, "QP", clusters, i)
+        assert got[0] == ref[0] and got[4] == ref[4] and np.array_equal(got[3], ref[3])
+        row = np.maximum(np.abs(ref[1]).max(axis=1), np.abs(ref[2]).max(axis=1))
+        err = np.maximum(np.abs(got[1] - ref[1]).max(axis=1),
+                         np.abs(got[2] - ref[2]).max(axis=1)) / row
+        assert err.max() <= 1e-12, (i, err.max())
+    assert realised == ["PQ", "QP"] * 4              # the table's PQ, the reference's QP

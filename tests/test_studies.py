@@ -856,3 +856,33 @@ def test_metrics_equal_with_and_without_scipy_fft(monkeypatch):
     monkeypatch.delitem(sys.modules, "scipy.fft")
     assert pressure_metrics(t, p, 0.01) == with_scipy
     assert with_scipy["frequency_hz"] == pytest.approx(95.0, rel=3e-3)   # the sine's own
+
+
+def test_a_new_models_first_rest_state_starts_from_the_base_rigs(monkeypatch):
+    """The first variant of a hose sweep on a worker, 0.05 m hoses (whose rest state from the
+    components' guess needs the pseudo-transient continuation, ~0.7 s), starts from the base
+    rig's rest state (3.048 m hoses): Newton alone solves it, and it is simulate()'s rest
+    state (from the guess, through the continuation) to 1e-9 of each state's scale (Newton
+    stops at steps below 1e-10 of it; measured 1.6e-12)."""
+    from hydroline.engine import steady_state
+    from hydroline.scenarios import simulate
+    from hydroline.studies.sweep import VariantRunner
+
+    continued = []
+    real = steady_state.pseudo_transient
+    monkeypatch.setattr(steady_state, "pseudo_transient",
+                        lambda model, t0, x, p, *a: continued.append(p.copy()) or
+                        real(model, t0, x, p, *a))
+    rig = load_rig()
+    r = rig.copy()
+    r.set("supply.section2.length", "0.05 m")
+    r.set("return.section2.length", "0.05 m")
+    runner = VariantRunner(rig)
+    shared = runner.simulate(r)
+    model = runner.models[-1]
+    assert not any(np.array_equal(p, model.p) for p in continued)     # the variant's: Newton
+    continued.clear()
+    plain = simulate(r, metrics_only=True)
+    assert continued                                  # (from the guess it does continue)
+    scales = model.network.state_scales
+    assert np.max(np.abs(shared.steady_state.x - plain.steady_state.x) / scales) < 1e-9

@@ -18,8 +18,9 @@ sweep, or the sweep's other worker, reads it: ~0.3 ms instead of 1-4 ms): a poly
 degree below by at most :data:`TOLERANCE` of each state equation's largest entry; else,
 and where a node's realisation made a choice that does not vary smoothly with Dn (the
 tail's envelope bound enforced, a lumped viscous pole outside its cluster), the line is
-realised directly. PQ and QP forms of elastic-walled lines; the others are always
-realised directly.
+realised directly. PQ and QP forms of elastic-walled lines (a QP node is the PQ node seen
+from the line's other end, :func:`_mirrored`: one realisation serves both); the others are
+always realised directly.
 """
 from __future__ import annotations
 
@@ -124,20 +125,68 @@ def _units(line: Line, form: str, names):
 def _node(line: Line, n: int, form: str, clusters: int, i: int):
     """The realisation at ``log10 Dn = i/NODES_PER_DECADE`` in the line's units:
     ``(names, A tau, B tau, C, ok)``, ok False where it may not be interpolated across;
-    kept in this process and in the on-disk cache (:data:`NODE_TABLE`)."""
+    kept in this process and in the on-disk cache (:data:`NODE_TABLE`). A QP node is the
+    PQ node seen from the line's other end (:func:`_mirrored`): one realisation serves
+    both forms."""
     key = (form, n, clusters, i)
     got = _NODES.get(key)
     if got is not None:
         return got
-    disk_key = f"{_SOURCE_TAG}|{form}|{n}|{clusters}|{i}/{NODES_PER_DECADE}"
-    got = _decoded(load_table(NODE_TABLE, disk_key))
+    if form == "QP":
+        got = _mirrored(_node(line, n, "PQ", clusters, i))
     if got is None:
-        got = _realised_node(line, n, form, clusters, i)
-        store_table(NODE_TABLE, disk_key, _encoded(got))
+        disk_key = f"{_SOURCE_TAG}|{form}|{n}|{clusters}|{i}/{NODES_PER_DECADE}"
+        got = _decoded(load_table(NODE_TABLE, disk_key))
+        if got is None:
+            got = _realised_node(line, n, form, clusters, i)
+            store_table(NODE_TABLE, disk_key, _encoded(got))
     if len(_NODES) >= NODES_KEPT:
         _NODES.clear()
     _NODES[key] = got
     return got
+
+
+def _ends_swapped(name: str) -> str:
+    """A state's name with "upstream" and "downstream" exchanged."""
+    return "downstream".join(part.replace("downstream", "upstream")
+                             for part in name.split("upstream"))
+
+
+def _mirrored(node):
+    """The QP node of a PQ node, or None where its states do not map one to one.
+
+    The QP line is the PQ line seen from its other end: the ends exchange their names and
+    a flow its sign, so that QP's inputs ``(Q_u, P_d)`` are PQ's ``(P_u, Q_d)`` of the
+    mirror image as ``(P_d, -Q_u)`` and its outputs ``(P_u, Q_d)`` the mirror's
+    ``(P_d, -Q_u)``: ``H_QP = diag(1, -1) H_PQ [[0, 1], [-1, 0]]`` (the exact transfer
+    matrices of (M6), and every step of the residue realisation, which fits each entry).
+    Its states are PQ's with the ends exchanged and a flow state's sign changed; a lumped
+    viscous state ``viscous_{end}{j}`` belongs to input j, which is the other input in the
+    mirror. QP's own realisation lists them in PQ's order with the ends exchanged (equal to
+    it within ~1e-14 of each row, tests/test_residue_table.py)."""
+    names, Ad, Bd, Cd, ok = node
+    swapped = [_ends_swapped(x) for x in names]         # QP's states, in order
+    source = {}
+    for k, x in enumerate(swapped):                     # PQ's state k in the mirror
+        if x.startswith("viscous_"):
+            head, _, q = x.partition(".")
+            j = {"1": "2", "2": "1"}.get(head[-1:])
+            if j is None:
+                return None
+            x = f"{head[:-1]}{j}.{q}"
+        source[x] = k
+    try:
+        perm = np.array([source[x] for x in swapped], dtype=np.intp)
+    except KeyError:
+        return None
+    if len(set(perm.tolist())) != len(perm):
+        return None
+    pressure, _, _ = _pressures("QP", swapped)
+    sign = np.where(pressure, 1.0, -1.0)                # a flow state changes its sign
+    A = Ad[np.ix_(perm, perm)] * sign[:, None] * sign[None, :]
+    B = Bd[perm][:, [1, 0]] * np.array([-1.0, 1.0]) * sign[:, None]
+    C = Cd[:, perm] * np.array([[1.0], [-1.0]]) * sign[None, :]
+    return tuple(swapped), A, B, C, ok
 
 
 def _realised_node(line: Line, n: int, form: str, clusters: int, i: int):

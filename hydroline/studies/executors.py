@@ -11,10 +11,11 @@ gets the row ``failed_row(index, values, reason)``.
 * :func:`run_processes` -- W local worker processes (``concurrent.futures``, forkserver where
   there is one): the runner is sent once per worker and kept there, so whatever it builds
   for the first variant (the compiled model of the rig's structure) serves every later one;
-  a pool broken by a dying worker is restarted and its variants retried
-  (:data:`MAX_ATTEMPTS`); the workers end with this process even when it is killed with
-  SIGKILL (:func:`die_with_parent`); on an interruption (Ctrl-C, SIGTERM, an exception from
-  ``record``) the variants already running are waited for and recorded;
+  neighbouring variants are sent together, as many as run in about :data:`CHUNK_SECONDS`
+  (:func:`chunk_size`); a pool broken by a dying worker is restarted and its variants
+  retried, one by one (:data:`MAX_ATTEMPTS`); the workers end with this process even when
+  it is killed with SIGKILL (:func:`die_with_parent`); on an interruption (Ctrl-C, SIGTERM,
+  an exception from ``record``) the variants already running are waited for and recorded;
 * :func:`run_dask` -- a ``dask.distributed`` cluster (:func:`dask_client`), a bounded window
   of variants in flight (four per worker thread), the runner scattered once.
 """
@@ -31,8 +32,8 @@ from ..blas import blas_thread_variables_set
 from ..rigs import RigError
 
 __all__ = ["run_serial", "run_processes", "run_dask", "worker_pool", "dask_client", "die_with_parent",
-           "quiet_resource_tracker", "failure_reason", "MAX_ATTEMPTS", "MAX_WORKERS",
-           "WINDOW_PER_WORKER"]
+           "quiet_resource_tracker", "failure_reason", "chunk_size", "MAX_ATTEMPTS", "MAX_WORKERS",
+           "WINDOW_PER_WORKER", "CHUNK_SECONDS", "CHUNKS_PER_WORKER"]
 
 #: Times a variant may be in flight when a worker process dies before it is recorded failed.
 MAX_ATTEMPTS = 2
@@ -41,6 +42,15 @@ MAX_WORKERS = 512
 #: Variants in flight per worker (process or Dask thread), [-]: enough to keep every worker
 #: busy, few enough that 10^5 variants need no more memory than 100.
 WINDOW_PER_WORKER = 4
+#: Local worker processes: the variants sent to a worker at once (neighbours in the
+#: design) take about this long together, [s]. A task costs this process ~0.5 ms of
+#: bookkeeping and its worker ~0.1 ms (pipes, pickles, futures): on W workers on W cores
+#: (1000 variants of ~10 ms) that is time taken from the variants; a chunk's rows reach
+#: ``record`` (the journal, the progress) when the whole chunk is done.
+CHUNK_SECONDS = 0.2
+#: ... and at most the remaining variants over this many chunks per worker, so that the
+#: last chunks are short and the workers finish together, [-].
+CHUNKS_PER_WORKER = 4
 
 
 def failure_reason(e: BaseException) -> str:
@@ -155,6 +165,38 @@ def _pool_task(index, values):
     return _WORKER["runner"](index, values)
 
 
+def _pool_chunk(chunk):
+    """The rows of a chunk of ``(index, values)`` tasks, in order, and the seconds taken."""
+    tic = time.perf_counter()
+    rows = [_WORKER["runner"](index, values) for index, values in chunk]
+    return rows, time.perf_counter() - tic
+
+
+def chunk_size(seconds_per_variant, remaining: int, workers: int) -> int:
+    """How many neighbouring variants a local worker gets at once: as many as take
+    :data:`CHUNK_SECONDS`, at most ``remaining / (CHUNKS_PER_WORKER workers)``, at least one
+    (one while no variant has been timed: the first builds the models).
+
+    Parameters
+    ----------
+    seconds_per_variant : float or None
+        Wall time of a variant on a worker, the latest measured, [s]
+    remaining : int
+        Variants not yet sent, [-]
+    workers : int
+        Worker processes, [-]
+
+    Returns
+    -------
+    int
+        Variants in the next chunk, [-]
+    """
+    if seconds_per_variant is None:
+        return 1
+    by_time = int(CHUNK_SECONDS / max(seconds_per_variant, 1e-9))
+    return max(1, min(by_time, remaining // (CHUNKS_PER_WORKER * workers)))
+
+
 #: The resource tracker's warning when the process that started the workers was killed
 #: (SIGKILL) before it could release their semaphores: the tracker releases them, and says so
 #: in two lines of a Python warning that tell the user nothing to do.
@@ -224,8 +266,10 @@ def _main_module_hidden():
 def run_processes(tasks, workers: int, runner, record, failed_row) -> None:
     """Run the tasks on ``workers`` local worker processes.
 
-    A pool broken by a dying worker is restarted and the variants in flight retried, up to
-    :data:`MAX_ATTEMPTS` times each. On an interruption (Ctrl-C, SIGTERM, an exception from
+    Neighbouring tasks go to a worker together (:func:`chunk_size`); ``record`` gets a
+    chunk's rows when it is done, in the tasks' order. A pool broken by a dying worker is
+    restarted and the variants in flight retried, one by one, up to :data:`MAX_ATTEMPTS`
+    times each. On an interruption (Ctrl-C, SIGTERM, an exception from
     ``record``) the variants already running are waited for and every one that finished is
     recorded before the exception goes on.
 
@@ -254,48 +298,71 @@ def _run_process_pool(tasks, workers, runner, record, failed_row):
 
     pending = deque(tasks)
     attempts: dict = {}
-    window = WINDOW_PER_WORKER * workers
+    alone: set = set()        # sent one by one: retried after a dying worker or a lost chunk
+    window = 2 * workers      # chunks in flight: one running and one queued per worker
+    pace = None               # seconds a variant, the latest chunk's
     ctx = _mp_context()
     if os.name == "posix":
         quiet_resource_tracker()
     init_args = (runner, os.getpid())
+
+    def next_chunk():
+        size = chunk_size(pace, len(pending), workers)
+        chunk = [pending.popleft()]
+        while pending and len(chunk) < size and chunk[0][0] not in alone and \
+                pending[0][0] not in alone:
+            chunk.append(pending.popleft())
+        return chunk
+
     while pending:
         inflight = {}
+        unrecorded = deque()    # rows of a finished chunk not yet recorded
         pool = ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
                                    initargs=init_args)
         try:
             while pending or inflight:
                 while pending and len(inflight) < window:
-                    index, values = pending.popleft()
-                    inflight[pool.submit(_pool_task, index, values)] = (index, values)
+                    chunk = next_chunk()
+                    inflight[pool.submit(_pool_chunk, chunk)] = chunk
                 done, _ = wait(inflight, return_when=FIRST_COMPLETED)
                 for fut in done:
-                    index, values = inflight[fut]
+                    chunk = inflight[fut]
                     try:
-                        row = fut.result()
+                        rows, seconds = fut.result()
+                        pace = seconds / len(chunk)
                     except BrokenProcessPool:
                         raise
                     except Exception as e:      # e.g. a result that could not be sent back
-                        row = failed_row(index, values, failure_reason(e))
-                    try:
-                        record(row)
-                    finally:                    # until recorded, an interruption leaves it
-                        inflight.pop(fut, None)  # to the handler below
+                        if len(chunk) > 1:      # whose? each again, alone
+                            alone.update(index for index, _ in chunk)
+                            pending.extendleft(reversed(chunk))
+                            del inflight[fut]
+                            continue
+                        rows = [failed_row(*chunk[0], failure_reason(e))]
+                    del inflight[fut]           # until recorded, an interruption leaves
+                    unrecorded.extend(rows)     # them to the handler below
+                    while unrecorded:
+                        record(unrecorded.popleft())
         except BaseException as e:
             if not isinstance(e, BrokenProcessPool):    # interrupted: let the running ones
-                _finish_interrupted(pool, inflight, record)   # finish, keep what they computed
+                record_all(record, unrecorded)           # finish, keep what they computed
+                _finish_interrupted(pool, inflight, record)
                 raise
-            # a worker died: keep what finished, retry the rest
-            for fut, (index, values) in inflight.items():
+            record_all(record, unrecorded)
+            # a worker died: keep what finished, retry the rest, one by one
+            for fut, chunk in inflight.items():
                 if fut.done() and not fut.cancelled() and fut.exception() is None:
-                    record(fut.result())
+                    for row in fut.result()[0]:
+                        record(row)
                     continue
-                attempts[index] = attempts.get(index, 0) + 1
-                if attempts[index] >= MAX_ATTEMPTS:
-                    record(failed_row(index, values, "WorkerDied: the worker process died while "
-                                      "running this variant (crash or out of memory)"))
-                else:
-                    pending.appendleft((index, values))
+                for index, values in reversed(chunk):
+                    attempts[index] = attempts.get(index, 0) + 1
+                    alone.add(index)
+                    if attempts[index] >= MAX_ATTEMPTS:
+                        record(failed_row(index, values, "WorkerDied: the worker process died "
+                                          "while running this variant (crash or out of memory)"))
+                    else:
+                        pending.appendleft((index, values))
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
 
@@ -341,10 +408,11 @@ def _finish_interrupted(pool, inflight: dict, record):
         pool.shutdown(wait=True, cancel_futures=True)
     except BaseException:       # a second Ctrl-C: record what is done now, then stop
         pass
-    finished = [(index, fut) for fut, (index, _) in inflight.items()
+    finished = [(chunk[0][0], fut) for fut, chunk in inflight.items()
                 if fut.done() and not fut.cancelled() and fut.exception() is None]
     inflight.clear()
-    record_all(record, [fut.result() for _, fut in sorted(finished, key=lambda item: item[0])])
+    record_all(record, [row for _, fut in sorted(finished, key=lambda item: item[0])
+                        for row in fut.result()[0]])
 
 
 def record_all(record, rows) -> None:

@@ -76,7 +76,7 @@ __all__ = ["sweep", "check_levels", "run_variant", "VariantRunner", "SweepResult
            "METRIC_COLUMNS", "TRACKING_COLUMNS", "SETTLING_COLUMNS", "PORT_METRICS",
            "JOURNAL_NAME", "FORMAT_VERSION", "MAX_ATTEMPTS", "MAX_WORKERS", "read_journal",
            "metric_columns", "settling_columns", "failed_row", "row_columns", "graph_signature",
-           "simulate_shared", "SharedModel", "HOSE_KEYS"]
+           "simulate_shared", "base_rest_state", "SharedModel", "HOSE_KEYS"]
 
 #: Metric columns of every row of a single-axis rig (then ``warnings`` and ``error``); the
 #: closed-loop scenario adds ``tracking_error_rms_mm`` and ``tracking_error_max_mm``.
@@ -405,7 +405,8 @@ class VariantRunner:
                 any(k.endswith(".file") for k in rig.values):     # a table file may change
             return simulate(rig, self.scenario, self.t_end, solver=self.solver,
                             metrics_only=True)
-        return simulate_shared(rig, self.scenario, self.t_end, self.solver, self._models, self)
+        return simulate_shared(rig, self.scenario, self.t_end, self.solver, self._models, self,
+                               base=self.rig)
 
 
 def graph_signature(network):
@@ -626,7 +627,8 @@ def simulate_defaults() -> dict:
     return dict(_simulate_parameters())
 
 
-def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None):
+def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, counter=None,
+                    base: Rig | None = None):
     """:func:`hydroline.scenarios.simulate` (default output step and tolerances, and
     ``metrics_only``: the run ends with its metrics window, where a row's metrics end), the
     model shared with earlier runs of the same structure in ``models``.
@@ -635,7 +637,9 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     moduli (:data:`HOSE_KEYS`, template rigs) gets that model's p with only those hoses'
     matrix entries made anew (:meth:`SharedModel.hose_parameters`): no network is built.
     Any other variant is built (components, wiring) and compared by :func:`graph_signature`
-    with the kept ones; a new structure becomes a new shared model.
+    with the kept ones; a new structure becomes a new shared model. Its first rest state
+    starts from ``base``'s where that differs from the variant only in hoses
+    (:func:`base_rest_state`), else from the components' guess.
 
     Parameters
     ----------
@@ -653,6 +657,9 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
     counter : object
         Its ``shared_runs`` (and ``hose_runs``, variants that needed no
         network build) are counted up where a model is shared
+    base : Rig or None
+        The sweep's base rig (a new model's first rest state starts from
+        its rest state where it differs from the variant only in hoses)
 
     Returns
     -------
@@ -699,7 +706,51 @@ def simulate_shared(rig: Rig, scenario: str, t_end, solver: str, models: dict, c
         counter.shared_runs += 1
     models[key] = model
     model.values, model.p = dict(rig.values), net.parameter_values.copy()
+    if model.rest is None and base is not None:
+        model.rest = base_rest_state(model, base)
     return _run_shared(model, rig, net.parameter_values, net.guess(), solver, tic)
+
+
+def base_rest_state(model: SharedModel, base: Rig):
+    """The rest state of ``base`` on a shared model whose variant differs from it only in
+    hoses (:meth:`SharedModel.hose_parameters`): a start for the variant's first rest state.
+
+    From the components' guess the solver may need its pseudo-transient continuation, the
+    more the shorter the hoses (the layout sweep's 0.05 m hoses: ~0.7 s; the default rig's
+    3 m ones: ~0.1 s); from a neighbour's rest state Newton converges in a few steps, and the
+    variants of a hose sweep are such neighbours of their base rig's (0.05 m from 3 m: ~20 ms).
+
+    Parameters
+    ----------
+    model : SharedModel
+        The model, built for a variant
+    base : Rig
+        The sweep's base rig
+
+    Returns
+    -------
+    ndarray or None
+        The base rig's rest state, [SI]; None where it differs from the variant in more than
+        its hoses, equals it, or has no rest state
+    """
+    from ..scenarios.running import rest_state
+
+    # (only a start: whatever goes wrong with the base leaves the variant to the guess)
+    try:
+        p = model.hose_parameters(base)
+    except Exception:
+        return None
+    if p is None or np.array_equal(p, model.p):
+        return None
+    net = model.network
+    kept = net.parameter_values
+    net.parameter_values = p
+    try:
+        return rest_state(net).x.copy()
+    except Exception:
+        return None
+    finally:
+        net.parameter_values = kept
 
 
 def run_variant(rig: Rig, index: int, values: dict, scenario: str = "open-loop-step",
