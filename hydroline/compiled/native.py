@@ -201,18 +201,29 @@ class NativeModel:
         tuple
             (h_1, ..., h_5), [s] (inf: no limit)
         """
-        from .stability import block_eigenvalues, order_step_limits
+        from .stability import block_gather, eigenvalues_of_blocks, order_step_limits
 
-        if self._blocks is None:
+        g = self.generated
+        if self._blocks is None:      # per network: the blocks and where they lie in jnz
             net = self.network
-            self._blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
-                            if sl.stop - sl.start >= 2]
-        if not (self._blocks and self.generated.jac_nnz):
+            blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
+                      if sl.stop - sl.start >= 2]
+            self._blocks = (blocks, *block_gather(g.jac_colind, g.jac_row, blocks))
+        blocks, take, place, sizes = self._blocks
+        if not (blocks and g.jac_nnz):
             return (np.inf,) * 5
         key = jnz.tobytes()
         limits = self._limits_seen.get(key)
         if limits is None:
-            limits = order_step_limits(block_eigenvalues(self.dense_jacobian(jnz), self._blocks))
+            # per run: the blocks cut out of the nonzeros in one gather (as the dense
+            # Jacobian's diagonal blocks), their eigenvalues and the limits
+            flat = np.zeros(sum(m * m for m in sizes))
+            flat[place] = jnz[take]
+            subs, at = [], 0
+            for m in sizes:
+                subs.append(flat[at:at + m * m].reshape(m, m))
+                at += m * m
+            limits = order_step_limits(eigenvalues_of_blocks(subs))
             if len(self._limits_seen) >= 64:
                 self._limits_seen.clear()
             self._limits_seen[key] = limits
@@ -321,8 +332,9 @@ class NativeSolver:
         self._h = lib.hl_new()
         self._settings = (max_step, fixed_step, int(max_order), newton_coef)
         self.rtol, self.atol = float(rtol), float(atol)
-        lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale), rtol, atol,
-                     *self._settings)
+        self._done = np.zeros(1, dtype=np.intc)      # (hl_advance's count of rows written)
+        lib.hl_setup(self._h, self.p.ctypes.data, self._c.ctypes.data, self._scale.ctypes.data,
+                     rtol, atol, *self._settings)
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
         lib.hl_set_method(self._h, self.METHODS[method])
 
@@ -351,7 +363,7 @@ class NativeSolver:
         if p.tobytes() == self.p.tobytes():
             return
         self.p = p
-        self._lib.hl_set_parameters(self._h, _ptr(self.p))
+        self._lib.hl_set_parameters(self._h, self.p.ctypes.data)
 
     def set_tolerances(self, rtol: float, atol: float) -> None:
         """Use other tolerances from the next step on, keeping the step size, the order and
@@ -369,11 +381,11 @@ class NativeSolver:
         self.rtol, self.atol = float(rtol), float(atol)
         # (hl_setup sets numbers and settings only; the run's state stays; it clears the
         # order limits, set again here)
-        self._lib.hl_setup(self._h, _ptr(self.p), _ptr(self._c), _ptr(self._scale),
-                           self.rtol, self.atol, *self._settings)
+        self._lib.hl_setup(self._h, self.p.ctypes.data, self._c.ctypes.data,
+                           self._scale.ctypes.data, self.rtol, self.atol, *self._settings)
         if self._limits:
             arr = np.ascontiguousarray(self._limits, dtype=float)
-            self._lib.hl_set_order_limits(self._h, _ptr(arr))
+            self._lib.hl_set_order_limits(self._h, arr.ctypes.data)
 
     def start(self, t0: float, x0, t_bound: float):
         """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0).
@@ -392,7 +404,7 @@ class NativeSolver:
             raise ValueError(f"initial state x0 must have {self.model.n} entries, got {x0.size}")
         if not (t_bound > t0):
             raise ValueError(f"segment end t_bound must be after t0 [s], got {t0!r}, {t_bound!r}")
-        self._lib.hl_init(self._h, float(t0), _ptr(x0), float(t_bound))
+        self._lib.hl_init(self._h, float(t0), x0.ctypes.data, float(t_bound))
         self._t_bound = float(t_bound)
         self._start = (float(t0), x0)
 
@@ -402,7 +414,7 @@ class NativeSolver:
         the solver's life (a hose's modes are linear)."""
         self._limits = self.model.order_limits(self.scaled_jacobian_nonzeros(t0, x0))
         arr = np.ascontiguousarray(self._limits, dtype=float)
-        self._lib.hl_set_order_limits(self._h, _ptr(arr))
+        self._lib.hl_set_order_limits(self._h, arr.ctypes.data)
 
     @property
     def order_limits(self) -> tuple:
@@ -434,31 +446,38 @@ class NativeSolver:
         Y : ndarray
             Signals, [n_out, n_signals], [SI] (None if not asked)
         """
-        t_out = np.ascontiguousarray(np.asarray(t_out, dtype=float))
+        # (a run calls this once per block of rows: ~10 times for a sweep's variant; its
+        # checks and pointers are kept to a few array operations)
+        t_out = np.ascontiguousarray(t_out, dtype=float)
         if self._t_bound is None:
             raise RuntimeError("call start(t0, x0, t_bound) before advance()")
-        if self._limits == () and t_out.size and t_out[-1] > self._start[0]:
+        rows = len(t_out)
+        if self._limits == () and rows and t_out[-1] > self._start[0]:
             self._set_order_limits(*self._start)   # once per solver, before its first step
         slack = 1e-9 * max(1.0, abs(self._t_bound))   # grid times rounded onto the segment end
-        if t_out.size and (t_out[-1] > self._t_bound + slack or np.any(np.diff(t_out) < 0)):
+        if rows and (t_out[-1] > self._t_bound + slack
+                     or (rows > 1 and (t_out[1:] < t_out[:-1]).any())):
             raise ValueError(f"output times must ascend and lie within the segment "
                              f"(t_bound = {self._t_bound:g} s)")
         n, ny = self.model.n, self.model.n_signals
         ld = (ny if signals else 0) + n
         if out is None:
-            block = np.empty((len(t_out), ld))
+            block = np.empty((rows, ld))
         else:
             block = out
+            flags = getattr(out, "flags", None)
             if not (isinstance(out, np.ndarray) and out.dtype == np.float64
-                    and out.shape == (len(t_out), ld) and out.flags.c_contiguous
-                    and out.flags.writeable):
+                    and out.shape == (rows, ld) and flags.c_contiguous and flags.writeable):
                 raise ValueError(f"out must be a writeable C-contiguous float64 array of shape "
-                                 f"{(len(t_out), ld)}")
+                                 f"{(rows, ld)}")
         X = block[:, ld - n:]
         Y = block[:, :ny] if signals else None
-        done = ctypes.c_int(0)
-        rc = self._lib.hl_advance(self._h, len(t_out), _ptr(t_out), _ptr(X),
-                                  _ptr(Y) if signals else None, ctypes.byref(done), ld)
+        done = self._done
+        done[0] = 0
+        # (X and Y are column ranges of block: their first elements' addresses, rows ld apart)
+        address = block.ctypes.data
+        rc = self._lib.hl_advance(self._h, rows, t_out.ctypes.data, address + 8 * (ld - n),
+                                  address if signals else None, done.ctypes.data, ld)
         if rc != 0:
             x, t = self.state()
             names = self.model.network.state_names
@@ -470,9 +489,9 @@ class NativeSolver:
                        f"is not finite (NaN or inf) there",
                    -5: f"no progress after {self.max_steps_per_call} steps"}
             raise RuntimeError(f"compiled integrator failed at t = {t:.6g} s: {why.get(rc, rc)}")
-        if done.value != len(t_out):
-            raise RuntimeError(f"compiled integrator stopped after {done.value} of "
-                               f"{len(t_out)} output times")
+        if done[0] != rows:
+            raise RuntimeError(f"compiled integrator stopped after {int(done[0])} of "
+                               f"{rows} output times")
         if not np.all(np.isfinite(X)):
             raise RuntimeError("compiled integrator produced non-finite states")
         return block if table else (X, Y)

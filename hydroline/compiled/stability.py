@@ -27,7 +27,8 @@ import functools
 
 import numpy as np
 
-__all__ = ["KAPPA", "unstable_onset", "order_step_limits", "block_eigenvalues", "MARGIN"]
+__all__ = ["KAPPA", "unstable_onset", "order_step_limits", "block_eigenvalues",
+           "eigenvalues_of_blocks", "block_gather", "MARGIN"]
 
 #: NDF coefficients kappa_q, q = 0..5 (as ``hl_kappa`` in ``bdf.c``; SciPy's BDF)
 KAPPA = (0.0, -0.1850, -1.0 / 9.0, -0.0823, -0.0415, 0.0)
@@ -177,9 +178,85 @@ def block_eigenvalues(jacobian, blocks) -> np.ndarray:
     ndarray
         complex, [1/s]
     """
-    out = []
-    for b in blocks:
-        sub = jacobian[b, b] if isinstance(b, slice) else jacobian[np.ix_(b, b)]
-        if sub.shape[0] >= 2 and np.isfinite(sub).all():
-            out.append(_eigvals(np.ascontiguousarray(sub)))
+    return eigenvalues_of_blocks(
+        [jacobian[b, b] if isinstance(b, slice) else jacobian[np.ix_(b, b)] for b in blocks])
+
+
+def eigenvalues_of_blocks(subs) -> np.ndarray:
+    """Eigenvalues of square matrices, one after another (:func:`block_eigenvalues` of blocks
+    already cut out): those not met before (:func:`_eigvals`' memory) of one size in one
+    LAPACK call (a sweep's variant has two new 32 x 32 hose blocks); blocks smaller than
+    2 x 2 or not finite are left out.
+
+    Parameters
+    ----------
+    subs : list
+        Square blocks of a Jacobian, [1/s]
+
+    Returns
+    -------
+    ndarray
+        complex, [1/s]
+    """
+    out = [None] * len(subs)
+    new = {}         # size -> [(index, key, block)] not in the memory
+    for i, sub in enumerate(subs):
+        if sub.shape[0] < 2 or not np.isfinite(sub).all():
+            continue
+        sub = np.ascontiguousarray(sub)
+        if sub.shape[0] == 2:
+            out[i] = _eigvals(sub)
+            continue
+        key = (sub.shape[0], sub.tobytes())
+        w = _EIGEN_CACHE.get(key)
+        if w is None:
+            new.setdefault(sub.shape[0], []).append((i, key, sub))
+        else:
+            out[i] = w
+    for group in new.values():
+        ws = np.linalg.eigvals(np.stack([sub for _, _, sub in group])) if len(group) > 1 \
+            else [np.linalg.eigvals(group[0][2])]
+        for (i, key, _), w in zip(group, ws):
+            if len(_EIGEN_CACHE) >= _EIGEN_CACHE_SIZE:
+                _EIGEN_CACHE.pop(next(iter(_EIGEN_CACHE)))
+            out[i] = _EIGEN_CACHE[key] = w
+    out = [w for w in out if w is not None]
     return np.concatenate(out) if out else np.zeros(0, dtype=complex)
+
+
+def block_gather(colind, rows, blocks) -> tuple:
+    """Where the diagonal blocks of a compressed-column matrix lie among its nonzeros: made
+    once per network, so that a run cuts its blocks out of the nonzeros in one gather,
+    without a dense matrix (:meth:`hydroline.compiled.NativeModel.order_limits`).
+
+    Parameters
+    ----------
+    colind : array
+        Column starts of the nonzeros (n + 1 of them), [-]
+    rows : array
+        Row of each nonzero, [-]
+    blocks : list
+        Slices of the states of each block
+
+    Returns
+    -------
+    tuple
+        ``(take, place, sizes)``: the nonzeros ``take`` go to the flat positions ``place``
+        of one buffer holding the blocks one after another (each ``m x m``, row by row,
+        zero where the matrix has no nonzero); ``sizes`` the blocks' m, [-]
+    """
+    colind = np.asarray(colind, dtype=np.intp)
+    rows = np.asarray(rows, dtype=np.intp)
+    cols = np.repeat(np.arange(colind.size - 1), np.diff(colind))
+    take, place, sizes = [], [], []
+    offset = 0
+    for b in blocks:
+        a, m = b.start, b.stop - b.start
+        k = np.flatnonzero((cols >= a) & (cols < b.stop) & (rows >= a) & (rows < b.stop))
+        take.append(k)
+        place.append(offset + (rows[k] - a) * m + (cols[k] - a))
+        sizes.append(m)
+        offset += m * m
+    empty = np.zeros(0, dtype=np.intp)
+    return (np.concatenate(take) if take else empty, np.concatenate(place) if place else empty,
+            tuple(sizes))

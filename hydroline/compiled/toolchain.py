@@ -655,12 +655,13 @@ def _declare(lib):
     lib.hl_sizes.argtypes = [llp]
     lib.hl_new.restype = vp
     lib.hl_free.argtypes = [vp]
-    lib.hl_setup.argtypes = [vp, dp, dp, dp, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+    # a run's calls (once per block of rows): raw addresses (an array's ``ctypes.data``), no
+    # per-call pointer objects (``data_as`` cost ~3 us each, 3-4 a call)
+    lib.hl_setup.argtypes = [vp, vp, vp, vp, ctypes.c_double, ctypes.c_double, ctypes.c_double,
                              ctypes.c_double, ctypes.c_int, ctypes.c_double]
-    lib.hl_set_parameters.argtypes = [vp, dp]
-    lib.hl_init.argtypes = [vp, ctypes.c_double, dp, ctypes.c_double]
-    lib.hl_advance.argtypes = [vp, ctypes.c_int, dp, dp, dp, ctypes.POINTER(ctypes.c_int),
-                               ctypes.c_longlong]
+    lib.hl_set_parameters.argtypes = [vp, vp]
+    lib.hl_init.argtypes = [vp, ctypes.c_double, vp, ctypes.c_double]
+    lib.hl_advance.argtypes = [vp, ctypes.c_int, vp, vp, vp, vp, ctypes.c_longlong]
     lib.hl_get_state.argtypes = [vp, dp, dp]
     lib.hl_stats.argtypes = [vp, llp]
     lib.hl_reset_stats.argtypes = [vp]
@@ -669,5 +670,5 @@ def _declare(lib):
     lib.hl_scaled_jacobian.argtypes = [vp, ctypes.c_double, vp, vp]
     lib.hl_last_nonfinite.argtypes = [vp]
     lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
-    lib.hl_set_order_limits.argtypes = [vp, dp]
+    lib.hl_set_order_limits.argtypes = [vp, vp]
     lib.hl_set_method.argtypes = [vp, ctypes.c_int]
