@@ -399,7 +399,11 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     deviation[n - m:] *= _taper(m)
     nfft = 1 << int(math.ceil(math.log2(8 * n)))
     spectrum = np.abs(_rfft(deviation, nfft))
-    freq = np.arange(spectrum.size) * (1.0 / (nfft * dt))     # np.fft.rfftfreq(nfft, dt)
+    # the bins' frequencies (np.fft.rfftfreq(nfft, dt)) up to two bins above a quarter of the
+    # sampling rate, the highest searched: the rest would never be looked at
+    df = 1.0 / (nfft * dt)
+    freq = np.arange(min(spectrum.size, int(0.25 / dt / df) + 3), dtype=float)
+    freq *= df
     # the range is one run of bins: freq >= min_cycles / duration and freq <= 0.25 / dt
     lo = int(np.searchsorted(freq, min_cycles / duration, side="left"))
     hi = int(np.searchsorted(freq, 0.25 / dt, side="right")) - 1
@@ -453,7 +457,7 @@ def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True, every=False):
     # a peak of noise stands a few times above the spectrum's median (the largest of N
     # Rayleigh-distributed bins: about sqrt(2 ln N) / 0.83, ~6 for 1e5 bins); a ringing's
     # stands far above it (every 8th bin: the 8x zero padding makes neighbours alike)
-    noise = _ABOVE_NOISE * float(np.median(spectrum[lo:hi + 1:8]))
+    noise = _ABOVE_NOISE * _median(spectrum[lo:hi + 1:8])
     if main is None or spectrum[main] < noise:
         return []
     f_main, h_main = float(freq[main]), spectrum[main]
@@ -471,6 +475,17 @@ def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True, every=False):
         if sub is not None:
             candidates.insert(0, float(freq[sub]))
     return candidates
+
+
+def _median(x):
+    """``np.median(x)`` of a non-empty 1-D float array without NaN: the same number (the
+    middle order statistic, or the mean of the two middle ones) without its generality's
+    overhead (~30 us a spectrum)."""
+    k = x.size // 2
+    if x.size % 2:
+        return float(np.partition(x, k)[k])
+    part = np.partition(x, (k - 1, k))
+    return float((part[k - 1] + part[k]) / 2)
 
 
 def _linspace(start, stop, n):
