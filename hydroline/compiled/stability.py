@@ -111,7 +111,8 @@ def unstable_onset(q: int, angle) -> np.ndarray:
         ``|h lambda|`` at the onset, [-]
     """
     grid, onset = _onset_table(q)
-    idx = np.clip(np.searchsorted(grid, np.asarray(angle, dtype=float)), 0, len(grid) - 1)
+    # (searchsorted's indices are >= 0: only the top needs the clip)
+    idx = np.minimum(np.searchsorted(grid, np.asarray(angle, dtype=float)), len(grid) - 1)
     # the next grid angle up: nearer the imaginary axis, the band starts lower (conservative)
     return onset[idx]
 

@@ -532,8 +532,8 @@ def csv_rows(rows) -> str:
 
 def _same_place(a: np.ndarray, b: np.ndarray) -> bool:
     """True when two arrays are the same memory seen the same way (start, shape, strides)."""
-    return (a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
-            and a.shape == b.shape and a.strides == b.strides)
+    # (ctypes.data: the start's address without the interface dict made per call)
+    return a.shape == b.shape and a.strides == b.strides and a.ctypes.data == b.ctypes.data
 
 
 class OutputSink:

@@ -141,15 +141,18 @@ class WindowEnd:
             if signal not in self.x0:      # (as metrics_window: interpolated at t0)
                 self.x0[signal] = float(np.interp(self.t0, t, x))
             tt, xx = t[start:], x[start:]
-            after = tt >= self.t0
             if signal not in self.moved:
+                after = tt >= self.t0
                 k = np.flatnonzero(after & (np.abs(xx - self.x0[signal]) > self.margin))
                 if k.size == 0:
                     continue
                 self.moved[signal] = (math.copysign(1.0, xx[k[0]] - self.x0[signal]), tt[k[0]])
             direction, t_moved = self.moved[signal]
-            if np.any(after & (direction * xx >= self.pistons[signal] - self.margin)
-                      & (tt > t_moved - 1e-12)):
+            # the rows after t0 and after the first clear displacement (t ascends: one search
+            # each, rather than masks over the rows)
+            j = max(int(np.searchsorted(tt, self.t0, "left")),
+                    int(np.searchsorted(tt, t_moved - 1e-12, "right")))
+            if j < len(tt) and (direction * xx[j:] >= self.pistons[signal] - self.margin).any():
                 return True
             if len(tt) >= 2 and tt[-1] > tt[-2]:   # at its last speed toward the stop
                 speed = direction * (xx[-1] - xx[-2]) / (tt[-1] - tt[-2])
