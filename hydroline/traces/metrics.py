@@ -611,8 +611,10 @@ def _fit_fundamental(ts, ps, p_final, frequency, passes=3):
         # envelope, is not this oscillation)
         top = int(np.argmax(magnitude))
         weak = np.flatnonzero(magnitude < _STRONG * peak)
-        span = slice(int(weak[weak < top][-1]) + 1 if np.any(weak < top) else 0,
-                     int(weak[weak > top][0]) if np.any(weak > top) else magnitude.size)
+        # (weak ascends and never holds top: the weak points on either side by one search)
+        i = int(np.searchsorted(weak, top))
+        span = slice(int(weak[i - 1]) + 1 if i > 0 else 0,
+                     int(weak[i]) if i < weak.size else magnitude.size)
         tc, zc, mc = centres[span], z[span], magnitude[span]
         if tc.size < 4:
             return None
