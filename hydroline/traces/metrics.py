@@ -148,11 +148,11 @@ def _validate(t, p, t_step):
         raise ValueError(f"p must be a 1-D array of values, got shape {p.shape}")
     if t.size != p.size:
         raise ValueError(f"t and p must have the same length, got {t.size} and {p.size}")
-    if not np.all(np.isfinite(t)):
+    if not np.isfinite(t).all():
         raise ValueError("t must be finite (no NaN or inf) [s]")
-    if not np.all(np.isfinite(p)):
+    if not np.isfinite(p).all():
         raise ValueError("p must be finite (no NaN or inf)")
-    if t.size >= 2 and not np.all(np.diff(t) > 0):
+    if t.size >= 2 and not (t[1:] > t[:-1]).all():
         raise ValueError("t must be strictly increasing [s]")
     try:
         t_step = float(t_step)
@@ -182,13 +182,13 @@ def _window_moments(ts, ps, t_from):
     i = int(np.searchsorted(ts, t_from, side="right"))     # ts > t_from from i on
     tw = np.concatenate(([t_from], ts[i:]))
     pw = np.concatenate(([np.interp(t_from, ts, ps)], ps[i:]))
-    h = np.diff(tw)
+    h = tw[1:] - tw[:-1]     # (np.diff's operation, without its overhead; so below)
     a, b = pw[:-1], pw[1:]
     span = tw[-1] - tw[0]
-    mean = float(np.sum(h * (a + b) / 2) / span)
+    mean = float((h * (a + b) / 2).sum() / span)
     # exact integral of the square of a linear segment: h (a^2 + a b + b^2) / 3
     a, b = a - mean, b - mean
-    var = float(np.sum(h * (a * a + a * b + b * b) / 3) / span)
+    var = float((h * (a * a + a * b + b * b) / 3).sum() / span)
     return mean, math.sqrt(max(var, 0.0))
 
 
@@ -198,7 +198,7 @@ def _levels(t, p, t_step):
     p0 = float(ps[0])
     duration = ts[-1] - ts[0]
     p_final, tail_std = _window_moments(ts, ps, ts[-1] - TAIL_FRACTION * duration)
-    scale = float(np.max(np.abs(ps)))
+    scale = float(np.abs(ps).max())
     changed = abs(p_final - p0) > 3.0 * tail_std + 1e-12 * scale
     return ts, ps, p0, p_final, changed
 
@@ -211,7 +211,7 @@ def _line_fit(x, y, w=None):
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     ww = np.ones_like(x) if w is None else np.asarray(w, dtype=float) ** 2
-    total = float(np.sum(ww))
+    total = float(ww.sum())
     xm = float(np.dot(ww, x)) / total
     ym = float(np.dot(ww, y)) / total
     dx = x - xm
@@ -391,7 +391,7 @@ def _spectral_candidates(ts, ps, p_final, min_cycles):
     deviation -= p_final
     # the rate of change, per sample (before the taper): a ringing that is short or small
     # beside a slow drift (a short hose's, after a valve step) stands out in its spectrum
-    rate = np.diff(deviation)
+    rate = deviation[1:] - deviation[:-1]
     # half-cosine taper over the tail (where the response has settled), so that a trace
     # ending off its final value does not ring across the spectrum; the start is kept
     # whole, since the step is where the oscillation is largest
@@ -428,7 +428,7 @@ def _peak_candidates(spectrum, freq, lo, hi, subharmonics=True, every=False):
     then the dominant peak, then (where ``every`` is True) every other genuine peak that
     stands 10 times above the median, highest first; empty when it has no genuine peak in
     range."""
-    highest = float(np.max(spectrum[lo:hi + 1]))
+    highest = float(spectrum[lo:hi + 1].max())
     if highest <= 0.0:
         return []
     peaks = _maxima_between(spectrum, lo, hi)
@@ -576,8 +576,8 @@ def _demodulate(ts, ps, p_final, frequency):
 def _unwrap(phase):
     """``np.unwrap(phase)`` of a 1-D array of angles [rad] (the same operations, without
     its generality's overhead)."""
-    dd = np.diff(phase)
-    if not np.any(np.abs(dd) >= np.pi):     # nothing to correct: np.unwrap adds zeros
+    dd = phase[1:] - phase[:-1]
+    if not (np.abs(dd) >= np.pi).any():     # nothing to correct: np.unwrap adds zeros
         return phase.copy()
     ddmod = np.mod(dd + np.pi, 2 * np.pi) - np.pi
     ddmod[(ddmod == -np.pi) & (dd > 0)] = np.pi
@@ -603,7 +603,7 @@ def _fit_fundamental(ts, ps, p_final, frequency, passes=3):
         if z.size < 4:
             return None
         magnitude = np.abs(z)
-        peak = float(np.max(magnitude))
+        peak = float(magnitude.max())
         if peak == 0.0:
             return None
         # the stretch around the strongest point where the component stays above 5 % of
@@ -629,7 +629,7 @@ def _fit_fundamental(ts, ps, p_final, frequency, passes=3):
     # a weak later component near this frequency does not count as the oscillation wandering
     residual = phase - (offset + slope * x)
     energy = weights * weights
-    incoherence = math.sqrt(float(np.sum(energy * residual ** 2) / np.sum(energy)))
+    incoherence = math.sqrt(float((energy * residual ** 2).sum() / energy.sum()))
     # decay rate from the log envelope, to undo the smoothing's gain on a decaying signal
     growth = _line_fit(x, np.log(mc), weights)[0]
     sigma = max(0.0, -growth)
@@ -660,7 +660,7 @@ def _centred_average(y, length):
 def _crossing_lobes(y):
     """Sign changes of ``y`` and the peak |y| of each lobe (before the first crossing, between
     crossings, after the last); None when ``y`` is zero or crosses fewer than 3 times."""
-    largest = float(np.max(np.abs(y)))
+    largest = float(np.abs(y).max())
     if largest == 0.0:
         return None
     sign = np.signbit(y)
@@ -737,8 +737,8 @@ def _crossing_frequency(ts, ps, p_final, frequency, filtering, memo=None):
         times = crossing[direction]
         if times.size < 2:
             continue
-        gaps = np.diff(times)
-        if np.any(np.abs(gaps / period - 1.0) > 0.15):
+        gaps = times[1:] - times[:-1]
+        if (np.abs(gaps / period - 1.0) > 0.15).any():
             return None
         estimates.append((times.size - 1) / (times[-1] - times[0]))
         weights.append(times.size - 1)
@@ -803,7 +803,7 @@ def _time_above(times, values, level):
     # taken as 1e-300 of the level: a segment from it spends no time in the band)
     x = np.log(np.maximum(values / level, 1e-300))
     x += 0.5
-    h = np.diff(times)
+    h = times[1:] - times[:-1]
     a, b = x[:-1], x[1:]
     # the mean of clip(x, 0, 1) over a segment where x is linear: (G(b) - G(a)) / (b - a),
     # G the antiderivative (0 below 0, x^2 / 2 within the band, x - 1/2 above it)
@@ -880,8 +880,8 @@ def _frequency_and_periods(levels, t_step, min_cycles):
     for how many periods after ``t_step`` the oscillation stays above 1 % of the largest
     deviation (what the verdict 'oscillating' needs ``min_cycles`` of)."""
     ts, ps, _, p_final, _ = levels
-    largest = float(np.max(np.abs(ps - p_final)))
-    if largest == 0.0 or largest <= 1e-12 * float(np.max(np.abs(ps))):
+    largest = float(np.abs(ps - p_final).max())
+    if largest == 0.0 or largest <= 1e-12 * float(np.abs(ps).max()):
         return None, None
     for coarse, further in _spectral_candidates(ts, ps, p_final, min_cycles):
         found = _oscillating_fundamental(ts, ps, p_final, t_step, coarse, largest, min_cycles,
@@ -1495,7 +1495,7 @@ def _ringing_settling(t, p, t_step, t_stop, frequency, band, base=None):
     window = t_stop - t_step
     grid, values, level = base or _baseline(t, p, t_step, frequency, t_stop)
     p_final = float(level[-1])
-    h = band.half_width(p_final, float(values[0]), float(np.max(np.abs(values - p_final))))
+    h = band.half_width(p_final, float(values[0]), float(np.abs(values - p_final).max()))
     settled, method, note, jump = _ringing_exit(grid, values - level, h, t_step, t_stop,
                                                 frequency)
     if settled is None:
