@@ -71,6 +71,36 @@ def test_block_eigenvalues_of_a_two_block_matrix():
         [-2 - 13**0.5 * 1j, -2 + 13**0.5 * 1j, -1, -2, -3]))
 
 
+def test_blocks_cut_from_the_nonzeros_and_solved_together():
+    """block_gather's cut of a compressed-column matrix gives its dense diagonal blocks (zeros
+    where it has no nonzero, entries off the blocks ignored), and two new blocks of one size
+    solved in one call give each block's own eigenvalues (triangular: its diagonal; a
+    rotation-scaling pair a +- b i beside a real one)."""
+    J = np.zeros((8, 8))
+    J[:3, :3] = [[-1.0, 2.0, 0.5], [0.0, -4.0, 3.0], [0.0, 0.0, -9.0]]        # -1, -4, -9
+    J[3:6, 3:6] = [[-2.0, -5.0, 0.0], [5.0, -2.0, 0.0], [1.0, 0.0, -7.0]]      # -2 +- 5i, -7
+    J[6:, 6:] = [[-3.0, 7.0], [-2.0, -1.0]]                                      # -2 +- 3.606i
+    J[0, 7] = J[7, 1] = 42.0                                                     # off the blocks
+    cols = [np.flatnonzero(J[:, c]) for c in range(8)]
+    colind = np.concatenate(([0], np.cumsum([len(r) for r in cols])))
+    rows = np.concatenate(cols)
+    jnz = np.concatenate([J[r, c] for c, r in enumerate(cols)])
+    blocks = [slice(0, 3), slice(3, 6), slice(6, 8)]
+    take, place, sizes = stability.block_gather(colind, rows, blocks)
+    assert sizes == (3, 3, 2)
+    flat = np.zeros(sum(m * m for m in sizes))
+    flat[place] = jnz[take]
+    subs = [flat[:9].reshape(3, 3), flat[9:18].reshape(3, 3), flat[18:].reshape(2, 2)]
+    for sub, b in zip(subs, blocks):
+        assert np.array_equal(sub, J[b, b])
+    stability._EIGEN_CACHE.clear()      # both 3 x 3 blocks new: one stacked LAPACK call
+    w = stability.eigenvalues_of_blocks(subs)
+    expected = [-1, -4, -9, -2 + 5j, -2 - 5j, -7, -2 + 13**0.5 * 1j, -2 - 13**0.5 * 1j]
+    assert np.allclose(np.sort_complex(w), np.sort_complex(expected))
+    # met before: from the memory, the same numbers
+    assert np.array_equal(stability.eigenvalues_of_blocks(subs), w)
+
+
 def _short_hose_run(length: str, limits: bool, rtol: float):
     from hydroline import compiled
     from hydroline.rigs import load_rig
