@@ -218,7 +218,7 @@ SHIFT_REFUSE = 10.0
 SHIFT_FALL = 1.5
 
 
-def _newton(model, t0, x, p, scales, tol, max_iter=60, chord=None, counts=None):
+def _newton(model, t0, x, p, scales, tol, max_iter=40, chord=None, counts=None):
     """Newton's method with the exact Jacobian and a backtracking line search on the scaled
     states, from x, globalised by shifted steps. Returns (x, converged): where it does not
     converge (a kink it cannot cross), pseudo-transient continuation takes over.
