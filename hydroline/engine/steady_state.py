@@ -205,7 +205,7 @@ _CHORDS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 #: valve at rest passes the servovalve's leakage, ~100 transition flows away, and Newton's
 #: step from the guess, linearised on the reverse slope, raises the return manifold's
 #: pressure by ~50 MPa; its line search then finds no descent. Shifted steps follow the
-#: transient across the switch instead: 8-10 steps from 1e4 1/s on hoses of 0.02-3 m.)
+#: transient across the switch instead: 7-8 steps from 1e4 1/s on hoses of 0.02-3 m.)
 SHIFT_START = 1e4
 #: A shifted step may raise the residual norm by at most this factor (the transient it
 #: follows need not lower the residual at every step: oscillating lines, accumulators), else
@@ -214,7 +214,7 @@ SHIFT_REFUSE = 10.0
 #: After an accepted shifted step the shift falls by the square of the residual norm's
 #: ratio, and at least by this factor, [-]; below ``1 / NEWTON_LIKE_STEP`` the steps are
 #: Newton's again. (By the ratio alone, the switched evolution relaxation of
-#: :func:`pseudo_transient`, 11-30 steps; squared, 8-10.)
+#: :func:`pseudo_transient`, 11-30 steps; squared, 7-8.)
 SHIFT_FALL = 1.5
 
 
