@@ -91,3 +91,32 @@ def test_rest_state_by_chord_steps_is_the_one_by_newtons_steps(monkeypatch):
     for ss in (first, second):
         assert ss.residual < 1e-6
         assert np.all(np.abs(ss.x - ref.x) <= 1e-6 * net.state_scales)
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+@pytest.mark.parametrize("length", [0.02, 0.05, 0.3])
+def test_short_hoses_rest_state_from_the_guess_needs_no_continuation(length):
+    """Issue 25: the default rig with both section II hoses ``length`` long, from the
+    components' guess. The guess puts the return check valve at zero flow, the middle of its
+    switch, where the rest state passes the servovalve's leakage (~100 transition flows
+    away): Newton's first step, linearised there, fails, and the rest state used to come from
+    the pseudo-transient continuation (0.02-1.7 s; at 0.02-0.03 m not even to the
+    tolerance). The Newton iteration's shifted steps cross the switch: no continuation
+    (``fallback``), and the rest state satisfies f(x) = 0 by the reference NumPy
+    right-hand side (another evaluation than the compiled one the solver used) to the
+    solver's rounding bound ROUNDING_RESIDUAL in every state."""
+    rig = load_rig(None)
+    rig.set("supply.section2.length", f"{length} m")
+    rig.set("return.section2.length", f"{length} m")
+    sc = build_scenario(rig, "open-loop-step")
+    net = build_network(rig, sc.commands, sc.position_guess)
+    ss = solve_steady_state(net)
+    assert not ss.fallback
+    assert ss.newton_steps > 0
+    f = net.rhs(0.0, ss.x, ss.p) / net.state_scales
+    assert np.max(np.abs(f)) < steady_state.ROUNDING_RESIDUAL
+    flows = net.signals_at(0.0, ss.x, ss.p)
+    # at rest the leakage through the servovalve's return port is the return line's flow
+    # through the check valve to the tank (the accumulators at rest carry none)
+    assert flows["return.manifold_flow"] > 0.0
+    assert flows["return.manifold_flow"] == pytest.approx(flows["return_port_flow"], rel=1e-6)

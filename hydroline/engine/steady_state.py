@@ -2,9 +2,10 @@
 
 :func:`solve_steady_state` solves ``f(t0, x) = 0`` for the whole network: Newton's method with
 the exact Jacobian of the compiled model (in C where a compiler exists), on states scaled by
-their typical magnitudes; pseudo-transient continuation where Newton stalls on the kinks of
-check valves, stops and orifices; then the components settle (:func:`settle_components`) and
-the solve repeats until nothing changes.
+their typical magnitudes, globalised by shifted (implicit-Euler) steps where a Newton step
+fails on the kinks of check valves, stops and orifices; pseudo-transient continuation as the
+last resort; then the components settle (:func:`settle_components`) and the solve repeats
+until nothing changes.
 """
 from __future__ import annotations
 
@@ -60,12 +61,23 @@ class SteadyState:
         ``max_i |dx_i/dt| / scale_i`` at x, [1/s] (0 for an exact rest state)
     worst_state : str
         Name of the state with the largest scaled residual
+    newton_steps : int
+        Newton and chord steps taken, all rounds, [-]
+    shifted_steps : int
+        Shifted (implicit-Euler) steps the Newton iteration took where a
+        Newton step failed, all rounds (:data:`SHIFT_START`), [-]
+    fallback : bool
+        True where the Newton iteration did not converge and the
+        pseudo-transient continuation (:func:`pseudo_transient`) took over
     """
 
     x: np.ndarray
     p: np.ndarray
     residual: float
     worst_state: str
+    newton_steps: int = 0
+    shifted_steps: int = 0
+    fallback: bool = False
 
 
 def _scaled_residual(model, t, x, p, scales):
@@ -186,13 +198,40 @@ CHORD_RATE = 0.25
 _CHORDS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def _newton(model, t0, x, p, scales, tol, max_iter=30, chord=None):
+#: Shift of the first shifted step, where a Newton step fails: the step solves
+#: ``(mu I - J) dz = f`` in scaled states, an implicit-Euler step of 1/mu seconds, [1/s].
+#: (The components' guess of a rig puts a check valve at zero flow, the middle of its switch,
+#: where its pressure drop rises with R_r/2 instead of R_f: the default rig's return check
+#: valve at rest passes the servovalve's leakage, ~100 transition flows away, and Newton's
+#: step from the guess, linearised on the reverse slope, raises the return manifold's
+#: pressure by ~50 MPa; its line search then finds no descent. Shifted steps follow the
+#: transient across the switch instead: 7-8 steps from 1e4 1/s on hoses of 0.02-3 m.)
+SHIFT_START = 1e4
+#: A shifted step may raise the residual norm by at most this factor (the transient it
+#: follows need not lower the residual at every step: oscillating lines, accumulators), else
+#: it is refused and the shift raised tenfold, [-].
+SHIFT_REFUSE = 10.0
+#: After an accepted shifted step the shift falls by the square of the residual norm's
+#: ratio, and at least by this factor, [-]; below ``1 / NEWTON_LIKE_STEP`` the steps are
+#: Newton's again. (By the ratio alone, the switched evolution relaxation of
+#: :func:`pseudo_transient`, 11-30 steps; squared, 7-8.)
+SHIFT_FALL = 1.5
+
+
+def _newton(model, t0, x, p, scales, tol, max_iter=40, chord=None, counts=None):
     """Newton's method with the exact Jacobian and a backtracking line search on the scaled
-    states, from x. Returns (x, converged): quick where it converges; where it does not (the
-    kinks of check valves, stops and orifices), pseudo-transient continuation takes over.
+    states, from x, globalised by shifted steps. Returns (x, converged): where it does not
+    converge (a kink it cannot cross), pseudo-transient continuation takes over.
     Converged means a scaled residual below ``tol``, or, where rounding may keep the
     residual above it, a Newton step below :data:`ROUNDING_STEP` (taken) from a residual
     below :data:`ROUNDING_RESIDUAL`.
+
+    Where a Newton step's line search finds no descent (or its Jacobian is singular), the
+    following steps are shifted, ``(mu I - J) dz = f`` (implicit-Euler steps of 1/mu
+    seconds, from ``mu =`` :data:`SHIFT_START`): each accepted unless it raises the residual
+    norm by more than :data:`SHIFT_REFUSE` (then mu rises tenfold), mu falling after each
+    by the square of the residual norm's ratio (at least by :data:`SHIFT_FALL`) until the
+    steps are Newton's again.
 
     With ``chord`` (a dict kept by the caller across calls, for a model of at most
     :data:`CHORD_STATES` states) the steps use the inverse of the scaled Jacobian kept
@@ -200,8 +239,10 @@ def _newton(model, t0, x, p, scales, tol, max_iter=30, chord=None):
     (chord steps: one matrix-vector product each); where one does not, or none is kept, the
     Jacobian at the current state is inverted and kept, and the step is Newton's with the
     line search. (A layout variant's rest state: ~2-4 Newton steps and one more after the
-    accumulators settle, each a solve of the 138-state model's bordered system, ~0.4 ms.)"""
+    accumulators settle, each a solve of the 138-state model's bordered system, ~0.4 ms.)
+    ``counts`` (a dict) gets ``"newton"`` and ``"shifted"`` added: the steps of each kind."""
     z = x / scales
+    n_newton = n_shifted = 0
 
     def resid(z):
         return model.rhs(t0, z * scales, p) / scales
@@ -211,13 +252,43 @@ def _newton(model, t0, x, p, scales, tol, max_iter=30, chord=None):
         chord["inverse"] = inv
         return inv
 
+    def done(z, converged):
+        if counts is not None:
+            counts["newton"] = counts.get("newton", 0) + n_newton
+            counts["shifted"] = counts.get("shifted", 0) + n_shifted
+        return (z * scales, True) if converged else (x, False)
+
     r = resid(z)
     norm = np.linalg.norm(r)
+    mu = 0.0                            # the shift; 0: Newton's steps
     for _ in range(max_iter):
         if not np.isfinite(norm):
-            return x, False
+            return done(z, False)
         if np.max(np.abs(r)) < tol:
-            return z * scales, True
+            return done(z, True)
+        if mu > 0.0:                    # a shifted step
+            n_shifted += 1
+            try:
+                if chord is None:
+                    dz = _solve_shifted(model, t0, z * scales, p, scales, mu, r)
+                else:
+                    J = _scaled_jacobian(model, t0, z * scales, p, scales)
+                    dz = np.linalg.solve(mu * np.eye(len(z)) - J, r)
+            except np.linalg.LinAlgError:
+                mu *= 10.0
+                continue
+            z_new = z + dz
+            r_new = resid(z_new)
+            norm_new = np.linalg.norm(r_new)
+            if not np.isfinite(norm_new) or norm_new > SHIFT_REFUSE * norm:
+                mu *= 10.0
+                continue
+            mu *= min((norm_new / max(norm, 1e-300)) ** 2, 1.0 / SHIFT_FALL)
+            if mu < 1.0 / NEWTON_LIKE_STEP:
+                mu = 0.0
+            z, r, norm = z_new, r_new, norm_new
+            continue
+        n_newton += 1
         try:
             if chord is None:
                 dz = _solve_shifted(model, t0, z * scales, p, scales, 0.0, r)
@@ -233,12 +304,13 @@ def _newton(model, t0, x, p, scales, tol, max_iter=30, chord=None):
                         continue
                     if np.max(np.abs(dz)) <= ROUNDING_STEP and \
                             np.max(np.abs(r)) < ROUNDING_RESIDUAL:
-                        return z_new * scales, True
+                        return done(z_new, True)
                 dz = -(inverse(z) @ r)
         except np.linalg.LinAlgError:
-            return x, False
+            mu = SHIFT_START
+            continue
         if np.max(np.abs(dz)) <= ROUNDING_STEP and np.max(np.abs(r)) < ROUNDING_RESIDUAL:
-            return (z + dz) * scales, True          # converged to the rounding of f
+            return done(z + dz, True)          # converged to the rounding of f
         lam = 1.0
         while True:
             z_new = z + lam * dz
@@ -247,10 +319,13 @@ def _newton(model, t0, x, p, scales, tol, max_iter=30, chord=None):
             if np.isfinite(norm_new) and norm_new <= (1.0 - 1e-4 * lam) * norm:
                 break
             lam *= 0.5
-            if lam < 0.05:   # far from the root's basin: leave it to the continuation
-                return x, False
+            if lam < 0.05:   # far from the root's basin: shifted steps from here
+                break
+        if lam < 0.05:
+            mu = SHIFT_START
+            continue
         z, r, norm = z_new, r_new, norm_new
-    return (z * scales, True) if np.max(np.abs(r)) < tol else (x, False)
+    return done(z, np.max(np.abs(r)) < tol)
 
 
 def pseudo_transient(model, t0, x, p, scales, tol, dt0=1e-5, max_iter=500):
@@ -356,8 +431,9 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
     """Solve ``f(t0, x) = 0`` for the whole network (docs/model.md 6), then let components settle.
 
     Newton's method with the compiled model's exact Jacobian (in C where a compiler exists),
-    on the states scaled by their typical magnitudes, starting from the components' guesses;
-    where Newton does not converge, pseudo-transient continuation from the same start.
+    on the states scaled by their typical magnitudes, starting from the components' guesses,
+    with shifted steps where a Newton step fails (:data:`SHIFT_START`); where that does not
+    converge, pseudo-transient continuation from the same start (``SteadyState.fallback``).
     Components then settle (e.g. accumulators adopt the steady pressure as their charge
     state) and the solve repeats until nothing changes.
 
@@ -392,8 +468,10 @@ def _solve_steady_state(network, t0, x_guess, tol, max_rounds):
     chord = None
     if len(scales) <= CHORD_STATES:     # kept through the rounds, and for the next solve of
         chord = _CHORDS.setdefault(network, {})     # this network (a sweep's next variant)
+    counts, fallback = {}, False
     for _ in range(max_rounds):
-        x_newton, converged = _newton(model, t0, x, p, scales, tol, chord=chord)
+        x_newton, converged = _newton(model, t0, x, p, scales, tol, chord=chord, counts=counts)
+        fallback |= not converged
         x = x_newton if converged else pseudo_transient(model, t0, x, p, scales, tol)
         changed = bool(settling) and settle_components(network, settling, x, p,
                                                  _signals(model, network, t0, x, p))
@@ -406,7 +484,8 @@ def _solve_steady_state(network, t0, x_guess, tol, max_rounds):
             f"steady state not found: scaled residual {res:.3g} 1/s at state "
             f"'{network.state_names[k]}' (check pressures, laps and initial position)",
             state=network.state_names[k], residual=res)
-    return SteadyState(x, p, res, network.state_names[k])
+    return SteadyState(x, p, res, network.state_names[k], counts.get("newton", 0),
+                       counts.get("shifted", 0), fallback)
 
 
 def settle_components(network: Network, components, x, p, signals: dict) -> bool:

@@ -715,10 +715,11 @@ def base_rest_state(model: SharedModel, base: Rig):
     """The rest state of ``base`` on a shared model whose variant differs from it only in
     hoses (:meth:`SharedModel.hose_parameters`): a start for the variant's first rest state.
 
-    From the components' guess the solver may need its pseudo-transient continuation, the
-    more the shorter the hoses (the layout sweep's 0.05 m hoses: ~0.7 s; the default rig's
-    3 m ones: ~0.1 s); from a neighbour's rest state Newton converges in a few steps, and the
-    variants of a hose sweep are such neighbours of their base rig's (0.05 m from 3 m: ~20 ms).
+    From the components' guess (every flow zero, the check valve in the middle of its switch)
+    Newton takes its shifted steps first (engine/steady_state.py, ~7 ms); from a neighbour's
+    rest state it converges in a few plain steps, and the variants of a hose sweep are such
+    neighbours of their base rig's. (Before the shifted steps the guess needed the
+    pseudo-transient continuation, 0.1-0.7 s: this start was then the larger saving.)
 
     Parameters
     ----------
