@@ -923,9 +923,15 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     count = {"n": 0}
     cache = {}
 
+    def values(theta):
+        """The parameters' values at ``theta``: the rig's own where ``theta`` is the start's
+        (``exp(log(v))`` may miss ``v`` by an ulp, and with it the line realisations the
+        starting rig shares with a simulation of it, shipped or cached), [SI]."""
+        return np.where(theta == theta0, start_values, np.exp(theta))
+
     def calibrated(theta):
         r = rig.copy()
-        for k, v in zip(params, np.exp(theta)):
+        for k, v in zip(params, values(theta)):
             _set(r, k, v)
         return r
 
@@ -1073,7 +1079,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     cov = cov + np.diag(shift ** 2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
     tq = float(stdtrit(dof, 0.5 + confidence / 2))
-    est = np.exp(sol.x)
+    est = values(sol.x)
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
     if shift.any():
