@@ -53,9 +53,10 @@ densely does not reach). With ``J`` the Jacobian at the optimum and ``s^2 = SSR/
 ``exp(theta +- t_{N-k} sqrt(cov_ii))`` (asymmetric in the value). The start is the rig's own
 values (not ``exp(ln(value))``, an ulp off). Where a fitted parameter sets a hose's line
 (:func:`changes_lines`), the runs' lines are interpolated over the dissipation number
-(:mod:`hydroline.lines.residue_table`, as a sweep's) instead of realised anew in each run. They assume white noise and
-a right model; real residuals are correlated in time, which makes them optimistic: a lag-1
-autocorrelation of the residuals widens them (AR(1) count of independent residuals). A record
+(:mod:`hydroline.lines.residue_table`, as a sweep's) instead of realised anew in each run.
+The intervals assume white noise and a right model; real residuals are correlated in time,
+which makes them optimistic: a lag-1 autocorrelation of the residuals widens them (AR(1)
+count of independent residuals). A record
 made by a simulation is exact only to its integration tolerance: the shift of the estimate
 that the integration error at ``RECORD_RTOL`` (``hydroline simulate``'s) causes is added to
 each standard error, so a noise-free simulated record's truth lies inside its interval. That
@@ -957,9 +958,9 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     theta0 = np.log(start_values)
     # a fit of a line's numbers realises its lines anew in each run: there they are
     # interpolated over the dissipation number as a sweep's are (within 1e-5 of each state
-    # equation's largest entry; the default record's estimates move by ~3e-9 of their value,
-    # their intervals' half-widths are ~2e-6), from nodes kept on disk and shipped for the
-    # default rig's hoses
+    # equation's largest entry; the default record's estimates move by 5e-9-1e-8 of their
+    # value, their intervals' half-widths are ~2.5e-6), from nodes kept on disk and shipped
+    # for the default rig's hoses
     if any(changes_lines(rig, k) for k in params):
         from ..lines.residue_table import interpolated_lines as lines_realised
     else:
