@@ -431,3 +431,25 @@ def test_the_default_rigs_line_realisations_are_shipped(monkeypatch, tmp_path):
     monkeypatch.setattr(residue, "_realise", computed)
     build_circuit(load_rig(None))
     assert _entries(tmp_path, "residue_lines")
+
+
+def test_the_default_fits_interpolation_nodes_are_shipped(monkeypatch, tmp_path):
+    """A fit of the default rig's section-II bulk moduli interpolates their lines over Dn
+    (:mod:`hydroline.lines.residue_table`) from nodes shipped with the package: in an empty
+    cache, at the start values, none is computed (after a change of the line code ``python
+    tools/ship_tables.py`` writes them anew)."""
+    from hydroline.lines import residue_table
+    from hydroline.rigs import load_rig
+    from hydroline.system import build_circuit
+
+    def computed(*args):
+        raise AssertionError("an interpolation node of the default fit was computed: it is "
+                             "not shipped; run python tools/ship_tables.py")
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    for kept in ("_NODES", "_STENCILS", "_SHARED"):
+        monkeypatch.setattr(residue_table, kept, {})
+    monkeypatch.setattr(residue_table, "_realised_node", computed)
+    with residue_table.interpolated_lines():     # (as the fit's runs)
+        build_circuit(load_rig(None))
+    assert len(_entries(tmp_path, residue_table.NODE_TABLE)) >= residue_table.DEGREE + 1

@@ -126,6 +126,28 @@ def default_layout():
     return layout()
 
 
+def test_layout_runs_a_0_m_length_second_and_hands_runs_on_in_order():
+    """The 0 m lengths (another network, on CVODES while the first one's library builds) run
+    right after the first length; ``on_run`` still sees the lengths in their order, and a
+    length's metrics do not depend on the order (those of a study of that length alone)."""
+    from hydroline.studies.layout import run_order
+
+    assert run_order([3.048, 2.286, 1.524, 0.7512, 0.0]) == [0, 4, 1, 2, 3]
+    assert run_order([2.0, 0.0, 1.0, 0.0, 3.0]) == [0, 1, 3, 2, 4]
+    assert run_order([0.0, 1.2, 2.0]) == [0, 1, 2]
+    assert run_order([1.0, 0.5]) == [0, 1]
+    assert run_order([]) == []
+    handed = []
+    # (on CVODES: the same numbers whichever library a cold cache would have when)
+    study = layout(None, [0.5, 0.25, 0.0], t_end=0.06, solver="cvodes",
+                   on_run=lambda k, length, res, summary, axis: handed.append((k, length, res)))
+    assert [(k, length) for k, length, _ in handed] == [(0, 0.5), (1, 0.25), (2, 0.0)]
+    assert all(res is study.results[k] for k, _, res in handed)
+    alone = layout(None, [0.25], t_end=0.06, solver="cvodes")
+    for side in ("supply", "return"):
+        assert study.records()[1][side] == alone.records()[0][side]
+
+
 def test_layout_default_lengths_give_finite_metrics(default_layout):
     recs = default_layout.records()
     assert [r["section2_length_m"] for r in recs] == pytest.approx(list(DEFAULT_LENGTHS))

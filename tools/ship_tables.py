@@ -2,7 +2,9 @@
 :func:`hydroline.cache.load_table` where the cache has no entry): the line realisations the
 default rig's first commands compute (``hydroline simulate``, ``bode``, ``layout`` at its
 default lengths), so that a first run after installing skips them (issue 25: ~0.15 s CPU of
-a first ``simulate``, and SciPy's Bessel functions).
+a first ``simulate``, and SciPy's Bessel functions), and the nodes over the dissipation
+number a fit of the default record's section-II bulk moduli interpolates its lines from
+(:mod:`hydroline.lines.residue_table`: ~0.3 s CPU of a first ``fit``).
 
 Run by hand after a change of the line code (their keys name its source: the old entries are
 then simply not found; ``tests/test_cache.py`` says when they are out of date):
@@ -16,8 +18,11 @@ import sys
 import tempfile
 from pathlib import Path
 
-#: The cache's kinds that are shipped: the lines' realisations and correction factors
-KINDS = ("residue_lines", "correction_factors")
+#: The cache's kinds that are shipped: the lines' realisations, correction factors and the
+#: nodes of interpolated lines
+KINDS = ("residue_lines", "correction_factors", "residue_line_nodes")
+#: The fit whose nodes are shipped (the first fit `benchmarks/bench_user.py` times)
+FIT = ("--params", "supply.section2.bulk_modulus,return.section2.bulk_modulus")
 
 
 def main() -> int:
@@ -38,6 +43,9 @@ def main() -> int:
         for command in ("simulate", "bode", "layout"):   # as a user's first commands
             if hydroline([command, "--out", str(Path(tmp) / command)]) != 0:
                 return 1
+        record = str(Path(tmp) / "simulate" / "results.csv")
+        if hydroline(["fit", record, *FIT, "--out", str(Path(tmp) / "fit")]) != 0:
+            return 1
         if SHIPPED_TABLES.exists():
             shutil.rmtree(SHIPPED_TABLES)
         count = 0

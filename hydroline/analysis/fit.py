@@ -50,9 +50,13 @@ residuals ``(y_model - y_measured)/sigma_c``, with ``sigma_c`` each channel's no
 estimated from the data (median absolute second difference, which a smooth signal sampled
 densely does not reach). With ``J`` the Jacobian at the optimum and ``s^2 = SSR/(N - k)``,
 ``cov(theta) = s^2 (J^T J)^-1`` and the confidence interval of a parameter is
-``exp(theta +- t_{N-k} sqrt(cov_ii))`` (asymmetric in the value). They assume white noise and
-a right model; real residuals are correlated in time, which makes them optimistic: a lag-1
-autocorrelation of the residuals widens them (AR(1) count of independent residuals). A record
+``exp(theta +- t_{N-k} sqrt(cov_ii))`` (asymmetric in the value). The start is the rig's own
+values (not ``exp(ln(value))``, an ulp off). Where a fitted parameter sets a hose's line
+(:func:`changes_lines`), the runs' lines are interpolated over the dissipation number
+(:mod:`hydroline.lines.residue_table`, as a sweep's) instead of realised anew in each run.
+The intervals assume white noise and a right model; real residuals are correlated in time,
+which makes them optimistic: a lag-1 autocorrelation of the residuals widens them (AR(1)
+count of independent residuals). A record
 made by a simulation is exact only to its integration tolerance: the shift of the estimate
 that the integration error at ``RECORD_RTOL`` (``hydroline simulate``'s) causes is added to
 each standard error, so a noise-free simulated record's truth lies inside its interval. That
@@ -72,6 +76,7 @@ other signals, or the optimiser stopped worse than it started).
 """
 from __future__ import annotations
 
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -88,7 +93,7 @@ from .linearize import (VALVE_COMMAND, OperatingPoint, axis_network, axis_signal
 __all__ = ["DataError", "COLUMNS", "MEASURABLE", "read_measurements", "Measurements",
            "FitResult", "fit_parameters", "simulate_record", "parameter_unit", "noise_level",
            "STARTS", "residual_correlation", "command_table", "unresolved_samples",
-           "sample_spans"]
+           "sample_spans", "changes_lines", "LINE_KEYS"]
 
 #: Columns understood in a measurement file: name -> SI unit.
 COLUMNS = {
@@ -476,6 +481,37 @@ def parameter_unit(rig: Rig, path: str) -> str:
         raise RigError(f"--params: '{path}' must start > 0 [{unit}] to be fitted (on a log scale), "
                        f"got {rig[path]!r}")
     return unit
+
+
+#: Keys of a template rig's hose section (``supply.section2``) or a circuit's hose that set
+#: its line (:class:`hydroline.lines.Line`'s numbers).
+LINE_KEYS = frozenset({"length", "diameter", "bulk_modulus", "creep_compliances",
+                       "retardation_times"})
+
+
+def changes_lines(rig: Rig, path: str) -> bool:
+    """Whether a rig parameter enters a hose's transmission line (its length, bore, wall or
+    the fluid), so that a fit of it realises lines anew in each run.
+
+    Parameters
+    ----------
+    rig : Rig
+        The rig
+    path : str
+        Rig path (as :func:`parameter_unit` takes it)
+
+    Returns
+    -------
+    bool
+        True for the fluid's density, viscosity and bulk modulus and a hose's
+        :data:`LINE_KEYS`.
+    """
+    section, _, key = path.rpartition(".")
+    if section == "fluid":
+        return key in ("density", "kinematic_viscosity", "bulk_modulus")
+    if path.startswith("circuit."):
+        return rig.raw.get(f"{section}.type") == "hose" and key in LINE_KEYS
+    return section.rpartition(".")[2].startswith("section") and key in LINE_KEYS
 
 
 def _set(rig: Rig, path: str, value: float):
@@ -920,12 +956,27 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
             sigma[s] = max(noise, floor)
     start_values = np.array([rig[k] for k in params], dtype=float)
     theta0 = np.log(start_values)
+    # a fit of a line's numbers realises its lines anew in each run: there they are
+    # interpolated over the dissipation number as a sweep's are (within 1e-5 of each state
+    # equation's largest entry; the default record's estimates move by 5e-9-1e-8 of their
+    # value, their intervals' half-widths are ~2.5e-6), from nodes kept on disk and shipped
+    # for the default rig's hoses
+    if any(changes_lines(rig, k) for k in params):
+        from ..lines.residue_table import interpolated_lines as lines_realised
+    else:
+        lines_realised = nullcontext
     count = {"n": 0}
     cache = {}
 
+    def values(theta):
+        """The parameters' values at ``theta``: the rig's own where ``theta`` is the start's
+        (``exp(log(v))`` may miss ``v`` by an ulp, and with it the line realisations the
+        starting rig shares with a simulation of it, shipped or cached), [SI]."""
+        return np.where(theta == theta0, start_values, np.exp(theta))
+
     def calibrated(theta):
         r = rig.copy()
-        for k, v in zip(params, np.exp(theta)):
+        for k, v in zip(params, values(theta)):
             _set(r, k, v)
         return r
 
@@ -934,7 +985,8 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         if key in cache:
             return cache[key]
         try:
-            out = simulate_record(calibrated(theta), meas, signals, start=start, axis=axis)
+            with lines_realised():
+                out = simulate_record(calibrated(theta), meas, signals, start=start, axis=axis)
         except (RuntimeError, ArithmeticError):      # SteadyStateError, integration failure
             out = None
         count["n"] += 1
@@ -1062,9 +1114,10 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
                     (-1.0) ** np.arange(INTEGRATION_DRAWS):
                 theta = sol.x + nudge
                 tight = best if nudge == 0 else model(theta)
-                loose = simulate_record(calibrated(theta), meas, signals, rtol=record_rtol,
-                                        start=start, axis=axis,
-                                        atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
+                with lines_realised():
+                    loose = simulate_record(calibrated(theta), meas, signals, rtol=record_rtol,
+                                            start=start, axis=axis,
+                                            atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
                 count["n"] += 1
                 dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(tight, use))
                 shift = np.maximum(shift, np.abs(np.linalg.lstsq(J, dr, rcond=None)[0]))
@@ -1073,7 +1126,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     cov = cov + np.diag(shift ** 2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
     tq = float(stdtrit(dof, 0.5 + confidence / 2))
-    est = np.exp(sol.x)
+    est = values(sol.x)
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
     if shift.any():

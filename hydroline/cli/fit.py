@@ -12,6 +12,11 @@ from .common import atomic_outputs, dump_json, out_dir, print_table
 from .figure_process import claim_figure_process
 
 _COLUMN_HELP = ", ".join(f"'{k} [{u}]'" for k, u in COLUMNS.items())
+#: Optimisation level of the quick library a first fit's background build makes: a fit's ~14
+#: runs on it take ~0.05 s of CPU each at ``-O1`` against ~0.12 s at ``-O0``, for ~0.4 s
+#: more of build (a cold fit of the default record: 2.30 -> 1.71 s of CPU; a layout study,
+#: three runs on it, is quicker with ``-O0``: benchmarks/README.md, "Round 4")
+QUICK_LEVEL = "-O1"
 
 
 def register(sub):
@@ -123,7 +128,8 @@ def _run(args, figures) -> int:
 
         # (its first run too waits for the quick library, not CVODES; SciPy's optimiser is
         # imported while it waits)
-        with many_runs(meanwhile=[functools.partial(importlib.import_module, "scipy.optimize")]):
+        with many_runs(meanwhile=[functools.partial(importlib.import_module, "scipy.optimize")],
+                       quick_level=QUICK_LEVEL):
             res = fit_parameters(rig, meas, params, signals, confidence=args.confidence,
                                  max_evaluations=args.max_evals, start=args.start, offsets=offsets,
                                  axis=args.axis,

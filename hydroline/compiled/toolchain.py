@@ -71,6 +71,9 @@ _WAITED: dict = {}
 _MANY_RUNS = False
 #: :func:`many_runs`' work to do while a run waits for a quick library
 _MEANWHILE: list = []
+#: :func:`many_runs`' optimisation level for the quick builds started within it (None:
+#: :data:`QUICK_LEVEL`)
+_QUICK_ASKED: list = [None]
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -354,9 +357,11 @@ def build_in_background(path: Path, full) -> bool:
             f.write(full() if callable(full) else full)
         os.replace(tmp, source)
         # (niced first thing: a preexec_fn would make subprocess fork this whole process)
-        code = BUILDER_IMPORTS + "nicer()\nbuild_from_file(sys.argv[1], sys.argv[2], sys.argv[3])\n"
+        code = BUILDER_IMPORTS + ("nicer()\nbuild_from_file(sys.argv[1], sys.argv[2], "
+                                  "sys.argv[3], sys.argv[4])\n")
         # (the child inherits the locked descriptor: the lock is its until it exits)
-        subprocess.Popen([sys.executable, "-c", code, cc, str(source), str(path)],
+        subprocess.Popen([sys.executable, "-c", code, cc, str(source), str(path),
+                          _QUICK_ASKED[0] or QUICK_LEVEL],
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL, pass_fds=(lock.fileno(),),
                          start_new_session=True, close_fds=True)
@@ -376,7 +381,7 @@ def nicer() -> None:
         pass
 
 
-def build_from_file(cc: str, source: str, path: str) -> None:
+def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LEVEL) -> None:
     """The background builder's work (:func:`build_in_background`, in its own process, the
     library's lock inherited): compile ``source`` into the library ``path`` with its record,
     its quick build (:data:`QUICK_LEVEL`) first, for the runs that start meanwhile, removed
@@ -391,12 +396,14 @@ def build_from_file(cc: str, source: str, path: str) -> None:
         The library's source file (removed afterwards)
     path : str
         The library in the cache directory
+    quick_level : str
+        The quick build's optimisation level (:func:`many_runs`)
     """
     try:
         full = Path(source).read_text()
         if not library_check(Path(path))[0]:
             try:
-                _compile_locked(cc, full, Path(path), quick=True)
+                _compile_locked(cc, full, Path(path), quick=quick_level)
             except CompilerUnavailable:
                 pass                    # (the library itself may still build)
         _compile_locked(cc, full, Path(path))
@@ -411,10 +418,11 @@ def build_from_file(cc: str, source: str, path: str) -> None:
             pass
 
 
-def _compile_locked(cc: str, full: str, path: Path, quick: bool = False) -> None:
+def _compile_locked(cc: str, full: str, path: Path, quick=False) -> None:
     """:func:`_compile`'s work, the library's lock held by the caller (``quick``: its quick
-    build, :data:`QUICK_LEVEL`, into :func:`quick_location`)."""
-    flags = [QUICK_LEVEL if f.startswith("-O") else f for f in CFLAGS] if quick else CFLAGS
+    build, at :data:`QUICK_LEVEL` or the level given, into :func:`quick_location`)."""
+    level = quick if isinstance(quick, str) else QUICK_LEVEL
+    flags = [level if f.startswith("-O") else f for f in CFLAGS] if quick else CFLAGS
     if quick:
         path = quick_location(path)
     if library_check(path)[0]:             # built by another process meanwhile
@@ -567,7 +575,7 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
 
 
 @contextlib.contextmanager
-def many_runs(meanwhile=()):
+def many_runs(meanwhile=(), quick_level=None):
     """Within this context the process makes many runs of one model (a fit): its first run
     that finds the library being built in the background waits for the quick build
     (:func:`load_library`, at most :data:`QUICK_WAIT`) as its later runs do, instead of
@@ -582,14 +590,20 @@ def many_runs(meanwhile=()):
         Work the command does later anyway (an import), done by the first run that waits,
         before it waits: on the CPU the build leaves (an error in it is left to where the
         work is done again)
+    quick_level : str
+        Optimisation level of the quick build of a background build started within (None:
+        :data:`QUICK_LEVEL`): a command of many runs on it (a fit's ~14) gains more from
+        quicker runs than it loses waiting longer for the library
     """
     global _MANY_RUNS
     before, _MANY_RUNS = _MANY_RUNS, True
+    asked, _QUICK_ASKED[0] = _QUICK_ASKED[0], quick_level
     _MEANWHILE.extend(meanwhile)
     try:
         yield
     finally:
         _MANY_RUNS = before
+        _QUICK_ASKED[0] = asked
         del _MEANWHILE[:]
 
 

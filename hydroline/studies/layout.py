@@ -59,7 +59,7 @@ from ..units import parse_quantity
 from .settling import BAND, SettlingBand, port_summary
 
 __all__ = ["layout", "LayoutStudy", "DEFAULT_LENGTHS", "parse_lengths", "SIDES", "conclusion",
-           "layout_sections"]
+           "layout_sections", "run_order"]
 
 #: The paper's section II lengths, 10, 7.5, 5, 2.46 ft and 0 (close-coupled manifold), [m].
 DEFAULT_LENGTHS = (3.048, 2.286, 1.524, 0.7512, 0.0)
@@ -762,6 +762,32 @@ def _valve(rig: Rig, res, chosen):
                    rig.get(f"{head}.damping_ratio", float("nan")))
 
 
+def run_order(lengths) -> list[int]:
+    """The order a layout study runs its lengths in: the first, then every 0 m length (a
+    template rig without the section: a network of its own), then the rest in order.
+
+    The first run of a study starts the background build of its network's library (a
+    compiled core, :mod:`hydroline.compiled.toolchain`) and goes on with CVODES; the later
+    lengths of that network wait for the build's quick library. A 0 m length is another
+    network, run on CVODES in any case: run meanwhile, it takes its time out of that wait
+    instead of adding it after the last run. The results are the same in any order.
+
+    Parameters
+    ----------
+    lengths : list of float
+        The study's section lengths, [m]
+
+    Returns
+    -------
+    list of int
+        Indices into ``lengths``.
+    """
+    rest = range(1, len(lengths))
+    if not lengths or lengths[0] == 0:
+        return list(range(len(lengths)))
+    return [0, *(k for k in rest if lengths[k] == 0), *(k for k in rest if lengths[k] != 0)]
+
+
 def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axis=None,
            scenario: str | None = None, t_end: float | None = None, solver: str = "auto",
            progress=None, settling_band=BAND, on_run=None) -> LayoutStudy:
@@ -802,7 +828,9 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     on_run : callable
         ``on_run(index, length, result, summary, axis)`` after each length's run and
         metrics (the reported axis: None on a single-axis rig), e.g. to hand its traces to
-        a figure process while the next lengths run
+        a figure process while the next lengths run; called in the order of ``lengths``
+        (the lengths run in :func:`run_order`'s: a 0 m length's run, made second, is
+        handed on after the lengths before it)
 
     Returns
     -------
@@ -829,9 +857,11 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         sides = SIDES
     lengths = parse_lengths(lengths)
     settling_band = SettlingBand.parse(settling_band)
-    summaries, results = [], []
+    summaries, results = [None] * len(lengths), [None] * len(lengths)
     chosen = None
-    for k, L in enumerate(lengths):
+    handed = 0                  # runs handed to on_run, in the lengths' order
+    for done, k in enumerate(run_order(lengths)):
+        L = lengths[k]
         variant = rig.copy()
         try:
             for section in sections:
@@ -850,12 +880,12 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
         rise = _flow_rise_time(res, flow) if res.metadata.get("scenario") != "position-step" \
             else float("nan")       # a position step's flow returns to zero: no final flow
         summary["flow"] = {"flow_rise_time_ms": rise * 1e3}
-        summaries.append(summary)
-        results.append(res)
-        if on_run is not None:
-            on_run(k, L, res, summary, chosen)
+        summaries[k], results[k] = summary, res
+        while on_run is not None and handed < len(lengths) and results[handed] is not None:
+            on_run(handed, lengths[handed], results[handed], summaries[handed], chosen)
+            handed += 1
         if progress is not None:
-            progress(k + 1, len(lengths))
+            progress(done + 1, len(lengths))
     fluid = make_fluid(rig)
     lines = {}
     for side in SIDES:
