@@ -6,15 +6,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..engine import ops
-from ..engine.component import Component, HydraulicEnd, Port, State, parameter
-from ..fluid import (Fluid, cavity_volume_fraction, chamber_pressure_scale, chamber_structure,
-                     oil_compliance, oil_numbers)
+from ..engine.component import HydraulicEnd, Port, State, parameter
+from ..fluid import Fluid, cavity_volume_fraction, chamber_pressure_scale, oil_compliance
+from .volume import OilChamber
 
 __all__ = ["Actuator"]
 
 
 @dataclass(kw_only=True)
-class Actuator(Component):
+class Actuator(OilChamber):
     """Chamber pressures (M22) and piston motion (M23), vertical, upward positive.
 
     ``x_p`` is measured from mid-stroke; the stops are at +-stroke/2, modelled as a stiff
@@ -137,33 +137,6 @@ class Actuator(Component):
                 State("top_pressure", "Pa", ps),
                 State("position", "m", self.stroke / 2),
                 State("velocity", "m/s", 1.0)]
-
-    def compiled_numbers(self) -> dict:
-        """As :meth:`Component.compiled_numbers`, with the numbers of the oil's entrained air
-        and cavity model that the chamber equations read (:func:`~hydroline.fluid.oil_numbers`).
-
-        Returns
-        -------
-        dict
-            Name -> float or tuple of floats, [SI].
-        """
-        return {**super().compiled_numbers(), **oil_numbers(self.fluid)}
-
-    def structure_attributes(self, attributes: dict) -> dict:
-        """As :meth:`Component.structure_attributes`; the oil stands as which of its models
-        the chamber equations read (:meth:`~hydroline.fluid.Fluid.chamber_model`).
-
-        Parameters
-        ----------
-        attributes : dict
-            The component's attributes, name -> value.
-
-        Returns
-        -------
-        dict
-            Name -> value or mark.
-        """
-        return chamber_structure(super().structure_attributes(attributes))
 
     def hydraulic_natural_frequency(self, position: float = 0.0, bottom_pressure: float | None = None,
                                     top_pressure: float | None = None) -> float:

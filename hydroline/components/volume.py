@@ -7,11 +7,53 @@ from ..engine.component import Component, HydraulicEnd, Port, State, parameter
 from ..fluid import (Fluid, cavity_volume_fraction, chamber_pressure_scale, chamber_structure,
                      oil_compliance, oil_numbers)
 
-__all__ = ["HydraulicVolume"]
+__all__ = ["HydraulicVolume", "OilChamber"]
+
+
+class OilChamber(Component):
+    """A component whose states include pressures of oil held in chambers (M22, M33): its
+    equations read the oil's entrained-air and cavity models (M40-M42), whose numbers it
+    takes at run time and whose on/off it counts as structure. Subclasses hold ``fluid``.
+
+    Parameters
+    ----------
+    name : str
+        Unique name in the network (as :class:`~hydroline.engine.component.Component`)
+    connections : dict
+        Local port name -> network signal name (as
+        :class:`~hydroline.engine.component.Component`)
+    """
+
+    def compiled_numbers(self) -> dict:
+        """As :meth:`Component.compiled_numbers`, with the numbers of the oil's entrained air
+        and cavity model that the chamber equations read (:func:`~hydroline.fluid.oil_numbers`).
+
+        Returns
+        -------
+        dict
+            Name -> float or tuple of floats, [SI].
+        """
+        return {**super().compiled_numbers(), **oil_numbers(self.fluid)}
+
+    def structure_attributes(self, attributes: dict) -> dict:
+        """As :meth:`Component.structure_attributes`; the oil stands as which of its models
+        the chamber equations read (:meth:`~hydroline.fluid.Fluid.chamber_model`).
+
+        Parameters
+        ----------
+        attributes : dict
+            The component's attributes, name -> value.
+
+        Returns
+        -------
+        dict
+            Name -> value or mark.
+        """
+        return chamber_structure(super().structure_attributes(attributes))
 
 
 @dataclass(kw_only=True)
-class HydraulicVolume(Component):
+class HydraulicVolume(OilChamber):
     """``dp/dt = beta/V * sum_i sign_i q_i``: the pressure of a volume of oil.
 
     Used for the HSM block when a hose section II is removed (the manifold joined to the
@@ -67,33 +109,6 @@ class HydraulicVolume(Component):
         :func:`~hydroline.fluid.chamber_pressure_scale`)."""
         return [State("pressure", "Pa",
                       chamber_pressure_scale(max(self.nominal_pressure, 1e5), self.fluid))]
-
-    def compiled_numbers(self) -> dict:
-        """As :meth:`Component.compiled_numbers`, with the numbers of the oil's entrained air
-        and cavity model that the chamber equations read (:func:`~hydroline.fluid.oil_numbers`).
-
-        Returns
-        -------
-        dict
-            Name -> float or tuple of floats, [SI].
-        """
-        return {**super().compiled_numbers(), **oil_numbers(self.fluid)}
-
-    def structure_attributes(self, attributes: dict) -> dict:
-        """As :meth:`Component.structure_attributes`; the oil stands as which of its models
-        the chamber equations read (:meth:`~hydroline.fluid.Fluid.chamber_model`).
-
-        Parameters
-        ----------
-        attributes : dict
-            The component's attributes, name -> value.
-
-        Returns
-        -------
-        dict
-            Name -> value or mark.
-        """
-        return chamber_structure(super().structure_attributes(attributes))
 
     def hydraulic_ends(self):
         """One node holding oil: its pressure and the flows into it.
