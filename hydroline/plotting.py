@@ -135,7 +135,8 @@ def figure_title(text: str) -> str:
 
 def wrap_title(text: str, width: float, fontsize: float = 12.0) -> str:
     """A figure's title (:func:`figure_title`) broken into lines that fit the figure's width
-    (at ~0.55 em a character).
+    (at ~0.55 em a character), as few as fit and of about equal length (no last line of one
+    word).
 
     Parameters
     ----------
@@ -153,8 +154,16 @@ def wrap_title(text: str, width: float, fontsize: float = 12.0) -> str:
     """
     import textwrap
 
+    text = figure_title(text)
     characters = max(int(0.95 * width * 72 / (0.55 * fontsize)), 20)
-    return "\n".join(textwrap.wrap(figure_title(text), characters)) or figure_title(text)
+    lines = textwrap.wrap(text, characters)
+    # the narrowest width that still needs no more lines: lines of about equal length
+    for narrower in range(-(-len(text) // max(len(lines), 1)), characters):
+        balanced = textwrap.wrap(text, narrower)
+        if len(balanced) == len(lines):
+            lines = balanced
+            break
+    return "\n".join(lines) or text
 
 
 def save_png(fig, path, dpi: int = 100) -> None:

@@ -355,3 +355,20 @@ def test_layout_rows_made_beforehand_draw_the_same_figure(tmp_path, durations):
     png = (tmp_path / "at_once.png").read_bytes()
     assert (tmp_path / "here.png").read_bytes() == png
     assert (tmp_path / "child.png").read_bytes() == png
+
+
+def test_a_wrapped_title_has_lines_of_about_equal_length():
+    """A title one word too long for a line is broken into two lines of about half its length
+    (not a full line and a last word alone), no line wider than the figure allows, no word
+    lost; a title that fits stays one line."""
+    from hydroline.plotting import wrap_title
+
+    title = ("Section II layout study: open-loop-step on Ayalew & Kulakowski (2005) "
+             "fatigue-test system (sections II of supply and return set)")
+    allowed = int(0.95 * 11 * 72 / (0.55 * 11))          # wrap_title's characters per line
+    assert len(title) > allowed
+    lines = wrap_title(title, 11, 11).split("\n")
+    assert len(lines) == 2 and max(len(line) for line in lines) <= allowed
+    assert abs(len(lines[0]) - len(lines[1])) <= 12
+    assert " ".join(lines) == title
+    assert wrap_title("a short title", 11, 11) == "a short title"
