@@ -61,8 +61,8 @@ made by a simulation is exact only to its integration tolerance: the shift of th
 that the integration error at ``RECORD_RTOL`` (``hydroline simulate``'s) causes is added to
 each standard error, so a noise-free simulated record's truth lies inside its interval. That
 error is one realisation (a ppm change of a parameter changes the integrator's step
-decisions): the shift is the largest of ``INTEGRATION_DRAWS`` realisations, the model at the
-optimum and moved by ``INTEGRATION_NUDGE`` in every ln(value). One realisation alone, the
+decisions): the shift is the largest of the realisations at the optimum moved by each of
+``INTEGRATION_NUDGES`` in every ln(value). One realisation alone, the
 optimum's, gave half the default record's actual shift once the step decisions at its
 breakpoint changed.
 
@@ -860,12 +860,10 @@ WORSE = 0.01
 #: to: ``hydroline simulate``'s (:func:`hydroline.scenarios.simulate`'s defaults), [-].
 RECORD_RTOL = 1e-6
 RECORD_ATOL_SCALE = 1e-7
-#: Realisations of a simulated record's integration error whose largest shift of the estimate
-#: the intervals carry (the model at the optimum, and moved by +-INTEGRATION_NUDGE), [-].
-INTEGRATION_DRAWS = 3
-#: Move of every ln(value) between those realisations: far below any interval, enough to
-#: change the integrator's step decisions, [-].
-INTEGRATION_NUDGE = 1e-5
+#: Moves of every ln(value) from the optimum at which a simulated record's integration error
+#: is realised, the intervals carrying the largest shift of the estimate among them: far
+#: below any interval, enough to change the integrator's step decisions, [-].
+INTEGRATION_NUDGES = (0.0, -1e-5, 2e-5)
 
 
 def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=None,
@@ -980,16 +978,21 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
             _set(r, k, v)
         return r
 
+    def run(theta, **tolerances):
+        """The record's traces at ``theta`` (simulate_record's tolerances by default)."""
+        count["n"] += 1
+        with lines_realised():
+            return simulate_record(calibrated(theta), meas, signals, start=start, axis=axis,
+                                   **tolerances)
+
     def model(theta):
         key = tuple(np.round(theta, 14))
         if key in cache:
             return cache[key]
         try:
-            with lines_realised():
-                out = simulate_record(calibrated(theta), meas, signals, start=start, axis=axis)
+            out = run(theta)
         except (RuntimeError, ArithmeticError):      # SteadyStateError, integration failure
             out = None
-        count["n"] += 1
         cache[key] = out
         return out
 
@@ -1104,24 +1107,21 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
     # a simulated record is exact only to its integration tolerance: the estimate's shift under
     # that error joins the standard error. The record's own error is one realisation; the
     # model's at the optimum is another (a ppm change of a parameter changes the integrator's
-    # step decisions), so the shift is the largest of INTEGRATION_DRAWS realisations: the
-    # optimum, and the optimum moved by +-INTEGRATION_NUDGE in every ln(value), each against
-    # its own tight run
+    # step decisions), so the shift is the largest of the realisations at the optimum moved
+    # by each of INTEGRATION_NUDGES in every ln(value), each against its own tight run
     shift = np.zeros(k)
     if best is not None and record_rtol > 0:
         try:
-            for nudge in INTEGRATION_NUDGE * np.arange(INTEGRATION_DRAWS) * \
-                    (-1.0) ** np.arange(INTEGRATION_DRAWS):
+            for nudge in INTEGRATION_NUDGES:
                 theta = sol.x + nudge
                 tight = best if nudge == 0 else model(theta)
-                with lines_realised():
-                    loose = simulate_record(calibrated(theta), meas, signals, rtol=record_rtol,
-                                            start=start, axis=axis,
-                                            atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
-                count["n"] += 1
+                if tight is None:          # (the model does not run there: no more draws)
+                    break
+                loose = run(theta, rtol=record_rtol,
+                            atol_scale=RECORD_ATOL_SCALE * record_rtol / RECORD_RTOL)
                 dr = np.concatenate(weighted(loose, use)) - np.concatenate(weighted(tight, use))
                 shift = np.maximum(shift, np.abs(np.linalg.lstsq(J, dr, rcond=None)[0]))
-        except (RuntimeError, ArithmeticError, TypeError, np.linalg.LinAlgError):
+        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError):
             pass
     cov = cov + np.diag(shift ** 2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, np.inf))
@@ -1131,7 +1131,7 @@ def fit_parameters(rig: Rig | str | None, meas: Measurements, params, signals=No
         corr = cov / np.outer(sd, sd)
     if shift.any():
         notes.append(f"intervals include the estimate's shift under the integration error of a "
-                     f"simulated record (rtol {record_rtol:g}; the largest of {INTEGRATION_DRAWS} "
+                     f"simulated record (rtol {record_rtol:g}; the largest of {len(INTEGRATION_NUDGES)} "
                      f"realisations): up to {np.max(shift):.2g} in ln(value)")
     message = "; ".join([str(sol.message)] + notes)
     return FitResult(params, units, start_values, est, np.exp(sol.x - tq * sd), np.exp(sol.x + tq * sd), sd,
