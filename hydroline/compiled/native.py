@@ -201,15 +201,15 @@ class NativeModel:
         tuple
             (h_1, ..., h_5), [s] (inf: no limit)
         """
-        from .stability import block_gather, eigenvalues_of_blocks, order_step_limits
+        from .stability import block_gather, cut_blocks, eigenvalues_of_blocks, order_step_limits
 
         g = self.generated
         if self._blocks is None:      # per network: the blocks and where they lie in jnz
             net = self.network
             blocks = [sl for sl in (net.state_slice(c.name) for c in net.components)
                       if sl.stop - sl.start >= 2]
-            self._blocks = (blocks, *block_gather(g.jac_colind, g.jac_row, blocks))
-        blocks, take, place, sizes = self._blocks
+            self._blocks = (blocks, block_gather(g.jac_colind, g.jac_row, blocks))
+        blocks, gather = self._blocks
         if not (blocks and g.jac_nnz):
             return (np.inf,) * 5
         key = jnz.tobytes()
@@ -217,13 +217,7 @@ class NativeModel:
         if limits is None:
             # per run: the blocks cut out of the nonzeros in one gather (as the dense
             # Jacobian's diagonal blocks), their eigenvalues and the limits
-            flat = np.zeros(sum(m * m for m in sizes))
-            flat[place] = jnz[take]
-            subs, at = [], 0
-            for m in sizes:
-                subs.append(flat[at:at + m * m].reshape(m, m))
-                at += m * m
-            limits = order_step_limits(eigenvalues_of_blocks(subs))
+            limits = order_step_limits(eigenvalues_of_blocks(cut_blocks(jnz, gather)))
             if len(self._limits_seen) >= 64:
                 self._limits_seen.clear()
             self._limits_seen[key] = limits

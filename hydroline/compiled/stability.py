@@ -28,7 +28,7 @@ import functools
 import numpy as np
 
 __all__ = ["KAPPA", "unstable_onset", "order_step_limits", "block_eigenvalues",
-           "eigenvalues_of_blocks", "block_gather", "MARGIN"]
+           "eigenvalues_of_blocks", "block_gather", "cut_blocks", "MARGIN"]
 
 #: NDF coefficients kappa_q, q = 0..5 (as ``hl_kappa`` in ``bdf.c``; SciPy's BDF)
 KAPPA = (0.0, -0.1850, -1.0 / 9.0, -0.0823, -0.0415, 0.0)
@@ -147,20 +147,20 @@ _EIGEN_CACHE: dict = {}
 _EIGEN_CACHE_SIZE = 256
 
 
-def _eigvals(sub: np.ndarray) -> np.ndarray:
-    """Eigenvalues of a small square matrix: 2 x 2 in closed form, larger ones by LAPACK,
-    remembered by value (a hose section's block is the same in every run of its numbers)."""
-    if sub.shape[0] == 2:
-        a, b, c, d = sub[0, 0], sub[0, 1], sub[1, 0], sub[1, 1]
-        mean, det = 0.5 * (a + d), a * d - b * c
-        root = np.sqrt(complex(mean * mean - det))
-        return np.array([mean + root, mean - root])
-    key = (sub.shape[0], sub.tobytes())
-    w = _EIGEN_CACHE.get(key)
-    if w is None:
-        if len(_EIGEN_CACHE) >= _EIGEN_CACHE_SIZE:
-            _EIGEN_CACHE.pop(next(iter(_EIGEN_CACHE)))
-        w = _EIGEN_CACHE[key] = np.linalg.eigvals(sub)
+def _eigvals_2x2(sub: np.ndarray) -> np.ndarray:
+    """Eigenvalues of a 2 x 2 matrix in closed form, [1/s]."""
+    a, b, c, d = sub[0, 0], sub[0, 1], sub[1, 0], sub[1, 1]
+    mean, det = 0.5 * (a + d), a * d - b * c
+    root = np.sqrt(complex(mean * mean - det))
+    return np.array([mean + root, mean - root])
+
+
+def _remember(key, w: np.ndarray) -> np.ndarray:
+    """Keep a block's eigenvalues by its value (a hose section's block is the same in every
+    run of its numbers), the oldest dropped past :data:`_EIGEN_CACHE_SIZE`; returns ``w``."""
+    if len(_EIGEN_CACHE) >= _EIGEN_CACHE_SIZE:
+        _EIGEN_CACHE.pop(next(iter(_EIGEN_CACHE)))
+    _EIGEN_CACHE[key] = w
     return w
 
 
@@ -185,8 +185,8 @@ def block_eigenvalues(jacobian, blocks) -> np.ndarray:
 
 def eigenvalues_of_blocks(subs) -> np.ndarray:
     """Eigenvalues of square matrices, one after another (:func:`block_eigenvalues` of blocks
-    already cut out): those not met before (:func:`_eigvals`' memory) of one size in one
-    LAPACK call (a sweep's variant has two new 32 x 32 hose blocks); blocks smaller than
+    already cut out): 2 x 2 ones in closed form, larger ones not met before (remembered by
+    value) of one size in one LAPACK call (a sweep's variant has two new 32 x 32 hose blocks); blocks smaller than
     2 x 2 or not finite are left out.
 
     Parameters
@@ -206,7 +206,7 @@ def eigenvalues_of_blocks(subs) -> np.ndarray:
             continue
         sub = np.ascontiguousarray(sub)
         if sub.shape[0] == 2:
-            out[i] = _eigvals(sub)
+            out[i] = _eigvals_2x2(sub)
             continue
         key = (sub.shape[0], sub.tobytes())
         w = _EIGEN_CACHE.get(key)
@@ -218,9 +218,7 @@ def eigenvalues_of_blocks(subs) -> np.ndarray:
         ws = np.linalg.eigvals(np.stack([sub for _, _, sub in group])) if len(group) > 1 \
             else [np.linalg.eigvals(group[0][2])]
         for (i, key, _), w in zip(group, ws):
-            if len(_EIGEN_CACHE) >= _EIGEN_CACHE_SIZE:
-                _EIGEN_CACHE.pop(next(iter(_EIGEN_CACHE)))
-            out[i] = _EIGEN_CACHE[key] = w
+            out[i] = _remember(key, w)
     out = [w for w in out if w is not None]
     return np.concatenate(out) if out else np.zeros(0, dtype=complex)
 
@@ -261,3 +259,29 @@ def block_gather(colind, rows, blocks) -> tuple:
     empty = np.zeros(0, dtype=np.intp)
     return (np.concatenate(take) if take else empty, np.concatenate(place) if place else empty,
             tuple(sizes))
+
+
+def cut_blocks(nonzeros, gather) -> list:
+    """The diagonal blocks of a compressed-column matrix cut out of its nonzeros, by the
+    positions :func:`block_gather` found (one gather into one buffer).
+
+    Parameters
+    ----------
+    nonzeros : ndarray
+        The matrix's nonzeros, in its compressed-column order, [1/s]
+    gather : tuple
+        ``(take, place, sizes)`` of :func:`block_gather` for this matrix's pattern
+
+    Returns
+    -------
+    list
+        The blocks, each ``m x m`` (views of one buffer), [1/s].
+    """
+    take, place, sizes = gather
+    flat = np.zeros(sum(m * m for m in sizes))
+    flat[place] = nonzeros[take]
+    blocks, at = [], 0
+    for m in sizes:
+        blocks.append(flat[at:at + m * m].reshape(m, m))
+        at += m * m
+    return blocks
