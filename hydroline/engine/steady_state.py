@@ -158,11 +158,11 @@ def _scaled_jacobian(model, t, x, p, scales):
     return model.jacobian(t, x, p) * scales[None, :] / scales[:, None]
 
 
-def _solve_shifted(model, t, x, p, scales, shift, b):
+def _solve_shifted(model, t, x, p, scales, shift, b, dense=False):
     """dz solving ``(shift I - J) dz = b``, J the Jacobian of the scaled states at (t, x):
-    the model's own (sparse) solve where it has one, else dense (numpy.linalg.LinAlgError
-    when singular)."""
-    solve = getattr(model, "solve_shifted", None)
+    the model's own (sparse) solve where it has one and ``dense`` is False, else dense
+    (numpy.linalg.LinAlgError when singular)."""
+    solve = None if dense else getattr(model, "solve_shifted", None)
     dz = solve(t, x, p, shift, b) if solve is not None else None
     if dz is not None:
         return dz
@@ -268,12 +268,9 @@ def _newton(model, t0, x, p, scales, tol, max_iter=40, chord=None, counts=None):
             return done(z, True)
         if mu > 0.0:                    # a shifted step
             n_shifted += 1
-            try:
-                if chord is None:
-                    dz = _solve_shifted(model, t0, z * scales, p, scales, mu, r)
-                else:
-                    J = _scaled_jacobian(model, t0, z * scales, p, scales)
-                    dz = np.linalg.solve(mu * np.eye(len(z)) - J, r)
+            try:     # (a model small enough for chord steps: dense, as they are)
+                dz = _solve_shifted(model, t0, z * scales, p, scales, mu, r,
+                                    dense=chord is not None)
             except np.linalg.LinAlgError:
                 mu *= 10.0
                 continue
