@@ -224,7 +224,8 @@ def test_runs_during_a_background_build_use_its_quick_library(monkeypatch, tmp_p
 
     def quick_made(path, full):   # the builder's first half, here: the full build "goes on"
         started["path"], started["full"] = path, full() if callable(full) else full
-        toolchain._compile_locked(toolchain.compiler(), started["full"], path, quick=True)
+        toolchain._compile_locked(toolchain.compiler(), started["full"], path,
+                                   quick_level=toolchain.QUICK_LEVEL)
         return True
 
     monkeypatch.setattr(toolchain, "build_in_background", quick_made)
@@ -264,7 +265,8 @@ def _slow_background_build(monkeypatch, toolchain, release):
             try:
                 release.wait(30)
                 time.sleep(0.3)
-                toolchain._compile_locked(toolchain.compiler(), source, path, quick=True)
+                toolchain._compile_locked(toolchain.compiler(), source, path,
+                                          quick_level=toolchain.QUICK_LEVEL)
             finally:
                 lock.close()
 

@@ -403,7 +403,7 @@ def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LE
         full = Path(source).read_text()
         if not library_check(Path(path))[0]:
             try:
-                _compile_locked(cc, full, Path(path), quick=quick_level)
+                _compile_locked(cc, full, Path(path), quick_level=quick_level)
             except CompilerUnavailable:
                 pass                    # (the library itself may still build)
         _compile_locked(cc, full, Path(path))
@@ -418,12 +418,13 @@ def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LE
             pass
 
 
-def _compile_locked(cc: str, full: str, path: Path, quick=False) -> None:
-    """:func:`_compile`'s work, the library's lock held by the caller (``quick``: its quick
-    build, at :data:`QUICK_LEVEL` or the level given, into :func:`quick_location`)."""
-    level = quick if isinstance(quick, str) else QUICK_LEVEL
-    flags = [level if f.startswith("-O") else f for f in CFLAGS] if quick else CFLAGS
-    if quick:
+def _compile_locked(cc: str, full: str, path: Path, quick_level: str | None = None) -> None:
+    """:func:`_compile`'s work, the library's lock held by the caller (``quick_level``, e.g.
+    :data:`QUICK_LEVEL`: its quick build at that optimisation level, into
+    :func:`quick_location`)."""
+    flags = CFLAGS
+    if quick_level:
+        flags = [quick_level if f.startswith("-O") else f for f in CFLAGS]
         path = quick_location(path)
     if library_check(path)[0]:             # built by another process meanwhile
         return
