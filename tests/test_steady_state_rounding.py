@@ -120,3 +120,50 @@ def test_short_hoses_rest_state_from_the_guess_needs_no_continuation(length):
     # through the check valve to the tank (the accumulators at rest carry none)
     assert flows["return.manifold_flow"] > 0.0
     assert flows["return.manifold_flow"] == pytest.approx(flows["return_port_flow"], rel=1e-6)
+
+
+@pytest.mark.skipif(not compiled.available(), reason="no C compiler")
+def test_new_numbers_rest_state_starts_from_the_kept_neighbour():
+    """Issue 25: ``simulate()`` with new numbers in one process starts the new rig's rest state
+    from the last kept model of the same states (its rest state and inverse Jacobian: no
+    shifted steps), instead of the components' guess. The rest state is the one a fresh
+    process finds from the guess, within the solver's tolerance (states within 1e-6 of their
+    scales, as above), f(x) = 0 by the NumPy right-hand side to the rounding bound, and the
+    run agrees with a fresh one to the integration's accuracy (traces within 1e-4 of their
+    excursion: rtol 1e-6 keeps them within ~1e-5, simulate's docstring)."""
+    from hydroline.scenarios.running import Simulation
+
+    kept = Simulation()
+    kept.run(load_rig(None))
+    rig = load_rig(None).set("supply.accumulator.capacity", "1.3 L")
+    near = kept.run(rig)
+    (_, _, net, ss), = list(kept.models.values())[-1:]
+    assert ss.shifted_steps == 0 and not ss.fallback
+    fresh_sim = Simulation()
+    fresh = fresh_sim.run(rig)
+    (_, _, _, ref), = fresh_sim.models.values()
+    assert ref.shifted_steps > 0            # the guess's start needed them
+    assert np.all(np.abs(ss.x - ref.x) <= 1e-6 * net.state_scales)
+    f = net.rhs(0.0, ss.x, ss.p) / net.state_scales
+    assert np.max(np.abs(f)) < steady_state.ROUNDING_RESIDUAL
+    for k in ("supply_port_pressure", "return_port_pressure", "piston_position"):
+        assert np.max(np.abs(near[k] - fresh[k])) < 1e-4 * np.ptp(fresh[k]), k
+    again = kept.run(load_rig(None))        # the same numbers: the kept rest state itself
+    assert np.array_equal(again["supply_port_pressure"],
+                          Simulation().run(load_rig(None))["supply_port_pressure"])
+
+
+def test_polished_rest_state_has_the_same_bits_from_two_starts():
+    """Two converged states 1e-14 apart (two paths to one root, rounding-level apart: what a
+    neighbour's start and the components' guess give) are polished onto the same grid point
+    of 2**-30 of the scales and one Newton step from there: the same bits, within rounding of
+    the root (the linear model's exact root x*). The root sits mid-cell of the grid, so
+    neither start straddles a grid boundary."""
+    model = NoisyLinear(noise=0.0)
+    scales = np.ones(3)
+    grid = 2.0 ** -steady_state.CANONICAL_BITS
+    model.x_star = (np.floor(model.x_star / grid) + 0.5) * grid      # mid-cell
+    a = steady_state.polished(model, 0.0, model.x_star + 1e-14, None, scales, 1e-9)
+    b = steady_state.polished(model, 0.0, model.x_star - 1e-14, None, scales, 1e-9)
+    assert np.array_equal(a, b)
+    assert np.all(np.abs(a - model.x_star) <= 1e-15 * np.maximum(np.abs(model.x_star), 1.0))

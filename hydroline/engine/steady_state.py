@@ -9,6 +9,7 @@ until nothing changes.
 """
 from __future__ import annotations
 
+import math
 import weakref
 from dataclasses import dataclass
 
@@ -424,7 +425,7 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
 
 
 def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,
-                       max_rounds: int = 3) -> SteadyState:
+                       max_rounds: int = 3, like: Network | None = None) -> SteadyState:
     """Solve ``f(t0, x) = 0`` for the whole network (docs/model.md 6), then let components settle.
 
     Newton's method with the compiled model's exact Jacobian (in C where a compiler exists),
@@ -446,16 +447,20 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
         Required scaled residual, [1/s]
     max_rounds : int
         Solve-and-settle rounds at most (components adopting the rest state)
+    like : Network or None
+        A network of the same states solved before (a rig differing in numbers): its last
+        solve's inverse Jacobian starts this one's chord steps (:func:`_newton`; they are
+        taken only while each cuts the residual to :data:`CHORD_RATE`)
 
     Returns
     -------
     SteadyState
     """
     with one_blas_thread():     # (small dense solves: extra BLAS threads only spin)
-        return _solve_steady_state(network, t0, x_guess, tol, max_rounds)
+        return _solve_steady_state(network, t0, x_guess, tol, max_rounds, like)
 
 
-def _solve_steady_state(network, t0, x_guess, tol, max_rounds):
+def _solve_steady_state(network, t0, x_guess, tol, max_rounds, like=None):
     model = _rest_functions(network)
     scales = network.state_scales
     p = network.parameter_values.copy()
@@ -465,11 +470,14 @@ def _solve_steady_state(network, t0, x_guess, tol, max_rounds):
     chord = None
     if len(scales) <= CHORD_STATES:     # kept through the rounds, and for the next solve of
         chord = _CHORDS.setdefault(network, {})     # this network (a sweep's next variant)
+        if not chord and like is not None and like.state_names == network.state_names:
+            chord.update(_CHORDS.get(like, {}))
     counts, fallback = {}, False
     for _ in range(max_rounds):
         x_newton, converged = _newton(model, t0, x, p, scales, tol, chord=chord, counts=counts)
         fallback |= not converged
         x = x_newton if converged else pseudo_transient(model, t0, x, p, scales, tol)
+        x = polished(model, t0, x, p, scales, tol)      # (what settles: the same bits)
         changed = bool(settling) and settle_components(network, settling, x, p,
                                                  _signals(model, network, t0, x, p))
         res, k = _scaled_residual(model, t0, x, p, scales)
@@ -483,6 +491,71 @@ def _solve_steady_state(network, t0, x_guess, tol, max_rounds):
             state=network.state_names[k], residual=res)
     return SteadyState(x, p, res, network.state_names[k], counts.get("newton", 0),
                        counts.get("shifted", 0), fallback)
+
+
+#: The grid of the scaled states (2 to the minus this) that :func:`polished` starts its last
+#: Newton step from, [-].
+CANONICAL_BITS = 30
+
+
+#: Longest step (scaled states) :func:`polished` takes from the grid point, [-]: a thousand
+#: grid steps.
+POLISH_STEP = 1e3 * 2.0 ** -CANONICAL_BITS
+
+
+def polished(model, t0, x, p, scales, tol):
+    """The converged rest state x made independent of the path that reached it: rounded to a
+    grid of 2**-:data:`CANONICAL_BITS` of each state's scale, then one Newton step with the
+    Jacobian taken there. Two starts (the components' guess, a neighbour rig's rest state,
+    each with its own chord inverse) end within ~1e-14 of the scales, on the same grid point
+    but where they straddle one (odds ~1e-5 a state), and so on the same bits: what the
+    components settle to from it (an accumulator's charge, a sampled controller's held
+    current) too, and a run's rows do not depend on what ran before it. (Without this, a
+    1e-14 difference of the start flips step decisions of the integrator and moves the
+    rows by ~1e-5 of their excursion.) Every solve-and-settle round ends with it. The step
+    from the grid,
+    ~1e-9 away, lands within rounding of the root; where it is longer than
+    :data:`POLISH_STEP` (a singular Jacobian: a state free at rest, as the piston under a
+    held valve current) or does not lower the residual to the solver's tolerance (or twice
+    the given state's), x is kept as it was.
+
+    Parameters
+    ----------
+    model : object
+        The rest-state functions (``rhs``, the Jacobian and its solves)
+    t0 : float
+        Time, [s]
+    x : ndarray
+        The converged rest state, [SI]
+    p : ndarray
+        Runtime parameters, [SI]
+    scales : ndarray
+        The states' scales, [SI]
+    tol : float
+        The solver's scaled-residual tolerance, [1/s]
+
+    Returns
+    -------
+    ndarray
+        The polished rest state, [SI] (x where the step does not hold).
+    """
+    grid = 2.0 ** -CANONICAL_BITS
+    z = np.round(x / scales / grid) * grid
+    r = model.rhs(t0, z * scales, p) / scales
+    try:
+        dz = _solve_shifted(model, t0, z * scales, p, scales, 0.0, r,
+                            dense=len(scales) <= CHORD_STATES)
+    except np.linalg.LinAlgError:
+        return x
+    if not np.all(np.abs(dz) <= POLISH_STEP):     # (a free direction: a sampled
+        return x                                    # controller's held piston position)
+    x_new = (z + dz) * scales
+    r_new = model.rhs(t0, x_new, p) / scales
+    r_old = model.rhs(t0, x, p) / scales
+    if not np.all(np.isfinite(r_new)) or \
+            np.max(np.abs(r_new)) > max(tol, 2.0 * np.max(np.abs(r_old))):
+        return x
+    return x_new
 
 
 def settle_components(network: Network, components, x, p, signals: dict) -> bool:
