@@ -32,6 +32,8 @@ SETTINGS = {
     "1e-5/1e-6": dict(rtol=1e-5, atol_scale=1e-6),
     "1e-6, 1e-4 after stop": dict(rtol=1e-6, atol_scale=1e-7, after_stop_rtol=1e-4),
     "1e-6, 1e-5 after stop": dict(rtol=1e-6, atol_scale=1e-7, after_stop_rtol=1e-5),
+    "1e-6, 3e-5 after stop": dict(rtol=1e-6, atol_scale=1e-7, after_stop_rtol=3e-5),
+    "1e-6, 3e-4 after stop": dict(rtol=1e-6, atol_scale=1e-7, after_stop_rtol=3e-4),
     "3e-6, 1e-4 after stop": dict(rtol=3e-6, atol_scale=3e-7, after_stop_rtol=1e-4),
     "1e-7, 1e-4 after stop": dict(rtol=1e-7, atol_scale=1e-8, after_stop_rtol=1e-4),
     "1e-8/1e-9": dict(rtol=1e-8, atol_scale=1e-9),
