@@ -971,7 +971,7 @@ static int hl_radau_step(hl_solver* S) {
     else if (h_abs < min_step) { h_abs = min_step; h_old = -1.; err_old = -1.; }
     double tol = fmax(10. * 2.2e-16 / S->rtol, fmin(0.03, sqrt(S->rtol)));
     double t_new = t, error_norm = 0., safety = HL_SAFETY, rate = -1.;
-    int rejected = 0, n_iter = 1;
+    int rejected = 0, shrunk = 0, n_iter = 1;   /* shrunk: a try of this step failed */
     if (!S->have_jac) hl_radau_jacobian(S, t, y);
     for (;;) {
         if (h_abs < min_step) return -1;
@@ -995,6 +995,7 @@ static int hl_radau_step(hl_solver* S) {
             S->nnewton_fail++;
             h_abs *= 0.5;
             S->faccon = 1.;
+            shrunk = 1;
             continue;
         }
         for (int n = 0; n < HL_N; n++) y_new[n] = y[n] + Z[2][n];
@@ -1029,6 +1030,7 @@ static int hl_radau_step(hl_solver* S) {
             double factor = hl_radau_factor_of(h_abs, h_old, error_norm, err_old);
             h_abs *= fmax(HL_MIN_FACTOR, safety * factor);
             rejected = 1;
+            shrunk = 1;
             continue;
         }
         break;
@@ -1036,6 +1038,11 @@ static int hl_radau_step(hl_solver* S) {
     int recompute_jac = n_iter > 2 && rate > 1e-3;
     double factor = fmin(HL_MAX_FACTOR, safety * hl_radau_factor_of(h_abs, h_old, error_norm, err_old));
     if (!recompute_jac && factor < 1.2) factor = 1.;   /* keep the step (and the factors) */
+    /* no growth right after a failed try (RADAU5's rule, which SciPy's Radau leaves out):
+     * at the piston's impact a step accepted just after a rejection has a tiny error, the
+     * step grew 10x onto the contact again and failed again (five rounds of a Newton failure,
+     * a rejection and a factorisation pair each on the 0.3 m hose) */
+    if (shrunk && factor > 1.) factor = 1.;
     hl_eval_f(S, fmin(t_new, S->t_left), y_new, f_new);
     S->nsteps++;
     memcpy(S->ry_old, y, sizeof(double) * HL_N);
