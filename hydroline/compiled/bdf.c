@@ -1000,6 +1000,7 @@ static int hl_radau_step(hl_solver* S) {
     double tol = fmax(10. * 2.2e-16 / S->rtol, fmin(0.03, sqrt(S->rtol)));
     double t_new = t, error_norm = 0., safety = HL_SAFETY, rate = -1.;
     int rejected = 0, shrunk = 0, n_iter = 1;   /* shrunk: a try of this step failed */
+    int jac_at_end = 0;     /* the Jacobian is the one at the end of a failed try */
     if (!S->have_jac) hl_radau_jacobian(S, t, y);
     for (;;) {
         if (h_abs < min_step) return -1;
@@ -1016,7 +1017,15 @@ static int hl_radau_step(hl_solver* S) {
             rate = -1.;
             converged = hl_radau_newton(S, t, y, h, Z, winv, tol, &n_iter, &rate);
             if (converged || S->current_jac) break;
-            hl_radau_jacobian(S, t, y);       /* a stale Jacobian: fresh one, same step */
+            /* a stale Jacobian: a fresh one, same step, at the last iterate's end of the
+             * step (where the next step starts) where that is finite, else at its start */
+            if (S->last_nonfinite < 0) {
+                for (int n = 0; n < HL_N; n++) y_new[n] = y[n] + Z[2][n];
+                hl_radau_jacobian(S, fmin(t_new, S->t_left), y_new);
+                jac_at_end = 1;
+            } else {
+                hl_radau_jacobian(S, t, y);
+            }
             hl_radau_predict(S, t, h, Z);
         }
         if (!converged) {
@@ -1024,6 +1033,8 @@ static int hl_radau_step(hl_solver* S) {
             h_abs *= 0.5;
             S->faccon = 1.;
             shrunk = 1;
+            /* the end-of-step Jacobian kept for one shorter try, then the start's */
+            if (jac_at_end && ++jac_at_end > 2) { hl_radau_jacobian(S, t, y); jac_at_end = 0; }
             continue;
         }
         for (int n = 0; n < HL_N; n++) y_new[n] = y[n] + Z[2][n];
