@@ -1076,11 +1076,13 @@ static int hl_radau_step(hl_solver* S) {
     }
     int recompute_jac = n_iter > 2 && rate > 1e-3;
     double factor = fmin(HL_MAX_FACTOR, safety * hl_radau_factor_of(h_abs, h_old, error_norm, err_old));
-    /* growth no larger than the last step's error allows: on a ringing line the error
-     * estimate rises and falls with the ringing's phase, and a step grown at its dip was
-     * rejected at the next rise (0.3 m hose, after the stop: every ~10th step, a
-     * factorisation pair for the rejection and one for the regrowth) */
-    if (factor > 1. && err_old > error_norm && !rejected)
+    /* after a sudden fall of the error (below half the last step's), growth no larger than
+     * the last step's error allows: on a ringing line the error estimate rises and falls
+     * with the ringing's phase, and a step grown at its dip was rejected at the next rise
+     * (0.3 m hose, after the stop: every ~10th step, a factorisation pair for the rejection
+     * and one for the regrowth). On any fall it slowed the growth after the closed-loop
+     * sine's valve reversals: 1 578 steps instead of 1 395; on a fall by half, 1 477. */
+    if (factor > 1. && err_old > 2. * error_norm && !rejected)
         factor = fmax(1., fmin(factor, safety * pow(err_old, -0.25)));
     if (!recompute_jac && factor < 1.2) factor = 1.;   /* keep the step (and the factors) */
     /* no growth right after a failed try (RADAU5's rule, which SciPy's Radau leaves out):
