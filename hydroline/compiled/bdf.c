@@ -119,6 +119,11 @@ typedef struct {
     double zl[2][HL_NLU], zu[2][HL_NLU], zd[2][HL_NE];
     double h_abs_old, err_old, faccon, h_lu;
     int have_jac, current_jac, have_sol;
+    /* the step at which Newton's iteration last failed, halved (INFINITY: none): no step
+     * grows past it until HL_RADAU_PROBE_STEPS steps have converged in two iterations, then it
+     * doubles; and the count of those steps */
+    double h_newton;
+    int newton_good;
 } hl_solver;
 
 static int hl_radau_step(hl_solver* S);
@@ -770,6 +775,15 @@ int hl_scaled_jacobian(const hl_solver* S, double t, const double* x, double* jn
  * one (mu_c/h I - J), each the bordered I - g J with g = h/mu (g complex for the second). The
  * constants are SciPy's (scipy/integrate/_ivp/radau.py), from Hairer & Wanner's RADAU5. */
 #define HL_RADAU_MAXITER 6
+#ifndef HL_RADAU_PROBE_STEPS
+/* After a Newton failure, steps well converged before the step may grow past the halved
+ * failing one (twice it, each time). The error test alone grew the step again at once, up to
+ * 10x: with the piston resting on its stop (its velocity through the friction's steep slope
+ * at zero speed), rtol 1e-3 on the 30-mode rig took 408 Newton failures and 1 054
+ * factorisation pairs, 43.5 ms; capped 77 and 340, 25.7 ms; other runs unchanged within 3 %
+ * with 10-30 % fewer factorisations (benchmarks/README.md, "Radau IIA by default") */
+#define HL_RADAU_PROBE_STEPS 10
+#endif
 static const double hl_rc[3] = {0.15505102572168222, 0.6449489742783178, 1.};
 static const double hl_rE[3] = {-10.048809399827414, 1.382142733160748, -0.3333333333333333};
 static const double hl_rT[3][3] = {{0.09443876248897524, -0.1412552950209542, 0.03002919410514742},
@@ -874,6 +888,7 @@ static void hl_lu_solve_z(const hl_solver* S, double* br, double* bi) {
 static void hl_radau_init(hl_solver* S, const double* f0) {
     memcpy(S->rf, f0, sizeof(double) * HL_N);
     S->h_abs_old = -1.; S->err_old = -1.; S->faccon = 1.;
+    S->h_newton = INFINITY; S->newton_good = 0;
     S->have_jac = 0; S->current_jac = 0; S->have_sol = 0;
 }
 
@@ -993,7 +1008,7 @@ static int hl_radau_step(hl_solver* S) {
     else if (h_abs < min_step) { h_abs = min_step; h_old = -1.; err_old = -1.; }
     double tol = fmax(10. * 2.2e-16 / S->rtol, fmin(0.03, sqrt(S->rtol)));
     double t_new = t, error_norm = 0., safety = HL_SAFETY, rate = -1.;
-    int rejected = 0, n_iter = 1;
+    int rejected = 0, n_iter = 1, newton_failed = 0;
     if (!S->have_jac) hl_radau_jacobian(S, t, y);
     for (;;) {
         if (h_abs < min_step) return -1;
@@ -1015,7 +1030,10 @@ static int hl_radau_step(hl_solver* S) {
         }
         if (!converged) {
             S->nnewton_fail++;
+            newton_failed = 1;
             h_abs *= 0.5;
+            S->h_newton = h_abs;
+            S->newton_good = 0;
             S->faccon = 1.;
             continue;
         }
@@ -1076,6 +1094,12 @@ static int hl_radau_step(hl_solver* S) {
     S->h_abs_old = h_abs;
     S->err_old = error_norm;
     S->h_abs = h_abs * factor;
+    if (S->h_newton < INFINITY) {         /* below the step Newton failed at (halved) */
+        if (!newton_failed && n_iter <= 2 && ++S->newton_good >= HL_RADAU_PROBE_STEPS) {
+            S->h_newton *= 2.; S->newton_good = 0;
+        }
+        if (S->h_abs > S->h_newton) S->h_abs = fmax(h_abs, S->h_newton);
+    }
     if (recompute_jac) hl_radau_jacobian(S, t_new, y);
     else S->current_jac = 0;
     return 0;
