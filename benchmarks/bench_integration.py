@@ -46,6 +46,16 @@ SETTINGS = {
     "radau 1e-5/1e-6": dict(solver="radau", rtol=1e-5, atol_scale=1e-6),
     "radau 3e-6/3e-7": dict(solver="radau", rtol=3e-6, atol_scale=3e-7),
     "radau 1e-6/1e-7": dict(solver="radau", rtol=1e-6, atol_scale=1e-7),
+    "radau 3e-5/3e-6": dict(solver="radau", rtol=3e-5, atol_scale=3e-6),
+    "radau 6e-5/6e-6": dict(solver="radau", rtol=6e-5, atol_scale=6e-6),
+    "radau 1e-4/1e-5": dict(solver="radau", rtol=1e-4, atol_scale=1e-5),
+    # simulate()'s default: the BDF, or Radau IIA at 30x the tolerances where the model's
+    # modes cap the BDF's orders (NativeSolver's method "auto")
+    "auto 1e-6/1e-7": dict(solver="auto", rtol=1e-6, atol_scale=1e-7),
+    "auto 1e-6, 1e-4 after stop": dict(solver="auto", rtol=1e-6, atol_scale=1e-7,
+                                       after_stop_rtol=1e-4),
+    "auto 1e-6, 1e-5 after stop": dict(solver="auto", rtol=1e-6, atol_scale=1e-7,
+                                       after_stop_rtol=1e-5),
 }
 
 

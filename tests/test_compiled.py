@@ -191,6 +191,50 @@ def test_stiff_modal_block_matches_the_matrix_exponential(solver):
     assert worst < 1e-5
 
 @needs_cc
+def test_auto_takes_radau_only_where_the_modes_cap_the_ndf_orders():
+    # solver="auto" (the default): Radau IIA at 100x the tolerances where the NDF order 3 is
+    # unstable above NativeSolver.RADAU_BELOW on the model's modes, the BDF elsewhere. The
+    # limits from the exact eigenvalues -zeta w +- i w sqrt(1 - zeta^2) of each block: a
+    # 10 kHz mode at 2 % damping holds order 3 to a few us (Radau), a 300 Hz one at 1 % to
+    # hundreds (BDF); Radau's answer meets the matrix exponential's within some hundred of its
+    # own (100x) tolerance
+    from scipy.linalg import expm
+    from hydroline.compiled.stability import order_step_limits
+
+    below = compiled.NativeSolver.RADAU_BELOW
+    factor = compiled.NativeSolver.RADAU_TOLERANCE_FACTOR
+    slow = oscillator_network(2 * np.pi * 300.0, 0.01)
+    w_s = 2 * np.pi * 300.0
+    assert order_step_limits(np.array([complex(-0.01 * w_s, w_s * np.sqrt(1 - 1e-4))]))[2] > below
+    res = integrate(slow, np.zeros(2), 0.02, dt_out=1e-4, solver="auto", rtol=1e-6,
+                    atol_scale=1e-7)
+    assert res.metadata["solver"] == "compiled"
+
+    omegas, zetas, gains, u = (2 * np.pi * 40.0, 2 * np.pi * 1e4), (0.01, 0.02), (1.0, 0.5), 1e-3
+    w, z = omegas[1], zetas[1]
+    assert order_step_limits(np.array([complex(-z * w, w * np.sqrt(1 - z * z))]))[2] < below
+    net = Network([Hold(name="source", value=u),
+                   ModalBlock(name="m", omegas=omegas, zetas=zetas, gains=gains)])
+    n = 2 * len(omegas)
+    A, b = np.zeros((n, n)), np.zeros(n)
+    for i, (wi, zi, g) in enumerate(zip(omegas, zetas, gains)):
+        A[2 * i, 2 * i + 1] = 1.0
+        A[2 * i + 1, 2 * i], A[2 * i + 1, 2 * i + 1] = -wi * wi, -2 * zi * wi
+        b[2 * i + 1] = wi * wi * g * u
+    x0 = np.zeros(n)
+    x0[0] = 2e-3
+    rtol = 1e-8
+    res = integrate(net, x0, 0.02, dt_out=2e-4, solver="auto", rtol=rtol, atol_scale=rtol / 10)
+    assert res.metadata["solver"] == "radau"
+    assert res.metadata["rtol"] == rtol          # the user's; Radau steps at factor x it
+    k = 50                                       # 10 ms
+    E = expm(A * res.t[k])
+    exact = E @ x0 + np.linalg.solve(A, (E - np.eye(n)) @ b)
+    got = np.array([res[name][k] for name in net.state_names])
+    assert abs(got[0] - exact[0]) / 2e-3 < 300 * factor * rtol
+
+
+@needs_cc
 @pytest.mark.parametrize("solver", ["compiled", "radau"])
 def test_a_segment_at_rest_ends_on_its_breakpoint_in_few_steps(solver):
     # at rest up to a step at 10 ms: the exact solution is constant there, so the steps grow

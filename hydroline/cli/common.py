@@ -395,10 +395,11 @@ def add_solver_option(parser):
     parser.add_argument("--solver", default="auto",
                         choices=("auto", "compiled", "radau", "cvodes", "scipy"),
                         help="auto (default: the compiled C core where a C compiler exists, else "
-                        "CVODES), compiled (its variable-order BDF), radau (the compiled core's "
-                        "Radau IIA, order 5, which keeps its order on short hoses' and many "
-                        "modes' lightly damped upper modes; docs/engine.md), cvodes (CasADi + "
-                        "SUNDIALS) or the reference SciPy path")
+                        "CVODES; its BDF, or its Radau IIA at 100x the tolerances where the "
+                        "model's lightly damped upper modes cap the BDF's orders: short hoses, "
+                        "many modes), compiled (its variable-order BDF), radau (the compiled "
+                        "core's Radau IIA, order 5, at the tolerances given; docs/engine.md), "
+                        "cvodes (CasADi + SUNDIALS) or the reference SciPy path")
 
 
 def add_settling_band_option(parser):

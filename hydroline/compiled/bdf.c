@@ -118,8 +118,16 @@ typedef struct {
     int method;
     double rZ[3][HL_N], rQ[3][HL_N], ry_old[HL_N], rf[HL_N];
     double luz[2 * HL_NLU];
+    /* the complex factors again in the order the solve reads them (hl_lu_rows_z): L's and U's
+     * entries row by row, and U's inverted diagonal, real and imaginary parts apart */
+    double zl[2][HL_NLU], zu[2][HL_NLU], zd[2][HL_NE];
     double h_abs_old, err_old, faccon, h_lu;
     int have_jac, current_jac, have_sol;
+    /* the step at which Newton's iteration last failed, halved (INFINITY: none): no step
+     * grows past it until HL_RADAU_PROBE_STEPS steps have converged in two iterations, then it
+     * doubles; and the count of those steps */
+    double h_newton;
+    int newton_good;
 } hl_solver;
 
 static int hl_radau_step(hl_solver* S);
@@ -795,6 +803,15 @@ int hl_scaled_jacobian(const hl_solver* S, double t, const double* x, double* jn
  * one (mu_c/h I - J), each the bordered I - g J with g = h/mu (g complex for the second). The
  * constants are SciPy's (scipy/integrate/_ivp/radau.py), from Hairer & Wanner's RADAU5. */
 #define HL_RADAU_MAXITER 6
+#ifndef HL_RADAU_PROBE_STEPS
+/* After a Newton failure, steps well converged before the step may grow past the halved
+ * failing one (twice it, each time). The error test alone grew the step again at once, up to
+ * 10x: with the piston resting on its stop (its velocity through the friction's steep slope
+ * at zero speed), rtol 1e-3 on the 30-mode rig took 408 Newton failures and 1 054
+ * factorisation pairs, 43.5 ms; capped 77 and 340, 25.7 ms; other runs unchanged within 3 %
+ * with 10-30 % fewer factorisations (benchmarks/README.md, "Radau IIA by default") */
+#define HL_RADAU_PROBE_STEPS 10
+#endif
 static const double hl_rc[3] = {0.15505102572168222, 0.6449489742783178, 1.};
 static const double hl_rE[3] = {-10.048809399827414, 1.382142733160748, -0.3333333333333333};
 static const double hl_rT[3][3] = {{0.09443876248897524, -0.1412552950209542, 0.03002919410514742},
@@ -845,42 +862,61 @@ static int hl_lu_factor_z(const double* jnz, double gr, double gi, double* a) {
     return 0;
 }
 
-/* Solve (I - g J) x = b in place with hl_lu_factor_z's factors (b = br + i bi, states only):
- * both substitutions by rows (each unknown gathered once, re and im side by side in v) */
-static void hl_lu_solve_z(const double* a, double* br, double* bi) {
-    double v[2 * HL_NE];
+/* hl_lu_factor_z's factors (slots, re and im interleaved) copied into the order the solve
+ * reads them: each row's L and U entries in sequence, real and imaginary parts apart. The
+ * solve then reads its factors in sequence instead of through the slot tables, for one pass
+ * over the factors per factorisation. */
+static void hl_lu_rows_z(const double* a, double zl[2][HL_NLU], double zu[2][HL_NLU],
+                         double zd[2][HL_NE]) {
+    for (int m = 0; m < hl_lu_lrowstart[HL_NE]; m++) {
+        int s = hl_lu_lrslot[m];
+        zl[0][m] = a[2 * s]; zl[1][m] = a[2 * s + 1];
+    }
+    for (int q = 0; q < hl_lu_urowstart[HL_NE]; q++) {
+        int s = hl_lu_uslot[q];
+        zu[0][q] = a[2 * s]; zu[1][q] = a[2 * s + 1];
+    }
+    for (int k = 0; k < HL_NE; k++) {
+        int d = hl_lu_diag[k];
+        zd[0][k] = a[2 * d]; zd[1][k] = a[2 * d + 1];
+    }
+}
+
+/* Solve (I - g J) x = b in place with the complex factors in reading order (hl_lu_rows_z;
+ * b = br + i bi, states only): both substitutions by rows, each unknown gathered once */
+static void hl_lu_solve_z(const hl_solver* S, double* br, double* bi) {
+    const double *lr = S->zl[0], *li = S->zl[1], *ur = S->zu[0], *ui = S->zu[1];
+    double vr[HL_NE], vi[HL_NE];
     for (int i = 0; i < HL_NE; i++) {               /* L (unit diagonal) */
         int o = hl_lu_perm[i];
         double sr = o < HL_N ? br[o] : 0., si = o < HL_N ? bi[o] : 0.;
         for (int m = hl_lu_lrowstart[i]; m < hl_lu_lrowstart[i + 1]; m++) {
-            int k = hl_lu_lcol[m], s = hl_lu_lrslot[m];
-            double ar = a[2 * s], ai = a[2 * s + 1], xr = v[2 * k], xi = v[2 * k + 1];
-            sr -= ar * xr - ai * xi;
-            si -= ar * xi + ai * xr;
+            int k = hl_lu_lcol[m];
+            sr -= lr[m] * vr[k] - li[m] * vi[k];
+            si -= lr[m] * vi[k] + li[m] * vr[k];
         }
-        v[2 * i] = sr; v[2 * i + 1] = si;
+        vr[i] = sr; vi[i] = si;
     }
     for (int k = HL_NE - 1; k >= 0; k--) {          /* U; its diagonal stored inverted */
-        double sr = v[2 * k], si = v[2 * k + 1];
+        double sr = vr[k], si = vi[k];
         for (int q = hl_lu_urowstart[k]; q < hl_lu_urowstart[k + 1]; q++) {
-            int j = hl_lu_ucol[q], s = hl_lu_uslot[q];
-            double ar = a[2 * s], ai = a[2 * s + 1], xr = v[2 * j], xi = v[2 * j + 1];
-            sr -= ar * xr - ai * xi;
-            si -= ar * xi + ai * xr;
+            int j = hl_lu_ucol[q];
+            sr -= ur[q] * vr[j] - ui[q] * vi[j];
+            si -= ur[q] * vi[j] + ui[q] * vr[j];
         }
-        int d = hl_lu_diag[k];
-        v[2 * k] = sr * a[2 * d] - si * a[2 * d + 1];
-        v[2 * k + 1] = sr * a[2 * d + 1] + si * a[2 * d];
+        vr[k] = sr * S->zd[0][k] - si * S->zd[1][k];
+        vi[k] = sr * S->zd[1][k] + si * S->zd[0][k];
     }
     for (int k = 0; k < HL_NE; k++) {
         int o = hl_lu_perm[k];
-        if (o < HL_N) { br[o] = v[2 * k]; bi[o] = v[2 * k + 1]; }
+        if (o < HL_N) { br[o] = vr[k]; bi[o] = vi[k]; }
     }
 }
 
 static void hl_radau_init(hl_solver* S, const double* f0) {
     memcpy(S->rf, f0, sizeof(double) * HL_N);
     S->h_abs_old = -1.; S->err_old = -1.; S->faccon = 1.;
+    S->h_newton = INFINITY; S->newton_good = 0;
     S->have_jac = 0; S->current_jac = 0; S->have_sol = 0;
 }
 
@@ -905,6 +941,7 @@ static int hl_radau_factor(hl_solver* S, double h) {
     }
     double m2 = HL_MU_RE * HL_MU_RE + HL_MU_IM * HL_MU_IM;     /* g = h / mu_c */
     if (hl_lu_factor_z(S->jnz, h * HL_MU_RE / m2, -h * HL_MU_IM / m2, S->luz) != 0) return -1;
+    hl_lu_rows_z(S->luz, S->zl, S->zu, S->zd);
     S->have_lu = 1;
     S->h_lu = h;
     return 0;
@@ -944,7 +981,7 @@ static int hl_radau_newton(hl_solver* S, double t, const double* y, double h, do
             dim[n] = gcr * bi + gci * br;
         }
         hl_solve(S, dr);
-        hl_lu_solve_z(S->luz, dre, dim);
+        hl_lu_solve_z(S, dre, dim);
         double s2 = 0.;
         {
             double a1 = hl_wrms(dr, winv), a2 = hl_wrms(dre, winv), a3 = hl_wrms(dim, winv);
@@ -1001,6 +1038,7 @@ static int hl_radau_step(hl_solver* S) {
     double t_new = t, error_norm = 0., safety = HL_SAFETY, rate = -1.;
     int rejected = 0, shrunk = 0, n_iter = 1;   /* shrunk: a try of this step failed */
     int jac_at_end = 0;     /* the Jacobian is the one at the end of a failed try */
+    int newton_failed = 0;
     if (!S->have_jac) hl_radau_jacobian(S, t, y);
     for (;;) {
         if (h_abs < min_step) return -1;
@@ -1030,7 +1068,10 @@ static int hl_radau_step(hl_solver* S) {
         }
         if (!converged) {
             S->nnewton_fail++;
+            newton_failed = 1;
             h_abs *= 0.5;
+            S->h_newton = h_abs;
+            S->newton_good = 0;
             S->faccon = 1.;
             shrunk = 1;
             /* the end-of-step Jacobian kept for one shorter try, then the start's */
@@ -1108,6 +1149,12 @@ static int hl_radau_step(hl_solver* S) {
     S->h_abs_old = h_abs;
     S->err_old = error_norm;
     S->h_abs = h_abs * factor;
+    if (S->h_newton < INFINITY) {         /* below the step Newton failed at (halved) */
+        if (!newton_failed && n_iter <= 2 && ++S->newton_good >= HL_RADAU_PROBE_STEPS) {
+            S->h_newton *= 2.; S->newton_good = 0;
+        }
+        if (S->h_abs > S->h_newton) S->h_abs = fmax(h_abs, S->h_newton);
+    }
     if (recompute_jac) hl_radau_jacobian(S, t_new, y);
     else S->current_jac = 0;
     return 0;

@@ -250,7 +250,8 @@ class NativeModel:
             (:mod:`.stability`; False: the orders are chosen by accuracy
             alone, as before)
         method : str
-            "bdf": the variable-order NDF/BDF; "radau": Radau IIA of order 5
+            "bdf": the variable-order NDF/BDF; "radau": Radau IIA of order 5;
+            "auto": one of them by the model's modes at the first step
             (:class:`NativeSolver`)
 
         Returns
@@ -290,7 +291,10 @@ class NativeSolver:
     method : str
         "bdf" (the default): the variable-order NDF/BDF of ``bdf.c``;
         "radau": the three-stage Radau IIA collocation method of order 5
-        (L-stable: no order limits; no fixed-step mode)
+        (L-stable: no order limits; no fixed-step mode); "auto": Radau IIA
+        at ``RADAU_TOLERANCE_FACTOR`` times the tolerances where the model's
+        modes hold the NDF order 3 below ``RADAU_BELOW`` (decided before
+        the first step, :attr:`chosen_method`), else the BDF
     """
 
     #: Most steps one :meth:`advance` call may take before it gives up (a stalled run returns
@@ -300,15 +304,34 @@ class NativeSolver:
     #: Integration methods of the C core, name -> its number in ``hl_set_method``
     METHODS = {"bdf": 0, "radau": 1}
 
+    #: method="auto" takes Radau IIA where the NDF order 3 is unstable above this step on the
+    #: model's modes (:mod:`.stability`), [s]: there the BDF's steps are held at order 2 or at
+    #: that limit, where Radau's are set by accuracy. Measured (benchmarks/README.md, "Radau
+    #: IIA by default"): Radau's CPU against the BDF's 1.08x at 158 us (the default rig), 1.0x
+    #: at 51-53 us, 0.78x at 33 us (20 modes), 0.62x at 22 us (30 modes)
+    RADAU_BELOW = 40e-6
+
+    #: method="auto" runs Radau IIA at this times the given rtol and atol: where its error
+    #: matches the BDF's at the given ones (BDF 1e-6 against Radau 1e-4, the worst metric: the
+    #: 0.3 m hose 0.44 and 0.43 %; 30 modes per section 4.2 and 0.017 %), [-]
+    RADAU_TOLERANCE_FACTOR = 100.0
+
     def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
                  newton_coef, order_limits: bool = True, method: str = "bdf"):
         if not (rtol > 0 and atol > 0):
             raise ValueError(f"rtol and atol must be > 0 [-], got {rtol!r} and {atol!r}")
-        if method not in self.METHODS:
-            raise ValueError(f"method must be one of {', '.join(self.METHODS)}, got {method!r}")
+        if method not in self.METHODS and method != "auto":
+            raise ValueError(f"method must be one of {', '.join(self.METHODS)} or auto, got "
+                             f"{method!r}")
         if method == "radau" and fixed_step > 0:
             raise ValueError("fixed_step is a mode of the BDF method only (method='bdf')")
+        if method == "auto" and (fixed_step > 0 or not order_limits):
+            method = "bdf"          # (the choice reads the order limits; fixed step: the BDF's)
         self.method = method
+        # the method stepping (method="auto": "bdf" until the first step decides) and the
+        # factor its tolerances take over the given ones
+        self.chosen_method = "bdf" if method == "auto" else method
+        self._tolerance_factor = 1.0
         self.model = model
         lib = model.lib
         self._lib = lib
@@ -320,7 +343,7 @@ class NativeSolver:
         self._scale = np.ascontiguousarray(np.asarray(net.state_scales, dtype=float))
         self._t_bound = None
         # () : not yet set (before the first step); None: none (fixed step, or not asked)
-        self._limits = () if order_limits and not fixed_step > 0 and method == "bdf" else None
+        self._limits = () if order_limits and not fixed_step > 0 and method != "radau" else None
         self._start = None
         self._jnz = None                                  # (scaled_jacobian's buffer)
         self._h = lib.hl_new()
@@ -330,7 +353,7 @@ class NativeSolver:
         lib.hl_setup(self._h, self.p.ctypes.data, self._c.ctypes.data, self._scale.ctypes.data,
                      rtol, atol, *self._settings)
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
-        lib.hl_set_method(self._h, self.METHODS[method])
+        lib.hl_set_method(self._h, self.METHODS[self.chosen_method])
 
     def _checked_parameters(self, p) -> np.ndarray:
         p = np.atleast_1d(np.array(p, dtype=float))   # a copy: the caller may change its own
@@ -375,9 +398,10 @@ class NativeSolver:
         self.rtol, self.atol = float(rtol), float(atol)
         # (hl_setup sets numbers and settings only; the run's state stays; it clears the
         # order limits, set again here)
+        k = self._tolerance_factor
         self._lib.hl_setup(self._h, self.p.ctypes.data, self._c.ctypes.data,
-                           self._scale.ctypes.data, self.rtol, self.atol, *self._settings)
-        if self._limits:
+                           self._scale.ctypes.data, k * self.rtol, k * self.atol, *self._settings)
+        if self._limits and self.chosen_method == "bdf":
             arr = np.ascontiguousarray(self._limits, dtype=float)
             self._lib.hl_set_order_limits(self._h, arr.ctypes.data)
 
@@ -407,8 +431,20 @@ class NativeSolver:
         fast modes (:meth:`NativeModel.order_limits`, from the Jacobian at (t0, x0)); kept for
         the solver's life (a hose's modes are linear)."""
         self._limits = self.model.order_limits(self.scaled_jacobian_nonzeros(t0, x0))
+        if self.method == "auto" and self._limits[2] < self.RADAU_BELOW:
+            self._use_radau(t0, x0)
+            return
         arr = np.ascontiguousarray(self._limits, dtype=float)
         self._lib.hl_set_order_limits(self._h, arr.ctypes.data)
+
+    def _use_radau(self, t0: float, x0) -> None:
+        """method="auto" chose Radau IIA: its tolerances, and the segment started again with
+        it (before its first step)."""
+        self.chosen_method = "radau"
+        self._lib.hl_set_method(self._h, self.METHODS["radau"])
+        self._tolerance_factor = self.RADAU_TOLERANCE_FACTOR
+        self.set_tolerances(self.rtol, self.atol)
+        self._lib.hl_init(self._h, float(t0), x0.ctypes.data, float(self._t_bound))
 
     @property
     def order_limits(self) -> tuple:

@@ -33,8 +33,9 @@ from .network import Network
 
 __all__ = ["CompiledBackend", "CvodesBackend", "ScipyBackend", "make_backend", "SOLVERS"]
 
-#: Names accepted by ``solver=``; "auto" is "compiled" where a C compiler exists, else "cvodes";
-#: "radau" is the compiled core with its Radau IIA integrator instead of the BDF.
+#: Names accepted by ``solver=``; "auto" is the compiled core where a C compiler exists, else
+#: "cvodes": its BDF ("compiled"), or its Radau IIA ("radau") at 30x the tolerances where the
+#: model's modes hold the BDF's orders 3-5 to small steps (``NativeSolver``'s method "auto").
 SOLVERS = ("auto", "compiled", "cvodes", "scipy", "radau")
 
 
@@ -54,19 +55,22 @@ class CompiledBackend:
     atol_scale : float
         Absolute tolerance as a fraction of each state's scale, [-]
     method : str
-        The C core's integrator: "bdf" (variable-order NDF/BDF) or "radau"
-        (Radau IIA of order 5, :class:`hydroline.compiled.NativeSolver`)
+        The C core's integrator: "bdf" (variable-order NDF/BDF), "radau"
+        (Radau IIA of order 5) or "auto" (one of them by the model's modes,
+        :class:`hydroline.compiled.NativeSolver`)
     """
 
-    name = "compiled"
     chunked = True
 
     def __init__(self, network: Network, native, p, rtol: float, atol_scale: float,
                  method: str = "bdf"):
         self.n_signals = len(network.signal_names)
         self.solver = native.solver(p, rtol=rtol, atol=atol_scale, method=method)
-        if method != "bdf":
-            self.name = method
+
+    @property
+    def name(self) -> str:
+        """"compiled" (the BDF), or "radau" once the run steps with Radau IIA."""
+        return "compiled" if self.solver.chosen_method == "bdf" else self.solver.chosen_method
 
     def start(self, a: float, x, b: float, p) -> None:
         """Begin a segment.
@@ -455,7 +459,7 @@ def make_backend(network: Network, solver: str, p, rtol: float, atol_scale: floa
             # (an operation the C writer lacks, e.g. a long interpolation table, is by design)
         else:
             build_time = time.perf_counter() - tic
-            method = "radau" if solver == "radau" else "bdf"
+            method = {"radau": "radau", "auto": "auto"}.get(solver, "bdf")
             return (CompiledBackend(network, native, p, rtol, atol_scale, method), None,
                     build_time)
         build_time = time.perf_counter() - tic

@@ -196,9 +196,13 @@ def integrate(network: Network, x0, t_end: float, dt_out: float = 1e-4, p=None,
     p : array
         Runtime parameters, [SI] (network defaults when None)
     solver : str
-        "auto" (default: "compiled" where a C compiler is available, else
-        "cvodes"), "compiled" (the network as C code with a sparse-Jacobian
-        BDF integrator, :mod:`hydroline.compiled`; library cached on disk),
+        "auto" (default: the compiled core where a C compiler is available,
+        else "cvodes"; its BDF, or its Radau IIA at 100x ``rtol`` and
+        ``atol_scale`` where the model's lightly damped fast modes hold the
+        BDF's order 3 to steps below 40 us, docs/engine.md; the metadata's
+        "solver" says which), "compiled" (the network as C code with a
+        sparse-Jacobian BDF integrator, :mod:`hydroline.compiled`; library
+        cached on disk),
         "cvodes" (CasADi + SUNDIALS CVODES, exact sparse Jacobian), "scipy"
         (reference: per-component Python right-hand side, SciPy BDF) or
         "radau" (the compiled C core with Radau IIA of order 5 instead of its

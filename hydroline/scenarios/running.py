@@ -351,7 +351,9 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
         Output sampling interval, [s]
     solver : str
         "auto" (the compiled C core where a C compiler exists, else
-        "cvodes"), "compiled", "cvodes" (CasADi + CVODES), "scipy"
+        "cvodes"; its BDF, or its Radau IIA at 100x the tolerances where the
+        model's fast modes cap the BDF), "compiled" (its BDF), "cvodes"
+        (CasADi + CVODES), "scipy"
         (reference Python path) or "radau" (the C core's Radau IIA); see
         :func:`hydroline.engine.integrate`
     progress : callable
