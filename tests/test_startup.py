@@ -208,3 +208,48 @@ def test_the_command_asks_blas_for_one_thread_unless_the_user_chose():
     out = subprocess.run([sys.executable, "-c", code], env=dict(env, OMP_NUM_THREADS="3"),
                          capture_output=True, text=True, check=True).stdout.split()
     assert out == ["1", "3"]
+
+
+def test_recorded_rest_state_is_the_solved_one(monkeypatch):
+    """A rest state read from the cache's table (``solve_steady_state(recorded=True)``, what
+    ``hydroline simulate`` does) has the bits of one solved from the components' guess; a
+    record whose states do not give the recorded residual is not used (solved again)."""
+    import json
+    import shutil
+    import uuid
+
+    from hydroline.cache import cache_dir
+    from hydroline.compiled import records
+    from hydroline.engine import solve_steady_state
+    from hydroline.rigs import load_rig
+    from hydroline.scenarios.experiments import build_scenario
+    from hydroline.system import build_circuit
+
+    kind = f"rest_states_test_{uuid.uuid4().hex[:8]}"
+    monkeypatch.setattr(records, "REST_STATES", kind)
+
+    def network():
+        rig = load_rig()
+        circuit = build_circuit(rig)
+        return circuit.network(build_scenario(rig, "open-loop-step", None,
+                                              axes=circuit.axes).commands)
+
+    def same(a, b):
+        assert a.x.tobytes() == b.x.tobytes() and a.p.tobytes() == b.p.tobytes()
+        assert (a.residual, a.worst_state) == (b.residual, b.worst_state)
+
+    try:
+        solved = solve_steady_state(network())
+        same(solve_steady_state(network(), recorded=True), solved)    # solved and recorded
+        (entry,) = (cache_dir() / kind).iterdir()
+        same(solve_steady_state(network(), recorded=True), solved)    # read
+        stored = json.loads(entry.read_text())
+        value = dict(stored["value"])
+        x = [float.fromhex(v) for v in value["x"]]
+        x[0] *= 1 + 1e-9                                   # a valid entry, another state
+        value["x"] = [v.hex() for v in x]
+        records.record_rest_state(stored["key"], value)
+        same(solve_steady_state(network(), recorded=True), solved)    # checked: solved again
+        assert json.loads(entry.read_text())["value"] == stored["value"]   # and re-recorded
+    finally:
+        shutil.rmtree(cache_dir() / kind, ignore_errors=True)

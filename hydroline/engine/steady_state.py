@@ -454,7 +454,8 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
         solve's inverse Jacobian starts this one's chord steps (:func:`_newton`; they are
         taken only while each cuts the residual to :data:`CHORD_RATE`)
     recorded : bool
-        Read the rest state from the cache's :data:`REST_STATES` table where a solve of
+        Read the rest state from the cache's table of rest states
+        (:func:`hydroline.compiled.records.recorded_rest_state`) where a solve of
         the same compiled model, numbers, start and settings stored it (checked by one
         evaluation of f, whose scaled residual must be the one recorded: the same bits as
         the solve), and store it there after a solve; from the components' guess on the
@@ -468,12 +469,8 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
         return _solve_steady_state(network, t0, x_guess, tol, max_rounds, like, recorded)
 
 
-#: Table kind (:mod:`hydroline.cache`) of the rest states :func:`solve_steady_state` records.
-REST_STATES = "rest_states"
-
-
 def _rest_record_key(model, network, x, t0, tol, max_rounds) -> str | None:
-    """Key of a rest state in :data:`REST_STATES`: the compiled model's numbers record key
+    """Key of a recorded rest state: the compiled model's numbers record key
     (structure and code), its constants (the numbers), the runtime parameters, the state
     scales, the start, the settings and this module's source; None off the compiled core."""
     from .fingerprint import Undescribable, module_source_tag
@@ -495,9 +492,9 @@ def _rest_record_key(model, network, x, t0, tol, max_rounds) -> str | None:
 
 def _recorded_rest_state(record, model, network, t0) -> SteadyState | None:
     """The rest state stored under ``record`` where f at it has the recorded residual."""
-    from ..cache import load_table
+    from ..compiled.records import recorded_rest_state
 
-    value = load_table(REST_STATES, record)
+    value = recorded_rest_state(record)
     try:
         x = np.array([float.fromhex(v) for v in value["x"]])
         p = np.array([float.fromhex(v) for v in value["p"]])
@@ -550,9 +547,9 @@ def _solve_steady_state(network, t0, x_guess, tol, max_rounds, like=None, record
     ss = SteadyState(x, p, res, network.state_names[k], counts.get("newton", 0),
                      counts.get("shifted", 0), fallback)
     if record is not None:
-        from ..cache import store_table
+        from ..compiled.records import record_rest_state
 
-        store_table(REST_STATES, record, {
+        record_rest_state(record, {
             "x": [v.hex() for v in x.tolist()], "p": [v.hex() for v in p.tolist()],
             "residual": res.hex(), "newton_steps": ss.newton_steps,
             "shifted_steps": ss.shifted_steps, "fallback": ss.fallback})
