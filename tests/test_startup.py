@@ -253,3 +253,33 @@ def test_recorded_rest_state_is_the_solved_one(monkeypatch):
         assert json.loads(entry.read_text())["value"] == stored["value"]   # and re-recorded
     finally:
         shutil.rmtree(cache_dir() / kind, ignore_errors=True)
+
+
+def test_rig_toml_from_the_cache_is_what_tomllib_reads(monkeypatch):
+    """A rig file's tables read again come from the cache (no parser) and equal tomllib's
+    reading of the text; text with a date (no JSON for it) is parsed each time; bad TOML is
+    one RigError naming the source."""
+    import shutil
+    import tomllib
+    import uuid
+
+    from hydroline import rigs
+    from hydroline.cache import cache_dir
+
+    kind = f"rig_toml_test_{uuid.uuid4().hex[:8]}"
+    monkeypatch.setattr(rigs, "TOML_TABLES", kind)
+    text = (rigs.SHIPPED_RIGS / rigs.DEFAULT_RIG).read_text(encoding="utf-8")
+    try:
+        first = rigs.parse_toml(text, "x")
+        assert len(list((cache_dir() / kind).iterdir())) == 1
+        monkeypatch.setattr(tomllib, "loads", None)   # read again: the parser is not called
+        assert rigs.parse_toml(text, "x") == first
+        monkeypatch.undo()
+        assert first == tomllib.loads(text)
+        monkeypatch.setattr(rigs, "TOML_TABLES", kind)
+        assert rigs.parse_toml("[rig]\nwhen = 2005-07-01\n", "x")["rig"]["when"].year == 2005
+        assert len(list((cache_dir() / kind).iterdir())) == 1
+        with pytest.raises(rigs.RigError, match="^y.toml: not valid TOML"):
+            rigs.parse_toml("[rig\n", "y.toml")
+    finally:
+        shutil.rmtree(cache_dir() / kind, ignore_errors=True)
