@@ -106,14 +106,15 @@ def test_background_builder_starts_without_numpy():
 
 def test_json_run_loads_only_what_it_uses(tmp_path):
     """``hydroline simulate --json`` (no --out): no files, and no pint, pandas, matplotlib,
-    dask, python-control or scipy.signal/stats/optimize in the process."""
+    dask, python-control or scipy.signal/stats/optimize in the process; no importlib.resources
+    (shipped rigs are read as files) and no difflib (only for messages)."""
     loaded = _loaded_modules(
         "import contextlib, io\nfrom hydroline.cli import main\n"
         f"import os; os.chdir({str(tmp_path)!r})\n"
         "with contextlib.redirect_stdout(io.StringIO()):\n"
         "    assert main(['simulate', '--json']) == 0\n")
     for heavy in ("pint", "pandas", "matplotlib", "dask", "control", "scipy.signal",
-                  "scipy.stats", "scipy.optimize"):
+                  "scipy.stats", "scipy.optimize", "importlib.resources", "zipfile", "difflib"):
         assert heavy not in loaded, heavy
     assert list(tmp_path.iterdir()) == []
 
