@@ -228,3 +228,21 @@ def test_a_simulation_object_keeps_its_own_models():
     run = inspect.signature(Simulation.run).parameters
     assert [p for name, p in inspect.signature(simulate).parameters.items()
             if name != "simulation"] == list(run.values())[1:]
+
+
+def test_a_model_built_before_its_run_is_built_once(monkeypatch):
+    """``Simulation.model`` (what ``hydroline simulate`` reads the model's size from) builds
+    the circuit the coming run integrates: the run does not build it again, and runs as a
+    simulation without it does."""
+    from hydroline.scenarios import running
+
+    built = []
+    build = running.build_circuit
+    monkeypatch.setattr(running, "build_circuit", lambda *a, **k: built.append(1) or build(*a, **k))
+    rig = load_rig()
+    sim = running.Simulation(models_kept=1)
+    circuit, sc, net = sim.model(rig, None, 0.02)
+    res = sim.run(rig, None, 0.02)
+    assert len(built) == 1 and next(iter(sim.models.values()))[2] is net
+    plain = running.Simulation(models_kept=1).run(rig, None, 0.02)
+    np.testing.assert_array_equal(res.data.to_numpy(), plain.data.to_numpy())
