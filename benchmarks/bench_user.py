@@ -99,6 +99,7 @@ def cold_and_warm(cmd, warm_cache: Path, work: Path, cold: int, repeat: int):
             colds.append(run(cmd, Path(empty), work))
             background_builds_ended(Path(empty))
     run(cmd, warm_cache, work)
+    background_builds_ended(warm_cache)   # (the warm-up's build: not beside the warm runs)
     warms = [run(cmd, warm_cache, work)[0] for _ in range(repeat)]
     cell = (f"{s(statistics.median(w for w, _ in colds))} "
             f"(CPU {s(statistics.median(c for _, c in colds))})") if colds else "-"

@@ -223,6 +223,26 @@ def test_a_simulation_object_keeps_its_own_models():
     sim.remember(("another", None, ""), "model")
     assert list(sim.models) == [("another", None, "")]      # one kept: the oldest went
     assert Simulation.model_key(rig, OpenLoopStep(t_end=0.02), None) is None
-    # simulate() is Simulation.run on the default object: the same keywords and defaults
+    # simulate() is Simulation.run on the default object (or on ``simulation``): the same
+    # keywords and defaults
     run = inspect.signature(Simulation.run).parameters
-    assert list(inspect.signature(simulate).parameters.values()) == list(run.values())[1:]
+    assert [p for name, p in inspect.signature(simulate).parameters.items()
+            if name != "simulation"] == list(run.values())[1:]
+
+
+def test_a_model_built_before_its_run_is_built_once(monkeypatch):
+    """``Simulation.model`` (what ``hydroline simulate`` reads the model's size from) builds
+    the circuit the coming run integrates: the run does not build it again, and runs as a
+    simulation without it does."""
+    from hydroline.scenarios import running
+
+    built = []
+    build = running.build_circuit
+    monkeypatch.setattr(running, "build_circuit", lambda *a, **k: built.append(1) or build(*a, **k))
+    rig = load_rig()
+    sim = running.Simulation(models_kept=1)
+    circuit, sc, net = sim.model(rig, None, 0.02)
+    res = sim.run(rig, None, 0.02)
+    assert len(built) == 1 and next(iter(sim.models.values()))[2] is net
+    plain = running.Simulation(models_kept=1).run(rig, None, 0.02)
+    np.testing.assert_array_equal(res.data.to_numpy(), plain.data.to_numpy())

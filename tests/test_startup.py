@@ -106,14 +106,15 @@ def test_background_builder_starts_without_numpy():
 
 def test_json_run_loads_only_what_it_uses(tmp_path):
     """``hydroline simulate --json`` (no --out): no files, and no pint, pandas, matplotlib,
-    dask, python-control or scipy.signal/stats/optimize in the process."""
+    dask, python-control or scipy.signal/stats/optimize in the process; no importlib.resources
+    (shipped rigs are read as files) and no difflib (only for messages)."""
     loaded = _loaded_modules(
         "import contextlib, io\nfrom hydroline.cli import main\n"
         f"import os; os.chdir({str(tmp_path)!r})\n"
         "with contextlib.redirect_stdout(io.StringIO()):\n"
         "    assert main(['simulate', '--json']) == 0\n")
     for heavy in ("pint", "pandas", "matplotlib", "dask", "control", "scipy.signal",
-                  "scipy.stats", "scipy.optimize"):
+                  "scipy.stats", "scipy.optimize", "importlib.resources", "zipfile", "difflib"):
         assert heavy not in loaded, heavy
     assert list(tmp_path.iterdir()) == []
 
@@ -208,3 +209,78 @@ def test_the_command_asks_blas_for_one_thread_unless_the_user_chose():
     out = subprocess.run([sys.executable, "-c", code], env=dict(env, OMP_NUM_THREADS="3"),
                          capture_output=True, text=True, check=True).stdout.split()
     assert out == ["1", "3"]
+
+
+def test_recorded_rest_state_is_the_solved_one(monkeypatch):
+    """A rest state read from the cache's table (``solve_steady_state(recorded=True)``, what
+    ``hydroline simulate`` does) has the bits of one solved from the components' guess; a
+    record whose states do not give the recorded residual is not used (solved again)."""
+    import json
+    import shutil
+    import uuid
+
+    from hydroline.cache import cache_dir
+    from hydroline.compiled import records
+    from hydroline.engine import solve_steady_state
+    from hydroline.rigs import load_rig
+    from hydroline.scenarios.experiments import build_scenario
+    from hydroline.system import build_circuit
+
+    kind = f"rest_states_test_{uuid.uuid4().hex[:8]}"
+    monkeypatch.setattr(records, "REST_STATES", kind)
+
+    def network():
+        rig = load_rig()
+        circuit = build_circuit(rig)
+        return circuit.network(build_scenario(rig, "open-loop-step", None,
+                                              axes=circuit.axes).commands)
+
+    def same(a, b):
+        assert a.x.tobytes() == b.x.tobytes() and a.p.tobytes() == b.p.tobytes()
+        assert (a.residual, a.worst_state) == (b.residual, b.worst_state)
+
+    try:
+        solved = solve_steady_state(network())
+        same(solve_steady_state(network(), recorded=True), solved)    # solved and recorded
+        (entry,) = (cache_dir() / kind).iterdir()
+        same(solve_steady_state(network(), recorded=True), solved)    # read
+        stored = json.loads(entry.read_text())
+        value = dict(stored["value"])
+        x = [float.fromhex(v) for v in value["x"]]
+        x[0] *= 1 + 1e-9                                   # a valid entry, another state
+        value["x"] = [v.hex() for v in x]
+        records.record_rest_state(stored["key"], value)
+        same(solve_steady_state(network(), recorded=True), solved)    # checked: solved again
+        assert json.loads(entry.read_text())["value"] == stored["value"]   # and re-recorded
+    finally:
+        shutil.rmtree(cache_dir() / kind, ignore_errors=True)
+
+
+def test_rig_toml_from_the_cache_is_what_tomllib_reads(monkeypatch):
+    """A rig file's tables read again come from the cache (no parser) and equal tomllib's
+    reading of the text; text with a date (no JSON for it) is parsed each time; bad TOML is
+    one RigError naming the source."""
+    import shutil
+    import tomllib
+    import uuid
+
+    from hydroline import rigs
+    from hydroline.cache import cache_dir
+
+    kind = f"rig_toml_test_{uuid.uuid4().hex[:8]}"
+    monkeypatch.setattr(rigs, "TOML_TABLES", kind)
+    text = (rigs.SHIPPED_RIGS / rigs.DEFAULT_RIG).read_text(encoding="utf-8")
+    try:
+        first = rigs.parse_toml(text, "x")
+        assert len(list((cache_dir() / kind).iterdir())) == 1
+        monkeypatch.setattr(tomllib, "loads", None)   # read again: the parser is not called
+        assert rigs.parse_toml(text, "x") == first
+        monkeypatch.undo()
+        assert first == tomllib.loads(text)
+        monkeypatch.setattr(rigs, "TOML_TABLES", kind)
+        assert rigs.parse_toml("[rig]\nwhen = 2005-07-01\n", "x")["rig"]["when"].year == 2005
+        assert len(list((cache_dir() / kind).iterdir())) == 1
+        with pytest.raises(rigs.RigError, match="^y.toml: not valid TOML"):
+            rigs.parse_toml("[rig\n", "y.toml")
+    finally:
+        shutil.rmtree(cache_dir() / kind, ignore_errors=True)

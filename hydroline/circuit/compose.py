@@ -53,7 +53,6 @@ group definitions of a base stay available to the file that extends it.
 from __future__ import annotations
 
 import copy
-import difflib
 import json
 
 from .types import COMPONENT_TYPES, CircuitError
@@ -104,6 +103,8 @@ def _shown(value) -> str:
 
 def _hint(name: str, known) -> str:
     """`` (did you mean 'x'?)`` for a close name among ``known``, else the first few names."""
+    import difflib   # (only for a message: not at every command's start)
+
     known = list(known)
     close = difflib.get_close_matches(name, known, n=1)
     if close:

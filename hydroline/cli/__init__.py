@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import errno
 import functools
+import gc
 import importlib
 import io
 import os
@@ -192,7 +193,10 @@ def main(argv=None) -> int:
     Parameters
     ----------
     argv : list of str or None
-        The arguments after ``hydroline`` (``sys.argv[1:]`` when None)
+        The arguments after ``hydroline`` (``sys.argv[1:]`` when None: the command's own
+        process, the installed script's or ``python -m hydroline``'s, which ends when this
+        returns: its objects are then frozen (``gc.freeze``), so that Python's shutdown does
+        not collect over them)
 
     Returns
     -------
@@ -200,6 +204,7 @@ def main(argv=None) -> int:
         Exit code: 0 success, 2 bad input (or no subcommand), 130 interrupted, 141 closed
         stdout, 143 terminated, or the subcommand's own
     """
+    process = argv is None           # the command's own process (the script, python -m)
     argv = sys.argv[1:] if argv is None else list(argv)
     if "numpy" not in sys.modules:   # a fresh process: one BLAS thread (the user's setting wins)
         single_threaded_blas()
@@ -220,6 +225,8 @@ def main(argv=None) -> int:
             sys.stdout, sys.stderr = streams
         if background:
             os.environ.pop(BACKGROUND_BUILD_ENV, None)
+        if process:   # the process ends now: Python's shutdown skips the garbage collections
+            gc.freeze()   # over every object left (~17 ms of a warm simulate --json's ~0.17 s)
 
 
 def _closed_streams_replaced() -> None:

@@ -7,7 +7,7 @@ import sys
 from .common import (SCHEMA_VERSION, add_settling_band_option, add_solver_option,
                      amplitude_cell, atomic_outputs,
                      dump_json, note_cost, out_dir, print_table, progress_printer, quantity,
-                     run_network, settling_cell, settling_legend)
+                     settling_cell, settling_legend)
 from .figure_process import claim_figure_process
 
 #: The files written to --out.
@@ -249,7 +249,12 @@ def _prepare(args, write, figures) -> int:
         raise ValueError(f"--dt-out: {args.dt_out} is longer than the run ({duration:g} s): "
                          f"results.csv would hold only its first and last rows; give at most "
                          f"{duration:g} s")
-    circuit, network = run_network(rig, scenario, duration)
+    # (the run's model, built once: its size for the estimates, then run; a rest state
+    # solved before for this model and numbers is read from the cache)
+    from ..scenarios.running import Simulation
+
+    simulation = Simulation(models_kept=1, recorded_rest_states=True)
+    circuit, _, network = simulation.model(rig, args.scenario, t_end)
     columns = 1 + len(network.signal_names) + len(network.state_names)
     fmt = getattr(args, "format", "csv")
     decimated = None
@@ -299,7 +304,7 @@ def _prepare(args, write, figures) -> int:
     watched = [k for k in axes_pressures(circuit.axes) if k in known]
     shown = [c for c in FIGURE_COLUMNS + ("position_reference",) if c in known]
     return _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures, watched,
-                figure_columns=shown, duration=duration)
+                figure_columns=shown, duration=duration, simulation=simulation)
 
 
 def figure_result(res, columns=None, metadata=("metrics_window", "t_disturbance", "scenario")):
@@ -410,7 +415,7 @@ def envelope_traces(envelope, metadata: dict, label: str = "the last rows",
 
 
 def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
-         watched=None, figure_columns=(), duration=None) -> int:
+         watched=None, figure_columns=(), duration=None, simulation=None) -> int:
     from ..scenarios.running import simulate
     from ..scenarios.summaries import summarize
     from ..plotting import plot_long_run, plot_result
@@ -454,7 +459,8 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
         # at simulate()'s looser tolerance after the stop, where no metric looks)
         res = simulate(rig, args.scenario, t_end, dt_out=h, solver=args.solver,
                        progress=progress_printer("simulating", not args.json),
-                       after_stop_rtol=None if write else "auto", **options)
+                       after_stop_rtol=None if write else "auto", simulation=simulation,
+                       **options)
         if stream is not None:
             summary = stream.summary(res)
             t0, t1 = summary["metrics_window_s"]

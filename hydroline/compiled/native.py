@@ -79,6 +79,19 @@ class NativeModel:
         self.found_by = found
         self.build_time = time.perf_counter() - tic
 
+    @property
+    def numbers_record_key(self) -> str | None:
+        """Key of the record of this model's structure, whose C takes the components'
+        numbers at run time (:func:`~hydroline.compiled.records.numbers_key`); None where the
+        network gives none.
+
+        Returns
+        -------
+        str or None
+            ``"numbers:<hex digest>"``, or None.
+        """
+        return self._numbers_key
+
     def _remember(self, key, found: str) -> None:
         """Record the model found or made (:meth:`_locate`): under its numbers key where its
         C takes the numbers (one record for all of them), else under its own key."""

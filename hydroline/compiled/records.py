@@ -19,7 +19,8 @@ from .toolchain import BDF_SOURCE, build_settings
 
 __all__ = ["model_fingerprint", "definition_key", "known_model", "known_structure",
            "structure_record_key", "remember_structure", "remember_model", "forget_record",
-           "numbers_key", "known_numbers_model", "remember_numbers_model"]
+           "numbers_key", "known_numbers_model", "remember_numbers_model", "REST_STATES",
+           "recorded_rest_state", "record_rest_state"]
 
 #: The compiled core's code generation, native model, records and integrator: a change makes
 #: old model records unused.
@@ -385,3 +386,39 @@ def forget_record(record: tuple, model_key: str | None, why: str) -> None:
     _MODELS.pop(model_key, None)
     _STRUCTURES.pop(record[1], None)
     _NUMBERS.pop(record[1], None)
+
+
+#: Table kind (:mod:`hydroline.cache`) of the rest states solved on compiled models
+#: (:func:`hydroline.engine.solve_steady_state` with ``recorded``).
+REST_STATES = "rest_states"
+
+
+def recorded_rest_state(key: str):
+    """The rest state recorded under ``key`` (:func:`record_rest_state`), as stored.
+
+    Parameters
+    ----------
+    key : str
+        Everything the rest state depends on (the model's numbers record key, its numbers,
+        the start, the solver's settings and code)
+
+    Returns
+    -------
+    dict or None
+        The stored value; None where none is (or the entry failed its check).
+    """
+    return load_table(REST_STATES, key)
+
+
+def record_rest_state(key: str, value: dict) -> None:
+    """Record a solved rest state under ``key`` in the cache (a failed write is let go).
+
+    Parameters
+    ----------
+    key : str
+        As :func:`recorded_rest_state`
+    value : dict
+        JSON value: the states and parameters (as ``float.hex`` text), the residual and
+        the solver's counts
+    """
+    store_table(REST_STATES, key, value)

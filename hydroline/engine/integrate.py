@@ -7,9 +7,7 @@ and sampling instants (a sampled controller's zero-order hold), runs a solver ba
 """
 from __future__ import annotations
 
-import queue
 import sys
-import threading
 import time as _time
 
 import numpy as np
@@ -110,6 +108,9 @@ class RowWriter:
     """
 
     def __init__(self, sink, depth: int = 2):
+        import queue       # (only a streamed run's writer: not at every command's start)
+        import threading
+
         self.sink = sink
         self.blocks = queue.Queue(maxsize=max(int(depth), 1))
         self.error = None        # the sink's exception: no block is written after it

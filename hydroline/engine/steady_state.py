@@ -9,6 +9,7 @@ until nothing changes.
 """
 from __future__ import annotations
 
+import hashlib
 import math
 import weakref
 from dataclasses import dataclass
@@ -425,7 +426,8 @@ def _pseudo_transient_run(model, t0, z, p, scales, tol, dt0, max_iter):
 
 
 def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: float = 1e-9,
-                       max_rounds: int = 3, like: Network | None = None) -> SteadyState:
+                       max_rounds: int = 3, like: Network | None = None,
+                       recorded: bool = False) -> SteadyState:
     """Solve ``f(t0, x) = 0`` for the whole network (docs/model.md 6), then let components settle.
 
     Newton's method with the compiled model's exact Jacobian (in C where a compiler exists),
@@ -451,20 +453,73 @@ def solve_steady_state(network: Network, t0: float = 0.0, x_guess=None, tol: flo
         A network of the same states solved before (a rig differing in numbers): its last
         solve's inverse Jacobian starts this one's chord steps (:func:`_newton`; they are
         taken only while each cuts the residual to :data:`CHORD_RATE`)
+    recorded : bool
+        Read the rest state from the cache's table of rest states
+        (:func:`hydroline.compiled.records.recorded_rest_state`) where a solve of
+        the same compiled model, numbers, start and settings stored it (checked by one
+        evaluation of f, whose scaled residual must be the one recorded: the same bits as
+        the solve), and store it there after a solve; from the components' guess on the
+        compiled core only (a command's single run: ~4 ms of a warm ``simulate``)
 
     Returns
     -------
     SteadyState
     """
     with one_blas_thread():     # (small dense solves: extra BLAS threads only spin)
-        return _solve_steady_state(network, t0, x_guess, tol, max_rounds, like)
+        return _solve_steady_state(network, t0, x_guess, tol, max_rounds, like, recorded)
 
 
-def _solve_steady_state(network, t0, x_guess, tol, max_rounds, like=None):
+def _rest_record_key(model, network, x, t0, tol, max_rounds) -> str | None:
+    """Key of a recorded rest state: the compiled model's numbers record key
+    (structure and code), its constants (the numbers), the runtime parameters, the state
+    scales, the start, the settings and this module's source; None off the compiled core."""
+    from .fingerprint import Undescribable, module_source_tag
+
+    native = getattr(model, "native", None)
+    key = getattr(native, "numbers_record_key", None)
+    if key is None:
+        return None
+    try:
+        code = module_source_tag(__name__)
+    except Undescribable:
+        return None
+    h = hashlib.sha256()
+    for a in (native.generated.constants, network.parameter_values, network.state_scales, x):
+        h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+        h.update(b"|")
+    return f"rest:{key}:{h.hexdigest()}:{t0!r}:{tol!r}:{max_rounds}:{code}"
+
+
+def _recorded_rest_state(record, model, network, t0) -> SteadyState | None:
+    """The rest state stored under ``record`` where f at it has the recorded residual."""
+    from ..compiled.records import recorded_rest_state
+
+    value = recorded_rest_state(record)
+    try:
+        x = np.array([float.fromhex(v) for v in value["x"]])
+        p = np.array([float.fromhex(v) for v in value["p"]])
+        if len(x) != len(network.state_names) or len(p) != len(network.parameter_values):
+            return None
+        res, k = _scaled_residual(model, t0, x, p, network.state_scales)
+        if not np.all(np.isfinite(x)) or res.hex() != value["residual"]:
+            return None
+        return SteadyState(x, p, res, network.state_names[k], int(value["newton_steps"]),
+                           int(value["shifted_steps"]), bool(value["fallback"]))
+    except (TypeError, KeyError, ValueError, IndexError):   # none, or not of this form
+        return None
+
+
+def _solve_steady_state(network, t0, x_guess, tol, max_rounds, like=None, recorded=False):
     model = _rest_functions(network)
     scales = network.state_scales
     p = network.parameter_values.copy()
     x = network.guess() if x_guess is None else np.asarray(x_guess, dtype=float).copy()
+    record = (_rest_record_key(model, network, x, t0, tol, max_rounds)
+              if recorded and x_guess is None else None)
+    if record is not None:
+        kept = _recorded_rest_state(record, model, network, t0)
+        if kept is not None:
+            return kept
     # only components that define settle() can change anything after a solve
     settling = [c for c in network.components if type(c).settle is not Component.settle]
     chord = None
@@ -489,8 +544,16 @@ def _solve_steady_state(network, t0, x_guess, tol, max_rounds, like=None):
             f"steady state not found: scaled residual {res:.3g} 1/s at state "
             f"'{network.state_names[k]}' (check pressures, laps and initial position)",
             state=network.state_names[k], residual=res)
-    return SteadyState(x, p, res, network.state_names[k], counts.get("newton", 0),
-                       counts.get("shifted", 0), fallback)
+    ss = SteadyState(x, p, res, network.state_names[k], counts.get("newton", 0),
+                     counts.get("shifted", 0), fallback)
+    if record is not None:
+        from ..compiled.records import record_rest_state
+
+        record_rest_state(record, {
+            "x": [v.hex() for v in x.tolist()], "p": [v.hex() for v in p.tolist()],
+            "residual": res.hex(), "newton_steps": ss.newton_steps,
+            "shifted_steps": ss.shifted_steps, "fallback": ss.fallback})
+    return ss
 
 
 #: The grid of the scaled states (2 to the minus this) that :func:`polished` starts its last

@@ -148,12 +148,61 @@ class Simulation:
     ----------
     models_kept : int
         How many recent models are kept (the oldest goes first)
+    recorded_rest_states : bool
+        A rest state solved from the components' guess is read from, and stored in, the
+        cache's table of rest states (``solve_steady_state(recorded=True)``: the same bits,
+        checked by one evaluation of f): a command's single run in a new process
     """
 
-    def __init__(self, models_kept: int = 8):
+    def __init__(self, models_kept: int = 8, recorded_rest_states: bool = False):
         self.models_kept = models_kept
+        self.recorded_rest_states = recorded_rest_states
         #: (scenario, t_end, rig values) -> (circuit, scenario, network, steady state)
         self.models: dict = {}
+        #: (scenario, t_end, rig values) -> (circuit, scenario, network) built by
+        #: :meth:`model` for a run not made yet
+        self.built: dict = {}
+
+    def model(self, rig: Rig, scenario: "str | Experiment | None" = None,
+              t_end: float | None = None) -> tuple:
+        """The circuit, experiment and network a run of :meth:`run` with these arguments
+        integrates, built now and kept for that run (a command reads the model's size before
+        the run: it is built once).
+
+        Parameters
+        ----------
+        rig : Rig
+            Parameters (SI)
+        scenario : str, Experiment or None
+            As :meth:`run`
+        t_end : float
+            Simulated time, [s] (None: the experiment's own)
+
+        Returns
+        -------
+        tuple
+            ``(circuit, scenario, network)``: the :class:`~hydroline.circuit.Circuit`, the
+            :class:`~hydroline.scenarios.experiments.Scenario` and the
+            :class:`~hydroline.engine.Network`.
+        """
+        scenario = scenario or default_scenario(rig)
+        key = self.model_key(rig, scenario, t_end)
+        if key in self.models:
+            return self.models[key][:3]
+        model = self.built.get(key) if key is not None else None
+        if model is None:
+            model = self._build(rig, scenario, t_end)
+            if key is not None:
+                self.built = {key: model}   # (only the next run's)
+        return model
+
+    @staticmethod
+    def _build(rig, scenario, t_end):
+        circuit = build_circuit(rig)
+        sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
+        if sc.position_guess is not None:
+            circuit = build_circuit(rig, sc.position_guess)
+        return circuit, sc, circuit.network(sc.commands)
 
     @staticmethod
     def model_key(rig: Rig, scenario, t_end):
@@ -220,6 +269,8 @@ class Simulation:
         """
         if key is None:
             return rest_state(net)
+        if self.recorded_rest_states and not self.models:
+            return rest_state(net, recorded=True)   # (no neighbour in this process)
         for kept in reversed(list(self.models)):
             _, _, near, near_ss = self.models[kept]
             if kept[0] != key[0] or near.state_names != net.state_names:
@@ -272,12 +323,10 @@ class Simulation:
         key = self.model_key(rig, scenario, t_end)
         if key in self.models:
             circuit, sc, net, ss = self.models[key]
+        elif key is not None and key in self.built:
+            circuit, sc, net = self.built.pop(key)
         else:
-            circuit = build_circuit(rig)
-            sc = build_scenario(rig, scenario, t_end, axes=circuit.axes)
-            if sc.position_guess is not None:
-                circuit = build_circuit(rig, sc.position_guess)
-            net = circuit.network(sc.commands)
+            circuit, sc, net = self._build(rig, scenario, t_end)
         kept = options.get("keep_columns")   # bounded memory: only these columns stay in memory
         # (a streamed file holds every stream_every-th row: its size on the disk is that of those)
         written = dt_out * max(int(options.get("stream_every", 1)), 1) if stream_to is not None \
@@ -330,7 +379,8 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
              t_end: float | None = None, dt_out: float = 1e-4, solver: str = "auto",
              progress=None, rtol: float = 1e-6, atol_scale: float = 1e-7, stream_to=None,
              stream_columns=None, metrics_only: bool = False,
-             after_stop_rtol: float | str | None = "auto", **options) -> SimulationResult:
+             after_stop_rtol: float | str | None = "auto", simulation: Simulation | None = None,
+             **options) -> SimulationResult:
     """Run a scenario on a rig, from its solved steady state, on :data:`DEFAULT_SIMULATION`
     (a repeated run of the same rig reuses its model: :class:`Simulation`).
 
@@ -384,6 +434,9 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
         (the default) 30x ``rtol``, at most 1e-4 (:func:`after_stop_tolerance`; the default
         rig's traces after the stop then within 0.12 % of their excursion of a tight
         reference, docs/engine.md); None: ``rtol`` throughout, [-]
+    simulation : Simulation or None
+        The :class:`Simulation` to run on (its kept models); None:
+        :data:`DEFAULT_SIMULATION`
     options
         Further keywords of :func:`hydroline.engine.integrate`
         (``stream_every``, ``keep_columns``, ``preview_columns``, ...)
@@ -394,14 +447,14 @@ def simulate(rig: Rig | str | None = None, scenario: "str | Experiment | None" =
         (``.data`` has every signal and state; ``.metadata`` the scenario,
         the disturbance time, the actuator's hydraulic natural frequency)
     """
-    return DEFAULT_SIMULATION.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
-                                  progress=progress, rtol=rtol, atol_scale=atol_scale,
-                                  stream_to=stream_to, stream_columns=stream_columns,
-                                  metrics_only=metrics_only, after_stop_rtol=after_stop_rtol,
-                                  **options)
+    simulation = DEFAULT_SIMULATION if simulation is None else simulation
+    return simulation.run(rig, scenario, t_end, dt_out=dt_out, solver=solver,
+                          progress=progress, rtol=rtol, atol_scale=atol_scale,
+                          stream_to=stream_to, stream_columns=stream_columns,
+                          metrics_only=metrics_only, after_stop_rtol=after_stop_rtol, **options)
 
 
-def rest_state(net, x_guess=None, like=None):
+def rest_state(net, x_guess=None, like=None, recorded: bool = False):
     """The network's steady state before the run; a failure is said in terms of the rig's
     parameters (:func:`hydroline.rigs.parameters.steady_state_hint`).
 
@@ -414,6 +467,9 @@ def rest_state(net, x_guess=None, like=None):
     like : Network or None
         A network of the same states solved before, whose inverse Jacobian starts
         the chord steps (:func:`hydroline.engine.steady_state.solve_steady_state`)
+    recorded : bool
+        Read and store it in the cache's table of rest states (``solve_steady_state``'s
+        ``recorded``)
 
     Returns
     -------
@@ -425,7 +481,7 @@ def rest_state(net, x_guess=None, like=None):
         Naming the balance that does not close and the parameters to look at
     """
     try:
-        return solve_steady_state(net, t0=0.0, x_guess=x_guess, like=like)
+        return solve_steady_state(net, t0=0.0, x_guess=x_guess, like=like, recorded=recorded)
     except SteadyStateError as e:   # say it in terms of the rig's parameters
         if getattr(e, "state", None) is None:
             raise
