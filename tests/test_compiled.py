@@ -155,6 +155,20 @@ class ModalBlock(Component):
         return out
 
 
+def modal_block_system(omegas, zetas, gains, u):
+    """A held input u [-] into a ModalBlock, and its exact x' = A x + b: each mode's
+    oscillator q'' = -w^2 q - 2 zeta w q' + w^2 g u."""
+    net = Network([Hold(name="source", value=u),
+                   ModalBlock(name="m", omegas=omegas, zetas=zetas, gains=gains)])
+    n = 2 * len(omegas)
+    A, b = np.zeros((n, n)), np.zeros(n)
+    for i, (w, z, g) in enumerate(zip(omegas, zetas, gains)):
+        A[2 * i, 2 * i + 1] = 1.0
+        A[2 * i + 1, 2 * i], A[2 * i + 1, 2 * i + 1] = -w * w, -2 * z * w
+        b[2 * i + 1] = w * w * g * u
+    return net, A, b
+
+
 @needs_cc
 @pytest.mark.parametrize("solver", ["compiled", "radau"])
 def test_stiff_modal_block_matches_the_matrix_exponential(solver):
@@ -165,14 +179,8 @@ def test_stiff_modal_block_matches_the_matrix_exponential(solver):
 
     omegas = tuple(2 * np.pi * f for f in (40.0, 400.0, 2500.0, 16000.0))
     zetas, gains, u = (0.01, 0.02, 0.05, 0.3), (1.0, -0.5, 0.25, 0.1), 1e-3
-    net = Network([Hold(name="source", value=u),
-                   ModalBlock(name="m", omegas=omegas, zetas=zetas, gains=gains)])
-    n = 2 * len(omegas)
-    A, b = np.zeros((n, n)), np.zeros(n)
-    for i, (w, z, g) in enumerate(zip(omegas, zetas, gains)):
-        A[2 * i, 2 * i + 1] = 1.0
-        A[2 * i + 1, 2 * i], A[2 * i + 1, 2 * i + 1] = -w * w, -2 * z * w
-        b[2 * i + 1] = w * w * g * u
+    net, A, b = modal_block_system(omegas, zetas, gains, u)
+    n = len(b)
     x0 = np.zeros(n)
     x0[0], x0[3] = 2e-3, -1.0                # start away from rest in the slow and a fast mode
     res = integrate(net, x0, 0.05, dt_out=2e-4, solver=solver, rtol=1e-8, atol_scale=1e-9)
@@ -213,14 +221,8 @@ def test_auto_takes_radau_only_where_the_modes_cap_the_ndf_orders():
     omegas, zetas, gains, u = (2 * np.pi * 40.0, 2 * np.pi * 1e4), (0.01, 0.02), (1.0, 0.5), 1e-3
     w, z = omegas[1], zetas[1]
     assert order_step_limits(np.array([complex(-z * w, w * np.sqrt(1 - z * z))]))[2] < below
-    net = Network([Hold(name="source", value=u),
-                   ModalBlock(name="m", omegas=omegas, zetas=zetas, gains=gains)])
-    n = 2 * len(omegas)
-    A, b = np.zeros((n, n)), np.zeros(n)
-    for i, (wi, zi, g) in enumerate(zip(omegas, zetas, gains)):
-        A[2 * i, 2 * i + 1] = 1.0
-        A[2 * i + 1, 2 * i], A[2 * i + 1, 2 * i + 1] = -wi * wi, -2 * zi * wi
-        b[2 * i + 1] = wi * wi * g * u
+    net, A, b = modal_block_system(omegas, zetas, gains, u)
+    n = len(b)
     x0 = np.zeros(n)
     x0[0] = 2e-3
     rtol = 1e-8
