@@ -316,6 +316,15 @@ class NativeSolver:
     #: 0.3 m hose 0.44 and 0.43 %; 30 modes per section 4.2 and 0.017 %), [-]
     RADAU_TOLERANCE_FACTOR = 100.0
 
+    #: The loosest absolute tolerance (on the scaled states, its tolerance factor applied)
+    #: :meth:`relax` gives Radau IIA, [-]: the piston's velocity (scale 1 m/s) then keeps
+    #: errors below 1e-5 m/s, a tenth of the friction's regularisation velocity (1e-4 m/s).
+    #: Relaxed like the BDF's, "auto"'s Radau (already 100x) went to 3e-4: the velocity on its
+    #: stop jittered across the friction's steep slope, the Newton iteration kept failing and
+    #: the 30-mode run took 1 995 steps against 1 230 not relaxed (capped: 1 060); 5.5e-5
+    #: still 1 300 (benchmarks/README.md, "Radau IIA after the stop").
+    RADAU_RELAXED_ATOL_MAX = 1e-5
+
     def __init__(self, model: NativeModel, p, rtol, atol, max_step, fixed_step, max_order,
                  newton_coef, order_limits: bool = True, method: str = "bdf"):
         if not (rtol > 0 and atol > 0):
@@ -410,14 +419,9 @@ class NativeSolver:
         and history kept): where no metric looks any more, after the piston's stop that ends
         the metrics window (:func:`hydroline.scenarios.simulate`'s ``after_stop_rtol``).
 
-        The BDF takes both. Radau IIA takes ``rtol`` and keeps its absolute tolerance: by
-        "auto" it is already ``RADAU_TOLERANCE_FACTOR`` times the given one (1e-5 of each
-        state's scale at the default 1e-7), and 30x that again let the piston resting on its
-        stop carry velocity errors of 3e-4 m/s, three times the friction's regularisation
-        velocity (1e-4 m/s): the velocity jittered across the friction's steep slope, the
-        Newton iteration kept failing and the run took 2x the steps of one not relaxed
-        (30 modes per section: 1 995 steps, 115 Newton failures; with the absolute tolerance
-        kept 1 060 and 18; docs/engine.md, "Tolerances: what the defaults promise").
+        The BDF takes both. Radau IIA takes ``rtol``, and ``atol`` up to
+        ``RADAU_RELAXED_ATOL_MAX`` (after its tolerance factor; never tighter than its
+        absolute tolerance before).
 
         Parameters
         ----------
@@ -426,7 +430,10 @@ class NativeSolver:
         atol : float
             Absolute tolerance on the scaled states (the BDF's), [-]
         """
-        self.set_tolerances(rtol, self.atol if self.chosen_method == "radau" else atol)
+        if self.chosen_method == "radau":
+            cap = self.RADAU_RELAXED_ATOL_MAX / self._tolerance_factor
+            atol = self.atol if cap <= self.atol else min(atol, cap)
+        self.set_tolerances(rtol, atol)
 
     def start(self, t0: float, x0, t_bound: float):
         """Begin a segment [t0, t_bound] from x0 (order 1; inputs may jump at t0).

@@ -158,7 +158,7 @@ class CompiledBackend:
         bool
             True (done)
         """
-        self.solver.relax(rtol, atol_scale)   # (Radau IIA keeps its absolute tolerance)
+        self.solver.relax(rtol, atol_scale)   # (Radau IIA: atol capped)
         return True
 
 
