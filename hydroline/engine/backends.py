@@ -34,8 +34,8 @@ from .network import Network
 __all__ = ["CompiledBackend", "CvodesBackend", "ScipyBackend", "make_backend", "SOLVERS"]
 
 #: Names accepted by ``solver=``; "auto" is the compiled core where a C compiler exists, else
-#: "cvodes": its BDF ("compiled"), or its Radau IIA ("radau") at 30x the tolerances where the
-#: model's modes hold the BDF's orders 3-5 to small steps (``NativeSolver``'s method "auto").
+#: "cvodes": its BDF ("compiled"), or its Radau IIA ("radau") at 100x the tolerances where the
+#: model's modes hold the BDF's order 3 below 40 us (``NativeSolver.RADAU_BELOW``, method "auto").
 SOLVERS = ("auto", "compiled", "cvodes", "scipy", "radau")
 
 
