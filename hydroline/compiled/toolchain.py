@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import errno
 import functools
 import hashlib
 import os
@@ -31,7 +32,8 @@ __all__ = ["CompilerUnavailable", "LibraryPending", "build_in_background", "buil
            "compiler", "available", "CFLAGS", "NATIVE_FLAGS",
            "PORTABLE_ENV", "native_flags", "build_settings", "library_location", "library_check",
            "load_library", "prune_libraries", "MAX_LIBRARIES", "BDF_SOURCE", "QUICK_LEVEL",
-           "quick_location", "many_runs", "QUICK_WAIT", "BACKGROUND_NICENESS", "nicer"]
+           "quick_location", "many_runs", "QUICK_WAIT", "BACKGROUND_NICENESS", "nicer",
+           "quick_units", "JACOBIAN_LEVEL"]
 
 #: Flags for the system compiler (no -ffast-math: the integrator relies on IEEE semantics;
 #: -fno-math-errno only lets sqrt compile to one instruction; -ffp-contract=fast lets a*b+c
@@ -60,6 +62,11 @@ QUICK_WAIT = 1.5
 #: or a layout study, is three processes with the build); a run that needs its quick library
 #: waits for it, and the build then has that CPU, [-]
 BACKGROUND_NICENESS = 10
+#: Optimisation level of the Jacobian's translation unit in a quick build
+#: (:func:`quick_units`): it is evaluated once per factorisation, and at ``-O1`` (its level
+#: in the ``-O3`` library, ``HL_RARELY_CALLED``) it is the largest unit, 0.43 s of the
+#: default rig's ~1.0 s at ``-O1``; at ``-O0`` 0.15 s, for ~3 ms more of a fit's run (35 ms)
+JACOBIAN_LEVEL = "-O0"
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
 #: Library (its path) -> the first run of this process that went on without it while its
@@ -74,6 +81,9 @@ _MEANWHILE: list = []
 #: :func:`many_runs`' optimisation level for the quick builds started within it (None:
 #: :data:`QUICK_LEVEL`)
 _QUICK_ASKED: list = [None]
+#: Background builds still to start whose quick library a run of this process will wait for
+#: (:func:`many_runs`): their quick build runs at the command's priority, not niced
+_QUICK_AWAITED: list = [0]
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -356,15 +366,21 @@ def build_in_background(path: Path, full) -> bool:
         with os.fdopen(fd, "w") as f:
             f.write(full() if callable(full) else full)
         os.replace(tmp, source)
-        # (niced first thing: a preexec_fn would make subprocess fork this whole process)
-        code = BUILDER_IMPORTS + ("nicer()\nbuild_from_file(sys.argv[1], sys.argv[2], "
-                                  "sys.argv[3], sys.argv[4])\n")
+        # (niced first thing, unless a run of this process waits for its quick library, and
+        # before the library itself in any case: a preexec_fn would make subprocess fork this
+        # whole process)
+        awaited = _QUICK_AWAITED[0] > 0
+        code = BUILDER_IMPORTS + ("if sys.argv[5] != 'awaited':\n    nicer()\n"
+                                  "build_from_file(sys.argv[1], sys.argv[2], sys.argv[3], "
+                                  "sys.argv[4], between=nicer)\n")
         # (the child inherits the locked descriptor: the lock is its until it exits)
         subprocess.Popen([sys.executable, "-c", code, cc, str(source), str(path),
-                          _QUICK_ASKED[0] or QUICK_LEVEL],
+                          _QUICK_ASKED[0] or QUICK_LEVEL, "awaited" if awaited else "later"],
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL, pass_fds=(lock.fileno(),),
                          start_new_session=True, close_fds=True)
+        if awaited:
+            _QUICK_AWAITED[0] -= 1
         return True
     except (OSError, ValueError, subprocess.SubprocessError):
         return False
@@ -373,15 +389,37 @@ def build_in_background(path: Path, full) -> bool:
 
 
 def nicer() -> None:
-    """Lower this process's priority by :data:`BACKGROUND_NICENESS` (the background builder
-    does, first thing), where the system allows it."""
+    """Lower this process's priority to :data:`BACKGROUND_NICENESS`, where the system allows
+    it (the background builder does before its ``-O3`` build, and before its quick build
+    unless a run waits for that one). Where the process leads a session of its own (the
+    builder does) and the kernel schedules a session's processes as one group
+    (``/proc/self/autogroup``), that group is niced too: a niceness ranks a process only
+    against its own group's, and the builder's group would otherwise get as much CPU as the
+    command's (which holds the command and its figure process). Called again, it changes
+    nothing."""
     try:
-        os.nice(BACKGROUND_NICENESS)
+        os.setpriority(os.PRIO_PROCESS, 0,
+                       max(os.getpriority(os.PRIO_PROCESS, 0), BACKGROUND_NICENESS))
     except (AttributeError, OSError):
         pass
+    try:
+        if os.getsid(0) != os.getpid():
+            return
+    except (AttributeError, OSError):
+        return
+    for attempt in (0, 1):
+        try:
+            with open("/proc/self/autogroup", "w") as f:
+                f.write(f"{BACKGROUND_NICENESS}\n")
+            return
+        except OSError as e:     # EAGAIN: one change a 0.1 s on the machine, unprivileged
+            if e.errno != errno.EAGAIN or attempt:
+                return
+            time.sleep(0.11)
 
 
-def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LEVEL) -> None:
+def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LEVEL,
+                    between=None) -> None:
     """The background builder's work (:func:`build_in_background`, in its own process, the
     library's lock inherited): compile ``source`` into the library ``path`` with its record,
     its quick build (:data:`QUICK_LEVEL`) first, for the runs that start meanwhile, removed
@@ -398,6 +436,9 @@ def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LE
         The library in the cache directory
     quick_level : str
         The quick build's optimisation level (:func:`many_runs`)
+    between : callable
+        Called after the quick build, before the library's (the background
+        builder: :func:`nicer`)
     """
     try:
         full = Path(source).read_text()
@@ -406,6 +447,8 @@ def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LE
                 _compile_locked(cc, full, Path(path), quick_level=quick_level)
             except CompilerUnavailable:
                 pass                    # (the library itself may still build)
+        if between is not None:
+            between()
         _compile_locked(cc, full, Path(path))
         _discard(quick_location(Path(path)))   # (a process that loaded it keeps its copy)
         prune_libraries()               # a library more: the oldest beyond the bound go
@@ -418,10 +461,87 @@ def build_from_file(cc: str, source: str, path: str, quick_level: str = QUICK_LE
             pass
 
 
+#: How the generated C (:func:`hydroline.compiled.codegen.generate`) opens the functions
+#: that a quick build compiles as translation units of their own (:func:`quick_units`), each
+#: definition ending at a line that holds ``}`` alone; the first is where its header (sizes,
+#: pattern tables) ends
+UNIT_FUNCTIONS = ("static void hl_f(", "HL_RARELY_CALLED static void hl_jac(")
+
+
+def quick_units(full: str, level: str) -> list[tuple[str, str]]:
+    """The translation units of a quick build, compiled side by side (on two cores a quick
+    build's wall is its largest unit's, not their sum): the model's f at ``level``, its
+    Jacobian at :data:`JACOBIAN_LEVEL`, and the rest (the signals, the sparse LU, the
+    integrator) at ``level``, which declares the two it calls. Each unit opens with the
+    generated header. A source not laid out as :data:`UNIT_FUNCTIONS` says is one unit.
+
+    Parameters
+    ----------
+    full : str
+        The library's source (:func:`library_location`)
+    level : str
+        The quick build's optimisation level, e.g. ``"-O1"``
+
+    Returns
+    -------
+    list of tuple
+        (source, optimisation level) of each unit
+    """
+    header_end = full.find(UNIT_FUNCTIONS[0])
+    if header_end < 0:
+        return [(full, level)]
+    pieces = []
+    for opening in UNIT_FUNCTIONS:
+        start = full.find(opening)
+        end = full.find("\n}\n", start) + 3
+        brace = full.find(") {\n", start)
+        if start < header_end or end < 3 or not start < brace < end:
+            return [(full, level)]
+        pieces.append((start, end, full[start:brace + 1].split("static ", 1)[1]))
+    pieces.sort()
+    if any(a[1] > b[0] for a, b in zip(pieces, pieces[1:])):
+        return [(full, level)]
+    header, rest, at = full[:header_end], [], 0
+    units = []
+    for start, end, signature in pieces:
+        own = JACOBIAN_LEVEL if "hl_jac(" in signature else level
+        units.append((header + signature + full[full.find(" {\n", start):end], own))
+        rest += [full[at:start], signature + ";\n"]
+        at = end
+    return units + [("".join(rest) + full[at:], level)]
+
+
+def _compile_units(cc: str, units, flags, folder: Path, out: Path) -> bool:
+    """Compile translation units (:func:`quick_units`) side by side into objects and link them
+    into the library ``out``; False where any step failed (the caller then compiles the whole
+    source as one unit, and says why)."""
+    flags = [f for f in flags if f != "-shared" and not f.startswith("-O")]
+    sources = []
+    for k, (text, _) in enumerate(units):
+        sources.append(folder / f"unit{k}.c")
+        sources[-1].write_text(text)
+    objects = [src.with_suffix(".o") for src in sources]
+    for native in ([native_flags(), []] if native_flags() else [[]]):
+        try:
+            procs = [subprocess.Popen([cc, level, *flags, *native, "-c", "-o", str(obj), str(src)],
+                                      stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL)
+                     for (_, level), src, obj in zip(units, sources, objects)]
+        except OSError:
+            return False
+        if [p.wait() for p in procs] == [0] * len(procs):
+            break
+    else:
+        return False
+    proc = subprocess.run([cc, "-shared", "-o", str(out), *map(str, objects), "-lm"],
+                          capture_output=True)
+    return proc.returncode == 0
+
+
 def _compile_locked(cc: str, full: str, path: Path, quick_level: str | None = None) -> None:
     """:func:`_compile`'s work, the library's lock held by the caller (``quick_level``, e.g.
     :data:`QUICK_LEVEL`: its quick build at that optimisation level, into
-    :func:`quick_location`)."""
+    :func:`quick_location`, from :func:`quick_units` compiled side by side)."""
     flags = CFLAGS
     if quick_level:
         flags = [quick_level if f.startswith("-O") else f for f in CFLAGS]
@@ -430,16 +550,18 @@ def _compile_locked(cc: str, full: str, path: Path, quick_level: str | None = No
         return
     _discard(path)                          # damaged or unrecorded: build it anew
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
-        src = Path(tmp) / "model.c"
-        src.write_text(full)
         out = Path(tmp) / "model.so"
-        proc = subprocess.run([cc, *flags, *native_flags(), "-o", str(out), str(src),
-                               "-lm"], capture_output=True, text=True)
-        if proc.returncode != 0 and native_flags():   # a compiler without -march=native
-            proc = subprocess.run([cc, *flags, "-o", str(out), str(src), "-lm"],
-                                  capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
+        units = quick_units(full, quick_level) if quick_level else []
+        if len(units) < 2 or not _compile_units(cc, units, flags, Path(tmp), out):
+            src = Path(tmp) / "model.c"
+            src.write_text(full)
+            proc = subprocess.run([cc, *flags, *native_flags(), "-o", str(out), str(src),
+                                   "-lm"], capture_output=True, text=True)
+            if proc.returncode != 0 and native_flags():   # a compiler without -march=native
+                proc = subprocess.run([cc, *flags, "-o", str(out), str(src), "-lm"],
+                                      capture_output=True, text=True)
+            if proc.returncode != 0:
+                raise CompilerUnavailable(f"C compiler failed: {proc.stderr.strip()[:2000]}")
         size, digest = _digest(out)
         record = Path(tmp) / "model.sha256"
         record.write_text(f"{size} {digest} {_library_key(full)}\n")
@@ -576,8 +698,10 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
 
 
 @contextlib.contextmanager
-def many_runs(meanwhile=(), quick_level=None):
-    """Within this context the process makes many runs of one model (a fit): its first run
+def many_runs(meanwhile=(), quick_level=None, first_waits=True):
+    """Within this context the process makes many runs of one model (a fit, a study): the
+    quick build of the first background build started within runs at the command's
+    priority, not niced (the runs wait for it), and with ``first_waits`` its first run
     that finds the library being built in the background waits for the quick build
     (:func:`load_library`, at most :data:`QUICK_WAIT`) as its later runs do, instead of
     going on without it. A run on CVODES costs more than the wait (a fit's first run 0.6 s
@@ -595,16 +719,22 @@ def many_runs(meanwhile=(), quick_level=None):
         Optimisation level of the quick build of a background build started within (None:
         :data:`QUICK_LEVEL`): a command of many runs on it (a fit's ~14) gains more from
         quicker runs than it loses waiting longer for the library
+    first_waits : bool
+        The first run waits for the quick build too (a fit); False: it goes on
+        without it, on CVODES, and the next runs wait (a layout study, whose second
+        run is another network)
     """
     global _MANY_RUNS
-    before, _MANY_RUNS = _MANY_RUNS, True
+    before, _MANY_RUNS = _MANY_RUNS, _MANY_RUNS or first_waits
     asked, _QUICK_ASKED[0] = _QUICK_ASKED[0], quick_level
+    awaited, _QUICK_AWAITED[0] = _QUICK_AWAITED[0], 1
     _MEANWHILE.extend(meanwhile)
     try:
         yield
     finally:
         _MANY_RUNS = before
         _QUICK_ASKED[0] = asked
+        _QUICK_AWAITED[0] = awaited
         del _MEANWHILE[:]
 
 
