@@ -349,3 +349,49 @@ def test_a_later_run_waits_for_the_quick_library(monkeypatch, tmp_path, many):
     started["thread"].join()
     for res in runs:
         assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+
+
+@needs_cc
+def test_many_runs_waits_for_its_first_build_and_runs_another_network_meanwhile(monkeypatch,
+                                                                                 tmp_path):
+    """Inside ``many_runs`` (a layout study) the first run waits for its background build's
+    quick library, started at the command's priority, after the work given to do meanwhile:
+    a run of another network (a 0 m length) that starts its own build, niced, and goes on
+    with CVODES. Both give the oscillator's exact step peak
+    1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm (a one-mode modal block is that oscillator)."""
+    import fcntl
+    from pathlib import Path
+
+    from hydroline.cache import BACKGROUND_BUILD_ENV
+    from hydroline.compiled import toolchain
+    from hydroline.engine import integrate
+    from test_compiled import Hold, ModalBlock, _oscillator_peak, oscillator_network
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(BACKGROUND_BUILD_ENV, "1")
+    for name in ("_LIBS", "_PENDING", "_WAITED"):
+        monkeypatch.setattr(toolchain, name, {})
+    monkeypatch.setattr(toolchain, "_UNAWAITED", set())
+    monkeypatch.setattr(toolchain, "QUICK_WAIT", 60.0)   # (a slow machine's compiler)
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
+    other = []
+
+    def zero_length():
+        network = Network([Hold(name="source"), ModalBlock(name="m", omegas=(223.0,),
+                                                          zetas=(0.05,), gains=(1.0,))])
+        other.append(integrate(network, np.zeros(2), 0.05))
+
+    with toolchain.many_runs(meanwhile=[zero_length]):
+        first = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert first.metadata["solver"] == "compiled"
+    assert other[0].metadata["solver"] == "cvodes"
+    (niced,) = toolchain._UNAWAITED          # the other network's build, niced
+    (awaited,) = [path for path in toolchain._PENDING if path != niced]
+    assert str(toolchain.quick_location(Path(awaited))) in toolchain._LIBS
+    for lock in tmp_path.glob("*.lock"):      # (both builds ended before tmp_path goes)
+        with open(lock) as f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+    assert len(list(tmp_path.glob("hl_*[0-9a-f].so"))) == 2
+    assert first["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+    assert other[0]["m.q0"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)

@@ -4,7 +4,6 @@ from __future__ import annotations
 import contextlib
 import math
 
-from ..compiled.toolchain import many_runs
 from ..rigs import load_rig
 from ..studies.layout import (DEFAULT_LENGTHS, LayoutStudy, conclusion, layout, layout_sections,
                                parse_lengths)
@@ -152,13 +151,10 @@ def run(args) -> int:
     # next lengths run, and draws the figure once the study's tables are written
     figures = claim_figure_process() if args.out else None
     with figures if figures is not None else contextlib.nullcontext():
-        # (the first run goes on without the compiled library, the later ones wait for its
-        # quick build: that build runs at the command's priority, not niced)
-        with many_runs(first_waits=False):
-            study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
-                           scenario=args.scenario, t_end=t_end, solver=args.solver,
-                           progress=_progress(not args.json), settling_band=band,
-                           on_run=_figure_rows(figures, args.lengths))
+        study = layout(rig, args.lengths, sides=sides, sections=sections, axis=args.axis,
+                       scenario=args.scenario, t_end=t_end, solver=args.solver,
+                       progress=_progress(not args.json), settling_band=band,
+                       on_run=_figure_rows(figures, args.lengths))
         files = {}
         if args.out:   # all three files replaced together, or none (a failed write keeps the old)
             with atomic_outputs(out) as temp, figures:

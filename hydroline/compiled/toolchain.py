@@ -84,6 +84,9 @@ _QUICK_ASKED: list = [None]
 #: Background builds still to start whose quick library a run of this process will wait for
 #: (:func:`many_runs`): their quick build runs at the command's priority, not niced
 _QUICK_AWAITED: list = [0]
+#: Libraries (their paths) whose background build this process started niced, within
+#: :func:`many_runs` too (a study's second network): their first run goes on without them
+_UNAWAITED: set = set()
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
 #: (a removed one is compiled again when its structure comes back), [-]
@@ -381,6 +384,8 @@ def build_in_background(path: Path, full) -> bool:
                          start_new_session=True, close_fds=True)
         if awaited:
             _QUICK_AWAITED[0] -= 1
+        else:
+            _UNAWAITED.add(str(path))
         return True
     except (OSError, ValueError, subprocess.SubprocessError):
         return False
@@ -673,7 +678,8 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
                 if not wait and attempt == 0 and build_in_background(path, full):
                     quick = _quick_library(path)
                     if quick is None and run is not None and (
-                            _PENDING.setdefault(str(path), run) != run or _MANY_RUNS):
+                            _PENDING.setdefault(str(path), run) != run
+                            or _MANY_RUNS and str(path) not in _UNAWAITED):
                         quick = _await_quick_library(path)   # (a later run, or a study's)
                     if quick is not None:
                         return quick
@@ -698,16 +704,17 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
 
 
 @contextlib.contextmanager
-def many_runs(meanwhile=(), quick_level=None, first_waits=True):
-    """Within this context the process makes many runs of one model (a fit, a study): the
-    quick build of the first background build started within runs at the command's
-    priority, not niced (the runs wait for it), and with ``first_waits`` its first run
-    that finds the library being built in the background waits for the quick build
-    (:func:`load_library`, at most :data:`QUICK_WAIT`) as its later runs do, instead of
-    going on without it. A run on CVODES costs more than the wait (a fit's first run 0.6 s
-    of CPU against ~0.5 s for the quick build, during which the command's figure process
-    imports Matplotlib), and its CPU is taken from the build; a single run (a ``hydroline
-    simulate``) is quicker on CVODES than after the wait.
+def many_runs(meanwhile=(), quick_level=None):
+    """Within this context the process makes many runs of one model (a fit, a layout
+    study): the quick build of the first background build started within runs at the
+    command's priority, not niced, and the first run that finds the library being built
+    in the background waits for the quick build (:func:`load_library`, at most
+    :data:`QUICK_WAIT`) as its later runs do, instead of going on without it. A run on
+    CVODES costs more than the wait (a fit's first run 0.6 s of CPU against ~0.5 s for the
+    quick build, during which the command's figure process imports Matplotlib), and its
+    CPU is taken from the build; a single run (a ``hydroline simulate``) is quicker on
+    CVODES than after the wait. A later background build started within (another network,
+    e.g. a layout study's 0 m length) is niced, and its first run goes on without it.
 
     Parameters
     ----------
@@ -719,13 +726,9 @@ def many_runs(meanwhile=(), quick_level=None, first_waits=True):
         Optimisation level of the quick build of a background build started within (None:
         :data:`QUICK_LEVEL`): a command of many runs on it (a fit's ~14) gains more from
         quicker runs than it loses waiting longer for the library
-    first_waits : bool
-        The first run waits for the quick build too (a fit); False: it goes on
-        without it, on CVODES, and the next runs wait (a layout study, whose second
-        run is another network)
     """
     global _MANY_RUNS
-    before, _MANY_RUNS = _MANY_RUNS, _MANY_RUNS or first_waits
+    before, _MANY_RUNS = _MANY_RUNS, True
     asked, _QUICK_ASKED[0] = _QUICK_ASKED[0], quick_level
     awaited, _QUICK_AWAITED[0] = _QUICK_AWAITED[0], 1
     _MEANWHILE.extend(meanwhile)
