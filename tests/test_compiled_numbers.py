@@ -205,30 +205,28 @@ def test_a_library_not_built_yet_is_built_in_the_background(monkeypatch, tmp_pat
 
 
 def test_a_quick_build_s_units_define_each_function_once():
-    """The quick build's translation units (compiled side by side): f's and the Jacobian's
-    own, at the quick level and ``JACOBIAN_LEVEL``, each after the generated header; the rest
-    declares both and defines everything else once; a source laid out otherwise is one unit."""
+    """The quick build's translation units (compiled side by side): f's, the Jacobian's (at
+    ``JACOBIAN_LEVEL``), the other generated functions' and the integrator's, each holding the
+    generated header; together they define every function once (the others declared); a
+    source laid out otherwise is one unit."""
     from hydroline.compiled import toolchain
     from hydroline.compiled.codegen import generate
     from test_compiled import oscillator_network
 
     full = toolchain.library_location(generate(oscillator_network(omega=223.0).compile()))[1]
     units = toolchain.quick_units(full, "-O1")
-    assert [level for _, level in units] == ["-O1", toolchain.JACOBIAN_LEVEL, "-O1"]
-    header = full[:full.index(toolchain.UNIT_FUNCTIONS[0])]
+    assert [level for _, level in units] == ["-O1", toolchain.JACOBIAN_LEVEL, "-O1", "-O1"]
+    header = full[:full.index("static void hl_f(")]
     assert all(text.startswith(header) for text, _ in units)
     for name in ("hl_f(", "hl_jac(", "hl_signals(", "hl_lu_solve(", "hl_init("):
         defined = [k for k, (text, _) in enumerate(units)
                    if any(line.startswith(("void " + name, "int " + name, "static void " + name))
                           and line.endswith(") {") for line in text.splitlines())]
         assert len(defined) == 1, name
-    assert units[0][0].count("hl_f(") == 1 and units[1][0].count("hl_jac(") == 1
-    rest = units[2][0]
-    assert "void hl_f(double t" in rest and "HL_RARELY_CALLED static void hl_jac(" not in rest
-    body = sum(len(text) - len(header) for text, _ in units)
-    assert abs(body - (len(full) - len(header))) < 400     # (only the two prototypes added)
-    assert toolchain.quick_units("int hl_sizes(long long* out) { return 0; }\n", "-O0") == \
-        [("int hl_sizes(long long* out) { return 0; }\n", "-O0")]
+    integrator = toolchain.BDF_SOURCE.read_text()
+    assert [integrator in text for text, _ in units] == [False, False, False, True]
+    for odd in ("int hl_sizes(long long* out) { return 0; }\n", full[:-10]):
+        assert toolchain.quick_units(odd, "-O0") == [(odd, "-O0")]
 
 
 @needs_cc
@@ -259,8 +257,9 @@ def test_runs_during_a_background_build_use_its_quick_library(monkeypatch, tmp_p
     during = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
     path = started["path"]
     assert during.metadata["solver"] == "compiled"
-    # (the quick library is linked from f's, the Jacobian's and the rest's units)
-    assert len(toolchain.quick_units(started["full"], toolchain.QUICK_LEVEL)) == 3
+    # (the quick library is linked from f's, the Jacobian's, the other functions' and the
+    # integrator's units)
+    assert len(toolchain.quick_units(started["full"], toolchain.QUICK_LEVEL)) == 4
     assert toolchain.quick_location(path).exists() and not path.exists()
     source = tmp_path / "model.c"
     source.write_text(started["full"])
