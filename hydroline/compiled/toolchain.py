@@ -82,11 +82,11 @@ _MEANWHILE: list = []
 #: :func:`many_runs`' optimisation level for the quick builds started within it (None:
 #: :data:`QUICK_LEVEL`)
 _QUICK_ASKED: list = [None]
-#: Background builds still to start whose quick library a run of this process will wait for
-#: (:func:`many_runs`): their quick build runs at the command's priority, not niced
-_QUICK_AWAITED: list = [0]
-#: Libraries (their paths) whose background build this process started niced, within
-#: :func:`many_runs` too (a study's second network): their first run goes on without them
+#: True while :func:`many_runs`' work meanwhile is done (a run waits for a quick build): a
+#: background build started by that work is niced, and its first run goes on without it
+_IN_MEANWHILE: list = [False]
+#: Libraries (their paths) whose background build this process started niced inside
+#: :func:`many_runs` (by its work meanwhile: a layout study's 0 m length)
 _UNAWAITED: set = set()
 #: Most compiled libraries kept in the cache directory (one per network structure and
 #: machine, ~0.1-0.3 MB each): beyond it the least recently used are removed after a build
@@ -373,7 +373,7 @@ def build_in_background(path: Path, full) -> bool:
         # (niced first thing, unless a run of this process waits for its quick library, and
         # before the library itself in any case: a preexec_fn would make subprocess fork this
         # whole process)
-        awaited = _QUICK_AWAITED[0] > 0
+        awaited = _MANY_RUNS and not _IN_MEANWHILE[0]   # (a run of this process waits)
         code = BUILDER_IMPORTS + ("if sys.argv[5] != 'awaited':\n    nicer()\n"
                                   "build_from_file(sys.argv[1], sys.argv[2], sys.argv[3], "
                                   "sys.argv[4], between=nicer)\n")
@@ -383,9 +383,7 @@ def build_in_background(path: Path, full) -> bool:
                          stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                          stderr=subprocess.DEVNULL, pass_fds=(lock.fileno(),),
                          start_new_session=True, close_fds=True)
-        if awaited:
-            _QUICK_AWAITED[0] -= 1
-        else:
+        if _MANY_RUNS and not awaited:
             _UNAWAITED.add(str(path))
         return True
     except (OSError, ValueError, subprocess.SubprocessError):
@@ -688,7 +686,8 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
                     quick = _quick_library(path)
                     if quick is None and run is not None and (
                             _PENDING.setdefault(str(path), run) != run
-                            or _MANY_RUNS and str(path) not in _UNAWAITED):
+                            or _MANY_RUNS and not _IN_MEANWHILE[0]
+                            and str(path) not in _UNAWAITED):
                         quick = _await_quick_library(path)   # (a later run, or a study's)
                     if quick is not None:
                         return quick
@@ -715,15 +714,16 @@ def load_library(path: Path, full, wait: bool = True, run=None) -> ctypes.CDLL:
 @contextlib.contextmanager
 def many_runs(meanwhile=(), quick_level=None):
     """Within this context the process makes many runs of one model (a fit, a layout
-    study): the quick build of the first background build started within runs at the
-    command's priority, not niced, and the first run that finds the library being built
-    in the background waits for the quick build (:func:`load_library`, at most
+    study): the quick build of a background build started within runs at the command's
+    priority, not niced, and the first run that finds the library being built in the
+    background waits for the quick build (:func:`load_library`, at most
     :data:`QUICK_WAIT`) as its later runs do, instead of going on without it. A run on
     CVODES costs more than the wait (a fit's first run 0.6 s of CPU against ~0.5 s for the
     quick build, during which the command's figure process imports Matplotlib), and its
     CPU is taken from the build; a single run (a ``hydroline simulate``) is quicker on
-    CVODES than after the wait. A later background build started within (another network,
-    e.g. a layout study's 0 m length) is niced, and its first run goes on without it.
+    CVODES than after the wait. A background build started by the work done meanwhile
+    (another network, e.g. a layout study's 0 m length) is niced, and its first run goes on
+    without it.
 
     Parameters
     ----------
@@ -739,14 +739,12 @@ def many_runs(meanwhile=(), quick_level=None):
     global _MANY_RUNS
     before, _MANY_RUNS = _MANY_RUNS, True
     asked, _QUICK_ASKED[0] = _QUICK_ASKED[0], quick_level
-    awaited, _QUICK_AWAITED[0] = _QUICK_AWAITED[0], 1
     _MEANWHILE.extend(meanwhile)
     try:
         yield
     finally:
         _MANY_RUNS = before
         _QUICK_ASKED[0] = asked
-        _QUICK_AWAITED[0] = awaited
         del _MEANWHILE[:]
 
 
@@ -760,10 +758,13 @@ def _await_quick_library(path: Path):
     import fcntl
 
     while _MEANWHILE:   # (the command's own work first, on the CPU the build leaves)
+        within, _IN_MEANWHILE[0] = _IN_MEANWHILE[0], True
         try:
             _MEANWHILE.pop(0)()
         except Exception:   # noqa: BLE001  (done again, and said, where it is needed)
             pass
+        finally:
+            _IN_MEANWHILE[0] = within
     start = time.monotonic()
     try:
         while time.monotonic() - start < QUICK_WAIT - _WAITED.get(str(path), 0.0):
