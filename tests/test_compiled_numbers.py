@@ -204,6 +204,31 @@ def test_a_library_not_built_yet_is_built_in_the_background(monkeypatch, tmp_pat
         assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
 
 
+def test_a_quick_build_s_units_define_each_function_once():
+    """The quick build's translation units (compiled side by side): f's, the Jacobian's (at
+    ``JACOBIAN_LEVEL``), the other generated functions' and the integrator's, each holding the
+    generated header; together they define every function once (the others declared); a
+    source laid out otherwise is one unit."""
+    from hydroline.compiled import toolchain
+    from hydroline.compiled.codegen import generate
+    from test_compiled import oscillator_network
+
+    full = toolchain.library_location(generate(oscillator_network(omega=223.0).compile()))[1]
+    units = toolchain.quick_units(full, "-O1")
+    assert [level for _, level in units] == ["-O1", toolchain.JACOBIAN_LEVEL, "-O1", "-O1"]
+    header = full[:full.index("static void hl_f(")]
+    assert all(text.startswith(header) for text, _ in units)
+    for name in ("hl_f(", "hl_jac(", "hl_signals(", "hl_lu_solve(", "hl_init("):
+        defined = [k for k, (text, _) in enumerate(units)
+                   if any(line.startswith(("void " + name, "int " + name, "static void " + name))
+                          and line.endswith(") {") for line in text.splitlines())]
+        assert len(defined) == 1, name
+    integrator = toolchain.BDF_SOURCE.read_text()
+    assert [integrator in text for text, _ in units] == [False, False, False, True]
+    for odd in ("int hl_sizes(long long* out) { return 0; }\n", full[:-10]):
+        assert toolchain.quick_units(odd, "-O0") == [(odd, "-O0")]
+
+
 @needs_cc
 def test_runs_during_a_background_build_use_its_quick_library(monkeypatch, tmp_path):
     """While a background build goes on, a run finds its quick library (built first, at
@@ -232,6 +257,9 @@ def test_runs_during_a_background_build_use_its_quick_library(monkeypatch, tmp_p
     during = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
     path = started["path"]
     assert during.metadata["solver"] == "compiled"
+    # (the quick library is linked from f's, the Jacobian's, the other functions' and the
+    # integrator's units)
+    assert len(toolchain.quick_units(started["full"], toolchain.QUICK_LEVEL)) == 4
     assert toolchain.quick_location(path).exists() and not path.exists()
     source = tmp_path / "model.c"
     source.write_text(started["full"])
@@ -320,3 +348,49 @@ def test_a_later_run_waits_for_the_quick_library(monkeypatch, tmp_path, many):
     started["thread"].join()
     for res in runs:
         assert res["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+
+
+@needs_cc
+def test_many_runs_waits_for_its_first_build_and_runs_another_network_meanwhile(monkeypatch,
+                                                                                 tmp_path):
+    """Inside ``many_runs`` (a layout study) the first run waits for its background build's
+    quick library, started at the command's priority, after the work given to do meanwhile:
+    a run of another network (a 0 m length) that starts its own build, niced, and goes on
+    with CVODES. Both give the oscillator's exact step peak
+    1 + exp(-pi zeta / sqrt(1 - zeta^2)) mm (a one-mode modal block is that oscillator)."""
+    import fcntl
+    from pathlib import Path
+
+    from hydroline.cache import BACKGROUND_BUILD_ENV
+    from hydroline.compiled import toolchain
+    from hydroline.engine import integrate
+    from test_compiled import Hold, ModalBlock, _oscillator_peak, oscillator_network
+
+    monkeypatch.setenv("HYDROLINE_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(BACKGROUND_BUILD_ENV, "1")
+    for name in ("_LIBS", "_PENDING", "_WAITED"):
+        monkeypatch.setattr(toolchain, name, {})
+    monkeypatch.setattr(toolchain, "_UNAWAITED", set())
+    monkeypatch.setattr(toolchain, "QUICK_WAIT", 60.0)   # (a slow machine's compiler)
+    monkeypatch.setattr(compiled.records, "_MODELS", {})
+    monkeypatch.setattr(compiled.records, "_NUMBERS", {})
+    other = []
+
+    def zero_length():
+        network = Network([Hold(name="source"), ModalBlock(name="m", omegas=(223.0,),
+                                                          zetas=(0.05,), gains=(1.0,))])
+        other.append(integrate(network, np.zeros(2), 0.05))
+
+    with toolchain.many_runs(meanwhile=[zero_length]):
+        first = integrate(oscillator_network(omega=223.0), np.zeros(2), 0.05)
+    assert first.metadata["solver"] == "compiled"
+    assert other[0].metadata["solver"] == "cvodes"
+    (niced,) = toolchain._UNAWAITED          # the other network's build, niced
+    (awaited,) = [path for path in toolchain._PENDING if path != niced]
+    assert str(toolchain.quick_location(Path(awaited))) in toolchain._LIBS
+    for lock in tmp_path.glob("*.lock"):      # (both builds ended before tmp_path goes)
+        with open(lock) as f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+    assert len(list(tmp_path.glob("hl_*[0-9a-f].so"))) == 2
+    assert first["osc.x"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)
+    assert other[0]["m.q0"].max() == pytest.approx(_oscillator_peak(), rel=2e-3)

@@ -94,7 +94,7 @@ AXIS_SIGNALS = {"supply_port_pressure": "supply_pressure", "return_port_pressure
                 "valve_current": "current"}
 
 
-def select_axis(rig: Rig, axis: str | None = None):
+def select_axis(rig: Rig, axis: str | None = None, circuit=None):
     """The handles of one servo axis of a rig (the first when ``axis`` is None).
 
     Parameters
@@ -103,6 +103,9 @@ def select_axis(rig: Rig, axis: str | None = None):
         Parameters (SI)
     axis : str
         Axis name (``hydroline circuit RIG`` lists them)
+    circuit : hydroline.circuit.Circuit
+        The rig's circuit where it is built already (None: built here,
+        :func:`hydroline.system.build_circuit`)
 
     Returns
     -------
@@ -114,7 +117,7 @@ def select_axis(rig: Rig, axis: str | None = None):
     ValueError
         one line naming the axis and the rig's axes
     """
-    axes = build_circuit(rig).axes
+    axes = (build_circuit(rig) if circuit is None else circuit).axes
     if not axes:
         raise ValueError(f"rig {rig.source}: no servo axis (an actuator driven by a servovalve)")
     if axis is None:
@@ -298,10 +301,12 @@ def axis_network(rig: Rig, commands: list, axis: str | None = None,
     Network
         The axis's network with the given commands.
     """
-    ax = select_axis(rig, axis)
-    first = next(iter(build_circuit(rig).axes))
-    circuit = build_circuit(rig, position_guess if ax.name == first else None)
-    if ax.name != first:
+    circuit = build_circuit(rig)
+    ax = select_axis(rig, axis, circuit)
+    if ax.name == next(iter(circuit.axes)):   # (the guess places the first axis)
+        if position_guess is not None:
+            circuit = build_circuit(rig, position_guess)
+    else:
         try:
             circuit.place(position_guess, ax.name)
         except ValueError as e:

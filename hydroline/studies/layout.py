@@ -41,6 +41,7 @@ doi:10.1016/S0019-0578(07)60207-6. Figs. 13-14: port pressures for section II le
 """
 from __future__ import annotations
 
+import functools
 import math
 import time as _time
 from dataclasses import dataclass, field
@@ -48,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..compiled.toolchain import many_runs
 from ..rigs import Rig, RigError, load_rig
 from ..scenarios.experiments import scenario_names
 from ..scenarios.running import simulate
@@ -767,10 +769,10 @@ def run_order(lengths) -> list[int]:
     template rig without the section: a network of its own), then the rest in order.
 
     The first run of a study starts the background build of its network's library (a
-    compiled core, :mod:`hydroline.compiled.toolchain`) and goes on with CVODES; the later
-    lengths of that network wait for the build's quick library. A 0 m length is another
-    network, run on CVODES in any case: run meanwhile, it takes its time out of that wait
-    instead of adding it after the last run. The results are the same in any order.
+    compiled core, :mod:`hydroline.compiled.toolchain`) and waits for the build's quick
+    library, as the later lengths of that network do. A 0 m length is another network, run
+    on CVODES in any case: run during that wait (:func:`layout`), it takes its time out of
+    the wait instead of adding it after the last run. The results are the same in any order.
 
     Parameters
     ----------
@@ -860,7 +862,12 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
     summaries, results = [None] * len(lengths), [None] * len(lengths)
     chosen = None
     handed = 0                  # runs handed to on_run, in the lengths' order
-    for done, k in enumerate(run_order(lengths)):
+
+    def run_length(k):
+        """Run length ``k`` (unless it has run), its metrics, and hand on what has run."""
+        nonlocal chosen, handed
+        if results[k] is not None:
+            return
         L = lengths[k]
         variant = rig.copy()
         try:
@@ -885,7 +892,15 @@ def layout(rig=None, lengths=DEFAULT_LENGTHS, *, sides=SIDES, sections=None, axi
             on_run(handed, lengths[handed], results[handed], summaries[handed], chosen)
             handed += 1
         if progress is not None:
-            progress(done + 1, len(lengths))
+            progress(sum(r is not None for r in results), len(lengths))
+
+    order = run_order(lengths)
+    # (a 0 m length, a network of its own, runs on CVODES while the first run waits for its
+    # library's quick build: compiled.many_runs)
+    with many_runs(meanwhile=[functools.partial(run_length, k) for k in order[1:]
+                              if lengths[k] == 0 != lengths[order[0]]]):
+        for k in order:
+            run_length(k)
     fluid = make_fluid(rig)
     lines = {}
     for side in SIDES:
