@@ -68,6 +68,15 @@ BACKGROUND_NICENESS = 10
 #: in the ``-O3`` library, ``HL_RARELY_CALLED``) it is the largest unit, 0.43 s of the
 #: default rig's ~1.0 s at ``-O1``; at ``-O0`` 0.15 s, for ~3 ms more of a fit's run (35 ms)
 JACOBIAN_LEVEL = "-O0"
+#: Translation units of the optimised (``-O3``) build too (:func:`quick_units`), compiled
+#: side by side: 30 modes per section, the Jacobian 1.5 s at ``-O1`` (2.5 s at ``-O3`` with
+#: its ``O1`` attribute as one file), f, the other functions and the integrator 0.5, 0.7 and
+#: 0.75 s: on two cores the first build's wall ~2 s instead of ~3.7 s. Part of the cache key
+#: (:func:`build_settings`): a library built as one file has another machine code
+UNITS_OF_THE_BUILD = 4
+#: Optimisation level of the Jacobian's unit in the optimised build: its level there as one
+#: file (``HL_RARELY_CALLED``, ``optimize("O1")``), [-]
+OPTIMISED_JACOBIAN_LEVEL = "-O1"
 BDF_SOURCE = Path(__file__).with_name("bdf.c")
 _LIBS: dict = {}
 #: Library (its path) -> the first run of this process that went on without it while its
@@ -200,7 +209,8 @@ def build_settings() -> str:
     str
         Flags, platform and CPU identifier, as one text.
     """
-    return " ".join(CFLAGS + native_flags()) + sys.platform + _cpu_id()
+    return (" ".join(CFLAGS + native_flags()) + f" units {UNITS_OF_THE_BUILD} jacobian "
+            f"{OPTIMISED_JACOBIAN_LEVEL}" + sys.platform + _cpu_id())
 
 
 def _library_key(full: str) -> str:
@@ -472,7 +482,7 @@ GENERATED_FUNCTION = re.compile(r"^(?:HL_RARELY_CALLED )?static (?:void|int) (hl
                                 re.M)
 
 
-def quick_units(full: str, level: str) -> list[tuple[str, str]]:
+def quick_units(full: str, level: str, jacobian_level: str = JACOBIAN_LEVEL) -> list[tuple[str, str]]:
     """The translation units of a quick build, compiled side by side (on two cores a quick
     build's wall is about half their sum, not the sum): the model's f, its Jacobian (at
     :data:`JACOBIAN_LEVEL`), its other functions (the signals, the sparse LU), and the
@@ -487,6 +497,8 @@ def quick_units(full: str, level: str) -> list[tuple[str, str]]:
         The library's source (:func:`library_location`)
     level : str
         The quick build's optimisation level, e.g. ``"-O1"``
+    jacobian_level : str
+        The Jacobian's (:data:`JACOBIAN_LEVEL`; the optimised build's: its own ``level``)
 
     Returns
     -------
@@ -519,8 +531,13 @@ def quick_units(full: str, level: str) -> list[tuple[str, str]]:
         return "".join(parts) + model[at:] + tail
 
     others = set(names) - {"hl_f", "hl_jac"}
-    return [(unit({"hl_f"}), level), (unit({"hl_jac"}), JACOBIAN_LEVEL),
+    return [(unit({"hl_f"}), level), (unit({"hl_jac"}), jacobian_level),
             (unit(others), level), (unit(set(), integrator), level)]
+
+
+#: Flags of a unit's compile: its calls to another unit's functions go straight there, not
+#: through the shared library's procedure linkage table (no other library may replace them)
+UNIT_FLAGS = ["-fno-semantic-interposition"]
 
 
 def _compile_units(cc: str, units, flags, folder: Path, out: Path) -> bool:
@@ -535,7 +552,8 @@ def _compile_units(cc: str, units, flags, folder: Path, out: Path) -> bool:
     objects = [src.with_suffix(".o") for src in sources]
     for native in ([native_flags(), []] if native_flags() else [[]]):
         try:
-            procs = [subprocess.Popen([cc, level, *flags, *native, "-c", "-o", str(obj), str(src)],
+            procs = [subprocess.Popen([cc, level, *flags, *native, *UNIT_FLAGS, "-c", "-o",
+                                       str(obj), str(src)],
                                       stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                       stderr=subprocess.DEVNULL)
                      for (_, level), src, obj in zip(units, sources, objects)]
@@ -563,7 +581,8 @@ def _compile_locked(cc: str, full: str, path: Path, quick_level: str | None = No
     _discard(path)                          # damaged or unrecorded: build it anew
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
         out = Path(tmp) / "model.so"
-        units = quick_units(full, quick_level) if quick_level else []
+        units = quick_units(full, quick_level) if quick_level else \
+            quick_units(full, "-O3", OPTIMISED_JACOBIAN_LEVEL)
         if len(units) < 2 or not _compile_units(cc, units, flags, Path(tmp), out):
             src = Path(tmp) / "model.c"
             src.write_text(full)
