@@ -34,6 +34,7 @@ from __future__ import annotations
 import argparse
 import os
 import resource
+import re
 import statistics
 import subprocess
 import sys
@@ -260,27 +261,28 @@ def modes_rows(work: Path, repeat: int):
 
 
 def axis_rig(n: int, work: Path) -> Path | None:
-    """``two_axis.toml`` with ``n`` axes (axis 2 copied as axis 3.., or dropped for one), or
-    None where its layout is not the one this copies from."""
+    """``two_axis.toml`` with ``n`` axes: its ``[circuit.axis2]`` instance of the shared
+    ``[subcircuit.axis]`` copied as axis 3.., or dropped for one, and the manifolds'
+    junctions' terms and ports made to match; None where its layout is not the one this
+    edits."""
     from importlib import resources
 
     text = resources.files("hydroline.rigs").joinpath("two_axis.toml").read_text()
-    marker = "# ---------------------------------------------------------------- axis 2"
-    head, sep, axis2 = text.partition(marker)
-    if not sep:
+    block = re.search(r"^\[circuit\.axis2\][^\n]*\n(?:(?!\[|#|\n).*\n)*", text, re.M)
+    terms = "axis1 = 1, axis2 = 1, "
+    if block is None or text.count(terms) != 2:
         return None
-    terms, new = "axis1 = 1, axis2 = 1, ", "".join(f"axis{k} = 1, " for k in range(1, n + 1))
-    if head.count(terms) != 2:
-        return None
-    head = head.replace(terms, new)
+    text = text.replace(terms, "".join(f"axis{k} = 1, " for k in range(1, n + 1)))
     for kind in ("supply_hose_inflow", "return_hose_outflow"):
         old = f'axis1 = "axis1.{kind}", axis2 = "axis2.{kind}", '
-        if old not in head:
+        if old not in text:
             return None
-        head = head.replace(old, "".join(f'axis{k} = "axis{k}.{kind}", ' for k in range(1, n + 1)))
-    body = head + "".join(sep.replace("axis 2", f"axis {k}") + axis2.replace("axis2", f"axis{k}")
-                          for k in range(2, n + 1))
-    return rig_file(work, f"axes_{n}.toml", body)
+        text = text.replace(old, "".join(f'axis{k} = "axis{k}.{kind}", '
+                                         for k in range(1, n + 1)))
+    axis2 = block.group(0)
+    copies = "".join(axis2.replace("axis2", f"axis{k}") for k in range(2, n + 1))
+    text = text.replace(axis2, copies, 1)
+    return rig_file(work, f"axes_{n}.toml", text)
 
 
 def axes_rows(work: Path, repeat: int):
