@@ -376,6 +376,12 @@ class NativeSolver:
                      rtol, atol, *self._settings)
         lib.hl_set_max_steps(self._h, self.max_steps_per_call)
         lib.hl_set_method(self._h, self.METHODS[self.chosen_method])
+        # the states' ceilings on their absolute tolerances, scaled (inf: none)
+        ceilings = np.asarray(getattr(net, "state_atol_ceilings", ()), dtype=float)
+        self._ceilings = bool(ceilings.size) and bool(np.isfinite(ceilings).any())
+        if self._ceilings:
+            self._atol_ceilings = np.ascontiguousarray(ceilings / self._scale)
+            lib.hl_set_atol_ceilings(self._h, self._atol_ceilings.ctypes.data)
 
     def _checked_parameters(self, p) -> np.ndarray:
         p = np.atleast_1d(np.array(p, dtype=float))   # a copy: the caller may change its own
@@ -443,7 +449,7 @@ class NativeSolver:
         atol : float
             Absolute tolerance on the scaled states (the BDF's), [-]
         """
-        if self.chosen_method == "radau":
+        if self.chosen_method == "radau" and not self._ceilings:
             cap = self.RADAU_RELAXED_ATOL_MAX / self._tolerance_factor
             atol = self.atol if cap <= self.atol else min(atol, cap)
         self.set_tolerances(rtol, atol)
