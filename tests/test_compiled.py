@@ -611,6 +611,57 @@ def test_native_solver_refuses_wrong_sizes_and_times():
 
 
 @dataclass(kw_only=True)
+class CeiledOscillator(Oscillator):
+    """The oscillator with a ceiling on each state's absolute tolerance, ``resolution``
+    times its scale (the scaled ceiling the same for both)."""
+
+    resolution: float = 1e-9
+
+    @property
+    def states(self):
+        return [State(s.name, s.unit, s.scale, atol_ceiling=self.resolution * s.scale)
+                for s in super().states]
+
+
+@needs_cc
+@pytest.mark.parametrize("method", ["bdf", "radau"])
+def test_tolerance_ceiling_below_atol_weighs_errors_as_that_atol(method):
+    # every state's error weight is 1 / (min(atol, ceiling / scale) + rtol |y|) (bdf.c): a
+    # ceiling of 1e-9 of the scale under atol 1e-6 runs step for step as atol 1e-9 without
+    # ceilings; a ceiling above atol changes nothing
+    t_out = np.linspace(0.0, 0.05, 51)
+
+    def run(resolution, atol):
+        osc = (Oscillator(name="osc", omega=213.0) if resolution is None
+               else CeiledOscillator(name="osc", omega=213.0, resolution=resolution))
+        ns = compiled.native_model(Network([Hold(name="source"), osc])).solver(
+            rtol=1e-6, atol=atol, method=method)
+        ns.start(0.0, np.zeros(2), 0.05)
+        x, _ = ns.advance(t_out, signals=False)
+        return x, ns.stats()["nsteps"]
+
+    x_ceiled, n_ceiled = run(1e-9, 1e-6)
+    x_tight, n_tight = run(None, 1e-9)
+    x_loose, n_loose = run(None, 1e-6)
+    assert np.array_equal(x_ceiled, x_tight) and n_ceiled == n_tight
+    assert n_loose < n_tight                     # (the ceiling held: not the loose run)
+    x_above, n_above = run(1e-3, 1e-6)
+    assert np.array_equal(x_above, x_loose) and n_above == n_loose
+
+
+def test_friction_holds_the_piston_velocity_tolerance_at_a_tenth_of_v_reg():
+    # the Stribeck friction reads the actuator's velocity state (M36: tanh(v / v_reg)); no
+    # other state of the default rig has a ceiling
+    rig = load_rig(None)
+    sc = build_scenario(rig, "open-loop-step")
+    net = build_network(rig, sc.commands, sc.position_guess)
+    ceilings = net.state_atol_ceilings
+    i = net.state_names.index("actuator.velocity")
+    assert ceilings[i] == pytest.approx(0.1 * 1e-4)
+    assert np.isinf(np.delete(ceilings, i)).all()
+
+
+@dataclass(kw_only=True)
 class Blowup(Component):
     """dx/dt = 1/sqrt(t_end - t): finite until t_end, NaN after it (a model leaving its domain)."""
 

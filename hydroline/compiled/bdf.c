@@ -77,6 +77,11 @@ typedef struct {
     double p[HL_NP], c[HL_NC], scale[HL_N];
     double rtol, atol, max_step, fixed_step, newton_coef;
     int max_order;
+    /* each state's ceiling on its absolute tolerance (scaled; 0, as calloc leaves it, or
+     * INFINITY: none; hl_set_atol_ceilings) and the absolute tolerance its error weight takes,
+     * min(atol, ceiling), to single precision (hl_inverse_weights) */
+    double atol_ceiling[HL_N];
+    float atol_state[HL_N];
     /* largest step of each order on the model's oscillatory modes (NDF3-5 are not A-stable):
      * order_limit[q] for q = 1..5, INFINITY where none (hl_set_order_limits) */
     double order_limit[HL_MAX_ORDER + 2];
@@ -200,8 +205,18 @@ static int hl_all_finite(const double* v, int* last) {
  * digits: the weights set how errors are measured, not the solution). A double division per
  * state costs ~4 cycles, two per step; single precision ones go eight to a vector. */
 static void hl_inverse_weights(const hl_solver* S, const double* y, double* winv) {
-    const float atol = (float)S->atol, rtol = (float)S->rtol;
-    for (int i = 0; i < HL_N; i++) winv[i] = 1.f / (atol + rtol * (float)fabs(y[i]));
+    const float rtol = (float)S->rtol;
+    for (int i = 0; i < HL_N; i++) winv[i] = 1.f / (S->atol_state[i] + rtol * (float)fabs(y[i]));
+}
+
+/* State i's absolute tolerance: min(atol, its ceiling) (no ceiling, 0: atol itself) */
+static double hl_state_atol(const hl_solver* S, int i) {
+    return S->atol_ceiling[i] > 0 ? fmin(S->atol, S->atol_ceiling[i]) : S->atol;
+}
+
+/* atol_state_i, hl_state_atol to single precision */
+static void hl_state_tolerances(hl_solver* S) {
+    for (int i = 0; i < HL_N; i++) S->atol_state[i] = (float)hl_state_atol(S, i);
 }
 
 static void hl_eval_f(hl_solver* S, double t, const double* z, double* dz) {
@@ -471,6 +486,7 @@ int hl_setup(hl_solver* S, const double* p, const double* c, const double* scale
     memcpy(S->c, c, sizeof(double) * HL_NC);
     memcpy(S->scale, scale, sizeof(double) * HL_N);
     S->rtol = rtol; S->atol = atol;
+    hl_state_tolerances(S);
     S->max_step = max_step > 0 ? max_step : INFINITY;
     S->fixed_step = fixed_step;
     S->max_order = max_order < 1 ? 1 : (max_order > HL_MAX_ORDER ? HL_MAX_ORDER : max_order);
@@ -485,6 +501,16 @@ int hl_setup(hl_solver* S, const double* p, const double* c, const double* scale
 int hl_set_order_limits(hl_solver* S, const double* limits) {
     for (int q = 1; q <= HL_MAX_ORDER; q++)
         S->order_limit[q] = limits[q - 1] > 0 ? limits[q - 1] : INFINITY;
+    return 0;
+}
+
+/* Each state's ceiling on its absolute tolerance, on the scaled state (ceiling [SI] / scale;
+ * INFINITY or <= 0: none): its error weight takes min(atol, ceiling) from the next step on,
+ * whatever atol hl_setup sets later (a state whose dynamics has a resolution: the piston
+ * velocity against the friction's regularisation velocity). None set: the weights of atol. */
+int hl_set_atol_ceilings(hl_solver* S, const double* ceilings) {
+    for (int i = 0; i < HL_N; i++) S->atol_ceiling[i] = ceilings[i] > 0 ? ceilings[i] : 0.;
+    hl_state_tolerances(S);
     return 0;
 }
 
@@ -514,7 +540,7 @@ int hl_init(hl_solver* S, double t0, const double* x0, double t_bound) {
     if (S->fixed_step > 0) {
         h = fmin(S->fixed_step, interval);
     } else {
-        for (int i = 0; i < HL_N; i++) w[i] = S->atol + fabs(z[i]) * S->rtol;
+        for (int i = 0; i < HL_N; i++) w[i] = hl_state_atol(S, i) + fabs(z[i]) * S->rtol;
         double d0 = hl_rms(z, w), d1 = hl_rms(f0, w), h0;
         h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
         h0 = fmin(h0, interval);
@@ -1091,7 +1117,7 @@ static int hl_radau_step(hl_solver* S) {
         for (int n = 0; n < HL_N; n++) {
             double a = fabs(y[n]), b = fabs(y_new[n]);
             float m = (float)(a > b ? a : b);
-            ew[n] = 1.f / ((float)S->atol + (float)S->rtol * m);
+            ew[n] = 1.f / (S->atol_state[n] + (float)S->rtol * m);
         }
         error_norm = hl_wrms(err, ew);
         /* the BDF's safety factor (SciPy's Radau: 0.9): on the 0.3 m hose 101 rejected steps

@@ -849,3 +849,4 @@ def _declare(lib):
     lib.hl_set_max_steps.argtypes = [vp, ctypes.c_longlong]
     lib.hl_set_order_limits.argtypes = [vp, vp]
     lib.hl_set_method.argtypes = [vp, ctypes.c_int]
+    lib.hl_set_atol_ceilings.argtypes = [vp, vp]

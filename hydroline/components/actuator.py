@@ -172,6 +172,16 @@ class Actuator(OilChamber):
                   ) / self.moving_mass
         return float(np.sqrt(w2) / (2 * np.pi))
 
+    def output_states(self):
+        """Every output is the state of its name.
+
+        Returns
+        -------
+        dict
+            Output port -> state name.
+        """
+        return {k: k for k in self.outputs}
+
     def outputs_of(self, t, x, u, p):
         return {k: x[k] for k in ("bottom_pressure", "top_pressure", "position", "velocity")}
 

@@ -84,6 +84,25 @@ class StribeckFriction(Component):
         """The states: the LuGre ``bristle`` deflection [m] with ``model = "lugre"``, else none."""
         return [State("bristle", "m", 1e-5)] if self.model == "lugre" else []
 
+    #: The piston velocity's absolute tolerance never exceeds this fraction of ``v_reg``
+    #: (:meth:`input_resolutions`), [-]: tanh(v / v_reg) changes by up to this fraction of
+    #: the friction force per error of that size, well inside its linear range (slope 1 at
+    #: v = 0); looser, a piston at rest jitters across the slope (Newton failures).
+    VELOCITY_RESOLUTION = 0.1
+
+    def input_resolutions(self):
+        """The piston velocity to a tenth of ``v_reg`` (:data:`VELOCITY_RESOLUTION`): the
+        regularised Stribeck curve's steep slope at rest (M36); none for LuGre.
+
+        Returns
+        -------
+        dict
+            ``{"velocity": ceiling}``, [m/s].
+        """
+        if self.model != "stribeck":
+            return {}
+        return {"velocity": self.VELOCITY_RESOLUTION * self.regularization_velocity}
+
     def _curve(self, v, up: bool):
         """Stribeck level F_c + (F_s - F_c) exp(-(|v|/C_s)^delta) of one direction, [N]."""
         fc = self.coulomb_up if up else self.coulomb_down

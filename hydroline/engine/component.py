@@ -84,12 +84,19 @@ class State:
         Typical magnitude (absolute tolerance and steady-state scaling), [unit]
     description : str
         What it is
+    atol_ceiling : float
+        The loosest absolute tolerance the integrator may take on it, [unit]
+        (None: none): the resolution its dynamics needs, e.g. a fraction of a
+        regularisation velocity; looser tolerances (``after_stop_rtol``) leave
+        it there. A component may set it on another's state through an input
+        (:meth:`Component.input_resolutions`)
     """
 
     name: str
     unit: str
     scale: float = 1.0
     description: str = ""
+    atol_ceiling: float | None = None
 
 
 @dataclass(frozen=True)
@@ -491,6 +498,31 @@ class Component:
     def states(self) -> list[State]:
         """The component's states, :class:`State` entries (none by default)."""
         return []
+
+    def input_resolutions(self) -> dict:
+        """The resolution each input needs, input port -> the loosest absolute tolerance
+        [SI unit of the port] on the state that input reads (none by default).
+
+        The network takes it as that state's :attr:`State.atol_ceiling` where the input is
+        wired to an output that passes a state through (:meth:`output_states`).
+
+        Returns
+        -------
+        dict
+            Input port -> tolerance ceiling, [SI unit of the port].
+        """
+        return {}
+
+    def output_states(self) -> dict:
+        """The outputs that are one of the component's states unchanged, output port ->
+        local state name (none by default).
+
+        Returns
+        -------
+        dict
+            Output port -> state name.
+        """
+        return {}
 
     def outputs_of(self, t, x, u, p):
         """The outputs, local port name -> value [SI unit of the port].

@@ -97,6 +97,7 @@ class Network:
                 self.state_scales.append(s.scale)
             self._state_slices[c.name] = slice(start, len(self.state_names))
         self.state_scales = np.array(self.state_scales, dtype=float)
+        self.state_atol_ceilings = self._atol_ceilings()
         self.parameter_names, self.parameter_values = [], []
         for c in self.components:
             for k, v in c.runtime_parameters().items():
@@ -111,6 +112,22 @@ class Network:
             warnings.warn("flow read by no component (the fluid leaves the circuit there; connect "
                           "it to a node or a pressure boundary): " + "; ".join(lost),
                           UnusedSignalWarning, stacklevel=2)
+
+    def _atol_ceilings(self) -> np.ndarray:
+        """Each state's ceiling on its absolute tolerance, [SI] (inf: none): its own
+        (:attr:`State.atol_ceiling`) and the resolutions the inputs reading it ask for
+        (:meth:`Component.input_resolutions`), the smallest."""
+        ceilings = np.array([np.inf if s.atol_ceiling is None else float(s.atol_ceiling)
+                             for c in self.components for s in c.states], dtype=float)
+        for c in self.components:
+            for port, resolution in c.input_resolutions().items():
+                src, sport = self.producer[c.signal(port)]
+                state = src.output_states().get(sport)
+                if state is not None:
+                    names = [s.name for s in src.states]
+                    i = self._state_slices[src.name].start + names.index(state)
+                    ceilings[i] = min(ceilings[i], float(resolution))
+        return ceilings
 
     # ---- checks ----------------------------------------------------------------------
     def _check(self):
