@@ -99,6 +99,11 @@ FIGURE_COLUMNS = ("supply_port_pressure", "return_port_pressure", "bottom_chambe
                   "top_chamber_pressure", "piston_velocity", "piston_position")
 
 
+#: How the summary names an integrator other than the compiled BDF (``metadata["solver"]``):
+#: ``solver="auto"`` takes Radau IIA where the hoses' modes cap the BDF (docs/engine.md)
+INTEGRATOR_NAMES = {"radau": ", Radau IIA", "cvodes": ", CVODES", "scipy": ", SciPy"}
+
+
 def speed_against_real_time(simulated: float, wall: float) -> str:
     """How fast a run went against the time it simulated, in words: ``"10.1x faster than
     real time"`` or ``"3.2x slower than real time"``.
@@ -501,7 +506,8 @@ def _run(args, rig, t_end, scenario, h, every, long_run, write, out, figures,
     print(f"hydroline simulate: {scenario} on {rig.get('rig.name', rig.source)}")
     print(f"  {res.metadata['n_states']} states, steady-state residual {res.steady_state.residual:.1e} 1/s, "
           f"wall time {summary['wall_time_s']:.2f} s "
-          f"(the integrator: {speed_against_real_time(res.t[-1], res.wall_time)})")
+          f"(the integrator{INTEGRATOR_NAMES.get(res.metadata.get('solver'), '')}: "
+          f"{speed_against_real_time(res.t[-1], res.wall_time)})")
     print(f"  {summary['metrics_window_note']}")
     if scenario == "closed-loop-sine":
         rows = [[f"{side} port", summary[side].get("ripple_pp_mpa"),
