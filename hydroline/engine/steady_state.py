@@ -576,8 +576,7 @@ def polished(model, t0, x, p, scales, tol):
     current) too, and a run's rows do not depend on what ran before it. (Without this, a
     1e-14 difference of the start flips step decisions of the integrator and moves the
     rows by ~1e-5 of their excursion.) Every solve-and-settle round ends with it. The step
-    from the grid,
-    ~1e-9 away, lands within rounding of the root; where it is longer than
+    from the grid, ~1e-9 away, lands within rounding of the root; where it is longer than
     :data:`POLISH_STEP` (a singular Jacobian: a state free at rest, as the piston under a
     held valve current) or does not lower the residual to the solver's tolerance (or twice
     the given state's), x is kept as it was.
