@@ -269,3 +269,20 @@ def test_cached_json_run_imports_no_casadi(tmp_path):
             for _ in range(2)]
     assert runs[1]["casadi"] is False
     assert runs[1]["summary"] == runs[0]["summary"]
+
+
+def test_a_state_s_tolerance_ceiling_is_a_number_not_structure():
+    """A state's tolerance ceiling (State.atol_ceiling), like its scale, is read by the
+    integrator at run time and is in no equation: with ``structure`` two states differing
+    only in it describe alike, as do two scales; without it, each number counts."""
+    from hydroline.engine.component import State
+
+    def described(state, structure):
+        return repr(fingerprint._Describer(structure=structure).freeze(state))
+
+    a = State("velocity", "m/s", 1.0, atol_ceiling=1e-5)
+    b = State("velocity", "m/s", 2.0, atol_ceiling=3e-5)
+    assert described(a, True) == described(b, True)
+    assert described(a, False) != described(b, False)
+    none = State("velocity", "m/s", 1.0)
+    assert described(none, True) != described(a, True)   # a ceiling or none: not a number

@@ -260,7 +260,8 @@ class _Describer:
     """Turns values into a tree of literals (dictionaries in sorted order, objects as their
     class and attributes, arrays as dtype, shape and SHA-256) whose repr describes them
     exactly; collects the classes met. With ``structure``, a state's typical magnitude
-    (``State.scale``, which scales the states, not the equations) stands as a mark."""
+    (``State.scale``, which scales the states, not the equations) and its tolerance ceiling
+    (``State.atol_ceiling``, which the integrator reads at run time) stand as marks."""
 
     def __init__(self, structure: bool = False):
         self.classes: dict = {}     # class -> its info
@@ -319,6 +320,8 @@ class _Describer:
             del state[name]
         if self.structure and isinstance(v, State):
             state["scale"] = NUMBER_MARK
+            if state.get("atol_ceiling") is not None:   # (a tolerance too, as the scale)
+                state["atol_ceiling"] = NUMBER_MARK
         return mark, state
 
 
