@@ -482,10 +482,12 @@ GENERATED_FUNCTION = re.compile(r"^(?:HL_RARELY_CALLED )?static (?:void|int) (hl
                                 re.M)
 
 
-def quick_units(full: str, level: str, jacobian_level: str = JACOBIAN_LEVEL) -> list[tuple[str, str]]:
-    """The translation units of a quick build, compiled side by side (on two cores a quick
-    build's wall is about half their sum, not the sum): the model's f, its Jacobian (at
-    :data:`JACOBIAN_LEVEL`), its other functions (the signals, the sparse LU), and the
+def quick_units(full: str, level: str,
+                jacobian_level: str = JACOBIAN_LEVEL) -> list[tuple[str, str]]:
+    """The translation units of a build, the quick one's and the optimised one's
+    (:data:`UNITS_OF_THE_BUILD`), compiled side by side (on two cores a build's wall is
+    about half their sum, not the sum): the model's f, its Jacobian (at ``jacobian_level``),
+    its other functions (the signals, the sparse LU), and the
     integrator (:data:`BDF_SOURCE`), each with the generated header and tables, the
     functions of the other units declared. Default rig at ``-O1``: 0.13, 0.15, 0.20 and
     0.29 s of CPU. A source not laid out as the generated C is (no f or Jacobian found,
@@ -496,7 +498,7 @@ def quick_units(full: str, level: str, jacobian_level: str = JACOBIAN_LEVEL) -> 
     full : str
         The library's source (:func:`library_location`)
     level : str
-        The quick build's optimisation level, e.g. ``"-O1"``
+        The build's optimisation level, e.g. ``"-O1"`` (a quick build's)
     jacobian_level : str
         The Jacobian's (:data:`JACOBIAN_LEVEL`; the optimised build's: its own ``level``)
 
@@ -569,9 +571,9 @@ def _compile_units(cc: str, units, flags, folder: Path, out: Path) -> bool:
 
 
 def _compile_locked(cc: str, full: str, path: Path, quick_level: str | None = None) -> None:
-    """:func:`_compile`'s work, the library's lock held by the caller (``quick_level``, e.g.
-    :data:`QUICK_LEVEL`: its quick build at that optimisation level, into
-    :func:`quick_location`, from :func:`quick_units` compiled side by side)."""
+    """:func:`_compile`'s work, the library's lock held by the caller, from
+    :func:`quick_units` compiled side by side (``quick_level``, e.g. :data:`QUICK_LEVEL`:
+    its quick build at that optimisation level, into :func:`quick_location`)."""
     flags = CFLAGS
     if quick_level:
         flags = [quick_level if f.startswith("-O") else f for f in CFLAGS]
@@ -581,8 +583,9 @@ def _compile_locked(cc: str, full: str, path: Path, quick_level: str | None = No
     _discard(path)                          # damaged or unrecorded: build it anew
     with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
         out = Path(tmp) / "model.so"
-        units = quick_units(full, quick_level) if quick_level else \
-            quick_units(full, "-O3", OPTIMISED_JACOBIAN_LEVEL)
+        level = next(f for f in flags if f.startswith("-O"))
+        units = quick_units(full, level, JACOBIAN_LEVEL if quick_level
+                            else OPTIMISED_JACOBIAN_LEVEL)
         if len(units) < 2 or not _compile_units(cc, units, flags, Path(tmp), out):
             src = Path(tmp) / "model.c"
             src.write_text(full)
