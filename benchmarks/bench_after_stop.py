@@ -121,15 +121,21 @@ def main(argv=None):
     E_eq = scipy.linalg.expm(J_eq * dt)
     z_eq = x_eq / S
 
-    rows = []
-    for ts in args.switch:
+    def frozen_at(ts):
+        """Row i of the switch at ts, rows m from there, its state, the scaled Jacobian J and
+        f there, and the augmented matrix [[J dt, f dt], [0, 0]] whose exponential steps the
+        frozen linearisation (the constant term f carried as an extra state of value 1)."""
         i = int(round(ts / dt))
-        m = len(t) - i
         xs = X[i]
         J = solver.scaled_jacobian(float(t[i]), xs)
         f = solver.rhs(float(t[i]), xs) / S
         M = np.zeros((n + 1, n + 1))
         M[:n, :n], M[:n, n] = J * dt, f * dt
+        return i, len(t) - i, xs, J, f, M
+
+    rows = []
+    for ts in args.switch:
+        i, m, xs, J, f, M = frozen_at(ts)
         aug = np.zeros(n + 1)
         aug[n] = 1.0
         Z = X[i] / S + propagate(scipy.linalg.expm(M), aug, m)[:, :n]
@@ -161,13 +167,7 @@ def main(argv=None):
                       "actual |e| [-]"), rows))
 
     # costs
-    i = int(round(args.switch[0] / dt))
-    m = len(t) - i
-    xs = X[i]
-    J = solver.scaled_jacobian(float(t[i]), xs)
-    f = solver.rhs(float(t[i]), xs) / S
-    M = np.zeros((n + 1, n + 1))
-    M[:n, :n], M[:n, n] = J * dt, f * dt
+    i, m, xs, J, f, M = frozen_at(args.switch[0])
     E = scipy.linalg.expm(M)
     lam, V = np.linalg.eig(J)
     Vinv = np.linalg.inv(V)
