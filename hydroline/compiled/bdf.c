@@ -406,10 +406,9 @@ done:
 #endif
 }
 
-/* Fresh Jacobian at (t, z) and factors of I - c J */
-static int hl_new_lu(hl_solver* S, double t, const double* z, double c) {
-    hl_jac(t, z, S->p, S->c, S->jnz);
-    S->njev++;
+/* Factors of I - c J (the Jacobian in S->jnz): the sparse LU, or the dense one where the
+ * sparse pivots fail; -1 when both do */
+static int hl_real_factor(hl_solver* S, double c) {
     S->nlu++;
     S->lu_dense = 0;
     if (hl_lu_factor(S->jnz, c, S->lu) != 0) {
@@ -417,6 +416,14 @@ static int hl_new_lu(hl_solver* S, double t, const double* z, double c) {
         if (hl_dense_factor(S, c) != 0) return -1;
         S->lu_dense = 1;
     }
+    return 0;
+}
+
+/* Fresh Jacobian at (t, z) and factors of I - c J */
+static int hl_new_lu(hl_solver* S, double t, const double* z, double c) {
+    hl_jac(t, z, S->p, S->c, S->jnz);
+    S->njev++;
+    if (hl_real_factor(S, c) != 0) return -1;
     S->have_lu = 1;
     S->c_lu = c;
     S->steps_since_lu = 0;
@@ -958,13 +965,7 @@ static void hl_radau_jacobian(hl_solver* S, double t, const double* z) {
 /* Factors of both systems for step h; -1 when one is singular */
 static int hl_radau_factor(hl_solver* S, double h) {
     double g = h / HL_MU_REAL;
-    S->nlu++;
-    S->lu_dense = 0;
-    if (hl_lu_factor(S->jnz, g, S->lu) != 0) {
-        S->ndense++;
-        if (hl_dense_factor(S, g) != 0) return -1;
-        S->lu_dense = 1;
-    }
+    if (hl_real_factor(S, g) != 0) return -1;
     double m2 = HL_MU_RE * HL_MU_RE + HL_MU_IM * HL_MU_IM;     /* g = h / mu_c */
     if (hl_lu_factor_z(S->jnz, h * HL_MU_RE / m2, -h * HL_MU_IM / m2, S->luz) != 0) return -1;
     hl_lu_rows_z(S->luz, S->zl, S->zu, S->zd);
